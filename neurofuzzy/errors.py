@@ -1,0 +1,60 @@
+"""Exception types raised for bad input.
+
+Every error a user can cause by handing us a bad file, array or option is a subclass of
+:class:`NeurofuzzyError` (itself a ``ValueError``). The command line catches exactly these,
+prints the message on one line and exits with status 2; anything else is a bug in neurofuzzy.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+__all__ = [
+    "NeurofuzzyError",
+    "InputError",
+    "UnstableTimeStepError",
+    "closest_name",
+]
+
+
+class NeurofuzzyError(ValueError):
+    """Base class of every error caused by bad input."""
+
+
+class InputError(NeurofuzzyError):
+    """A value, array or file does not have the form it must have.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong and, where it helps, how to fix it.
+    source : str, optional
+        The file (or other origin) the value came from; prefixed to the message.
+    key : str, optional
+        The key, argument or field inside ``source``.
+    line : int, optional
+        1-based line in ``source`` (YAML files).
+    """
+
+    def __init__(self, message: str, *, source: str | None = None, key: str | None = None,
+                 line: int | None = None):
+        self.source = source
+        self.key = key
+        self.line = line
+        self.detail = message
+        where = ""
+        if source is not None:
+            where = f"{source}:{line}: " if line is not None else f"{source}: "
+        what = f"{key}: " if key is not None else ""
+        super().__init__(f"{where}{what}{message}")
+
+
+class UnstableTimeStepError(NeurofuzzyError):
+    """The explicit time step is too large for the stiffest mode of the model."""
+
+
+def closest_name(name: str, known: Iterable[str]) -> str | None:
+    """Return the known name closest to ``name`` (for "did you mean" hints), or None."""
+    matches = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    return matches[0] if matches else None

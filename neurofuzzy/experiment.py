@@ -1,0 +1,188 @@
+"""Measured (or simulated) node trajectories of one load case: the :class:`Experiment`.
+
+This is the in-memory form of the experiment file contract of DESIGN.md; :mod:`neurofuzzy.io`
+reads and writes it as ``.npz``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .errors import InputError
+from .mesh import Mesh
+from .model import SpringMassModel
+from .simulate import simulate
+
+__all__ = ["Experiment", "simulate_experiment"]
+
+
+@dataclass(frozen=True, eq=False)
+class Experiment:
+    """Node trajectories of an object under a known load.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Rest positions, springs, spring groups and fixed nodes.
+    dt : float
+        Time between recorded frames.
+    positions : (n_frames, n_nodes, 3) float
+        Measured positions; ``positions[0]`` is the initial state. Unobserved nodes may hold NaN.
+    external_forces : (n_nodes, 3) or (n_frames, n_nodes, 3) float, optional
+        Applied load (constant, or ``external_forces[t]`` acting from frame t to t + 1).
+    observed : (n_nodes,) bool, optional
+        Nodes that have measurements (default: all).
+    masses : (n_nodes,) float, optional
+        Known node masses (the paper's "predefined masses").
+    truth : dict of str to array, optional
+        Ground truth of synthetic data (``true_stiffness`` …): reported, never read by a fitter.
+    source : str
+        Where the data came from (a file name), used in messages.
+    """
+
+    mesh: Mesh
+    dt: float
+    positions: np.ndarray
+    external_forces: np.ndarray | None = None
+    observed: np.ndarray | None = None
+    masses: np.ndarray | None = None
+    truth: dict = field(default_factory=dict)
+    source: str = "<experiment>"
+
+    def __post_init__(self):
+        src = self.source
+        n_nodes = self.mesh.n_nodes
+        dt = np.asarray(self.dt)
+        if dt.shape != () or not np.issubdtype(dt.dtype, np.number) or not np.isfinite(dt) \
+                or float(dt) <= 0:
+            raise InputError(f"got {self.dt!r}; expected a positive number (seconds between "
+                             "frames)", source=src, key="dt")
+        positions = _float_array(self.positions, src, "positions")
+        if positions.ndim != 3 or positions.shape[1:] != (n_nodes, 3):
+            raise InputError(f"got shape {positions.shape}; expected (n_frames, n_nodes, 3) "
+                             f"with n_nodes = {n_nodes} (the length of rest_positions)",
+                             source=src, key="positions")
+        if positions.shape[0] < 2:
+            raise InputError("needs at least 2 frames", source=src, key="positions")
+        if self.observed is None:
+            observed = np.ones(n_nodes, dtype=bool)
+        else:
+            observed = np.asarray(self.observed)
+            if observed.dtype != bool or observed.shape != (n_nodes,):
+                raise InputError(f"got {observed.dtype} of shape {observed.shape}; expected bool "
+                                 f"of shape (n_nodes,) = ({n_nodes},)", source=src,
+                                 key="observed")
+            if not observed.any():
+                raise InputError("no node is observed", source=src, key="observed")
+        bad = ~np.isfinite(positions[:, observed])
+        if bad.any():
+            frame, node = np.argwhere(bad.any(axis=-1))[0]
+            node = np.flatnonzero(observed)[node]
+            raise InputError(f"NaN or infinite value at frame {frame}, node {node}, which is "
+                             "marked observed; mark it unobserved in 'observed' or repair the "
+                             "data", source=src, key="positions")
+        forces = None
+        if self.external_forces is not None:
+            forces = _float_array(self.external_forces, src, "external_forces")
+            if forces.shape not in ((n_nodes, 3), (positions.shape[0], n_nodes, 3)):
+                raise InputError(f"got shape {forces.shape}; expected (n_nodes, 3) = "
+                                 f"({n_nodes}, 3) or (n_frames, n_nodes, 3) = "
+                                 f"({positions.shape[0]}, {n_nodes}, 3)", source=src,
+                                 key="external_forces")
+            if not np.all(np.isfinite(forces)):
+                raise InputError("contains NaN or infinite values", source=src,
+                                 key="external_forces")
+        masses = None
+        if self.masses is not None:
+            masses = _float_array(self.masses, src, "masses")
+            if masses.shape != (n_nodes,):
+                raise InputError(f"got shape {masses.shape}; expected (n_nodes,) = ({n_nodes},)",
+                                 source=src, key="masses")
+            if not np.all(np.isfinite(masses)) or np.any(masses <= 0):
+                raise InputError("must be positive and finite", source=src, key="masses")
+        object.__setattr__(self, "dt", float(dt))
+        object.__setattr__(self, "positions", positions)
+        object.__setattr__(self, "observed", observed)
+        object.__setattr__(self, "external_forces", forces)
+        object.__setattr__(self, "masses", masses)
+        object.__setattr__(self, "truth", dict(self.truth))
+
+    @property
+    def n_frames(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def n_nodes(self) -> int:
+        return self.mesh.n_nodes
+
+    def forces_per_frame(self) -> np.ndarray:
+        """(n_frames, n_nodes, 3) external force, zero where none is given."""
+        if self.external_forces is None:
+            return np.zeros((self.n_frames, self.n_nodes, 3))
+        return np.broadcast_to(self.external_forces, (self.n_frames, self.n_nodes, 3))
+
+    def initial_positions(self) -> np.ndarray:
+        """(n_nodes, 3) start state: frame 0, with rest positions for unobserved nodes."""
+        start = np.array(self.mesh.rest_positions, dtype=float)
+        start[self.observed] = self.positions[0, self.observed]
+        return start
+
+    def initial_velocities(self) -> np.ndarray:
+        """(n_nodes, 3) start velocity: zero (the contract's objects start at rest)."""
+        return np.zeros((self.n_nodes, 3))
+
+    def replace(self, **changes) -> Experiment:
+        return replace(self, **changes)
+
+    def tracked(self) -> np.ndarray:
+        """(n_nodes,) bool: nodes whose error counts (observed and not fixed)."""
+        return self.observed & self.mesh.free
+
+
+def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
+                        external_forces: np.ndarray | None = None, substeps: int | str = 1,
+                        noise: float = 0.0, seed: int | None = 0,
+                        observed: np.ndarray | None = None,
+                        with_masses: bool = True, source: str = "<simulated>") -> Experiment:
+    """Synthetic data: simulate ``model`` from rest and record it as an :class:`Experiment`.
+
+    Parameters
+    ----------
+    model : SpringMassModel
+        The "true" model; its parameters are stored as ``truth``.
+    dt, n_frames, external_forces, substeps
+        As in :func:`neurofuzzy.simulate.simulate`.
+    noise : float
+        Standard deviation of Gaussian marker noise added to every recorded coordinate
+        (frames 1 onwards), in length units.
+    seed : int, optional
+        Seed of the noise generator.
+    observed : (n_nodes,) bool, optional
+        Nodes to record; the others are stored as NaN.
+    with_masses : bool
+        Store the true masses as known ``masses``.
+    """
+    trajectory = simulate(model, dt=dt, n_frames=n_frames, external_forces=external_forces,
+                          substeps=substeps)
+    positions = trajectory.positions.copy()
+    if noise > 0:
+        rng = np.random.default_rng(seed)
+        positions[1:] += rng.normal(0.0, noise, positions[1:].shape)
+        positions[:, model.mesh.fixed] = trajectory.positions[:, model.mesh.fixed]
+    if observed is not None:
+        positions[:, ~np.asarray(observed, bool)] = np.nan
+    truth = {"true_stiffness": model.spring_stiffness, "true_damping": model.spring_damping,
+             "true_masses": model.node_mass}
+    return Experiment(mesh=model.mesh, dt=dt, positions=positions,
+                      external_forces=external_forces, observed=observed,
+                      masses=model.node_mass if with_masses else None, truth=truth,
+                      source=source)
+
+
+def _float_array(value, source: str, key: str) -> np.ndarray:
+    array = np.asarray(value)
+    if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
+        raise InputError(f"expected numbers, got dtype {array.dtype}", source=source, key=key)
+    return np.array(array, dtype=float)

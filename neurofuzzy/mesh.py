@@ -1,0 +1,313 @@
+"""Topology of a spring-mass network: nodes, springs, spring groups and fixed nodes.
+
+A :class:`Mesh` says what is connected to what and what is held in place; it carries no
+physical parameters (those live in :class:`neurofuzzy.model.SpringMassModel`).
+
+Builders
+--------
+lattice
+    A regular grid of cubic cells with lattice edges and, optionally, body and face diagonals.
+    ``lattice((3, 3, 3))`` is the paper's cube: 27 nodes, 54 edges + 32 body diagonals.
+from_trimesh
+    Voxelise a closed triangle surface (a :class:`trimesh.Trimesh`) and build the same kind of
+    lattice from the cells that lie inside it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["Mesh", "lattice", "from_trimesh", "bottom_layer"]
+
+Diagonals = Literal["none", "body", "face", "both"]
+
+#: Offsets (in grid steps) from a node to its neighbour, per spring group; each unordered pair
+#: of nodes appears exactly once.
+_OFFSETS: dict[str, np.ndarray] = {
+    "edge": np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1]]),
+    "diagonal": np.array([[1, 1, 1], [1, 1, -1], [1, -1, 1], [1, -1, -1]]),
+    "face_diagonal": np.array([[1, 1, 0], [1, -1, 0], [1, 0, 1], [1, 0, -1], [0, 1, 1], [0, 1, -1]]),
+}
+_GROUPS_FOR: dict[str, tuple[str, ...]] = {
+    "none": ("edge",),
+    "body": ("edge", "diagonal"),
+    "face": ("edge", "face_diagonal"),
+    "both": ("edge", "diagonal", "face_diagonal"),
+}
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """Nodes, springs and constraints of a spring-mass network.
+
+    Parameters
+    ----------
+    rest_positions : (n_nodes, 3) float
+        Node positions of the undeformed object.
+    springs : (n_springs, 2) int
+        Node index pairs ``(a, b)``; the spring pulls ``a`` towards ``b`` when stretched.
+    spring_group : (n_springs,) int, optional
+        Group index of every spring (default: all in group 0). Groups share parameters when a
+        model is tied by group.
+    group_names : sequence of str, optional
+        Name of every group index (default ``"group0"``, ``"group1"``, …).
+    fixed : (n_fixed,) int, optional
+        Nodes held at their rest positions.
+    """
+
+    rest_positions: np.ndarray
+    springs: np.ndarray
+    spring_group: np.ndarray | None = None
+    group_names: tuple[str, ...] = ()
+    fixed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+
+    def __post_init__(self):
+        positions = _as_float_array(self.rest_positions, "rest_positions")
+        if positions.ndim != 2 or positions.shape[1] != 3:
+            raise InputError(f"got shape {positions.shape}; expected (n_nodes, 3)",
+                             key="rest_positions")
+        n_nodes = positions.shape[0]
+        springs = _as_index_array(self.springs, "springs")
+        if springs.ndim != 2 or springs.shape[1] != 2:
+            raise InputError(f"got shape {springs.shape}; expected (n_springs, 2)", key="springs")
+        _check_range(springs, n_nodes, "springs")
+        if np.any(springs[:, 0] == springs[:, 1]):
+            bad = int(np.flatnonzero(springs[:, 0] == springs[:, 1])[0])
+            raise InputError(f"spring {bad} connects node {springs[bad, 0]} to itself",
+                             key="springs")
+        lengths = np.linalg.norm(positions[springs[:, 1]] - positions[springs[:, 0]], axis=1)
+        if np.any(lengths <= 0):
+            bad = int(np.flatnonzero(lengths <= 0)[0])
+            raise InputError(f"spring {bad} has zero rest length (its two nodes coincide)",
+                             key="springs")
+        if self.spring_group is None:
+            groups = np.zeros(len(springs), dtype=np.intp)
+        else:
+            groups = _as_index_array(self.spring_group, "spring_group")
+            if groups.shape != (len(springs),):
+                raise InputError(f"got shape {groups.shape}; expected ({len(springs)},), one "
+                                 "group index per spring", key="spring_group")
+            if np.any(groups < 0):
+                raise InputError("group indices must be >= 0", key="spring_group")
+        n_groups = int(groups.max()) + 1 if len(groups) else 0
+        names = tuple(self.group_names)
+        if not names:
+            names = tuple(f"group{g}" for g in range(n_groups))
+        elif len(names) < n_groups:
+            raise InputError(f"{len(names)} names for {n_groups} groups", key="group_names")
+        fixed = np.unique(_as_index_array(self.fixed, "fixed").ravel())
+        _check_range(fixed, n_nodes, "fixed")
+        for name, value in (("rest_positions", positions), ("springs", springs),
+                            ("spring_group", groups), ("group_names", names), ("fixed", fixed)):
+            object.__setattr__(self, name, value)
+        for array in (positions, springs, groups, fixed):
+            array.setflags(write=False)
+
+    @property
+    def n_nodes(self) -> int:
+        return self.rest_positions.shape[0]
+
+    @property
+    def n_springs(self) -> int:
+        return self.springs.shape[0]
+
+    @property
+    def n_groups(self) -> int:
+        return len(self.group_names)
+
+    @property
+    def rest_lengths(self) -> np.ndarray:
+        """(n_springs,) float: spring lengths in the rest configuration."""
+        a, b = self.springs.T
+        return np.linalg.norm(self.rest_positions[b] - self.rest_positions[a], axis=1)
+
+    @property
+    def free(self) -> np.ndarray:
+        """(n_nodes,) bool: True for nodes that are not fixed."""
+        mask = np.ones(self.n_nodes, dtype=bool)
+        mask[self.fixed] = False
+        return mask
+
+    def with_fixed(self, nodes: Sequence[int] | np.ndarray | None = None, *,
+                   where: Callable[[np.ndarray], np.ndarray] | None = None) -> Mesh:
+        """Return a copy with the given nodes fixed (replacing any earlier choice).
+
+        Parameters
+        ----------
+        nodes : sequence of int, optional
+            Node indices to fix.
+        where : callable, optional
+            Predicate on the rest positions, ``where(rest_positions) -> (n_nodes,) bool``;
+            e.g. ``bottom_layer`` or ``lambda p: p[:, 2] < 0.1``. Combined with ``nodes``.
+        """
+        chosen = np.zeros(self.n_nodes, dtype=bool)
+        if nodes is not None:
+            index = _as_index_array(nodes, "nodes").ravel()
+            _check_range(index, self.n_nodes, "nodes")
+            chosen[index] = True
+        if where is not None:
+            mask = np.asarray(where(self.rest_positions))
+            if mask.shape != (self.n_nodes,) or mask.dtype != bool:
+                raise InputError(f"the predicate returned {mask.dtype} of shape {mask.shape}; "
+                                 f"expected bool of shape ({self.n_nodes},)", key="where")
+            chosen |= mask
+        return replace(self, fixed=np.flatnonzero(chosen))
+
+    def group_index(self, name: str) -> int:
+        """Index of the spring group called ``name``."""
+        if name not in self.group_names:
+            raise InputError(f"no spring group {name!r}; groups are {list(self.group_names)}")
+        return self.group_names.index(name)
+
+
+def bottom_layer(rest_positions: np.ndarray, axis: int = 2, tol: float = 1e-9) -> np.ndarray:
+    """Predicate for :meth:`Mesh.with_fixed`: nodes at the lowest coordinate along ``axis``."""
+    coordinate = rest_positions[:, axis]
+    span = float(np.ptp(coordinate)) or 1.0
+    return coordinate <= coordinate.min() + tol * span
+
+
+def lattice(shape: Sequence[int], spacing: float | Sequence[float] = 1.0, *,
+            diagonals: Diagonals = "body", origin: Sequence[float] = (0.0, 0.0, 0.0)) -> Mesh:
+    """A regular lattice of cubic cells.
+
+    Parameters
+    ----------
+    shape : (3,) int
+        Number of nodes along x, y and z (each >= 2).
+    spacing : float or (3,) float
+        Distance between neighbouring nodes.
+    diagonals : {"body", "face", "both", "none"}
+        Which cell diagonals become springs besides the lattice edges: the 4 body diagonals of
+        every cell (group ``"diagonal"``), the 2 diagonals of every cell face (group
+        ``"face_diagonal"``), both, or none.
+    origin : (3,) float
+        Position of node 0.
+
+    Returns
+    -------
+    Mesh
+        Nodes numbered in C order of their grid index ``(i, j, k)``; group ``"edge"`` first.
+        ``lattice((3, 3, 3))`` gives the paper's cube: 27 nodes, 54 edges, 32 body diagonals.
+    """
+    shape = tuple(int(n) for n in shape)
+    if len(shape) != 3 or min(shape) < 2:
+        raise InputError(f"got {shape}; expected three node counts, each >= 2", key="shape")
+    occupied = np.ones(tuple(n - 1 for n in shape), dtype=bool)
+    return _cell_lattice(occupied, np.broadcast_to(np.asarray(spacing, float), (3,)),
+                         np.asarray(origin, float), diagonals)
+
+
+def from_trimesh(mesh, pitch: float, *, diagonals: Diagonals = "body") -> Mesh:
+    """Voxelise a closed surface into a lattice of cubic cells.
+
+    Nodes are the centres of the voxels that trimesh marks as filled (surface and interior,
+    ``mesh.voxelized(pitch).fill()``); springs are those of the cubic cells whose eight corner
+    voxels are all filled, exactly as in :func:`lattice`. Voxels that belong to no complete cell
+    are dropped, so every node carries at least one full cell.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        A watertight triangle surface.
+    pitch : float
+        Lattice spacing, in the mesh's length unit.
+    diagonals : {"body", "face", "both", "none"}
+        As in :func:`lattice`.
+    """
+    if not getattr(mesh, "is_watertight", False):
+        raise InputError("the surface is not watertight (closed), so its inside is undefined; "
+                         "repair it first, e.g. with trimesh.repair.fill_holes", key="mesh")
+    if not (np.isfinite(pitch) and pitch > 0):
+        raise InputError(f"got {pitch}; expected a positive length", key="pitch")
+    grid = mesh.voxelized(pitch).fill()
+    corners = np.asarray(grid.matrix, dtype=bool)
+    origin = np.asarray(grid.transform[:3, 3], float)
+    if min(corners.shape) < 2:
+        raise InputError(f"pitch {pitch} is too coarse for a surface of extents "
+                         f"{np.round(mesh.extents, 6).tolist()}; no complete cell fits inside",
+                         key="pitch")
+    cells = (corners[:-1, :-1, :-1] & corners[1:, :-1, :-1] & corners[:-1, 1:, :-1]
+             & corners[:-1, :-1, 1:] & corners[1:, 1:, :-1] & corners[1:, :-1, 1:]
+             & corners[:-1, 1:, 1:] & corners[1:, 1:, 1:])
+    if not cells.any():
+        raise InputError(f"pitch {pitch} is too coarse: no complete cell fits inside the surface",
+                         key="pitch")
+    return _cell_lattice(cells, np.full(3, float(pitch)), origin, diagonals)
+
+
+def _cell_lattice(cells: np.ndarray, spacing: np.ndarray, origin: np.ndarray,
+                  diagonals: Diagonals) -> Mesh:
+    """Springs of all complete cells ``cells`` (bool, one less than the node grid per axis)."""
+    if diagonals not in _GROUPS_FOR:
+        raise InputError(f"got {diagonals!r}; expected one of {list(_GROUPS_FOR)}",
+                         key="diagonals")
+    node_shape = tuple(n + 1 for n in cells.shape)
+    # A spring with offset o starting at node n exists when some complete cell contains both
+    # ends: the cell's lower corner is n - k for k in {0,1}^3 with k_i = 0 wherever o_i != 0
+    # and (o_i = -1 → k_i = 1 on that axis).
+    padded = np.pad(cells, 1)
+    pairs, groups = [], []
+    for group_index, group in enumerate(_GROUPS_FOR[diagonals]):
+        for offset in _OFFSETS[group]:
+            exists = np.zeros(node_shape, dtype=bool)
+            free_axes = [axis for axis in range(3) if offset[axis] == 0]
+            for shift in np.ndindex(*(2,) * len(free_axes)):
+                lower = np.zeros(3, dtype=int)            # lower cell corner relative to n
+                for axis in range(3):
+                    if offset[axis] < 0:
+                        lower[axis] = -1
+                for axis, s in zip(free_axes, shift):
+                    lower[axis] = -s
+                start = lower + 1                        # +1 for the padding
+                exists |= padded[start[0]:start[0] + node_shape[0],
+                                 start[1]:start[1] + node_shape[1],
+                                 start[2]:start[2] + node_shape[2]]
+            a = np.argwhere(exists)
+            b = a + offset
+            pairs.append(np.stack([np.ravel_multi_index(a.T, node_shape),
+                                   np.ravel_multi_index(b.T, node_shape)], axis=1))
+            groups.append(np.full(len(a), group_index))
+    springs = np.concatenate(pairs)
+    spring_group = np.concatenate(groups)
+    used = np.unique(springs)
+    renumber = np.full(int(np.prod(node_shape)), -1)
+    renumber[used] = np.arange(len(used))
+    grid_index = np.stack(np.unravel_index(used, node_shape), axis=1)
+    return Mesh(rest_positions=origin + grid_index * spacing,
+                springs=renumber[springs], spring_group=spring_group,
+                group_names=_GROUPS_FOR[diagonals])
+
+
+def _as_float_array(value, key: str) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError) as error:
+        raise InputError(f"expected numbers ({error})", key=key) from None
+    if not np.all(np.isfinite(array)):
+        raise InputError("contains NaN or infinite values", key=key)
+    return array
+
+
+def _as_index_array(value, key: str) -> np.ndarray:
+    array = np.array(value)
+    if array.size == 0:
+        return array.astype(np.intp).reshape(array.shape)
+    if array.dtype == bool or not np.issubdtype(array.dtype, np.integer):
+        if np.issubdtype(array.dtype, np.floating) and np.all(np.mod(array, 1) == 0):
+            return array.astype(np.intp)
+        raise InputError(f"expected integer indices, got dtype {array.dtype}", key=key)
+    return array.astype(np.intp)
+
+
+def _check_range(index: np.ndarray, n_nodes: int, key: str) -> None:
+    if index.size and (index.min() < 0 or index.max() >= n_nodes):
+        bad = index[(index < 0) | (index >= n_nodes)].ravel()[0]
+        raise InputError(f"node index {int(bad)} is out of range; the mesh has {n_nodes} nodes "
+                         f"(valid 0..{n_nodes - 1})", key=key)

@@ -1,0 +1,226 @@
+"""The spring-mass model: a :class:`~neurofuzzy.mesh.Mesh` plus its physical parameters.
+
+A model is immutable; learners and tools return new models (``model.replace(...)``).
+
+Parameter tying
+---------------
+``spring_tie`` assigns every spring to a tie group. Springs of one tie group are learned
+together: the learners change their stiffness (and their viscosity) by one common factor, so
+the ratios between tied springs stay as they start (all equal when they start equal, as in the
+paper's homogeneous cube). ``tie="global"`` puts every spring into one group, ``"groups"`` uses
+the mesh's spring groups (e.g. lattice edges and diagonals), ``"none"`` gives every spring its
+own parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+
+from .errors import InputError
+from .mesh import Mesh
+
+__all__ = ["SpringMassModel", "Tie", "tie_index"]
+
+Tie = Literal["global", "groups", "none"]
+TIES: tuple[str, ...] = ("global", "groups", "none")
+
+PerSpring = float | Sequence[float] | np.ndarray | Mapping[str, float]
+
+
+def tie_index(mesh: Mesh, tie: Tie) -> np.ndarray:
+    """(n_springs,) int: the tie group of every spring for a tying mode.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Topology whose ``spring_group`` is used for ``tie="groups"``.
+    tie : {"global", "groups", "none"}
+        One shared group, the mesh's spring groups, or one group per spring.
+    """
+    if tie == "global":
+        return np.zeros(mesh.n_springs, dtype=np.intp)
+    if tie == "groups":
+        _, index = np.unique(mesh.spring_group, return_inverse=True)
+        return index.astype(np.intp)
+    if tie == "none":
+        return np.arange(mesh.n_springs, dtype=np.intp)
+    raise InputError(f"got {tie!r}; expected one of {list(TIES)}", key="tie")
+
+
+@dataclass(frozen=True, eq=False)
+class SpringMassModel:
+    """Masses, spring constants and viscosities on a mesh (the paper's weights).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Nodes, springs, spring groups and fixed nodes.
+    node_mass : (n_nodes,) float
+        Mass ``m`` of every node (the paper's ``w_m = 1/m``).
+    spring_stiffness : (n_springs,) float
+        Spring constant ``s`` of every spring (force per unit stretch).
+    spring_damping : (n_springs,) float
+        Viscosity ``c`` of every spring (force per unit closing speed along the spring).
+    spring_rest_length : (n_springs,) float, optional
+        Rest length ``L0`` (default: the mesh's rest lengths).
+    spring_tie : (n_springs,) int, optional
+        Tie group of every spring (default: no tying, one group per spring).
+    effects : tuple of Effect, optional
+        Extra force terms the model carries (see :mod:`neurofuzzy.effects`).
+    """
+
+    mesh: Mesh
+    node_mass: np.ndarray
+    spring_stiffness: np.ndarray
+    spring_damping: np.ndarray
+    spring_rest_length: np.ndarray | None = None
+    spring_tie: np.ndarray | None = None
+    effects: tuple = field(default=())
+
+    def __post_init__(self):
+        mesh = self.mesh
+        values = {
+            "node_mass": _vector(self.node_mass, mesh.n_nodes, "node_mass", "n_nodes"),
+            "spring_stiffness": _vector(self.spring_stiffness, mesh.n_springs,
+                                        "spring_stiffness", "n_springs"),
+            "spring_damping": _vector(self.spring_damping, mesh.n_springs, "spring_damping",
+                                      "n_springs"),
+            "spring_rest_length": (mesh.rest_lengths if self.spring_rest_length is None else
+                                   _vector(self.spring_rest_length, mesh.n_springs,
+                                           "spring_rest_length", "n_springs")),
+        }
+        for key in ("node_mass", "spring_rest_length"):
+            if np.any(values[key] <= 0):
+                raise InputError("must be positive", key=key)
+        for key in ("spring_stiffness", "spring_damping"):
+            if np.any(values[key] < 0):
+                raise InputError("must not be negative", key=key)
+        if self.spring_tie is None:
+            tie = np.arange(mesh.n_springs, dtype=np.intp)
+        else:
+            tie = np.asarray(self.spring_tie)
+            if tie.shape != (mesh.n_springs,) or not np.issubdtype(tie.dtype, np.integer):
+                raise InputError(f"got {tie.dtype} of shape {tie.shape}; expected int of shape "
+                                 f"({mesh.n_springs},)", key="spring_tie")
+            _, tie = np.unique(tie, return_inverse=True)     # renumber to 0..n_ties-1
+            tie = tie.astype(np.intp)
+        values["spring_tie"] = tie
+        for key, value in values.items():
+            value = np.array(value)
+            value.setflags(write=False)
+            object.__setattr__(self, key, value)
+        object.__setattr__(self, "effects", tuple(self.effects))
+
+    # -- construction ---------------------------------------------------------------------
+    @classmethod
+    def uniform(cls, mesh: Mesh, *, stiffness: PerSpring, damping: PerSpring,
+                node_mass: float | Sequence[float] | None = None,
+                total_mass: float | None = None, tie: Tie = "none") -> SpringMassModel:
+        """A model with the given constants, per spring group or for all springs.
+
+        Parameters
+        ----------
+        mesh : Mesh
+        stiffness, damping : float, (n_springs,) float or mapping group name -> float
+            Spring constant and viscosity; a mapping gives one value per spring group,
+            e.g. ``{"edge": 100.0, "diagonal": 50.0}``.
+        node_mass : float or (n_nodes,) float, optional
+            Mass of each node.
+        total_mass : float, optional
+            Instead of ``node_mass``: the object's mass, divided equally between the nodes
+            (the paper's "predefined masses").
+        tie : {"global", "groups", "none"}
+            Parameter tying for learning.
+        """
+        if (node_mass is None) == (total_mass is None):
+            raise InputError("give exactly one of node_mass and total_mass")
+        masses = (np.full(mesh.n_nodes, total_mass / mesh.n_nodes) if total_mass is not None
+                  else node_mass)
+        return cls(mesh, node_mass=np.broadcast_to(np.asarray(masses, float), (mesh.n_nodes,)),
+                   spring_stiffness=_per_spring(mesh, stiffness, "stiffness"),
+                   spring_damping=_per_spring(mesh, damping, "damping"),
+                   spring_tie=tie_index(mesh, tie))
+
+    def replace(self, **changes) -> SpringMassModel:
+        """A copy with some fields changed (``dataclasses.replace``)."""
+        return replace(self, **changes)
+
+    def tied(self, tie: Tie) -> SpringMassModel:
+        """A copy with spring tying ``"global"``, ``"groups"`` or ``"none"``."""
+        return self.replace(spring_tie=tie_index(self.mesh, tie))
+
+    def with_effects(self, *effects) -> SpringMassModel:
+        """A copy that carries ``effects`` in addition to those it has."""
+        return self.replace(effects=self.effects + tuple(effects))
+
+    # -- derived quantities ---------------------------------------------------------------
+    @property
+    def n_nodes(self) -> int:
+        return self.mesh.n_nodes
+
+    @property
+    def n_springs(self) -> int:
+        return self.mesh.n_springs
+
+    @property
+    def n_ties(self) -> int:
+        return int(self.spring_tie.max()) + 1 if self.n_springs else 0
+
+    def group_values(self, values: np.ndarray) -> dict[str, float]:
+        """Mean of a per-spring array within each spring group, by group name."""
+        groups = self.mesh.spring_group
+        return {name: float(values[groups == g].mean())
+                for g, name in enumerate(self.mesh.group_names) if np.any(groups == g)}
+
+    def summary(self) -> str:
+        """Short human-readable description of the parameters."""
+        lines = [f"SpringMassModel: {self.n_nodes} nodes ({len(self.mesh.fixed)} fixed), "
+                 f"{self.n_springs} springs, {self.n_ties} tie group(s)",
+                 f"  node mass: {_describe(self.node_mass)}"]
+        for g, name in enumerate(self.mesh.group_names):
+            sel = self.mesh.spring_group == g
+            lines.append(f"  {name} ({int(sel.sum())} springs): stiffness "
+                         f"{_describe(self.spring_stiffness[sel])}, damping "
+                         f"{_describe(self.spring_damping[sel])}")
+        lines += [f"  effect: {effect}" for effect in self.effects]
+        return "\n".join(lines)
+
+
+def _describe(values: np.ndarray) -> str:
+    lo, hi = float(values.min()), float(values.max())
+    if np.isclose(lo, hi, rtol=1e-9, atol=0):
+        return f"{lo:.6g}"
+    return f"{float(np.median(values)):.6g} (median; {lo:.4g} .. {hi:.4g})"
+
+
+def _vector(value, n: int, key: str, size_name: str) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("expected numbers", key=key) from None
+    if array.ndim == 0:
+        array = np.full(n, float(array))
+    if array.shape != (n,):
+        raise InputError(f"got shape {array.shape}; expected ({size_name},) = ({n},)", key=key)
+    if not np.all(np.isfinite(array)):
+        raise InputError("contains NaN or infinite values", key=key)
+    return array
+
+
+def _per_spring(mesh: Mesh, value: PerSpring, key: str) -> np.ndarray:
+    if isinstance(value, Mapping):
+        unknown = set(value) - set(mesh.group_names)
+        if unknown:
+            raise InputError(f"unknown spring group(s) {sorted(unknown)}; the mesh has "
+                             f"{list(mesh.group_names)}", key=key)
+        missing = [name for g, name in enumerate(mesh.group_names)
+                   if name not in value and np.any(mesh.spring_group == g)]
+        if missing:
+            raise InputError(f"no value for spring group(s) {missing}", key=key)
+        per_group = np.array([value.get(name, np.nan) for name in mesh.group_names], float)
+        return per_group[mesh.spring_group]
+    return _vector(value, mesh.n_springs, key, "n_springs")

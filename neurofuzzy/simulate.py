@@ -1,0 +1,346 @@
+"""Vectorised time stepping of a spring-mass model (paper eqs. 3.1–3.6).
+
+Spring ``j`` between nodes ``a`` and ``b`` (eqs. 3.4–3.6)::
+
+    d = p_b - p_a,   l = |d|,   u = d / l
+    f_j = s_j (l - L0_j) u + c_j ((v_b - v_a) · u) u          node a gets +f_j, node b gets -f_j
+
+Each step of length ``h`` (the paper's time constant ``t_c``) is semi-implicit (symplectic)
+Euler, eqs. 3.3, 3.2 and 3.1::
+
+    a(t) = (Σ spring forces + effect forces + f_ext) / m
+    v(t) = v(t-1) + h a(t)
+    p(t) = p(t-1) + h v(t)
+
+with the forces evaluated at ``p(t-1), v(t-1)``. The paper adds ``ext_f`` after the weight
+``w_m = 1/m`` (an external *acceleration*); we treat external input as a force, which is the
+same up to the scaling by the node mass. Fixed nodes keep their positions and zero velocity.
+
+Stability: for one mode with angular frequency ``ω`` and damping rate ``γ`` the scheme is stable
+iff ``h² ω² + 2 h γ < 4``. :func:`stability_limit` bounds ``ω²`` and ``γ`` over all modes by the
+largest eigenvalues of ``M⁻¹K`` and ``M⁻¹C`` at rest, and :func:`simulate` refuses (or, with
+``substeps="auto"``, subdivides) a step that breaks the bound.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .errors import InputError, UnstableTimeStepError
+from .model import SpringMassModel
+
+__all__ = [
+    "Trajectory",
+    "StabilityLimit",
+    "spring_forces",
+    "internal_forces",
+    "step",
+    "simulate",
+    "stability_limit",
+    "check_time_step",
+]
+
+#: Fraction of the theoretical stability bound we allow: springs stiffen geometrically when
+#: stretched, so a step right at the bound of the rest state can still blow up.
+STABILITY_SAFETY = 0.9
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Recorded frames of a simulation.
+
+    Attributes
+    ----------
+    positions : (n_frames, n_nodes, 3) float
+    velocities : (n_frames, n_nodes, 3) float
+    dt : float
+        Time between recorded frames.
+    substeps : int
+        Integration steps per recorded frame.
+    """
+
+    positions: np.ndarray
+    velocities: np.ndarray
+    dt: float
+    substeps: int = 1
+
+    @property
+    def n_frames(self) -> int:
+        return self.positions.shape[0]
+
+
+@dataclass(frozen=True)
+class SpringTerms:
+    """Per-spring quantities of one state, shared by forces and learners.
+
+    Attributes
+    ----------
+    length : (n_springs,) float
+        Current length ``l``.
+    direction : (n_springs, 3) float
+        Unit vector ``u`` from node a to node b.
+    stretch : (n_springs,) float
+        ``l - L0``.
+    closing_speed : (n_springs,) float
+        ``(v_b - v_a) · u`` (positive when the spring lengthens).
+    relative_velocity : (n_springs, 3) float
+        ``v_b - v_a``.
+    """
+
+    length: np.ndarray
+    direction: np.ndarray
+    stretch: np.ndarray
+    closing_speed: np.ndarray
+    relative_velocity: np.ndarray
+
+
+def spring_terms(model: SpringMassModel, positions: np.ndarray,
+                 velocities: np.ndarray) -> SpringTerms:
+    """Lengths, directions, stretches and closing speeds of all springs (eqs. 3.5, 3.6)."""
+    a, b = model.mesh.springs.T
+    d = np.take(positions, b, axis=0) - np.take(positions, a, axis=0)
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    direction = d / length[:, None]
+    relative_velocity = np.take(velocities, b, axis=0) - np.take(velocities, a, axis=0)
+    return SpringTerms(length=length, direction=direction,
+                       stretch=length - model.spring_rest_length,
+                       closing_speed=np.einsum("ij,ij->i", relative_velocity, direction),
+                       relative_velocity=relative_velocity)
+
+
+def accumulate(springs: np.ndarray, spring_force: np.ndarray, n_nodes: int) -> np.ndarray:
+    """(n_nodes, 3) net force: node a of each spring gets ``+f``, node b gets ``-f``."""
+    out = np.empty((n_nodes, 3))
+    a, b = springs.T
+    for axis in range(3):
+        out[:, axis] = (np.bincount(a, spring_force[:, axis], n_nodes)
+                        - np.bincount(b, spring_force[:, axis], n_nodes))
+    return out
+
+
+def spring_forces(model: SpringMassModel, positions: np.ndarray,
+                  velocities: np.ndarray) -> np.ndarray:
+    """(n_nodes, 3) net spring force on every node (eq. 3.4 summed as in eq. 3.3)."""
+    terms = spring_terms(model, positions, velocities)
+    magnitude = (model.spring_stiffness * terms.stretch
+                 + model.spring_damping * terms.closing_speed)
+    return accumulate(model.mesh.springs, terms.direction * magnitude[:, None], model.n_nodes)
+
+
+def internal_forces(model: SpringMassModel, positions: np.ndarray,
+                    velocities: np.ndarray) -> np.ndarray:
+    """(n_nodes, 3) springs plus every effect the model carries."""
+    force = spring_forces(model, positions, velocities)
+    for effect in model.effects:
+        force += effect.force(model, positions, velocities)
+    return force
+
+
+def inverse_mass(model: SpringMassModel) -> np.ndarray:
+    """(n_nodes, 1) float: ``1/m``, zero at fixed nodes (so they never accelerate)."""
+    weight = 1.0 / model.node_mass
+    weight[model.mesh.fixed] = 0.0
+    return weight[:, None]
+
+
+def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, h: float,
+         external_force: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One semi-implicit Euler step of length ``h`` (eqs. 3.1–3.3); returns ``(p, v)``."""
+    force = internal_forces(model, positions, velocities)
+    if external_force is not None:
+        force = force + external_force
+    velocities = velocities + h * inverse_mass(model) * force
+    velocities[model.mesh.fixed] = 0.0
+    return positions + h * velocities, velocities
+
+
+def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
+             external_forces: np.ndarray | None = None,
+             initial_positions: np.ndarray | None = None,
+             initial_velocities: np.ndarray | None = None,
+             substeps: int | str = 1, check_stability: bool = True) -> Trajectory:
+    """Simulate ``n_frames`` recorded frames, frame 0 being the initial state.
+
+    Parameters
+    ----------
+    model : SpringMassModel
+    dt : float
+        Time between recorded frames.
+    n_frames : int
+        Number of frames to return (>= 1).
+    external_forces : (n_nodes, 3) or (n_frames, n_nodes, 3) float, optional
+        Applied load; constant, or per frame, where ``external_forces[t]`` acts from frame
+        ``t`` to ``t + 1`` (the last frame's row is unused).
+    initial_positions, initial_velocities : (n_nodes, 3) float, optional
+        Start state (default: rest positions, at rest).
+    substeps : int or "auto"
+        Integration steps per frame (``h = dt / substeps``); ``"auto"`` picks the fewest that
+        are stable.
+    check_stability : bool
+        Raise :class:`UnstableTimeStepError` when ``h`` exceeds the stability bound.
+
+    Returns
+    -------
+    Trajectory
+    """
+    n_nodes = model.n_nodes
+    if not (np.isfinite(dt) and dt > 0):
+        raise InputError(f"got {dt}; expected a positive time step", key="dt")
+    if int(n_frames) < 1:
+        raise InputError(f"got {n_frames}; expected at least 1", key="n_frames")
+    n_frames = int(n_frames)
+    if substeps == "auto":
+        substeps = required_substeps(model, dt)
+    elif not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
+        raise InputError(f"got {substeps!r}; expected a positive integer or 'auto'",
+                         key="substeps")
+    elif check_stability:
+        check_time_step(model, dt, int(substeps))
+    h = dt / int(substeps)
+
+    forces = _frame_forces(external_forces, n_frames, n_nodes)
+    p = _state(initial_positions, model.mesh.rest_positions, n_nodes, "initial_positions")
+    v = _state(initial_velocities, np.zeros((n_nodes, 3)), n_nodes, "initial_velocities")
+    v[model.mesh.fixed] = 0.0
+
+    positions = np.empty((n_frames, n_nodes, 3))
+    velocities = np.empty((n_frames, n_nodes, 3))
+    positions[0], velocities[0] = p, v
+    with np.errstate(over="ignore", invalid="ignore"):
+        for t in range(1, n_frames):
+            load = forces[t - 1] if forces is not None else None
+            for _ in range(int(substeps)):
+                p, v = step(model, p, v, h, load)
+            if not np.all(np.isfinite(p)):
+                raise UnstableTimeStepError(
+                    f"the simulation diverged at frame {t} (positions became NaN or infinite); "
+                    "reduce the time step or the stiffness, or raise substeps")
+            positions[t], velocities[t] = p, v
+    return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
+                      substeps=int(substeps))
+
+
+def _frame_forces(external_forces, n_frames: int, n_nodes: int) -> np.ndarray | None:
+    if external_forces is None:
+        return None
+    forces = np.asarray(external_forces, dtype=float)
+    if forces.shape == (n_nodes, 3):
+        forces = np.broadcast_to(forces, (n_frames, n_nodes, 3))
+    elif forces.shape != (n_frames, n_nodes, 3):
+        raise InputError(f"got shape {forces.shape}; expected (n_nodes, 3) = ({n_nodes}, 3) or "
+                         f"(n_frames, n_nodes, 3) = ({n_frames}, {n_nodes}, 3)",
+                         key="external_forces")
+    if not np.all(np.isfinite(forces)):
+        raise InputError("contains NaN or infinite values", key="external_forces")
+    return forces
+
+
+def _state(value, default: np.ndarray, n_nodes: int, key: str) -> np.ndarray:
+    if value is None:
+        return np.array(default, dtype=float)
+    state = np.array(value, dtype=float)
+    if state.shape != (n_nodes, 3):
+        raise InputError(f"got shape {state.shape}; expected (n_nodes, 3) = ({n_nodes}, 3)",
+                         key=key)
+    if not np.all(np.isfinite(state)):
+        raise InputError("contains NaN or infinite values", key=key)
+    return state
+
+
+# -- stability ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StabilityLimit:
+    """Stability bound of semi-implicit Euler for a model, at rest.
+
+    Attributes
+    ----------
+    omega_max : float
+        Upper bound of the highest natural angular frequency, ``sqrt(λ_max(M⁻¹K))``.
+    damping_rate_max : float
+        Upper bound of the damping rates, ``λ_max(M⁻¹C)``.
+    max_step : float
+        Largest stable step ``h`` (solves ``h²ω² + 2hγ = 4``), times ``STABILITY_SAFETY``.
+    """
+
+    omega_max: float
+    damping_rate_max: float
+    max_step: float
+
+
+def stability_limit(model: SpringMassModel) -> StabilityLimit:
+    """Bound the stiffest mode of ``model`` at rest (see the module docstring)."""
+    free = model.mesh.free
+    if not free.any() or model.n_springs == 0:
+        return StabilityLimit(0.0, 0.0, np.inf)
+    direction = model.mesh.rest_positions[model.mesh.springs[:, 1]] - \
+        model.mesh.rest_positions[model.mesh.springs[:, 0]]
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    dof_free = np.repeat(free, 3)
+    scale = np.repeat(1.0 / np.sqrt(model.node_mass), 3)[dof_free]
+    lam = []
+    for constants in (model.spring_stiffness, model.spring_damping):
+        matrix = _projected_laplacian(model.mesh.springs, direction, constants, model.n_nodes)
+        matrix = matrix[dof_free][:, dof_free]
+        matrix = sp.diags(scale) @ matrix @ sp.diags(scale)
+        lam.append(_largest_eigenvalue(matrix.tocsr()))
+    omega2, gamma = lam
+    # h² ω² + 2 h γ = 4  →  h = (-γ + sqrt(γ² + 4 ω²)) / ω²
+    if omega2 > 0:
+        h = (-gamma + np.sqrt(gamma * gamma + 4.0 * omega2)) / omega2
+    else:
+        h = 2.0 / gamma if gamma > 0 else np.inf
+    return StabilityLimit(float(np.sqrt(omega2)), float(gamma), float(STABILITY_SAFETY * h))
+
+
+def check_time_step(model: SpringMassModel, dt: float, substeps: int = 1) -> None:
+    """Raise :class:`UnstableTimeStepError` if ``dt / substeps`` is above the stable step."""
+    limit = stability_limit(model)
+    h = dt / substeps
+    if h > limit.max_step:
+        need = int(np.ceil(dt / limit.max_step))
+        raise UnstableTimeStepError(
+            f"time step {h:.4g} is unstable for this model: the stiffest mode "
+            f"(ω = {limit.omega_max:.4g} rad per time unit, damping rate "
+            f"{limit.damping_rate_max:.4g}) needs a step <= {limit.max_step:.4g}; use "
+            f"substeps >= {need} (or 'auto'), a smaller dt, or softer springs / heavier nodes")
+
+
+def required_substeps(model: SpringMassModel, dt: float) -> int:
+    """Fewest integration steps per frame of length ``dt`` that are stable."""
+    limit = stability_limit(model)
+    return max(1, int(np.ceil(dt / limit.max_step)))
+
+
+def _projected_laplacian(springs: np.ndarray, direction: np.ndarray, constants: np.ndarray,
+                         n_nodes: int) -> sp.csr_matrix:
+    """Assemble ``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` as a (3N, 3N) sparse matrix."""
+    block = constants[:, None, None] * direction[:, :, None] * direction[:, None, :]
+    a, b = springs.T
+    rows, cols, data = [], [], []
+    for first, second, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
+        r = (3 * first[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
+        c = (3 * second[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)
+        rows.append(r.ravel())
+        cols.append(c.ravel())
+        data.append(sign * block.ravel())
+    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(3 * n_nodes, 3 * n_nodes))
+
+
+def _largest_eigenvalue(matrix: sp.csr_matrix) -> float:
+    """Largest eigenvalue of a symmetric positive semi-definite sparse matrix."""
+    n = matrix.shape[0]
+    if n <= 600:
+        return float(np.linalg.eigvalsh(matrix.toarray())[-1])
+    # Gershgorin bound as a safe fallback; eigsh when it converges.
+    gershgorin = float(np.max(np.asarray(abs(matrix).sum(axis=1)).ravel()))
+    try:
+        value = spla.eigsh(matrix, k=1, which="LA", return_eigenvectors=False, tol=1e-4,
+                           maxiter=5000, v0=np.ones(n))[0]
+        return float(min(value * (1 + 1e-3), gershgorin))
+    except spla.ArpackNoConvergence:
+        return gershgorin

@@ -1,0 +1,149 @@
+import numpy as np
+import pytest
+
+from neurofuzzy.errors import InputError, UnstableTimeStepError
+from neurofuzzy.mesh import Mesh, lattice
+from neurofuzzy.model import SpringMassModel
+from neurofuzzy.simulate import simulate, stability_limit, step, internal_forces
+
+
+def one_spring(stiffness=50.0, damping=0.0, mass=2.0):
+    mesh = Mesh(np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([[0, 1]])).with_fixed([0])
+    return SpringMassModel(mesh, node_mass=[1.0, mass], spring_stiffness=[stiffness],
+                           spring_damping=[damping])
+
+
+def upward_crossings(x):
+    """Fractional indices where x crosses zero upwards (linear interpolation)."""
+    i = np.flatnonzero((x[:-1] < 0) & (x[1:] >= 0))
+    return i + x[i] / (x[i] - x[i + 1])
+
+
+def test_one_spring_oscillates_at_sqrt_s_over_m():
+    model = one_spring(stiffness=50.0, mass=2.0)
+    dt = 0.002                                            # h·ω = 0.01
+    run = simulate(model, dt=dt, n_frames=20000, initial_positions=[[0, 0, 0], [1.1, 0, 0]])
+    x = run.positions[:, 1, 0] - 1.0
+    period = np.mean(np.diff(upward_crossings(x))) * dt
+    assert 2 * np.pi / period == pytest.approx(np.sqrt(50.0 / 2.0), rel=0.01)
+    assert np.abs(run.positions[:, 0]).max() == 0.0      # the fixed node never moves
+
+
+def test_damped_spring_decays_at_the_analytic_rate():
+    stiffness, damping, mass = 50.0, 0.4, 2.0
+    model = one_spring(stiffness, damping, mass)
+    dt = 0.001
+    run = simulate(model, dt=dt, n_frames=8000, initial_positions=[[0, 0, 0], [1.1, 0, 0]])
+    x = run.positions[:, 1, 0] - 1.0
+    peaks = np.flatnonzero((x[1:-1] > x[:-2]) & (x[1:-1] >= x[2:])) + 1
+    rate = -np.polyfit(peaks * dt, np.log(x[peaks]), 1)[0]
+    assert rate == pytest.approx(damping / (2 * mass), rel=0.02)
+    omega_d = 2 * np.pi / (np.mean(np.diff(peaks)) * dt)
+    assert omega_d == pytest.approx(np.sqrt(stiffness / mass - (damping / (2 * mass)) ** 2),
+                                    rel=0.01)
+
+
+def test_hanging_chain_settles_at_the_static_displacement():
+    n, stiffness, load = 6, 20.0, 0.5
+    rest = np.zeros((n + 1, 3))
+    rest[:, 2] = -np.arange(n + 1) * 0.1
+    mesh = Mesh(rest, np.stack([np.arange(n), np.arange(1, n + 1)], axis=1)).with_fixed([0])
+    model = SpringMassModel(mesh, node_mass=0.01, spring_stiffness=stiffness,
+                            spring_damping=2.0)
+    forces = np.zeros((n + 1, 3))
+    forces[1:, 2] = -load                                 # the same load on every hanging node
+    run = simulate(model, dt=0.001, n_frames=6000, external_forces=forces, substeps="auto")
+    displacement = rest[:, 2] - run.positions[-1, :, 2]
+    # spring k carries the load of the n - k nodes below it
+    carried = load * (n - np.arange(n))
+    expected = np.concatenate([[0.0], np.cumsum(carried / stiffness)])
+    assert np.allclose(displacement, expected, rtol=1e-6, atol=1e-9)
+    assert np.allclose(run.positions[-1, :, :2], 0.0)
+
+
+def test_momentum_is_conserved_without_external_forces(rng):
+    mesh = lattice((3, 3, 2), 0.1)
+    model = SpringMassModel(mesh, node_mass=rng.uniform(0.5, 2.0, mesh.n_nodes),
+                            spring_stiffness=rng.uniform(10, 30, mesh.n_springs),
+                            spring_damping=rng.uniform(0.0, 0.1, mesh.n_springs))
+    start = mesh.rest_positions + rng.normal(0, 0.01, (mesh.n_nodes, 3))
+    run = simulate(model, dt=0.002, n_frames=300, initial_positions=start,
+                   initial_velocities=rng.normal(0, 0.1, (mesh.n_nodes, 3)))
+    momentum = np.einsum("i,tij->tj", model.node_mass, run.velocities)
+    assert np.allclose(momentum, momentum[0], atol=1e-12)
+
+
+def test_energy_does_not_grow_without_input(rng):
+    mesh = lattice((3, 3, 3), 0.1).with_fixed(np.arange(9))
+    model = SpringMassModel(mesh, node_mass=0.01, spring_stiffness=rng.uniform(10, 30, 86),
+                            spring_damping=0.05)
+    start = mesh.rest_positions + rng.normal(0, 0.01, (27, 3))
+    start[mesh.fixed] = mesh.rest_positions[mesh.fixed]
+    run = simulate(model, dt=0.001, n_frames=2000, initial_positions=start)
+    a, b = mesh.springs.T
+    stretch = np.linalg.norm(run.positions[:, b] - run.positions[:, a], axis=2) - \
+        model.spring_rest_length
+    energy = (0.5 * (stretch**2 * model.spring_stiffness).sum(1)
+              + 0.5 * np.einsum("i,tij,tij->t", model.node_mass, run.velocities, run.velocities))
+    # symplectic Euler's energy oscillates by O(h); it must not grow over a period
+    window = 200
+    assert energy[-window:].max() < energy[:window].max()
+    assert energy[-1] < 0.5 * energy[0]
+
+
+def test_integrator_is_first_order():
+    model = one_spring(stiffness=50.0, damping=0.2, mass=2.0)
+    start = [[0, 0, 0], [1.1, 0, 0]]
+    fine = simulate(model, dt=0.5, n_frames=3, initial_positions=start, substeps=4096)
+    errors = [abs(simulate(model, dt=0.5, n_frames=3, initial_positions=start,
+                           substeps=k).positions[-1, 1, 0] - fine.positions[-1, 1, 0])
+              for k in (64, 128, 256)]
+    order = np.log2(np.array(errors[:-1]) / errors[1:])
+    assert np.allclose(order, 1.0, atol=0.15)
+
+
+def test_unstable_step_is_refused_and_auto_substeps_fix_it():
+    model = one_spring(stiffness=50.0, mass=2.0)          # ω = 5
+    limit = stability_limit(model)
+    assert limit.omega_max == pytest.approx(5.0)
+    with pytest.raises(UnstableTimeStepError, match=r"substeps >= \d+"):
+        simulate(model, dt=0.5, n_frames=10)
+    run = simulate(model, dt=0.5, n_frames=10, substeps="auto",
+                   initial_positions=[[0, 0, 0], [1.1, 0, 0]])
+    assert run.substeps >= 2 and np.all(np.isfinite(run.positions))
+    assert 0.5 / run.substeps <= limit.max_step
+
+
+def test_stability_bound_is_tight_for_the_cube():
+    model = SpringMassModel.uniform(lattice((3, 3, 3), 0.01).with_fixed(np.arange(0, 27, 3)),
+                                    stiffness=50.0, damping=0.02, total_mass=0.008)
+    limit = stability_limit(model)
+    start = model.mesh.rest_positions + np.random.default_rng(0).normal(0, 1e-4, (27, 3))
+    start[model.mesh.fixed] = model.mesh.rest_positions[model.mesh.fixed]
+    ok = simulate(model, dt=0.95 * limit.max_step, n_frames=3000, initial_positions=start,
+                  check_stability=False)
+    assert np.abs(ok.positions[-1] - model.mesh.rest_positions).max() < 1e-4
+    with pytest.raises(UnstableTimeStepError, match="diverged"):
+        simulate(model, dt=1.2 * limit.max_step / 0.9, n_frames=3000, initial_positions=start,
+                 check_stability=False)
+
+
+def test_step_matches_simulate_and_forces_are_antisymmetric(cube_model, rng):
+    p = cube_model.mesh.rest_positions + rng.normal(0, 1e-3, (27, 3))
+    v = rng.normal(0, 1e-2, (27, 3))
+    v[cube_model.mesh.fixed] = 0.0
+    force = internal_forces(cube_model, p, v)
+    assert np.allclose(force.sum(axis=0), 0.0, atol=1e-12)   # Newton's third law
+    p1, v1 = step(cube_model, p, v.copy(), 1e-4)
+    run = simulate(cube_model, dt=1e-4, n_frames=2, initial_positions=p, initial_velocities=v)
+    assert np.allclose(run.positions[1], p1) and np.allclose(run.velocities[1], v1)
+
+
+def test_bad_simulation_input():
+    model = one_spring()
+    with pytest.raises(InputError, match=r"external_forces.*expected \(n_nodes, 3\)"):
+        simulate(model, dt=0.01, n_frames=3, external_forces=np.zeros((3, 3)))
+    with pytest.raises(InputError, match="dt"):
+        simulate(model, dt=-1.0, n_frames=3)
+    with pytest.raises(InputError, match="NaN"):
+        simulate(model, dt=0.01, n_frames=3, initial_positions=[[0, 0, 0], [np.nan, 0, 0]])
