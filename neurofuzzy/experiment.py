@@ -57,7 +57,9 @@ class Experiment:
         dt = np.asarray(self.dt)
         if dt.shape != () or not np.issubdtype(dt.dtype, np.number) or not np.isfinite(dt) \
                 or float(dt) <= 0:
-            raise InputError(f"got {self.dt!r}; expected a positive number (seconds between "
+            shown = float(dt) if dt.shape == () and np.issubdtype(dt.dtype, np.number) \
+                else self.dt
+            raise InputError(f"got {shown!r}; expected a positive number (seconds between "
                              "frames)", source=src, key="dt")
         positions = _float_array(self.positions, src, "positions")
         if positions.ndim != 3 or positions.shape[1:] != (n_nodes, 3):

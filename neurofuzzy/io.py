@@ -61,6 +61,10 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
     """
     source = str(path)
     try:
+        with open(path, "rb") as handle:
+            if handle.read(4) != b"PK\x03\x04":
+                raise InputError("not a readable .npz experiment file (not a zip archive)",
+                                 source=source)
         with np.load(path, allow_pickle=False) as archive:
             data = {key: archive[key] for key in archive.files}
     except FileNotFoundError:

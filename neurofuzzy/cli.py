@@ -1,0 +1,268 @@
+"""The ``neurofuzzy`` command.
+
+Every sub-command reports bad input as one line on stderr (``neurofuzzy: error: FILE: …``) and
+exits with status 2; ``--json`` output goes to stdout, progress to stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, NeurofuzzyError
+
+EXIT_BAD_INPUT = 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        return args.run(args) or 0
+    except NeurofuzzyError as error:
+        print(f"neurofuzzy: error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as error:   # an output we cannot write: the user's path, not our bug
+        print(f"neurofuzzy: error: {error.filename or ''}: {error.strerror or error}",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("neurofuzzy: interrupted", file=sys.stderr)
+        return 130
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="neurofuzzy",
+        description="Deformable-tissue models from words and measurements: spring-mass "
+                    "simulation, the paper's recurrent learner and exact-gradient fitting.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    demo = commands.add_parser("demo", help="the paper's cube experiments end to end",
+                               description="Reproduce the paper's three experiments on the "
+                                           "27-node / 86-spring cube (built-in data) and write "
+                                           "a table, the error plot and a JSON summary.")
+    demo.add_argument("--out", default="neurofuzzy-demo", help="output folder "
+                      "(default: ./neurofuzzy-demo)")
+    demo.add_argument("--cycles", type=int, default=100, help="learning cycles (default 100)")
+    demo.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    demo.set_defaults(run=_demo)
+
+    fit = commands.add_parser("fit", help="learn model parameters from experiment files",
+                              description="Fit stiffness, viscosity (and masses) of the "
+                                          "spring-mass model in the experiment files.")
+    fit.add_argument("experiments", nargs="+", metavar="EXPERIMENT.npz")
+    fit.add_argument("--tie", choices=("global", "groups", "none"), default="groups",
+                     help="share spring parameters: one value for all springs, one per "
+                          "spring group of the file, or one per spring (default groups)")
+    fit.add_argument("--learn-masses", action="store_true",
+                     help="learn node masses too (default: keep the file's masses)")
+    fit.add_argument("--method", choices=("gradient", "paper"), default="gradient",
+                     help="exact-gradient learner (default) or the paper's learner")
+    fit.add_argument("--cycles", type=int, default=None,
+                     help="learning cycles (paper, default 100) or iterations per stage "
+                          "(gradient, default 100)")
+    fit.add_argument("--substeps", default="auto",
+                     help="integration steps per frame: a number, or 'auto' (default): "
+                          "try the paper's one step per frame and continuous physics, keep "
+                          "the better (gradient method only)")
+    fit.add_argument("--learning-rate", type=float, default=0.1,
+                     help="paper method: η for springs (default 0.1)")
+    fit.add_argument("--mass-learning-rate", type=float, default=0.1,
+                     help="paper method: η_m for masses (default 0.1)")
+    fit.add_argument("--out", help="write the fitted model as YAML")
+    fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    fit.set_defaults(run=_fit)
+
+    simulate = commands.add_parser(
+        "simulate", help="simulate a model under a load and write an experiment file",
+        description="Simulate a fitted model (YAML) or the built-in cube ('cube') from rest "
+                    "under constant node forces and write the DESIGN.md experiment file.")
+    simulate.add_argument("model", metavar="MODEL.yaml|cube")
+    simulate.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
+    simulate.add_argument("--force", nargs=4, action="append", metavar=("NODE", "FX", "FY", "FZ"),
+                          help="constant force on a node (repeatable; default: the cube's "
+                               "load on its top centre node)")
+    simulate.add_argument("--dt", type=float, default=None, help="frame spacing (s)")
+    simulate.add_argument("--frames", type=int, default=251, help="frames incl. frame 0")
+    simulate.add_argument("--substeps", default="1", help="steps per frame, or 'auto'")
+    simulate.add_argument("--noise", type=float, default=0.0, help="marker noise (std, m)")
+    simulate.add_argument("--seed", type=int, default=0)
+    simulate.set_defaults(run=_simulate)
+    return parser
+
+
+# -- demo -----------------------------------------------------------------------------------
+def _demo(args) -> int:
+    from .demo import comparison_table, paper_experiments, plot_error_curves
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    progress = not args.quiet
+    _say(progress, "neurofuzzy demo: the paper's cube (27 nodes, 86 springs, bottom fixed, "
+                   "constant force on the top centre node, 250 steps)")
+    runs = paper_experiments(cycles=args.cycles, progress=progress, gradient_for=(3,))
+    table = comparison_table(runs)
+    print(table)
+    from .io import atomic_write
+
+    plot_error_curves(runs, out / "error_per_cycle.png")
+    summary = {"runs": [{"experiment": r.experiment, "learner": r.learner, "cycles": r.cycles,
+                         "E": r.final_error, "stiffness_error": r.stiffness_error,
+                         "damping_error": r.damping_error, "mass_error": r.mass_error,
+                         "rms_initial": r.rms_initial, "rms_final": r.rms_final,
+                         "seconds": r.seconds} for r in runs]}
+    with atomic_write(out / "summary.json", "w") as handle:
+        json.dump(summary, handle, indent=2, allow_nan=True)
+    with atomic_write(out / "table.txt", "w") as handle:
+        handle.write(table + "\n")
+    print(f"\nwrote {out / 'error_per_cycle.png'}, {out / 'table.txt'}, {out / 'summary.json'} "
+          f"({time.perf_counter() - started:.1f} s)")
+    return 0
+
+
+# -- fit ------------------------------------------------------------------------------------
+def _fit(args) -> int:
+    from .io import load_experiment, save_model
+    from .learn import GradientLearner, PaperLearner
+    from .learn.initial import estimate_start
+    from .model import SpringMassModel, tie_index
+
+    inputs = [Path(p) for p in args.experiments]
+    _refuse_overwrite(args.out, inputs)
+    experiments = [load_experiment(p) for p in inputs]
+    first = experiments[0]
+    for other in experiments[1:]:
+        if other.mesh.n_nodes != first.mesh.n_nodes or not np.array_equal(
+                other.mesh.springs, first.mesh.springs):
+            raise InputError(f"describes another object than {first.source} (nodes or springs "
+                             "differ); experiments fitted together must share one topology",
+                             source=other.source, key="springs")
+    progress = not args.quiet and not args.json
+    masses = first.masses
+    estimate_mass = masses is None
+    if estimate_mass:
+        _say(True, f"neurofuzzy: note: {first.source} gives no 'masses'; estimating one mass "
+                   "per node from the data" + ("" if args.learn_masses else
+                                               " (use --learn-masses to refine them)"))
+        masses = np.ones(first.n_nodes)
+    mesh = first.mesh
+    start = SpringMassModel(mesh, node_mass=masses, spring_stiffness=1.0, spring_damping=1.0,
+                            spring_tie=tie_index(mesh, args.tie))
+    start, info = estimate_start(start, experiments, estimate_mass=estimate_mass)
+    _say(progress, f"start values: {info['reason']}" if info["used"] else
+         f"start values: defaults ({info['reason']})")
+    substeps = _substeps(args.substeps)
+    if args.method == "paper":
+        learner = PaperLearner(learning_rate=args.learning_rate,
+                               mass_learning_rate=args.mass_learning_rate,
+                               cycles=args.cycles or 100, learn_masses=args.learn_masses,
+                               progress=progress)
+    else:
+        learner = GradientLearner(learn_masses=args.learn_masses, substeps=substeps,
+                                  max_iterations=args.cycles or 100, progress=progress)
+    learner.fit(start, experiments)
+    if args.out:
+        save_model(learner.model_, args.out)
+    result = learner.to_dict()
+    result.update(method=args.method, tie=args.tie, experiments=[str(p) for p in inputs],
+                  start=info)
+    if args.method == "gradient":
+        result.update(substeps=learner.substeps_, extrapolated=learner.extrapolated_,
+                      parameters=learner.parameter_names_,
+                      **learner.identifiability_.to_dict())
+    if args.json:
+        print(json.dumps(_json_safe(result)))
+    else:
+        print(learner.model_.summary())
+        print(f"RMS error: {result['rms_error_initial']:.4g} -> {result['rms_error']:.4g} "
+              f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
+        if args.out:
+            print(f"wrote {args.out}")
+    return 0
+
+
+# -- simulate -------------------------------------------------------------------------------
+def _simulate(args) -> int:
+    from .datasets import CUBE, paper_cube_model, top_centre_node
+    from .experiment import simulate_experiment
+    from .io import load_model, save_experiment
+
+    _refuse_overwrite(args.out, [Path(args.model)])
+    model = paper_cube_model() if args.model == "cube" else load_model(args.model)
+    loads = np.zeros((model.n_nodes, 3))
+    if args.force:
+        for node, *force in args.force:
+            try:
+                index, vector = int(node), [float(x) for x in force]
+            except ValueError:
+                raise InputError(f"got {[node, *force]}; expected NODE FX FY FZ (an integer "
+                                 "and three numbers)", key="--force") from None
+            if not 0 <= index < model.n_nodes:
+                raise InputError(f"node {index} is out of range 0..{model.n_nodes - 1}",
+                                 key="--force")
+            loads[index] += vector
+    else:
+        loads[top_centre_node(model.mesh)] = CUBE["force"]
+    experiment = simulate_experiment(model, dt=args.dt or CUBE["dt"], n_frames=args.frames,
+                                     external_forces=loads, substeps=_substeps(args.substeps),
+                                     noise=args.noise, seed=args.seed, source=args.out)
+    save_experiment(experiment, args.out)
+    print(f"wrote {args.out}: {experiment.n_frames} frames of {experiment.n_nodes} nodes")
+    return 0
+
+
+# -- helpers --------------------------------------------------------------------------------
+def _substeps(value: str):
+    if value == "auto":
+        return "auto"
+    try:
+        number = int(value)
+    except ValueError:
+        number = 0
+    if number < 1:
+        raise InputError(f"got {value!r}; expected a positive integer or 'auto'", key="--substeps")
+    return number
+
+
+def _refuse_overwrite(out, inputs) -> None:
+    if out is None:
+        return
+    target = Path(out).resolve()
+    for path in inputs:
+        if path.exists() and path.resolve() == target:
+            raise InputError("--out names an input file; neurofuzzy never writes over its input",
+                             source=str(out))
+
+
+def _say(enabled: bool, message: str) -> None:
+    if enabled:
+        print(message, file=sys.stderr, flush=True)
+
+
+def _json_safe(value):
+    if isinstance(value, dict):
+        return {key: _json_safe(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(item) for item in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.ndarray):
+        return _json_safe(value.tolist())
+    return value
+
+
+if __name__ == "__main__":
+    sys.exit(main())

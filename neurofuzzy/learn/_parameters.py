@@ -1,0 +1,144 @@
+"""The free parameters of a fit as one flat vector, and back to a model.
+
+Blocks, in this order (each optional but the springs):
+
+- ``log_stiffness`` (n_ties,): log of the shared stiffness of every tie group;
+- ``log_damping`` (n_ties,): log of the shared viscosity of every tie group;
+- ``log_mass`` (n_free_nodes,): log of every free node's mass (when masses are learned);
+- effect parameters, raw, one block per effect (when effects are learned).
+
+Logs keep stiffness, viscosity and mass positive and make their steps relative.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..model import SpringMassModel
+from ._base import TiedSprings
+
+__all__ = ["Parameterization"]
+
+
+@dataclass
+class Block:
+    name: str
+    start: int
+    stop: int
+
+    @property
+    def slice(self) -> slice:
+        return slice(self.start, self.stop)
+
+
+class Parameterization:
+    """Flat parameter vector of ``model`` for the gradient learner.
+
+    Parameters
+    ----------
+    model : SpringMassModel
+        Start model; fixes tying, the ratios within tie groups and the effects' options.
+    learn_masses : bool
+        Include the free nodes' masses.
+    learn_effects : bool
+        Include the parameters of the model's effects.
+    """
+
+    def __init__(self, model: SpringMassModel, *, learn_masses: bool = False,
+                 learn_effects: bool = True):
+        self.base = model
+        self.tied = TiedSprings.of(model)
+        self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.spring_stiffness)
+        self.damping_shared, self.damping_ratio = self.tied.split(model.spring_damping)
+        for key, shared in (("spring_stiffness", self.stiffness_shared),
+                            ("spring_damping", self.damping_shared)):
+            if np.any(shared <= 0):
+                raise InputError("the gradient learner needs positive start values (it learns "
+                                 "their logarithm); give a rough positive guess", key=key)
+        self.free_nodes = np.flatnonzero(model.mesh.free)
+        self.learn_masses = learn_masses
+        self.effects = list(model.effects) if learn_effects else []
+        blocks, start = [], 0
+        sizes = [("log_stiffness", model.n_ties), ("log_damping", model.n_ties)]
+        if learn_masses:
+            sizes.append(("log_mass", len(self.free_nodes)))
+        sizes += [(f"effect:{i}", len(e.params)) for i, e in enumerate(self.effects)]
+        for name, size in sizes:
+            blocks.append(Block(name, start, start + size))
+            start += size
+        self.blocks = {block.name: block for block in blocks}
+        self.size = start
+
+    def initial(self) -> np.ndarray:
+        """(n_params,) the start model's parameter vector."""
+        theta = np.empty(self.size)
+        theta[self.blocks["log_stiffness"].slice] = np.log(self.stiffness_shared)
+        theta[self.blocks["log_damping"].slice] = np.log(self.damping_shared)
+        if self.learn_masses:
+            theta[self.blocks["log_mass"].slice] = np.log(self.base.node_mass[self.free_nodes])
+        for i, effect in enumerate(self.effects):
+            theta[self.blocks[f"effect:{i}"].slice] = effect.params
+        return theta
+
+    def model(self, theta: np.ndarray) -> SpringMassModel:
+        """The model with parameter vector ``theta``."""
+        tie = self.tied.tie
+        stiffness = np.exp(theta[self.blocks["log_stiffness"].slice])[tie] * self.stiffness_ratio
+        damping = np.exp(theta[self.blocks["log_damping"].slice])[tie] * self.damping_ratio
+        changes = {"spring_stiffness": stiffness, "spring_damping": damping}
+        if self.learn_masses:
+            mass = self.base.node_mass.copy()
+            mass[self.free_nodes] = np.exp(theta[self.blocks["log_mass"].slice])
+            changes["node_mass"] = mass
+        if self.effects:
+            changes["effects"] = tuple(e.with_params(theta[self.blocks[f"effect:{i}"].slice])
+                                       for i, e in enumerate(self.effects))
+        return self.base.replace(**changes)
+
+    def names(self) -> list[str]:
+        """A readable name for every parameter ("stiffness[edge]", "mass[node 4]" …)."""
+        names = []
+        for quantity in ("stiffness", "damping"):
+            names += [f"{quantity}[{label}]" for label in self.tie_labels()]
+        if self.learn_masses:
+            names += [f"mass[node {i}]" for i in self.free_nodes]
+        for effect in self.effects:
+            names += list(effect.parameter_names)
+        return names
+
+    def tie_labels(self) -> list[str]:
+        """Label of every tie group: a spring-group name, "all springs" or "spring j"."""
+        model = self.base
+        tie, groups = self.tied.tie, model.mesh.spring_group
+        labels = []
+        for k in range(self.tied.n_ties):
+            members = np.flatnonzero(tie == k)
+            if len(members) == 1 and model.n_ties == model.n_springs:
+                labels.append(f"spring {members[0]}")
+            elif len(members) == model.n_springs:
+                labels.append("all springs")
+            elif len(np.unique(groups[members])) == 1 and np.sum(
+                    groups == groups[members[0]]) == len(members):
+                labels.append(model.mesh.group_names[groups[members[0]]])
+            else:
+                labels.append(f"tie group {k}")
+        return labels
+
+    def springs_of(self, index: int) -> np.ndarray:
+        """Springs whose value parameter ``index`` sets (empty for masses and effects)."""
+        for name in ("log_stiffness", "log_damping"):
+            block = self.blocks[name]
+            if block.start <= index < block.stop:
+                return np.flatnonzero(self.tied.tie == index - block.start)
+        return np.zeros(0, dtype=int)
+
+    def nodes_of(self, index: int) -> np.ndarray:
+        """Nodes whose mass parameter ``index`` sets (empty otherwise)."""
+        if self.learn_masses:
+            block = self.blocks["log_mass"]
+            if block.start <= index < block.stop:
+                return self.free_nodes[[index - block.start]]
+        return np.zeros(0, dtype=int)

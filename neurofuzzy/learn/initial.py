@@ -1,0 +1,102 @@
+"""Start values from the data alone: equation-error least squares.
+
+With every node observed, the measured positions give each node's velocity and acceleration by
+finite differences (for our integrator exactly: ``v(t) = (p(t) - p(t-1)) / h`` and
+``a(t) = (p(t+1) - p(t)) / h² - v(t) / h``), and Newton's law at every free node and frame,
+
+    m_i a_i(t) - f_ext,i(t) = Σ_k s_k G_k,i(t) + Σ_k c_k H_k,i(t),
+
+is *linear* in the shared stiffness ``s_k`` and viscosity ``c_k`` of the tie groups
+(``G``, ``H``: the spring forces per unit constant). Solving it with non-negativity bounds gives
+start values close to the answer without any simulation; the learners then refine them on the
+free-running error, which is robust to the noise that finite differences amplify.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from ..experiment import Experiment
+from ..model import SpringMassModel
+from ..simulate import accumulate, spring_terms
+from ._base import TiedSprings, check_experiments
+
+__all__ = ["estimate_start"]
+
+
+def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
+                   estimate_mass: bool = False) -> tuple[SpringMassModel, dict]:
+    """Start model whose tied spring constants (and, optionally, uniform mass) fit the data.
+
+    Parameters
+    ----------
+    model : SpringMassModel
+        Topology, tying and masses; its spring values are the fallback.
+    experiments : Experiment or sequence of Experiment
+    estimate_mass : bool
+        Also estimate one mass shared by all free nodes (when the data give none).
+
+    Returns
+    -------
+    model : SpringMassModel
+        The start model (the input unchanged where the data cannot say).
+    info : dict
+        ``{"used": bool, "reason": str}``.
+    """
+    experiments = check_experiments(model, experiments)
+    if not all(np.all(e.observed | ~e.mesh.free) for e in experiments):
+        return model, {"used": False, "reason": "some free nodes are unobserved"}
+    tied = TiedSprings.of(model)
+    _, s_ratio = tied.split(model.spring_stiffness)
+    _, c_ratio = tied.split(model.spring_damping)
+    if np.any(model.spring_stiffness <= 0):
+        s_ratio = np.ones(model.n_springs)
+    if np.any(model.spring_damping <= 0):
+        c_ratio = np.ones(model.n_springs)
+    free = model.mesh.free
+    n_ties = tied.n_ties
+    columns, targets = [], []
+    for experiment in experiments:
+        p = experiment.positions
+        h = experiment.dt
+        loads = experiment.forces_per_frame()
+        v = np.zeros_like(p)
+        v[1:] = (p[1:] - p[:-1]) / h
+        for t in range(experiment.n_frames - 1):
+            accel = (p[t + 1] - p[t]) / (h * h) - v[t] / h
+            terms = spring_terms(model, p[t], v[t])
+            rows = []
+            for per_spring in (terms.stretch * s_ratio, terms.closing_speed * c_ratio):
+                force = per_spring[:, None] * terms.direction
+                rows.append(np.stack([accumulate(model.mesh.springs, np.where(
+                    (tied.tie == k)[:, None], force, 0.0), model.n_nodes)[free].ravel()
+                    for k in range(n_ties)], axis=1))
+            if estimate_mass:
+                rows.append(-accel[free].reshape(-1, 1))
+                targets.append(-loads[t][free].ravel())
+            else:
+                targets.append((model.node_mass[free, None] * accel[free] - loads[t][free]).ravel())
+            columns.append(np.concatenate(rows, axis=1))
+    matrix = np.concatenate(columns)
+    target = np.concatenate(targets)
+    norms = np.linalg.norm(matrix, axis=0)
+    if np.any(norms == 0) or not np.all(np.isfinite(matrix)):
+        return model, {"used": False, "reason": "a tie group never moves in the data"}
+    solution = lsq_linear(matrix / norms, target, bounds=(0, np.inf)).x / norms
+    stiffness, damping = solution[:n_ties], solution[n_ties:2 * n_ties]
+    if not (np.all(stiffness > 0) and np.all(damping > 0)):
+        return model, {"used": False,
+                       "reason": "the equation-error estimate was not positive (noisy data?)"}
+    changes = {"spring_stiffness": stiffness[tied.tie] * s_ratio,
+               "spring_damping": damping[tied.tie] * c_ratio}
+    if estimate_mass:
+        mass = solution[-1]
+        if not mass > 0:
+            return model, {"used": False, "reason": "the mass estimate was not positive"}
+        node_mass = model.node_mass.copy()
+        node_mass[free] = mass
+        changes["node_mass"] = node_mass
+    return model.replace(**changes), {"used": True, "reason": "equation-error least squares"}

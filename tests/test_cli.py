@@ -1,0 +1,126 @@
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from neurofuzzy.cli import main
+from neurofuzzy.datasets import CUBE, paper_cube_model
+from neurofuzzy.io import load_model, save_experiment
+
+
+def run_cli(*args, cwd=None):
+    """Run the installed command in a fresh interpreter (as a user would)."""
+    return subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def cube_file(tmp_path_factory, cube_experiment):
+    return save_experiment(cube_experiment, tmp_path_factory.mktemp("data") / "cube.npz")
+
+
+def test_fit_json_has_the_promised_keys(cube_file, tmp_path, capsys):
+    out = tmp_path / "fitted.yaml"
+    status = main(["fit", str(cube_file), "--tie", "global", "--json", "--out", str(out)])
+    assert status == 0
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    for key in ("stiffness", "damping", "masses", "rms_error", "rms_error_initial", "cycles",
+                "seconds", "std_errors", "unidentifiable"):
+        assert key in result, key
+    assert len(result["stiffness"]) == 86 and len(result["masses"]) == 27
+    assert np.allclose(result["stiffness"], CUBE["stiffness"], rtol=1e-6)
+    assert np.allclose(result["damping"], CUBE["damping"], rtol=1e-6)
+    assert result["rms_error"] < 1e-6 * result["rms_error_initial"] + 1e-15
+    assert np.allclose(load_model(out).spring_stiffness, result["stiffness"])
+    assert captured.err == ""        # --json keeps stderr quiet unless something is wrong
+
+
+def test_fit_paper_method_prints_progress_on_stderr(cube_file, capsys):
+    assert main(["fit", str(cube_file), "--method", "paper", "--tie", "global",
+                 "--cycles", "3"]) == 0
+    captured = capsys.readouterr()
+    assert "paper learner: 3/3" in captured.err
+    assert "RMS error" in captured.out
+
+
+def _broken(tmp_path, cube_experiment, **changes):
+    arrays = {"rest_positions": cube_experiment.mesh.rest_positions,
+              "springs": cube_experiment.mesh.springs.copy(), "dt": cube_experiment.dt,
+              "positions": cube_experiment.positions.copy(),
+              "fixed": cube_experiment.mesh.fixed,
+              "external_forces": cube_experiment.external_forces}
+    for key, value in changes.items():
+        if value is None:
+            arrays.pop(key)
+        else:
+            arrays[key] = value(arrays[key]) if callable(value) else value
+    path = tmp_path / "bad.npz"
+    np.savez(path, **arrays)
+    return path
+
+
+def _nan_at(array):
+    array[5, 20, 1] = np.nan
+    return array
+
+
+def _out_of_range(springs):
+    springs[7, 0] = 40
+    return springs
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"positions": None}, "positions: required key is missing"),
+    ({"positions": lambda p: p[:, :, :2]}, "positions: got shape (251, 27, 2)"),
+    ({"positions": _nan_at}, "positions: NaN or infinite value at frame 5, node 20"),
+    ({"springs": _out_of_range}, "springs: node index 40 is out of range"),
+])
+def test_bad_input_exits_2_with_one_line_and_no_traceback(tmp_path, cube_experiment, changes,
+                                                          message):
+    path = _broken(tmp_path, cube_experiment, **changes)
+    result = run_cli("fit", path, "--json")
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert result.stderr.count("\n") == 1
+    assert str(path) in result.stderr and message in result.stderr
+    assert result.stdout == ""
+
+
+def test_unstable_step_exits_2(tmp_path):
+    result = run_cli("simulate", "cube", "--dt", "0.01", "--out", tmp_path / "x.npz")
+    assert result.returncode == 2
+    assert "unstable" in result.stderr and "substeps" in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_simulate_then_fit_round_trip(tmp_path):
+    data = tmp_path / "pull.npz"
+    result = run_cli("simulate", "cube", "--force", "26", "0.1", "0", "0", "--frames", "120",
+                     "--out", data)
+    assert result.returncode == 0, result.stderr
+    fitted = tmp_path / "fit.yaml"
+    result = run_cli("fit", data, "--tie", "groups", "--out", fitted, "--json")
+    assert result.returncode == 0, result.stderr
+    model = load_model(fitted)
+    assert np.allclose(model.spring_stiffness, 50.0, rtol=1e-6)
+
+
+def test_never_writes_over_an_input(cube_file):
+    before = cube_file.read_bytes()
+    result = run_cli("fit", cube_file, "--out", cube_file)
+    assert result.returncode == 2 and "never writes over its input" in result.stderr
+    assert cube_file.read_bytes() == before
+
+
+def test_demo_writes_table_plot_and_summary(tmp_path):
+    result = run_cli("demo", "--out", tmp_path / "demo", "--cycles", "5", "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert "paper E" in result.stdout and "1.21" in result.stdout
+    for name in ("error_per_cycle.png", "table.txt", "summary.json"):
+        assert (tmp_path / "demo" / name).stat().st_size > 0
+    summary = json.loads((tmp_path / "demo" / "summary.json").read_text())
+    assert {run["experiment"] for run in summary["runs"]} == {1, 2, 3}

@@ -1,0 +1,124 @@
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model, top_centre_node
+from neurofuzzy.learn import GradientLearner, auto_substeps
+from neurofuzzy.learn._parameters import Parameterization
+from neurofuzzy.learn._sensitivity import Sensitivity
+from neurofuzzy.reference import reference_experiment
+
+
+def _perturbed(rng):
+    truth = paper_cube_model()
+    return truth.replace(spring_stiffness=truth.spring_stiffness * rng.uniform(0.7, 1.4, 86),
+                         spring_damping=truth.spring_damping * rng.uniform(0.7, 1.4, 86),
+                         node_mass=truth.node_mass * rng.uniform(0.8, 1.2, 27))
+
+
+@pytest.mark.parametrize("substeps, starts", [(1, (0,)), (3, (0, 90, 180))])
+def test_adjoint_gradient_matches_central_differences(rng, cube_experiment, substeps, starts):
+    """Directional derivatives along random directions through all 190 parameters."""
+    parameters = Parameterization(_perturbed(rng), learn_masses=True)
+    sensitivity = Sensitivity(parameters, CUBE["edge_length"])
+    theta = parameters.initial()
+    loss, gradient, _ = sensitivity.gradient(theta, cube_experiment, substeps=substeps,
+                                             starts=starts)
+    assert loss > 0
+    step = 1e-5
+    for direction in rng.normal(size=(3, theta.size)):
+        direction /= np.linalg.norm(direction)
+        plus = sensitivity.gradient(theta + step * direction, cube_experiment,
+                                    substeps=substeps, starts=starts)[0]
+        minus = sensitivity.gradient(theta - step * direction, cube_experiment,
+                                     substeps=substeps, starts=starts)[0]
+        numeric = (plus - minus) / (2 * step)
+        assert abs(gradient @ direction - numeric) < 1e-6 * abs(numeric)
+
+
+def test_adjoint_gradient_matches_central_differences_per_parameter(cube_experiment):
+    start = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 40.0}, damping=0.03,
+                             total_mass=0.01, tie="groups")
+    parameters = Parameterization(start, learn_masses=True)
+    sensitivity = Sensitivity(parameters, CUBE["edge_length"])
+    theta = parameters.initial()
+    _, gradient, _ = sensitivity.gradient(theta, cube_experiment)
+    numeric = np.zeros_like(theta)
+    for i in range(theta.size):
+        e = np.zeros_like(theta)
+        e[i] = 1e-5
+        numeric[i] = (sensitivity.gradient(theta + e, cube_experiment)[0]
+                      - sensitivity.gradient(theta - e, cube_experiment)[0]) / 2e-5
+    assert np.linalg.norm(gradient - numeric) < 1e-6 * np.linalg.norm(gradient)
+
+
+def test_forward_jacobian_agrees_with_the_adjoint(rng, cube_experiment):
+    parameters = Parameterization(_perturbed(rng), learn_masses=True)
+    sensitivity = Sensitivity(parameters, CUBE["edge_length"])
+    theta = parameters.initial()
+    run = sensitivity.run(theta, cube_experiment, substeps=2, starts=(0, 100), tangents=True)
+    _, gradient, _ = sensitivity.gradient(theta, cube_experiment, substeps=2, starts=(0, 100))
+    jacobian = run.jacobian.reshape(-1, theta.size)
+    assert np.allclose(jacobian.T @ run.residuals.ravel(), gradient, rtol=1e-10,
+                       atol=1e-12 * np.abs(gradient).max())
+
+
+@pytest.mark.slow
+def test_every_identifiable_spring_and_mass_from_one_load_case(rng, cube_experiment):
+    start = _perturbed(rng)
+    learner = GradientLearner(learn_masses=True).fit(start, cube_experiment)
+    truth = paper_cube_model()
+    fitted = learner.model_
+    reported = learner.identifiability_.unidentifiable
+    unidentifiable = {s for entry in reported for s in entry["springs"]}
+    both_fixed = set(np.flatnonzero(~truth.mesh.free[truth.mesh.springs].any(axis=1)))
+    assert both_fixed <= unidentifiable
+    # they keep their start values instead of wandering off
+    both = sorted(both_fixed)
+    assert np.allclose(fitted.spring_stiffness[both], start.spring_stiffness[both], rtol=1e-12)
+    known = np.setdiff1d(np.arange(86), sorted(unidentifiable))
+    assert len(known) >= 60
+    assert np.allclose(fitted.spring_stiffness[known], truth.spring_stiffness[known], rtol=1e-6)
+    assert np.allclose(fitted.spring_damping[known], truth.spring_damping[known], rtol=1e-6)
+    free = truth.mesh.free
+    assert np.allclose(fitted.node_mass[free], truth.node_mass[free], rtol=1e-6)
+    assert learner.rms_error_ < 1e-9 * CUBE["edge_length"]
+
+
+def test_tied_fit_reports_standard_errors(cube_experiment):
+    noisy = paper_cube_experiment(paper_cube_model(), noise=2e-5, seed=1)
+    start = paper_cube_model(stiffness=70.0, damping=0.03, tie="groups")
+    learner = GradientLearner().fit(start, noisy)
+    assert learner.parameter_names_ == ["stiffness[edge]", "stiffness[diagonal]",
+                                        "damping[edge]", "damping[diagonal]"]
+    errors = learner.std_errors_
+    assert np.all(np.isfinite(errors)) and np.all(errors > 0)
+    fitted = learner.model_.group_values(learner.model_.spring_stiffness)
+    # the truth lies within a few standard errors (relative, since parameters are logs)
+    assert abs(np.log(fitted["edge"] / 50.0)) < 5 * errors[0] + 1e-3
+    assert abs(np.log(fitted["diagonal"] / 50.0)) < 5 * errors[1] + 1e-3
+
+
+@pytest.mark.slow
+def test_groups_recovered_within_two_percent_from_a_different_integrator():
+    truth = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0}, damping=0.02)
+    loads = np.zeros((27, 3))
+    loads[top_centre_node(truth.mesh)] = CUBE["force"]
+    data = reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=loads,
+                                method="rk4", substeps=10)
+    start = paper_cube_model(stiffness=45.0, damping=0.03, tie="groups")
+    learner = GradientLearner(substeps="auto").fit(start, data)
+    fitted = learner.model_
+    stiffness = fitted.group_values(fitted.spring_stiffness)
+    damping = fitted.group_values(fitted.spring_damping)
+    assert stiffness["edge"] == pytest.approx(60.0, rel=0.02)
+    assert stiffness["diagonal"] == pytest.approx(35.0, rel=0.02)
+    assert damping["edge"] == pytest.approx(0.02, rel=0.02)
+    assert damping["diagonal"] == pytest.approx(0.02, rel=0.02)
+    assert learner.extrapolated_ and learner.substeps_ == 2 * auto_substeps(start, CUBE["dt"])
+
+
+def test_auto_substeps_keeps_one_step_for_our_own_data(cube_experiment):
+    start = paper_cube_model(stiffness=55.0, damping=0.025, tie="global")
+    learner = GradientLearner(substeps="auto").fit(start, cube_experiment)
+    assert learner.substeps_ == 1 and not learner.extrapolated_
+    assert learner.model_.spring_stiffness[0] == pytest.approx(50.0, rel=1e-9)
