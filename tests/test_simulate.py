@@ -147,3 +147,30 @@ def test_bad_simulation_input():
         simulate(model, dt=-1.0, n_frames=3)
     with pytest.raises(InputError, match="NaN"):
         simulate(model, dt=0.01, n_frames=3, initial_positions=[[0, 0, 0], [np.nan, 0, 0]])
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_fast_steppers_equal_the_reference_step(backend, rng):
+    if backend == "numba":
+        pytest.importorskip("numba")
+    mesh = lattice((4, 3, 3), 0.01).with_fixed(np.arange(0, 36, 3))
+    model = SpringMassModel(mesh, node_mass=rng.uniform(1e-4, 3e-4, mesh.n_nodes),
+                            spring_stiffness=rng.uniform(20, 60, mesh.n_springs),
+                            spring_damping=rng.uniform(0.005, 0.02, mesh.n_springs))
+    loads = rng.normal(0, 0.05, (40, mesh.n_nodes, 3))
+    fast = simulate(model, dt=5e-4, n_frames=40, external_forces=loads, substeps=2,
+                    backend=backend)
+    p, v = mesh.rest_positions.copy(), np.zeros((mesh.n_nodes, 3))
+    for t in range(1, 40):
+        for _ in range(2):
+            p, v = step(model, p, v, 2.5e-4, loads[t - 1])
+        assert np.allclose(fast.positions[t], p, rtol=0, atol=1e-14)
+        assert np.allclose(fast.velocities[t], v, rtol=0, atol=1e-11)
+
+
+def test_float32_path_stays_close(cube_model, cube_experiment):
+    single = simulate(cube_model, dt=cube_experiment.dt, n_frames=cube_experiment.n_frames,
+                      external_forces=cube_experiment.external_forces, dtype=np.float32,
+                      backend="numpy")
+    error = np.abs(single.positions - cube_experiment.positions).max()
+    assert 0 < error < 1e-6 * 0.01 * 100          # within 1e-4 edge lengths

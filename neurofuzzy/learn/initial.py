@@ -21,10 +21,12 @@ from scipy.optimize import lsq_linear
 
 from ..experiment import Experiment
 from ..model import SpringMassModel
-from ..simulate import accumulate, spring_terms
 from ._base import TiedSprings, check_experiments
 
 __all__ = ["estimate_start"]
+
+#: Largest dense equation-error system (entries per force component) we build.
+MAX_ENTRIES = 3e7
 
 
 def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
@@ -58,28 +60,45 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
         c_ratio = np.ones(model.n_springs)
     free = model.mesh.free
     n_ties = tied.n_ties
+    size = sum(e.n_frames for e in experiments) * model.n_nodes * n_ties * 3
+    if size > MAX_ENTRIES:
+        return model, {"used": False, "reason": f"too many tie groups ({n_ties}) for the "
+                                                 "dense equation-error system"}
+    a, b = model.mesh.springs.T
+    n_nodes = model.n_nodes
     columns, targets = [], []
     for experiment in experiments:
         p = experiment.positions
         h = experiment.dt
-        loads = experiment.forces_per_frame()
+        loads = experiment.forces_per_frame()[:-1]
         v = np.zeros_like(p)
         v[1:] = (p[1:] - p[:-1]) / h
-        for t in range(experiment.n_frames - 1):
-            accel = (p[t + 1] - p[t]) / (h * h) - v[t] / h
-            terms = spring_terms(model, p[t], v[t])
-            rows = []
-            for per_spring in (terms.stretch * s_ratio, terms.closing_speed * c_ratio):
-                force = per_spring[:, None] * terms.direction
-                rows.append(np.stack([accumulate(model.mesh.springs, np.where(
-                    (tied.tie == k)[:, None], force, 0.0), model.n_nodes)[free].ravel()
-                    for k in range(n_ties)], axis=1))
-            if estimate_mass:
-                rows.append(-accel[free].reshape(-1, 1))
-                targets.append(-loads[t][free].ravel())
-            else:
-                targets.append((model.node_mass[free, None] * accel[free] - loads[t][free]).ravel())
-            columns.append(np.concatenate(rows, axis=1))
+        accel = (p[1:] - p[:-1]) / (h * h) - v[:-1] / h          # (T-1, N, 3)
+        d = p[:-1, b] - p[:-1, a]                                 # (T-1, S, 3)
+        length = np.linalg.norm(d, axis=2)
+        u = d / length[..., None]
+        stretch = length - model.spring_rest_length
+        closing = np.einsum("tsk,tsk->ts", v[:-1, b] - v[:-1, a], u)
+        blocks = []
+        for per_spring, ratio in ((stretch, s_ratio), (closing, c_ratio)):
+            force = (per_spring * ratio)[..., None] * u          # (T-1, S, 3)
+            # node force of every tie group: (T-1, N, K, 3) via one bincount per component
+            index = (np.r_[a, b] * n_ties + np.r_[tied.tie, tied.tie])
+            signed = np.concatenate([force, -force], axis=1)      # (T-1, 2S, 3)
+            frames = np.arange(signed.shape[0])[:, None] * (n_nodes * n_ties)
+            flat = (frames + index[None, :]).ravel()
+            per_node = np.stack([np.bincount(flat, signed[..., k].ravel(),
+                                             signed.shape[0] * n_nodes * n_ties)
+                                 for k in range(3)], axis=-1)
+            per_node = per_node.reshape(-1, n_nodes, n_ties, 3)[:, free]   # (T-1, F, K, 3)
+            blocks.append(per_node.transpose(0, 1, 3, 2).reshape(-1, n_ties))
+        if estimate_mass:
+            blocks.append(-accel[:, free].reshape(-1, 1))
+            targets.append(-loads[:, free].ravel())
+        else:
+            targets.append((model.node_mass[free, None] * accel[:, free]
+                            - loads[:, free]).ravel())
+        columns.append(np.concatenate(blocks, axis=1))
     matrix = np.concatenate(columns)
     target = np.concatenate(targets)
     norms = np.linalg.norm(matrix, axis=0)

@@ -1,0 +1,301 @@
+"""Speed and accuracy benchmarks; every ratio is measured side by side in the same run.
+
+    python benchmarks/run.py            # full (a few minutes on 2 cores)
+    python benchmarks/run.py --quick    # under a minute
+
+Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
+
+1. force accumulation: np.bincount vs np.add.at vs a sparse incidence matrix (10k springs);
+2. simulation: spring-steps per second from 100 to 100,000 springs, numpy and numba backends,
+   and the step rate at 10,000 springs (target: 2,000 steps/s on one core), recording every
+   10th step as a real-time simulator renders;
+3. fitting the cube's tied constants to 0.1 %: the paper's learner, scipy's least_squares with
+   finite differences on our simulator, and ours (from the same start, and as `neurofuzzy fit`
+   runs it, with the equation-error start);
+4. per-spring identification: all 86 stiffnesses and viscosities of the cube from two load
+   cases made by RK4 at a 10x finer step (median relative error, target < 1 %);
+5. per-spring fit of a 10,000-spring mesh built with from_trimesh (target < 60 s), peak memory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")          # one core, as the targets state
+
+import numpy as np  # noqa: E402
+import scipy.sparse as sp  # noqa: E402
+import trimesh  # noqa: E402
+from scipy.optimize import least_squares  # noqa: E402
+
+from neurofuzzy import simulate  # noqa: E402
+from neurofuzzy._steppers import numba_available  # noqa: E402
+from neurofuzzy.datasets import (CUBE, corner_node, paper_cube_experiment,  # noqa: E402
+                                 paper_cube_model, top_centre_node)
+from neurofuzzy.experiment import simulate_experiment  # noqa: E402
+from neurofuzzy.learn import GradientLearner, PaperLearner  # noqa: E402
+from neurofuzzy.learn.initial import estimate_start  # noqa: E402
+from neurofuzzy.mesh import bottom_layer, from_trimesh, lattice  # noqa: E402
+from neurofuzzy.model import SpringMassModel  # noqa: E402
+from neurofuzzy.reference import reference_experiment  # noqa: E402
+
+
+def timed(function, repeat=1):
+    best = np.inf
+    for _ in range(repeat):
+        start = time.perf_counter()
+        value = function()
+        best = min(best, time.perf_counter() - start)
+    return best, value
+
+
+def per_call(function, seconds=0.5):
+    function()
+    count, start = 0, time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        function()
+        count += 1
+    return (time.perf_counter() - start) / count
+
+
+# -- 1. accumulation ------------------------------------------------------------------------
+def bench_accumulation(results):
+    mesh = lattice((12, 12, 12))
+    a, b = mesh.springs.T
+    n, s = mesh.n_nodes, mesh.n_springs
+    force = np.random.default_rng(0).normal(size=(s, 3))
+    incidence = sp.csr_matrix((np.r_[np.ones(s), -np.ones(s)], (np.r_[a, b], np.r_[np.arange(s),
+                               np.arange(s)])), shape=(n, s))
+
+    def bincount():
+        return np.stack([np.bincount(a, force[:, k], n) - np.bincount(b, force[:, k], n)
+                         for k in range(3)], axis=1)
+
+    def add_at():
+        out = np.zeros((n, 3))
+        np.add.at(out, a, force)
+        np.add.at(out, b, -force)
+        return out
+
+    def sparse():
+        return incidence @ force
+
+    assert np.allclose(bincount(), add_at()) and np.allclose(bincount(), sparse())
+    times = {name: per_call(f) * 1e6 for name, f in
+             (("bincount", bincount), ("add.at", add_at), ("sparse", sparse))}
+    results["accumulate_us_10k_springs"] = times
+    rows = [(f"accumulate 10k springs: {k}", f"{v:.0f} us") for k, v in times.items()]
+    rows.append(("  fastest", min(times, key=times.get)))
+    return rows
+
+
+# -- 2. simulation --------------------------------------------------------------------------
+def bench_simulation(results, quick):
+    shapes = [(3, 3, 3), (6, 6, 5), (12, 12, 12), (20, 20, 21)]
+    if not quick:
+        shapes.append((26, 26, 26))
+    backends = ["numpy"] + (["numba"] if numba_available() else [])
+    rows, table = [], {}
+    for shape in shapes:
+        mesh = lattice(shape, 0.01).with_fixed(where=bottom_layer)
+        model = SpringMassModel.uniform(mesh, stiffness=50.0, damping=0.02, node_mass=3e-4)
+        load = np.zeros((mesh.n_nodes, 3))
+        load[-1] = (0, 0, -0.1)
+        # a real-time simulator records (renders) every few steps: 10 steps per frame here
+        frames = max(int(np.clip(2e6 / mesh.n_springs, 5, 500)) // (4 if quick else 1), 2)
+        steps = 10 * frames
+        for backend in backends:
+            if backend == "numba":
+                simulate(model, dt=5e-4, n_frames=2, external_forces=load, backend="numba")
+            seconds, _ = timed(lambda: simulate(model, dt=5e-3, n_frames=frames + 1,
+                                                substeps=10, external_forces=load,
+                                                backend=backend, check_stability=False),
+                               repeat=2)
+            rate = steps / seconds
+            table.setdefault(backend, {})[mesh.n_springs] = rate * mesh.n_springs
+            rows.append((f"simulate {mesh.n_springs:>6} springs ({backend})",
+                         f"{rate:,.0f} steps/s, {rate * mesh.n_springs / 1e6:.1f} M spring-steps/s"))
+            if shape == (12, 12, 12):
+                results[f"sim_steps_per_s_10k_springs_{backend}"] = rate
+    results["sim_spring_steps_per_s"] = {b: {str(k): v for k, v in d.items()}
+                                         for b, d in table.items()}
+    best = max(results[k] for k in results if k.startswith("sim_steps_per_s_10k_springs_"))
+    results["sim_steps_per_s_10k_springs"] = best
+    rows.append(("step rate at 10k springs (best backend)",
+                 f"{best:,.0f} steps/s (target 2,000)"))
+    return rows
+
+
+# -- 3. tied constants of the cube ----------------------------------------------------------
+def bench_tied_fit(results):
+    truth = paper_cube_model()
+    data = paper_cube_experiment(truth)
+    start = paper_cube_model(stiffness=1.5 * CUBE["stiffness"], damping=1.5 * CUBE["damping"],
+                             tie="global")
+
+    def accurate(model):
+        return (abs(model.spring_stiffness[0] / CUBE["stiffness"] - 1) < 1e-3
+                and abs(model.spring_damping[0] / CUBE["damping"] - 1) < 1e-3)
+
+    # paper's learner: one cycle at a time (its state is the weights) to find the cycle count
+    model, paper_cycles = start, None
+    for cycle in range(1, 301):
+        model = PaperLearner(learning_rate=0.1, cycles=1).fit(model, data).model_
+        if accurate(model):
+            paper_cycles = cycle
+            break
+    paper_time, paper = timed(lambda: PaperLearner(learning_rate=0.1, cycles=paper_cycles or 300)
+                              .fit(start, data))
+
+    # scipy least_squares, 2-point finite differences, on our simulator
+    tracked = data.tracked()
+    calls = [0]
+
+    def residuals(x):
+        calls[0] += 1
+        trial = start.replace(spring_stiffness=np.full(86, np.exp(x[0])),
+                              spring_damping=np.full(86, np.exp(x[1])))
+        try:
+            run = simulate(trial, dt=data.dt, n_frames=data.n_frames,
+                           external_forces=data.external_forces, check_stability=False)
+        except ValueError:
+            return np.full(int(tracked.sum()) * 3 * (data.n_frames - 1), 1e3)
+        return ((run.positions - data.positions)[1:, tracked] / CUBE["edge_length"]).ravel()
+
+    x0 = np.log([start.spring_stiffness[0], start.spring_damping[0]])
+    fd_time, solution = timed(lambda: least_squares(residuals, x0))
+    fd_model = start.replace(spring_stiffness=np.full(86, np.exp(solution.x[0])),
+                             spring_damping=np.full(86, np.exp(solution.x[1])))
+
+    ours_time, ours = timed(lambda: GradientLearner().fit(start, data))
+
+    def pipeline():
+        estimated, _ = estimate_start(start, data)
+        return GradientLearner(windows=()).fit(estimated, data)
+
+    pipe_time, pipe = timed(pipeline)
+    for name, model in (("paper", paper.model_), ("fd", fd_model), ("ours", ours.model_),
+                        ("pipeline", pipe.model_)):
+        assert accurate(model), name
+    results.update({
+        "fit_cycles_paper": paper_cycles, "fit_seconds_paper": paper_time,
+        "fit_cycles_fd_lsq": calls[0], "fit_seconds_fd_lsq": fd_time,
+        "fit_cycles_gradient": ours.n_cycles_, "fit_seconds_gradient": ours_time,
+        "fit_cycles_pipeline": pipe.n_cycles_ + 1, "fit_seconds_pipeline": pipe_time,
+        "fit_speedup_vs_fd_lsq": fd_time / ours_time,
+        "fit_speedup_vs_fd_lsq_pipeline": fd_time / pipe_time,
+        "fit_accuracy": {name: {"stiffness": abs(m.spring_stiffness[0] / 50 - 1),
+                                "damping": abs(m.spring_damping[0] / 0.02 - 1)}
+                         for name, m in (("paper", paper.model_), ("fd_lsq", fd_model),
+                                         ("gradient", ours.model_), ("pipeline", pipe.model_))},
+    })
+    return [
+        ("tied cube fit to 0.1 %: paper's learner", f"{paper_cycles} cycles, {paper_time:.2f} s"),
+        ("  least_squares + finite differences", f"{calls[0]} simulations, {fd_time:.2f} s"),
+        ("  gradient learner, same start", f"{ours.n_cycles_} cycles, {ours_time:.2f} s "
+                                           f"({fd_time / ours_time:.2f}x vs FD)"),
+        ("  gradient + equation-error start", f"{pipe.n_cycles_ + 1} cycles, {pipe_time:.2f} s "
+                                              f"({fd_time / pipe_time:.1f}x vs FD)"),
+    ]
+
+
+# -- 4. per-spring constants of the cube, two load cases, RK4 data --------------------------
+def bench_per_spring_cube(results):
+    rng = np.random.default_rng(0)
+    base = paper_cube_model()
+    truth = base.replace(spring_stiffness=50 * rng.uniform(0.7, 1.3, 86),
+                         spring_damping=0.02 * rng.uniform(0.7, 1.3, 86))
+    loads = []
+    for node, force in ((top_centre_node(base.mesh), (0, 0, -0.2)),
+                        (corner_node(base.mesh), (0.15, 0.05, 0.0))):
+        load = np.zeros((27, 3))
+        load[node] = force
+        loads.append(load)
+    data = [reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=load,
+                                 method="rk4", substeps=10) for load in loads]
+    seconds, learner = timed(lambda: GradientLearner(substeps="auto").fit(base, data))
+    moving = base.mesh.free[base.mesh.springs].any(axis=1)
+    fitted = learner.model_
+    stiffness = np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]
+    damping = np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]
+    results["per_spring_cube"] = {
+        "median_stiffness_error": float(np.median(stiffness)),
+        "median_damping_error": float(np.median(damping)),
+        "max_stiffness_error": float(stiffness.max()), "max_damping_error": float(damping.max()),
+        "springs": int(moving.sum()), "seconds": seconds, "cycles": learner.n_cycles_,
+        "substeps": learner.substeps_, "extrapolated": learner.extrapolated_}
+    return [("per-spring cube (2 load cases, RK4 data)",
+             f"median error stiffness {np.median(stiffness):.3%}, viscosity "
+             f"{np.median(damping):.3%} over {int(moving.sum())} springs, {seconds:.0f} s")]
+
+
+# -- 5. per-spring fit of a 10k-spring mesh --------------------------------------------------
+def bench_large_fit(results, quick):
+    surface = trimesh.creation.capsule(height=0.04, radius=0.02)
+    mesh = from_trimesh(surface, pitch=0.0045 if not quick else 0.007)
+    mesh = mesh.with_fixed(where=bottom_layer)
+    rng = np.random.default_rng(1)
+    truth = SpringMassModel(mesh, node_mass=np.full(mesh.n_nodes, 1e-4),
+                            spring_stiffness=50 * rng.uniform(0.8, 1.2, mesh.n_springs),
+                            spring_damping=np.full(mesh.n_springs, 0.05))
+    top = np.flatnonzero(mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9)
+    frames = 60 if not quick else 30
+    data = []
+    for direction in ((0, 0, -1.0), (1.0, 0, 0)):
+        load = np.zeros((mesh.n_nodes, 3))
+        load[top] = np.array(direction) * 0.5 / len(top)
+        data.append(simulate_experiment(truth, dt=2e-4, n_frames=frames, external_forces=load,
+                                        substeps="auto"))
+    start = truth.replace(spring_stiffness=np.full(mesh.n_springs, 50.0))
+    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    learner = GradientLearner(method="lbfgs", windows=(), max_iterations=60 if not quick else 15,
+                              substeps=data[0].n_frames and 1)
+    seconds, learner = timed(lambda: learner.fit(start, data))
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    error_before = np.median(np.abs(start.spring_stiffness / truth.spring_stiffness - 1))
+    error_after = np.median(np.abs(learner.model_.spring_stiffness / truth.spring_stiffness - 1))
+    results["large_fit"] = {"springs": mesh.n_springs, "nodes": mesh.n_nodes,
+                            "parameters": 2 * mesh.n_springs, "seconds": seconds,
+                            "cycles": learner.n_cycles_, "peak_rss_mb": peak,
+                            "rss_before_mb": rss_before / 1024,
+                            "rms_initial": learner.rms_error_initial_,
+                            "rms_final": learner.rms_error_,
+                            "median_stiffness_error_start": float(error_before),
+                            "median_stiffness_error_end": float(error_after)}
+    return [(f"per-spring fit, {mesh.n_springs} springs (from_trimesh), L-BFGS",
+             f"{seconds:.1f} s, {learner.n_cycles_} cycles, peak RSS {peak:.0f} MB, RMS "
+             f"{learner.rms_error_initial_:.2e} -> {learner.rms_error_:.2e} m, median stiffness "
+             f"error {error_before:.1%} -> {error_after:.1%}")]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller problems, under a minute")
+    parser.add_argument("--out", default=str(Path(__file__).with_name("results.json")))
+    args = parser.parse_args(argv)
+    results = {"quick": args.quick, "numba": numba_available()}
+    rows = []
+    started = time.perf_counter()
+    sections = [lambda: bench_accumulation(results),
+                lambda: bench_simulation(results, args.quick),
+                lambda: bench_tied_fit(results)]
+    if not args.quick:
+        sections.append(lambda: bench_per_spring_cube(results))
+    sections.append(lambda: bench_large_fit(results, args.quick))
+    for section in sections:
+        for row in section():
+            rows.append(row)
+            print(f"{row[0]:<52} {row[1]}", flush=True)
+    results["seconds"] = time.perf_counter() - started
+    Path(args.out).write_text(json.dumps(results, indent=2, default=float))
+    print(f"\n{results['seconds']:.0f} s; wrote {args.out}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
