@@ -1,8 +1,21 @@
 """Physical effects a model may carry besides its springs, as extra force terms.
 
-Each effect is one class: a name from the fixed vocabulary of DESIGN.md, a parameter vector the
-learners can fit, the force it adds, and its derivatives for the gradient learner. Adding an
-effect means adding one subclass here and registering it in :data:`EFFECTS`.
+Each effect is one class with a name from the fixed vocabulary of DESIGN.md, a parameter vector
+the learners fit, the force it adds, its derivatives (for the gradient learner) and the
+physical units of its parameters (for the paper's learner). Adding an effect means adding one
+subclass here and registering it with :func:`register`; the simulator, both learners, the model
+files and the diagnosis pick it up from the registry.
+
+=====================  ====================================================  ===============
+name                   force on node i                                        parameters
+=====================  ====================================================  ===============
+gravity                ``m_i g``                                              ``g`` (3,)
+node_drag              ``-b v_i`` (viscous drag of the surrounding medium)    ``b``
+stiff_inclusion        springs ``R`` get ``k (l - L0) u`` extra, k > 0        ``k`` per group
+soft_inclusion         the same with k < 0 (k > -s)                           ``k`` per group
+nonlinear_stiffening   every spring gets ``κ (l - L0)³ / L0² u`` extra        ``κ`` per group
+unmodeled_load         a constant force ``f`` at one node                     ``f`` (3,)
+=====================  ====================================================  ===============
 """
 
 from __future__ import annotations
@@ -13,30 +26,82 @@ from typing import ClassVar
 import numpy as np
 
 from .errors import InputError, closest_name
+from .forces import (SpringTerms, accumulate, accumulate_many, central_jvp, central_vjp,
+                     spring_terms)
 
-__all__ = ["Effect", "EFFECTS", "effect_to_dict", "effect_from_dict"]
+__all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
+           "NonlinearStiffening", "UnmodeledLoad", "EFFECTS", "register", "effect_to_dict",
+           "effect_from_dict"]
+
+#: Registry of effect classes by name.
+EFFECTS: dict[str, type[Effect]] = {}
+
+
+def register(cls: type[Effect]) -> type[Effect]:
+    """Class decorator: make an effect known by its ``name``."""
+    EFFECTS[cls.name] = cls
+    return cls
 
 
 class Effect(ABC):
-    """A force term ``F(p, v; θ)`` added to the spring forces of every node.
+    """A force term ``F(p, v; θ)`` added to the spring forces.
 
-    Subclasses set ``name`` and implement :meth:`force`, :meth:`parameter_jacobian` and
-    :meth:`state_jvp` / :meth:`state_vjp`; parameters are a flat float vector ``params``.
+    Subclasses set ``name``, ``units`` (the exponents of length, time and mass of every
+    parameter) and implement :meth:`force` and :meth:`parameter_jacobian`; forces that depend
+    on the state also implement :meth:`state_jvp` and :meth:`state_vjp`.
+
+    Parameters
+    ----------
+    params : (n_params,) float
+        Parameter values (see the table in the module docstring).
+    **options
+        Fixed, non-learned settings (which springs, which node).
     """
 
     name: ClassVar[str]
+    #: (length, time, mass) exponents of the unit of the parameters.
+    unit: ClassVar[tuple[int, int, int]]
+    #: True when the force is proportional to the node mass (so ``F/m`` is not).
+    per_unit_mass: ClassVar[bool] = False
 
     def __init__(self, params, **options):
         self.params = np.array(params, dtype=float).ravel()
         self.options = options
+        if self.params.shape != (len(self.labels),):
+            raise InputError(f"{self.name} takes {len(self.labels)} parameter(s) "
+                             f"({', '.join(self.labels)}), got {self.params.size}",
+                             key="params")
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """Short names of the parameters."""
+        return self._labels
+
+    _labels: ClassVar[tuple[str, ...]] = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
-        return tuple(f"{self.name}[{i}]" for i in range(len(self.params)))
+        return tuple(f"{self.name}.{label}" for label in self.labels)
+
+    def parameter_units(self, length: float, time: float, mass: float) -> np.ndarray:
+        """(n_params,) the unit of every parameter for given units of length, time, mass."""
+        a, b, c = self.unit
+        return np.full(len(self.params), length**a * time**b * mass**c)
 
     def with_params(self, params) -> Effect:
         """A copy with new parameter values (same options)."""
         return type(self)(params, **self.options)
+
+    @property
+    def springs(self) -> np.ndarray:
+        """Springs the effect acts on locally (empty for global effects)."""
+        return np.asarray(self.options.get("springs", []), dtype=int)
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """Nodes the effect acts on locally (empty for global effects)."""
+        node = self.options.get("node")
+        return np.zeros(0, dtype=int) if node is None else np.array([int(node)])
 
     @abstractmethod
     def force(self, model, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
@@ -48,20 +113,253 @@ class Effect(ABC):
         """(n_params, n_nodes, 3): derivative of :meth:`force` with respect to ``params``."""
 
     def state_jvp(self, model, positions, velocities, dp, dv) -> np.ndarray:
-        """(n_nodes, 3): ``∂F/∂p · dp + ∂F/∂v · dv`` (zero for state-independent forces)."""
+        """(P, n_nodes, 3): ``∂F/∂p · dp + ∂F/∂v · dv`` for tangents of shape (P, n_nodes, 3)."""
         return np.zeros_like(dp)
 
-    def state_vjp(self, model, positions, velocities, cotangent) -> tuple[np.ndarray, np.ndarray]:
-        """``(∂F/∂p)ᵀ λ, (∂F/∂v)ᵀ λ`` for a cotangent ``λ`` of shape (n_nodes, 3)."""
+    def state_vjp(self, model, positions, velocities, cotangent):
+        """``((∂F/∂p)ᵀ λ, (∂F/∂v)ᵀ λ)`` for a cotangent ``λ`` of shape (n_nodes, 3)."""
         return np.zeros_like(cotangent), np.zeros_like(cotangent)
 
+    def equation(self) -> str:
+        """The force term in words and numbers, e.g. ``F_i += m_i (0, 0, -9.81)``."""
+        return f"{self.name}: " + ", ".join(f"{n} = {v:.4g}" for n, v in
+                                             zip(self.labels, self.params))
+
     def __repr__(self) -> str:
-        values = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.parameter_names, self.params))
-        return f"{self.name}({values})"
+        return self.equation()
 
 
-#: Registry of effect classes by name (filled below).
-EFFECTS: dict[str, type[Effect]] = {}
+@register
+class Gravity(Effect):
+    """Uniform acceleration ``g`` (direction and magnitude learned): ``F_i = m_i g``."""
+
+    name = "gravity"
+    unit = (1, -2, 0)
+    _labels = ("gx", "gy", "gz")
+    per_unit_mass = True
+
+    def force(self, model, positions, velocities):
+        return model.node_mass[:, None] * self.params[None, :]
+
+    def parameter_jacobian(self, model, positions, velocities):
+        jacobian = np.zeros((3, model.n_nodes, 3))
+        for k in range(3):
+            jacobian[k, :, k] = model.node_mass
+        return jacobian
+
+    def equation(self):
+        g = self.params
+        return (f"gravity: F_i += m_i g, g = ({g[0]:.4g}, {g[1]:.4g}, {g[2]:.4g}), "
+                f"|g| = {np.linalg.norm(g):.4g}")
+
+
+@register
+class NodeDrag(Effect):
+    """Viscous drag of the surrounding medium on every node: ``F_i = -b v_i``."""
+
+    name = "node_drag"
+    unit = (0, -1, 1)
+    _labels = ("b",)
+
+    def force(self, model, positions, velocities):
+        return -self.params[0] * velocities
+
+    def parameter_jacobian(self, model, positions, velocities):
+        return -velocities[None]
+
+    def state_jvp(self, model, positions, velocities, dp, dv):
+        return -self.params[0] * dv
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        return np.zeros_like(cotangent), -self.params[0] * cotangent
+
+    def equation(self):
+        return f"node_drag: F_i += -b v_i, b = {self.params[0]:.4g}"
+
+
+class SpringEffect(Effect):
+    """A central, position-dependent force along a subset of springs (all when no ``springs``),
+    with one coefficient per spring group (stiffness units, N/m), so that it does not depend
+    on the springs' own stiffness while the learners change it.
+
+    Options: ``groups`` (the spring-group indices that have a coefficient, in parameter order),
+    ``group_names`` (for labels) and optionally ``springs``. Subclasses implement
+    :meth:`shape`, the magnitude per unit coefficient and its derivative by length.
+    """
+
+    unit = (0, -2, 1)
+
+    def __init__(self, params, *, groups, group_names=None, springs=None, **options):
+        if springs is not None:
+            options["springs"] = [int(j) for j in np.ravel(springs)]
+        options["groups"] = [int(g) for g in np.ravel(groups)]
+        if group_names is not None:
+            options["group_names"] = [str(n) for n in group_names]
+        super().__init__(params, **options)
+
+    @classmethod
+    def for_model(cls, model, params=None, springs=None):
+        """The effect on ``springs`` (default all) of ``model``, one coefficient per group."""
+        selection = np.arange(model.n_springs) if springs is None else np.asarray(springs, int)
+        groups = np.unique(model.mesh.spring_group[selection])
+        names = [model.mesh.group_names[g] for g in groups]
+        params = np.zeros(len(groups)) if params is None else np.broadcast_to(
+            np.asarray(params, float), (len(groups),))
+        return cls(params, groups=groups, group_names=names, springs=springs)
+
+    @property
+    def labels(self):
+        names = self.options.get("group_names") or [f"group{g}" for g in self.options["groups"]]
+        return tuple(f"{self.coefficient}[{n}]" for n in names)
+
+    coefficient: ClassVar[str] = "k"
+
+    def _selection(self, model):
+        springs = self.options.get("springs")
+        return np.arange(model.n_springs) if springs is None else np.asarray(springs, int)
+
+    @abstractmethod
+    def shape(self, model, terms, selection):
+        """``(g, dg_dl)`` per selected spring: magnitude and its length derivative per unit
+        coefficient."""
+
+    def magnitude(self, model, terms, selection):
+        """``(m, dm_dl, dm_dparams)`` of shapes (n,), (n,), (n_params, n)."""
+        index = np.searchsorted(self.options["groups"], model.mesh.spring_group[selection])
+        index = np.minimum(index, len(self.params) - 1)
+        known = np.asarray(self.options["groups"])[index] == model.mesh.spring_group[selection]
+        coefficient = np.where(known, self.params[index], 0.0)
+        g, dg = self.shape(model, terms, selection)
+        dm = np.zeros((len(self.params), len(selection)))
+        dm[index[known], np.flatnonzero(known)] = g[known]
+        return coefficient * g, coefficient * dg, dm
+
+    def _parts(self, model, positions, velocities):
+        selection = self._selection(model)
+        terms = spring_terms(model, positions, velocities)
+        sub = _select_terms(terms, selection)
+        return selection, sub, self.magnitude(model, sub, selection)
+
+    def force(self, model, positions, velocities):
+        selection, terms, (m, _, _) = self._parts(model, positions, velocities)
+        return accumulate(model.mesh.springs[selection], m[:, None] * terms.direction,
+                          model.n_nodes)
+
+    def parameter_jacobian(self, model, positions, velocities):
+        selection, terms, (_, _, dm) = self._parts(model, positions, velocities)
+        springs = model.mesh.springs[selection]
+        return np.stack([accumulate(springs, d[:, None] * terms.direction, model.n_nodes)
+                         for d in dm])
+
+    def state_jvp(self, model, positions, velocities, dp, dv):
+        selection, terms, (m, dm_dl, _) = self._parts(model, positions, velocities)
+        a, b = model.mesh.springs[selection].T
+        dd = (dp[:, b] - dp[:, a]).transpose(1, 0, 2)                   # (n, P, 3)
+        df = central_jvp(terms, m, dm_dl, None, dd, None)              # (n, P, 3)
+        return accumulate_many(model.mesh.springs[selection], df,
+                               model.n_nodes).transpose(1, 0, 2)
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        selection, terms, (m, dm_dl, _) = self._parts(model, positions, velocities)
+        springs = model.mesh.springs[selection]
+        a, b = springs.T
+        lam_f = cotangent[a] - cotangent[b]
+        lam_d, _ = central_vjp(terms, m, dm_dl, None, lam_f)
+        return -accumulate(springs, lam_d, model.n_nodes), np.zeros_like(cotangent)
+
+    def relative(self, model) -> dict[str, float]:
+        """Each coefficient relative to the mean stiffness of its group's selected springs."""
+        selection = self._selection(model)
+        out = {}
+        for label, group, value in zip(self.labels, self.options["groups"], self.params):
+            chosen = selection[model.mesh.spring_group[selection] == group]
+            out[label] = float(value / np.mean(model.spring_stiffness[chosen]))
+        return out
+
+
+class _Inclusion(SpringEffect):
+    """A compact region of springs with extra stiffness ``k`` (per spring group): the region's
+    springs pull with ``(s_j + k) (l - L0)``."""
+
+    coefficient = "extra_stiffness"
+
+    def __init__(self, params, *, springs, **options):
+        super().__init__(params, springs=springs, **options)
+
+    def shape(self, model, terms, selection):
+        return terms.stretch, np.ones_like(terms.stretch)
+
+    def equation(self):
+        values = ", ".join(f"{label} = {value:.4g}" for label, value in
+                           zip(self.labels, self.params))
+        return f"{self.name}: {len(self.springs)} springs pull harder by k (l - L0); {values}"
+
+
+@register
+class StiffInclusion(_Inclusion):
+    """Springs of a compact region stiffer than the rest (k > 0)."""
+
+    name = "stiff_inclusion"
+
+
+@register
+class SoftInclusion(_Inclusion):
+    """Springs of a compact region softer than the rest (k < 0)."""
+
+    name = "soft_inclusion"
+
+
+@register
+class NonlinearStiffening(SpringEffect):
+    """Spring force grows faster than linear: ``κ (l - L0)³ / L0²`` extra (κ per group, N/m);
+    relative to the spring's stiffness, ``β = κ / s``: ``f = s (l - L0) [1 + β ((l - L0)/L0)²]``."""
+
+    name = "nonlinear_stiffening"
+    coefficient = "kappa"
+
+    def shape(self, model, terms, selection):
+        rest2 = model.spring_rest_length[selection] ** 2
+        return terms.stretch**3 / rest2, 3 * terms.stretch**2 / rest2
+
+    def equation(self):
+        values = ", ".join(f"{label} = {value:.4g}" for label, value in
+                           zip(self.labels, self.params))
+        return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {values}"
+
+
+@register
+class UnmodeledLoad(Effect):
+    """A constant force ``f`` at one node that the data did not declare."""
+
+    name = "unmodeled_load"
+    unit = (1, -2, 1)
+    _labels = ("fx", "fy", "fz")
+
+    def __init__(self, params, *, node, **options):
+        super().__init__(params, node=int(node), **options)
+
+    def force(self, model, positions, velocities):
+        force = np.zeros((model.n_nodes, 3))
+        force[self.options["node"]] = self.params
+        return force
+
+    def parameter_jacobian(self, model, positions, velocities):
+        jacobian = np.zeros((3, model.n_nodes, 3))
+        for k in range(3):
+            jacobian[k, self.options["node"], k] = 1.0
+        return jacobian
+
+    def equation(self):
+        f = self.params
+        return (f"unmodeled_load: F_{self.options['node']} += ({f[0]:.4g}, {f[1]:.4g}, "
+                f"{f[2]:.4g})")
+
+
+def _select_terms(terms, selection):
+    return SpringTerms(length=terms.length[selection], direction=terms.direction[selection],
+                       stretch=terms.stretch[selection],
+                       closing_speed=terms.closing_speed[selection],
+                       relative_velocity=terms.relative_velocity[selection])
 
 
 def effect_to_dict(effect: Effect) -> dict:
@@ -82,4 +380,8 @@ def effect_from_dict(data: dict, source: str = "<model>") -> Effect:
                                                         else f"; known: {sorted(EFFECTS)}"),
                          source=source, key="effects")
     options = {key: value for key, value in data.items() if key not in ("name", "params")}
-    return EFFECTS[name](data["params"], **options)
+    try:
+        return EFFECTS[name](data["params"], **options)
+    except TypeError as error:
+        raise InputError(f"bad options for {name}: {error}", source=source,
+                         key="effects") from None

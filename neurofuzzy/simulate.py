@@ -31,6 +31,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .errors import InputError, UnstableTimeStepError
+from .forces import SpringTerms, accumulate, spring_forces, spring_terms
 from .model import SpringMassModel
 
 __all__ = [
@@ -71,64 +72,6 @@ class Trajectory:
     @property
     def n_frames(self) -> int:
         return self.positions.shape[0]
-
-
-@dataclass(frozen=True)
-class SpringTerms:
-    """Per-spring quantities of one state, shared by forces and learners.
-
-    Attributes
-    ----------
-    length : (n_springs,) float
-        Current length ``l``.
-    direction : (n_springs, 3) float
-        Unit vector ``u`` from node a to node b.
-    stretch : (n_springs,) float
-        ``l - L0``.
-    closing_speed : (n_springs,) float
-        ``(v_b - v_a) · u`` (positive when the spring lengthens).
-    relative_velocity : (n_springs, 3) float
-        ``v_b - v_a``.
-    """
-
-    length: np.ndarray
-    direction: np.ndarray
-    stretch: np.ndarray
-    closing_speed: np.ndarray
-    relative_velocity: np.ndarray
-
-
-def spring_terms(model: SpringMassModel, positions: np.ndarray,
-                 velocities: np.ndarray) -> SpringTerms:
-    """Lengths, directions, stretches and closing speeds of all springs (eqs. 3.5, 3.6)."""
-    a, b = model.mesh.springs.T
-    d = np.take(positions, b, axis=0) - np.take(positions, a, axis=0)
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
-    direction = d / length[:, None]
-    relative_velocity = np.take(velocities, b, axis=0) - np.take(velocities, a, axis=0)
-    return SpringTerms(length=length, direction=direction,
-                       stretch=length - model.spring_rest_length,
-                       closing_speed=np.einsum("ij,ij->i", relative_velocity, direction),
-                       relative_velocity=relative_velocity)
-
-
-def accumulate(springs: np.ndarray, spring_force: np.ndarray, n_nodes: int) -> np.ndarray:
-    """(n_nodes, 3) net force: node a of each spring gets ``+f``, node b gets ``-f``."""
-    out = np.empty((n_nodes, 3))
-    a, b = springs.T
-    for axis in range(3):
-        out[:, axis] = (np.bincount(a, spring_force[:, axis], n_nodes)
-                        - np.bincount(b, spring_force[:, axis], n_nodes))
-    return out
-
-
-def spring_forces(model: SpringMassModel, positions: np.ndarray,
-                  velocities: np.ndarray) -> np.ndarray:
-    """(n_nodes, 3) net spring force on every node (eq. 3.4 summed as in eq. 3.3)."""
-    terms = spring_terms(model, positions, velocities)
-    magnitude = (model.spring_stiffness * terms.stretch
-                 + model.spring_damping * terms.closing_speed)
-    return accumulate(model.mesh.springs, terms.direction * magnitude[:, None], model.n_nodes)
 
 
 def internal_forces(model: SpringMassModel, positions: np.ndarray,

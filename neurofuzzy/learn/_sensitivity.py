@@ -23,7 +23,8 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..experiment import Experiment
-from ..simulate import accumulate, inverse_mass, spring_terms
+from ..forces import accumulate, central_jvp, central_vjp, spring_terms
+from ..simulate import inverse_mass
 from ._parameters import Parameterization
 
 __all__ = ["Sensitivity", "Run"]
@@ -157,7 +158,8 @@ class Sensitivity:
                             d_velocity = tv + (h * weight)[:, :, None] * d_force
                             if mass_rows is not None:
                                 nodes = param.free_nodes
-                                d_velocity[nodes, mass_rows] -= h * weight[nodes] * force[nodes]
+                                inertial = force - self._per_unit_mass(model, p, v)
+                                d_velocity[nodes, mass_rows] -= h * weight[nodes] * inertial[nodes]
                             tv = d_velocity
                             tv[model.mesh.fixed] = 0.0
                             tp = tp + h * tv
@@ -176,16 +178,9 @@ class Sensitivity:
         """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction."""
         param = self.parameters
         s, c = model.spring_stiffness, model.spring_damping
-        u, length = terms.direction[:, None, :], terms.length[:, None, None]
-        dd = self._spring_difference(tp)                                    # (S, P, 3)
-        ddv = self._spring_difference(tv)
-        along = np.einsum("spk,sk->sp", dd, terms.direction)
-        du = (dd - along[..., None] * u) / length
-        magnitude = (s * terms.stretch + c * terms.closing_speed)[:, None, None]
-        scalar = (s[:, None] * along
-                  + c[:, None] * (np.einsum("spk,sk->sp", ddv, terms.direction)
-                                  + np.einsum("spk,sk->sp", du, terms.relative_velocity)))
-        d_force = self._batch_accumulate(scalar[..., None] * u + magnitude * du)
+        magnitude = s * terms.stretch + c * terms.closing_speed
+        d_force = self._batch_accumulate(central_jvp(
+            terms, magnitude, s, c, self._spring_difference(tp), self._spring_difference(tv)))
         n_ties = param.tied.n_ties
         for name, per_spring in (("log_stiffness", f_s), ("log_damping", f_c)):
             block = param.blocks[name]
@@ -265,8 +260,9 @@ class Sensitivity:
                 lam_force = h * weight * lam_vnew
                 if param.learn_masses:
                     nodes = param.free_nodes
+                    inertial = force - self._per_unit_mass(model, p, v)
                     grad[param.blocks["log_mass"].slice] -= np.einsum(
-                        "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * force[nodes])
+                        "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * inertial[nodes])
                 d_p, d_v, g_s, g_c = self._force_vjp(model, terms, lam_force)
                 grad[param.blocks["log_stiffness"].slice] += np.bincount(tie, g_s, n_ties)
                 grad[param.blocks["log_damping"].slice] += np.bincount(tie, g_c, n_ties)
@@ -282,6 +278,15 @@ class Sensitivity:
                 lam_v = lam_vnew + d_v
         return loss, grad, run
 
+    @staticmethod
+    def _per_unit_mass(model, p, v):
+        """Forces proportional to node mass (gravity): ``W·F`` does not depend on the mass."""
+        force = 0.0
+        for effect in model.effects:
+            if effect.per_unit_mass:
+                force = force + effect.force(model, p, v)
+        return force
+
     def _force(self, model, p, v, terms=None) -> np.ndarray:
         """(N, 3) springs plus effects (no external load)."""
         terms = spring_terms(model, p, v) if terms is None else terms
@@ -296,20 +301,11 @@ class Sensitivity:
         """Pull a force cotangent (N, 3) back to positions, velocities and log s, log c."""
         a, b = self.springs.T
         s, c = model.spring_stiffness, model.spring_damping
-        u, length = terms.direction, terms.length
-        dv = terms.relative_velocity
         lam_f = np.take(lam_force, a, axis=0) - np.take(lam_force, b, axis=0)   # (S, 3)
-        along = np.einsum("ij,ij->i", u, lam_f)
-        ratio = model.spring_rest_length / length
-        # ∂f/∂d ᵀ λ: stiffness part (symmetric) and damping part
-        lam_d = s[:, None] * ((1 - ratio)[:, None] * lam_f + (ratio * along)[:, None] * u)
-        w = dv * along[:, None] + terms.closing_speed[:, None] * lam_f
-        w -= np.einsum("ij,ij->i", u, w)[:, None] * u
-        lam_d += c[:, None] * w / length[:, None]
-        lam_dv = (c * along)[:, None] * u
-        # d = p_b - p_a
+        magnitude = s * terms.stretch + c * terms.closing_speed
+        lam_d, lam_dv = central_vjp(terms, magnitude, s, c, lam_f)
+        # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
         d_p = -accumulate(self.springs, lam_d, self.n_nodes)
         d_v = -accumulate(self.springs, lam_dv, self.n_nodes)
-        g_s = s * terms.stretch * along
-        g_c = c * terms.closing_speed * along
-        return d_p, d_v, g_s, g_c
+        along = np.einsum("ij,ij->i", terms.direction, lam_f)
+        return d_p, d_v, s * terms.stretch * along, c * terms.closing_speed * along
