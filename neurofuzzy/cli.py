@@ -83,6 +83,20 @@ def _parser() -> argparse.ArgumentParser:
     fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
     fit.set_defaults(run=_fit)
 
+    diagnose = commands.add_parser(
+        "diagnose", help="find the physical effect the model lacks",
+        description="Fit the model, find where simulation and measurement disagree, name the "
+                    "missing effect, add it, refit, and repeat until none is left.")
+    diagnose.add_argument("experiments", nargs="+", metavar="EXPERIMENT.npz")
+    diagnose.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
+    diagnose.add_argument("--max-effects", type=int, default=3)
+    diagnose.add_argument("--substeps", default="auto")
+    diagnose.add_argument("--out", help="write the final model (with the effects) as YAML")
+    diagnose.add_argument("--report", help="write an HTML report (and a .json twin)")
+    diagnose.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    diagnose.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    diagnose.set_defaults(run=_diagnose)
+
     simulate = commands.add_parser(
         "simulate", help="simulate a model under a load and write an experiment file",
         description="Simulate a fitted model (YAML) or the built-in cube ('cube') from rest "
@@ -132,14 +146,15 @@ def _demo(args) -> int:
 
 
 # -- fit ------------------------------------------------------------------------------------
-def _fit(args) -> int:
-    from .io import load_experiment, save_model
-    from .learn import GradientLearner, PaperLearner
+def _load_start(args, progress: bool):
+    """Experiments named on the command line and a start model for them."""
+    from .io import load_experiment
     from .learn.initial import estimate_start
     from .model import SpringMassModel, tie_index
 
     inputs = [Path(p) for p in args.experiments]
-    _refuse_overwrite(args.out, inputs)
+    for option in ("out", "report"):
+        _refuse_overwrite(getattr(args, option, None), inputs)
     experiments = [load_experiment(p) for p in inputs]
     first = experiments[0]
     for other in experiments[1:]:
@@ -148,13 +163,11 @@ def _fit(args) -> int:
             raise InputError(f"describes another object than {first.source} (nodes or springs "
                              "differ); experiments fitted together must share one topology",
                              source=other.source, key="springs")
-    progress = not args.quiet and not args.json
     masses = first.masses
     estimate_mass = masses is None
     if estimate_mass:
-        _say(True, f"neurofuzzy: note: {first.source} gives no 'masses'; estimating one mass "
-                   "per node from the data" + ("" if args.learn_masses else
-                                               " (use --learn-masses to refine them)"))
+        _say(progress, f"neurofuzzy: note: {first.source} gives no 'masses'; estimating one "
+                       "mass per node from the data")
         masses = np.ones(first.n_nodes)
     mesh = first.mesh
     start = SpringMassModel(mesh, node_mass=masses, spring_stiffness=1.0, spring_damping=1.0,
@@ -162,6 +175,15 @@ def _fit(args) -> int:
     start, info = estimate_start(start, experiments, estimate_mass=estimate_mass)
     _say(progress, f"start values: {info['reason']}" if info["used"] else
          f"start values: defaults ({info['reason']})")
+    return inputs, experiments, start, info
+
+
+def _fit(args) -> int:
+    from .io import save_model
+    from .learn import GradientLearner, PaperLearner
+
+    progress = not args.quiet and not args.json
+    inputs, experiments, start, info = _load_start(args, progress)
     substeps = _substeps(args.substeps)
     if args.method == "paper":
         learner = PaperLearner(learning_rate=args.learning_rate,
@@ -189,6 +211,39 @@ def _fit(args) -> int:
               f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
         if args.out:
             print(f"wrote {args.out}")
+    return 0
+
+
+# -- diagnose -------------------------------------------------------------------------------
+def _diagnose(args) -> int:
+    from .diagnose import diagnose
+    from .io import save_model
+    from .report import diagnosis_report
+
+    progress = not args.quiet and not args.json
+    inputs, experiments, start, _ = _load_start(args, progress)
+    result = diagnose(start, experiments, max_effects=args.max_effects,
+                      substeps=_substeps(args.substeps), progress=progress)
+    if args.out:
+        save_model(result.model_, args.out)
+    if args.report:
+        diagnosis_report(result, args.report)
+    data = result.to_dict()
+    data["experiments"] = [str(p) for p in inputs]
+    if args.json:
+        print(json.dumps(_json_safe(data)))
+    else:
+        print(f"effects: {', '.join(result.names)}")
+        for finding in result.effects:
+            where = (f" springs {finding.springs}" if finding.springs else "") + \
+                (f" node {finding.nodes}" if finding.nodes else "")
+            print(f"  {finding.name} (confidence {finding.confidence:.2f}, runner-up "
+                  f"{finding.runner_up}){where}: {finding.parameters}")
+        print(f"RMS error: {result.rms_before:.4g} -> {result.rms_after:.4g} "
+              f"(marker noise {result.noise_rms:.3g})")
+        for path in (args.out, args.report):
+            if path:
+                print(f"wrote {path}")
     return 0
 
 

@@ -48,8 +48,9 @@ class PaperLearner(Learner):
         ``η`` for spring constants and viscosities (paper: 0.01 or 0.1).
     mass_learning_rate : float
         ``η_m`` for the inverse masses ``w_m`` (paper: 0.1); used when ``learn_masses``.
-    effect_learning_rate : float, optional
-        Rate for the parameters of the model's effects (default: ``learning_rate``).
+    effect_learning_rate : float
+        Rate for the parameters of the model's effects (our extension; default 1e-4: an
+        effect such as gravity acts on every node at once, so its summed update is large).
     teacher_forcing_limit : int
         Steps between two teacher-forcing resets (paper: 10).
     cycles : int
@@ -71,7 +72,7 @@ class PaperLearner(Learner):
     """
 
     def __init__(self, *, learning_rate: float = 0.01, mass_learning_rate: float = 0.1,
-                 effect_learning_rate: float | None = None, teacher_forcing_limit: int = 10,
+                 effect_learning_rate: float = 1e-4, teacher_forcing_limit: int = 10,
                  cycles: int = 100, tolerance: float = 0.0, learn_masses: bool = False,
                  learn_effects: bool = True, progress: bool = False):
         self.learning_rate = learning_rate
@@ -104,7 +105,8 @@ class PaperLearner(Learner):
         progress = Progress("paper learner", int(self.cycles), self.progress)
         history = []
         for cycle in range(int(self.cycles)):
-            error = sum(self._cycle(state, experiment) for experiment in experiments)
+            with np.errstate(all="ignore"):
+                error = sum(self._cycle(state, experiment) for experiment in experiments)
             if not np.isfinite(error):
                 raise NeurofuzzyError(
                     f"learning diverged in cycle {cycle + 1} (the error became infinite); "
@@ -135,8 +137,7 @@ class PaperLearner(Learner):
         scale_s = self.learning_rate * mass_unit**2 / (h * length_unit) ** 2
         scale_c = self.learning_rate * mass_unit**2 / length_unit**2
         scale_w = self.mass_learning_rate * h * h / (mass_unit * length_unit) ** 2
-        effect_rate = (self.learning_rate if self.effect_learning_rate is None
-                       else self.effect_learning_rate)
+        effect_rate = self.effect_learning_rate
 
         tracked = experiment.tracked()
         unobserved = ~experiment.observed & model.mesh.free

@@ -1,0 +1,101 @@
+"""Diagnosis: hidden effects in data from our simulator are named, located and removed."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model, top_centre_node
+from neurofuzzy.diagnose import diagnose
+from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion,
+                                StiffInclusion, UnmodeledLoad)
+from neurofuzzy.reference import reference_experiment
+
+TRUTH = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})
+CENTRE = [j for j in range(86) if 13 in TRUTH.mesh.springs[j]]      # springs around node 13
+NOISE = 0.002 * CUBE["edge_length"]                                  # 0.2 % of the edge
+
+HIDDEN = {
+    "gravity": lambda: Gravity([0.0, 0.0, -9.81]),
+    "node_drag": lambda: NodeDrag([0.03]),
+    "stiff_inclusion": lambda: StiffInclusion.for_model(TRUTH, [120.0, 70.0], springs=CENTRE),
+    "soft_inclusion": lambda: SoftInclusion.for_model(TRUTH, [-36.0, -21.0], springs=CENTRE),
+    "nonlinear_stiffening": lambda: NonlinearStiffening.for_model(TRUTH, [600.0, 350.0]),
+    "unmodeled_load": lambda: UnmodeledLoad([0.05, 0.0, 0.0], node=26),
+}
+
+
+def start_model():
+    return paper_cube_model(stiffness=50.0, damping=0.03, tie="groups")
+
+
+def overlap(found, truth) -> float:
+    truth = set(truth)
+    return len(set(found) & truth) / len(truth)
+
+
+def check_found(result, hidden):
+    assert result.names == [hidden.name]
+    finding = result.effects[0]
+    assert 0.5 < finding.confidence <= 1.0
+    if hidden.springs.size:
+        assert overlap(finding.springs, hidden.springs) >= 0.8
+        assert overlap(hidden.springs, finding.springs) >= 0.8        # few false springs
+    if hidden.nodes.size:
+        assert overlap(finding.nodes, hidden.nodes) >= 0.8
+    assert finding.gap_after * 10 <= finding.gap_before
+    assert result.rms_after < result.rms_before
+
+
+def test_none_on_clean_data_without_an_effect(cube_experiment):
+    result = diagnose(start_model(), paper_cube_experiment(TRUTH))
+    assert result.names == ["none"] and result.effects == []
+    assert result.rms_after == result.rms_before
+    assert result.candidates                              # still says what it tried
+    assert result.to_dict()["answer"] == ["none"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(HIDDEN))
+def test_hidden_effect_is_named_located_and_removed(name):
+    hidden = HIDDEN[name]()
+    result = diagnose(start_model(), paper_cube_experiment(TRUTH.with_effects(hidden)))
+    check_found(result, hidden)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(HIDDEN))
+def test_hidden_effect_with_marker_noise(name):
+    hidden = HIDDEN[name]()
+    data = paper_cube_experiment(TRUTH.with_effects(hidden), noise=NOISE, seed=5)
+    result = diagnose(start_model(), data)
+    check_found(result, hidden)
+    assert result.noise_rms == pytest.approx(NOISE * np.sqrt(3), rel=0.1)
+
+
+@pytest.mark.slow
+def test_none_on_noisy_data_without_an_effect():
+    result = diagnose(start_model(), paper_cube_experiment(TRUTH, noise=NOISE, seed=3))
+    assert result.names == ["none"]
+
+
+@pytest.mark.slow
+def test_none_on_clean_data_from_another_integrator():
+    load = np.zeros((27, 3))
+    load[top_centre_node(TRUTH.mesh)] = CUBE["force"]
+    data = reference_experiment(TRUTH, dt=CUBE["dt"], n_frames=251, external_forces=load,
+                                method="rk4", substeps=10)
+    assert diagnose(start_model(), data).names == ["none"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", [0.0, NOISE])
+def test_two_effects_are_found_one_after_the_other(noise):
+    inclusion = SoftInclusion.for_model(TRUTH, [-36.0, -21.0], springs=CENTRE)
+    data = paper_cube_experiment(TRUTH.with_effects(Gravity([0, 0, -9.81]), inclusion),
+                                 noise=noise, seed=2)
+    result = diagnose(start_model(), data)
+    assert sorted(result.names) == ["gravity", "soft_inclusion"]
+    found = {f.name: f for f in result.effects}
+    assert overlap(found["soft_inclusion"].springs, CENTRE) >= 0.8
+    assert found["gravity"].parameters["gz"] == pytest.approx(-9.81, rel=0.02)
+    gap_first = result.effects[0].gap_before
+    assert result.effects[-1].gap_after * 10 <= gap_first

@@ -1,0 +1,96 @@
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model
+from neurofuzzy.effects import (EFFECTS, Gravity, NodeDrag, NonlinearStiffening, SoftInclusion,
+                                StiffInclusion, UnmodeledLoad, effect_from_dict, effect_to_dict)
+from neurofuzzy.errors import InputError
+from neurofuzzy.io import load_model, save_model
+from neurofuzzy.learn import GradientLearner, PaperLearner
+from neurofuzzy.learn._parameters import Parameterization
+from neurofuzzy.learn._sensitivity import Sensitivity
+from neurofuzzy.simulate import internal_forces
+
+TRUTH = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})
+CENTRE = [j for j in range(86) if 13 in TRUTH.mesh.springs[j]]
+
+
+def all_effects(model):
+    return [Gravity([0.1, -0.2, -9.0]), NodeDrag([0.01]),
+            StiffInclusion.for_model(model, [30.0, 20.0], springs=CENTRE[:6] + [54]),
+            SoftInclusion.for_model(model, [-10.0], springs=[50, 51]),
+            NonlinearStiffening.for_model(model, [100.0, 50.0]),
+            UnmodeledLoad([0.01, 0.02, -0.03], node=20)]
+
+
+def test_the_vocabulary_is_registered():
+    assert set(EFFECTS) == {"gravity", "node_drag", "stiff_inclusion", "soft_inclusion",
+                            "nonlinear_stiffening", "unmodeled_load"}
+
+
+@pytest.mark.parametrize("index", range(6))
+def test_effect_derivatives_are_exact(index, cube_experiment):
+    rng = np.random.default_rng(index)
+    effect = all_effects(TRUTH)[index]
+    model = TRUTH.replace(spring_stiffness=TRUTH.spring_stiffness * rng.uniform(0.8, 1.2, 86))
+    parameters = Parameterization(model.with_effects(effect), learn_masses=True)
+    sensitivity = Sensitivity(parameters, CUBE["edge_length"])
+    theta = parameters.initial()
+    _, gradient, _ = sensitivity.gradient(theta, cube_experiment, substeps=2, starts=(0, 120))
+    run = sensitivity.run(theta, cube_experiment, substeps=2, starts=(0, 120), tangents=True)
+    assert np.allclose(run.jacobian.reshape(-1, theta.size).T @ run.residuals.ravel(),
+                       gradient, rtol=1e-9, atol=1e-12 * np.abs(gradient).max())
+    for direction in rng.normal(size=(2, theta.size)):
+        direction /= np.linalg.norm(direction)
+        plus = sensitivity.gradient(theta + 1e-6 * direction, cube_experiment, substeps=2,
+                                    starts=(0, 120))[0]
+        minus = sensitivity.gradient(theta - 1e-6 * direction, cube_experiment, substeps=2,
+                                     starts=(0, 120))[0]
+        numeric = (plus - minus) / 2e-6
+        assert abs(gradient @ direction - numeric) < 1e-6 * abs(numeric)
+
+
+def test_forces_act_as_described(rng):
+    p = TRUTH.mesh.rest_positions + rng.normal(0, 1e-4, (27, 3))
+    v = rng.normal(0, 1e-2, (27, 3))
+    gravity = Gravity([0, 0, -9.81]).force(TRUTH, p, v)
+    assert np.allclose(gravity, TRUTH.node_mass[:, None] * [0, 0, -9.81])
+    assert np.allclose(NodeDrag([0.5]).force(TRUTH, p, v), -0.5 * v)
+    load = UnmodeledLoad([1.0, 2.0, 3.0], node=7).force(TRUTH, p, v)
+    assert np.allclose(load[7], [1, 2, 3]) and np.count_nonzero(load) == 3
+    # an inclusion of +100 % stiffness doubles the spring forces of its springs
+    region = list(range(86))
+    doubled = TRUTH.with_effects(StiffInclusion.for_model(TRUTH, [60.0, 35.0], springs=region))
+    still = np.zeros_like(v)
+    assert np.allclose(internal_forces(doubled, p, still), 2 * internal_forces(TRUTH, p, still))
+    # nonlinear stiffening adds nothing at rest and grows with the cube of the stretch
+    stiffening = NonlinearStiffening.for_model(TRUTH, [100.0, 50.0])
+    assert np.allclose(stiffening.force(TRUTH, TRUTH.mesh.rest_positions, v), 0.0)
+    stretched = TRUTH.mesh.rest_positions * 1.01
+    twice = TRUTH.mesh.rest_positions * 1.02
+    ratio = (np.abs(stiffening.force(TRUTH, twice, v)).sum()
+             / np.abs(stiffening.force(TRUTH, stretched, v)).sum())
+    assert ratio == pytest.approx(8.0, rel=1e-6)
+
+
+def test_effects_round_trip_through_model_files(tmp_path):
+    model = TRUTH.with_effects(*all_effects(TRUTH))
+    loaded = load_model(save_model(model, tmp_path / "m.yaml"))
+    assert [e.name for e in loaded.effects] == [e.name for e in model.effects]
+    for a, b in zip(loaded.effects, model.effects):
+        assert np.array_equal(a.params, b.params) and a.options == b.options
+    with pytest.raises(InputError, match="did you mean 'gravity'"):
+        effect_from_dict({"name": "gravty", "params": [0, 0, 1]})
+    with pytest.raises(InputError, match="takes 3 parameter"):
+        effect_from_dict({"name": "gravity", "params": [1.0]})
+    assert effect_from_dict(effect_to_dict(NodeDrag([0.2]))).params.tolist() == [0.2]
+
+
+def test_both_learners_fit_effect_parameters():
+    truth = TRUTH.with_effects(Gravity([0.0, 0.0, -9.81]))
+    data = paper_cube_experiment(truth)
+    start = TRUTH.tied("groups").with_effects(Gravity([0.0, 0.0, -5.0]))
+    gradient = GradientLearner().fit(start, data)
+    assert np.allclose(gradient.model_.effects[0].params, [0, 0, -9.81], atol=1e-8)
+    paper = PaperLearner(learning_rate=0.0, cycles=30).fit(start, data)
+    assert np.allclose(paper.model_.effects[0].params, [0, 0, -9.81], atol=1e-6)
