@@ -17,6 +17,7 @@ def test_paper_cube_example_runs(tmp_path):
     assert (tmp_path / "error_per_cycle.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_find_missing_effect_example_runs(tmp_path):
     result = subprocess.run([sys.executable, str(EXAMPLES / "find_missing_effect.py"),
                              str(tmp_path), "--quick"], capture_output=True, text=True,
