@@ -78,6 +78,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="paper method: η for springs (default 0.1)")
     fit.add_argument("--mass-learning-rate", type=float, default=0.1,
                      help="paper method: η_m for masses (default 0.1)")
+    fit.add_argument("--rules", help="start from a rule base (YAML) …")
+    fit.add_argument("--tissue", help="… and this tissue of it")
+    fit.add_argument("--report", help="write a before/after HTML report (and a .json twin); "
+                                      "needs --rules and --tissue")
     fit.add_argument("--out", help="write the fitted model as YAML")
     fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -96,6 +100,20 @@ def _parser() -> argparse.ArgumentParser:
     diagnose.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     diagnose.add_argument("--quiet", action="store_true", help="no progress on stderr")
     diagnose.set_defaults(run=_diagnose)
+
+    rules = commands.add_parser("rules", help="check and show fuzzy rule bases")
+    rules_commands = rules.add_subparsers(dest="rules_command", metavar="ACTION")
+    check = rules_commands.add_parser("check", help="validate a rule base and list what it "
+                                                    "defines")
+    check.add_argument("rules", metavar="R.yaml")
+    check.set_defaults(run=_rules_check)
+    show = rules_commands.add_parser("show", help="inferred start values of a tissue and "
+                                                  "their labels")
+    show.add_argument("rules", metavar="R.yaml")
+    show.add_argument("--tissue", required=True)
+    show.add_argument("--json", action="store_true")
+    show.set_defaults(run=_rules_show)
+    rules.set_defaults(run=lambda args: _usage(rules))
 
     simulate = commands.add_parser(
         "simulate", help="simulate a model under a load and write an experiment file",
@@ -170,6 +188,17 @@ def _load_start(args, progress: bool):
                        "mass per node from the data")
         masses = np.ones(first.n_nodes)
     mesh = first.mesh
+    if getattr(args, "rules", None):
+        from .rules import initialize, load_rules
+
+        if not args.tissue:
+            raise InputError("--rules needs --tissue NAME", key="--tissue")
+        rule_base = load_rules(args.rules)
+        start, _ = initialize(rule_base, mesh, args.tissue, tie=args.tie)
+        if first.masses is not None:
+            start = start.replace(node_mass=first.masses)
+        return inputs, experiments, start, {"used": True, "reason": f"rules {args.rules}, "
+                                                                    f"tissue {args.tissue}"}
     start = SpringMassModel(mesh, node_mass=masses, spring_stiffness=1.0, spring_damping=1.0,
                             spring_tie=tie_index(mesh, args.tie))
     start, info = estimate_start(start, experiments, estimate_mass=estimate_mass)
@@ -193,9 +222,17 @@ def _fit(args) -> int:
     else:
         learner = GradientLearner(learn_masses=args.learn_masses, substeps=substeps,
                                   max_iterations=args.cycles or 100, progress=progress)
+    if args.report and not (args.rules and args.tissue):
+        raise InputError("--report needs --rules and --tissue (it explains the fit in the "
+                         "rule base's words)", key="--report")
     learner.fit(start, experiments)
     if args.out:
         save_model(learner.model_, args.out)
+    if args.report:
+        from .report import fit_report
+        from .rules import load_rules
+
+        fit_report(load_rules(args.rules), args.tissue, start, learner, args.report)
     result = learner.to_dict()
     result.update(method=args.method, tie=args.tie, experiments=[str(p) for p in inputs],
                   start=info)
@@ -209,9 +246,46 @@ def _fit(args) -> int:
         print(learner.model_.summary())
         print(f"RMS error: {result['rms_error_initial']:.4g} -> {result['rms_error']:.4g} "
               f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
-        if args.out:
-            print(f"wrote {args.out}")
+        for path in (args.out, args.report):
+            if path:
+                print(f"wrote {path}")
     return 0
+
+
+# -- rules ----------------------------------------------------------------------------------
+def _rules_check(args) -> int:
+    from .rules import load_rules
+
+    rule_base = load_rules(args.rules)
+    print(rule_base.summary())
+    return 0
+
+
+def _rules_show(args) -> int:
+    from .rules import load_rules
+
+    rule_base = load_rules(args.rules)
+    values = rule_base.tissue(args.tissue)
+    labels = rule_base.describe(values)
+    if args.json:
+        print(json.dumps(_json_safe({
+            "tissue": args.tissue,
+            "words": {k: str(v) for k, v in rule_base.tissues[args.tissue].items()},
+            "values": values,
+            "units": {k: rule_base.outputs[k].unit for k in values},
+            "labels": {k: {"term": l.term, "degree": l.degree, "degrees": l.degrees}
+                       for k, l in labels.items()}})))
+    else:
+        words = ", ".join(f"{k} is {v}" for k, v in rule_base.tissues[args.tissue].items())
+        print(f"{args.tissue}: {words}")
+        for name, label in labels.items():
+            print(f"  {name} = {label.value:.4g} {rule_base.outputs[name].unit}   ({label})")
+    return 0
+
+
+def _usage(parser) -> int:
+    parser.print_help(sys.stderr)
+    return EXIT_BAD_INPUT
 
 
 # -- diagnose -------------------------------------------------------------------------------

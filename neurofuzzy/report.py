@@ -182,3 +182,77 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
                      figure_html(figure, "error before and after")))
     sections.append(("Model equations", "<pre>" + html.escape(model.summary()) + "</pre>"))
     return write_report(path, title, sections, diagnosis.to_dict())
+
+
+# -- rule-based fit: before and after, in words ------------------------------------------------
+def fit_report(rules, tissue: str, start, learner, path, *, title: str | None = None) -> Path:
+    """HTML + JSON report of a fit started from a rule base's tissue: the expert's words, the
+    start and learned values, the learned words with degrees, each change highlighted, the
+    error curve and the membership functions with the before and after values marked."""
+    from .rules import material_values
+
+    plt = _pyplot()
+    before = material_values(rules, start)
+    after = material_values(rules, learner.model_)
+    labels_before = rules.describe(before)
+    labels_after = rules.describe(after)
+    explained = rules.explain(after)
+    words = {name: str(phrase) for name, phrase in rules.tissues[tissue].items()}
+
+    rows, changed, data_rows = [], [], []
+    for name in rules.outputs:
+        b, a = labels_before[name], labels_after[name]
+        change = (f"{b.term} → {a.term} ({a.degree:.2f})" if a.term != b.term
+                  else f"{a.term} ({a.degree:.2f})")
+        unit = rules.outputs[name].unit
+        rows.append([name, f"{b.value:.4g} {unit}", f"{a.value:.4g} {unit}", change,
+                     ", ".join(f"{t} {d:.2f}" for t, d in sorted(a.degrees.items(),
+                                                                 key=lambda kv: -kv[1]) if d > 0)])
+        changed.append(a.term != b.term)
+        data_rows.append({"quantity": name, "unit": unit, "before": b.value, "after": a.value,
+                          "label_before": b.term, "degree_before": b.degree,
+                          "label_after": a.term, "degree_after": a.degree,
+                          "degrees_after": a.degrees, "changed": a.term != b.term})
+    sections = [("The expert's words",
+                 f"<p>Tissue <b>{html.escape(tissue)}</b> of <code>"
+                 f"{html.escape(rules.source)}</code>: " +
+                 ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
+                           for k, v in words.items()) + "</p>"),
+                ("Start values, learned values, learned words", table_html(
+                    ["quantity", "start (from the words)", "learned", "label", "degrees"],
+                    rows, changed) + "<p class='note'>Highlighted: the label changed.</p>"),
+                ("The learned numbers in the expert's words",
+                 "<p>The input words that best reproduce the learned values: " +
+                 ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
+                           for k, v in explained["words"].items()) +
+                 f" (distance {explained['distance']:.3f} universe spans).</p>")]
+
+    history = np.asarray(learner.history_)
+    figure, ax = plt.subplots(figsize=(8, 3.2))
+    ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
+    ax.set_xlabel("cycle" if type(learner).__name__ == "PaperLearner" else "simulation of the data")
+    ax.set_ylabel("error")
+    ax.grid(True, which="both", alpha=0.3)
+    sections.append(("Error per cycle", figure_html(figure, "error curve") +
+                     f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
+                     f" in {learner.n_cycles_} cycles.</p>"))
+
+    figure, axes = plt.subplots(1, len(rules.outputs), figsize=(5 * len(rules.outputs), 3.4))
+    for ax, (name, variable) in zip(np.atleast_1d(axes), rules.outputs.items()):
+        x = variable.to_physical(variable.grid)
+        for term in variable.terms.values():
+            ax.plot(x, term.values, label=term.name)
+        ax.axvline(before[name], color="0.3", linestyle="--", label="start")
+        ax.axvline(after[name], color="crimson", linewidth=2, label="learned")
+        if variable.scale == "log":
+            ax.set_xscale("log")
+        ax.set_title(f"{name} ({variable.unit})" if variable.unit else name)
+        ax.set_ylim(0, 1.05)
+        ax.legend(fontsize=7)
+    sections.append(("Membership functions with the start and learned values",
+                     figure_html(figure, "membership functions")))
+    data = {"tissue": tissue, "rules": rules.source, "words": words, "quantities": data_rows,
+            "explained": explained, "rms_error_initial": learner.rms_error_initial_,
+            "rms_error": learner.rms_error_, "history": history,
+            "cycles": learner.n_cycles_}
+    return write_report(path, title or f"neurofuzzy fit: {tissue}", sections, data)
