@@ -116,6 +116,7 @@ def test_never_writes_over_an_input(cube_file):
     assert cube_file.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_demo_writes_table_plot_and_summary(tmp_path):
     result = run_cli("demo", "--out", tmp_path / "demo", "--cycles", "5", "--quiet")
     assert result.returncode == 0, result.stderr

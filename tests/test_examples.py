@@ -9,6 +9,7 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
+@pytest.mark.slow
 def test_paper_cube_example_runs(tmp_path):
     result = subprocess.run([sys.executable, str(EXAMPLES / "paper_cube.py"), str(tmp_path),
                              "--quick"], capture_output=True, text=True, timeout=300)

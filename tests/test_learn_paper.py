@@ -67,6 +67,7 @@ def test_unobserved_inner_node_eq_3_22():
     assert learner.rms_error_ < 0.01 * learner.rms_error_initial_
 
 
+@pytest.mark.slow
 def test_several_experiments_are_learned_together(cube_model):
     push = paper_cube_experiment(cube_model)
     pull = paper_cube_experiment(cube_model, force=(0.1, 0.0, 0.0), node=26)
