@@ -80,8 +80,9 @@ def _parser() -> argparse.ArgumentParser:
                      help="paper method: η_m for masses (default 0.1)")
     fit.add_argument("--rules", help="start from a rule base (YAML) …")
     fit.add_argument("--tissue", help="… and this tissue of it")
-    fit.add_argument("--report", help="write a before/after HTML report (and a .json twin); "
-                                      "needs --rules and --tissue")
+    fit.add_argument("--report", help="write an HTML report (and a .json twin): error curve, "
+                                      "what the data determine, and with --rules the "
+                                      "before/after words")
     fit.add_argument("--out", help="write the fitted model as YAML")
     fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -222,9 +223,6 @@ def _fit(args) -> int:
     else:
         learner = GradientLearner(learn_masses=args.learn_masses, substeps=substeps,
                                   max_iterations=args.cycles or 100, progress=progress)
-    if args.report and not (args.rules and args.tissue):
-        raise InputError("--report needs --rules and --tissue (it explains the fit in the "
-                         "rule base's words)", key="--report")
     learner.fit(start, experiments)
     if args.out:
         save_model(learner.model_, args.out)
@@ -232,7 +230,8 @@ def _fit(args) -> int:
         from .report import fit_report
         from .rules import load_rules
 
-        fit_report(load_rules(args.rules), args.tissue, start, learner, args.report)
+        fit_report(load_rules(args.rules) if args.rules else None, args.tissue, start,
+                   learner, args.report)
     result = learner.to_dict()
     result.update(method=args.method, tie=args.tie, experiments=[str(p) for p in inputs],
                   start=info)

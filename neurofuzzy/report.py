@@ -184,11 +184,81 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
     return write_report(path, title, sections, diagnosis.to_dict())
 
 
-# -- rule-based fit: before and after, in words ------------------------------------------------
-def fit_report(rules, tissue: str, start, learner, path, *, title: str | None = None) -> Path:
-    """HTML + JSON report of a fit started from a rule base's tissue: the expert's words, the
-    start and learned values, the learned words with degrees, each change highlighted, the
-    error curve and the membership functions with the before and after values marked."""
+# -- fits: before and after, identifiability, words ---------------------------------------------
+def identifiability_html(learner) -> tuple[str, list]:
+    """Standard errors and unidentifiable parameters in words, with a suggested load case."""
+    identifiability = getattr(learner, "identifiability_", None)
+    if identifiability is None:
+        return "<p>The paper's learner does not estimate standard errors.</p>", []
+    model = learner.model_
+    rows = [[name, f"{value:.3g}" if np.isfinite(value) else "undetermined"]
+            for name, value in zip(identifiability.names, identifiability.std_errors)]
+    text = table_html(["parameter", "standard error (relative)"], rows[:40])
+    if len(rows) > 40:
+        text += f"<p class='note'>… and {len(rows) - 40} more in the JSON twin.</p>"
+    suggestions = []
+    for entry in identifiability.unidentifiable:
+        springs = entry["springs"]
+        ends = [int(n) for j in springs for n in model.mesh.springs[j]
+                if model.mesh.free[n]]
+        if not ends:
+            advice = ("no load case can: both ends of these springs are fixed. Free one end in "
+                      "the experiment, or give them values from the rule base.")
+        else:
+            advice = (f"add a load case that pushes or pulls node {ends[0]} sideways (not "
+                      "along the present load), so that these springs stretch by different "
+                      "amounts.")
+        suggestions.append({**entry, "suggestion": advice})
+    if suggestions:
+        items = "".join(f"<li><b>{html.escape(', '.join(e['parameters'][:6]))}"
+                        f"{' …' if len(e['parameters']) > 6 else ''}</b>: "
+                        f"{html.escape(e['why'])}. Suggestion: {html.escape(e['suggestion'])}"
+                        "</li>" for e in suggestions)
+        text += f"<p>What the data cannot determine:</p><ul>{items}</ul>"
+    else:
+        text += "<p>Every parameter is determined by the data.</p>"
+    return text, suggestions
+
+
+def fit_report(rules, tissue: str | None, start, learner, path, *,
+               title: str | None = None) -> Path:
+    """HTML + JSON report of a fit.
+
+    With a rule base and tissue: the expert's words, the start and learned values, the learned
+    words with degrees, each change highlighted, the input words that best reproduce the
+    learned values, and the membership functions with the before and after values marked.
+    Always: the error curve, the learned parameters and what the data cannot determine (with
+    a suggested extra load case).
+    """
+    plt = _pyplot()
+    sections, data = [], {}
+    if rules is not None:
+        words_sections, data = _words_sections(rules, tissue, start, learner)
+        sections += words_sections
+    history = np.asarray(learner.history_)
+    figure, ax = plt.subplots(figsize=(8, 3.2))
+    ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
+    ax.set_xlabel("cycle" if type(learner).__name__ == "PaperLearner" else "simulation of the data")
+    ax.set_ylabel("error")
+    ax.grid(True, which="both", alpha=0.3)
+    sections.append(("Error per cycle", figure_html(figure, "error curve") +
+                     f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
+                     f" in {learner.n_cycles_} cycles.</p>"))
+    sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
+                     "</pre>"))
+    text, suggestions = identifiability_html(learner)
+    sections.append(("What the data determine", text))
+    data.update({"rms_error_initial": learner.rms_error_initial_,
+                 "rms_error": learner.rms_error_, "history": history,
+                 "cycles": learner.n_cycles_, "unidentifiable": suggestions})
+    if getattr(learner, "identifiability_", None) is not None:
+        data.update(learner.identifiability_.to_dict())
+        data["unidentifiable"] = suggestions
+    return write_report(path, title or f"neurofuzzy fit{': ' + tissue if tissue else ''}",
+                        sections, data)
+
+
+def _words_sections(rules, tissue, start, learner):
     from .rules import material_values
 
     plt = _pyplot()
@@ -226,17 +296,6 @@ def fit_report(rules, tissue: str, start, learner, path, *, title: str | None = 
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
                            for k, v in explained["words"].items()) +
                  f" (distance {explained['distance']:.3f} universe spans).</p>")]
-
-    history = np.asarray(learner.history_)
-    figure, ax = plt.subplots(figsize=(8, 3.2))
-    ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
-    ax.set_xlabel("cycle" if type(learner).__name__ == "PaperLearner" else "simulation of the data")
-    ax.set_ylabel("error")
-    ax.grid(True, which="both", alpha=0.3)
-    sections.append(("Error per cycle", figure_html(figure, "error curve") +
-                     f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
-                     f" in {learner.n_cycles_} cycles.</p>"))
-
     figure, axes = plt.subplots(1, len(rules.outputs), figsize=(5 * len(rules.outputs), 3.4))
     for ax, (name, variable) in zip(np.atleast_1d(axes), rules.outputs.items()):
         x = variable.to_physical(variable.grid)
@@ -252,7 +311,5 @@ def fit_report(rules, tissue: str, start, learner, path, *, title: str | None = 
     sections.append(("Membership functions with the start and learned values",
                      figure_html(figure, "membership functions")))
     data = {"tissue": tissue, "rules": rules.source, "words": words, "quantities": data_rows,
-            "explained": explained, "rms_error_initial": learner.rms_error_initial_,
-            "rms_error": learner.rms_error_, "history": history,
-            "cycles": learner.n_cycles_}
-    return write_report(path, title or f"neurofuzzy fit: {tissue}", sections, data)
+            "explained": explained}
+    return sections, data

@@ -227,7 +227,8 @@ class GradientLearner(Learner):
 
     def _record(self, residuals: np.ndarray, length_unit: float) -> None:
         """One more simulation of the data: count it and keep the best RMS so far."""
-        rms = float(np.sqrt(np.mean(residuals**2))) * length_unit if residuals.size else 0.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            rms = float(np.sqrt(np.mean(residuals**2))) * length_unit if residuals.size else 0.0
         rms = rms if np.isfinite(rms) else float("inf")
         self.history_.append(min(self.history_[-1], rms) if self.history_ else rms)
         self.n_cycles_ += 1

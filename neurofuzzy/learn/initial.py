@@ -27,11 +27,18 @@ __all__ = ["estimate_start"]
 
 #: Largest dense equation-error system (entries per force component) we build.
 MAX_ENTRIES = 3e7
+#: Per-group estimates further than this factor from the shared one are not trusted.
+MAX_SPREAD = 10.0
 
 
 def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
                    estimate_mass: bool = False) -> tuple[SpringMassModel, dict]:
     """Start model whose tied spring constants (and, optionally, uniform mass) fit the data.
+
+    The constants are first estimated with all springs tied together (two numbers, robust to
+    noise), then per tie group of ``model``; a group whose estimate never moves in the data,
+    hits zero or lies more than ``MAX_SPREAD`` times away from the shared estimate keeps the
+    shared one (per-spring estimates from noisy second differences can be wild).
 
     Parameters
     ----------
@@ -52,18 +59,49 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
     if not all(np.all(e.observed | ~e.mesh.free) for e in experiments):
         return model, {"used": False, "reason": "some free nodes are unobserved"}
     tied = TiedSprings.of(model)
-    _, s_ratio = tied.split(model.spring_stiffness)
-    _, c_ratio = tied.split(model.spring_damping)
-    if np.any(model.spring_stiffness <= 0):
-        s_ratio = np.ones(model.n_springs)
-    if np.any(model.spring_damping <= 0):
-        c_ratio = np.ones(model.n_springs)
+    s_ratio = tied.split(model.spring_stiffness)[1] if np.all(model.spring_stiffness > 0) \
+        else np.ones(model.n_springs)
+    c_ratio = tied.split(model.spring_damping)[1] if np.all(model.spring_damping > 0) \
+        else np.ones(model.n_springs)
+    shared = _solve(model, experiments, np.zeros(model.n_springs, dtype=np.intp), s_ratio,
+                    c_ratio, estimate_mass)
+    if shared is None or not (shared[0][0] > 0 and shared[1][0] > 0):
+        return model, {"used": False,
+                       "reason": "the equation-error estimate was not positive (noisy data?)"}
+    stiffness = np.full(tied.n_ties, shared[0][0])
+    damping = np.full(tied.n_ties, shared[1][0])
+    mass = shared[2]
+    reason = "equation-error least squares"
+    if tied.n_ties > 1:
+        grouped = _solve(model, experiments, tied.tie, s_ratio, c_ratio, estimate_mass)
+        if grouped is None:
+            reason += " (one shared value: the per-group system is too large)"
+        else:
+            for values, estimate in ((stiffness, grouped[0]), (damping, grouped[1])):
+                plausible = (estimate > values / MAX_SPREAD) & (estimate < values * MAX_SPREAD)
+                values[plausible] = estimate[plausible]
+            if estimate_mass and grouped[2] is not None and grouped[2] > 0:
+                mass = grouped[2]
+    changes = {"spring_stiffness": stiffness[tied.tie] * s_ratio,
+               "spring_damping": damping[tied.tie] * c_ratio}
+    if estimate_mass:
+        if not (mass is not None and mass > 0):
+            return model, {"used": False, "reason": "the mass estimate was not positive"}
+        node_mass = model.node_mass.copy()
+        node_mass[model.mesh.free] = mass
+        changes["node_mass"] = node_mass
+    return model.replace(**changes), {"used": True, "reason": reason}
+
+
+def _solve(model, experiments, tie, s_ratio, c_ratio, estimate_mass):
+    """Non-negative least squares of Newton's law for the tied constants; ``(stiffness,
+    damping, mass or None)`` per tie group (NaN for groups that never move), or None when the
+    system would be too large."""
+    n_ties = int(tie.max()) + 1
     free = model.mesh.free
-    n_ties = tied.n_ties
     size = sum(e.n_frames for e in experiments) * model.n_nodes * n_ties * 3
     if size > MAX_ENTRIES:
-        return model, {"used": False, "reason": f"too many tie groups ({n_ties}) for the "
-                                                 "dense equation-error system"}
+        return None
     a, b = model.mesh.springs.T
     n_nodes = model.n_nodes
     columns, targets = [], []
@@ -83,7 +121,7 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
         for per_spring, ratio in ((stretch, s_ratio), (closing, c_ratio)):
             force = (per_spring * ratio)[..., None] * u          # (T-1, S, 3)
             # node force of every tie group: (T-1, N, K, 3) via one bincount per component
-            index = (np.r_[a, b] * n_ties + np.r_[tied.tie, tied.tie])
+            index = (np.r_[a, b] * n_ties + np.r_[tie, tie])
             signed = np.concatenate([force, -force], axis=1)      # (T-1, 2S, 3)
             frames = np.arange(signed.shape[0])[:, None] * (n_nodes * n_ties)
             flat = (frames + index[None, :]).ravel()
@@ -102,20 +140,9 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
     matrix = np.concatenate(columns)
     target = np.concatenate(targets)
     norms = np.linalg.norm(matrix, axis=0)
-    if np.any(norms == 0) or not np.all(np.isfinite(matrix)):
-        return model, {"used": False, "reason": "a tie group never moves in the data"}
-    solution = lsq_linear(matrix / norms, target, bounds=(0, np.inf)).x / norms
-    stiffness, damping = solution[:n_ties], solution[n_ties:2 * n_ties]
-    if not (np.all(stiffness > 0) and np.all(damping > 0)):
-        return model, {"used": False,
-                       "reason": "the equation-error estimate was not positive (noisy data?)"}
-    changes = {"spring_stiffness": stiffness[tied.tie] * s_ratio,
-               "spring_damping": damping[tied.tie] * c_ratio}
-    if estimate_mass:
-        mass = solution[-1]
-        if not mass > 0:
-            return model, {"used": False, "reason": "the mass estimate was not positive"}
-        node_mass = model.node_mass.copy()
-        node_mass[free] = mass
-        changes["node_mass"] = node_mass
-    return model.replace(**changes), {"used": True, "reason": "equation-error least squares"}
+    usable = (norms > 0) & np.isfinite(norms)
+    solution = np.full(matrix.shape[1], np.nan)
+    solution[usable] = lsq_linear(matrix[:, usable] / norms[usable], target,
+                                  bounds=(0, np.inf)).x / norms[usable]
+    mass = solution[-1] if estimate_mass else None
+    return solution[:n_ties], solution[n_ties:2 * n_ties], mass
