@@ -238,7 +238,7 @@ def bench_per_spring_cube(results):
 # -- 5. per-spring fit of a 10k-spring mesh --------------------------------------------------
 def bench_large_fit(results, quick):
     surface = trimesh.creation.capsule(height=0.04, radius=0.02)
-    mesh = from_trimesh(surface, pitch=0.0045 if not quick else 0.007)
+    mesh = from_trimesh(surface, pitch=0.0039 if not quick else 0.007)
     mesh = mesh.with_fixed(where=bottom_layer)
     rng = np.random.default_rng(1)
     truth = SpringMassModel(mesh, node_mass=np.full(mesh.n_nodes, 1e-4),

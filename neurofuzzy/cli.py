@@ -48,8 +48,9 @@ def _parser() -> argparse.ArgumentParser:
 
     demo = commands.add_parser("demo", help="the paper's cube experiments end to end",
                                description="Reproduce the paper's three experiments on the "
-                                           "27-node / 86-spring cube (built-in data) and write "
-                                           "a table, the error plot and a JSON summary.")
+                                           "27-node / 86-spring cube (built-in data), then "
+                                           "rules -> model -> fit -> words, and a diagnosis; "
+                                           "writes the table, the error plot and reports.")
     demo.add_argument("--out", default="neurofuzzy-demo", help="output folder "
                       "(default: ./neurofuzzy-demo)")
     demo.add_argument("--cycles", type=int, default=100, help="learning cycles (default 100)")
@@ -136,7 +137,7 @@ def _parser() -> argparse.ArgumentParser:
 
 # -- demo -----------------------------------------------------------------------------------
 def _demo(args) -> int:
-    from .demo import comparison_table, paper_experiments, plot_error_curves
+    from .demo import comparison_table, paper_experiments, plot_error_curves, words_and_diagnosis
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -159,7 +160,11 @@ def _demo(args) -> int:
         json.dump(summary, handle, indent=2, allow_nan=True)
     with atomic_write(out / "table.txt", "w") as handle:
         handle.write(table + "\n")
-    print(f"\nwrote {out / 'error_per_cycle.png'}, {out / 'table.txt'}, {out / 'summary.json'} "
+    print()
+    for line in words_and_diagnosis(out, progress=progress):
+        print(line)
+    print(f"\nwrote {out}/: error_per_cycle.png (the paper's Figure 4), table.txt, "
+          f"summary.json, report.html (+ .json), diagnosis.html (+ .json) "
           f"({time.perf_counter() - started:.1f} s)")
     return 0
 

@@ -121,7 +121,9 @@ def test_demo_writes_table_plot_and_summary(tmp_path):
     result = run_cli("demo", "--out", tmp_path / "demo", "--cycles", "5", "--quiet")
     assert result.returncode == 0, result.stderr
     assert "paper E" in result.stdout and "1.21" in result.stdout
-    for name in ("error_per_cycle.png", "table.txt", "summary.json"):
+    assert "firm -> hard" in result.stdout and "diagnosis: gravity" in result.stdout
+    for name in ("error_per_cycle.png", "table.txt", "summary.json", "report.html",
+                 "report.json", "diagnosis.html", "diagnosis.json"):
         assert (tmp_path / "demo" / name).stat().st_size > 0
     summary = json.loads((tmp_path / "demo" / "summary.json").read_text())
     assert {run["experiment"] for run in summary["runs"]} == {1, 2, 3}

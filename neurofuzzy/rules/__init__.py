@@ -13,3 +13,29 @@ from .physical import initialize, lattice_geometry, material_values
 
 __all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "initialize",
            "lattice_geometry", "material_values", "QUANTITIES"]
+
+
+def shipped(name: str):
+    """Path of a rule base shipped with neurofuzzy (``shipped("brain")`` → ``rules/brain.yaml``).
+
+    Installed packages carry the repository's ``rules/`` folder as ``neurofuzzy.shipped_rules``;
+    in a source checkout the folder itself is used.
+    """
+    from importlib import resources
+    from pathlib import Path
+
+    from ..errors import InputError
+
+    filename = name if name.endswith(".yaml") else f"{name}.yaml"
+    candidates = [Path(__file__).resolve().parents[2] / "rules" / filename]
+    try:
+        candidates.insert(0, Path(str(resources.files("neurofuzzy.shipped_rules") / filename)))
+    except ModuleNotFoundError:
+        pass
+    for path in candidates:
+        if path.is_file():
+            return path
+    raise InputError(f"no shipped rule base {name!r}", key="rules")
+
+
+__all__.append("shipped")
