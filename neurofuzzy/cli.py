@@ -250,9 +250,7 @@ def _fit(args) -> int:
         print(learner.model_.summary())
         print(f"RMS error: {result['rms_error_initial']:.4g} -> {result['rms_error']:.4g} "
               f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
-        for path in (args.out, args.report):
-            if path:
-                print(f"wrote {path}")
+        _written(args.out, args.report)
     return 0
 
 
@@ -319,9 +317,7 @@ def _diagnose(args) -> int:
                   f"{finding.runner_up}){where}: {finding.parameters}")
         print(f"RMS error: {result.rms_before:.4g} -> {result.rms_after:.4g} "
               f"(marker noise {result.noise_rms:.3g})")
-        for path in (args.out, args.report):
-            if path:
-                print(f"wrote {path}")
+        _written(args.out, args.report)
     return 0
 
 
@@ -376,6 +372,12 @@ def _refuse_overwrite(out, inputs) -> None:
         if path.exists() and path.resolve() == target:
             raise InputError("--out names an input file; neurofuzzy never writes over its input",
                              source=str(out))
+
+
+def _written(*paths) -> None:
+    for path in paths:
+        if path:
+            print(f"wrote {path}")
 
 
 def _say(enabled: bool, message: str) -> None:

@@ -122,8 +122,10 @@ class Effect(ABC):
 
     def equation(self) -> str:
         """The force term in words and numbers, e.g. ``F_i += m_i (0, 0, -9.81)``."""
-        return f"{self.name}: " + ", ".join(f"{n} = {v:.4g}" for n, v in
-                                             zip(self.labels, self.params))
+        return f"{self.name}: {self._values()}"
+
+    def _values(self) -> str:
+        return ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.labels, self.params))
 
     def __repr__(self) -> str:
         return self.equation()
@@ -290,9 +292,8 @@ class _Inclusion(SpringEffect):
         return terms.stretch, np.ones_like(terms.stretch)
 
     def equation(self):
-        values = ", ".join(f"{label} = {value:.4g}" for label, value in
-                           zip(self.labels, self.params))
-        return f"{self.name}: {len(self.springs)} springs pull harder by k (l - L0); {values}"
+        return (f"{self.name}: {len(self.springs)} springs pull harder by k (l - L0); "
+                f"{self._values()}")
 
 
 @register
@@ -322,9 +323,7 @@ class NonlinearStiffening(SpringEffect):
         return terms.stretch**3 / rest2, 3 * terms.stretch**2 / rest2
 
     def equation(self):
-        values = ", ".join(f"{label} = {value:.4g}" for label, value in
-                           zip(self.labels, self.params))
-        return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {values}"
+        return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {self._values()}"
 
 
 @register

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .errors import InputError, UnstableTimeStepError
-from .forces import SpringTerms, accumulate, spring_forces, spring_terms
+from .forces import spring_forces
 from .model import SpringMassModel
 
 __all__ = [

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from neurofuzzy.cli import main
-from neurofuzzy.datasets import CUBE, paper_cube_model
+from neurofuzzy.datasets import CUBE
 from neurofuzzy.io import load_model, save_experiment
 
 

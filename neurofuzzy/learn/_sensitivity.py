@@ -201,13 +201,11 @@ class Sensitivity:
         param = self.parameters
         model = param.model(theta)
         weight = inverse_mass(model)
-        s, c = model.spring_stiffness, model.spring_damping
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
         tracked = experiment.tracked()
         n_frames = experiment.n_frames
         starts = set(int(t) for t in starts) | {0}
-        a, b = self.springs.T
         fixed = model.mesh.fixed
 
         # forward sweep, keeping every substep's start state

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment
 from ..model import SpringMassModel
-from ..simulate import accumulate
+from ..forces import accumulate
 from ._base import Learner, Progress, TiedSprings, check_experiments, rms_error
 
 __all__ = ["PaperLearner"]
