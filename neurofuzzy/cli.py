@@ -177,8 +177,11 @@ def _load_start(args, progress: bool):
     from .model import SpringMassModel, tie_index
 
     inputs = [Path(p) for p in args.experiments]
+    protected = inputs + ([Path(args.rules)] if getattr(args, "rules", None) else [])
     for option in ("out", "report"):
-        _refuse_overwrite(getattr(args, option, None), inputs)
+        _refuse_overwrite(getattr(args, option, None), protected)
+        if getattr(args, option, None) and option == "report":   # and the report's JSON twin
+            _refuse_overwrite(str(Path(args.report).with_suffix(".json")), protected)
     experiments = [load_experiment(p) for p in inputs]
     first = experiments[0]
     for other in experiments[1:]:

@@ -127,3 +127,32 @@ def test_demo_writes_table_plot_and_summary(tmp_path):
         assert (tmp_path / "demo" / name).stat().st_size > 0
     summary = json.loads((tmp_path / "demo" / "summary.json").read_text())
     assert {run["experiment"] for run in summary["runs"]} == {1, 2, 3}
+
+
+@pytest.mark.slow
+def test_fit_tie_groups_on_rk4_data_recovers_groups_within_two_percent(tmp_path):
+    from neurofuzzy.datasets import paper_cube_model, top_centre_node
+    from neurofuzzy.reference import reference_experiment
+
+    truth = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0}, damping=0.02)
+    load = np.zeros((27, 3))
+    load[top_centre_node(truth.mesh)] = CUBE["force"]
+    data = save_experiment(reference_experiment(truth, dt=CUBE["dt"], n_frames=251,
+                                                external_forces=load, method="rk4",
+                                                substeps=10), tmp_path / "rk4.npz")
+    result = run_cli("fit", data, "--tie", "groups", "--json")
+    assert result.returncode == 0, result.stderr
+    fitted = json.loads(result.stdout)
+    groups = truth.mesh.spring_group
+    stiffness, damping = np.array(fitted["stiffness"]), np.array(fitted["damping"])
+    assert np.allclose(stiffness[groups == 0], 60.0, rtol=0.02)
+    assert np.allclose(stiffness[groups == 1], 35.0, rtol=0.02)
+    assert np.allclose(damping, 0.02, rtol=0.02)
+
+
+def test_never_writes_over_the_rule_file(cube_file, tmp_path):
+    rules = tmp_path / "r.yaml"
+    rules.write_text("name: x\n")
+    result = run_cli("fit", cube_file, "--rules", rules, "--tissue", "t", "--out", rules)
+    assert result.returncode == 2 and "never writes over its input" in result.stderr
+    assert rules.read_text() == "name: x\n"

@@ -122,3 +122,25 @@ def test_auto_substeps_keeps_one_step_for_our_own_data(cube_experiment):
     learner = GradientLearner(substeps="auto").fit(start, cube_experiment)
     assert learner.substeps_ == 1 and not learner.extrapolated_
     assert learner.model_.spring_stiffness[0] == pytest.approx(50.0, rel=1e-9)
+
+
+@pytest.mark.slow
+def test_every_spring_from_two_load_cases_of_rk4_data():
+    from neurofuzzy.datasets import corner_node
+
+    rng = np.random.default_rng(0)
+    base = paper_cube_model()
+    truth = base.replace(spring_stiffness=50 * rng.uniform(0.7, 1.3, 86),
+                         spring_damping=0.02 * rng.uniform(0.7, 1.3, 86))
+    data = []
+    for node, force in ((top_centre_node(base.mesh), (0, 0, -0.2)),
+                        (corner_node(base.mesh), (0.15, 0.05, 0.0))):
+        load = np.zeros((27, 3))
+        load[node] = force
+        data.append(reference_experiment(truth, dt=CUBE["dt"], n_frames=251,
+                                         external_forces=load, method="rk4", substeps=10))
+    learner = GradientLearner(substeps="auto").fit(base, data)
+    moving = base.mesh.free[base.mesh.springs].any(axis=1)
+    fitted = learner.model_
+    assert np.median(np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]) < 0.01
+    assert np.median(np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]) < 0.01
