@@ -46,9 +46,10 @@ def register(cls: type[Effect]) -> type[Effect]:
 class Effect(ABC):
     """A force term ``F(p, v; θ)`` added to the spring forces.
 
-    Subclasses set ``name``, ``units`` (the exponents of length, time and mass of every
-    parameter) and implement :meth:`force` and :meth:`parameter_jacobian`; forces that depend
-    on the state also implement :meth:`state_jvp` and :meth:`state_vjp`.
+    Subclasses set ``name``, ``unit`` (the exponents of length, time and mass of the
+    parameters' unit) and ``_labels`` (or a ``labels`` property), and implement :meth:`force`
+    and :meth:`parameter_jacobian`; forces that depend on the state also implement
+    :meth:`state_jvp` and :meth:`state_vjp`.
 
     Parameters
     ----------
