@@ -36,8 +36,8 @@ from scipy.optimize import least_squares  # noqa: E402
 
 from neurofuzzy import simulate  # noqa: E402
 from neurofuzzy._steppers import numba_available  # noqa: E402
-from neurofuzzy.datasets import (CUBE, corner_node, paper_cube_experiment,  # noqa: E402
-                                 paper_cube_model, top_centre_node)
+from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model,  # noqa: E402
+                                 push_and_pull)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
 from neurofuzzy.learn import GradientLearner, PaperLearner  # noqa: E402
 from neurofuzzy.learn.initial import estimate_start  # noqa: E402
@@ -211,14 +211,8 @@ def bench_per_spring_cube(results):
     base = paper_cube_model()
     truth = base.replace(spring_stiffness=50 * rng.uniform(0.7, 1.3, 86),
                          spring_damping=0.02 * rng.uniform(0.7, 1.3, 86))
-    loads = []
-    for node, force in ((top_centre_node(base.mesh), (0, 0, -0.2)),
-                        (corner_node(base.mesh), (0.15, 0.05, 0.0))):
-        load = np.zeros((27, 3))
-        load[node] = force
-        loads.append(load)
     data = [reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=load,
-                                 method="rk4", substeps=10) for load in loads]
+                                 method="rk4", substeps=10) for load in push_and_pull(base.mesh)]
     seconds, learner = timed(lambda: GradientLearner(substeps="auto").fit(base, data))
     moving = base.mesh.free[base.mesh.springs].any(axis=1)
     fitted = learner.model_

@@ -15,7 +15,7 @@ from .mesh import Mesh, bottom_layer, lattice
 from .model import SpringMassModel
 
 __all__ = ["CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
-           "top_centre_node", "corner_node"]
+           "top_centre_node", "corner_node", "point_load", "push_and_pull"]
 
 #: Parameters of the built-in cube (SI units): a 2 cm cube of soft tissue (density 1000 kg/m³,
 #: 8 g divided equally between the 27 nodes), every spring 50 N/m and 0.02 N·s/m, 0.5 ms frames,
@@ -59,6 +59,20 @@ def corner_node(mesh: Mesh) -> int:
     return int(np.argmax(mesh.rest_positions @ np.array([1.0, 1.0, 1.0])))
 
 
+def point_load(mesh: Mesh, node: int, force) -> np.ndarray:
+    """(n_nodes, 3) external forces: ``force`` at ``node``, zero elsewhere."""
+    loads = np.zeros((mesh.n_nodes, 3))
+    loads[node] = force
+    return loads
+
+
+def push_and_pull(mesh: Mesh) -> list[np.ndarray]:
+    """Two load cases that together determine every movable spring of the cube: the paper's
+    push on the top centre node and a lateral pull at a top corner."""
+    return [point_load(mesh, top_centre_node(mesh), CUBE["force"]),
+            point_load(mesh, corner_node(mesh), (0.15, 0.05, 0.0))]
+
+
 def paper_cube_experiment(model: SpringMassModel | None = None, *, force=None, node=None,
                           noise: float = 0.0, seed: int = 0, n_frames: int | None = None,
                           substeps: int = 1, source: str = "paper-cube") -> Experiment:
@@ -76,9 +90,8 @@ def paper_cube_experiment(model: SpringMassModel | None = None, *, force=None, n
         Marker noise (standard deviation, metres).
     """
     model = paper_cube_model() if model is None else model
-    loads = np.zeros((model.n_nodes, 3))
-    loads[top_centre_node(model.mesh) if node is None else node] = (
-        CUBE["force"] if force is None else force)
+    loads = point_load(model.mesh, top_centre_node(model.mesh) if node is None else node,
+                       CUBE["force"] if force is None else force)
     return simulate_experiment(model, dt=CUBE["dt"],
                                n_frames=CUBE["n_frames"] if n_frames is None else n_frames,
                                external_forces=loads, noise=noise, seed=seed,

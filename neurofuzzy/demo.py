@@ -176,7 +176,7 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     """
     from pathlib import Path
 
-    from .datasets import paper_cube_mesh, top_centre_node
+    from .datasets import paper_cube_mesh, point_load, top_centre_node
     from .diagnose import diagnose
     from .effects import Gravity
     from .experiment import simulate_experiment
@@ -188,8 +188,7 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     rules = load_rules(shipped("liver"))
     mesh = paper_cube_mesh()
     truth, _ = initialize(rules, mesh, "fibrotic_liver", tie="global")
-    load = np.zeros((mesh.n_nodes, 3))
-    load[top_centre_node(mesh)] = (0.0, 0.0, -0.05)
+    load = point_load(mesh, top_centre_node(mesh), (0.0, 0.0, -0.05))
     data = simulate_experiment(truth, dt=CUBE["dt"], n_frames=CUBE["n_frames"],
                                external_forces=load, source="fibrotic-liver-cube")
     start, _ = initialize(rules, mesh, "liver", tie="global")

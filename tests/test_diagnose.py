@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model, top_centre_node
+from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, point_load,
+                                 top_centre_node)
 from neurofuzzy.diagnose import diagnose
 from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion,
                                 StiffInclusion, UnmodeledLoad)
@@ -79,8 +80,7 @@ def test_none_on_noisy_data_without_an_effect():
 
 @pytest.mark.slow
 def test_none_on_clean_data_from_another_integrator():
-    load = np.zeros((27, 3))
-    load[top_centre_node(TRUTH.mesh)] = CUBE["force"]
+    load = point_load(TRUTH.mesh, top_centre_node(TRUTH.mesh), CUBE["force"])
     data = reference_experiment(TRUTH, dt=CUBE["dt"], n_frames=251, external_forces=load,
                                 method="rk4", substeps=10)
     assert diagnose(start_model(), data).names == ["none"]

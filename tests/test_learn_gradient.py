@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model, top_centre_node
+from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, point_load,
+                                 top_centre_node)
 from neurofuzzy.learn import GradientLearner, auto_substeps
 from neurofuzzy.learn._parameters import Parameterization
 from neurofuzzy.learn._sensitivity import Sensitivity
@@ -101,8 +102,7 @@ def test_tied_fit_reports_standard_errors(cube_experiment):
 @pytest.mark.slow
 def test_groups_recovered_within_two_percent_from_a_different_integrator():
     truth = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0}, damping=0.02)
-    loads = np.zeros((27, 3))
-    loads[top_centre_node(truth.mesh)] = CUBE["force"]
+    loads = point_load(truth.mesh, top_centre_node(truth.mesh), CUBE["force"])
     data = reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=loads,
                                 method="rk4", substeps=10)
     start = paper_cube_model(stiffness=45.0, damping=0.03, tie="groups")
@@ -126,19 +126,14 @@ def test_auto_substeps_keeps_one_step_for_our_own_data(cube_experiment):
 
 @pytest.mark.slow
 def test_every_spring_from_two_load_cases_of_rk4_data():
-    from neurofuzzy.datasets import corner_node
+    from neurofuzzy.datasets import push_and_pull
 
     rng = np.random.default_rng(0)
     base = paper_cube_model()
     truth = base.replace(spring_stiffness=50 * rng.uniform(0.7, 1.3, 86),
                          spring_damping=0.02 * rng.uniform(0.7, 1.3, 86))
-    data = []
-    for node, force in ((top_centre_node(base.mesh), (0, 0, -0.2)),
-                        (corner_node(base.mesh), (0.15, 0.05, 0.0))):
-        load = np.zeros((27, 3))
-        load[node] = force
-        data.append(reference_experiment(truth, dt=CUBE["dt"], n_frames=251,
-                                         external_forces=load, method="rk4", substeps=10))
+    data = [reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=load,
+                                 method="rk4", substeps=10) for load in push_and_pull(base.mesh)]
     learner = GradientLearner(substeps="auto").fit(base, data)
     moving = base.mesh.free[base.mesh.springs].any(axis=1)
     fitted = learner.model_

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from neurofuzzy.datasets import paper_cube_mesh, top_centre_node
+from neurofuzzy.datasets import paper_cube_mesh, point_load, top_centre_node
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.mesh import lattice
@@ -131,8 +131,7 @@ def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):
     rules = load_rules(TISSUES)
     mesh = paper_cube_mesh()
     truth, _ = initialize(rules, mesh, "firm_tissue", tie="global")
-    load = np.zeros((27, 3))
-    load[top_centre_node(mesh)] = (0, 0, -0.01)
+    load = point_load(mesh, top_centre_node(mesh), (0, 0, -0.01))
     data = save_experiment(simulate_experiment(truth, dt=5e-4, n_frames=251,
                                                external_forces=load), tmp_path / "firm.npz")
     report = tmp_path / "report.html"
