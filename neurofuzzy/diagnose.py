@@ -30,6 +30,7 @@ from scipy.signal import savgol_filter
 
 from .effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion, StiffInclusion,
                       UnmodeledLoad)
+from .errors import InputError
 from .experiment import Experiment
 from .forces import accumulate, spring_terms
 from .learn import GradientLearner
@@ -221,8 +222,16 @@ def _sample(model: SpringMassModel, experiments, substeps: int) -> _Samples:
     rng = np.random.default_rng(0)
     for experiment in experiments:
         free_run = simulate_like(model, experiment, substeps)
-        measured = np.where(experiment.observed[None, :, None], experiment.positions, free_run)
-        rows = experiment.tracked()
+        # One-step residuals need a node's measured positions in consecutive frames: nodes
+        # with gaps count like unobserved ones here (their positions come from the model's
+        # free run and they contribute no samples); the fit itself still uses every frame.
+        seen = experiment.measured()
+        measured = np.where(seen[:, :, None], experiment.positions, free_run)
+        rows = experiment.tracked() & seen.all(axis=0)
+        if not rows.any():
+            raise InputError("the diagnosis needs at least one free node measured at every "
+                             "frame; every observed node has gaps", source=experiment.source,
+                             key="positions")
         noise = _marker_noise(measured[:, rows] - free_run[:, rows],
                               measured[:, rows] - measured[:1, rows])
         loads = experiment.forces_per_frame()[1:-1]
@@ -316,7 +325,7 @@ def residual_analysis(model: SpringMassModel, experiments: Sequence[Experiment],
         per_node[rows] += np.sum(data["residual"][:, rows] ** 2, axis=(0, 2))
         counts[rows] += data["residual"].shape[0]
         simulated = simulate_like(model, experiment, substeps)
-        error = np.where(experiment.observed[None, :, None],
+        error = np.where(experiment.measured()[:, :, None],
                          simulated - np.nan_to_num(experiment.positions), 0.0)
         per_node_error += np.mean(np.sum(error**2, axis=2), axis=0)
     per_node = np.sqrt(per_node / np.maximum(counts, 1))

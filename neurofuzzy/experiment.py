@@ -29,7 +29,10 @@ class Experiment:
     dt : float
         Time between recorded frames.
     positions : (n_frames, n_nodes, 3) float
-        Measured positions; ``positions[0]`` is the initial state. Unobserved nodes may hold NaN.
+        Measured positions; ``positions[0]`` is the initial state. Unobserved nodes may hold NaN,
+        and so may an observed node at a frame where its marker was not seen (a gap: occluded
+        marker, dropped frame). Learners and the diagnosis treat a gap as "not measured at that
+        frame", never interpolate it. Frame 0 must be complete for observed nodes.
     external_forces : (n_nodes, 3) or (n_frames, n_nodes, 3) float, optional
         Applied load (constant, or ``external_forces[t]`` acting from frame t to t + 1).
     observed : (n_nodes,) bool, optional
@@ -78,13 +81,21 @@ class Experiment:
                                  key="observed")
             if not observed.any():
                 raise InputError("no node is observed", source=src, key="observed")
-        bad = ~np.isfinite(positions[:, observed])
-        if bad.any():
-            frame, node = np.argwhere(bad.any(axis=-1))[0]
+        if np.isinf(positions[:, observed]).any():
+            frame, node = np.argwhere(np.isinf(positions[:, observed]).any(axis=-1))[0]
             node = np.flatnonzero(observed)[node]
-            raise InputError(f"NaN or infinite value at frame {frame}, node {node}, which is "
-                             "marked observed; mark it unobserved in 'observed' or repair the "
-                             "data", source=src, key="positions")
+            raise InputError(f"infinite value at frame {frame}, node {node}; use NaN for a "
+                             "position that was not measured", source=src, key="positions")
+        missing_at_start = observed & ~np.isfinite(positions[0]).all(axis=-1)
+        if missing_at_start.any():
+            node = int(np.flatnonzero(missing_at_start)[0])
+            raise InputError(f"node {node} is marked observed but has no position at frame 0 "
+                             "(the initial state); start the recording where every observed "
+                             "node is seen, or mark the node unobserved", source=src,
+                             key="positions")
+        # a marker is seen or not: a partly NaN position counts as not measured
+        gaps = ~np.isfinite(positions).all(axis=-1, keepdims=True)
+        positions = np.where(gaps, np.nan, positions)
         forces = None
         if self.external_forces is not None:
             forces = _float_array(self.external_forces, src, "external_forces")
@@ -141,6 +152,23 @@ class Experiment:
     def tracked(self) -> np.ndarray:
         """(n_nodes,) bool: nodes whose error counts (observed and not fixed)."""
         return self.observed & self.mesh.free
+
+    def measured(self) -> np.ndarray:
+        """(n_frames, n_nodes) bool: node i has a measured position at frame t.
+
+        False for unobserved nodes and for the gaps of observed ones.
+        """
+        return self.observed[None, :] & np.isfinite(self.positions).all(axis=-1)
+
+    def tracked_frames(self) -> np.ndarray:
+        """(n_frames, n_nodes) bool: the (frame, node) pairs whose error counts: measured and
+        not fixed."""
+        return self.measured() & self.mesh.free[None, :]
+
+    @property
+    def complete(self) -> bool:
+        """Every free node is measured at every frame (no unobserved nodes, no gaps)."""
+        return bool(np.all(self.measured() | ~self.mesh.free[None, :]))
 
 
 def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,

@@ -55,8 +55,8 @@ def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experim
               substeps: int = 1) -> float:
     """Root-mean-square node distance between free simulation and measurement.
 
-    Over all experiments, frames 1 onwards, and the nodes that are observed and not fixed:
-    ``sqrt(mean |p_sim - p_measured|²)``, simulating with ``substeps`` steps per frame.
+    Over all experiments, frames 1 onwards, and the nodes that are measured (observed, not in a
+    gap) and not fixed: ``sqrt(mean |p_sim - p_measured|²)``, simulating with ``substeps`` steps per frame.
     Infinite when the simulation diverges.
     """
     experiments = check_experiments(model, experiments)
@@ -67,10 +67,10 @@ def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experim
                 simulated = simulate_like(model, experiment, substeps)
         except UnstableTimeStepError:
             return float("inf")
-        tracked = experiment.tracked()
-        diff = simulated[1:, tracked] - experiment.positions[1:, tracked]
+        tracked = experiment.tracked_frames()[1:]
+        diff = simulated[1:][tracked] - experiment.positions[1:][tracked]
         total += float(np.sum(diff * diff))
-        count += diff.shape[0] * diff.shape[1]
+        count += diff.shape[0]
     value = np.sqrt(total / max(count, 1))
     return float(value) if np.isfinite(value) else float("inf")
 

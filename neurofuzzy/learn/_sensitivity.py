@@ -39,13 +39,16 @@ class Run:
     positions : (n_frames, n_nodes, 3) float
         Simulated positions (with resets at the window starts).
     residuals : (n_frames - 1, n_tracked, 3) float
-        ``(simulated - measured) / length_unit`` at frames 1.., tracked nodes.
+        ``(simulated - measured) / length_unit`` at frames 1.., tracked nodes; 0 in the gaps.
+    n_measured : int
+        Number of residual values that come from a measurement (not from a gap).
     jacobian : (n_frames - 1, n_tracked, 3, n_params) float or None
         ``∂ residuals / ∂ θ`` (forward mode only).
     """
 
     positions: np.ndarray
     residuals: np.ndarray
+    n_measured: int
     jacobian: np.ndarray | None = None
 
     @property
@@ -102,8 +105,9 @@ class Sensitivity:
         """Positions and velocities at a window start, from the measurement."""
         if start == 0:
             return experiment.initial_positions(), experiment.initial_velocities()
-        if not np.all(experiment.observed | ~experiment.mesh.free):
-            raise InputError("windows (multiple shooting) need every free node observed",
+        if not experiment.complete:
+            raise InputError("windows (multiple shooting) need every free node measured at "
+                             "every frame",
                              source=experiment.source, key="observed")
         p = experiment.positions[start].copy()
         v = (experiment.positions[start] - experiment.positions[start - 1]) / experiment.dt
@@ -121,6 +125,8 @@ class Sensitivity:
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
         tracked = experiment.tracked()
+        # (frame, tracked node) pairs without a measurement (gaps) carry no residual
+        seen = experiment.tracked_frames()[:, tracked]
         n_frames, n_params = experiment.n_frames, param.size
         starts = set(int(t) for t in starts) | {0}
         blocks = param.blocks
@@ -167,12 +173,15 @@ class Sensitivity:
                         v[model.mesh.fixed] = 0.0
                         p = p + h * v
                     if tangents:
-                        jacobian[t - 1] = tp[tracked].transpose(0, 2, 1) / self.length_unit
+                        jacobian[t - 1] = (tp[tracked].transpose(0, 2, 1) / self.length_unit
+                                           * seen[t][:, None, None])
                 positions[t] = p
             residuals = np.where(
-                tracked[None, :, None], positions - np.nan_to_num(experiment.positions), 0.0
-            )[1:, tracked] / self.length_unit
-        return Run(positions=positions, residuals=residuals, jacobian=jacobian)
+                seen[:, :, None],
+                positions[:, tracked] - np.nan_to_num(experiment.positions[:, tracked]), 0.0
+            )[1:] / self.length_unit
+        return Run(positions=positions, residuals=residuals,
+                   n_measured=3 * int(seen[1:].sum()), jacobian=jacobian)
 
     def _force_tangent(self, model, terms, p, v, tp, tv, f_s, f_c) -> np.ndarray:
         """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction."""
@@ -204,6 +213,7 @@ class Sensitivity:
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
         tracked = experiment.tracked()
+        seen = experiment.tracked_frames()
         n_frames = experiment.n_frames
         starts = set(int(t) for t in starts) | {0}
         fixed = model.mesh.fixed
@@ -225,9 +235,10 @@ class Sensitivity:
                     p = p + h * v
                 positions[t] = p
         scale = 1.0 / self.length_unit
-        residuals = np.where(tracked[None, :, None],
+        residuals = np.where(seen[:, :, None],
                              positions - np.nan_to_num(experiment.positions), 0.0) * scale
-        run = Run(positions=positions, residuals=residuals[1:, tracked])
+        run = Run(positions=positions, residuals=residuals[1:, tracked],
+                  n_measured=3 * int(seen[1:].sum()))
         loss = 0.5 * float(np.sum(residuals[1:] ** 2))
         grad = np.zeros(param.size)
         if not np.isfinite(loss):

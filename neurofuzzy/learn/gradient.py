@@ -182,10 +182,10 @@ class GradientLearner(Learner):
         if method == "lm":
             jacobian = self._jacobian(sensitivity, experiments, theta,
                                       [(0,)] * len(experiments), self.substeps_)
-        residuals = np.concatenate([
-            sensitivity.run(theta, e, substeps=self.substeps_).residuals.ravel()
-            for e in experiments])
-        self.identifiability_ = analyse(parameters, theta, jacobian, residuals)
+        runs = [sensitivity.run(theta, e, substeps=self.substeps_) for e in experiments]
+        residuals = np.concatenate([run.residuals.ravel() for run in runs])
+        self.identifiability_ = analyse(parameters, theta, jacobian, residuals,
+                                        n_measured=sum(run.n_measured for run in runs))
         self.std_errors_ = self.identifiability_.std_errors
         self.history_ = np.array(self.history_)
         self.seconds_ = time.perf_counter() - started
@@ -195,14 +195,15 @@ class GradientLearner(Learner):
     def _method(self, parameters, experiments) -> str:
         if self.method != "auto":
             return self.method
-        n_residuals = sum((e.n_frames - 1) * int(e.tracked().sum()) * 3 for e in experiments)
+        n_residuals = sum(3 * int(e.tracked_frames()[1:].sum()) for e in experiments)
         return "lm" if n_residuals * parameters.size <= MAX_JACOBIAN_ENTRIES else "lbfgs"
 
     def _fit_stages(self, sensitivity, experiments, theta, substeps, windows, method, lower,
                     upper, active) -> np.ndarray:
-        """Shooting windows (when every free node is observed), then the whole trajectory."""
+        """Shooting windows (when every free node is measured throughout), then the whole
+        trajectory."""
         windows = [DEFAULT_WINDOW] if windows is None else list(windows)
-        if not all(np.all(e.observed | ~e.mesh.free) for e in experiments):
+        if not all(e.complete for e in experiments):
             windows = []
         longest = max(e.n_frames for e in experiments)
         stages = [w for w in windows if w < longest] + [longest]
@@ -225,19 +226,22 @@ class GradientLearner(Learner):
                 upper[block] = theta[block] + span
         return lower, upper
 
-    def _record(self, residuals: np.ndarray, length_unit: float) -> None:
-        """One more simulation of the data: count it and keep the best RMS so far."""
+    def _record(self, runs, length_unit: float) -> None:
+        """One more simulation of the data: count it and keep the best RMS so far (over the
+        measured values; gaps hold zero residuals and do not count)."""
+        count = sum(run.n_measured for run in runs)
         with np.errstate(over="ignore", invalid="ignore"):
-            rms = float(np.sqrt(np.mean(residuals**2))) * length_unit if residuals.size else 0.0
+            total = sum(float(np.sum(run.residuals**2)) for run in runs)
+            rms = float(np.sqrt(total / count)) * length_unit if count else 0.0
         rms = rms if np.isfinite(rms) else float("inf")
         self.history_.append(min(self.history_[-1], rms) if self.history_ else rms)
         self.n_cycles_ += 1
 
     def _residuals(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:
-        residuals = np.concatenate([
-            sensitivity.run(theta, e, substeps=substeps, starts=s).residuals.ravel()
-            for e, s in zip(experiments, starts)])
-        self._record(residuals, sensitivity.length_unit)
+        runs = [sensitivity.run(theta, e, substeps=substeps, starts=s)
+                for e, s in zip(experiments, starts)]
+        self._record(runs, sensitivity.length_unit)
+        residuals = np.concatenate([run.residuals.ravel() for run in runs])
         if not np.all(np.abs(residuals) < DIVERGED):
             return np.full_like(residuals, DIVERGED)   # a huge cost the solver rejects
         return residuals
@@ -272,14 +276,14 @@ class GradientLearner(Learner):
         def objective(x):
             values = theta.copy()
             values[active] = x
-            loss, grad, residuals = 0.0, np.zeros_like(theta), []
+            loss, grad, runs = 0.0, np.zeros_like(theta), []
             for experiment, s in zip(experiments, starts):
                 value, g, run = sensitivity.gradient(values, experiment, substeps=substeps,
                                                      starts=s)
                 loss += value
                 grad += g
-                residuals.append(run.residuals.ravel())
-            self._record(np.concatenate(residuals), sensitivity.length_unit)
+                runs.append(run)
+            self._record(runs, sensitivity.length_unit)
             if not np.isfinite(loss):
                 return 1e30, np.zeros_like(x)
             return loss, grad[active]

@@ -54,8 +54,12 @@ def _json_float(value: float):
 
 
 def analyse(parameters, theta: np.ndarray, jacobian: np.ndarray | None,
-            residuals: np.ndarray) -> Identifiability:
-    """Identifiability of ``parameters`` at ``theta`` (see the module docstring)."""
+            residuals: np.ndarray, n_measured: int | None = None) -> Identifiability:
+    """Identifiability of ``parameters`` at ``theta`` (see the module docstring).
+
+    ``n_measured`` is the number of residuals that come from measurements (the others are the
+    zeros of gaps); default all.
+    """
     names = parameters.names()
     n_params = len(theta)
     found: list[dict] = []
@@ -64,7 +68,7 @@ def analyse(parameters, theta: np.ndarray, jacobian: np.ndarray | None,
     if jacobian is None:
         return Identifiability(np.full(n_params, np.nan), found, names)
 
-    n_res = jacobian.shape[0]
+    n_res = jacobian.shape[0] if n_measured is None else n_measured
     dof = max(n_res - n_params, 1)
     sigma2 = float(np.sum(residuals**2)) / dof
     norms = np.linalg.norm(jacobian, axis=0)

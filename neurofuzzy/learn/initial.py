@@ -56,8 +56,9 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
         ``{"used": bool, "reason": str}``.
     """
     experiments = check_experiments(model, experiments)
-    if not all(np.all(e.observed | ~e.mesh.free) for e in experiments):
-        return model, {"used": False, "reason": "some free nodes are unobserved"}
+    if not all(e.complete for e in experiments):
+        return model, {"used": False,
+                       "reason": "some free nodes are unobserved or have gaps"}
     tied = TiedSprings.of(model)
     s_ratio = tied.split(model.spring_stiffness)[1] if np.all(model.spring_stiffness > 0) \
         else np.ones(model.n_springs)

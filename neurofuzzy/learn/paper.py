@@ -5,13 +5,13 @@ For every time step ``t`` of every cycle:
 1. propagate the network one step from ``(p(t-1), v(t-1))`` (eqs. 3.1–3.6);
 2. derive the error ``E(t) = ½ Σ_k |p_k(t) - o_k(t)|²`` over observed nodes (eqs. 2.2, 2.3);
 3. derive the error rates: ``δ_p = p - o_p`` (3.7), ``δ_v = δ_p t_c`` (3.8),
-   ``δ_a = δ_p t_c²`` (3.9), ``δ_f = Σ_a w_a δ_a`` (3.14); for unobserved free nodes the
-   position error rate is propagated back from their springs, ``δ_p* = Σ_s δ_s + Σ_c δ_c``
+   ``δ_a = δ_p t_c²`` (3.9), ``δ_f = Σ_a w_a δ_a`` (3.14); for free nodes without a measurement
+   at that step (unobserved, or in a gap of their marker) the position error rate is propagated back from their springs, ``δ_p* = Σ_s δ_s + Σ_c δ_c``
    (3.17, 3.18, 3.22);
 4. modify the weights at once: ``Δw_m = η_m δ_p · o_f`` (3.11), ``Δc = η δ_f · o_c`` (3.15),
    ``Δs = η δ_f · o_s`` (3.16) (tied springs add their changes, paper §"jointly learned");
-5. every ``teacher_forcing_limit`` steps, set the observed nodes' positions to the measured
-   ones (teacher forcing).
+5. every ``teacher_forcing_limit`` steps, set the positions of the nodes measured at that
+   step to the measured ones (teacher forcing).
 
 Units. The paper's learning rates act in the network's own units, where one propagation step
 takes ``t_c = 1``. We keep the model in physical units and scale every update so that it equals
@@ -139,11 +139,13 @@ class PaperLearner(Learner):
         scale_w = self.mass_learning_rate * h * h / (mass_unit * length_unit) ** 2
         effect_rate = self.effect_learning_rate
 
-        tracked = experiment.tracked()
-        unobserved = ~experiment.observed & model.mesh.free
-        targets = np.where(tracked[None, :, None], experiment.positions, 0.0)
+        # per frame: nodes with a measurement (observed, not in a gap) and free nodes without
+        # one, which take the back-propagated error of eq. 3.22 at that frame
+        measured = experiment.measured()
+        tracked = measured & model.mesh.free
+        unobserved = ~measured & model.mesh.free
+        targets = np.where(tracked[:, :, None], experiment.positions, 0.0)
         loads = experiment.forces_per_frame()
-        observed = experiment.observed
         p = experiment.initial_positions()
         v = experiment.initial_velocities()
         counter, error = 0, 0.0
@@ -163,9 +165,9 @@ class PaperLearner(Learner):
             v = v + h * w[:, None] * force
             p_new = p + h * v
             # 2. error E(t) (eqs. 2.2, 2.3) and 3. error rates (3.7–3.9, 3.14)
-            e = np.where(tracked[:, None], targets[t] - p_new, 0.0)
+            e = np.where(tracked[t][:, None], targets[t] - p_new, 0.0)
             error += 0.5 * float(np.sum(e * e)) / length_unit**2
-            if unobserved.any():   # eq. 3.22: δ_p* = Σ_s δ_s + Σ_c δ_c
+            if unobserved[t].any():   # eq. 3.22: δ_p* = Σ_s δ_s + Σ_c δ_c
                 we = w[:, None] * e
                 delta_f = np.take(we, a, axis=0) - np.take(we, b, axis=0)
                 along = np.einsum("ij,ij->i", u, delta_f)
@@ -173,7 +175,8 @@ class PaperLearner(Learner):
                 delta_s = (1 - ratio)[:, None] * delta_f + (ratio * along)[:, None] * u
                 delta_c = along[:, None] * u
                 back = h * h * s[:, None] * delta_s + h * c[:, None] * delta_c
-                e = e - np.where(unobserved[:, None], accumulate(springs, back, n_nodes), 0.0)
+                e = e - np.where(unobserved[t][:, None], accumulate(springs, back, n_nodes),
+                                 0.0)
             we = w[:, None] * e
             delta_f = np.take(we, a, axis=0) - np.take(we, b, axis=0)
             # 4. modify the weights immediately (3.11, 3.15, 3.16)
@@ -186,7 +189,7 @@ class PaperLearner(Learner):
             # 5. teacher forcing
             counter += 1
             if counter >= self.teacher_forcing_limit:
-                p_new[observed] = experiment.positions[t, observed]
+                p_new[measured[t]] = experiment.positions[t, measured[t]]
                 counter = 0
             p = p_new
         return error
