@@ -132,6 +132,33 @@ def _parser() -> argparse.ArgumentParser:
     simulate.add_argument("--noise", type=float, default=0.0, help="marker noise (std, m)")
     simulate.add_argument("--seed", type=int, default=0)
     simulate.set_defaults(run=_simulate)
+
+    importer = commands.add_parser(
+        "import", help="marker recording (CSV or C3D) -> experiment file",
+        description="Attach the markers of an optical recording to the nodes of a model, "
+                    "resample to the model's step and write the DESIGN.md experiment file "
+                    "(nodes with markers observed; frames where a marker was not seen are "
+                    "gaps, never interpolated across).")
+    importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d")
+    importer.add_argument("--topology", required=True, metavar="MODEL.yaml|EXPERIMENT.npz",
+                          help="the object's nodes and springs: a model (its masses become the "
+                               "experiment's known masses) or another experiment file")
+    importer.add_argument("--map", metavar="MAP.csv",
+                          help="marker,node pairs (default: each marker to its nearest node)")
+    importer.add_argument("--forces", metavar="FORCES.csv",
+                          help="time,node,fx,fy,fz in N, each row held until the node's next")
+    importer.add_argument("--units", choices=("m", "cm", "mm"),
+                          help="length unit of the marker file (CSV: required unless the file "
+                               "has a '# units: mm' line; C3D: overrides POINT:UNITS)")
+    importer.add_argument("--dt", type=float, default=None,
+                          help="the model's step (s) to resample to (default: the topology "
+                               "file's dt, else the capture's frame period)")
+    importer.add_argument("--max-distance", type=float, default=None,
+                          help="farthest a marker may lie from its node at the start (m; "
+                               "default half the shortest spring)")
+    importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
+    importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    importer.set_defaults(run=_import)
     return parser
 
 
@@ -351,6 +378,48 @@ def _simulate(args) -> int:
                                      noise=args.noise, seed=args.seed, source=args.out)
     save_experiment(experiment, args.out)
     print(f"wrote {args.out}: {experiment.n_frames} frames of {experiment.n_nodes} nodes")
+    return 0
+
+
+# -- import ---------------------------------------------------------------------------------
+def _import(args) -> int:
+    from .io import load_experiment, load_model, save_experiment
+    from .markers import markers_to_experiment, read_marker_map, read_markers
+
+    inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
+    _refuse_overwrite(args.out, inputs)
+    topology = Path(args.topology)
+    if topology.suffix.lower() == ".npz":
+        reference = load_experiment(topology)
+        mesh, masses, dt = reference.mesh, reference.masses, reference.dt
+    elif topology.suffix.lower() in (".yaml", ".yml"):
+        model = load_model(topology)
+        mesh, masses, dt = model.mesh, model.node_mass, None
+    else:
+        raise InputError("expected a model (.yaml) or an experiment file (.npz)",
+                         source=str(topology), key="--topology")
+    markers = read_markers(args.markers, units=args.units)
+    mapping = read_marker_map(args.map) if args.map else None
+    experiment, summary = markers_to_experiment(
+        markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
+        forces=args.forces, masses=masses, source=args.out)
+    if args.forces is None:
+        print("neurofuzzy: note: no --forces; the experiment has no applied load",
+              file=sys.stderr)
+    save_experiment(experiment, args.out)
+    summary.update(markers_file=str(args.markers), topology=str(topology), out=str(args.out))
+    if args.json:
+        print(json.dumps(_json_safe(summary)))
+    else:
+        unmatched = (f"; {len(summary['unmatched'])} marker(s) not in the map"
+                     if summary["unmatched"] else "")
+        print(f"wrote {args.out}: {summary['markers']} markers on {mesh.n_nodes} nodes, "
+              f"{summary['frames']} frames of {summary['dt']:.4g} s (capture period "
+              f"{summary['capture_period']:.4g} s), {100 * summary['gaps']:.1f} % gaps"
+              f"{unmatched}")
+        if summary["dropped_leading_frames"]:
+            print(f"  dropped the first {summary['dropped_leading_frames']} capture frames: "
+                  "not every marker was seen yet")
     return 0
 
 

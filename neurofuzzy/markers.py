@@ -1,0 +1,497 @@
+"""Optical marker recordings → experiments: CSV and C3D readers, marker-to-node matching,
+resampling to the model's step, applied forces.
+
+A recording is a :class:`MarkerData`: marker names, capture times and positions (NaN where a
+marker was not seen). :func:`markers_to_experiment` attaches the markers to nodes of a mesh and
+writes them into an :class:`~neurofuzzy.experiment.Experiment` of the DESIGN.md contract: the
+nodes with markers are ``observed``, the others are not, and every frame in which a marker was
+not seen (occlusion, a dropped capture frame) is a gap, NaN, that the learners treat as "not
+measured then". Nothing is interpolated across a gap.
+
+File formats
+------------
+Marker CSV
+    Columns ``time,marker,x,y,z`` (header required; ``node`` instead of ``marker`` names the
+    node directly). One row per marker and capture frame; a missing row or an empty/``nan``
+    coordinate is a marker not seen. Time in seconds. The length unit must be stated, either
+    in a comment line ``# units: mm`` (m, cm or mm) or with ``units=``; coordinates are
+    converted to metres.
+C3D
+    Read with the ``c3d`` package (pure Python). The unit comes from ``POINT:UNITS``, the rate
+    from the header; points with a negative residual are "not seen".
+Map CSV
+    Columns ``marker,node``: which node each marker is attached to. Without a map, each marker
+    goes to the node nearest to its first seen position, and must lie within ``max_distance``.
+Force CSV
+    Columns ``time,node,fx,fy,fz`` in newtons. A node's force holds from its row's time until
+    the next row of that node (zero before its first row).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, closest_name
+from .experiment import Experiment
+from .mesh import Mesh
+
+__all__ = ["MarkerData", "read_markers", "read_marker_csv", "read_c3d", "read_marker_map",
+           "read_forces", "match_markers", "markers_to_experiment", "LENGTH_UNITS"]
+
+#: metres per unit of every length unit a file may state
+LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
+
+#: relative tolerance on times: a time within this fraction of a frame period is "on" a frame
+TIME_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerData:
+    """A marker recording.
+
+    Parameters
+    ----------
+    names : tuple of str, (n_markers,)
+        Marker labels (for a ``node`` CSV, the node indices as strings).
+    times : (n_frames,) float
+        Capture times in seconds, increasing.
+    positions : (n_frames, n_markers, 3) float
+        Positions in metres; NaN where the marker was not seen.
+    source : str
+        The file, for messages.
+    by_node : bool
+        The names are node indices (a ``time,node,x,y,z`` CSV).
+    """
+
+    names: tuple[str, ...]
+    times: np.ndarray
+    positions: np.ndarray
+    source: str = "<markers>"
+    by_node: bool = False
+
+    @property
+    def n_markers(self) -> int:
+        return len(self.names)
+
+    @property
+    def frame_period(self) -> float:
+        """Median spacing of the capture times."""
+        return float(np.median(np.diff(self.times))) if len(self.times) > 1 else float("nan")
+
+
+# -- readers --------------------------------------------------------------------------------
+def read_markers(path: str | os.PathLike, *, units: str | None = None) -> MarkerData:
+    """Read a marker recording, ``.csv`` or ``.c3d`` (by extension); see the module docstring.
+
+    ``units`` states (CSV) or overrides (C3D) the length unit of the file: ``"m"``, ``"cm"``
+    or ``"mm"``.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return read_marker_csv(path, units=units)
+    if suffix == ".c3d":
+        return read_c3d(path, units=units)
+    raise InputError(f"unknown marker file type {suffix or '(none)'!r}; expected .csv or .c3d",
+                     source=str(path))
+
+
+def read_marker_csv(path: str | os.PathLike, *, units: str | None = None) -> MarkerData:
+    """Read a ``time,marker,x,y,z`` (or ``time,node,x,y,z``) CSV; see the module docstring."""
+    path = Path(path)
+    source = str(path)
+    header, rows, stated = _read_csv(path, required=[("time",), ("marker", "node"),
+                                                     ("x",), ("y",), ("z",)])
+    unit = _length_unit(units, stated.get("units"), source)
+    label = "node" if "node" in header else "marker"
+    times, names, coordinates = [], [], []
+    for line, row in rows:
+        time = _number(row[header["time"]], source, line, "time")
+        if not math.isfinite(time):
+            raise InputError(f"time is {row[header['time']]!r}; expected a number of seconds",
+                             source=source, line=line)
+        name = row[header[label]].strip()
+        if not name:
+            raise InputError(f"empty {label} name", source=source, line=line)
+        times.append(time)
+        names.append(name)
+        coordinates.append([_number(row[header[axis]], source, line, axis, allow_missing=True)
+                            for axis in "xyz"])
+    if not rows:
+        raise InputError("no data rows", source=source)
+    if label == "node":
+        for name, (line, _) in zip(names, rows):
+            if not re.fullmatch(r"\d+", name):
+                raise InputError(f"node {name!r} is not a node index (a non-negative integer)",
+                                 source=source, line=line)
+    frame_times, frame_of = np.unique(np.asarray(times), return_inverse=True)
+    marker_names, first_row, marker_of = np.unique(np.asarray(names), return_index=True,
+                                                   return_inverse=True)
+    # markers in the order they first appear (nodes by index)
+    order = np.argsort(marker_names.astype(int) if label == "node" else first_row, kind="stable")
+    marker_names = marker_names[order]
+    marker_of = np.argsort(order)[marker_of]
+    positions = np.full((len(frame_times), len(marker_names), 3), np.nan)
+    seen = np.zeros(positions.shape[:2], dtype=bool)
+    for line_index, (frame, marker) in enumerate(zip(frame_of, marker_of)):
+        if seen[frame, marker]:
+            line = rows[line_index][0]
+            raise InputError(f"{label} {str(marker_names[marker])!r} appears twice at time "
+                             f"{frame_times[frame]:g} s", source=source, line=line)
+        seen[frame, marker] = True
+    positions[frame_of, marker_of] = np.asarray(coordinates, dtype=float) * unit
+    return MarkerData(names=tuple(str(n) for n in marker_names), times=frame_times,
+                      positions=positions, source=source, by_node=label == "node")
+
+
+def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData:
+    """Read the 3-D points of a C3D optical-capture file (``c3d`` package)."""
+    import struct
+
+    import c3d
+
+    path = Path(path)
+    source = str(path)
+    if not path.is_file():
+        raise InputError("no such file", source=source)
+    try:
+        with open(path, "rb") as handle, warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            reader = c3d.Reader(handle)
+            labels = [str(name).strip() for name in reader.point_labels]
+            rate = float(reader.point_rate)
+            expected = int(reader.last_frame) - int(reader.first_frame) + 1
+            stated = _c3d_units(reader)
+            frames = [points[:, :4].astype(float) for _, points, _ in reader.read_frames()]
+    except (struct.error, ValueError, KeyError, IndexError, EOFError, OSError, AttributeError,
+            TypeError) as error:
+        raise InputError(f"not a readable C3D file ({type(error).__name__}: {error})",
+                         source=source) from None
+    truncated = [w for w in caught if "end of file" in str(w.message).lower()]
+    if truncated or len(frames) < expected:
+        raise InputError(f"truncated C3D file: the header announces {expected} frames, the "
+                         f"file holds {len(frames)}", source=source)
+    if not frames or not labels:
+        raise InputError("the file holds no 3-D points", source=source)
+    if not (math.isfinite(rate) and rate > 0):
+        raise InputError(f"point rate {rate} is not a positive number", source=source)
+    unit = _length_unit(units, stated, source)
+    data = np.stack(frames)                                    # (T, M, 4)
+    positions = np.where(data[:, :, 3:4] < 0, np.nan, data[:, :, :3]) * unit
+    names = tuple(label or f"marker{i}" for i, label in enumerate(labels))
+    if len(set(names)) != len(names):
+        raise InputError("two points share a label; labels must be unique", source=source)
+    times = np.arange(len(frames)) / rate
+    return MarkerData(names=names, times=times, positions=positions[:, :len(names)],
+                      source=source)
+
+
+def read_marker_map(path: str | os.PathLike) -> dict[str, int]:
+    """Read a ``marker,node`` CSV: marker name → node index."""
+    path = Path(path)
+    header, rows, _ = _read_csv(path, required=[("marker",), ("node",)])
+    mapping: dict[str, int] = {}
+    for line, row in rows:
+        name = row[header["marker"]].strip()
+        node = row[header["node"]].strip()
+        if not re.fullmatch(r"\d+", node):
+            raise InputError(f"node {node!r} is not a node index (a non-negative integer)",
+                             source=str(path), line=line)
+        if name in mapping:
+            raise InputError(f"marker {name!r} is mapped twice", source=str(path), line=line)
+        mapping[name] = int(node)
+    return mapping
+
+
+def read_forces(path: str | os.PathLike, *, n_nodes: int, times: np.ndarray) -> np.ndarray:
+    """Applied forces of a ``time,node,fx,fy,fz`` CSV (newtons) at the given frame times.
+
+    Returns
+    -------
+    forces : (n_frames, n_nodes, 3) float
+        ``forces[t]`` is the force in effect at ``times[t]`` (and until the next frame): each
+        row holds until the next row of the same node, zero before a node's first row.
+    """
+    path = Path(path)
+    source = str(path)
+    header, rows, stated = _read_csv(path, required=[("time",), ("node",), ("fx",), ("fy",),
+                                                     ("fz",)])
+    if stated.get("units") not in (None, "N", "n"):
+        raise InputError(f"force unit {stated['units']!r}; forces must be in newtons (N)",
+                         source=source)
+    times = np.asarray(times, float)
+    period = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
+    forces = np.zeros((len(times), n_nodes, 3))
+    entries = []
+    for line, row in rows:
+        time = _number(row[header["time"]], source, line, "time")
+        node = row[header["node"]].strip()
+        if not re.fullmatch(r"\d+", node) or int(node) >= n_nodes:
+            raise InputError(f"node {node!r} is not a node index of this model (0.."
+                             f"{n_nodes - 1})", source=source, line=line)
+        value = [_number(row[header[key]], source, line, key) for key in ("fx", "fy", "fz")]
+        if not (math.isfinite(time) and all(map(math.isfinite, value))):
+            raise InputError("NaN or infinite value; every force row needs numbers",
+                             source=source, line=line)
+        entries.append((time, int(node), value))
+    entries.sort(key=lambda entry: entry[0])          # stable: file order within a time
+    for time, node, value in entries:
+        start = np.searchsorted(times, time - TIME_TOLERANCE * period)
+        forces[start:, node] = value
+    return forces
+
+
+# -- markers → experiment -------------------------------------------------------------------
+def match_markers(markers: MarkerData, mesh: Mesh, *, mapping: dict[str, int] | None = None,
+                  max_distance: float | None = None) -> dict[str, int]:
+    """Marker name → node index.
+
+    With ``mapping`` (e.g. from :func:`read_marker_map`) the map is checked and used; markers
+    it leaves out are dropped. A ``node`` CSV maps each marker to its node. Otherwise each
+    marker goes to the node nearest to its first seen position; it must lie within
+    ``max_distance`` (default: half the shortest spring), and no two markers may share a node.
+    """
+    source = markers.source
+    n_nodes = mesh.n_nodes
+    if markers.by_node and mapping is None:
+        mapping = {name: int(name) for name in markers.names}
+    if mapping is not None:
+        for name, node in mapping.items():
+            if name not in markers.names:
+                hint = closest_name(name, markers.names)
+                raise InputError(f"the map names marker {name!r}, which the recording does not "
+                                 "have" + (f"; did you mean {hint!r}?" if hint else ""),
+                                 source=source)
+            if not 0 <= node < n_nodes:
+                raise InputError(f"marker {name!r} is mapped to node {node}; the model has "
+                                 f"{n_nodes} nodes (0..{n_nodes - 1})", source=source)
+        _no_shared_nodes(mapping, source)
+        return dict(mapping)
+    limit = 0.5 * float(np.min(mesh.rest_lengths)) if max_distance is None else max_distance
+    first = _first_seen(markers)
+    distance = np.linalg.norm(first[:, None, :] - mesh.rest_positions[None, :, :], axis=2)
+    nearest = np.argmin(distance, axis=1)
+    gap = distance[np.arange(markers.n_markers), nearest]
+    far = np.flatnonzero(~(gap <= limit))
+    if far.size:
+        worst = far[np.argmax(gap[far])]
+        raise InputError(f"{far.size} marker(s) lie farther than {limit:.3g} m from every node, "
+                         f"e.g. {markers.names[worst]!r} at {gap[worst]:.3g} m from node "
+                         f"{nearest[worst]}; check the units and the coordinate frame, or give "
+                         "a map file (marker,node) or a larger max_distance", source=source)
+    mapping = {name: int(node) for name, node in zip(markers.names, nearest)}
+    _no_shared_nodes(mapping, source)
+    return mapping
+
+
+def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None = None,
+                          mapping: dict[str, int] | None = None,
+                          max_distance: float | None = None,
+                          forces: str | os.PathLike | np.ndarray | None = None,
+                          masses: np.ndarray | None = None,
+                          source: str | None = None) -> tuple[Experiment, dict]:
+    """An experiment from a marker recording on ``mesh``.
+
+    Parameters
+    ----------
+    markers : MarkerData
+    mesh : Mesh
+        The model's topology; its rest positions are in the recording's coordinate frame.
+    dt : float, optional
+        The model's step, the spacing of the experiment's frames (default: the capture's
+        frame period). Frames are resampled to it: a frame on a capture time takes that
+        capture; a frame between two consecutive captures in which the marker was seen is
+        linearly interpolated; anything else (a marker not seen, a dropped capture frame, a
+        frame between captures more than one period apart) is a gap. Upsampling gives
+        piecewise-linear motion: prefer the capture rate with ``substeps`` in the fit.
+    mapping, max_distance
+        As in :func:`match_markers`.
+    forces : path or (n_frames, n_nodes, 3) array, optional
+        A force CSV (:func:`read_forces`) or forces at the experiment's frames.
+    masses : (n_nodes,) float, optional
+        Known node masses.
+
+    Returns
+    -------
+    experiment : Experiment
+        Frame 0 is the first capture at which every matched marker is seen (earlier frames are
+        dropped). A marker is attached to its node: its constant offset from the node at
+        frame 0 is removed, so the node starts at its rest position.
+    summary : dict
+        ``markers``, ``nodes`` (matched), ``unmatched`` (markers left out by the map),
+        ``dt``, ``frames``, ``dropped_leading_frames``, ``gaps`` (fraction of missing
+        (frame, observed node) values), ``capture_period``.
+    """
+    mapping = match_markers(markers, mesh, mapping=mapping, max_distance=max_distance)
+    names = list(mapping)
+    columns = [markers.names.index(name) for name in names]
+    nodes = np.array([mapping[name] for name in names], dtype=np.intp)
+    capture = markers.positions[:, columns]                  # (T_capture, K, 3)
+    seen = np.isfinite(capture).all(axis=2)
+    complete = np.flatnonzero(seen.all(axis=1))
+    if complete.size == 0:
+        raise InputError("no capture frame sees every matched marker, so the initial state is "
+                         "unknown; map fewer markers or repair the recording",
+                         source=markers.source)
+    first = int(complete[0])
+    times = markers.times[first:] - markers.times[first]
+    capture = capture[first:]
+    period = markers.frame_period
+    if dt is None:
+        dt = period
+    if not (dt is not None and math.isfinite(dt) and dt > 0):
+        raise InputError(f"the time step {dt} is not a positive number; give dt", key="dt")
+    n_frames = int(math.floor(times[-1] / dt * (1 + TIME_TOLERANCE) + TIME_TOLERANCE)) + 1
+    if n_frames < 2:
+        raise InputError(f"the recording spans {times[-1]:.3g} s, less than one step of "
+                         f"{dt:.3g} s", source=markers.source)
+    resampled = _resample(times, capture, np.arange(n_frames) * dt, period)
+    positions = np.full((n_frames, mesh.n_nodes, 3), np.nan)
+    # attach each marker to its node: remove its offset at frame 0
+    positions[:, nodes] = resampled + (mesh.rest_positions[nodes] - resampled[0])[None]
+    observed = np.zeros(mesh.n_nodes, dtype=bool)
+    observed[nodes] = True
+    if isinstance(forces, (str, os.PathLike)):
+        forces = read_forces(forces, n_nodes=mesh.n_nodes,
+                             times=np.arange(n_frames) * dt + markers.times[first])
+    experiment = Experiment(mesh=mesh, dt=float(dt), positions=positions,
+                            external_forces=forces, observed=observed, masses=masses,
+                            source=source or markers.source)
+    measured = experiment.measured()[:, observed]
+    summary = {
+        "markers": len(names), "nodes": nodes.tolist(),
+        "unmatched": [n for n in markers.names if n not in mapping],
+        "dt": float(dt), "frames": n_frames, "capture_period": period,
+        "dropped_leading_frames": first, "gaps": float(1.0 - measured.mean()),
+    }
+    return experiment, summary
+
+
+# -- helpers --------------------------------------------------------------------------------
+def _resample(times: np.ndarray, values: np.ndarray, targets: np.ndarray,
+              period: float) -> np.ndarray:
+    """Values (T, K, 3) with NaN gaps at ``targets``: exact on capture times, linear between
+    two consecutive captures (no dropped frame between them) that both saw the marker."""
+    tolerance = TIME_TOLERANCE * period
+    right = np.clip(np.searchsorted(times, targets - tolerance), 0, len(times) - 1)
+    on_frame = np.abs(times[right] - targets) <= tolerance
+    left = np.clip(right - 1, 0, len(times) - 1)
+    out = np.where(on_frame[:, None, None], values[right], np.nan)
+    between = ~on_frame & (right > 0)
+    consecutive = (times[right] - times[left]) <= 1.5 * period
+    weight = np.where(between, (targets - times[left]) / np.where(between, times[right]
+                                                                   - times[left], 1.0), 0.0)
+    interpolated = (values[left] * (1 - weight)[:, None, None]
+                    + values[right] * weight[:, None, None])     # NaN if either end is a gap
+    use = between & consecutive
+    out[use] = interpolated[use]
+    return out
+
+
+def _first_seen(markers: MarkerData) -> np.ndarray:
+    """(n_markers, 3): each marker's first seen position."""
+    seen = np.isfinite(markers.positions).all(axis=2)
+    never = np.flatnonzero(~seen.any(axis=0))
+    if never.size:
+        raise InputError(f"marker {markers.names[never[0]]!r} is never seen",
+                         source=markers.source)
+    first = np.argmax(seen, axis=0)
+    return markers.positions[first, np.arange(markers.n_markers)]
+
+
+def _no_shared_nodes(mapping: dict[str, int], source: str) -> None:
+    by_node: dict[int, str] = {}
+    for name, node in mapping.items():
+        if node in by_node:
+            raise InputError(f"markers {by_node[node]!r} and {name!r} both belong to node "
+                             f"{node}; give a map file (marker,node) that attaches each marker "
+                             "to its own node", source=source)
+        by_node[node] = name
+
+
+def _length_unit(flag: str | None, stated: str | None, source: str) -> float:
+    unit = flag or stated
+    if unit is None:
+        raise InputError("the length unit is not stated; add a line '# units: mm' (m, cm or mm)"
+                         " or pass the unit (--units)", source=source)
+    unit = unit.strip().lower()
+    if unit not in LENGTH_UNITS:
+        hint = closest_name(unit, LENGTH_UNITS)
+        raise InputError(f"unknown length unit {unit!r}; expected one of "
+                         f"{', '.join(LENGTH_UNITS)}" + (f" (did you mean {hint!r}?)"
+                                                        if hint else ""), source=source)
+    return LENGTH_UNITS[unit]
+
+
+def _c3d_units(reader) -> str | None:
+    parameter = reader.get("POINT:UNITS")
+    if parameter is None:
+        return None
+    try:
+        return parameter.string_value.strip() or None
+    except (ValueError, UnicodeDecodeError):
+        return None
+
+
+def _read_csv(path: Path, required: list[tuple[str, ...]]):
+    """Header (column name → index), data rows as (line, cells), stated ``# key: value``."""
+    source = str(path)
+    if not path.is_file():
+        raise InputError("no such file", source=source)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"cannot read the file ({error})", source=source) from None
+    stated: dict[str, str] = {}
+    header = None
+    rows = []
+    for line, cells in enumerate(csv.reader(text.splitlines()), start=1):
+        if not cells or not "".join(cells).strip():
+            continue
+        if cells[0].lstrip().startswith("#"):
+            comment = ",".join(cells).lstrip()[1:]
+            if ":" in comment:
+                key, value = comment.split(":", 1)
+                stated[key.strip().lower()] = value.strip()
+            continue
+        if header is None:
+            header = {name.strip().lower(): i for i, name in enumerate(cells)}
+            for choices in required:
+                if not any(choice in header for choice in choices):
+                    wanted = ",".join(choice[0] if len(choice) == 1 else "|".join(choice)
+                                      for choice in required)
+                    raise InputError(f"missing column {'/'.join(choices)!r}; the header must "
+                                     f"name the columns {wanted}, got {','.join(cells)}",
+                                     source=source, line=line)
+            width = len(cells)
+            continue
+        if len(cells) != width:
+            raise InputError(f"{len(cells)} values; the header has {width} columns",
+                             source=source, line=line)
+        rows.append((line, cells))
+    if header is None:
+        raise InputError("empty file: no header line", source=source)
+    return header, rows, stated
+
+
+def _number(text: str, source: str, line: int, column: str, *,
+            allow_missing: bool = False) -> float:
+    text = text.strip()
+    if allow_missing and text.lower() in ("", "nan", "na"):
+        return float("nan")
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{column} is {text!r}; expected a number", source=source,
+                         line=line) from None
+    if allow_missing and math.isinf(value):
+        raise InputError(f"{column} is infinite", source=source, line=line)
+    return value
