@@ -85,9 +85,29 @@ def _parser() -> argparse.ArgumentParser:
                                       "what the data determine, and with --rules the "
                                       "before/after words")
     fit.add_argument("--out", help="write the fitted model as YAML")
+    fit.add_argument("--export", metavar="DIR",
+                     help="write the fitted model's simulation of the first experiment next "
+                          "to the measurement as ParaView files (VTU series + PVD, XDMF); "
+                          "the report links them")
     fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
     fit.set_defaults(run=_fit)
+
+    export = commands.add_parser(
+        "export", help="model and trajectories -> ParaView files (VTU/PVD, XDMF)",
+        description="Simulate a model (YAML) under an experiment's load and write simulated "
+                    "and measured trajectories, errors, strains and spring parameters as a "
+                    "VTU time series (open the .pvd) and an XDMF file, through meshio.")
+    export.add_argument("model", metavar="MODEL.yaml")
+    export.add_argument("experiment", nargs="?", metavar="EXPERIMENT.npz",
+                        help="measured trajectories and load (default: the model at rest)")
+    export.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    export.add_argument("--stem", default="neurofuzzy", help="file name stem")
+    export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
+    export.add_argument("--formats", nargs="+", default=["vtu", "xdmf"],
+                        choices=("vtu", "xdmf"))
+    export.add_argument("--substeps", default="1", help="steps per frame of the simulation")
+    export.set_defaults(run=_export)
 
     diagnose = commands.add_parser(
         "diagnose", help="find the physical effect the model lacks",
@@ -261,12 +281,22 @@ def _fit(args) -> int:
     learner.fit(start, experiments)
     if args.out:
         save_model(learner.model_, args.out)
+    files = {"fitted model": args.out} if args.out else {}
+    exported = {}
+    if args.export:
+        from .export import export_paraview
+
+        exported = export_paraview(args.export, learner.model_, experiments[0],
+                                   substeps=getattr(learner, "substeps_", 1),
+                                   stem=Path(inputs[0]).stem)
+        files.update({f"ParaView {kind}": path for kind, path in exported.items()
+                      if kind in ("pvd", "xdmf")})
     if args.report:
         from .report import fit_report
         from .rules import load_rules
 
         fit_report(load_rules(args.rules) if args.rules else None, args.tissue, start,
-                   learner, args.report)
+                   learner, args.report, files=files)
     result = learner.to_dict()
     result.update(method=args.method, tie=args.tie, experiments=[str(p) for p in inputs],
                   start=info)
@@ -280,7 +310,22 @@ def _fit(args) -> int:
         print(learner.model_.summary())
         print(f"RMS error: {result['rms_error_initial']:.4g} -> {result['rms_error']:.4g} "
               f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
-        _written(args.out, args.report)
+        _written(args.out, args.report, exported.get("pvd"), exported.get("xdmf"))
+    return 0
+
+
+def _export(args) -> int:
+    from .export import export_paraview
+    from .io import load_experiment, load_model
+
+    model = load_model(args.model)
+    experiment = load_experiment(args.experiment) if args.experiment else None
+    written = export_paraview(args.out, model, experiment, every=args.every,
+                              substeps=_substeps(args.substeps), stem=args.stem,
+                              formats=args.formats)
+    frames = len(written.get("vtu", [])) or 1
+    _written(written.get("pvd"), written.get("xdmf"))
+    print(f"{frames} frames; open the .pvd in ParaView to play the simulation")
     return 0
 
 

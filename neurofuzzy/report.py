@@ -11,6 +11,7 @@ import base64
 import html
 import io
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -221,14 +222,15 @@ def identifiability_html(learner) -> tuple[str, list]:
 
 
 def fit_report(rules, tissue: str | None, start, learner, path, *,
-               title: str | None = None) -> Path:
+               title: str | None = None, files: dict | None = None) -> Path:
     """HTML + JSON report of a fit.
 
     With a rule base and tissue: the expert's words, the start and learned values, the learned
     words with degrees, each change highlighted, the input words that best reproduce the
     learned values, and the membership functions with the before and after values marked.
     Always: the error curve, the learned parameters and what the data cannot determine (with
-    a suggested extra load case).
+    a suggested extra load case). ``files`` (label → path) are linked, relative to the report
+    (e.g. the fitted model and the ParaView files of :func:`neurofuzzy.export.export_paraview`).
     """
     plt = _pyplot()
     sections, data = [], {}
@@ -254,8 +256,25 @@ def fit_report(rules, tissue: str | None, start, learner, path, *,
     if getattr(learner, "identifiability_", None) is not None:
         data.update(learner.identifiability_.to_dict())
         data["unidentifiable"] = suggestions
+    if files:
+        links = {label: _relative(target, Path(path).parent) for label, target in files.items()}
+        sections.append(("Files", "<ul>" + "".join(
+            f'<li>{html.escape(label)}: <a href="{html.escape(link)}">{html.escape(link)}</a>'
+            "</li>" for label, link in links.items()) + "</ul>"
+            "<p>Open the <code>.pvd</code> in ParaView to play the simulated motion (arrays "
+            "<code>measured</code>, <code>error</code>, <code>strain</code>, "
+            "<code>stiffness</code> per frame); the <code>.xdmf</code> holds the same on the "
+            "rest shape (apply Warp By Vector with <code>displacement_simulated</code>).</p>"))
+        data["files"] = links
     return write_report(path, title or f"neurofuzzy fit{': ' + tissue if tissue else ''}",
                         sections, data)
+
+
+def _relative(target, folder: Path) -> str:
+    try:
+        return Path(os.path.relpath(Path(target).resolve(), folder.resolve())).as_posix()
+    except ValueError:          # another drive (Windows)
+        return Path(target).resolve().as_posix()
 
 
 def _words_sections(rules, tissue, start, learner):

@@ -155,3 +155,36 @@ def test_never_writes_over_the_rule_file(cube_file, tmp_path):
     result = run_cli("fit", cube_file, "--rules", rules, "--tissue", "t", "--out", rules)
     assert result.returncode == 2 and "never writes over its input" in result.stderr
     assert rules.read_text() == "name: x\n"
+
+
+def test_fit_exports_paraview_files_and_the_report_links_them(cube_file, tmp_path, capsys):
+    import meshio
+
+    report = tmp_path / "fit.html"
+    status = main(["fit", str(cube_file), "--tie", "global", "--quiet", "--out",
+                   str(tmp_path / "fitted.yaml"), "--export", str(tmp_path / "paraview"),
+                   "--report", str(report)])
+    assert status == 0
+    frames = sorted((tmp_path / "paraview").glob("cube_*.vtu"))
+    assert len(frames) == 251
+    last = meshio.read(frames[-1])
+    assert np.allclose(last.point_data["measured"], np.load(cube_file)["positions"][-1],
+                       atol=1e-12)
+    text = report.read_text()
+    assert 'href="paraview/cube.pvd"' in text and 'href="fitted.yaml"' in text
+    assert json.loads(report.with_suffix(".json").read_text())["files"]["ParaView xdmf"] == \
+        "paraview/cube.xdmf"
+
+
+def test_export_command_writes_a_thinned_series(cube_file, tmp_path, capsys):
+    from neurofuzzy.datasets import paper_cube_model
+    from neurofuzzy.io import save_model
+
+    model = save_model(paper_cube_model(), tmp_path / "cube.yaml")
+    assert main(["export", str(model), str(cube_file), "--out", str(tmp_path / "pv"),
+                 "--every", "50", "--formats", "vtu"]) == 0
+    assert sorted(p.name for p in (tmp_path / "pv").iterdir()) == [
+        "neurofuzzy.pvd", *(f"neurofuzzy_{t:04d}.vtu" for t in range(0, 251, 50))]
+    assert main(["export", str(model), str(cube_file), "--out", str(tmp_path / "pv"),
+                 "--every", "0"]) == 2
+    assert "every" in capsys.readouterr().err
