@@ -26,7 +26,7 @@ __all__ = ["load_experiment", "save_experiment", "load_model", "save_model", "at
 
 REQUIRED_KEYS = ("rest_positions", "springs", "dt", "positions")
 OPTIONAL_KEYS = ("fixed", "external_forces", "observed", "masses", "spring_groups",
-                 "group_names")
+                 "group_names", "tetrahedra")
 MODEL_FORMAT = "neurofuzzy-model/1"
 
 
@@ -106,18 +106,20 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
             raise InputError("expected a 1-D array of strings", source=source,
                              key="group_names")
         group_names = tuple(str(n) for n in names)
-    for key in ("rest_positions", "springs", "fixed", "spring_groups"):
+    for key in ("rest_positions", "springs", "fixed", "spring_groups", "tetrahedra"):
         if key in data and data[key].dtype.kind not in "iuf":
             raise InputError(f"expected numbers, got dtype {data[key].dtype}", source=source,
                              key=key)
-    if "springs" in data and data["springs"].dtype.kind == "f":
-        raise InputError(f"expected integer node indices, got dtype {data['springs'].dtype}",
-                         source=source, key="springs")
+    for key in ("springs", "tetrahedra"):
+        if key in data and data[key].dtype.kind == "f":
+            raise InputError(f"expected integer node indices, got dtype {data[key].dtype}",
+                             source=source, key=key)
     mesh = check("springs", lambda: Mesh(rest_positions=data["rest_positions"],
                                          springs=data["springs"],
                                          spring_group=data.get("spring_groups"),
                                          group_names=group_names,
-                                         fixed=data.get("fixed", np.zeros(0, dtype=np.intp))))
+                                         fixed=data.get("fixed", np.zeros(0, dtype=np.intp)),
+                                         tetrahedra=data.get("tetrahedra")))
     truth = {key: value for key, value in data.items() if key.startswith("true_")}
     return Experiment(mesh=mesh, dt=data["dt"], positions=data["positions"],
                       external_forces=data.get("external_forces"),
@@ -139,6 +141,8 @@ def save_experiment(experiment: Experiment, path: str | os.PathLike) -> Path:
         "spring_groups": mesh.spring_group,
         "group_names": np.array(mesh.group_names, dtype=str),
     }
+    if mesh.tetrahedra is not None:
+        data["tetrahedra"] = mesh.tetrahedra
     if experiment.external_forces is not None:
         data["external_forces"] = experiment.external_forces
     if experiment.masses is not None:
@@ -158,7 +162,7 @@ def model_to_dict(model: SpringMassModel) -> dict:
     from .effects import effect_to_dict
 
     mesh = model.mesh
-    return {
+    data = {
         "format": MODEL_FORMAT,
         "nodes": {
             "rest_positions": mesh.rest_positions.tolist(),
@@ -176,6 +180,9 @@ def model_to_dict(model: SpringMassModel) -> dict:
         },
         "effects": [effect_to_dict(effect) for effect in model.effects],
     }
+    if mesh.tetrahedra is not None:
+        data["tetrahedra"] = mesh.tetrahedra.tolist()
+    return data
 
 
 def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
@@ -190,7 +197,7 @@ def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
         mesh = Mesh(rest_positions=nodes["rest_positions"], springs=springs["nodes"],
                     spring_group=springs.get("group"),
                     group_names=tuple(springs.get("group_names", ())),
-                    fixed=nodes.get("fixed", []))
+                    fixed=nodes.get("fixed", []), tetrahedra=data.get("tetrahedra"))
         return SpringMassModel(
             mesh, node_mass=nodes["mass"], spring_stiffness=springs["stiffness"],
             spring_damping=springs["damping"], spring_rest_length=springs.get("rest_length"),

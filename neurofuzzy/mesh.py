@@ -11,11 +11,21 @@ lattice
 from_trimesh
     Voxelise a closed triangle surface (a :class:`trimesh.Trimesh`) and build the same kind of
     lattice from the cells that lie inside it.
+from_tetra
+    The edges of a tetrahedral mesh (points and tetrahedra, e.g. read with meshio), with one
+    spring group per region of tetrahedra and a group ``"interface"`` between regions.
+from_surface_tetra
+    Tetrahedralise a closed triangle surface with TetGen (the optional ``tetgen`` package) and
+    build the springs as :func:`from_tetra` does.
+
+Lattice meshes carry no tetrahedra (``Mesh.tetrahedra is None``); tetrahedral meshes keep
+theirs, so :mod:`neurofuzzy.rules` can weigh every spring by the volume of the tetrahedra
+around it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
@@ -23,7 +33,8 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["Mesh", "lattice", "from_trimesh", "bottom_layer"]
+__all__ = ["Mesh", "lattice", "from_trimesh", "from_tetra", "from_surface_tetra",
+           "bottom_layer"]
 
 Diagonals = Literal["none", "body", "face", "both"]
 
@@ -40,6 +51,8 @@ _GROUPS_FOR: dict[str, tuple[str, ...]] = {
     "face": ("edge", "face_diagonal"),
     "both": ("edge", "diagonal", "face_diagonal"),
 }
+#: The six edges of a tetrahedron, as pairs of its local vertex indices.
+_TET_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +72,11 @@ class Mesh:
         Name of every group index (default ``"group0"``, ``"group1"``, …).
     fixed : (n_fixed,) int, optional
         Nodes held at their rest positions.
+    tetrahedra : (n_tets, 4) int, optional
+        The volume cells of a tetrahedral mesh (node indices, four distinct per row); ``None``
+        for lattices and other meshes without tetrahedra. The springs need not be exactly the
+        tetrahedron edges, but rule-based parameters (:mod:`neurofuzzy.rules`) need every
+        spring to be an edge of some tetrahedron.
     """
 
     rest_positions: np.ndarray
@@ -66,6 +84,7 @@ class Mesh:
     spring_group: np.ndarray | None = None
     group_names: tuple[str, ...] = ()
     fixed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    tetrahedra: np.ndarray | None = None
 
     def __post_init__(self):
         positions = _as_float_array(self.rest_positions, "rest_positions")
@@ -103,11 +122,16 @@ class Mesh:
             raise InputError(f"{len(names)} names for {n_groups} groups", key="group_names")
         fixed = np.unique(_as_index_array(self.fixed, "fixed").ravel())
         _check_range(fixed, n_nodes, "fixed")
+        tetrahedra = None
+        if self.tetrahedra is not None:
+            tetrahedra = _check_tetrahedra(self.tetrahedra, n_nodes)
         for name, value in (("rest_positions", positions), ("springs", springs),
-                            ("spring_group", groups), ("group_names", names), ("fixed", fixed)):
+                            ("spring_group", groups), ("group_names", names), ("fixed", fixed),
+                            ("tetrahedra", tetrahedra)):
             object.__setattr__(self, name, value)
-        for array in (positions, springs, groups, fixed):
-            array.setflags(write=False)
+        for array in (positions, springs, groups, fixed, tetrahedra):
+            if array is not None:
+                array.setflags(write=False)
 
     @property
     def n_nodes(self) -> int:
@@ -126,6 +150,11 @@ class Mesh:
         """(n_springs,) float: spring lengths in the rest configuration."""
         a, b = self.springs.T
         return np.linalg.norm(self.rest_positions[b] - self.rest_positions[a], axis=1)
+
+    @property
+    def n_tetrahedra(self) -> int:
+        """Number of tetrahedra (0 for a mesh without them)."""
+        return 0 if self.tetrahedra is None else self.tetrahedra.shape[0]
 
     @property
     def free(self) -> np.ndarray:
@@ -221,9 +250,7 @@ def from_trimesh(mesh, pitch: float, *, diagonals: Diagonals = "body") -> Mesh:
     diagonals : {"body", "face", "both", "none"}
         As in :func:`lattice`.
     """
-    if not getattr(mesh, "is_watertight", False):
-        raise InputError("the surface is not watertight (closed), so its inside is undefined; "
-                         "repair it first, e.g. with trimesh.repair.fill_holes", key="mesh")
+    _require_watertight(mesh)
     if not (np.isfinite(pitch) and pitch > 0):
         raise InputError(f"got {pitch}; expected a positive length", key="pitch")
     grid = mesh.voxelized(pitch).fill()
@@ -240,6 +267,127 @@ def from_trimesh(mesh, pitch: float, *, diagonals: Diagonals = "body") -> Mesh:
         raise InputError(f"pitch {pitch} is too coarse: no complete cell fits inside the surface",
                          key="pitch")
     return _cell_lattice(cells, np.full(3, float(pitch)), origin, diagonals)
+
+
+def from_tetra(points, tetrahedra, *, cell_region=None,
+               region_names: Mapping[int, str] | None = None) -> Mesh:
+    """A spring network on the edges of a tetrahedral mesh.
+
+    Nodes are the points that belong to some tetrahedron (renumbered in the order of their
+    index in ``points``; points in no tetrahedron are dropped). Springs are the unique
+    tetrahedron edges, ``(a, b)`` with ``a < b``, sorted. The tetrahedra are kept on the mesh
+    (``Mesh.tetrahedra``, in the new node numbering).
+
+    Parameters
+    ----------
+    points : (n_points, 3) float
+        Point coordinates.
+    tetrahedra : (n_tets, 4) int
+        Point indices of every tetrahedron.
+    cell_region : (n_tets,) int, optional
+        Region id of every tetrahedron (e.g. Gmsh physical tags). A spring whose every
+        containing tetrahedron lies in region ``r`` goes to the spring group of ``r``; a spring
+        shared by tetrahedra of different regions goes to the group ``"interface"``.
+    region_names : dict of int → str, optional
+        Group name of a region id (default ``"region{r}"``).
+
+    Returns
+    -------
+    Mesh
+        Without ``cell_region`` every spring is in one group ``"edge"``. With it, the groups
+        are the regions in increasing id that own at least one spring, then ``"interface"``
+        (if any spring is shared).
+    """
+    points = _as_float_array(points, "points")
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"got shape {points.shape}; expected (n_points, 3)", key="points")
+    tetrahedra = _as_index_array(tetrahedra, "tetrahedra")
+    if tetrahedra.ndim != 2 or tetrahedra.shape[1] != 4 or len(tetrahedra) == 0:
+        raise InputError(f"got shape {tetrahedra.shape}; expected (n_tets, 4) with n_tets >= 1",
+                         key="tetrahedra")
+    _check_range(tetrahedra, len(points), "tetrahedra")
+    used, local = np.unique(tetrahedra, return_inverse=True)
+    local = local.reshape(tetrahedra.shape)
+    n_nodes = len(used)
+    edges = np.sort(local[:, _TET_EDGES].reshape(-1, 2), axis=1)     # (6 n_tets, 2)
+    keys, edge_spring = np.unique(edges[:, 0] * n_nodes + edges[:, 1], return_inverse=True)
+    springs = np.stack([keys // n_nodes, keys % n_nodes], axis=1)
+    if cell_region is None:
+        spring_group = np.zeros(len(springs), dtype=np.intp)
+        group_names: tuple[str, ...] = ("edge",)
+    else:
+        region = _as_index_array(cell_region, "cell_region")
+        if region.shape != (len(tetrahedra),):
+            raise InputError(f"got shape {region.shape}; expected ({len(tetrahedra)},), one "
+                             "region id per tetrahedron", key="cell_region")
+        edge_region = np.repeat(region, len(_TET_EDGES))
+        lowest = np.full(len(springs), region.max())
+        highest = np.full(len(springs), region.min())
+        np.minimum.at(lowest, edge_spring, edge_region)
+        np.maximum.at(highest, edge_spring, edge_region)
+        shared = lowest != highest
+        owners = np.unique(lowest[~shared])
+        spring_group = np.searchsorted(owners, lowest)
+        spring_group[shared] = len(owners)
+        names = dict(region_names or {})
+        group_names = tuple(str(names.get(int(r), f"region{int(r)}")) for r in owners)
+        if shared.any():
+            group_names += ("interface",)
+        if len(set(group_names)) < len(group_names):
+            raise InputError(f"region names must differ from each other and from 'interface'; "
+                             f"got {list(group_names)}", key="region_names")
+    return Mesh(rest_positions=points[used], springs=springs, spring_group=spring_group,
+                group_names=group_names, tetrahedra=local)
+
+
+def from_surface_tetra(surface, *, max_edge: float | None = None, quality: bool = True) -> Mesh:
+    """Tetrahedralise a closed surface with TetGen and put springs on the tetrahedron edges.
+
+    Needs the optional ``tetgen`` package (``pip install tetgen``; it installs with numpy
+    only). The surface vertices are kept as nodes; TetGen adds points inside (and, with
+    ``quality``, on the surface) as needed.
+
+    Parameters
+    ----------
+    surface : trimesh.Trimesh
+        A watertight triangle surface.
+    max_edge : float, optional
+        Target edge length, in the surface's length unit. TetGen bounds the volume of every
+        tetrahedron by that of a regular tetrahedron with this edge, ``max_edge³ / (6√2)``, so
+        edge lengths scatter around it (for a box: median 0.9, 90th percentile 1.1, largest
+        1.4 × ``max_edge``). Default: no volume bound (the coarsest mesh TetGen's quality
+        criterion allows).
+    quality : bool
+        Let TetGen add points to bound the radius-edge ratio of every tetrahedron (TetGen's
+        ``-q``; default ratio 2). Without it, slivers are likely.
+
+    Returns
+    -------
+    Mesh
+        As :func:`from_tetra` without regions: one spring group ``"edge"``.
+    """
+    _require_watertight(surface)
+    options: dict = {"quality": bool(quality)}
+    if max_edge is not None:
+        if not (np.isfinite(max_edge) and max_edge > 0):
+            raise InputError(f"got {max_edge}; expected a positive length", key="max_edge")
+        options.update(maxvolume=float(max_edge) ** 3 / (6.0 * np.sqrt(2.0)), fixedvolume=True)
+    try:
+        import tetgen
+    except ImportError:
+        raise InputError("tetrahedral meshing needs the optional tetgen package: "
+                         "pip install tetgen, or neurofuzzy[tetra] (or use the voxel lattice, "
+                         "from_trimesh)",
+                         key="method") from None
+    vertices = np.asarray(surface.vertices, dtype=np.float64)
+    faces = np.asarray(surface.faces, dtype=np.int32)
+    try:
+        nodes, elements = tetgen.TetGen(vertices, faces).tetrahedralize(**options)[:2]
+    except RuntimeError as error:       # TetGen's way of saying the surface is unusable
+        raise InputError(f"TetGen could not tetrahedralise the surface ({error}); check it "
+                         "for self-intersections, e.g. with trimesh or pymeshfix",
+                         key="mesh") from None
+    return from_tetra(nodes, elements)
 
 
 def _cell_lattice(cells: np.ndarray, spacing: np.ndarray, origin: np.ndarray,
@@ -296,7 +444,11 @@ def _as_float_array(value, key: str) -> np.ndarray:
 
 
 def _as_index_array(value, key: str) -> np.ndarray:
-    array = np.array(value)
+    try:
+        array = np.array(value)
+    except ValueError:          # ragged nested lists
+        raise InputError("expected a rectangular array of integer indices (rows of equal "
+                         "length)", key=key) from None
     if array.size == 0:
         return array.astype(np.intp).reshape(array.shape)
     if array.dtype == bool or not np.issubdtype(array.dtype, np.integer):
@@ -311,3 +463,23 @@ def _check_range(index: np.ndarray, n_nodes: int, key: str) -> None:
         bad = index[(index < 0) | (index >= n_nodes)].ravel()[0]
         raise InputError(f"node index {int(bad)} is out of range; the mesh has {n_nodes} nodes "
                          f"(valid 0..{n_nodes - 1})", key=key)
+
+
+def _require_watertight(mesh) -> None:
+    if not getattr(mesh, "is_watertight", False):
+        raise InputError("the surface is not watertight (closed), so its inside is undefined; "
+                         "repair it first, e.g. with trimesh.repair.fill_holes", key="mesh")
+
+
+def _check_tetrahedra(value, n_nodes: int) -> np.ndarray:
+    tetrahedra = _as_index_array(value, "tetrahedra")
+    if tetrahedra.ndim != 2 or tetrahedra.shape[1] != 4:
+        raise InputError(f"got shape {tetrahedra.shape}; expected (n_tets, 4)", key="tetrahedra")
+    _check_range(tetrahedra, n_nodes, "tetrahedra")
+    corners = np.sort(tetrahedra, axis=1)
+    repeated = np.any(corners[:, 1:] == corners[:, :-1], axis=1)
+    if repeated.any():
+        bad = int(np.flatnonzero(repeated)[0])
+        raise InputError(f"tetrahedron {bad} repeats a node: {tetrahedra[bad].tolist()}; "
+                         "expected four distinct nodes", key="tetrahedra")
+    return tetrahedra

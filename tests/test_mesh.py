@@ -3,7 +3,14 @@ import pytest
 import trimesh
 
 from neurofuzzy.errors import InputError
-from neurofuzzy.mesh import Mesh, bottom_layer, from_trimesh, lattice
+from neurofuzzy.mesh import (
+    Mesh,
+    bottom_layer,
+    from_surface_tetra,
+    from_tetra,
+    from_trimesh,
+    lattice,
+)
 
 
 def _pairs(mesh):
@@ -81,3 +88,109 @@ def test_bad_meshes_are_refused_with_clear_messages():
         Mesh(np.eye(3), np.array([[1, 1]]))
     with pytest.raises(InputError, match="NaN"):
         Mesh(np.array([[0, 0, np.nan], [1, 0, 0]]), np.array([[0, 1]]))
+
+
+# -- tetrahedral meshes -------------------------------------------------------------------------
+def _kuhn_cube():
+    """The unit cube split into 6 tetrahedra around its body diagonal (0,0,0)-(1,1,1)."""
+    corners = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
+    paths = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
+    tetrahedra = []
+    for path in paths:
+        corner, tet = np.zeros(3, int), [0]
+        for axis in path:
+            corner[axis] = 1
+            tet.append(int(corner @ [4, 2, 1]))
+        tetrahedra.append(tet)
+    return corners, np.array(tetrahedra)
+
+
+def _tet_volumes(mesh):
+    corners = mesh.rest_positions[mesh.tetrahedra]
+    return np.abs(np.linalg.det(corners[:, 1:] - corners[:, :1])) / 6
+
+
+def test_from_tetra_springs_are_the_unique_tetrahedron_edges():
+    points, tetrahedra = _kuhn_cube()
+    mesh = from_tetra(np.vstack([points, [[5.0, 5.0, 5.0]]]), tetrahedra)   # 1 unused point
+    assert mesh.n_nodes == 8 and mesh.n_tetrahedra == 6
+    # 12 cube edges + one diagonal on each of the 6 faces + the body diagonal
+    assert mesh.n_springs == 12 + 6 + 1
+    assert mesh.group_names == ("edge",) and np.all(mesh.spring_group == 0)
+    assert np.all(mesh.springs[:, 0] < mesh.springs[:, 1])
+    assert len({tuple(s) for s in mesh.springs.tolist()}) == mesh.n_springs
+    assert np.allclose(np.sort(np.unique(np.round(mesh.rest_lengths, 12))),
+                       [1.0, np.sqrt(2), np.sqrt(3)])
+    assert _tet_volumes(mesh).sum() == pytest.approx(1.0)
+    edges = {tuple(sorted(e)) for tet in mesh.tetrahedra.tolist()
+             for e in [(tet[i], tet[j]) for i in range(4) for j in range(i + 1, 4)]}
+    assert edges == {tuple(s) for s in mesh.springs.tolist()}
+
+
+def test_from_tetra_groups_springs_by_region_with_an_interface():
+    # two tetrahedra sharing the face (1, 2, 3)
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], float)
+    tetrahedra = np.array([[0, 1, 2, 3], [4, 1, 2, 3]])
+    mesh = from_tetra(points, tetrahedra, cell_region=[7, 3], region_names={7: "tumour"})
+    assert mesh.group_names == ("region3", "tumour", "interface")
+    counts = dict(zip(mesh.group_names, np.bincount(mesh.spring_group)))
+    assert counts == {"region3": 3, "tumour": 3, "interface": 3}
+    interface = mesh.springs[mesh.spring_group == mesh.group_index("interface")]
+    assert {tuple(s) for s in interface.tolist()} == {(1, 2), (1, 3), (2, 3)}
+    one_region = from_tetra(points, tetrahedra, cell_region=[2, 2])
+    assert one_region.group_names == ("region2",) and one_region.n_springs == 9
+    with pytest.raises(InputError, match=r"cell_region: got shape \(3,\); expected \(2,\)"):
+        from_tetra(points, tetrahedra, cell_region=[1, 2, 3])
+    with pytest.raises(InputError, match="region names must differ"):
+        from_tetra(points, tetrahedra, cell_region=[1, 2], region_names={1: "a", 2: "a"})
+
+
+def test_tetrahedra_are_validated_and_read_only():
+    points, tetrahedra = _kuhn_cube()
+    mesh = from_tetra(points, tetrahedra)
+    with pytest.raises(ValueError, match="read-only"):
+        mesh.tetrahedra[0, 0] = 1
+    assert np.array_equal(mesh.with_fixed(where=bottom_layer).tetrahedra, mesh.tetrahedra)
+    assert lattice((3, 3, 3)).tetrahedra is None and lattice((3, 3, 3)).n_tetrahedra == 0
+    springs = mesh.springs
+    with pytest.raises(InputError, match=r"tetrahedra: got shape \(6, 3\); expected \(n_tets, 4\)"):
+        Mesh(points, springs, tetrahedra=tetrahedra[:, :3])
+    with pytest.raises(InputError, match="tetrahedra: node index 8 is out of range"):
+        Mesh(points, springs, tetrahedra=np.array([[0, 1, 2, 8]]))
+    with pytest.raises(InputError, match=r"tetrahedron 0 repeats a node: \[0, 1, 1, 3\]"):
+        Mesh(points, springs, tetrahedra=np.array([[0, 1, 1, 3]]))
+    with pytest.raises(InputError, match="tetrahedra: expected integer indices"):
+        Mesh(points, springs, tetrahedra=np.array([[0, 1, 2, 3.5]]))
+    with pytest.raises(InputError, match="points: got shape"):
+        from_tetra(points[:, :2], tetrahedra)
+
+
+def test_from_surface_tetra_fills_the_closed_surface():
+    pytest.importorskip("tetgen")
+    box = trimesh.creation.box(extents=(2.0, 1.0, 1.0))
+    coarse = from_surface_tetra(box, max_edge=0.5)
+    fine = from_surface_tetra(box, max_edge=0.25)
+    for mesh in (coarse, fine):
+        assert _tet_volumes(mesh).sum() == pytest.approx(box.volume, rel=1e-9)
+        assert _tet_volumes(mesh).min() > 0
+        assert np.all(np.abs(mesh.rest_positions) <= np.array([1, 0.5, 0.5]) + 1e-12)
+        # every box corner is a node
+        assert all(np.any(np.all(np.isclose(mesh.rest_positions, v), axis=1))
+                   for v in box.vertices)
+        assert mesh.group_names == ("edge",)
+    # a regular tetrahedron of edge 0.25 has volume 0.25³/(6√2): the box holds >= 2 / that
+    assert fine.n_tetrahedra >= box.volume / (0.25**3 / (6 * np.sqrt(2)))
+    assert fine.n_nodes > 4 * coarse.n_nodes
+    assert np.median(fine.rest_lengths) < 0.25 < fine.rest_lengths.max() < 2 * 0.25
+
+
+def test_from_surface_tetra_refuses_open_surfaces_and_explains_a_missing_tetgen(monkeypatch):
+    box = trimesh.creation.box()
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])
+    with pytest.raises(InputError, match="watertight"):
+        from_surface_tetra(open_box, max_edge=0.5)
+    with pytest.raises(InputError, match="max_edge: got -1"):
+        from_surface_tetra(box, max_edge=-1)
+    monkeypatch.setitem(__import__("sys").modules, "tetgen", None)    # import fails
+    with pytest.raises(InputError, match="pip install tetgen"):
+        from_surface_tetra(box, max_edge=0.5)

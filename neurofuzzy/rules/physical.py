@@ -1,4 +1,4 @@
-"""Material quantities ↔ spring-mass parameters on a lattice mesh.
+"""Material quantities ↔ spring-mass parameters on a lattice or tetrahedral mesh.
 
 Spring constants from Young's modulus. For a lattice of cubic cells (edge ``a``) with springs on
 the cell edges and the four body diagonals of every cell, the affine strain energy of the
@@ -12,12 +12,24 @@ springs equals that of an isotropic elastic solid with Poisson's ratio 1/4 when
 C11 - C12 = 2 C44 needs k_e = 8k_d/3, and then E = 10 k_d / (3a)). Lattices with face
 diagonals use van Gelder's rule, ``k = E Σ_cells V / l²`` (A. van Gelder, "Approximate
 simulation of elastic membranes by triangulated spring meshes", J. Graphics Tools 3(2), 1998),
-applied to the cubic cells. ``tests/test_rules.py`` checks the effective modulus and Poisson's
-ratio of a lattice block under uniaxial load.
+applied to the cubic cells.
+
+Tetrahedral meshes (``mesh.tetrahedra`` set, e.g. :func:`~neurofuzzy.mesh.from_tetra`) use van
+Gelder's rule on the tetrahedra,
+
+    k = E Σ_{tetrahedra containing the spring} V_tet / l²,
+
+and a node carries a quarter of the volume of every tetrahedron it belongs to. The affine
+strain energy of one tetrahedron's six springs is then ``½ E V Σ_e (u_eᵀ ε u_e)²``; averaged
+over orientations this is an isotropic solid with Young's modulus E and Poisson's ratio 1/4 for
+any tetrahedron shape (both Lamé constants come out as 2E/5, because ``Σ_e |u_e|⁴ = 6``), so an
+unstructured mesh is close to E in every direction, a little softer because the nodes relax
+non-affinely. ``tests/test_rules.py`` checks the effective modulus and Poisson's ratio of a
+lattice block and of a TetGen block under uniaxial load.
 
 Viscosity (Kelvin–Voigt, ``σ = E ε + η ε̇``) gives spring viscosities with the same geometric
 factor, ``c = η k / E``. Node masses are density times the volume a node carries (an eighth of
-every cell it belongs to).
+every cubic cell, or a quarter of every tetrahedron, it belongs to).
 """
 
 from __future__ import annotations
@@ -27,10 +39,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import Mesh
+from ..mesh import _TET_EDGES, Mesh
 from ..model import SpringMassModel, tie_index
 
-__all__ = ["LatticeGeometry", "lattice_geometry", "initialize", "material_values"]
+__all__ = ["LatticeGeometry", "lattice_geometry", "TetraGeometry", "tetra_geometry",
+           "spring_geometry", "initialize", "material_values"]
 
 
 @dataclass(frozen=True)
@@ -49,8 +62,9 @@ def lattice_geometry(mesh: Mesh) -> LatticeGeometry:
     spacing = float(np.min(mesh.rest_lengths))
     index = np.rint((positions - positions.min(axis=0)) / spacing).astype(int)
     if not np.allclose(positions.min(axis=0) + index * spacing, positions, atol=1e-6 * spacing):
-        raise InputError("the mesh is not a lattice of cubic cells; rule-based parameters need "
-                         "one (neurofuzzy.lattice or neurofuzzy.from_trimesh)", key="mesh")
+        raise InputError("the mesh is neither a lattice of cubic cells nor a tetrahedral mesh; "
+                         "rule-based parameters need one (neurofuzzy.lattice, "
+                         "neurofuzzy.from_trimesh, or neurofuzzy.mesh.from_tetra)", key="mesh")
     shape = index.max(axis=0) + 2
     occupied = np.zeros(shape, dtype=bool)
     occupied[tuple(index.T)] = True
@@ -87,7 +101,85 @@ def lattice_geometry(mesh: Mesh) -> LatticeGeometry:
     return LatticeGeometry(factor, corner_counts * spacing**3 / 8.0, spacing)
 
 
+@dataclass(frozen=True)
+class TetraGeometry:
+    """Per-spring factor (``k = E · factor``) and per-node volume of a tetrahedral mesh.
+
+    Parameters
+    ----------
+    spring_factor : (n_springs,) float
+        ``Σ_{tetrahedra containing the spring} V_tet / l²`` (van Gelder).
+    node_volume : (n_nodes,) float
+        ``Σ_{tetrahedra containing the node} V_tet / 4``.
+    tetrahedron_volume : (n_tets,) float
+        Volume of every tetrahedron (positive, whatever its orientation).
+    """
+
+    spring_factor: np.ndarray
+    node_volume: np.ndarray
+    tetrahedron_volume: np.ndarray
+
+
+def tetra_geometry(mesh: Mesh) -> TetraGeometry:
+    """The van Gelder factors of a mesh with tetrahedra (module docstring).
+
+    Raises
+    ------
+    InputError
+        The mesh has no tetrahedra, a tetrahedron is flat (zero volume), or a spring or node
+        lies in no tetrahedron.
+    """
+    if mesh.tetrahedra is None:
+        raise InputError("the mesh has no tetrahedra; build it with neurofuzzy.mesh.from_tetra "
+                         "or from_surface_tetra", key="mesh")
+    if mesh.n_springs == 0 or mesh.n_tetrahedra == 0:
+        raise InputError(f"the mesh has {mesh.n_springs} springs and {mesh.n_tetrahedra} "
+                         "tetrahedra; rule-based parameters need both", key="mesh")
+    tetrahedra = mesh.tetrahedra
+    corners = mesh.rest_positions[tetrahedra]                       # (n_tets, 4, 3)
+    edges = corners[:, 1:] - corners[:, :1]
+    volume = np.abs(np.linalg.det(edges)) / 6.0
+    scale = np.max(np.linalg.norm(edges, axis=2), axis=1) ** 3
+    flat = volume <= 1e-12 * scale
+    if np.any(flat):
+        bad = int(np.flatnonzero(flat)[0])
+        raise InputError(f"tetrahedron {bad} (nodes {tetrahedra[bad].tolist()}) has zero "
+                         f"volume; {int(flat.sum())} such", key="tetrahedra")
+    edge_spring, is_spring = _tetra_edge_springs(mesh)
+    contained = np.zeros(mesh.n_springs)
+    np.add.at(contained, edge_spring[is_spring], np.repeat(volume, len(_TET_EDGES))[is_spring])
+    if np.any(contained == 0):
+        bad = int(np.flatnonzero(contained == 0)[0])
+        raise InputError(f"spring {bad} (nodes {mesh.springs[bad].tolist()}) is an edge of no "
+                         f"tetrahedron; {int(np.sum(contained == 0))} such", key="mesh")
+    node_volume = np.zeros(mesh.n_nodes)
+    np.add.at(node_volume, tetrahedra.ravel(), np.repeat(volume / 4.0, 4))
+    if np.any(node_volume == 0):
+        bad = int(np.flatnonzero(node_volume == 0)[0])
+        raise InputError(f"node {bad} belongs to no tetrahedron, so it carries no volume",
+                         key="mesh")
+    return TetraGeometry(contained / mesh.rest_lengths**2, node_volume, volume)
+
+
+def _tetra_edge_springs(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """For the 6 edges of every tetrahedron (``(n_tets * 6,)``, tetrahedron-major): the index
+    of the spring on that edge, and whether there is one."""
+    n = mesh.n_nodes
+    pairs = np.sort(mesh.tetrahedra[:, _TET_EDGES].reshape(-1, 2), axis=1)
+    edge_keys = pairs[:, 0] * n + pairs[:, 1]
+    spring_keys = np.sort(mesh.springs, axis=1) @ np.array([n, 1])
+    order = np.argsort(spring_keys)
+    position = np.clip(np.searchsorted(spring_keys[order], edge_keys), 0, mesh.n_springs - 1)
+    return order[position], spring_keys[order][position] == edge_keys
+
+
+def spring_geometry(mesh: Mesh) -> LatticeGeometry | TetraGeometry:
+    """:func:`tetra_geometry` for a mesh with tetrahedra, else :func:`lattice_geometry`."""
+    return tetra_geometry(mesh) if mesh.tetrahedra is not None else lattice_geometry(mesh)
+
+
 def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | None = None,
+               tetrahedron_regions: dict | None = None,
                tie: str = "groups") -> tuple[SpringMassModel, dict]:
     """The start model of ``mesh`` from a rule base's tissue(s).
 
@@ -95,14 +187,24 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
     ----------
     rules : RuleBase
     mesh : Mesh
-        A lattice mesh.
+        A lattice mesh or a mesh with tetrahedra (:func:`spring_geometry`).
     tissue : str, optional
-        One tissue for the whole object.
+        One tissue for the whole object (with regions: for what lies in no region).
     regions : dict of tissue name → (n_nodes,) bool, optional
-        Several tissues: a spring takes the tissue of its first end node's region, a node the
-        tissue of its region (nodes in no region take ``tissue``).
+        Several tissues by node: a spring takes the tissue of its first end node's region, a
+        node the tissue of its region (nodes in no region take ``tissue``; a node in several
+        takes the last). The regions of a :class:`~neurofuzzy.mesh_files.MeshFile` fit here
+        once named after tissues (:meth:`~neurofuzzy.mesh_files.MeshFile.tissue_regions`).
+    tetrahedron_regions : dict of tissue name → (n_tetrahedra,) bool, optional
+        Several tissues by tetrahedron (meshes with tetrahedra only; instead of ``regions``):
+        every tetrahedron contributes its own tissue to van Gelder's sum, so a spring on an
+        interface gets ``k = Σ_tissues q_tissue Σ_{its tets of that tissue} V / l²`` and a
+        node the mass of a quarter of each of its tetrahedra. This is exact at interfaces,
+        where node regions have to give interface springs to one side.
+        (``MeshFile.tissue_regions(..., of="tetrahedra")``.)
     tie : {"global", "groups", "none"}
-        Tying of the returned model.
+        Tying of the returned model (within each tissue; a spring shared by tissues ties with
+        the tissue holding most of its volume).
 
     Returns
     -------
@@ -110,46 +212,89 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
     values : dict of tissue → dict of output name → value
         The inferred material values.
     """
-    if tissue is None and not regions:
+    if tissue is None and not regions and not tetrahedron_regions:
         raise InputError("give a tissue (or regions of tissues)", key="tissue")
-    geometry = lattice_geometry(mesh)
-    node_tissue = np.full(mesh.n_nodes, tissue, dtype=object)
-    for name, mask in (regions or {}).items():
-        mask = np.asarray(mask, bool)
-        if mask.shape != (mesh.n_nodes,):
-            raise InputError(f"region {name!r}: expected a bool mask of shape "
-                             f"({mesh.n_nodes},)", key="regions")
-        node_tissue[mask] = name
-    if any(t is None for t in node_tissue):
-        raise InputError("some nodes are in no region and no default tissue is given",
+    if regions and tetrahedron_regions:
+        raise InputError("give regions (of nodes) or tetrahedron_regions, not both",
                          key="regions")
-    values = {name: rules.tissue(name) for name in dict.fromkeys(node_tissue)}
-    spring_tissue = node_tissue[mesh.springs[:, 0]]
-    stiffness = np.empty(mesh.n_springs)
-    damping = np.empty(mesh.n_springs)
-    mass = np.empty(mesh.n_nodes)
-    for name, tissue_values in values.items():
+    geometry = spring_geometry(mesh)
+    if tetrahedron_regions:
+        if mesh.tetrahedra is None:
+            raise InputError("the mesh has no tetrahedra; give regions of nodes instead",
+                             key="tetrahedron_regions")
+        tet_tissue = _tissue_labels(tetrahedron_regions, mesh.n_tetrahedra, tissue,
+                                    "tetrahedron_regions", "tetrahedra")
+        names = list(dict.fromkeys(tet_tissue))
+        spring_share, node_share = _volume_shares(mesh, geometry, _index_of(tet_tissue, names),
+                                                  len(names))
+    else:
+        node_tissue = _tissue_labels(regions or {}, mesh.n_nodes, tissue, "regions", "nodes")
+        names = list(dict.fromkeys(node_tissue))
+        node_index = _index_of(node_tissue, names)
+        node_share = np.eye(len(names))[node_index]
+        spring_share = node_share[mesh.springs[:, 0]]
+    values = {name: rules.tissue(name) for name in names}
+    stiffness = np.zeros(mesh.n_springs)
+    damping = np.zeros(mesh.n_springs)
+    mass = np.zeros(mesh.n_nodes)
+    for column, tissue_values in enumerate(values.values()):
         quantities = _by_quantity(rules, tissue_values)
-        springs = spring_tissue == name
-        nodes = node_tissue == name
-        stiffness[springs] = _spring_value(quantities, "youngs_modulus", "stiffness",
-                                           geometry.spring_factor[springs], rules.source)
-        damping[springs] = _spring_value(quantities, "viscosity", "damping",
-                                         geometry.spring_factor[springs], rules.source)
+        stiffness += spring_share[:, column] * _spring_value(
+            quantities, "youngs_modulus", "stiffness", geometry.spring_factor, rules.source)
+        damping += spring_share[:, column] * _spring_value(
+            quantities, "viscosity", "damping", geometry.spring_factor, rules.source)
         if "density" in quantities:
-            mass[nodes] = quantities["density"] * geometry.node_volume[nodes]
+            mass += node_share[:, column] * (quantities["density"] * geometry.node_volume)
         elif "node_mass" in quantities:
-            mass[nodes] = quantities["node_mass"]
+            mass += node_share[:, column] * quantities["node_mass"]
         else:
             raise InputError("the rule base has no output for density or node_mass",
                              source=rules.source, key="outputs")
     model = SpringMassModel(mesh, node_mass=mass, spring_stiffness=stiffness,
                             spring_damping=damping)
     # tie within each tissue region: tissue regions × the requested tying
+    spring_tissue = np.asarray(names, dtype=object)[np.argmax(spring_share, axis=1)]
     base_tie = tie_index(mesh, tie)
     _, region_index = np.unique(spring_tissue.astype(str), return_inverse=True)
     combined = base_tie * (region_index.max() + 1) + region_index
     return model.replace(spring_tie=combined), values
+
+
+def _tissue_labels(regions: dict, n: int, default: str | None, key: str,
+                   what: str) -> np.ndarray:
+    """(n,) object: the tissue of every node (or tetrahedron); later regions win."""
+    labels = np.full(n, default, dtype=object)
+    for name, mask in regions.items():
+        mask = np.asarray(mask, bool)
+        if mask.shape != (n,):
+            raise InputError(f"region {name!r}: got shape {mask.shape}; expected a bool mask "
+                             f"of shape ({n},), one value per {what[:-1]}", key=key)
+        labels[mask] = name
+    if any(label is None for label in labels):
+        raise InputError(f"some {what} are in no region and no default tissue is given",
+                         key=key)
+    return labels
+
+
+def _index_of(labels: np.ndarray, names: list) -> np.ndarray:
+    lookup = {name: i for i, name in enumerate(names)}
+    return np.array([lookup[label] for label in labels], dtype=np.intp)
+
+
+def _volume_shares(mesh: Mesh, geometry: TetraGeometry, tet_tissue: np.ndarray,
+                   n_tissues: int) -> tuple[np.ndarray, np.ndarray]:
+    """(n_springs, n_tissues) and (n_nodes, n_tissues) float: the fraction of the volume
+    around every spring (its tetrahedra) and node (a quarter of its tetrahedra) per tissue."""
+    edge_spring, is_spring = _tetra_edge_springs(mesh)
+    per_edge = len(_TET_EDGES)
+    spring_volume = np.zeros((mesh.n_springs, n_tissues))
+    np.add.at(spring_volume, (edge_spring[is_spring], np.repeat(tet_tissue, per_edge)[is_spring]),
+              np.repeat(geometry.tetrahedron_volume, per_edge)[is_spring])
+    node_volume = np.zeros((mesh.n_nodes, n_tissues))
+    np.add.at(node_volume, (mesh.tetrahedra.ravel(), np.repeat(tet_tissue, 4)),
+              np.repeat(geometry.tetrahedron_volume, 4))
+    return (spring_volume / spring_volume.sum(axis=1, keepdims=True),
+            node_volume / node_volume.sum(axis=1, keepdims=True))
 
 
 def _by_quantity(rules, values):
@@ -172,7 +317,7 @@ def material_values(rules, model: SpringMassModel, springs=None, nodes=None) -> 
 
     Springs with both ends fixed are left out: their values are never learned.
     """
-    geometry = lattice_geometry(model.mesh)
+    geometry = spring_geometry(model.mesh)
     moving = model.mesh.free[model.mesh.springs].any(axis=1)
     springs = np.flatnonzero(moving) if springs is None else np.intersect1d(
         np.asarray(springs), np.flatnonzero(moving))
