@@ -135,3 +135,17 @@ def test_an_observed_node_needs_its_initial_position(cube_experiment):
     with pytest.raises(InputError, match="node 5 is marked observed but has no position at "
                                          "frame 0"):
         cube_experiment.replace(positions=positions)
+
+
+def test_without_complete_data_the_stages_fit_growing_beginnings(cube_experiment, capsys):
+    """No measured state to restart windows from: fit the first 25, 50, 100, 200 frames, then
+    all; from a start 4x off the constants are recovered, as from the whole run alone."""
+    data = _surface_only(cube_experiment)
+    start = paper_cube_model(stiffness=200.0, damping=0.08, tie="global")
+    staged = GradientLearner(progress=True).fit(start, data)
+    err = capsys.readouterr().err
+    assert "1/5 first 25 frames" in err and "5/5 window 251 frames" in err
+    whole = GradientLearner(windows=()).fit(start, data)
+    for learner in (staged, whole):
+        assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-9)
+        assert learner.model_.spring_damping[0] == pytest.approx(CUBE["damping"], rel=1e-9)

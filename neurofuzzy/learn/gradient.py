@@ -200,19 +200,36 @@ class GradientLearner(Learner):
 
     def _fit_stages(self, sensitivity, experiments, theta, substeps, windows, method, lower,
                     upper, active) -> np.ndarray:
-        """Shooting windows (when every free node is measured throughout), then the whole
-        trajectory."""
+        """Stages of growing difficulty, then the whole trajectory.
+
+        With every free node measured throughout: multiple shooting, windows restarted from
+        the measured states. Otherwise (unobserved nodes, gaps) there is no measured state to
+        restart from: the stages fit growing beginnings of the recording instead (``window``,
+        doubled until the whole), so a far-off start locks on to the early motion before the
+        later oscillations can trap it in a local minimum.
+        """
         windows = [DEFAULT_WINDOW] if windows is None else list(windows)
-        if not all(e.complete for e in experiments):
-            windows = []
         longest = max(e.n_frames for e in experiments)
+        shooting = all(e.complete for e in experiments)
+        if not shooting and windows:
+            lengths = [min(windows)]
+            while 2 * lengths[-1] < longest:
+                lengths.append(2 * lengths[-1])
+            windows = lengths
         stages = [w for w in windows if w < longest] + [longest]
         solver = self._solve_lm if method == "lm" else self._solve_lbfgs
         progress = Progress(f"gradient fit, {substeps} substep(s)", len(stages), self.progress)
         for stage, window in enumerate(stages):
-            starts = [tuple(range(0, e.n_frames, int(window))) for e in experiments]
-            theta = solver(sensitivity, experiments, theta, starts, substeps, lower, upper, active)
-            progress.update(stage + 1, f"window {window} frames, RMS {self.history_[-1]:.3g}")
+            if shooting or window == longest:
+                data = experiments
+                starts = [tuple(range(0, e.n_frames, int(window))) for e in experiments]
+                what = f"window {window} frames"
+            else:
+                data = [_beginning(e, int(window)) for e in experiments]
+                starts = [(0,)] * len(experiments)
+                what = f"first {window} frames"
+            theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active)
+            progress.update(stage + 1, f"{what}, RMS {self.history_[-1]:.3g}")
         return theta
 
     def _bounds(self, parameters: Parameterization, theta: np.ndarray):
@@ -298,3 +315,12 @@ class GradientLearner(Learner):
         values = theta.copy()
         values[active] = result.x
         return values
+
+
+def _beginning(experiment: Experiment, n_frames: int) -> Experiment:
+    """The first ``n_frames`` frames of ``experiment``."""
+    forces = experiment.external_forces
+    if forces is not None and forces.ndim == 3:
+        forces = forces[:n_frames]
+    return experiment.replace(positions=experiment.positions[:n_frames],
+                              external_forces=forces)
