@@ -79,7 +79,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="paper method: η for springs (default 0.1)")
     fit.add_argument("--mass-learning-rate", type=float, default=0.1,
                      help="paper method: η_m for masses (default 0.1)")
-    fit.add_argument("--rules", help="start from a rule base (YAML) …")
+    fit.add_argument("--rules", help="start from a rule base (a YAML file, or the name of a "
+                                     "shipped one: liver, brain, kidney, …) …")
     fit.add_argument("--tissue", help="… and this tissue of it")
     fit.add_argument("--report", help="write an HTML report (and a .json twin): error curve, "
                                       "what the data determine, and with --rules the "
@@ -152,6 +153,34 @@ def _parser() -> argparse.ArgumentParser:
     simulate.add_argument("--noise", type=float, default=0.0, help="marker noise (std, m)")
     simulate.add_argument("--seed", type=int, default=0)
     simulate.set_defaults(run=_simulate)
+
+    mesh = commands.add_parser(
+        "mesh", help="mesh file + rule base -> model (YAML)",
+        description="Build a spring network from a mesh file (a closed surface: STL, OBJ, PLY, "
+                    "GLB -> voxel lattice or, with --tetra, tetrahedra; a volume mesh: VTU, "
+                    "VTK, Gmsh .msh) and give it start values from a rule base's tissue(s).")
+    mesh.add_argument("mesh", metavar="MESH")
+    mesh.add_argument("--rules", required=True, help="rule base: a YAML file or a shipped name")
+    mesh.add_argument("--tissue", help="tissue of the whole object (or of the regions not "
+                                       "named by --region)")
+    mesh.add_argument("--region", action="append", default=[], metavar="REGION=TISSUE",
+                      help="tissue of a region of a volume mesh (repeatable)")
+    mesh.add_argument("--pitch", type=float, help="voxel lattice spacing of a surface (in the "
+                                                  "file's length unit; default extent / 10)")
+    mesh.add_argument("--tetra", action="store_true",
+                      help="tetrahedralise a surface (tetgen) instead of voxelising it")
+    mesh.add_argument("--max-edge", type=float, help="with --tetra: target edge length")
+    mesh.add_argument("--scale", type=float, default=1.0,
+                      help="multiply coordinates by this to get metres (e.g. 0.001 for mm)")
+    fixing = mesh.add_mutually_exclusive_group()
+    fixing.add_argument("--fix-bottom", action="store_true",
+                        help="hold the lowest nodes (z within a quarter of the shortest "
+                             "spring of the minimum) in place")
+    fixing.add_argument("--fix-below", type=float, metavar="Z",
+                        help="hold the nodes with z <= Z (metres) in place")
+    mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
+    mesh.add_argument("--out", required=True, metavar="MODEL.yaml")
+    mesh.set_defaults(run=_mesh)
 
     importer = commands.add_parser(
         "import", help="marker recording (CSV or C3D) -> experiment file",
@@ -245,11 +274,11 @@ def _load_start(args, progress: bool):
         masses = np.ones(first.n_nodes)
     mesh = first.mesh
     if getattr(args, "rules", None):
-        from .rules import initialize, load_rules
+        from .rules import initialize
 
         if not args.tissue:
             raise InputError("--rules needs --tissue NAME", key="--tissue")
-        rule_base = load_rules(args.rules)
+        rule_base = _rule_base(args.rules)
         start, _ = initialize(rule_base, mesh, args.tissue, tie=args.tie)
         if first.masses is not None:
             start = start.replace(node_mass=first.masses)
@@ -293,9 +322,8 @@ def _fit(args) -> int:
                       if kind in ("pvd", "xdmf")})
     if args.report:
         from .report import fit_report
-        from .rules import load_rules
 
-        fit_report(load_rules(args.rules) if args.rules else None, args.tissue, start,
+        fit_report(_rule_base(args.rules) if args.rules else None, args.tissue, start,
                    learner, args.report, files=files)
     result = learner.to_dict()
     result.update(method=args.method, tie=args.tie, experiments=[str(p) for p in inputs],
@@ -331,17 +359,13 @@ def _export(args) -> int:
 
 # -- rules ----------------------------------------------------------------------------------
 def _rules_check(args) -> int:
-    from .rules import load_rules
-
-    rule_base = load_rules(args.rules)
+    rule_base = _rule_base(args.rules)
     print(rule_base.summary())
     return 0
 
 
 def _rules_show(args) -> int:
-    from .rules import load_rules
-
-    rule_base = load_rules(args.rules)
+    rule_base = _rule_base(args.rules)
     values = rule_base.tissue(args.tissue)
     labels = rule_base.describe(values)
     if args.json:
@@ -426,6 +450,55 @@ def _simulate(args) -> int:
     return 0
 
 
+# -- mesh -----------------------------------------------------------------------------------
+def _mesh(args) -> int:
+    from dataclasses import replace
+
+    from .io import save_model
+    from .mesh_files import read_mesh
+    from .rules import initialize
+
+    source = Path(args.mesh)
+    _refuse_overwrite(args.out, [source, Path(args.rules)])
+    method = "tetra" if args.tetra else "voxel"
+    read = read_mesh(source, pitch=args.pitch, max_edge=args.max_edge, method=method)
+    mesh = read.mesh
+    if not (np.isfinite(args.scale) and args.scale > 0):
+        raise InputError(f"got {args.scale}; expected a positive factor", key="--scale")
+    if args.scale != 1.0:
+        mesh = replace(mesh, rest_positions=mesh.rest_positions * args.scale)
+    if args.fix_bottom:
+        z = mesh.rest_positions[:, 2]
+        mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
+    elif args.fix_below is not None:
+        mesh = mesh.with_fixed(where=lambda p: p[:, 2] <= args.fix_below)
+    tissue_of = {}
+    for item in args.region:
+        region, _, tissue = item.partition("=")
+        if not region or not tissue:
+            raise InputError(f"got {item!r}; expected REGION=TISSUE", key="--region")
+        tissue_of[region] = tissue
+    rule_base = _rule_base(args.rules)
+    regions = {}
+    if tissue_of:
+        of = "tetrahedra" if read.tetrahedron_regions else "nodes"
+        regions = {("tetrahedron_regions" if of == "tetrahedra" else "regions"):
+                   read.tissue_regions(tissue_of, of=of)}
+    elif read.regions and len(read.regions) > 1:
+        print(f"neurofuzzy: note: {source} has regions {list(read.regions)}; give them "
+              "tissues with --region REGION=TISSUE", file=sys.stderr)
+    if not args.tissue and not tissue_of:
+        raise InputError("give --tissue NAME (and --region REGION=TISSUE for regions)",
+                         key="--tissue")
+    model, _ = initialize(rule_base, mesh, args.tissue, tie=args.tie, **regions)
+    save_model(model, args.out)
+    print(model.summary())
+    print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
+                                              " (none: use --fix-bottom or --fix-below)"))
+    _written(args.out)
+    return 0
+
+
 # -- import ---------------------------------------------------------------------------------
 def _import(args) -> int:
     from .io import load_experiment, load_model, save_experiment
@@ -469,6 +542,16 @@ def _import(args) -> int:
 
 
 # -- helpers --------------------------------------------------------------------------------
+def _rule_base(value: str):
+    """A rule base from a path, or by the name of a shipped one (``liver``)."""
+    from .rules import load_rules, shipped
+
+    path = Path(value)
+    if not path.exists() and path.suffix == "" and "/" not in value:
+        path = shipped(value)
+    return load_rules(path)
+
+
 def _substeps(value: str):
     if value == "auto":
         return "auto"

@@ -34,6 +34,7 @@ import numpy as np
 from .errors import InputError
 
 __all__ = ["Mesh", "lattice", "from_trimesh", "from_tetra", "from_surface_tetra",
+           "surface_nodes", "lattice_cells", "LatticeCells",
            "bottom_layer"]
 
 Diagonals = Literal["none", "body", "face", "both"]
@@ -193,6 +194,69 @@ class Mesh:
         if name not in self.group_names:
             raise InputError(f"no spring group {name!r}; groups are {list(self.group_names)}")
         return self.group_names.index(name)
+
+
+@dataclass(frozen=True)
+class LatticeCells:
+    """The cubic cells of a lattice mesh (:func:`lattice`, :func:`from_trimesh`).
+
+    Parameters
+    ----------
+    index : (n_nodes, 3) int
+        Grid index of every node.
+    cells : (nx, ny, nz) bool
+        Complete cells (all eight corners are nodes), by the grid index of their lower corner.
+    spacing : float
+    """
+
+    index: np.ndarray
+    cells: np.ndarray
+    spacing: float
+
+    def cells_per_node(self) -> np.ndarray:
+        """(n_nodes,) int: complete cells each node is a corner of (8 inside the body)."""
+        counts = np.zeros(len(self.index), dtype=int)
+        for shift in np.ndindex(2, 2, 2):
+            corner = self.index - np.array(shift)
+            inside = np.all((corner >= 0) & (corner < np.array(self.cells.shape)), axis=1)
+            counts[inside] += self.cells[tuple(corner[inside].T)]
+        return counts
+
+
+def lattice_cells(mesh: Mesh) -> LatticeCells | None:
+    """Recover the cubic cells of a lattice mesh; ``None`` if its nodes are not on a cubic
+    grid whose spacing is the shortest spring."""
+    positions = mesh.rest_positions
+    spacing = float(np.min(mesh.rest_lengths))
+    index = np.rint((positions - positions.min(axis=0)) / spacing).astype(int)
+    if not np.allclose(positions.min(axis=0) + index * spacing, positions, atol=1e-6 * spacing):
+        return None
+    occupied = np.zeros(index.max(axis=0) + 2, dtype=bool)
+    occupied[tuple(index.T)] = True
+    cells = (occupied[:-1, :-1, :-1] & occupied[1:, :-1, :-1] & occupied[:-1, 1:, :-1]
+             & occupied[:-1, :-1, 1:] & occupied[1:, 1:, :-1] & occupied[1:, :-1, 1:]
+             & occupied[:-1, 1:, 1:] & occupied[1:, 1:, 1:])
+    return LatticeCells(index, cells, spacing)
+
+
+def surface_nodes(mesh: Mesh) -> np.ndarray:
+    """(n_nodes,) bool: nodes on the surface of the object, where optical markers can sit.
+
+    Tetrahedral meshes: the corners of faces that belong to a single tetrahedron. Lattices:
+    nodes that are a corner of fewer than eight complete cells.
+    """
+    if mesh.tetrahedra is not None:
+        faces = np.sort(mesh.tetrahedra[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]]
+                        .reshape(-1, 3), axis=1)
+        unique, counts = np.unique(faces, axis=0, return_counts=True)
+        surface = np.zeros(mesh.n_nodes, dtype=bool)
+        surface[unique[counts == 1].ravel()] = True
+        return surface
+    cells = lattice_cells(mesh)
+    if cells is None:
+        raise InputError("the surface of a mesh is known for lattices and tetrahedral meshes; "
+                         "this mesh is neither", key="mesh")
+    return cells.cells_per_node() < 8
 
 
 def bottom_layer(rest_positions: np.ndarray, axis: int = 2, tol: float = 1e-9) -> np.ndarray:
@@ -379,15 +443,31 @@ def from_surface_tetra(surface, *, max_edge: float | None = None, quality: bool 
                          "pip install tetgen, or neurofuzzy[tetra] (or use the voxel lattice, "
                          "from_trimesh)",
                          key="method") from None
+    del tetgen                          # imported to fail early; it runs in a child process
     vertices = np.asarray(surface.vertices, dtype=np.float64)
     faces = np.asarray(surface.faces, dtype=np.int32)
+    # TetGen aborts the whole process (not just raises) on some bad surfaces, e.g.
+    # self-intersecting ones; a child process keeps the caller alive and lets us say why.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
     try:
-        nodes, elements = tetgen.TetGen(vertices, faces).tetrahedralize(**options)[:2]
-    except RuntimeError as error:       # TetGen's way of saying the surface is unusable
-        raise InputError(f"TetGen could not tetrahedralise the surface ({error}); check it "
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method)) as pool:
+            nodes, elements = pool.submit(_tetgen, vertices, faces, options).result()
+    except (RuntimeError, BrokenProcessPool) as error:
+        why = "it crashed" if isinstance(error, BrokenProcessPool) else str(error)
+        raise InputError(f"TetGen could not tetrahedralise the surface ({why}); check it "
                          "for self-intersections, e.g. with trimesh or pymeshfix",
                          key="mesh") from None
     return from_tetra(nodes, elements)
+
+
+def _tetgen(vertices: np.ndarray, faces: np.ndarray, options: dict):
+    import tetgen
+
+    return tuple(tetgen.TetGen(vertices, faces).tetrahedralize(**options)[:2])
 
 
 def _cell_lattice(cells: np.ndarray, spacing: np.ndarray, origin: np.ndarray,

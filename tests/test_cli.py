@@ -188,3 +188,28 @@ def test_export_command_writes_a_thinned_series(cube_file, tmp_path, capsys):
     assert main(["export", str(model), str(cube_file), "--out", str(tmp_path / "pv"),
                  "--every", "0"]) == 2
     assert "every" in capsys.readouterr().err
+
+
+def test_mesh_command_builds_a_model_from_a_surface_and_rules(tmp_path, capsys):
+    import trimesh
+
+    box = trimesh.creation.box(extents=(0.04, 0.04, 0.02))
+    box.export(tmp_path / "box.stl")
+    out = tmp_path / "box.yaml"
+    assert main(["mesh", str(tmp_path / "box.stl"), "--pitch", "0.01", "--fix-bottom",
+                 "--rules", "liver", "--tissue", "liver", "--out", str(out)]) == 0
+    model = load_model(out)
+    assert model.n_nodes == 5 * 5 * 3 and len(model.mesh.fixed) == 25
+    assert np.allclose(model.mesh.rest_positions[model.mesh.fixed, 2], -0.01)
+    assert "25 fixed nodes" in capsys.readouterr().out
+
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-1])     # one face missing
+    open_box.export(tmp_path / "open.stl")
+    assert main(["mesh", str(tmp_path / "open.stl"), "--pitch", "0.01", "--rules", "liver",
+                 "--tissue", "liver", "--out", str(tmp_path / "open.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "open.stl" in err and "watertight" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "open.yaml").exists()
+    assert main(["mesh", str(tmp_path / "box.stl"), "--pitch", "0.01", "--rules", "liver",
+                 "--tissue", "livr", "--out", str(tmp_path / "x.yaml")]) == 2
+    assert "liver" in capsys.readouterr().err

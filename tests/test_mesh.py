@@ -194,3 +194,27 @@ def test_from_surface_tetra_refuses_open_surfaces_and_explains_a_missing_tetgen(
     monkeypatch.setitem(__import__("sys").modules, "tetgen", None)    # import fails
     with pytest.raises(InputError, match="pip install tetgen"):
         from_surface_tetra(box, max_edge=0.5)
+
+
+def test_surface_nodes_of_a_lattice_and_of_a_tetrahedral_mesh():
+    import trimesh
+
+    from neurofuzzy.mesh import from_surface_tetra, surface_nodes
+
+    cube = lattice((3, 3, 3))
+    assert np.flatnonzero(~surface_nodes(cube)).tolist() == [13]
+    # a block with a corner cut out: the node on the re-entrant corner has all six edge
+    # neighbours but is on the surface
+    from neurofuzzy.mesh import _cell_lattice
+
+    cells = np.ones((4, 4, 3), bool)
+    cells[2:, 2:, 2:] = False
+    block = _cell_lattice(cells, np.ones(3), np.zeros(3), "body")
+    surface = surface_nodes(block)
+    corner = int(np.flatnonzero((block.rest_positions == [2, 2, 2]).all(axis=1))[0])
+    edges = block.springs[block.spring_group == 0]
+    assert np.count_nonzero(edges == corner) == 6 and surface[corner]
+    assert (~surface).sum() == 3 * 3 * 2 - 4          # 18 inner nodes, 4 touch the cut
+    tets = from_surface_tetra(trimesh.creation.box(extents=(1, 1, 1)), max_edge=0.3)
+    on_faces = np.isclose(np.abs(tets.rest_positions).max(axis=1), 0.5)
+    assert np.array_equal(surface_nodes(tets), on_faces)

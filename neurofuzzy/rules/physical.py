@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import _TET_EDGES, Mesh
+from ..mesh import _TET_EDGES, Mesh, lattice_cells
 from ..model import SpringMassModel, tie_index
 
 __all__ = ["LatticeGeometry", "lattice_geometry", "TetraGeometry", "tetra_geometry",
@@ -58,19 +58,12 @@ class LatticeGeometry:
 def lattice_geometry(mesh: Mesh) -> LatticeGeometry:
     """Recover the cubic cells of a lattice mesh (:func:`~neurofuzzy.mesh.lattice`,
     :func:`~neurofuzzy.mesh.from_trimesh`) and the factors of the module docstring."""
-    positions = mesh.rest_positions
-    spacing = float(np.min(mesh.rest_lengths))
-    index = np.rint((positions - positions.min(axis=0)) / spacing).astype(int)
-    if not np.allclose(positions.min(axis=0) + index * spacing, positions, atol=1e-6 * spacing):
+    lattice = lattice_cells(mesh)
+    if lattice is None:
         raise InputError("the mesh is neither a lattice of cubic cells nor a tetrahedral mesh; "
                          "rule-based parameters need one (neurofuzzy.lattice, "
                          "neurofuzzy.from_trimesh, or neurofuzzy.mesh.from_tetra)", key="mesh")
-    shape = index.max(axis=0) + 2
-    occupied = np.zeros(shape, dtype=bool)
-    occupied[tuple(index.T)] = True
-    cells = (occupied[:-1, :-1, :-1] & occupied[1:, :-1, :-1] & occupied[:-1, 1:, :-1]
-             & occupied[:-1, :-1, 1:] & occupied[1:, 1:, :-1] & occupied[1:, :-1, 1:]
-             & occupied[:-1, 1:, 1:] & occupied[1:, 1:, 1:])
+    index, cells, spacing = lattice.index, lattice.cells, lattice.spacing
     cells = np.pad(cells, 1)            # index + 1 below, so lower corners -1 are valid
     a, b = mesh.springs.T
     low = np.minimum(index[a], index[b])
@@ -92,13 +85,7 @@ def lattice_geometry(mesh: Mesh) -> LatticeGeometry:
         factor = np.where(offsets == 1, spacing * n_cells / 5.0, 3.0 * spacing / 10.0)
     else:      # van Gelder's rule on the cubic cells
         factor = n_cells * spacing**3 / mesh.rest_lengths**2
-    corner_counts = np.zeros(mesh.n_nodes)
-    inner = cells[1:-1, 1:-1, 1:-1]
-    for shift in np.ndindex(2, 2, 2):
-        corner = index - np.array(shift)
-        inside = np.all((corner >= 0) & (corner < np.array(inner.shape)), axis=1)
-        corner_counts[inside] += inner[tuple(corner[inside].T)]
-    return LatticeGeometry(factor, corner_counts * spacing**3 / 8.0, spacing)
+    return LatticeGeometry(factor, lattice.cells_per_node() * spacing**3 / 8.0, spacing)
 
 
 @dataclass(frozen=True)
