@@ -286,3 +286,14 @@ def test_import_bad_input_exits_2_and_writes_nothing(files, recording, tmp_path,
     assert len(captured.err.strip().splitlines()) == 1
     assert topology.read_bytes() == before
     assert problem == "out is input" or not out.exists()
+
+
+def test_import_a_c3d_recording(files, recording, tmp_path, capsys):
+    c3d_file = write_c3d(tmp_path / "trial.c3d", recording, invisible=[(50, 0), (51, 0)])
+    out = tmp_path / "trial.npz"
+    assert main(["import", str(c3d_file), "--topology", str(files["model"]), "--forces",
+                 str(files["forces"]), "--out", str(out)]) == 0
+    assert "26 markers on 27 nodes, 251 frames" in capsys.readouterr().out
+    experiment = load_experiment(out)
+    assert not experiment.measured()[50:52, SURFACE[0]].any()
+    assert np.allclose(experiment.forces_per_frame(), recording.forces_per_frame())

@@ -256,3 +256,32 @@ def test_tetrahedra_survive_experiment_files(tmp_path):
         np.savez(tmp_path / "bad.npz", **{**arrays, "tetrahedra": bad})
         with pytest.raises(InputError, match=r"bad\.npz: " + message):
             load_experiment(tmp_path / "bad.npz")
+
+
+def test_mesh_command_gives_gmsh_regions_their_tissues(tmp_path, capsys):
+    from neurofuzzy.cli import main
+
+    points, tetrahedra, region = _kuhn_block((4, 2, 2))
+    path = tmp_path / "block.msh"
+    meshio.write(path, meshio.Mesh(points * 0.01, [("tetra", tetrahedra)],
+                                   cell_data={"gmsh:physical": [region],
+                                              "gmsh:geometrical": [region]},
+                                   field_data={"soft": np.array([1, 3]),
+                                               "hard": np.array([2, 3])}),
+                 file_format="gmsh22", binary=False)
+    out = tmp_path / "block.yaml"
+    assert main(["mesh", str(path), "--rules", "liver", "--region", "soft=liver",
+                 "--region", "hard=tumour", "--fix-below", "0.001", "--out", str(out)]) == 0
+    model = load_model(out)
+    names = np.asarray(model.mesh.group_names)[model.mesh.spring_group]
+    soft = np.median(model.spring_stiffness[names == "soft"] / model.mesh.rest_lengths[
+        names == "soft"])
+    hard = np.median(model.spring_stiffness[names == "hard"] / model.mesh.rest_lengths[
+        names == "hard"])
+    assert hard > 5 * soft                     # tumour ("stony") vs liver ("firm")
+    assert len(model.mesh.fixed) == 5 * 3 and model.mesh.tetrahedra is not None
+    # the regions are tied separately
+    assert len(np.unique(model.spring_tie[names == "soft"])) < len(np.unique(model.spring_tie))
+    assert main(["mesh", str(path), "--rules", "liver", "--region", "sfot=liver",
+                 "--out", str(tmp_path / "x.yaml")]) == 2
+    assert "no region 'sfot'" in capsys.readouterr().err
