@@ -36,6 +36,7 @@ def test_adjoint_gradient_matches_central_differences(rng, cube_experiment, subs
         assert abs(gradient @ direction - numeric) < 1e-6 * abs(numeric)
 
 
+@pytest.mark.slow      # the fast suite checks random directions through all parameters
 def test_adjoint_gradient_matches_central_differences_per_parameter(cube_experiment):
     start = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 40.0}, damping=0.03,
                              total_mass=0.01, tie="groups")

@@ -53,6 +53,7 @@ def test_learning_masses_improves_the_fit_and_keeps_parameters_positive(cube_exp
     assert np.array_equal(fitted.node_mass[truth.mesh.fixed], start.node_mass[truth.mesh.fixed])
 
 
+@pytest.mark.slow      # the fast suite covers eq. 3.22 with surface markers and gaps
 def test_unobserved_inner_node_eq_3_22():
     """The centre node (13) has no marker; its springs are still learned from the others."""
     truth = paper_cube_model()

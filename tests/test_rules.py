@@ -21,6 +21,21 @@ TISSUES = Path(__file__).parent / "data" / "cube_tissues.yaml"
 
 
 def cli(*args):
+    """The command in this process (fast; test_cli.py runs it in fresh interpreters)."""
+    import contextlib
+    import io
+    from types import SimpleNamespace
+
+    from neurofuzzy.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main([str(a) for a in args])
+    return SimpleNamespace(returncode=status, stdout=out.getvalue(), stderr=err.getvalue())
+
+
+def cli_process(*args):
+    """The installed command in a fresh interpreter, as a user runs it."""
     return subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *map(str, args)],
                           capture_output=True, text=True, timeout=300)
 
@@ -344,7 +359,7 @@ def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):
     data = save_experiment(simulate_experiment(truth, dt=5e-4, n_frames=251,
                                                external_forces=load), tmp_path / "firm.npz")
     report = tmp_path / "report.html"
-    result = cli("fit", data, "--rules", TISSUES, "--tissue", "soft_tissue", "--tie", "global",
+    result = cli_process("fit", data, "--rules", TISSUES, "--tissue", "soft_tissue", "--tie", "global",
                  "--report", report, "--json")
     assert result.returncode == 0, result.stderr
     twin = json.loads(report.with_suffix(".json").read_text())
