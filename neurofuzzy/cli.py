@@ -287,6 +287,11 @@ def _load_start(args, progress: bool):
     start = SpringMassModel(mesh, node_mass=masses, spring_stiffness=1.0, spring_damping=1.0,
                             spring_tie=tie_index(mesh, args.tie))
     start, info = estimate_start(start, experiments, estimate_mass=estimate_mass)
+    if estimate_mass and not info["used"]:
+        raise InputError(f"gives no 'masses', and they cannot be estimated here ({info['reason']}"
+                         "); give known masses (import with --topology MODEL.yaml) or start "
+                         "from a rule base (--rules R.yaml --tissue NAME)", source=first.source,
+                         key="masses")
     _say(progress, f"start values: {info['reason']}" if info["used"] else
          f"start values: defaults ({info['reason']})")
     return inputs, experiments, start, info

@@ -215,3 +215,15 @@ def test_mesh_command_builds_a_model_from_a_surface_and_rules(tmp_path, capsys):
     assert main(["mesh", str(tmp_path / "box.stl"), "--pitch", "0.01", "--rules", "liver",
                  "--tissue", "livr", "--out", str(tmp_path / "x.yaml")]) == 2
     assert "liver" in capsys.readouterr().err
+
+
+def test_fit_refuses_unknown_masses_it_cannot_estimate(cube_experiment, tmp_path, capsys):
+    observed = np.ones(27, bool)
+    observed[13] = False
+    surface = cube_experiment.replace(
+        observed=observed, masses=None,
+        positions=np.where(observed[None, :, None], cube_experiment.positions, np.nan))
+    path = save_experiment(surface, tmp_path / "surface.npz")
+    assert main(["fit", str(path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "surface.npz: masses: gives no 'masses'" in err and "--rules" in err
