@@ -18,7 +18,8 @@ Marker CSV
     converted to metres.
 C3D
     Read with the ``c3d`` package (pure Python). The unit comes from ``POINT:UNITS``, the rate
-    from the header; points with a negative residual are "not seen".
+    from the header; points with a negative residual are "not seen". Times start at 0 s at the
+    file's first frame (force CSV times count from there).
 Map CSV
     Columns ``marker,node``: which node each marker is attached to. Without a map, each marker
     goes to the node nearest to its first seen position, and must lie within ``max_distance``.
