@@ -37,13 +37,12 @@ from scipy.optimize import least_squares  # noqa: E402
 from neurofuzzy import simulate  # noqa: E402
 from neurofuzzy._steppers import numba_available  # noqa: E402
 from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model,  # noqa: E402
-                                 push_and_pull)
+                                 per_spring_cube)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
 from neurofuzzy.learn import GradientLearner, PaperLearner  # noqa: E402
 from neurofuzzy.learn.initial import estimate_start  # noqa: E402
 from neurofuzzy.mesh import bottom_layer, from_trimesh, lattice  # noqa: E402
 from neurofuzzy.model import SpringMassModel  # noqa: E402
-from neurofuzzy.reference import reference_experiment  # noqa: E402
 
 
 def timed(function, repeat=1):
@@ -207,12 +206,7 @@ def bench_tied_fit(results):
 
 # -- 4. per-spring constants of the cube, two load cases, RK4 data --------------------------
 def bench_per_spring_cube(results):
-    rng = np.random.default_rng(0)
-    base = paper_cube_model()
-    truth = base.replace(spring_stiffness=50 * rng.uniform(0.7, 1.3, 86),
-                         spring_damping=0.02 * rng.uniform(0.7, 1.3, 86))
-    data = [reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=load,
-                                 method="rk4", substeps=10) for load in push_and_pull(base.mesh)]
+    base, truth, data = per_spring_cube(seed=0)
     seconds, learner = timed(lambda: GradientLearner(substeps="auto").fit(base, data))
     moving = base.mesh.free[base.mesh.springs].any(axis=1)
     fitted = learner.model_

@@ -14,7 +14,7 @@ from .experiment import Experiment, simulate_experiment
 from .mesh import Mesh, bottom_layer, lattice
 from .model import SpringMassModel
 
-__all__ = ["CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
+__all__ = ["per_spring_cube", "CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
            "top_centre_node", "corner_node", "point_load", "push_and_pull"]
 
 #: Parameters of the built-in cube (SI units): a 2 cm cube of soft tissue (density 1000 kg/m³,
@@ -96,3 +96,30 @@ def paper_cube_experiment(model: SpringMassModel | None = None, *, force=None, n
                                n_frames=CUBE["n_frames"] if n_frames is None else n_frames,
                                external_forces=loads, noise=noise, seed=seed,
                                substeps=substeps, source=source)
+
+
+def per_spring_cube(seed: int = 0, spread: float = 0.3):
+    """The cube with every spring's own constants, recorded by a reference integrator.
+
+    Stiffness and viscosity of each spring are drawn uniformly within ``±spread`` of the
+    built-in values; the two load cases of :func:`push_and_pull` are integrated with RK4 (10
+    substeps per frame), another integrator than the learners'.
+
+    Returns
+    -------
+    base : SpringMassModel
+        The cube with the built-in (uniform) values: a start model.
+    truth : SpringMassModel
+    experiments : list of Experiment
+    """
+    from .reference import reference_experiment
+
+    rng = np.random.default_rng(seed)
+    base = paper_cube_model()
+    truth = base.replace(
+        spring_stiffness=CUBE["stiffness"] * rng.uniform(1 - spread, 1 + spread, base.n_springs),
+        spring_damping=CUBE["damping"] * rng.uniform(1 - spread, 1 + spread, base.n_springs))
+    experiments = [reference_experiment(truth, dt=CUBE["dt"], n_frames=CUBE["n_frames"],
+                                        external_forces=load, method="rk4", substeps=10)
+                   for load in push_and_pull(base.mesh)]
+    return base, truth, experiments

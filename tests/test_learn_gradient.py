@@ -127,14 +127,9 @@ def test_auto_substeps_keeps_one_step_for_our_own_data(cube_experiment):
 
 @pytest.mark.slow
 def test_every_spring_from_two_load_cases_of_rk4_data():
-    from neurofuzzy.datasets import push_and_pull
+    from neurofuzzy.datasets import per_spring_cube
 
-    rng = np.random.default_rng(0)
-    base = paper_cube_model()
-    truth = base.replace(spring_stiffness=50 * rng.uniform(0.7, 1.3, 86),
-                         spring_damping=0.02 * rng.uniform(0.7, 1.3, 86))
-    data = [reference_experiment(truth, dt=CUBE["dt"], n_frames=251, external_forces=load,
-                                 method="rk4", substeps=10) for load in push_and_pull(base.mesh)]
+    base, truth, data = per_spring_cube(seed=0)
     learner = GradientLearner(substeps="auto").fit(base, data)
     moving = base.mesh.free[base.mesh.springs].any(axis=1)
     fitted = learner.model_

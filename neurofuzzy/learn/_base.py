@@ -56,8 +56,8 @@ def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experim
     """Root-mean-square node distance between free simulation and measurement.
 
     Over all experiments, frames 1 onwards, and the nodes that are measured (observed, not in a
-    gap) and not fixed: ``sqrt(mean |p_sim - p_measured|²)``, simulating with ``substeps`` steps per frame.
-    Infinite when the simulation diverges.
+    gap) and not fixed: ``sqrt(mean |p_sim - p_measured|²)``, simulating with ``substeps``
+    steps per frame. Infinite when the simulation diverges.
     """
     experiments = check_experiments(model, experiments)
     total, count = 0.0, 0
