@@ -3,10 +3,10 @@
 Two interchangeable backends with one interface, ``advance(p, v, load, n_steps)`` (in place,
 positions and velocities of shape (n_nodes, 3)):
 
-- :class:`NumpyStepper`: vectorised numpy; components stored as separate contiguous rows
-  (structure of arrays), gathers and the force accumulation as sparse matrix products (the
-  fastest of ``np.bincount``, ``np.add.at`` and a sparse incidence matrix measured in
-  ``benchmarks/run.py``);
+- :class:`NumpyStepper`: vectorised numpy through the spring term's own force; components
+  stored as separate contiguous rows (structure of arrays), gathers and the force
+  accumulation as sparse matrix products (the fastest of ``np.bincount``, ``np.add.at`` and a
+  sparse incidence matrix measured in ``benchmarks/run.py``);
 - :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs and nodes
   (optional; ``pip install numba``), about six times faster on 10,000 springs.
 
@@ -17,7 +17,6 @@ effects use the numpy stepper, which adds the effect forces at every step.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 __all__ = ["NumpyStepper", "NumbaStepper", "numba_available", "make_stepper"]
 
@@ -31,26 +30,22 @@ def numba_available() -> bool:
 
 
 class NumpyStepper:
-    """Semi-implicit Euler steps with precomputed sparse incidence matrices."""
+    """Semi-implicit Euler steps on component-major state arrays (3, n_nodes), through the
+    spring term's own force (:meth:`~neurofuzzy.forces.SpringForce.force_components`)."""
 
     def __init__(self, model, h: float, dtype=np.float64):
+        from .forces import SPRINGS, incidence
+
         self.model = model
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        a, b = model.mesh.springs.T
-        n_springs, n_nodes = model.n_springs, model.n_nodes
-        rows = np.arange(n_springs)
-        ones = np.ones(n_springs, dtype=self.dtype)
-        # difference: d = p_b - p_a; accumulate: node a gets +f, node b gets -f
-        self.difference = sp.csr_matrix((np.r_[-ones, ones], (np.r_[rows, rows], np.r_[a, b])),
-                                        shape=(n_springs, n_nodes))
-        self.accumulate = (-self.difference.T).tocsr()
-        self.stiffness = model.spring_stiffness.astype(self.dtype)
-        self.damping = model.spring_damping.astype(self.dtype)
-        self.stiffness_rest = (model.spring_stiffness * model.spring_rest_length).astype(self.dtype)
-        weight = 1.0 / model.node_mass
-        weight[model.mesh.fixed] = 0.0
-        self.step_weight = (self.h * weight).astype(self.dtype)
+        self.springs = SPRINGS
+        self.incidence = incidence(model.mesh)
+        if self.dtype != np.float64:
+            self.incidence = self.incidence.with_dtype(self.dtype)
+        self.coefficients = tuple(values.astype(self.dtype) for values in (
+            model.spring_stiffness, model.spring_damping, model.spring_rest_length))
+        self.step_weight = (self.h * model.node_inverse_mass).astype(self.dtype)
         self.fixed = model.mesh.fixed
         self.effects = model.effects
 
@@ -71,23 +66,8 @@ class NumpyStepper:
         vt[:, self.fixed] = 0.0
         load_t = None if load is None else np.ascontiguousarray(load.T, dtype=self.dtype)
         for _ in range(n_steps):
-            d = (self.difference @ pt.T).T                 # (3, S)
-            dv = (self.difference @ vt.T).T
-            length2 = d[0] * d[0]
-            length2 += d[1] * d[1]
-            length2 += d[2] * d[2]
-            inverse = 1.0 / np.sqrt(length2)
-            closing = dv[0] * d[0]
-            closing += dv[1] * d[1]
-            closing += dv[2] * d[2]
-            # f = [s (l - L0) + c (dv·u)] u = [s - s L0 / l + c (dv·d) / l²] d
-            magnitude = self.stiffness - self.stiffness_rest * inverse
-            closing *= inverse
-            closing *= inverse
-            closing *= self.damping
-            magnitude += closing
-            d *= magnitude
-            force = (self.accumulate @ d.T).T               # (3, N)
+            force = self.springs.force_components(self.model, pt, vt, incidence_=self.incidence,
+                                                  coefficients=self.coefficients)
             if load_t is not None:
                 force += load_t
             for effect in self.effects:
@@ -115,9 +95,7 @@ class NumbaStepper:
         self.stiffness = model.spring_stiffness.astype(self.dtype)
         self.damping = model.spring_damping.astype(self.dtype)
         self.rest = model.spring_rest_length.astype(self.dtype)
-        weight = 1.0 / model.node_mass
-        weight[model.mesh.fixed] = 0.0
-        self.weight = weight.astype(self.dtype)
+        self.weight = model.node_inverse_mass.astype(self.dtype)
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
         self.zero_load = np.zeros((model.n_nodes, 3), dtype=self.dtype)

@@ -28,11 +28,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import savgol_filter
 
-from .effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion, StiffInclusion,
-                      UnmodeledLoad)
+from .effects import EFFECTS, SoftInclusion, StiffInclusion
 from .errors import InputError
 from .experiment import Experiment
-from .forces import accumulate, spring_terms
+from .forces import SPRINGS, incidence
 from .learn import GradientLearner
 from .learn._base import check_experiments, simulate_like
 from .model import SpringMassModel
@@ -263,46 +262,38 @@ def _sample(model: SpringMassModel, experiments, substeps: int) -> _Samples:
 
 
 def _templates(model, samples: _Samples, force_of) -> np.ndarray:
-    """Stack a force template ``force_of(p, v) -> (k, n_nodes, 3)`` over all samples → (n, k)."""
+    """Stack a force template ``force_of(p, v) -> (n_nodes, k, 3)`` over all samples → (n, k)."""
     blocks = []
     for data in samples.experiment:
         rows = data["rows"]
-        per_frame = [force_of(data["p"][t], data["v"][t])[:, rows] for t in range(len(data["p"]))]
-        stacked = np.stack(per_frame, axis=1)               # (k, T', F, 3)
+        per_frame = [force_of(data["p"][t], data["v"][t])[rows] for t in range(len(data["p"]))]
+        stacked = np.stack(per_frame).transpose(2, 0, 1, 3)        # (k, T', F, 3)
         blocks.append(stacked.reshape(stacked.shape[0], -1))
     return np.concatenate(blocks, axis=1).T
 
 
 def _model_templates(model, samples) -> np.ndarray:
     """Templates of the model's own tied stiffness and viscosity (their log-derivatives)."""
-    tie = model.spring_tie
+    maps = incidence(model.mesh)
 
     def force_of(p, v):
-        terms = spring_terms(model, p, v)
-        out = []
-        for per_spring in (model.spring_stiffness * terms.stretch,
-                           model.spring_damping * terms.closing_speed):
-            force = per_spring[:, None] * terms.direction
-            for k in range(model.n_ties):
-                out.append(accumulate(model.mesh.springs, np.where((tie == k)[:, None], force, 0),
-                                      model.n_nodes))
-        return np.stack(out)
+        templates = SPRINGS.parameter_templates(SPRINGS.state(model, p, v))
+        return np.concatenate([
+            maps.group_sums(values[:, None] * templates[name], model.spring_tie, model.n_ties)
+            for name, values in (("stiffness", model.spring_stiffness),
+                                 ("damping", model.spring_damping))], axis=1)
 
     return _templates(model, samples, force_of)
 
 
 def _spring_templates(model, samples) -> np.ndarray:
     """(n, n_springs): every spring's own stiffness template ``s_j (l - L0) u``."""
+    maps = incidence(model.mesh)
 
     def force_of(p, v):
-        terms = spring_terms(model, p, v)
-        force = (model.spring_stiffness * terms.stretch)[:, None] * terms.direction
-        a, b = model.mesh.springs.T
-        out = np.zeros((model.n_springs, model.n_nodes, 3))
-        index = np.arange(model.n_springs)
-        out[index, a] = force
-        out[index, b] = -force
-        return out
+        force = model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
+            SPRINGS.state(model, p, v))["stiffness"]
+        return maps.group_sums(force, np.arange(model.n_springs), model.n_springs)
 
     return _templates(model, samples, force_of)
 
@@ -359,31 +350,46 @@ def _spring_mismatch(model, samples) -> np.ndarray:
 
 
 # -- candidates ------------------------------------------------------------------------------
-def _candidates(model, samples: _Samples, base: np.ndarray, present: set[str]) -> list:
-    """Every effect of the catalogue, instantiated where the residuals point."""
-    out = []
-    n_nodes = model.n_nodes
-    if "gravity" not in present:
-        out.append(Gravity(np.zeros(3)))
-    if "node_drag" not in present:
-        out.append(NodeDrag([0.0]))
-    if "nonlinear_stiffening" not in present:
-        out.append(NonlinearStiffening.for_model(model, [0.0]))
-    # unmodeled load: the nodes with the largest mean residual force
-    mean_force = np.zeros((n_nodes, 3))
-    for data in samples.experiment:
-        rows = data["rows"]
-        mean_force[rows] += data["residual"][:, rows].mean(axis=0) / len(samples.experiment)
-    taken = {int(e.options["node"]) for e in model.effects if e.name == "unmodeled_load"}
-    for node in np.argsort(-np.linalg.norm(mean_force, axis=1))[:3]:
-        if int(node) not in taken and model.mesh.free[node]:
-            out.append(UnmodeledLoad(np.zeros(3), node=int(node)))
-    # inclusion: the compact region of springs that best explains the residual
-    taken_springs = {int(j) for e in model.effects for j in e.springs}
-    region = _inclusion_region(model, samples, taken_springs, base)
-    if region:
-        out.append(StiffInclusion.for_model(model, [0.0], springs=region))
-    return out
+@dataclass
+class Evidence:
+    """What the residuals say, for :meth:`~neurofuzzy.effects.Effect.propose`: the effects the
+    model has, the mean residual force per node, what located effects already use, and the
+    inclusion region search."""
+
+    model: SpringMassModel
+    samples: _Samples
+    base: np.ndarray
+
+    @property
+    def present(self) -> set[str]:
+        return {e.name for e in self.model.effects}
+
+    @property
+    def mean_force(self) -> np.ndarray:
+        """(n_nodes, 3) mean residual force of every node over the frames and experiments."""
+        mean_force = np.zeros((self.model.n_nodes, 3))
+        for data in self.samples.experiment:
+            rows = data["rows"]
+            mean_force[rows] += data["residual"][:, rows].mean(axis=0) / len(
+                self.samples.experiment)
+        return mean_force
+
+    @property
+    def taken_nodes(self) -> set[int]:
+        return {int(n) for e in self.model.effects for n in e.nodes}
+
+    @property
+    def taken_springs(self) -> set[int]:
+        return {int(j) for e in self.model.effects for j in e.springs}
+
+    def inclusion_region(self, taken: set[int]) -> list[int]:
+        return _inclusion_region(self.model, self.samples, taken, self.base)
+
+
+def _candidates(model, samples: _Samples, base: np.ndarray) -> list:
+    """Every effect of the registry, instantiated where the residuals point."""
+    evidence = Evidence(model, samples, base)
+    return [effect for cls in EFFECTS.values() for effect in cls.propose(model, evidence)]
 
 
 def _inclusion_region(model, samples, taken: set[int], base: np.ndarray) -> list[int]:
@@ -527,8 +533,7 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         residuals, samples = residual_analysis(current, experiments, substeps=steps)
         noise_rms = samples.marker_noise * np.sqrt(3.0)
         base = _model_templates(current, samples)
-        present = {e.name for e in current.effects}
-        ranked = _score(current, samples, base, _candidates(current, samples, base, present))
+        ranked = _score(current, samples, base, _candidates(current, samples, base))
         winner = ranked[0] if ranked else None
         round_info = {"residuals": residuals, "candidates": ranked, "rms": rms, "winner": "none"}
         rounds.append(round_info)

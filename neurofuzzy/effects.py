@@ -4,7 +4,8 @@ Each effect is one class with a name from the fixed vocabulary of DESIGN.md, a p
 the learners fit, the force it adds, its derivatives (for the gradient learner) and the
 physical units of its parameters (for the paper's learner). Adding an effect means adding one
 subclass here and registering it with :func:`register`; the simulator, both learners, the model
-files and the diagnosis pick it up from the registry.
+files and the diagnosis pick it up from the registry (the diagnosis asks every registered class
+for candidates through :meth:`Effect.propose`).
 
 =====================  ====================================================  ===============
 name                   force on node i                                        parameters
@@ -20,14 +21,13 @@ unmodeled_load         a constant force ``f`` at one node                     ``
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from typing import ClassVar
 
 import numpy as np
 
 from .errors import InputError, closest_name
-from .forces import (SpringTerms, accumulate, accumulate_many, central_jvp, central_vjp,
-                     spring_terms)
+from .forces import SPRINGS, ForceTerm, central_jvp, central_vjp, incidence
 
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
            "NonlinearStiffening", "UnmodeledLoad", "EFFECTS", "register", "effect_to_dict",
@@ -43,13 +43,14 @@ def register(cls: type[Effect]) -> type[Effect]:
     return cls
 
 
-class Effect(ABC):
-    """A force term ``F(p, v; θ)`` added to the spring forces.
+class Effect(ForceTerm):
+    """A force term ``F(p, v; θ)`` with a few learned parameters, added to the spring forces.
 
     Subclasses set ``name``, ``unit`` (the exponents of length, time and mass of the
-    parameters' unit) and ``_labels`` (or a ``labels`` property), and implement :meth:`force`
-    and :meth:`parameter_jacobian`; forces that depend on the state also implement
-    :meth:`state_jvp` and :meth:`state_vjp`.
+    parameters' unit) and ``_labels`` (or a ``labels`` property), and implement :meth:`force`,
+    :meth:`parameter_jacobian` and :meth:`propose`; forces that depend on the state also
+    implement :meth:`state_jvp` and :meth:`state_vjp` (node-major, see
+    :mod:`neurofuzzy.forces.base`).
 
     Parameters
     ----------
@@ -58,12 +59,6 @@ class Effect(ABC):
     **options
         Fixed, non-learned settings (which springs, which node).
     """
-
-    name: ClassVar[str]
-    #: (length, time, mass) exponents of the unit of the parameters.
-    unit: ClassVar[tuple[int, int, int]]
-    #: True when the force is proportional to the node mass (so ``F/m`` is not).
-    per_unit_mass: ClassVar[bool] = False
 
     def __init__(self, params, **options):
         self.params = np.array(params, dtype=float).ravel()
@@ -105,21 +100,22 @@ class Effect(ABC):
         return np.zeros(0, dtype=int) if node is None else np.array([int(node)])
 
     @abstractmethod
-    def force(self, model, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
-        """(n_nodes, 3) force this effect adds at state ``(positions, velocities)``."""
-
-    @abstractmethod
     def parameter_jacobian(self, model, positions: np.ndarray,
                            velocities: np.ndarray) -> np.ndarray:
-        """(n_params, n_nodes, 3): derivative of :meth:`force` with respect to ``params``."""
+        """(n_nodes, n_params, 3): derivative of :meth:`force` with respect to ``params``."""
 
-    def state_jvp(self, model, positions, velocities, dp, dv) -> np.ndarray:
-        """(P, n_nodes, 3): ``∂F/∂p · dp + ∂F/∂v · dv`` for tangents of shape (P, n_nodes, 3)."""
-        return np.zeros_like(dp)
+    @classmethod
+    def propose(cls, model, evidence) -> list:
+        """Instances of this effect worth scoring against a diagnosis' residuals (zero
+        parameters; the diagnosis estimates them).
 
-    def state_vjp(self, model, positions, velocities, cotangent):
-        """``((∂F/∂p)ᵀ λ, (∂F/∂v)ᵀ λ)`` for a cotangent ``λ`` of shape (n_nodes, 3)."""
-        return np.zeros_like(cotangent), np.zeros_like(cotangent)
+        ``evidence`` offers ``present`` (names of the effects the model has),
+        ``mean_force`` ((n_nodes, 3) mean residual force per node), ``taken_nodes`` /
+        ``taken_springs`` (already used by located effects) and ``inclusion_region(taken)``
+        (the compact region of springs whose stiffness change best explains the residual).
+        Default: one global instance when the model does not carry the effect yet.
+        """
+        return [] if cls.name in evidence.present else [cls(np.zeros(len(cls._labels)))]
 
     def equation(self) -> str:
         """The force term in words and numbers, e.g. ``F_i += m_i (0, 0, -9.81)``."""
@@ -145,10 +141,7 @@ class Gravity(Effect):
         return model.node_mass[:, None] * self.params[None, :]
 
     def parameter_jacobian(self, model, positions, velocities):
-        jacobian = np.zeros((3, model.n_nodes, 3))
-        for k in range(3):
-            jacobian[k, :, k] = model.node_mass
-        return jacobian
+        return model.node_mass[:, None, None] * np.eye(3)[None]
 
     def equation(self):
         g = self.params
@@ -168,7 +161,7 @@ class NodeDrag(Effect):
         return -self.params[0] * velocities
 
     def parameter_jacobian(self, model, positions, velocities):
-        return -velocities[None]
+        return -velocities[:, None, :]
 
     def state_jvp(self, model, positions, velocities, dp, dv):
         return -self.params[0] * dv
@@ -222,53 +215,51 @@ class SpringEffect(Effect):
         return np.arange(model.n_springs) if springs is None else np.asarray(springs, int)
 
     @abstractmethod
-    def shape(self, model, terms, selection):
+    def shape(self, model, state, selection):
         """``(g, dg_dl)`` per selected spring: magnitude and its length derivative per unit
         coefficient."""
 
-    def magnitude(self, model, terms, selection):
+    def magnitude(self, model, state, selection):
         """``(m, dm_dl, dm_dparams)`` of shapes (n,), (n,), (n_params, n)."""
         index = np.searchsorted(self.options["groups"], model.mesh.spring_group[selection])
         index = np.minimum(index, len(self.params) - 1)
         known = np.asarray(self.options["groups"])[index] == model.mesh.spring_group[selection]
         coefficient = np.where(known, self.params[index], 0.0)
-        g, dg = self.shape(model, terms, selection)
+        g, dg = self.shape(model, state, selection)
         dm = np.zeros((len(self.params), len(selection)))
         dm[index[known], np.flatnonzero(known)] = g[known]
         return coefficient * g, coefficient * dg, dm
 
     def _parts(self, model, positions, velocities):
         selection = self._selection(model)
-        terms = spring_terms(model, positions, velocities)
-        sub = _select_terms(terms, selection)
-        return selection, sub, self.magnitude(model, sub, selection)
+        state = SPRINGS.state(model, positions, velocities).select(selection)
+        return selection, state, self.magnitude(model, state, selection)
+
+    def _scatter(self, model, selection, per_spring):
+        """(n_nodes, ...) net of a per-selected-spring array (node a +, node b -)."""
+        full = np.zeros((model.n_springs, *per_spring.shape[1:]))
+        full[selection] = per_spring
+        return incidence(model.mesh).accumulate(full)
 
     def force(self, model, positions, velocities):
-        selection, terms, (m, _, _) = self._parts(model, positions, velocities)
-        return accumulate(model.mesh.springs[selection], m[:, None] * terms.direction,
-                          model.n_nodes)
+        selection, state, (m, _, _) = self._parts(model, positions, velocities)
+        return self._scatter(model, selection, m[:, None] * state.direction)
 
     def parameter_jacobian(self, model, positions, velocities):
-        selection, terms, (_, _, dm) = self._parts(model, positions, velocities)
-        springs = model.mesh.springs[selection]
-        return np.stack([accumulate(springs, d[:, None] * terms.direction, model.n_nodes)
-                         for d in dm])
+        selection, state, (_, _, dm) = self._parts(model, positions, velocities)
+        return self._scatter(model, selection,
+                             dm.T[:, :, None] * state.direction[:, None, :])
 
     def state_jvp(self, model, positions, velocities, dp, dv):
-        selection, terms, (m, dm_dl, _) = self._parts(model, positions, velocities)
-        a, b = model.mesh.springs[selection].T
-        dd = (dp[:, b] - dp[:, a]).transpose(1, 0, 2)                   # (n, P, 3)
-        df = central_jvp(terms, m, dm_dl, None, dd, None)              # (n, P, 3)
-        return accumulate_many(model.mesh.springs[selection], df,
-                               model.n_nodes).transpose(1, 0, 2)
+        selection, state, (m, dm_dl, _) = self._parts(model, positions, velocities)
+        dd = incidence(model.mesh).difference(dp)[selection]            # (n, P, 3)
+        return self._scatter(model, selection, central_jvp(state, m, dm_dl, None, dd, None))
 
     def state_vjp(self, model, positions, velocities, cotangent):
-        selection, terms, (m, dm_dl, _) = self._parts(model, positions, velocities)
-        springs = model.mesh.springs[selection]
-        a, b = springs.T
-        lam_f = cotangent[a] - cotangent[b]
-        lam_d, _ = central_vjp(terms, m, dm_dl, None, lam_f)
-        return -accumulate(springs, lam_d, model.n_nodes), np.zeros_like(cotangent)
+        selection, state, (m, dm_dl, _) = self._parts(model, positions, velocities)
+        lam_f = -incidence(model.mesh).difference(cotangent)[selection]
+        lam_d, _ = central_vjp(state, m, dm_dl, None, lam_f)
+        return -self._scatter(model, selection, lam_d), np.zeros_like(cotangent)
 
     def relative(self, model) -> dict[str, float]:
         """Each coefficient relative to the mean stiffness of its group's selected springs."""
@@ -289,8 +280,8 @@ class _Inclusion(SpringEffect):
     def __init__(self, params, *, springs, **options):
         super().__init__(params, springs=springs, **options)
 
-    def shape(self, model, terms, selection):
-        return terms.stretch, np.ones_like(terms.stretch)
+    def shape(self, model, state, selection):
+        return state.stretch, np.ones_like(state.stretch)
 
     def equation(self):
         return (f"{self.name}: {len(self.springs)} springs pull harder by k (l - L0); "
@@ -303,12 +294,25 @@ class StiffInclusion(_Inclusion):
 
     name = "stiff_inclusion"
 
+    @classmethod
+    def propose(cls, model, evidence):
+        """The compact region of springs that best explains the residual (the diagnosis
+        names it soft_inclusion when the fitted extra stiffness comes out negative)."""
+        region = evidence.inclusion_region(evidence.taken_springs)
+        return [cls.for_model(model, [0.0], springs=region)] if region else []
+
 
 @register
 class SoftInclusion(_Inclusion):
     """Springs of a compact region softer than the rest (k < 0)."""
 
     name = "soft_inclusion"
+
+    @classmethod
+    def propose(cls, model, evidence):
+        """None of its own: :class:`StiffInclusion`'s region, refitted, turns soft when its
+        extra stiffness is negative."""
+        return []
 
 
 @register
@@ -319,9 +323,13 @@ class NonlinearStiffening(SpringEffect):
     name = "nonlinear_stiffening"
     coefficient = "kappa"
 
-    def shape(self, model, terms, selection):
+    def shape(self, model, state, selection):
         rest2 = model.spring_rest_length[selection] ** 2
-        return terms.stretch**3 / rest2, 3 * terms.stretch**2 / rest2
+        return state.stretch**3 / rest2, 3 * state.stretch**2 / rest2
+
+    @classmethod
+    def propose(cls, model, evidence):
+        return [] if cls.name in evidence.present else [cls.for_model(model, [0.0])]
 
     def equation(self):
         return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {self._values()}"
@@ -344,22 +352,21 @@ class UnmodeledLoad(Effect):
         return force
 
     def parameter_jacobian(self, model, positions, velocities):
-        jacobian = np.zeros((3, model.n_nodes, 3))
-        for k in range(3):
-            jacobian[k, self.options["node"], k] = 1.0
+        jacobian = np.zeros((model.n_nodes, 3, 3))
+        jacobian[self.options["node"]] = np.eye(3)
         return jacobian
+
+    @classmethod
+    def propose(cls, model, evidence):
+        """A load at each of the three free nodes with the largest mean residual force."""
+        ranked = np.argsort(-np.linalg.norm(evidence.mean_force, axis=1))[:3]
+        return [cls(np.zeros(3), node=int(node)) for node in ranked
+                if int(node) not in evidence.taken_nodes and model.mesh.free[node]]
 
     def equation(self):
         f = self.params
         return (f"unmodeled_load: F_{self.options['node']} += ({f[0]:.4g}, {f[1]:.4g}, "
                 f"{f[2]:.4g})")
-
-
-def _select_terms(terms, selection):
-    return SpringTerms(length=terms.length[selection], direction=terms.direction[selection],
-                       stretch=terms.stretch[selection],
-                       closing_speed=terms.closing_speed[selection],
-                       relative_velocity=terms.relative_velocity[selection])
 
 
 def effect_to_dict(effect: Effect) -> dict:

@@ -180,6 +180,11 @@ def model_to_dict(model: SpringMassModel) -> dict:
         },
         "effects": [effect_to_dict(effect) for effect in model.effects],
     }
+    if len(model.region_names) > 1 or model.region_tissues[0] is not None:
+        data["regions"] = {"names": list(model.region_names),
+                           "tissues": list(model.region_tissues)}
+        data["nodes"]["region"] = model.node_region.tolist()
+        data["springs"]["region"] = model.spring_region.tolist()
     if mesh.tetrahedra is not None:
         data["tetrahedra"] = mesh.tetrahedra.tolist()
     return data
@@ -202,11 +207,24 @@ def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
             mesh, node_mass=nodes["mass"], spring_stiffness=springs["stiffness"],
             spring_damping=springs["damping"], spring_rest_length=springs.get("rest_length"),
             spring_tie=np.asarray(springs["tie"]) if "tie" in springs else None,
-            effects=tuple(effect_from_dict(e, source) for e in data.get("effects") or ()))
+            effects=tuple(effect_from_dict(e, source) for e in data.get("effects") or ()),
+            **_regions_from_dict(data, nodes, springs, source))
     except KeyError as error:
         raise InputError(f"missing key {error.args[0]!r}", source=source) from None
     except InputError as error:
         raise InputError(error.detail, source=source, key=error.key) from None
+
+
+def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> dict:
+    regions = data.get("regions")
+    if regions is None:
+        return {}
+    if not isinstance(regions, dict) or not isinstance(regions.get("names"), list):
+        raise InputError("expected 'names: [...]' (and optionally 'tissues: [...]')",
+                         source=source, key="regions")
+    return {"region_names": tuple(regions["names"]), "region_tissues": regions.get("tissues"),
+            "spring_region": np.asarray(springs.get("region", np.zeros(0, int))),
+            "node_region": np.asarray(nodes.get("region", np.zeros(0, int)))}
 
 
 def save_model(model: SpringMassModel, path: str | os.PathLike) -> Path:

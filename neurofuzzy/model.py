@@ -2,6 +2,13 @@
 
 A model is immutable; learners and tools return new models (``model.replace(...)``).
 
+Regions
+-------
+A model may consist of several materials (an organ with a tumour): ``region_names`` names them
+(``region_tissues`` gives the rule-base tissue of each, where known), ``spring_region`` and
+``node_region`` say which region every spring and node belongs to. Tying never crosses a
+region boundary (:meth:`SpringMassModel.tied`), so every region keeps its own learned values.
+
 Parameter tying
 ---------------
 ``spring_tie`` assigns every spring to a tie group. Springs of one tie group are learned
@@ -20,7 +27,7 @@ from typing import Literal
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, closest_name
 from .mesh import Mesh
 
 __all__ = ["SpringMassModel", "Tie", "tie_index"]
@@ -71,6 +78,12 @@ class SpringMassModel:
         Tie group of every spring (default: no tying, one group per spring).
     effects : tuple of Effect, optional
         Extra force terms the model carries (see :mod:`neurofuzzy.effects`).
+    region_names : tuple of str, optional
+        Names of the model's material regions (default one region, ``("object",)``).
+    region_tissues : tuple of (str or None), optional
+        The rule-base tissue of every region (default unknown).
+    spring_region, node_region : (n_springs,), (n_nodes,) int, optional
+        Region of every spring and node (default 0).
     """
 
     mesh: Mesh
@@ -80,6 +93,10 @@ class SpringMassModel:
     spring_rest_length: np.ndarray | None = None
     spring_tie: np.ndarray | None = None
     effects: tuple = field(default=())
+    region_names: tuple = ("object",)
+    region_tissues: tuple | None = None
+    spring_region: np.ndarray | None = None
+    node_region: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -109,6 +126,26 @@ class SpringMassModel:
             _, tie = np.unique(tie, return_inverse=True)     # renumber to 0..n_ties-1
             tie = tie.astype(np.intp)
         values["spring_tie"] = tie
+        names = tuple(str(name) for name in self.region_names)
+        if not names or len(set(names)) != len(names):
+            raise InputError(f"got {list(names)}; expected distinct names",
+                             key="region_names")
+        tissues = ((None,) * len(names) if self.region_tissues is None
+                   else tuple(None if t is None else str(t) for t in self.region_tissues))
+        if len(tissues) != len(names):
+            raise InputError(f"got {len(tissues)} tissues for {len(names)} regions",
+                             key="region_tissues")
+        for key, n, size_name in (("spring_region", mesh.n_springs, "n_springs"),
+                                  ("node_region", mesh.n_nodes, "n_nodes")):
+            value = getattr(self, key)
+            index = np.zeros(n, np.intp) if value is None else np.asarray(value)
+            if index.shape != (n,) or not np.issubdtype(index.dtype, np.integer) or (
+                    n and (index.min() < 0 or index.max() >= len(names))):
+                raise InputError(f"expected ({size_name},) = ({n},) integers in "
+                                 f"0..{len(names) - 1}, one region index each", key=key)
+            values[key] = index.astype(np.intp)
+        object.__setattr__(self, "region_names", names)
+        object.__setattr__(self, "region_tissues", tissues)
         for key, value in values.items():
             value = np.array(value)
             value.setflags(write=False)
@@ -150,8 +187,27 @@ class SpringMassModel:
         return replace(self, **changes)
 
     def tied(self, tie: Tie) -> SpringMassModel:
-        """A copy with spring tying ``"global"``, ``"groups"`` or ``"none"``."""
-        return self.replace(spring_tie=tie_index(self.mesh, tie))
+        """A copy with spring tying ``"global"``, ``"groups"`` or ``"none"`` within each
+        region (tie groups never span two regions)."""
+        combined = tie_index(self.mesh, tie) * len(self.region_names) + self.spring_region
+        return self.replace(spring_tie=combined)
+
+    def region_springs(self, region: str) -> np.ndarray:
+        """Indices of the springs of the region named ``region``."""
+        return np.flatnonzero(self.spring_region == self._region_index(region))
+
+    def region_nodes(self, region: str) -> np.ndarray:
+        """Indices of the nodes of the region named ``region``."""
+        return np.flatnonzero(self.node_region == self._region_index(region))
+
+    def _region_index(self, region: str) -> int:
+        if region not in self.region_names:
+            hint = closest_name(str(region), self.region_names)
+            raise InputError(f"no region {region!r}" + (f"; did you mean {hint!r}?" if hint
+                                                         else f"; the model has "
+                                                         f"{list(self.region_names)}"),
+                             key="region")
+        return self.region_names.index(region)
 
     def with_effects(self, *effects) -> SpringMassModel:
         """A copy that carries ``effects`` in addition to those it has."""
@@ -165,6 +221,22 @@ class SpringMassModel:
     @property
     def n_springs(self) -> int:
         return self.mesh.n_springs
+
+    @property
+    def force_terms(self) -> tuple:
+        """Every force term of the model: its springs, then its effects (each a
+        :class:`~neurofuzzy.forces.ForceTerm`)."""
+        from .forces import SPRINGS
+
+        return (SPRINGS, *self.effects)
+
+    @property
+    def node_inverse_mass(self) -> np.ndarray:
+        """(n_nodes,) float: the paper's weight ``w_m = 1/m``, zero at fixed nodes (they never
+        accelerate)."""
+        weight = 1.0 / self.node_mass
+        weight[self.mesh.fixed] = 0.0
+        return weight
 
     @property
     def n_ties(self) -> int:
@@ -186,6 +258,11 @@ class SpringMassModel:
             lines.append(f"  {name} ({int(sel.sum())} springs): stiffness "
                          f"{_describe(self.spring_stiffness[sel])}, damping "
                          f"{_describe(self.spring_damping[sel])}")
+        if len(self.region_names) > 1 or self.region_tissues[0] is not None:
+            for index, (name, tissue) in enumerate(zip(self.region_names, self.region_tissues)):
+                lines.append(f"  region {name}{f' ({tissue})' if tissue and tissue != name else ''}"
+                             f": {int(np.sum(self.node_region == index))} nodes, "
+                             f"{int(np.sum(self.spring_region == index))} springs")
         lines += [f"  effect: {effect}" for effect in self.effects]
         return "\n".join(lines)
 

@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 from .errors import InputError
 from .experiment import Experiment
 from .model import SpringMassModel
-from .simulate import Trajectory, inverse_mass, internal_forces
+from .simulate import Trajectory, internal_forces
 
 __all__ = ["reference_simulate", "reference_experiment"]
 
@@ -45,7 +45,7 @@ def reference_simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     n_nodes = model.n_nodes
     loads = np.zeros((n_frames, n_nodes, 3)) if external_forces is None else \
         np.broadcast_to(np.asarray(external_forces, float), (n_frames, n_nodes, 3))
-    weight = inverse_mass(model)
+    weight = model.node_inverse_mass[:, None]
 
     def acceleration(p, v, load):
         return weight * (internal_forces(model, p, v) + load)

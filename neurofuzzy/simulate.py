@@ -31,13 +31,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .errors import InputError, UnstableTimeStepError
-from .forces import spring_forces
 from .model import SpringMassModel
 
 __all__ = [
     "Trajectory",
     "StabilityLimit",
-    "spring_forces",
     "internal_forces",
     "step",
     "simulate",
@@ -76,18 +74,11 @@ class Trajectory:
 
 def internal_forces(model: SpringMassModel, positions: np.ndarray,
                     velocities: np.ndarray) -> np.ndarray:
-    """(n_nodes, 3) springs plus every effect the model carries."""
-    force = spring_forces(model, positions, velocities)
-    for effect in model.effects:
-        force += effect.force(model, positions, velocities)
+    """(n_nodes, 3) the sum of every force term of the model (springs and effects)."""
+    force = np.zeros_like(positions, dtype=float)
+    for term in model.force_terms:
+        force += term.force(model, positions, velocities)
     return force
-
-
-def inverse_mass(model: SpringMassModel) -> np.ndarray:
-    """(n_nodes, 1) float: ``1/m``, zero at fixed nodes (so they never accelerate)."""
-    weight = 1.0 / model.node_mass
-    weight[model.mesh.fixed] = 0.0
-    return weight[:, None]
 
 
 def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, h: float,
@@ -96,7 +87,7 @@ def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, 
     force = internal_forces(model, positions, velocities)
     if external_force is not None:
         force = force + external_force
-    velocities = velocities + h * inverse_mass(model) * force
+    velocities = velocities + h * model.node_inverse_mass[:, None] * force
     velocities[model.mesh.fixed] = 0.0
     return positions + h * velocities, velocities
 
@@ -221,18 +212,15 @@ class StabilityLimit:
 def stability_limit(model: SpringMassModel) -> StabilityLimit:
     """Bound the stiffest mode of ``model`` at rest (see the module docstring)."""
     free = model.mesh.free
-    if not free.any() or model.n_springs == 0:
+    matrices = [term.rest_matrices(model) for term in model.force_terms]
+    matrices = [pair for pair in matrices if pair is not None]
+    if not free.any() or not matrices:
         return StabilityLimit(0.0, 0.0, np.inf)
-    direction = model.mesh.rest_positions[model.mesh.springs[:, 1]] - \
-        model.mesh.rest_positions[model.mesh.springs[:, 0]]
-    direction /= np.linalg.norm(direction, axis=1)[:, None]
     dof_free = np.repeat(free, 3)
-    scale = np.repeat(1.0 / np.sqrt(model.node_mass), 3)[dof_free]
+    scale = sp.diags(np.repeat(1.0 / np.sqrt(model.node_mass), 3)[dof_free])
     lam = []
-    for constants in (model.spring_stiffness, model.spring_damping):
-        matrix = _projected_laplacian(model.mesh.springs, direction, constants, model.n_nodes)
-        matrix = matrix[dof_free][:, dof_free]
-        matrix = sp.diags(scale) @ matrix @ sp.diags(scale)
+    for matrix in (sum(pair[0] for pair in matrices), sum(pair[1] for pair in matrices)):
+        matrix = scale @ matrix.tocsr()[dof_free][:, dof_free] @ scale
         lam.append(_largest_eigenvalue(matrix.tocsr()))
     omega2, gamma = lam
     # h² ω² + 2 h γ = 4  →  h = (-γ + sqrt(γ² + 4 ω²)) / ω²
@@ -260,22 +248,6 @@ def required_substeps(model: SpringMassModel, dt: float) -> int:
     """Fewest integration steps per frame of length ``dt`` that are stable."""
     limit = stability_limit(model)
     return max(1, int(np.ceil(dt / limit.max_step)))
-
-
-def _projected_laplacian(springs: np.ndarray, direction: np.ndarray, constants: np.ndarray,
-                         n_nodes: int) -> sp.csr_matrix:
-    """Assemble ``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` as a (3N, 3N) sparse matrix."""
-    block = constants[:, None, None] * direction[:, :, None] * direction[:, None, :]
-    a, b = springs.T
-    rows, cols, data = [], [], []
-    for first, second, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-        r = (3 * first[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
-        c = (3 * second[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)
-        rows.append(r.ravel())
-        cols.append(c.ravel())
-        data.append(sign * block.ravel())
-    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(3 * n_nodes, 3 * n_nodes))
 
 
 def _largest_eigenvalue(matrix: sp.csr_matrix) -> float:

@@ -19,12 +19,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..errors import InputError
 from ..experiment import Experiment
-from ..forces import accumulate, central_jvp, central_vjp, spring_terms
-from ..simulate import inverse_mass
+from ..forces import SPRINGS, incidence
 from ._parameters import Parameterization
 
 __all__ = ["Sensitivity", "Run"]
@@ -71,35 +69,37 @@ class Sensitivity:
         self.parameters = parameters
         model = parameters.base
         self.length_unit = float(length_unit)
-        self.n_nodes, self.n_springs = model.n_nodes, model.n_springs
-        self.springs = model.mesh.springs
-        a, b = self.springs.T
-        rows = np.arange(self.n_springs)
-        ones = np.ones(self.n_springs)
-        # F = incidence @ f: node a gets +f_j, node b gets -f_j
-        self.incidence = sp.csr_matrix((np.r_[ones, -ones], (np.r_[a, b], np.r_[rows, rows])),
-                                       shape=(self.n_nodes, self.n_springs))
-        self.difference = (-self.incidence.T).tocsr()          # d = p_b - p_a
-        n_ties = parameters.tied.n_ties
-        tie = parameters.tied.tie
+        self.n_nodes = model.n_nodes
+        self.incidence = incidence(model.mesh)
         # (n_ties * n_nodes, n_springs): spring j into the block of its tie group
-        self.tie_incidence = sp.csr_matrix(
-            (np.r_[ones, -ones], (np.r_[tie * self.n_nodes + a, tie * self.n_nodes + b],
-                                  np.r_[rows, rows])),
-            shape=(n_ties * self.n_nodes, self.n_springs))
+        self.tie_incidence = self.incidence.grouped(parameters.tied.tie, parameters.tied.n_ties)
 
-    # -- helpers ------------------------------------------------------------------------------
-    def _spring_difference(self, node_major: np.ndarray) -> np.ndarray:
-        """(N, P, 3) node tangents → (S, P, 3) differences ``x_b - x_a``."""
-        n_batch = node_major.shape[1]
-        flat = node_major.reshape(self.n_nodes, n_batch * 3)
-        return (self.difference @ flat).reshape(self.n_springs, n_batch, 3)
+    # -- forces of the model's terms ----------------------------------------------------------
+    @staticmethod
+    def _force(model, p, v, state) -> np.ndarray:
+        """(N, 3) every force term (no external load), the springs from ``state``."""
+        force = SPRINGS.force_of_state(model, state)
+        for effect in model.effects:
+            force += effect.force(model, p, v)
+        return force
 
-    def _batch_accumulate(self, per_spring: np.ndarray) -> np.ndarray:
-        """(S, P, 3) → (N, P, 3) with the incidence signs (node a +, node b -)."""
-        n_batch = per_spring.shape[1]
-        flat = per_spring.reshape(self.n_springs, n_batch * 3)
-        return (self.incidence @ flat).reshape(self.n_nodes, n_batch, 3)
+    def _force_tangent(self, model, state, p, v, tp, tv) -> np.ndarray:
+        """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction."""
+        param = self.parameters
+        d_force = SPRINGS.state_jvp(model, p, v, tp, tv, state)
+        for effect in model.effects:
+            d_force += effect.state_jvp(model, p, v, tp, tv)
+        templates = SPRINGS.parameter_templates(state)
+        n_ties = param.tied.n_ties
+        for name, values in (("log_stiffness", model.spring_stiffness),
+                             ("log_damping", model.spring_damping)):
+            per_spring = values[:, None] * templates[name[4:]]     # ∂f/∂log θ
+            d_force[:, param.blocks[name].slice] += (self.tie_incidence @ per_spring).reshape(
+                n_ties, self.n_nodes, 3).transpose(1, 0, 2)
+        for i, effect in enumerate(param.effects):
+            d_force[:, param.blocks[f"effect:{i}"].slice] += effect.parameter_jacobian(
+                model, p, v)
+        return d_force
 
     def _window_state(self, experiment: Experiment, start: int):
         """Positions and velocities at a window start, from the measurement."""
@@ -120,8 +120,7 @@ class Sensitivity:
         """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities."""
         param = self.parameters
         model = param.model(theta)
-        weight = inverse_mass(model)                       # (N, 1)
-        s, c = model.spring_stiffness, model.spring_damping
+        weight = model.node_inverse_mass[:, None]          # (N, 1)
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
         tracked = experiment.tracked()
@@ -151,16 +150,10 @@ class Sensitivity:
                         continue
                 else:
                     for _ in range(substeps):
-                        terms = spring_terms(model, p, v)
-                        u = terms.direction
-                        f_s = (s * terms.stretch)[:, None] * u
-                        f_c = (c * terms.closing_speed)[:, None] * u
-                        force = accumulate(self.springs, f_s + f_c, self.n_nodes)
-                        for effect in model.effects:
-                            force += effect.force(model, p, v)
-                        force += loads[t - 1]
+                        state = SPRINGS.state(model, p, v)
+                        force = self._force(model, p, v, state) + loads[t - 1]
                         if tangents:
-                            d_force = self._force_tangent(model, terms, p, v, tp, tv, f_s, f_c)
+                            d_force = self._force_tangent(model, state, p, v, tp, tv)
                             d_velocity = tv + (h * weight)[:, :, None] * d_force
                             if mass_rows is not None:
                                 nodes = param.free_nodes
@@ -183,33 +176,13 @@ class Sensitivity:
         return Run(positions=positions, residuals=residuals,
                    n_measured=3 * int(seen[1:].sum()), jacobian=jacobian)
 
-    def _force_tangent(self, model, terms, p, v, tp, tv, f_s, f_c) -> np.ndarray:
-        """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction."""
-        param = self.parameters
-        s, c = model.spring_stiffness, model.spring_damping
-        magnitude = s * terms.stretch + c * terms.closing_speed
-        d_force = self._batch_accumulate(central_jvp(
-            terms, magnitude, s, c, self._spring_difference(tp), self._spring_difference(tv)))
-        n_ties = param.tied.n_ties
-        for name, per_spring in (("log_stiffness", f_s), ("log_damping", f_c)):
-            block = param.blocks[name]
-            d_force[:, block.slice] += (self.tie_incidence @ per_spring).reshape(
-                n_ties, self.n_nodes, 3).transpose(1, 0, 2)
-        for i, effect in enumerate(param.effects):
-            d_force[:, param.blocks[f"effect:{i}"].slice] += effect.parameter_jacobian(
-                model, p, v).transpose(1, 0, 2)
-        for effect in model.effects:
-            d_force += effect.state_jvp(model, p, v, tp.transpose(1, 0, 2),
-                                        tv.transpose(1, 0, 2)).transpose(1, 0, 2)
-        return d_force
-
     # -- reverse pass -------------------------------------------------------------------------
     def gradient(self, theta: np.ndarray, experiment: Experiment, *, substeps: int = 1,
                  starts=(0,)) -> tuple[float, np.ndarray, Run]:
         """``(½ Σ r², ∂/∂θ, run)`` by the discrete adjoint (one forward, one backward sweep)."""
         param = self.parameters
         model = param.model(theta)
-        weight = inverse_mass(model)
+        weight = model.node_inverse_mass[:, None]
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
         tracked = experiment.tracked()
@@ -229,7 +202,7 @@ class Sensitivity:
                     continue
                 for _ in range(substeps):
                     states.append((t, p, v))
-                    force = self._force(model, p, v) + loads[t - 1]
+                    force = self._force(model, p, v, SPRINGS.state(model, p, v)) + loads[t - 1]
                     v = v + h * weight * force
                     v[fixed] = 0.0
                     p = p + h * v
@@ -259,9 +232,8 @@ class Sensitivity:
             for _ in range(substeps):
                 index -= 1
                 _, p, v = states[index]
-                terms = spring_terms(model, p, v)
-                force_springs = self._force(model, p, v, terms=terms)
-                force = force_springs + loads[t - 1]
+                state = SPRINGS.state(model, p, v)
+                force = self._force(model, p, v, state) + loads[t - 1]
                 # p' = p + h v'
                 lam_vnew = lam_v + h * lam_p
                 lam_vnew[fixed] = 0.0
@@ -272,12 +244,14 @@ class Sensitivity:
                     inertial = force - self._per_unit_mass(model, p, v)
                     grad[param.blocks["log_mass"].slice] -= np.einsum(
                         "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * inertial[nodes])
-                d_p, d_v, g_s, g_c = self._force_vjp(model, terms, lam_force)
-                grad[param.blocks["log_stiffness"].slice] += np.bincount(tie, g_s, n_ties)
-                grad[param.blocks["log_damping"].slice] += np.bincount(tie, g_c, n_ties)
+                d_p, d_v, per_spring = SPRINGS.vjp(model, lam_force, state)
+                for name, values in (("log_stiffness", model.spring_stiffness),
+                                     ("log_damping", model.spring_damping)):
+                    grad[param.blocks[name].slice] += np.bincount(
+                        tie, values * per_spring[name[4:]], n_ties)
                 for i, effect in enumerate(param.effects):
                     jac = effect.parameter_jacobian(model, p, v)
-                    grad[param.blocks[f"effect:{i}"].slice] += np.einsum("pij,ij->p", jac,
+                    grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,
                                                                          lam_force)
                 for effect in model.effects:
                     e_p, e_v = effect.state_vjp(model, p, v, lam_force)
@@ -295,26 +269,3 @@ class Sensitivity:
             if effect.per_unit_mass:
                 force = force + effect.force(model, p, v)
         return force
-
-    def _force(self, model, p, v, terms=None) -> np.ndarray:
-        """(N, 3) springs plus effects (no external load)."""
-        terms = spring_terms(model, p, v) if terms is None else terms
-        magnitude = (model.spring_stiffness * terms.stretch
-                     + model.spring_damping * terms.closing_speed)
-        force = accumulate(self.springs, terms.direction * magnitude[:, None], self.n_nodes)
-        for effect in model.effects:
-            force += effect.force(model, p, v)
-        return force
-
-    def _force_vjp(self, model, terms, lam_force):
-        """Pull a force cotangent (N, 3) back to positions, velocities and log s, log c."""
-        a, b = self.springs.T
-        s, c = model.spring_stiffness, model.spring_damping
-        lam_f = np.take(lam_force, a, axis=0) - np.take(lam_force, b, axis=0)   # (S, 3)
-        magnitude = s * terms.stretch + c * terms.closing_speed
-        lam_d, lam_dv = central_vjp(terms, magnitude, s, c, lam_f)
-        # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
-        d_p = -accumulate(self.springs, lam_d, self.n_nodes)
-        d_v = -accumulate(self.springs, lam_dv, self.n_nodes)
-        along = np.einsum("ij,ij->i", terms.direction, lam_f)
-        return d_p, d_v, s * terms.stretch * along, c * terms.closing_speed * along

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from ..experiment import Experiment
+from ..forces import SPRINGS, incidence
 from ..model import SpringMassModel
 from ._base import TiedSprings, check_experiments
 
@@ -103,8 +104,7 @@ def _solve(model, experiments, tie, s_ratio, c_ratio, estimate_mass):
     size = sum(e.n_frames for e in experiments) * model.n_nodes * n_ties * 3
     if size > MAX_ENTRIES:
         return None
-    a, b = model.mesh.springs.T
-    n_nodes = model.n_nodes
+    maps = incidence(model.mesh)
     columns, targets = [], []
     for experiment in experiments:
         p = experiment.positions
@@ -113,24 +113,13 @@ def _solve(model, experiments, tie, s_ratio, c_ratio, estimate_mass):
         v = np.zeros_like(p)
         v[1:] = (p[1:] - p[:-1]) / h
         accel = (p[1:] - p[:-1]) / (h * h) - v[:-1] / h          # (T-1, N, 3)
-        d = p[:-1, b] - p[:-1, a]                                 # (T-1, S, 3)
-        length = np.linalg.norm(d, axis=2)
-        u = d / length[..., None]
-        stretch = length - model.spring_rest_length
-        closing = np.einsum("tsk,tsk->ts", v[:-1, b] - v[:-1, a], u)
-        blocks = []
-        for per_spring, ratio in ((stretch, s_ratio), (closing, c_ratio)):
-            force = (per_spring * ratio)[..., None] * u          # (T-1, S, 3)
-            # node force of every tie group: (T-1, N, K, 3) via one bincount per component
-            index = (np.r_[a, b] * n_ties + np.r_[tie, tie])
-            signed = np.concatenate([force, -force], axis=1)      # (T-1, 2S, 3)
-            frames = np.arange(signed.shape[0])[:, None] * (n_nodes * n_ties)
-            flat = (frames + index[None, :]).ravel()
-            per_node = np.stack([np.bincount(flat, signed[..., k].ravel(),
-                                             signed.shape[0] * n_nodes * n_ties)
-                                 for k in range(3)], axis=-1)
-            per_node = per_node.reshape(-1, n_nodes, n_ties, 3)[:, free]   # (T-1, F, K, 3)
-            blocks.append(per_node.transpose(0, 1, 3, 2).reshape(-1, n_ties))
+        per_frame = []                 # (F, 2K, 3) per frame: node force of every tie group
+        for t in range(len(accel)):
+            templates = SPRINGS.parameter_templates(SPRINGS.state(model, p[t], v[t]))
+            per_frame.append(np.concatenate([
+                maps.group_sums(templates[name] * ratio[:, None], tie, n_ties)[free]
+                for name, ratio in (("stiffness", s_ratio), ("damping", c_ratio))], axis=1))
+        blocks = [np.stack(per_frame).transpose(0, 1, 3, 2).reshape(-1, 2 * n_ties)]
         if estimate_mass:
             blocks.append(-accel[:, free].reshape(-1, 1))
             targets.append(-loads[:, free].ravel())

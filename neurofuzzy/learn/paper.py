@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment
 from ..model import SpringMassModel
-from ..forces import accumulate
+from ..forces import SPRINGS, incidence
 from ._base import Learner, Progress, TiedSprings, check_experiments, rms_error
 
 __all__ = ["PaperLearner"]
@@ -127,9 +127,7 @@ class PaperLearner(Learner):
     def _cycle(self, state: _LearningState, experiment: Experiment) -> float:
         """One complete propagation through ``experiment`` with immediate updates; returns E."""
         model = state.base
-        springs = model.mesh.springs
-        a, b = springs.T
-        n_nodes = model.n_nodes
+        maps = incidence(model.mesh)
         rest_length = model.spring_rest_length
         h = experiment.dt
         length_unit, mass_unit = state.length_unit, state.mass_unit
@@ -152,13 +150,10 @@ class PaperLearner(Learner):
         for t in range(1, experiment.n_frames):
             s, c, w = state.stiffness(), state.damping(), state.inverse_mass
             # 1. propagate one step (eqs. 3.1–3.6)
-            d = np.take(p, b, axis=0) - np.take(p, a, axis=0)
-            length = np.sqrt(np.einsum("ij,ij->i", d, d))
-            u = d / length[:, None]
-            dv = np.take(v, b, axis=0) - np.take(v, a, axis=0)
-            o_s = (length - rest_length)[:, None] * u
-            o_c = np.einsum("ij,ij->i", dv, u)[:, None] * u
-            force = accumulate(springs, s[:, None] * o_s + c[:, None] * o_c, n_nodes)
+            geometry = SPRINGS.state(model, p, v)
+            templates = SPRINGS.parameter_templates(geometry)
+            o_s, o_c = templates["stiffness"], templates["damping"]
+            force = SPRINGS.force_of_state(model, geometry, s, c)
             for effect in state.effects:
                 force += effect.force(model, p, v)
             force += loads[t - 1]
@@ -168,17 +163,16 @@ class PaperLearner(Learner):
             e = np.where(tracked[t][:, None], targets[t] - p_new, 0.0)
             error += 0.5 * float(np.sum(e * e)) / length_unit**2
             if unobserved[t].any():   # eq. 3.22: δ_p* = Σ_s δ_s + Σ_c δ_c
-                we = w[:, None] * e
-                delta_f = np.take(we, a, axis=0) - np.take(we, b, axis=0)
+                u = geometry.direction
+                delta_f = -maps.difference(w[:, None] * e)          # w_a e_a - w_b e_b
                 along = np.einsum("ij,ij->i", u, delta_f)
-                ratio = rest_length / length
+                ratio = rest_length / geometry.length
                 delta_s = (1 - ratio)[:, None] * delta_f + (ratio * along)[:, None] * u
                 delta_c = along[:, None] * u
                 back = h * h * s[:, None] * delta_s + h * c[:, None] * delta_c
-                e = e - np.where(unobserved[t][:, None], accumulate(springs, back, n_nodes),
-                                 0.0)
+                e = e - np.where(unobserved[t][:, None], maps.accumulate(back), 0.0)
             we = w[:, None] * e
-            delta_f = np.take(we, a, axis=0) - np.take(we, b, axis=0)
+            delta_f = -maps.difference(we)
             # 4. modify the weights immediately (3.11, 3.15, 3.16)
             state.update_springs(scale_s * np.einsum("ij,ij->i", delta_f, o_s),
                                  scale_c * np.einsum("ij,ij->i", delta_f, o_c))
@@ -233,8 +227,8 @@ class _LearningState:
     def update_effects(self, model, p, v, weighted_error, rate, h) -> None:
         length_unit, mass_unit = self.length_unit, self.mass_unit
         for index, effect in enumerate(self.effects):
-            jacobian = effect.parameter_jacobian(model, p, v)          # (P, N, 3)
-            gradient = np.einsum("pij,ij->p", jacobian, weighted_error)
+            jacobian = effect.parameter_jacobian(model, p, v)          # (N, P, 3)
+            gradient = np.einsum("ipj,ij->p", jacobian, weighted_error)
             unit = effect.parameter_units(length_unit, h, mass_unit)
             self.effects[index] = effect.with_params(effect.params + rate * unit**2 * gradient)
 

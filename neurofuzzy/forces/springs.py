@@ -1,0 +1,246 @@
+"""The spring force (paper eqs. 3.4–3.6) and its derivatives: the one implementation every
+part of the package goes through (the compiled kernel in :mod:`neurofuzzy._numba_kernels` is
+tested equal to it).
+
+Spring ``j`` between nodes ``a`` and ``b``::
+
+    d = p_b - p_a,  l = |d|,  u = d / l,  closing speed c = (v_b - v_a) · u
+    f_j = m_j u,  m_j = s_j (l - L0_j) + c_j c            node a gets +f_j, node b gets -f_j
+
+Every force here is *central*: a magnitude ``m(l, c)`` along ``u``. :func:`central_jvp` and
+:func:`central_vjp` give the exact forward and reverse derivatives of ``f = m u`` for any such
+magnitude, given ``m``, ``∂m/∂l`` and ``∂m/∂c``::
+
+    df = (m_l u·dd + m_c (dv·du + u·ddv)) u + m du,    du = (I - u uᵀ) dd / l
+
+The geometry is computed component-major (arrays of shape (3, n_springs)), the layout in which
+the stepper's hot loop is fastest; :class:`SpringState` offers the node-major views the
+derivatives use.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .assembly import Incidence, incidence
+from .base import ForceTerm
+
+__all__ = ["SpringState", "SpringForce", "SPRINGS", "central_jvp", "central_vjp"]
+
+
+@dataclass(frozen=True)
+class SpringState:
+    """Per-spring geometry of one state (eqs. 3.5, 3.6).
+
+    Attributes
+    ----------
+    difference : (3, n_springs) float
+        ``d = p_b - p_a``, component-major.
+    relative_velocity_components : (3, n_springs) float
+        ``v_b - v_a``, component-major.
+    length : (n_springs,) float
+        ``l = |d|``.
+    stretch : (n_springs,) float
+        ``l - L0``.
+    closing_speed : (n_springs,) float
+        ``(v_b - v_a) · u`` (positive when the spring lengthens).
+    """
+
+    difference: np.ndarray
+    relative_velocity_components: np.ndarray
+    length: np.ndarray
+    stretch: np.ndarray
+    closing_speed: np.ndarray
+
+    @property
+    def direction(self) -> np.ndarray:
+        """(n_springs, 3) unit vector ``u`` from node a to node b."""
+        return (self.difference / self.length).T
+
+    @property
+    def relative_velocity(self) -> np.ndarray:
+        """(n_springs, 3) ``v_b - v_a``."""
+        return self.relative_velocity_components.T
+
+    def select(self, springs: np.ndarray) -> SpringState:
+        """The state of a subset of springs."""
+        return SpringState(self.difference[:, springs],
+                           self.relative_velocity_components[:, springs],
+                           self.length[springs], self.stretch[springs],
+                           self.closing_speed[springs])
+
+
+class SpringForce(ForceTerm):
+    """The springs of a model: stiffness ``s`` (N/m) and damping ``c`` (N·s/m) per spring.
+
+    Stateless: the spring constants are read from the model
+    (``model.spring_stiffness``, ``model.spring_damping``, ``model.spring_rest_length``), the
+    topology from ``model.mesh``. :data:`SPRINGS` is the one instance.
+    """
+
+    name = "springs"
+    #: parameter names and units per spring
+    parameters = {"stiffness": "N/m", "damping": "N s/m"}
+
+    # -- geometry and force -------------------------------------------------------------
+    def state(self, model, positions: np.ndarray, velocities: np.ndarray,
+              incidence_: Incidence | None = None) -> SpringState:
+        """:class:`SpringState` at node-major ``(positions, velocities)`` (n_nodes, 3)."""
+        return self.state_components(model, positions.T, velocities.T, incidence_)
+
+    def state_components(self, model, positions_t: np.ndarray, velocities_t: np.ndarray,
+                         incidence_: Incidence | None = None,
+                         rest_length: np.ndarray | None = None) -> SpringState:
+        """:class:`SpringState` at component-major ``(positions, velocities)`` (3, n_nodes)."""
+        maps = incidence(model.mesh) if incidence_ is None else incidence_
+        d = maps.difference_components(positions_t)
+        dv = maps.difference_components(velocities_t)
+        length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        closing = (dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2]) / length
+        rest = model.spring_rest_length if rest_length is None else rest_length
+        return SpringState(d, dv, length, length - rest, closing)
+
+    def magnitude(self, model, state: SpringState, stiffness=None, damping=None) -> np.ndarray:
+        """(n_springs,) ``m = s (l - L0) + c (v_b - v_a)·u`` (eq. 3.4)."""
+        s = model.spring_stiffness if stiffness is None else stiffness
+        c = model.spring_damping if damping is None else damping
+        return s * state.stretch + c * state.closing_speed
+
+    def force(self, model, positions, velocities):
+        """(n_nodes, 3) net spring force on every node (eq. 3.4 summed as in eq. 3.3)."""
+        return self.force_components(model, positions.T, velocities.T).T
+
+    def force_components(self, model, positions_t, velocities_t, *, incidence_=None,
+                         coefficients=None) -> np.ndarray:
+        """(3, n_nodes) net spring force from component-major states (3, n_nodes).
+
+        ``coefficients`` = ``(stiffness, damping, rest_length)`` overrides the model's (the
+        stepper passes them cast to its dtype once).
+        """
+        maps = incidence(model.mesh) if incidence_ is None else incidence_
+        s, c, rest = (None, None, None) if coefficients is None else coefficients
+        state = self.state_components(model, positions_t, velocities_t, maps, rest)
+        return self._net_components(model, state, maps, s, c)
+
+    def force_of_state(self, model, state: SpringState, stiffness=None,
+                       damping=None) -> np.ndarray:
+        """(n_nodes, 3) net spring force of an already computed :class:`SpringState` (with
+        the model's constants, or ``stiffness`` / ``damping`` (n_springs,) instead)."""
+        return self._net_components(model, state, incidence(model.mesh), stiffness, damping).T
+
+    def _net_components(self, model, state, maps, stiffness=None, damping=None):
+        along = self.magnitude(model, state, stiffness, damping) / state.length
+        return maps.accumulate_components(state.difference * along)
+
+    # -- derivatives ----------------------------------------------------------------------
+    def parameter_templates(self, state: SpringState) -> dict[str, np.ndarray]:
+        """Per-spring force (on node a) per unit of each per-spring parameter.
+
+        Returns ``{"stiffness": (l - L0) u, "damping": ((v_b - v_a)·u) u}``, each
+        (n_springs, 3); node a gets ``+``, node b ``-`` (:meth:`Incidence.accumulate`).
+        """
+        u = state.direction
+        return {"stiffness": state.stretch[:, None] * u,
+                "damping": state.closing_speed[:, None] * u}
+
+    def state_jvp(self, model, positions, velocities, dp, dv, state=None):
+        maps = incidence(model.mesh)
+        state = self.state(model, positions, velocities) if state is None else state
+        s, c = model.spring_stiffness, model.spring_damping
+        df = central_jvp(state, self.magnitude(model, state), s, c, maps.difference(dp),
+                         maps.difference(dv))
+        return maps.accumulate(df)
+
+    def state_vjp(self, model, positions, velocities, cotangent, state=None):
+        lam_p, lam_v, _ = self.vjp(model, cotangent, self.state(model, positions, velocities)
+                                   if state is None else state)
+        return lam_p, lam_v
+
+    def vjp(self, model, cotangent: np.ndarray, state: SpringState):
+        """Reverse derivative of the net spring force for a cotangent ``λ`` (n_nodes, 3).
+
+        Returns ``(λ_p, λ_v, {"stiffness": (n_springs,), "damping": (n_springs,)})``: the
+        pull-backs to positions and velocities and ``λ · ∂F/∂s_j``, ``λ · ∂F/∂c_j``.
+        """
+        maps = incidence(model.mesh)
+        s, c = model.spring_stiffness, model.spring_damping
+        lam_f = -maps.difference(cotangent)                 # λ_a - λ_b per spring
+        lam_d, lam_dv = central_vjp(state, self.magnitude(model, state), s, c, lam_f)
+        # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
+        along = np.einsum("ij,ij->i", state.direction, lam_f)
+        return (-maps.accumulate(lam_d), -maps.accumulate(lam_dv),
+                {"stiffness": state.stretch * along, "damping": state.closing_speed * along})
+
+    def rest_matrices(self, model):
+        """``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` at rest for ``k = s`` and ``k = c``."""
+        mesh = model.mesh
+        direction = mesh.rest_positions[mesh.springs[:, 1]] - mesh.rest_positions[
+            mesh.springs[:, 0]]
+        direction /= np.linalg.norm(direction, axis=1)[:, None]
+        return tuple(projected_laplacian(mesh.springs, direction, constants, model.n_nodes)
+                     for constants in (model.spring_stiffness, model.spring_damping))
+
+
+#: The spring term every model carries.
+SPRINGS = SpringForce()
+
+
+def projected_laplacian(springs: np.ndarray, direction: np.ndarray, constants: np.ndarray,
+                        n_nodes: int) -> sp.csr_matrix:
+    """Assemble ``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` as a (3N, 3N) sparse matrix."""
+    block = constants[:, None, None] * direction[:, :, None] * direction[:, None, :]
+    a, b = springs.T
+    rows, cols, data = [], [], []
+    for first, second, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
+        r = (3 * first[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
+        c = (3 * second[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)
+        rows.append(r.ravel())
+        cols.append(c.ravel())
+        data.append(sign * block.ravel())
+    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(3 * n_nodes, 3 * n_nodes))
+
+
+def central_jvp(state: SpringState, magnitude, d_length, d_closing, dd, ddv) -> np.ndarray:
+    """Forward derivative of ``f = m u`` per spring.
+
+    Parameters
+    ----------
+    state : SpringState
+    magnitude, d_length, d_closing : (n_springs,) float
+        ``m``, ``∂m/∂l`` and ``∂m/∂c`` (``d_closing`` None for position-only forces).
+    dd, ddv : (n_springs, P, 3) float
+        Tangents of ``d = p_b - p_a`` and ``v_b - v_a`` for P directions.
+
+    Returns
+    -------
+    (n_springs, P, 3) float
+    """
+    direction = state.direction
+    u = direction[:, None, :]
+    along = np.einsum("spk,sk->sp", dd, direction)
+    du = (dd - along[..., None] * u) / state.length[:, None, None]
+    scalar = d_length[:, None] * along
+    if d_closing is not None:
+        scalar = scalar + d_closing[:, None] * (
+            np.einsum("spk,sk->sp", ddv, direction)
+            + np.einsum("spk,sk->sp", du, state.relative_velocity))
+    return scalar[..., None] * u + magnitude[:, None, None] * du
+
+
+def central_vjp(state: SpringState, magnitude, d_length, d_closing, cotangent):
+    """Reverse derivative of ``f = m u``: cotangent (n_springs, 3) → ``(λ_d, λ_dv)``."""
+    u = state.direction
+    along = np.einsum("ij,ij->i", u, cotangent)
+    project = cotangent - along[:, None] * u                     # (I - u uᵀ) λ
+    lam_d = (d_length * along)[:, None] * u + (magnitude / state.length)[:, None] * project
+    lam_dv = np.zeros_like(cotangent)
+    if d_closing is not None:
+        dv = state.relative_velocity
+        dv_perp = dv - np.einsum("ij,ij->i", dv, u)[:, None] * u
+        lam_d += (d_closing * along / state.length)[:, None] * dv_perp
+        lam_dv = (d_closing * along)[:, None] * u
+    return lam_d, lam_dv
