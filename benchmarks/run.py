@@ -40,7 +40,7 @@ from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, 
                                  per_spring_cube)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
 from neurofuzzy.learn import GradientLearner, PaperLearner  # noqa: E402
-from neurofuzzy.learn.initial import estimate_start  # noqa: E402
+from neurofuzzy.learn import estimate_start  # noqa: E402
 from neurofuzzy.mesh import bottom_layer, from_trimesh, lattice  # noqa: E402
 from neurofuzzy.model import SpringMassModel  # noqa: E402
 
@@ -175,7 +175,7 @@ def bench_tied_fit(results):
     ours_time, ours = timed(lambda: GradientLearner().fit(start, data))
 
     def pipeline():
-        estimated, _ = estimate_start(start, data)
+        estimated = estimate_start(start, data).model
         return GradientLearner(windows=()).fit(estimated, data)
 
     pipe_time, pipe = timed(pipeline)

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model
-from neurofuzzy.diagnose import diagnose
+from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.effects import Gravity, StiffInclusion
 from neurofuzzy.report import diagnosis_report
 

@@ -36,7 +36,7 @@ import trimesh
 
 from neurofuzzy.export import export_paraview
 from neurofuzzy.io import save_experiment, save_model
-from neurofuzzy.learn import GradientLearner
+from neurofuzzy.learn import GradientLearner, start_model
 from neurofuzzy.markers import markers_to_experiment, read_markers
 from neurofuzzy.mesh import surface_nodes
 from neurofuzzy.mesh_files import read_mesh
@@ -104,8 +104,8 @@ def main(argv):
 
     # 2. words -> start model; the hidden truth is another tissue of the same rule base
     rules = load_rules(shipped("liver"))
-    truth, _ = initialize(rules, mesh, "fibrotic_liver")
-    start, _ = initialize(rules, mesh, "liver")
+    truth = initialize(rules, mesh, "fibrotic_liver")
+    start = initialize(rules, mesh, "liver")
 
     # 3. the measurement: a probe pushes the top; markers on the surface only
     n_frames = 151 if quick else 301
@@ -142,8 +142,8 @@ def main(argv):
                                substeps=learner.substeps_, stem="organ", every=5)
     files.update({"ParaView series (.pvd)": exported["pvd"],
                   "ParaView time series (.xdmf)": exported["xdmf"]})
-    fit_report(rules, "liver", start, learner, out / "report.html", files=files,
-               title="neurofuzzy: organ from surface markers")
+    fit_report(start_model(experiment, model=start, rules=rules), learner,
+               out / "report.html", files=files, title="neurofuzzy: organ from surface markers")
 
     print(f"\n{'':<22}{'start (liver)':>14}{'fitted':>12}{'truth':>12}{'error':>9}")
     for name, values in (("stiffness", lambda m: m.spring_stiffness),

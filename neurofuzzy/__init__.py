@@ -1,15 +1,29 @@
 """neurofuzzy: realistic real-time deformable-tissue models from words and measurements.
 
-The public surface, re-exported here:
+The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 
 - topology: :class:`Mesh`, :func:`lattice`, :func:`from_trimesh`, :func:`from_tetra`,
   :func:`from_surface_tetra`, :func:`bottom_layer`, :func:`surface_nodes`; mesh files:
   :func:`read_mesh`, :class:`MeshFile`
-- physics: :class:`SpringMassModel`, :func:`simulate`, :func:`stability_limit`
-- data: :class:`Experiment`, :func:`simulate_experiment`, :func:`load_experiment`,
-  :func:`save_experiment`, :func:`load_model`, :func:`save_model`
-- learning: :class:`PaperLearner`, :class:`GradientLearner`, :func:`rms_error`
+- physics: :class:`SpringMassModel`, the force terms (:class:`ForceTerm`, :class:`SpringForce`,
+  :data:`SPRINGS`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
+  :class:`StiffInclusion`, :class:`SoftInclusion`, :class:`NonlinearStiffening`,
+  :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`,
+  :func:`stability_limit`, :func:`reference_simulate`
+- data: :class:`Experiment`, :func:`simulate_experiment`, :func:`reference_experiment`,
+  :func:`check_experiments`, :func:`simulate_like`, :func:`rms_error`,
+  :func:`load_experiment`, :func:`save_experiment`, :func:`load_model`, :func:`save_model`;
+  marker recordings: :func:`read_markers`, :func:`markers_to_experiment`
+- learning: :func:`start_model` (:class:`StartModel`), :func:`estimate_start`,
+  :class:`PaperLearner`, :class:`GradientLearner`
+- words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
+  :func:`material_values`, :func:`materials`
+- diagnosis: :func:`diagnose` (:class:`Diagnosis`)
+- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`export_paraview`
 - errors: :class:`NeurofuzzyError`, :class:`InputError`, :class:`UnstableTimeStepError`
+
+No exported name is also the name of a submodule (the modules are ``simulation``,
+``diagnosis``, …), so ``nf.simulate`` is the function whatever was imported before.
 """
 
 from importlib import import_module
@@ -19,20 +33,36 @@ from typing import TYPE_CHECKING
 # line start fast and load scipy, trimesh or meshio only when a part needs them
 _EXPORTS = {
     "InputError": "errors", "NeurofuzzyError": "errors", "UnstableTimeStepError": "errors",
-    "Experiment": "experiment", "simulate_experiment": "experiment",
-    "load_experiment": "io", "load_model": "io", "save_experiment": "io", "save_model": "io",
-    "GradientLearner": "learn", "PaperLearner": "learn", "rms_error": "learn",
     "Mesh": "mesh", "bottom_layer": "mesh", "from_surface_tetra": "mesh", "from_tetra": "mesh",
     "from_trimesh": "mesh", "lattice": "mesh", "surface_nodes": "mesh",
     "MeshFile": "mesh_files", "read_mesh": "mesh_files",
     "SpringMassModel": "model",
-    "Trajectory": "simulate", "simulate": "simulate", "stability_limit": "simulate",
+    "ForceTerm": "forces", "SpringForce": "forces", "SPRINGS": "forces",
+    "Effect": "effects", "EFFECTS": "effects", "Gravity": "effects", "NodeDrag": "effects",
+    "StiffInclusion": "effects", "SoftInclusion": "effects",
+    "NonlinearStiffening": "effects", "UnmodeledLoad": "effects",
+    "Trajectory": "simulation", "simulate": "simulation", "stability_limit": "simulation",
+    "reference_simulate": "reference", "reference_experiment": "reference",
+    "Experiment": "experiment", "simulate_experiment": "experiment",
+    "check_experiments": "experiment", "simulate_like": "experiment", "rms_error": "experiment",
+    "load_experiment": "io", "load_model": "io", "save_experiment": "io", "save_model": "io",
+    "read_markers": "markers", "markers_to_experiment": "markers",
+    "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "learn",
+    "StartModel": "learn", "estimate_start": "learn",
+    "load_rules": "rules", "initialize": "rules", "material_values": "rules",
+    "materials": "rules", "shipped_rules": "rules",
+    "diagnose": "diagnosis", "Diagnosis": "diagnosis",
+    "fit_report": "report", "diagnosis_report": "report",
+    "export_paraview": "export",
 }
+# names whose object has another name in its module
+_ALIASES = {"shipped_rules": "shipped"}
 
 
 def __getattr__(name: str):
     if name in _EXPORTS:
-        value = getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
+        module = import_module(f".{_EXPORTS[name]}", __name__)
+        value = getattr(module, _ALIASES.get(name, name))
         globals()[name] = value
         return value
     raise AttributeError(f"module 'neurofuzzy' has no attribute {name!r}")
@@ -43,25 +73,28 @@ def __dir__():
 
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly
+    from .diagnosis import Diagnosis, diagnose  # noqa: F401
+    from .effects import (EFFECTS, Effect, Gravity, NodeDrag,  # noqa: F401
+                          NonlinearStiffening, SoftInclusion, StiffInclusion, UnmodeledLoad)
     from .errors import InputError, NeurofuzzyError, UnstableTimeStepError  # noqa: F401
-    from .experiment import Experiment, simulate_experiment  # noqa: F401
+    from .experiment import (Experiment, check_experiments, rms_error,  # noqa: F401
+                             simulate_experiment, simulate_like)
+    from .export import export_paraview  # noqa: F401
+    from .forces import SPRINGS, ForceTerm, SpringForce  # noqa: F401
     from .io import load_experiment, load_model, save_experiment, save_model  # noqa: F401
-    from .learn import GradientLearner, PaperLearner, rms_error  # noqa: F401
+    from .learn import (GradientLearner, PaperLearner, StartModel,  # noqa: F401
+                        estimate_start, start_model)
+    from .markers import markers_to_experiment, read_markers  # noqa: F401
     from .mesh import (Mesh, bottom_layer, from_surface_tetra, from_tetra,  # noqa: F401
                        from_trimesh, lattice, surface_nodes)
     from .mesh_files import MeshFile, read_mesh  # noqa: F401
     from .model import SpringMassModel  # noqa: F401
-    from .simulate import Trajectory, simulate, stability_limit  # noqa: F401
+    from .reference import reference_experiment, reference_simulate  # noqa: F401
+    from .report import diagnosis_report, fit_report  # noqa: F401
+    from .rules import initialize, load_rules, material_values, materials  # noqa: F401
+    from .rules import shipped as shipped_rules  # noqa: F401
+    from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "Mesh", "lattice", "from_trimesh", "from_tetra", "from_surface_tetra", "bottom_layer",
-    "surface_nodes",
-    "read_mesh", "MeshFile",
-    "SpringMassModel", "simulate", "stability_limit", "Trajectory",
-    "Experiment", "simulate_experiment", "load_experiment", "save_experiment", "load_model",
-    "save_model",
-    "PaperLearner", "GradientLearner", "rms_error",
-    "NeurofuzzyError", "InputError", "UnstableTimeStepError",
-]
+__all__ = sorted(_EXPORTS)

@@ -1,4 +1,4 @@
-"""Fast inner loops of :func:`neurofuzzy.simulate.simulate`: many steps of one model.
+"""Fast inner loops of :func:`neurofuzzy.simulation.simulate`: many steps of one model.
 
 Two interchangeable backends with one interface, ``advance(p, v, load, n_steps)`` (in place,
 positions and velocities of shape (n_nodes, 3)):
@@ -10,7 +10,7 @@ positions and velocities of shape (n_nodes, 3)):
 - :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs and nodes
   (optional; ``pip install numba``), about six times faster on 10,000 springs.
 
-Both compute exactly what :func:`neurofuzzy.simulate.step` computes (tested equal). Models with
+Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). Models with
 effects use the numpy stepper, which adds the effect forces at every step.
 """
 

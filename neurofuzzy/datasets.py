@@ -14,7 +14,7 @@ from .experiment import Experiment, simulate_experiment
 from .mesh import Mesh, bottom_layer, lattice
 from .model import SpringMassModel
 
-__all__ = ["per_spring_cube", "CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
+__all__ = ["per_spring_cube", "kuhn_block", "CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
            "top_centre_node", "corner_node", "point_load", "push_and_pull"]
 
 #: Parameters of the built-in cube (SI units): a 2 cm cube of soft tissue (density 1000 kg/m³,
@@ -123,3 +123,28 @@ def per_spring_cube(seed: int = 0, spread: float = 0.3):
                                         external_forces=load, method="rk4", substeps=10)
                    for load in push_and_pull(base.mesh)]
     return base, truth, experiments
+
+
+def kuhn_block(shape, spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """A conforming tetrahedral block: ``shape`` cubic cells per axis, each split into the six
+    Kuhn tetrahedra around its (0,0,0)–(1,1,1) diagonal.
+
+    Returns
+    -------
+    points : (n_nodes, 3) float
+        Grid nodes, ``spacing`` apart, the block's corner at the origin.
+    tetrahedra : (6 · n_cells, 4) int
+    """
+    shape = tuple(int(n) for n in shape)
+    node_shape = tuple(n + 1 for n in shape)
+    points = np.argwhere(np.ones(node_shape, bool)).astype(float) * spacing
+    lower = np.argwhere(np.ones(shape, bool))
+    tetrahedra = []
+    for path in [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]:
+        corner, tet = lower.copy(), [lower]
+        for axis in path:
+            corner = corner.copy()
+            corner[:, axis] += 1
+            tet.append(corner)
+        tetrahedra.append(np.stack([np.ravel_multi_index(c.T, node_shape) for c in tet], 1))
+    return points, np.concatenate(tetrahedra)

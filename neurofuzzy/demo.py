@@ -98,12 +98,9 @@ def paper_experiments(*, cycles: int = 100, seed: int = 7, progress: bool = Fals
             started = time.perf_counter()
             learner.fit(start, data)
             fitted = learner.model_
-            if name == "paper":   # network units (mean spring length) → edge lengths
-                history = learner.history_ * (np.mean(truth.spring_rest_length)
-                                              / CUBE["edge_length"]) ** 2
-            else:   # the paper's E of the free run, comparable to the paper learner's E
-                history = 0.5 * (np.asarray(learner.history_) / CUBE["edge_length"]) ** 2 * \
-                    (data.n_frames - 1) * int(data.tracked().sum())
+            # E in network units (mean spring length) → edge lengths, as the paper reports it
+            history = learner.history_ * (np.mean(truth.spring_rest_length)
+                                          / CUBE["edge_length"]) ** 2
             runs.append(CubeRun(
                 experiment=number, learner=name, error_history=np.asarray(history),
                 final_error=float(history[-1]), cycles=learner.n_cycles_,
@@ -177,9 +174,10 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     from pathlib import Path
 
     from .datasets import paper_cube_mesh, point_load, top_centre_node
-    from .diagnose import diagnose
+    from .diagnosis import diagnose
     from .effects import Gravity
     from .experiment import simulate_experiment
+    from .learn import start_model
     from .report import diagnosis_report, fit_report
     from .rules import initialize, load_rules, material_values, shipped
 
@@ -187,13 +185,13 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     lines = []
     rules = load_rules(shipped("liver"))
     mesh = paper_cube_mesh()
-    truth, _ = initialize(rules, mesh, "fibrotic_liver", tie="global")
+    truth = initialize(rules, mesh, "fibrotic_liver").tied("global")
     load = point_load(mesh, top_centre_node(mesh), (0.0, 0.0, -0.05))
     data = simulate_experiment(truth, dt=CUBE["dt"], n_frames=CUBE["n_frames"],
                                external_forces=load, source="fibrotic-liver-cube")
-    start, _ = initialize(rules, mesh, "liver", tie="global")
+    start = initialize(rules, mesh, "liver").tied("global")
     learner = GradientLearner(progress=progress).fit(start, data)
-    fit_report(rules, "liver", start, learner, out / "report.html",
+    fit_report(start_model(data, model=start, rules=rules), learner, out / "report.html",
                title="neurofuzzy demo: the expert said healthy liver")
     before = rules.describe(material_values(rules, start))
     after = rules.describe(material_values(rules, learner.model_))

@@ -6,16 +6,18 @@ reads and writes it as ``.npz``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
 from .model import SpringMassModel
-from .simulate import simulate
+from .simulation import simulate
 
-__all__ = ["Experiment", "simulate_experiment"]
+__all__ = ["Experiment", "simulate_experiment", "check_experiments", "simulate_like",
+           "rms_error"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,7 +185,7 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
     model : SpringMassModel
         The "true" model; its parameters are stored as ``truth``.
     dt, n_frames, external_forces, substeps
-        As in :func:`neurofuzzy.simulate.simulate`.
+        As in :func:`neurofuzzy.simulation.simulate`.
     noise : float
         Standard deviation of Gaussian marker noise added to every recorded coordinate
         (frames 1 onwards), in length units.
@@ -209,6 +211,63 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
                       external_forces=external_forces, observed=observed,
                       masses=model.node_mass if with_masses else None, truth=truth,
                       source=source)
+
+
+def check_experiments(model: SpringMassModel,
+                      experiments: Experiment | Sequence[Experiment]) -> list[Experiment]:
+    """Return ``experiments`` as a list after checking they describe ``model``'s object."""
+    if isinstance(experiments, Experiment):
+        experiments = [experiments]
+    experiments = list(experiments)
+    if not experiments:
+        raise InputError("no experiments given", key="experiments")
+    for experiment in experiments:
+        mesh = experiment.mesh
+        if mesh.n_nodes != model.n_nodes:
+            raise InputError(f"has {mesh.n_nodes} nodes; the model has {model.n_nodes}",
+                             source=experiment.source, key="rest_positions")
+        if mesh.n_springs != model.n_springs or not np.array_equal(mesh.springs,
+                                                                   model.mesh.springs):
+            raise InputError(f"its {mesh.n_springs} springs differ from the model's "
+                             f"{model.n_springs}; all experiments must share one topology",
+                             source=experiment.source, key="springs")
+        if not np.array_equal(mesh.fixed, model.mesh.fixed):
+            raise InputError("its fixed nodes differ from the model's", source=experiment.source,
+                             key="fixed")
+    return experiments
+
+
+def simulate_like(model: SpringMassModel, experiment: Experiment,
+                  substeps: int = 1) -> np.ndarray:
+    """(n_frames, n_nodes, 3): ``model`` run freely under ``experiment``'s load and start."""
+    return simulate(model, dt=experiment.dt, n_frames=experiment.n_frames,
+                    external_forces=experiment.external_forces,
+                    initial_positions=experiment.initial_positions(),
+                    substeps=substeps, check_stability=False).positions
+
+
+def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
+              substeps: int = 1) -> float:
+    """Root-mean-square node distance between free simulation and measurement.
+
+    Over all experiments, frames 1 onwards, and the nodes that are measured (observed, not in a
+    gap) and not fixed: ``sqrt(mean |p_sim - p_measured|²)``, simulating with ``substeps``
+    steps per frame. Infinite when the simulation diverges.
+    """
+    experiments = check_experiments(model, experiments)
+    total, count = 0.0, 0
+    for experiment in experiments:
+        try:
+            with np.errstate(all="ignore"):
+                simulated = simulate_like(model, experiment, substeps)
+        except UnstableTimeStepError:
+            return float("inf")
+        tracked = experiment.tracked_frames()[1:]
+        diff = simulated[1:][tracked] - experiment.positions[1:][tracked]
+        total += float(np.sum(diff * diff))
+        count += diff.shape[0]
+    value = np.sqrt(total / max(count, 1))
+    return float(value) if np.isfinite(value) else float("inf")
 
 
 def _float_array(value, source: str, key: str) -> np.ndarray:

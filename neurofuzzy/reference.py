@@ -2,7 +2,7 @@
 
 Our simulator *is* the paper's discrete network (semi-implicit Euler, one step per frame), so
 data made with it fits that network exactly. Real measurements come from continuous physics.
-These integrators solve the same forces as :mod:`neurofuzzy.simulate` with different schemes,
+These integrators solve the same forces as :mod:`neurofuzzy.simulation` with different schemes,
 at a finer step, and produce data a fitter has never seen the discretisation of:
 
 - ``method="rk4"``: classical fixed-step Runge–Kutta with ``substeps`` steps per frame;
@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 from .errors import InputError
 from .experiment import Experiment
 from .model import SpringMassModel
-from .simulate import Trajectory, internal_forces
+from .simulation import Trajectory, internal_forces
 
 __all__ = ["reference_simulate", "reference_experiment"]
 
@@ -34,7 +34,7 @@ def reference_simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     dt, n_frames : float, int
         Frame spacing and count (frame 0 is the rest state).
     external_forces : (n_nodes, 3) or (n_frames, n_nodes, 3) float, optional
-        Piecewise-constant load, as in :func:`neurofuzzy.simulate.simulate`.
+        Piecewise-constant load, as in :func:`neurofuzzy.simulation.simulate`.
     method : str
         ``"rk4"`` or a :func:`scipy.integrate.solve_ivp` method.
     substeps : int

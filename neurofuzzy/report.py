@@ -16,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ._json import json_safe
 from .io import atomic_write
 
-__all__ = ["write_report", "figure_html", "table_html", "diagnosis_report"]
+__all__ = ["write_report", "figure_html", "table_html", "fit_report", "diagnosis_report"]
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
@@ -72,24 +73,10 @@ def write_report(path, title: str, sections: list[tuple[str, str]], data: dict) 
             f"{body}</body></html>")
     twin = path.with_suffix(".json")
     with atomic_write(twin, "w") as handle:
-        json.dump(_json_safe(data), handle, indent=2)
+        json.dump(json_safe(data), handle, indent=2)
     with atomic_write(path, "w") as handle:
         handle.write(page)
     return path
-
-
-def _json_safe(value):
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _json_safe(value.tolist())
-    if isinstance(value, (float, np.floating)):
-        return float(value) if np.isfinite(value) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
 
 
 # -- diagnosis --------------------------------------------------------------------------------
@@ -112,7 +99,7 @@ def _object_plot(ax, model, node_values, highlight_springs=(), highlight_nodes=(
 
 
 def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") -> Path:
-    """HTML + JSON report of a :class:`~neurofuzzy.diagnose.Diagnosis`."""
+    """HTML + JSON report of a :class:`~neurofuzzy.diagnosis.Diagnosis`."""
     plt = _pyplot()
     model = diagnosis.model_
     sections = []
@@ -221,27 +208,33 @@ def identifiability_html(learner) -> tuple[str, list]:
     return text, suggestions
 
 
-def fit_report(rules, tissue: str | None, start, learner, path, *,
-               title: str | None = None, files: dict | None = None) -> Path:
-    """HTML + JSON report of a fit.
+def fit_report(start, learner, path, *, title: str | None = None,
+               files: dict | None = None) -> Path:
+    """HTML + JSON report of a fit from ``start`` (a :class:`~neurofuzzy.learn.StartModel`).
 
-    With a rule base and tissue: the expert's words, the start and learned values, the learned
-    words with degrees, each change highlighted, the input words that best reproduce the
-    learned values, and the membership functions with the before and after values marked.
+    With a rule base (``start.rules``), for every region with a tissue: the expert's words,
+    the start and learned values, the learned words with degrees, each change highlighted, the
+    input words that best reproduce the learned values, and the membership functions with the
+    before and after values marked.
     Always: the error curve, the learned parameters and what the data cannot determine (with
     a suggested extra load case). ``files`` (label → path) are linked, relative to the report
     (e.g. the fitted model and the ParaView files of :func:`neurofuzzy.export.export_paraview`).
     """
     plt = _pyplot()
     sections, data = [], {}
-    if rules is not None:
-        words_sections, data = _words_sections(rules, tissue, start, learner)
-        sections += words_sections
+    if start.rules is not None:
+        regions = []
+        for region, tissue in _tissues(start):
+            words_sections, region_data = _words_sections(start.rules, region, tissue,
+                                                          start.model, learner.model_)
+            sections += words_sections
+            regions.append(region_data)
+        data["regions"] = regions
     history = np.asarray(learner.history_)
     figure, ax = plt.subplots(figsize=(8, 3.2))
     ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
-    ax.set_xlabel("cycle" if type(learner).__name__ == "PaperLearner" else "simulation of the data")
-    ax.set_ylabel("error")
+    ax.set_xlabel(learner.cycle_name)
+    ax.set_ylabel("E (eq. 2.2, mean spring lengths²)")
     ax.grid(True, which="both", alpha=0.3)
     sections.append(("Error per cycle", figure_html(figure, "error curve") +
                      f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
@@ -266,8 +259,18 @@ def fit_report(rules, tissue: str | None, start, learner, path, *,
             "<code>stiffness</code> per frame); the <code>.xdmf</code> holds the same on the "
             "rest shape (apply Warp By Vector with <code>displacement_simulated</code>).</p>"))
         data["files"] = links
-    return write_report(path, title or f"neurofuzzy fit{': ' + tissue if tissue else ''}",
+    tissues = sorted({tissue for _, tissue in _tissues(start)})
+    return write_report(path, title or f"neurofuzzy fit{': ' + ', '.join(tissues) if tissues else ''}",
                         sections, data)
+
+
+def _tissues(start) -> list[tuple[str, str]]:
+    """(region, tissue) for every region of the start model that has a tissue."""
+    model = start.model
+    pairs = [(region, tissue or start.tissue)
+             for region, tissue in zip(model.region_names, model.region_tissues)]
+    return [(region, tissue) for region, tissue in pairs
+            if tissue and tissue in start.rules.tissues]
 
 
 def _relative(target, folder: Path) -> str:
@@ -277,16 +280,19 @@ def _relative(target, folder: Path) -> str:
         return Path(target).resolve().as_posix()
 
 
-def _words_sections(rules, tissue, start, learner):
+def _words_sections(rules, region, tissue, start, fitted):
+    """Sections and JSON of one region: words, start and learned values, labels, plots."""
     from .rules import material_values
 
     plt = _pyplot()
-    before = material_values(rules, start)
-    after = material_values(rules, learner.model_)
+    springs, nodes = start.region_springs(region), start.region_nodes(region)
+    before = material_values(rules, start, springs, nodes)
+    after = material_values(rules, fitted, springs, nodes)
     labels_before = rules.describe(before)
     labels_after = rules.describe(after)
     explained = rules.explain(after)
     words = {name: str(phrase) for name, phrase in rules.tissues[tissue].items()}
+    where = f" ({html.escape(region)})" if len(start.region_names) > 1 else ""
 
     rows, changed, data_rows = [], [], []
     for name in rules.outputs:
@@ -302,15 +308,15 @@ def _words_sections(rules, tissue, start, learner):
                           "label_before": b.term, "degree_before": b.degree,
                           "label_after": a.term, "degree_after": a.degree,
                           "degrees_after": a.degrees, "changed": a.term != b.term})
-    sections = [("The expert's words",
+    sections = [("The expert's words" + where,
                  f"<p>Tissue <b>{html.escape(tissue)}</b> of <code>"
                  f"{html.escape(rules.source)}</code>: " +
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
                            for k, v in words.items()) + "</p>"),
-                ("Start values, learned values, learned words", table_html(
+                ("Start values, learned values, learned words" + where, table_html(
                     ["quantity", "start (from the words)", "learned", "label", "degrees"],
                     rows, changed) + "<p class='note'>Highlighted: the label changed.</p>"),
-                ("The learned numbers in the expert's words",
+                ("The learned numbers in the expert's words" + where,
                  "<p>The input words that best reproduce the learned values: " +
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
                            for k, v in explained["words"].items()) +
@@ -327,8 +333,8 @@ def _words_sections(rules, tissue, start, learner):
         ax.set_title(f"{name} ({variable.unit})" if variable.unit else name)
         ax.set_ylim(0, 1.05)
         ax.legend(fontsize=7)
-    sections.append(("Membership functions with the start and learned values",
+    sections.append(("Membership functions with the start and learned values" + where,
                      figure_html(figure, "membership functions")))
-    data = {"tissue": tissue, "rules": rules.source, "words": words, "quantities": data_rows,
-            "explained": explained}
+    data = {"region": region, "tissue": tissue, "rules": rules.source, "words": words,
+            "quantities": data_rows, "explained": explained}
     return sections, data

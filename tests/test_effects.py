@@ -9,7 +9,7 @@ from neurofuzzy.io import load_model, save_model
 from neurofuzzy.learn import GradientLearner, PaperLearner
 from neurofuzzy.learn._parameters import Parameterization
 from neurofuzzy.learn._sensitivity import Sensitivity
-from neurofuzzy.simulate import internal_forces
+from neurofuzzy.simulation import internal_forces
 
 TRUTH = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})
 CENTRE = [j for j in range(86) if 13 in TRUTH.mesh.springs[j]]

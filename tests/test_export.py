@@ -9,7 +9,7 @@ import pytest
 from neurofuzzy.datasets import paper_cube_experiment, paper_cube_model
 from neurofuzzy.errors import InputError
 from neurofuzzy.export import export_paraview
-from neurofuzzy.learn._base import simulate_like
+from neurofuzzy.experiment import simulate_like
 
 meshio = pytest.importorskip("meshio")
 

@@ -13,7 +13,7 @@ from neurofuzzy.datasets import paper_cube_model
 from neurofuzzy.effects import (EFFECTS, Gravity, NodeDrag, NonlinearStiffening, StiffInclusion,
                                 UnmodeledLoad)
 from neurofuzzy.forces import SPRINGS, ForceTerm, incidence
-from neurofuzzy.simulate import internal_forces
+from neurofuzzy.simulation import internal_forces
 
 MODEL = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})
 TERMS = [SPRINGS, Gravity([0.1, -0.2, -9.0]), NodeDrag([0.01]),

@@ -3,7 +3,8 @@ import pytest
 
 from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model
 from neurofuzzy.errors import InputError
-from neurofuzzy.learn import PaperLearner, rms_error
+from neurofuzzy.experiment import rms_error
+from neurofuzzy.learn import PaperLearner
 
 
 def test_tied_constants_are_recovered_within_a_tenth_of_a_percent(cube_experiment):

@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model
-from neurofuzzy.diagnose import diagnose
+from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.errors import InputError
-from neurofuzzy.learn import GradientLearner, PaperLearner, rms_error
+from neurofuzzy.experiment import rms_error
+from neurofuzzy.learn import GradientLearner, PaperLearner
 from neurofuzzy.learn._parameters import Parameterization
 from neurofuzzy.learn._sensitivity import Sensitivity
-from neurofuzzy.simulate import simulate
+from neurofuzzy.simulation import simulate
 
 CENTRE = 13
 

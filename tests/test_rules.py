@@ -68,7 +68,8 @@ def test_round_trip_from_words_to_a_model_and_back(path):
     rules = load_rules(path)
     mesh = paper_cube_mesh()
     for tissue, words in rules.tissues.items():
-        model, values = initialize(rules, mesh, tissue)
+        model = initialize(rules, mesh, tissue)
+        values = {tissue: rules.tissue(tissue)}
         recovered = material_values(rules, model)
         for name, value in values[tissue].items():
             assert recovered[name] == pytest.approx(value, rel=1e-9), (tissue, name)
@@ -268,8 +269,8 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     read = read_mesh(_two_region_gmsh_file(tmp_path / "organ.msh"))
     rules = load_rules(TISSUES)
     regions = read.tissue_regions({"core": "soft_tissue", "shell": "firm_tissue"})
-    model, values = initialize(rules, read.mesh, regions=regions)
-    soft, firm = (values[t]["stiffness"] for t in ("soft_tissue", "firm_tissue"))
+    model = initialize(rules, read.mesh, regions=regions)
+    soft, firm = (rules.tissue(t)["stiffness"] for t in ("soft_tissue", "firm_tissue"))
     assert firm > 2 * soft
     modulus = model.spring_stiffness / tetra_geometry(read.mesh).spring_factor
     x = read.mesh.rest_positions[:, 0][read.mesh.springs]
@@ -282,7 +283,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     assert np.allclose(modulus[into_shell], soft)
     assert material_values(rules, model, springs=np.flatnonzero(shell))["stiffness"] \
         == pytest.approx(firm, rel=1e-9)
-    density = values["soft_tissue"]["density"]
+    density = rules.tissue("soft_tissue")["density"]
     assert model.node_mass.sum() == pytest.approx(density * 0.04 * 0.02 * 0.02, rel=1e-9)
 
 
@@ -295,9 +296,9 @@ def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
     mesh = read.mesh
     rules = load_rules(TISSUES)
     tissue_of = {"core": "soft_tissue", "shell": "firm_tissue"}
-    model, values = initialize(rules, mesh,
+    model = initialize(rules, mesh,
                                tetrahedron_regions=read.tissue_regions(tissue_of, of="tetrahedra"))
-    soft, firm = (values[t]["stiffness"] for t in ("soft_tissue", "firm_tissue"))
+    soft, firm = (rules.tissue(t)["stiffness"] for t in ("soft_tissue", "firm_tissue"))
     geometry = tetra_geometry(mesh)
     modulus = model.spring_stiffness / geometry.spring_factor
     group = np.asarray(mesh.group_names)[mesh.spring_group]
@@ -315,7 +316,7 @@ def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
                                            == sorted((tet[i], tet[j])), axis=1))
             expected[spring] += E
     assert np.allclose(model.spring_stiffness, expected / mesh.rest_lengths**2, rtol=1e-12)
-    density = values["soft_tissue"]["density"]
+    density = rules.tissue("soft_tissue")["density"]
     assert model.node_mass.sum() == pytest.approx(density * 0.04 * 0.02 * 0.02, rel=1e-9)
     from neurofuzzy.errors import InputError
 
@@ -345,16 +346,16 @@ def test_words_to_a_tetrahedral_model_and_back():
     mesh = from_tetra(points, np.concatenate(tetrahedra)).with_fixed(
         where=lambda p: p[:, 2] == 0)
     rules = load_rules(TISSUES)
-    model, values = initialize(rules, mesh, "firm_tissue")
+    model = initialize(rules, mesh, "firm_tissue")
     recovered = material_values(rules, model)
-    for name, value in values["firm_tissue"].items():
+    for name, value in rules.tissue("firm_tissue").items():
         assert recovered[name] == pytest.approx(value, rel=1e-9), name
 
 
 def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):
     rules = load_rules(TISSUES)
     mesh = paper_cube_mesh()
-    truth, _ = initialize(rules, mesh, "firm_tissue", tie="global")
+    truth = initialize(rules, mesh, "firm_tissue").tied("global")
     load = point_load(mesh, top_centre_node(mesh), (0, 0, -0.01))
     data = save_experiment(simulate_experiment(truth, dt=5e-4, n_frames=251,
                                                external_forces=load), tmp_path / "firm.npz")
@@ -363,10 +364,10 @@ def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):
                  "--report", report, "--json")
     assert result.returncode == 0, result.stderr
     twin = json.loads(report.with_suffix(".json").read_text())
-    stiffness = next(q for q in twin["quantities"] if q["quantity"] == "stiffness")
+    stiffness = next(q for q in twin["regions"][0]["quantities"] if q["quantity"] == "stiffness")
     assert stiffness["label_before"] == "soft" and stiffness["label_after"] == "firm"
     assert stiffness["changed"] and stiffness["degree_after"] >= 0.5
-    assert twin["explained"]["words"]["consistency"] == "firm"
+    assert twin["regions"][0]["explained"]["words"]["consistency"] == "firm"
     page = report.read_text()
     assert "soft → firm" in page and page.count("data:image/png;base64") >= 2
     assert np.isfinite(json.loads(result.stdout)["rms_error"])

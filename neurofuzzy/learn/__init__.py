@@ -1,6 +1,7 @@
 """Learners that refine a model's parameters from measured trajectories.
 
 - :class:`PaperLearner`: the paper's algorithm (Figure 2), faithful.
+- :func:`start_model`: where a fit starts (a model file, a rule base, or the data alone);
 - :class:`GradientLearner`: exact gradients of the discrete simulator with Gauss–Newton or
   L-BFGS and multiple shooting.
 
@@ -8,10 +9,11 @@ Both follow the estimator convention: ``fit(model, experiments)`` returns the le
 end in ``_`` (``model_``, ``history_``, ``rms_error_`` …).
 """
 
-from ._base import Learner, rms_error
+from ._base import Learner
 from .gradient import GradientLearner, auto_substeps
 from .identifiability import Identifiability
 from .paper import PaperLearner
+from .start import StartModel, estimate_start, load_rule_base, start_model
 
-__all__ = ["Learner", "PaperLearner", "GradientLearner", "Identifiability", "rms_error",
-           "auto_substeps"]
+__all__ = ["Learner", "PaperLearner", "GradientLearner", "Identifiability", "auto_substeps",
+           "StartModel", "start_model", "estimate_start", "load_rule_base"]

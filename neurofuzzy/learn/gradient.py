@@ -19,10 +19,11 @@ import numpy as np
 from scipy.optimize import least_squares, minimize
 
 from ..errors import InputError, NeurofuzzyError
-from ..experiment import Experiment
+from ..experiment import Experiment, check_experiments, rms_error
 from ..model import SpringMassModel
-from ..simulate import stability_limit
-from ._base import Learner, Progress, check_experiments, rms_error
+from ..simulation import check_substeps, stability_limit
+from ..progress import Progress
+from ._base import Learner
 from ._parameters import Parameterization
 from ._sensitivity import Sensitivity
 from .identifiability import analyse, structurally_unidentifiable
@@ -96,7 +97,8 @@ class GradientLearner(Learner):
     Attributes
     ----------
     history_ : (n_evaluations,) float
-        Best RMS error so far (length units) after every simulation of the data.
+        The paper's error ``E`` (eq. 2.2, lengths in mean spring lengths) after every
+        simulation of the data, best so far (trial steps the solver rejects do not raise it).
     n_cycles_ : int
         Complete simulations of all experiments (a Jacobian or gradient pass counts as one).
     substeps_ : int
@@ -109,6 +111,8 @@ class GradientLearner(Learner):
     identifiability_ : Identifiability
         Standard errors and the parameter combinations the data do not determine.
     """
+
+    cycle_name = "simulation of the data"
 
     def __init__(self, *, learn_masses: bool = False, learn_effects: bool = True,
                  substeps: int | str = 1, windows: Sequence[int] | None = None,
@@ -131,15 +135,11 @@ class GradientLearner(Learner):
         if self.method not in ("auto", "lm", "lbfgs"):
             raise InputError(f"got {self.method!r}; expected 'auto', 'lm' or 'lbfgs'",
                              key="method")
-        auto = self.substeps == "auto"
-        if not auto and not (isinstance(self.substeps, (int, np.integer))
-                             and self.substeps >= 1):
-            raise InputError(f"got {self.substeps!r}; expected a positive integer or 'auto'",
-                             key="substeps")
+        auto = check_substeps(self.substeps) == "auto"
         started = time.perf_counter()
         self.rms_error_initial_ = rms_error(model, experiments)
         self.n_cycles_ = 0
-        self.history_ = []
+        self._trace = []        # (E, RMS) best so far after every simulation of the data
         model = _stable_start(model, min(e.dt for e in experiments)
                               / (1 if auto else int(self.substeps)))
         parameters = Parameterization(model, learn_masses=self.learn_masses,
@@ -187,9 +187,16 @@ class GradientLearner(Learner):
         self.identifiability_ = analyse(parameters, theta, jacobian, residuals,
                                         n_measured=sum(run.n_measured for run in runs))
         self.std_errors_ = self.identifiability_.std_errors
-        self.history_ = np.array(self.history_)
+        self.history_ = np.array([energy for energy, _ in self._trace])
         self.seconds_ = time.perf_counter() - started
         return self
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: the common one plus the parameter names, whether the result
+        is the continuous-physics extrapolation, standard errors and what the data cannot
+        determine."""
+        return {**super().to_dict(), "extrapolated": self.extrapolated_,
+                "parameters": self.parameter_names_, **self.identifiability_.to_dict()}
 
     # -- stages and solvers -----------------------------------------------------------------
     def _method(self, parameters, experiments) -> str:
@@ -229,7 +236,7 @@ class GradientLearner(Learner):
                 starts = [(0,)] * len(experiments)
                 what = f"first {window} frames"
             theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active)
-            progress.update(stage + 1, f"{what}, RMS {self.history_[-1]:.3g}")
+            progress.update(stage + 1, f"{what}, RMS {self._trace[-1][1]:.3g}")
         return theta
 
     def _bounds(self, parameters: Parameterization, theta: np.ndarray):
@@ -244,14 +251,14 @@ class GradientLearner(Learner):
         return lower, upper
 
     def _record(self, runs, length_unit: float) -> None:
-        """One more simulation of the data: count it and keep the best RMS so far (over the
-        measured values; gaps hold zero residuals and do not count)."""
+        """One more simulation of the data: count it and keep the best ``E`` and RMS so far
+        (over the measured values; gaps hold zero residuals and do not count)."""
         count = sum(run.n_measured for run in runs)
         with np.errstate(over="ignore", invalid="ignore"):
             total = sum(float(np.sum(run.residuals**2)) for run in runs)
             rms = float(np.sqrt(total / count)) * length_unit if count else 0.0
-        rms = rms if np.isfinite(rms) else float("inf")
-        self.history_.append(min(self.history_[-1], rms) if self.history_ else rms)
+        entry = (0.5 * total, rms) if np.isfinite(total) else (float("inf"), float("inf"))
+        self._trace.append(min(self._trace[-1], entry) if self._trace else entry)
         self.n_cycles_ += 1
 
     def _residuals(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:

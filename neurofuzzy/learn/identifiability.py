@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._json import json_safe
+
 __all__ = ["Identifiability", "analyse"]
 
 #: Singular values below this fraction of the largest count as zero (after column scaling).
@@ -45,12 +47,8 @@ class Identifiability:
     names: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"std_errors": {n: _json_float(v) for n, v in zip(self.names, self.std_errors)},
-                "unidentifiable": self.unidentifiable}
-
-
-def _json_float(value: float):
-    return float(value) if np.isfinite(value) else None
+        return json_safe({"std_errors": dict(zip(self.names, self.std_errors)),
+                          "unidentifiable": self.unidentifiable})
 
 
 def analyse(parameters, theta: np.ndarray, jacobian: np.ndarray | None,

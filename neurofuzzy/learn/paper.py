@@ -20,7 +20,7 @@ mass in the mean free-node mass. ``η = 0.01`` therefore means the same for a 2-
 SI units as for the paper's unit cube. Two readings where the printed equations are loose:
 ``w_a`` in eq. 3.14 includes the weight ``w_m = 1/m`` of eq. 3.3 (exact chain rule; identical to
 the printed form for unit masses), and the mass update uses the total force on the node, since
-we apply external input as a force (see :mod:`neurofuzzy.simulate`).
+we apply external input as a force (see :mod:`neurofuzzy.simulation`).
 """
 
 from __future__ import annotations
@@ -31,10 +31,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import InputError, NeurofuzzyError
-from ..experiment import Experiment
+from ..experiment import Experiment, check_experiments, rms_error
 from ..model import SpringMassModel
 from ..forces import SPRINGS, incidence
-from ._base import Learner, Progress, TiedSprings, check_experiments, rms_error
+from ..progress import Progress
+from ._base import Learner, TiedSprings
 
 __all__ = ["PaperLearner"]
 
@@ -69,6 +70,8 @@ class PaperLearner(Learner):
     history_ : (n_cycles,) float
         The paper's error ``E`` of eq. 2.2 accumulated over each cycle (with teacher forcing),
         in network units (lengths in mean spring lengths), summed over experiments.
+    substeps_ : int
+        Always 1: the paper's network takes one step per frame.
     """
 
     def __init__(self, *, learning_rate: float = 0.01, mass_learning_rate: float = 0.1,
@@ -119,6 +122,7 @@ class PaperLearner(Learner):
 
         self.model_ = state.model()
         self.history_ = np.array(history)
+        self.substeps_ = 1
         self.n_cycles_ = len(history)
         self.rms_error_ = rms_error(self.model_, experiments)
         self.seconds_ = time.perf_counter() - started

@@ -9,10 +9,10 @@
 """
 
 from .base import QUANTITIES, Label, RuleBase, RuleBaseError, load_rules
-from .physical import initialize, lattice_geometry, material_values
+from .physical import initialize, lattice_geometry, material_values, materials
 
 __all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "initialize",
-           "lattice_geometry", "material_values", "QUANTITIES"]
+           "lattice_geometry", "material_values", "materials", "QUANTITIES"]
 
 
 def shipped(name: str):

@@ -40,10 +40,11 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh import _TET_EDGES, Mesh, lattice_cells
-from ..model import SpringMassModel, tie_index
+from ..model import SpringMassModel
 
 __all__ = ["LatticeGeometry", "lattice_geometry", "TetraGeometry", "tetra_geometry",
-           "spring_geometry", "initialize", "material_values"]
+           "spring_geometry", "initialize", "material_values", "materials",
+           "SPRING_POISSON_RATIO"]
 
 
 @dataclass(frozen=True)
@@ -166,8 +167,7 @@ def spring_geometry(mesh: Mesh) -> LatticeGeometry | TetraGeometry:
 
 
 def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | None = None,
-               tetrahedron_regions: dict | None = None,
-               tie: str = "groups") -> tuple[SpringMassModel, dict]:
+               tetrahedron_regions: dict | None = None) -> SpringMassModel:
     """The start model of ``mesh`` from a rule base's tissue(s).
 
     Parameters
@@ -189,15 +189,14 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
         node the mass of a quarter of each of its tetrahedra. This is exact at interfaces,
         where node regions have to give interface springs to one side.
         (``MeshFile.tissue_regions(..., of="tetrahedra")``.)
-    tie : {"global", "groups", "none"}
-        Tying of the returned model (within each tissue; a spring shared by tissues ties with
-        the tissue holding most of its volume).
 
     Returns
     -------
-    model : SpringMassModel
-    values : dict of tissue → dict of output name → value
-        The inferred material values.
+    SpringMassModel
+        One material region per tissue (``region_names`` and ``region_tissues`` are the tissue
+        names; a spring shared by tissues belongs to the one holding most of its volume), tied
+        by spring group within each region; re-tie with :meth:`SpringMassModel.tied`. The
+        inferred values are ``rules.tissue(name)``.
     """
     if tissue is None and not regions and not tetrahedron_regions:
         raise InputError("give a tissue (or regions of tissues)", key="tissue")
@@ -238,13 +237,11 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
             raise InputError("the rule base has no output for density or node_mass",
                              source=rules.source, key="outputs")
     model = SpringMassModel(mesh, node_mass=mass, spring_stiffness=stiffness,
-                            spring_damping=damping)
-    # tie within each tissue region: tissue regions × the requested tying
-    spring_tissue = np.asarray(names, dtype=object)[np.argmax(spring_share, axis=1)]
-    base_tie = tie_index(mesh, tie)
-    _, region_index = np.unique(spring_tissue.astype(str), return_inverse=True)
-    combined = base_tie * (region_index.max() + 1) + region_index
-    return model.replace(spring_tie=combined), values
+                            spring_damping=damping, region_names=tuple(names),
+                            region_tissues=tuple(names),
+                            spring_region=np.argmax(spring_share, axis=1),
+                            node_region=np.argmax(node_share, axis=1))
+    return model.tied("groups")
 
 
 def _tissue_labels(regions: dict, n: int, default: str | None, key: str,
@@ -320,3 +317,43 @@ def material_values(rules, model: SpringMassModel, springs=None, nodes=None) -> 
     }
     return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
             if variable.quantity in by_quantity}
+
+
+#: Poisson's ratio an isotropic spring network stands for (cubic lattice with body diagonals;
+#: van Gelder springs on tetrahedra, averaged over orientations): see the module docstring.
+SPRING_POISSON_RATIO = 0.25
+
+
+def materials(model: SpringMassModel, rules=None, tissue: str | None = None) -> dict:
+    """The material values every region of ``model`` stands for, with words.
+
+    Returns ``{region: {"youngs_modulus": Pa, "poisson_ratio": ..., "viscosity": Pa·s,
+    "density": kg/m³, "tissue": str or None, "labels": {quantity: word}}}`` (the form of
+    ``fit --json``'s ``"materials"``). For spring models, E, η and ρ are what the spring
+    constants, viscosities and masses correspond to (the mapping of the module docstring) and
+    ν is the 1/4 the springs are locked to. ``labels`` (with ``rules``) are the rule base's
+    words for each quantity.
+    """
+    geometry = spring_geometry(model.mesh)
+    moving = model.mesh.free[model.mesh.springs].any(axis=1)
+    out = {}
+    for index, region in enumerate(model.region_names):
+        springs = np.flatnonzero((model.spring_region == index) & moving)
+        nodes = np.flatnonzero((model.node_region == index) & model.mesh.free)
+        if springs.size == 0 or nodes.size == 0:
+            continue
+        factor = geometry.spring_factor[springs]
+        values = {
+            "youngs_modulus": float(np.median(model.spring_stiffness[springs] / factor)),
+            "poisson_ratio": SPRING_POISSON_RATIO,
+            "viscosity": float(np.median(model.spring_damping[springs] / factor)),
+            "density": float(np.sum(model.node_mass[nodes])
+                             / np.sum(geometry.node_volume[nodes])),
+            "tissue": model.region_tissues[index] or tissue,
+        }
+        if rules is not None:
+            described = rules.describe(material_values(rules, model, springs, nodes))
+            values["labels"] = {rules.outputs[name].quantity: label.term
+                                for name, label in described.items()}
+        out[region] = values
+    return out

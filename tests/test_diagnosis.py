@@ -5,7 +5,7 @@ import pytest
 
 from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, point_load,
                                  top_centre_node)
-from neurofuzzy.diagnose import diagnose
+from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion,
                                 StiffInclusion, UnmodeledLoad)
 from neurofuzzy.reference import reference_experiment

@@ -4,7 +4,7 @@ import pytest
 from neurofuzzy.errors import InputError, UnstableTimeStepError
 from neurofuzzy.mesh import Mesh, lattice
 from neurofuzzy.model import SpringMassModel
-from neurofuzzy.simulate import simulate, stability_limit, step, internal_forces
+from neurofuzzy.simulation import simulate, stability_limit, step, internal_forces
 
 
 def one_spring(stiffness=50.0, damping=0.0, mass=2.0):

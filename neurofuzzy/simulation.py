@@ -41,6 +41,7 @@ __all__ = [
     "simulate",
     "stability_limit",
     "check_time_step",
+    "check_substeps",
 ]
 
 #: Fraction of the theoretical stability bound we allow: springs stiffen geometrically when
@@ -135,11 +136,8 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     if int(n_frames) < 1:
         raise InputError(f"got {n_frames}; expected at least 1", key="n_frames")
     n_frames = int(n_frames)
-    if substeps == "auto":
+    if check_substeps(substeps) == "auto":
         substeps = required_substeps(model, dt)
-    elif not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
-        raise InputError(f"got {substeps!r}; expected a positive integer or 'auto'",
-                         key="substeps")
     elif check_stability:
         check_time_step(model, dt, int(substeps))
     substeps = int(substeps)
@@ -160,6 +158,20 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
             "infinite); reduce the time step or the stiffness, or raise substeps")
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
                       substeps=substeps)
+
+
+def check_substeps(value, key: str = "substeps") -> int | str:
+    """``value`` as a positive int or ``"auto"``; :class:`InputError` naming ``key`` otherwise.
+
+    Strings of digits are accepted (command-line options).
+    """
+    if isinstance(value, str) and value != "auto":
+        value = int(value) if value.strip().isdigit() else value
+    if value == "auto":
+        return "auto"
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
+        return int(value)
+    raise InputError(f"got {value!r}; expected a positive integer or 'auto'", key=key)
 
 
 def _frame_forces(external_forces, n_frames: int, n_nodes: int) -> np.ndarray | None:

@@ -1,0 +1,154 @@
+"""Commands that move data: ``simulate``, ``mesh``, ``import``, ``export``."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .common import print_json, refuse_overwrite, written
+
+__all__ = ["simulate", "mesh", "import_markers", "export"]
+
+
+def simulate(args) -> int:
+    from ..datasets import CUBE, paper_cube_model, top_centre_node
+    from ..experiment import simulate_experiment
+    from ..io import load_model, save_experiment
+
+    refuse_overwrite(args.out, [Path(args.model)])
+    model = paper_cube_model() if args.model == "cube" else load_model(args.model)
+    loads = np.zeros((model.n_nodes, 3))
+    if args.force:
+        for node, *force in args.force:
+            try:
+                index, vector = int(node), [float(x) for x in force]
+            except ValueError:
+                raise InputError(f"got {[node, *force]}; expected NODE FX FY FZ (an integer "
+                                 "and three numbers)", key="--force") from None
+            if not 0 <= index < model.n_nodes:
+                raise InputError(f"node {index} is out of range 0..{model.n_nodes - 1}",
+                                 key="--force")
+            loads[index] += vector
+    else:
+        loads[top_centre_node(model.mesh)] = CUBE["force"]
+    experiment = simulate_experiment(model, dt=args.dt or CUBE["dt"], n_frames=args.frames,
+                                     external_forces=loads,
+                                     substeps=_substeps(args.substeps),
+                                     noise=args.noise, seed=args.seed, source=args.out)
+    save_experiment(experiment, args.out)
+    print(f"wrote {args.out}: {experiment.n_frames} frames of {experiment.n_nodes} nodes")
+    return 0
+
+
+def mesh(args) -> int:
+    from dataclasses import replace
+
+    from ..io import save_model
+    from ..mesh_files import read_mesh
+    from ..learn import load_rule_base
+    from ..rules import initialize
+
+    source = Path(args.mesh)
+    refuse_overwrite(args.out, [source, Path(args.rules)])
+    method = "tetra" if args.tetra else "voxel"
+    read = read_mesh(source, pitch=args.pitch, max_edge=args.max_edge, method=method)
+    mesh = read.mesh
+    if not (np.isfinite(args.scale) and args.scale > 0):
+        raise InputError(f"got {args.scale}; expected a positive factor", key="--scale")
+    if args.scale != 1.0:
+        mesh = replace(mesh, rest_positions=mesh.rest_positions * args.scale)
+    if args.fix_bottom:
+        z = mesh.rest_positions[:, 2]
+        mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
+    elif args.fix_below is not None:
+        mesh = mesh.with_fixed(where=lambda p: p[:, 2] <= args.fix_below)
+    tissue_of = {}
+    for item in args.region:
+        region, _, tissue = item.partition("=")
+        if not region or not tissue:
+            raise InputError(f"got {item!r}; expected REGION=TISSUE", key="--region")
+        tissue_of[region] = tissue
+    rule_base = load_rule_base(args.rules)
+    regions = {}
+    if tissue_of:
+        of = "tetrahedra" if read.tetrahedron_regions else "nodes"
+        regions = {("tetrahedron_regions" if of == "tetrahedra" else "regions"):
+                   read.tissue_regions(tissue_of, of=of)}
+    elif read.regions and len(read.regions) > 1:
+        print(f"neurofuzzy: note: {source} has regions {list(read.regions)}; give them "
+              "tissues with --region REGION=TISSUE", file=sys.stderr)
+    if not args.tissue and not tissue_of:
+        raise InputError("give --tissue NAME (and --region REGION=TISSUE for regions)",
+                         key="--tissue")
+    model = initialize(rule_base, mesh, args.tissue, **regions).tied(args.tie)
+    save_model(model, args.out)
+    print(model.summary())
+    print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
+                                              " (none: use --fix-bottom or --fix-below)"))
+    written(args.out)
+    return 0
+
+
+def import_markers(args) -> int:
+    from ..io import load_experiment, load_model, save_experiment
+    from ..markers import markers_to_experiment, read_marker_map, read_markers
+
+    inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
+    refuse_overwrite(args.out, inputs)
+    topology = Path(args.topology)
+    if topology.suffix.lower() == ".npz":
+        reference = load_experiment(topology)
+        mesh, masses, dt = reference.mesh, reference.masses, reference.dt
+    elif topology.suffix.lower() in (".yaml", ".yml"):
+        model = load_model(topology)
+        mesh, masses, dt = model.mesh, model.node_mass, None
+    else:
+        raise InputError("expected a model (.yaml) or an experiment file (.npz)",
+                         source=str(topology), key="--topology")
+    markers = read_markers(args.markers, units=args.units)
+    mapping = read_marker_map(args.map) if args.map else None
+    experiment, summary = markers_to_experiment(
+        markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
+        forces=args.forces, masses=masses, source=args.out)
+    if args.forces is None:
+        print("neurofuzzy: note: no --forces; the experiment has no applied load",
+              file=sys.stderr)
+    save_experiment(experiment, args.out)
+    summary.update(markers_file=str(args.markers), topology=str(topology), out=str(args.out))
+    if args.json:
+        print_json(summary)
+    else:
+        unmatched = (f"; {len(summary['unmatched'])} marker(s) not in the map"
+                     if summary["unmatched"] else "")
+        print(f"wrote {args.out}: {summary['markers']} markers on {mesh.n_nodes} nodes, "
+              f"{summary['frames']} frames of {summary['dt']:.4g} s (capture period "
+              f"{summary['capture_period']:.4g} s), {100 * summary['gaps']:.1f} % gaps"
+              f"{unmatched}")
+        if summary["dropped_leading_frames"]:
+            print(f"  dropped the first {summary['dropped_leading_frames']} capture frames: "
+                  "not every marker was seen yet")
+    return 0
+
+
+def export(args) -> int:
+    from ..export import export_paraview
+    from ..io import load_experiment, load_model
+
+    model = load_model(args.model)
+    experiment = load_experiment(args.experiment) if args.experiment else None
+    files = export_paraview(args.out, model, experiment, every=args.every,
+                            substeps=_substeps(args.substeps), stem=args.stem,
+                            formats=args.formats)
+    frames = len(files.get("vtu", [])) or 1
+    written(files.get("pvd"), files.get("xdmf"))
+    print(f"{frames} frames; open the .pvd in ParaView to play the simulation")
+    return 0
+
+
+def _substeps(value):
+    from ..simulation import check_substeps
+
+    return check_substeps(value, "--substeps")

@@ -1,0 +1,75 @@
+"""``neurofuzzy demo`` and ``neurofuzzy rules check|show``."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from ..progress import note
+from .common import print_json
+
+__all__ = ["demo", "rules_check", "rules_show"]
+
+
+def demo(args) -> int:
+    from ..demo import comparison_table, paper_experiments, plot_error_curves, words_and_diagnosis
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    progress = not args.quiet
+    note(progress, "neurofuzzy demo: the paper's cube (27 nodes, 86 springs, bottom fixed, "
+                   "constant force on the top centre node, 250 steps)")
+    runs = paper_experiments(cycles=args.cycles, progress=progress, gradient_for=(3,))
+    table = comparison_table(runs)
+    print(table)
+    from ..io import atomic_write
+
+    plot_error_curves(runs, out / "error_per_cycle.png")
+    summary = {"runs": [{"experiment": r.experiment, "learner": r.learner, "cycles": r.cycles,
+                         "E": r.final_error, "stiffness_error": r.stiffness_error,
+                         "damping_error": r.damping_error, "mass_error": r.mass_error,
+                         "rms_initial": r.rms_initial, "rms_final": r.rms_final,
+                         "seconds": r.seconds} for r in runs]}
+    with atomic_write(out / "summary.json", "w") as handle:
+        json.dump(summary, handle, indent=2, allow_nan=True)
+    with atomic_write(out / "table.txt", "w") as handle:
+        handle.write(table + "\n")
+    print()
+    for line in words_and_diagnosis(out, progress=progress):
+        print(line)
+    print(f"\nwrote {out}/: error_per_cycle.png (the paper's Figure 4), table.txt, "
+          f"summary.json, report.html (+ .json), diagnosis.html (+ .json) "
+          f"({time.perf_counter() - started:.1f} s)")
+    return 0
+
+
+def rules_check(args) -> int:
+    from ..learn import load_rule_base
+
+    rule_base = load_rule_base(args.rules)
+    print(rule_base.summary())
+    return 0
+
+
+def rules_show(args) -> int:
+    from ..learn import load_rule_base
+
+    rule_base = load_rule_base(args.rules)
+    values = rule_base.tissue(args.tissue)
+    labels = rule_base.describe(values)
+    if args.json:
+        print_json({
+            "tissue": args.tissue,
+            "words": {k: str(v) for k, v in rule_base.tissues[args.tissue].items()},
+            "values": values,
+            "units": {k: rule_base.outputs[k].unit for k in values},
+            "labels": {k: {"term": l.term, "degree": l.degree, "degrees": l.degrees}
+                       for k, l in labels.items()}})
+    else:
+        words = ", ".join(f"{k} is {v}" for k, v in rule_base.tissues[args.tissue].items())
+        print(f"{args.tissue}: {words}")
+        for name, label in labels.items():
+            print(f"  {name} = {label.value:.4g} {rule_base.outputs[name].unit}   ({label})")
+    return 0

@@ -1,0 +1,195 @@
+"""The argument parser of the ``neurofuzzy`` command (the shapes of DESIGN.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+from . import data, fitting, misc
+from .common import usage
+
+__all__ = ["build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="neurofuzzy",
+        description="Deformable-tissue models from words and measurements: spring-mass "
+                    "simulation, the paper's recurrent learner and exact-gradient fitting.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    demo = commands.add_parser("demo", help="the paper's cube experiments end to end",
+                               description="Reproduce the paper's three experiments on the "
+                                           "27-node / 86-spring cube (built-in data), then "
+                                           "rules -> model -> fit -> words, and a diagnosis; "
+                                           "writes the table, the error plot and reports.")
+    demo.add_argument("--out", default="neurofuzzy-demo", help="output folder "
+                      "(default: ./neurofuzzy-demo)")
+    demo.add_argument("--cycles", type=int, default=100, help="learning cycles (default 100)")
+    demo.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    demo.set_defaults(run=misc.demo)
+
+    fit = commands.add_parser("fit", help="learn model parameters from experiment files",
+                              description="Fit stiffness, viscosity (and masses) of a "
+                                          "spring-mass model to the experiment files; start "
+                                          "from a model file (--start), a rule base's tissue "
+                                          "(--rules, --tissue) or the data alone.")
+    fit.add_argument("experiments", nargs="+", metavar="EXPERIMENT.npz")
+    _start_options(fit)
+    fit.add_argument("--learn-masses", action="store_true",
+                     help="learn node masses too (default: keep the file's masses)")
+    fit.add_argument("--method", choices=("gradient", "paper"), default="gradient",
+                     help="exact-gradient learner (default) or the paper's learner")
+    fit.add_argument("--cycles", type=int, default=None,
+                     help="learning cycles (paper, default 100) or iterations per stage "
+                          "(gradient, default 100)")
+    fit.add_argument("--substeps", default="auto",
+                     help="integration steps per frame: a number, or 'auto' (default): "
+                          "try the paper's one step per frame and continuous physics, keep "
+                          "the better (gradient method only)")
+    fit.add_argument("--learning-rate", type=float, default=0.1,
+                     help="paper method: η for springs (default 0.1)")
+    fit.add_argument("--mass-learning-rate", type=float, default=0.1,
+                     help="paper method: η_m for masses (default 0.1)")
+    fit.add_argument("--report", help="write an HTML report (and a .json twin): error curve, "
+                                      "what the data determine, and with --rules the "
+                                      "before/after words")
+    fit.add_argument("--out", help="write the fitted model as YAML")
+    fit.add_argument("--export", metavar="DIR",
+                     help="write the fitted model's simulation of the first experiment next "
+                          "to the measurement as ParaView files (VTU series + PVD, XDMF); "
+                          "the report links them")
+    fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    fit.set_defaults(run=fitting.fit)
+
+    export = commands.add_parser(
+        "export", help="model and trajectories -> ParaView files (VTU/PVD, XDMF)",
+        description="Simulate a model (YAML) under an experiment's load and write simulated "
+                    "and measured trajectories, errors, strains and spring parameters as a "
+                    "VTU time series (open the .pvd) and an XDMF file, through meshio.")
+    export.add_argument("model", metavar="MODEL.yaml")
+    export.add_argument("experiment", nargs="?", metavar="EXPERIMENT.npz",
+                        help="measured trajectories and load (default: the model at rest)")
+    export.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    export.add_argument("--stem", default="neurofuzzy", help="file name stem")
+    export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
+    export.add_argument("--formats", nargs="+", default=["vtu", "xdmf"],
+                        choices=("vtu", "xdmf"))
+    export.add_argument("--substeps", default="1", help="steps per frame of the simulation")
+    export.set_defaults(run=data.export)
+
+    diagnose = commands.add_parser(
+        "diagnose", help="find the physical effect the model lacks",
+        description="Fit the model, find where simulation and measurement disagree, name the "
+                    "missing effect, add it, refit, and repeat until none is left.")
+    diagnose.add_argument("experiments", nargs="+", metavar="EXPERIMENT.npz")
+    _start_options(diagnose)
+    diagnose.add_argument("--max-effects", type=int, default=3,
+                          help="stop after this many effects (default 3)")
+    diagnose.add_argument("--substeps", default="auto")
+    diagnose.add_argument("--out", help="write the final model (with the effects) as YAML")
+    diagnose.add_argument("--report", help="write an HTML report (and a .json twin)")
+    diagnose.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    diagnose.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    diagnose.set_defaults(run=fitting.diagnose)
+
+    rules = commands.add_parser("rules", help="check and show fuzzy rule bases")
+    rules_commands = rules.add_subparsers(dest="rules_command", metavar="ACTION")
+    check = rules_commands.add_parser("check", help="validate a rule base and list what it "
+                                                    "defines")
+    check.add_argument("rules", metavar="R.yaml")
+    check.set_defaults(run=misc.rules_check)
+    show = rules_commands.add_parser("show", help="inferred start values of a tissue and "
+                                                  "their labels")
+    show.add_argument("rules", metavar="R.yaml")
+    show.add_argument("--tissue", required=True)
+    show.add_argument("--json", action="store_true")
+    show.set_defaults(run=misc.rules_show)
+    rules.set_defaults(run=lambda args: usage(rules))
+
+    simulate = commands.add_parser(
+        "simulate", help="simulate a model under a load and write an experiment file",
+        description="Simulate a fitted model (YAML) or the built-in cube ('cube') from rest "
+                    "under constant node forces and write the DESIGN.md experiment file.")
+    simulate.add_argument("model", metavar="MODEL.yaml|cube")
+    simulate.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
+    simulate.add_argument("--force", nargs=4, action="append", metavar=("NODE", "FX", "FY", "FZ"),
+                          help="constant force on a node (repeatable; default: the cube's "
+                               "load on its top centre node)")
+    simulate.add_argument("--dt", type=float, default=None, help="frame spacing (s)")
+    simulate.add_argument("--frames", type=int, default=251, help="frames incl. frame 0")
+    simulate.add_argument("--substeps", default="1", help="steps per frame, or 'auto'")
+    simulate.add_argument("--noise", type=float, default=0.0, help="marker noise (std, m)")
+    simulate.add_argument("--seed", type=int, default=0)
+    simulate.set_defaults(run=data.simulate)
+
+    mesh = commands.add_parser(
+        "mesh", help="mesh file + rule base -> model (YAML)",
+        description="Build a spring network from a mesh file (a closed surface: STL, OBJ, PLY, "
+                    "GLB -> voxel lattice or, with --tetra, tetrahedra; a volume mesh: VTU, "
+                    "VTK, Gmsh .msh) and give it start values from a rule base's tissue(s).")
+    mesh.add_argument("mesh", metavar="MESH")
+    mesh.add_argument("--rules", required=True, help="rule base: a YAML file or a shipped name")
+    mesh.add_argument("--tissue", help="tissue of the whole object (or of the regions not "
+                                       "named by --region)")
+    mesh.add_argument("--region", action="append", default=[], metavar="REGION=TISSUE",
+                      help="tissue of a region of a volume mesh (repeatable)")
+    mesh.add_argument("--pitch", type=float, help="voxel lattice spacing of a surface (in the "
+                                                  "file's length unit; default extent / 10)")
+    mesh.add_argument("--tetra", action="store_true",
+                      help="tetrahedralise a surface (tetgen) instead of voxelising it")
+    mesh.add_argument("--max-edge", type=float, help="with --tetra: target edge length")
+    mesh.add_argument("--scale", type=float, default=1.0,
+                      help="multiply coordinates by this to get metres (e.g. 0.001 for mm)")
+    fixing = mesh.add_mutually_exclusive_group()
+    fixing.add_argument("--fix-bottom", action="store_true",
+                        help="hold the lowest nodes (z within a quarter of the shortest "
+                             "spring of the minimum) in place")
+    fixing.add_argument("--fix-below", type=float, metavar="Z",
+                        help="hold the nodes with z <= Z (metres) in place")
+    mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
+    mesh.add_argument("--out", required=True, metavar="MODEL.yaml")
+    mesh.set_defaults(run=data.mesh)
+
+    importer = commands.add_parser(
+        "import", help="marker recording (CSV or C3D) -> experiment file",
+        description="Attach the markers of an optical recording to the nodes of a model, "
+                    "resample to the model's step and write the DESIGN.md experiment file "
+                    "(nodes with markers observed; frames where a marker was not seen are "
+                    "gaps, never interpolated across).")
+    importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d")
+    importer.add_argument("--topology", required=True, metavar="MODEL.yaml|EXPERIMENT.npz",
+                          help="the object's nodes and springs: a model (its masses become the "
+                               "experiment's known masses) or another experiment file")
+    importer.add_argument("--map", metavar="MAP.csv",
+                          help="marker,node pairs (default: each marker to its nearest node)")
+    importer.add_argument("--forces", metavar="FORCES.csv",
+                          help="time,node,fx,fy,fz in N, each row held until the node's next")
+    importer.add_argument("--units", choices=("m", "cm", "mm"),
+                          help="length unit of the marker file (CSV: required unless the file "
+                               "has a '# units: mm' line; C3D: overrides POINT:UNITS)")
+    importer.add_argument("--dt", type=float, default=None,
+                          help="the model's step (s) to resample to (default: the topology "
+                               "file's dt, else the capture's frame period)")
+    importer.add_argument("--max-distance", type=float, default=None,
+                          help="farthest a marker may lie from its node at the start (m; "
+                               "default half the shortest spring)")
+    importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
+    importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    importer.set_defaults(run=data.import_markers)
+    return parser
+
+
+def _start_options(command) -> None:
+    """Where a fit starts (:func:`neurofuzzy.learn.start_model`), shared by fit and diagnose."""
+    command.add_argument("--start", metavar="MODEL.yaml",
+                         help="start from a model file (written by 'neurofuzzy mesh' or a "
+                              "previous fit), keeping its regions, tissues, masses and tie "
+                              "groups")
+    command.add_argument("--rules", help="start from a rule base (a YAML file, or the name of "
+                                         "a shipped one: liver, brain, kidney, …) …")
+    command.add_argument("--tissue", help="… and this tissue of it")
+    command.add_argument("--tie", choices=("global", "groups", "none"), default=None,
+                         help="share spring parameters: one value for all springs, one per "
+                              "spring group, or one per spring, within each region (default: "
+                              "the start model's own tying, else groups)")

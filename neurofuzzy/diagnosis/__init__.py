@@ -1,0 +1,26 @@
+"""Find the missing effect: where simulation and measurement disagree, name it, add it, refit.
+
+Each round (DESIGN.md, "Diagnosis"):
+
+1. fit the model as it is (:class:`~neurofuzzy.learn.GradientLearner`);
+2. residuals: the trajectory error of the free run and the one-step residual force
+   ``r_i(t) = m_i a_i(t) - F_model,i(p(t), v(t)) - f_ext,i(t)`` with the measured state (positions
+   smoothed by a Savitzky–Golay filter when the markers are noisy). One-step residuals do not
+   accumulate, the insight behind the paper's teacher forcing;
+3. localise ``r`` per node, per spring (a ridge regression of ``r`` on every spring's own force
+   template gives each spring's stiffness mismatch) and per frame, and estimate the noise floor;
+4. score every candidate of the effect catalogue by regressing ``r`` on its force templates
+   together with the model's own parameter templates (sparse identification of dynamics, as in
+   SINDy): the Bayesian information criterion with the noise floor as variance, ``ΔBIC =
+   (RSS_model - RSS_model+candidate) / σ² - k ln n``, favours the simpler explanation;
+   ``none`` when no candidate explains at least ``MIN_EXPLAINED`` of the residual with strong
+   evidence (``ΔBIC > MIN_EVIDENCE``);
+5. add the winner, refit everything, and keep it only if the gap (RMS above the noise floor)
+   shrinks at least ``MIN_SHRINK`` times; repeat until ``none``.
+"""
+
+from .loop import Diagnosis, Finding, diagnose
+from .residuals import Residuals, residual_analysis
+from .scoring import Candidate
+
+__all__ = ["diagnose", "Diagnosis", "Finding", "Candidate", "Residuals", "residual_analysis"]

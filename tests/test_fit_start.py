@@ -1,0 +1,112 @@
+"""fit --start MODEL.yaml: a two-tissue organ (liver with a tumour) from ``neurofuzzy mesh
+--region`` to per-region learned values and words."""
+
+import json
+
+import meshio
+import numpy as np
+import pytest
+
+from neurofuzzy.cli import main
+from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.experiment import simulate_experiment
+from neurofuzzy.io import load_model, save_experiment
+from neurofuzzy.learn import start_model
+from neurofuzzy.mesh_files import read_mesh
+from neurofuzzy.rules import initialize, load_rules, materials, shipped
+
+SPACING = 0.01
+
+
+def organ_file(path):
+    """A 4 × 4 × 3 cm block whose top-centre corner cells are a tumour (Gmsh, named regions)."""
+    points, tetrahedra = kuhn_block((4, 4, 3), SPACING)
+    centre = points[tetrahedra].mean(axis=1)
+    tumour = (np.abs(centre[:, 0] - 0.02) < 0.01) & (np.abs(centre[:, 1] - 0.02) < 0.01) & (
+        centre[:, 2] > 0.01)
+    region = np.where(tumour, 2, 1)
+    meshio.write(path, meshio.Mesh(points, [("tetra", tetrahedra)],
+                                   cell_data={"gmsh:physical": [region],
+                                              "gmsh:geometrical": [region]},
+                                   field_data={"organ": np.array([1, 3]),
+                                               "tumour": np.array([2, 3])}),
+                 file_format="gmsh22", binary=False)
+    return path
+
+
+def hidden_truth(path):
+    """The same organ, but the liver is fibrotic (the expert said healthy)."""
+    read = read_mesh(path)
+    z = read.mesh.rest_positions[:, 2]
+    mesh = read.mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * read.mesh.rest_lengths.min())
+    return initialize(load_rules(shipped("liver")), mesh, tetrahedron_regions={
+        "fibrotic_liver": read.tetrahedron_regions["organ"],
+        "tumour": read.tetrahedron_regions["tumour"]})
+
+
+@pytest.fixture(scope="module")
+def organ(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("organ")
+    mesh_file = organ_file(folder / "organ.msh")
+    assert main(["mesh", str(mesh_file), "--rules", "liver", "--region", "organ=liver",
+                 "--region", "tumour=tumour", "--fix-bottom", "--out",
+                 str(folder / "organ.yaml")]) == 0
+    truth = hidden_truth(mesh_file)
+    top = np.flatnonzero(truth.mesh.rest_positions[:, 2] > 0.029)
+    centre = top[np.argmin(np.linalg.norm(truth.mesh.rest_positions[top, :2] - 0.02, axis=1))]
+    corner = top[np.argmin(np.linalg.norm(truth.mesh.rest_positions[top, :2], axis=1))]
+    files = []
+    for name, node, force in (("push", centre, (0, 0, -0.05)), ("pull", corner, (0.03, 0, 0))):
+        load = np.zeros((truth.n_nodes, 3))
+        load[node] = force
+        files.append(save_experiment(simulate_experiment(truth, dt=1e-3, n_frames=150,
+                                                         external_forces=load, substeps=2),
+                                     folder / f"{name}.npz"))
+    return folder, truth, files
+
+
+def test_the_model_file_keeps_regions_tissues_and_ties(organ):
+    folder, _, _ = organ
+    model = load_model(folder / "organ.yaml")
+    assert model.region_names == ("liver", "tumour")
+    assert model.region_tissues == ("liver", "tumour")
+    assert model.region_nodes("tumour").size > 0 and model.region_springs("tumour").size > 0
+    for k in range(model.n_ties):     # tie groups never span two regions
+        assert len(np.unique(model.spring_region[model.spring_tie == k])) == 1
+
+
+@pytest.mark.slow
+def test_fit_start_learns_each_region_and_says_it_in_words(organ, capsys):
+    folder, truth, files = organ
+    status = main(["fit", *map(str, files), "--start", str(folder / "organ.yaml"),
+                   "--rules", "liver", "--substeps", "2", "--json", "--quiet", "--report",
+                   str(folder / "fit.html"), "--out", str(folder / "fitted.yaml")])
+    assert status == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["start"]["how"] == "model"
+    expected = materials(truth, load_rules(shipped("liver")))
+    found = result["materials"]
+    assert set(found) == {"liver", "tumour"}
+    for region, true_region in (("liver", "fibrotic_liver"), ("tumour", "tumour")):
+        assert found[region]["youngs_modulus"] == pytest.approx(
+            expected[true_region]["youngs_modulus"], rel=0.05), region
+        assert found[region]["labels"] == expected[true_region]["labels"], region
+    assert found["liver"]["labels"]["youngs_modulus"] == "hard"
+    assert found["tumour"]["labels"]["youngs_modulus"] == "very_hard"
+    fitted = load_model(folder / "fitted.yaml")
+    assert fitted.region_names == ("liver", "tumour")
+    twin = json.loads((folder / "fit.json").read_text())
+    assert [r["region"] for r in twin["regions"]] == ["liver", "tumour"]
+    words = {r["region"]: {q["quantity"]: q for q in r["quantities"]} for r in twin["regions"]}
+    assert words["liver"]["stiffness"]["label_before"] == "firm"
+    assert words["liver"]["stiffness"]["label_after"] == "hard"
+
+
+def test_start_model_refuses_a_model_of_another_object(organ):
+    folder, _, files = organ
+    from neurofuzzy.datasets import paper_cube_model
+    from neurofuzzy.errors import InputError
+    from neurofuzzy.io import load_experiment
+
+    with pytest.raises(InputError, match="nodes"):
+        start_model([load_experiment(files[0])], model=paper_cube_model())
