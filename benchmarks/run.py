@@ -35,7 +35,7 @@ import trimesh  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 from neurofuzzy import simulate  # noqa: E402
-from neurofuzzy._steppers import numba_available  # noqa: E402
+from neurofuzzy.simulation import numba_available  # noqa: E402
 from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model,  # noqa: E402
                                  per_spring_cube)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402

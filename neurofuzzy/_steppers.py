@@ -18,15 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["NumpyStepper", "NumbaStepper", "numba_available", "make_stepper"]
+from .simulation import numba_available
 
-
-def numba_available() -> bool:
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
+__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper"]
 
 
 class NumpyStepper:

@@ -42,6 +42,7 @@ __all__ = [
     "stability_limit",
     "check_time_step",
     "check_substeps",
+    "numba_available",
 ]
 
 #: Fraction of the theoretical stability bound we allow: springs stiffen geometrically when
@@ -158,6 +159,15 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
             "infinite); reduce the time step or the stiffness, or raise substeps")
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
                       substeps=substeps)
+
+
+def numba_available() -> bool:
+    """True when the optional numba package is installed (the compiled stepper)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def check_substeps(value, key: str = "substeps") -> int | str:

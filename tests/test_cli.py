@@ -120,13 +120,18 @@ def test_never_writes_over_an_input(cube_file):
 def test_demo_writes_table_plot_and_summary(tmp_path):
     result = run_cli("demo", "--out", tmp_path / "demo", "--cycles", "5", "--quiet")
     assert result.returncode == 0, result.stderr
-    assert "paper E" in result.stdout and "1.21" in result.stdout
+    assert "paper E" in result.stdout
     assert "firm -> hard" in result.stdout and "diagnosis: gravity" in result.stdout
     for name in ("error_per_cycle.png", "table.txt", "summary.json", "report.html",
                  "report.json", "diagnosis.html", "diagnosis.json"):
         assert (tmp_path / "demo" / name).stat().st_size > 0
     summary = json.loads((tmp_path / "demo" / "summary.json").read_text())
     assert {run["experiment"] for run in summary["runs"]} == {1, 2, 3}
+    # experiment 3 (jointly learned constants): the gradient learner recovers them (the paper
+    # learner needs its 100 cycles, run by the demo itself, not in 5)
+    third = next(run for run in summary["runs"]
+                 if run["experiment"] == 3 and run["learner"] == "gradient")
+    assert third["stiffness_error"] < 0.01 and third["rms_final"] < 1e-3 * third["rms_initial"]
 
 
 @pytest.mark.slow

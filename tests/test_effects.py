@@ -7,8 +7,7 @@ from neurofuzzy.effects import (EFFECTS, Gravity, NodeDrag, NonlinearStiffening,
 from neurofuzzy.errors import InputError
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.learn import GradientLearner, PaperLearner
-from neurofuzzy.learn._parameters import Parameterization
-from neurofuzzy.learn._sensitivity import Sensitivity
+from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.simulation import internal_forces
 
 TRUTH = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})

@@ -4,8 +4,7 @@ import pytest
 from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, point_load,
                                  top_centre_node)
 from neurofuzzy.learn import GradientLearner, auto_substeps
-from neurofuzzy.learn._parameters import Parameterization
-from neurofuzzy.learn._sensitivity import Sensitivity
+from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.reference import reference_experiment
 
 

@@ -12,8 +12,7 @@ from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.errors import InputError
 from neurofuzzy.experiment import rms_error
 from neurofuzzy.learn import GradientLearner, PaperLearner
-from neurofuzzy.learn._parameters import Parameterization
-from neurofuzzy.learn._sensitivity import Sensitivity
+from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.simulation import simulate
 
 CENTRE = 13

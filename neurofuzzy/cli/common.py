@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from .._json import json_safe
+from ..serialization import json_safe
 from ..errors import InputError
 
 __all__ = ["EXIT_BAD_INPUT", "print_json", "refuse_overwrite", "written", "usage"]

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._json import json_safe
+from ..serialization import json_safe
 from ..effects import SoftInclusion, StiffInclusion
 from ..experiment import Experiment, check_experiments
 from ..learn import GradientLearner

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._json import json_safe
+from ..serialization import json_safe
 
 __all__ = ["Identifiability", "analyse"]
 
