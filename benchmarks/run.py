@@ -35,14 +35,13 @@ import trimesh  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 from neurofuzzy import simulate  # noqa: E402
-from neurofuzzy.simulation import numba_available  # noqa: E402
 from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model,  # noqa: E402
                                  per_spring_cube)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
-from neurofuzzy.learn import GradientLearner, PaperLearner  # noqa: E402
-from neurofuzzy.learn import estimate_start  # noqa: E402
+from neurofuzzy.learn import GradientLearner, PaperLearner, estimate_start  # noqa: E402
 from neurofuzzy.mesh import bottom_layer, from_trimesh, lattice  # noqa: E402
 from neurofuzzy.model import SpringMassModel  # noqa: E402
+from neurofuzzy.simulation import numba_available  # noqa: E402
 
 
 def timed(function, repeat=1):

@@ -38,8 +38,7 @@ from neurofuzzy.export import export_paraview
 from neurofuzzy.io import save_experiment, save_model
 from neurofuzzy.learn import GradientLearner, start_model
 from neurofuzzy.markers import markers_to_experiment, read_markers
-from neurofuzzy.mesh import surface_nodes
-from neurofuzzy.mesh_files import read_mesh
+from neurofuzzy.mesh import read_mesh, surface_nodes
 from neurofuzzy.reference import reference_simulate
 from neurofuzzy.report import fit_report
 from neurofuzzy.rules import initialize, load_rules, shipped
@@ -125,9 +124,9 @@ def main(argv):
           f"{probe.tolist()}, peak displacement {1e3 * np.abs(motion - motion[0]).max():.2f} mm")
 
     # 4. import the files as a mocap user would
-    experiment, summary = markers_to_experiment(read_markers(out / "markers.csv"), mesh,
-                                                forces=out / "forces.csv",
-                                                masses=start.node_mass)
+    imported = markers_to_experiment(read_markers(out / "markers.csv"), mesh,
+                                     forces=out / "forces.csv", masses=start.node_mass)
+    experiment, summary = imported.experiment, imported.summary
     save_experiment(experiment, out / "experiment.npz")
     print(f"imported: {summary['markers']} markers -> nodes, {summary['frames']} frames, "
           f"{100 * summary['gaps']:.1f} % gaps; inner nodes unobserved: "

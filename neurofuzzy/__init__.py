@@ -35,7 +35,7 @@ _EXPORTS = {
     "InputError": "errors", "NeurofuzzyError": "errors", "UnstableTimeStepError": "errors",
     "Mesh": "mesh", "bottom_layer": "mesh", "from_surface_tetra": "mesh", "from_tetra": "mesh",
     "from_trimesh": "mesh", "lattice": "mesh", "surface_nodes": "mesh",
-    "MeshFile": "mesh_files", "read_mesh": "mesh_files",
+    "MeshFile": "mesh", "read_mesh": "mesh",
     "SpringMassModel": "model",
     "ForceTerm": "forces", "SpringForce": "forces", "SPRINGS": "forces",
     "Effect": "effects", "EFFECTS": "effects", "Gravity": "effects", "NodeDrag": "effects",
@@ -87,7 +87,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .markers import markers_to_experiment, read_markers  # noqa: F401
     from .mesh import (Mesh, bottom_layer, from_surface_tetra, from_tetra,  # noqa: F401
                        from_trimesh, lattice, surface_nodes)
-    from .mesh_files import MeshFile, read_mesh  # noqa: F401
+    from .mesh import MeshFile, read_mesh  # noqa: F401
     from .model import SpringMassModel  # noqa: F401
     from .reference import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401

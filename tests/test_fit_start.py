@@ -12,7 +12,7 @@ from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_model, save_experiment
 from neurofuzzy.learn import start_model
-from neurofuzzy.mesh_files import read_mesh
+from neurofuzzy.mesh import read_mesh
 from neurofuzzy.rules import initialize, load_rules, materials, shipped
 
 SPACING = 0.01

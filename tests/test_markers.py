@@ -15,11 +15,18 @@ from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model
 from neurofuzzy.errors import InputError
 from neurofuzzy.io import load_experiment, save_model
 from neurofuzzy.learn import GradientLearner
-from neurofuzzy.markers import (markers_to_experiment, read_c3d, read_forces, read_marker_csv,
+from neurofuzzy.markers import (MarkerImport, markers_to_experiment, read_c3d, read_forces, read_marker_csv,
                                 read_marker_map, read_markers)
 
 SURFACE = [n for n in range(27) if n != 13]
 
+
+
+def attach(*args, **options):
+    """``markers_to_experiment`` as (experiment, summary), checking the result type."""
+    result = markers_to_experiment(*args, **options)
+    assert isinstance(result, MarkerImport)
+    return result.experiment, result.summary
 
 def write_marker_csv(path, experiment, nodes=SURFACE, *, unit="mm", header=True, gaps=None,
                      times=None, offset=(0.0, 0.0, 0.0), name="M{}"):
@@ -75,7 +82,7 @@ def test_csv_markers_become_the_experiment_they_were_recorded_from(tmp_path, tru
     markers = read_markers(path)
     assert markers.n_markers == 26 and markers.positions.shape == (251, 26, 3)
     assert markers.frame_period == pytest.approx(CUBE["dt"])
-    experiment, summary = markers_to_experiment(markers, truth.mesh)
+    experiment, summary = attach(markers, truth.mesh)
     assert summary["nodes"] == SURFACE and summary["gaps"] == 0.0
     assert experiment.observed.sum() == 26 and not experiment.observed[13]
     assert np.all(np.isnan(experiment.positions[:, 13]))
@@ -101,7 +108,7 @@ def test_gaps_and_dropped_frames_stay_gaps(tmp_path, truth, recording):
     gaps[0] = False
     gaps[120] = True                            # a dropped capture frame: no rows at all
     path = write_marker_csv(tmp_path / "gappy.csv", recording, gaps=gaps)
-    experiment, summary = markers_to_experiment(read_markers(path), truth.mesh)
+    experiment, summary = attach(read_markers(path), truth.mesh)
     measured = experiment.measured()
     assert np.array_equal(measured[:, SURFACE], ~gaps[:, SURFACE])
     assert not measured[120].any()
@@ -115,11 +122,11 @@ def test_resampling_to_the_models_step(tmp_path, truth, recording):
     gaps = np.zeros((251, 27), bool)
     gaps[101, 26] = True
     markers = read_markers(write_marker_csv(tmp_path / "m.csv", recording, gaps=gaps))
-    coarse, summary = markers_to_experiment(markers, truth.mesh, dt=2 * CUBE["dt"])
+    coarse, summary = attach(markers, truth.mesh, dt=2 * CUBE["dt"])
     assert summary["frames"] == 126
     assert np.allclose(coarse.positions[:, SURFACE], recording.positions[::2, SURFACE],
                        atol=1e-11)
-    fine, _ = markers_to_experiment(markers, truth.mesh, dt=CUBE["dt"] / 2)
+    fine, _ = attach(markers, truth.mesh, dt=CUBE["dt"] / 2)
     assert fine.n_frames == 501
     middle = 0.5 * (recording.positions[10, 26] + recording.positions[11, 26])
     assert np.allclose(fine.positions[21, 26], middle, atol=1e-11)
@@ -133,7 +140,7 @@ def test_c3d_markers_match_the_csv(tmp_path, truth, recording):
     from_c3d = read_c3d(c3d_file)
     assert from_c3d.names == tuple(f"M{n}" for n in SURFACE)
     assert from_c3d.frame_period == pytest.approx(CUBE["dt"])
-    experiment, summary = markers_to_experiment(from_c3d, truth.mesh)
+    experiment, summary = attach(from_c3d, truth.mesh)
     node = SURFACE[4]
     assert not experiment.measured()[30, node] and experiment.measured()[31, node]
     ok = experiment.measured()
@@ -156,7 +163,7 @@ def test_markers_are_attached_to_their_nodes(tmp_path, truth, recording):
     offset at frame 0."""
     offset = np.array([0.001, 0.0, 0.0])
     markers = read_markers(write_marker_csv(tmp_path / "o.csv", recording, offset=offset))
-    experiment, summary = markers_to_experiment(markers, truth.mesh)
+    experiment, summary = attach(markers, truth.mesh)
     assert summary["nodes"] == SURFACE
     assert np.allclose(experiment.positions[:, SURFACE], recording.positions[:, SURFACE],
                        atol=1e-11)
@@ -182,7 +189,7 @@ def test_a_map_file_attaches_markers_explicitly(tmp_path, truth, recording):
     map_file = tmp_path / "map.csv"
     map_file.write_text("marker,node\n" + "".join(f"{names[n]},{n}\n" for n in SURFACE[:-1]))
     mapping = read_marker_map(map_file)
-    experiment, summary = markers_to_experiment(read_markers(path), truth.mesh, mapping=mapping)
+    experiment, summary = attach(read_markers(path), truth.mesh, mapping=mapping)
     assert summary["unmatched"] == [names[26]]
     assert experiment.observed.sum() == 25
     assert np.allclose(experiment.positions[:, SURFACE[:-1]],

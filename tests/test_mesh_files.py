@@ -5,32 +5,20 @@ import numpy as np
 import pytest
 import trimesh
 
+from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.errors import InputError
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_experiment, load_model, save_experiment, save_model
 from neurofuzzy.mesh import from_surface_tetra, from_tetra, from_trimesh, lattice
-from neurofuzzy.mesh_files import MeshFile, read_mesh
+from neurofuzzy.mesh import MeshFile, read_mesh
 from neurofuzzy.model import SpringMassModel
 
 
 def _kuhn_block(shape):
-    """A block of unit cubes (``shape`` cells per axis), each split into 6 tetrahedra around its
-    (0,0,0)-(1,1,1) diagonal; the split is conforming. Region 1 for x < shape[0]/2, else 2."""
-    node_shape = tuple(n + 1 for n in shape)
-    points = np.argwhere(np.ones(node_shape, bool)).astype(float)
-    lower = np.argwhere(np.ones(shape, bool))
-    tetrahedra = []
-    for path in [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]:
-        corner, tet = lower.copy(), [lower]
-        for axis in path:
-            corner = corner.copy()
-            corner[:, axis] += 1
-            tet.append(corner)
-        tetrahedra.append(np.stack([np.ravel_multi_index(c.T, node_shape) for c in tet], 1))
-    tetrahedra = np.concatenate(tetrahedra)
+    """A conforming block of unit Kuhn cubes; region 1 for x < shape[0]/2, else 2."""
+    points, tetrahedra = kuhn_block(shape)
     centre_x = points[tetrahedra, 0].mean(axis=1)
-    region = np.where(centre_x < shape[0] / 2, 1, 2)
-    return points, tetrahedra, region
+    return points, tetrahedra, np.where(centre_x < shape[0] / 2, 1, 2)
 
 
 def _names_file(path):

@@ -263,7 +263,7 @@ def _two_region_gmsh_file(path):
 
 def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     """Node regions of a MeshFile go straight into initialize; two tissues, two stiffnesses."""
-    from neurofuzzy.mesh_files import read_mesh
+    from neurofuzzy.mesh import read_mesh
     from neurofuzzy.rules.physical import tetra_geometry
 
     read = read_mesh(_two_region_gmsh_file(tmp_path / "organ.msh"))
@@ -289,7 +289,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
 
 def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
     """With tetrahedron regions every spring sums its own tetrahedra's tissues (van Gelder)."""
-    from neurofuzzy.mesh_files import read_mesh
+    from neurofuzzy.mesh import read_mesh
     from neurofuzzy.rules.physical import tetra_geometry
 
     read = read_mesh(_two_region_gmsh_file(tmp_path / "organ.msh"))

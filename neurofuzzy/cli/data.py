@@ -47,7 +47,7 @@ def mesh(args) -> int:
     from dataclasses import replace
 
     from ..io import save_model
-    from ..mesh_files import read_mesh
+    from ..mesh import read_mesh
     from ..learn import load_rule_base
     from ..rules import initialize
 
@@ -110,9 +110,10 @@ def import_markers(args) -> int:
                          source=str(topology), key="--topology")
     markers = read_markers(args.markers, units=args.units)
     mapping = read_marker_map(args.map) if args.map else None
-    experiment, summary = markers_to_experiment(
+    imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
         forces=args.forces, masses=masses, source=args.out)
+    experiment, summary = imported.experiment, imported.summary
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",
               file=sys.stderr)

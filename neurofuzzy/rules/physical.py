@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..mesh import _TET_EDGES, Mesh, lattice_cells
+from ..mesh import TET_EDGES, Mesh, lattice_cells
 from ..model import SpringMassModel
 
 __all__ = ["LatticeGeometry", "lattice_geometry", "TetraGeometry", "tetra_geometry",
@@ -135,7 +135,7 @@ def tetra_geometry(mesh: Mesh) -> TetraGeometry:
                          f"volume; {int(flat.sum())} such", key="tetrahedra")
     edge_spring, is_spring = _tetra_edge_springs(mesh)
     contained = np.zeros(mesh.n_springs)
-    np.add.at(contained, edge_spring[is_spring], np.repeat(volume, len(_TET_EDGES))[is_spring])
+    np.add.at(contained, edge_spring[is_spring], np.repeat(volume, len(TET_EDGES))[is_spring])
     if np.any(contained == 0):
         bad = int(np.flatnonzero(contained == 0)[0])
         raise InputError(f"spring {bad} (nodes {mesh.springs[bad].tolist()}) is an edge of no "
@@ -153,7 +153,7 @@ def _tetra_edge_springs(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     """For the 6 edges of every tetrahedron (``(n_tets * 6,)``, tetrahedron-major): the index
     of the spring on that edge, and whether there is one."""
     n = mesh.n_nodes
-    pairs = np.sort(mesh.tetrahedra[:, _TET_EDGES].reshape(-1, 2), axis=1)
+    pairs = np.sort(mesh.tetrahedra[:, TET_EDGES].reshape(-1, 2), axis=1)
     edge_keys = pairs[:, 0] * n + pairs[:, 1]
     spring_keys = np.sort(mesh.springs, axis=1) @ np.array([n, 1])
     order = np.argsort(spring_keys)
@@ -180,8 +180,8 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
     regions : dict of tissue name → (n_nodes,) bool, optional
         Several tissues by node: a spring takes the tissue of its first end node's region, a
         node the tissue of its region (nodes in no region take ``tissue``; a node in several
-        takes the last). The regions of a :class:`~neurofuzzy.mesh_files.MeshFile` fit here
-        once named after tissues (:meth:`~neurofuzzy.mesh_files.MeshFile.tissue_regions`).
+        takes the last). The regions of a :class:`~neurofuzzy.mesh.MeshFile` fit here
+        once named after tissues (:meth:`~neurofuzzy.mesh.MeshFile.tissue_regions`).
     tetrahedron_regions : dict of tissue name → (n_tetrahedra,) bool, optional
         Several tissues by tetrahedron (meshes with tetrahedra only; instead of ``regions``):
         every tetrahedron contributes its own tissue to van Gelder's sum, so a spring on an
@@ -270,7 +270,7 @@ def _volume_shares(mesh: Mesh, geometry: TetraGeometry, tet_tissue: np.ndarray,
     """(n_springs, n_tissues) and (n_nodes, n_tissues) float: the fraction of the volume
     around every spring (its tetrahedra) and node (a quarter of its tetrahedra) per tissue."""
     edge_spring, is_spring = _tetra_edge_springs(mesh)
-    per_edge = len(_TET_EDGES)
+    per_edge = len(TET_EDGES)
     spring_volume = np.zeros((mesh.n_springs, n_tissues))
     np.add.at(spring_volume, (edge_spring[is_spring], np.repeat(tet_tissue, per_edge)[is_spring]),
               np.repeat(geometry.tetrahedron_volume, per_edge)[is_spring])

@@ -1,108 +1,18 @@
+"""Tetrahedral meshes: springs on tetrahedron edges, TetGen, surface nodes."""
+
 import numpy as np
 import pytest
 import trimesh
 
 from neurofuzzy.errors import InputError
-from neurofuzzy.mesh import (
-    Mesh,
-    bottom_layer,
-    from_surface_tetra,
-    from_tetra,
-    from_trimesh,
-    lattice,
-)
+from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.mesh import (Mesh, bottom_layer, from_surface_tetra, from_tetra, lattice,
+                             surface_nodes)
 
 
-def _pairs(mesh):
-    return {tuple(sorted(map(tuple, np.round(mesh.rest_positions[s], 9)))) for s in mesh.springs}
-
-
-def test_paper_cube_has_27_nodes_and_86_springs():
-    cube = lattice((3, 3, 3))
-    assert cube.n_nodes == 27
-    assert cube.n_springs == 86
-    assert cube.group_names == ("edge", "diagonal")
-    assert np.bincount(cube.spring_group).tolist() == [54, 32]
-    lengths = cube.rest_lengths
-    assert np.allclose(lengths[cube.spring_group == 0], 1.0)
-    assert np.allclose(lengths[cube.spring_group == 1], np.sqrt(3.0))
-
-
-def test_springs_are_unique_and_diagonals_lie_in_cells():
-    cube = lattice((3, 4, 2), spacing=0.5, diagonals="both")
-    assert len({tuple(sorted(s)) for s in cube.springs.tolist()}) == cube.n_springs
-    cells = 2 * 3 * 1
-    assert np.bincount(cube.spring_group).tolist() == [
-        2 * 4 * 2 + 3 * 3 * 2 + 3 * 4 * 1,   # edges along x, y, z
-        4 * cells,                           # body diagonals
-        2 * (2 * 3 * 2 + 2 * 1 * 4 + 3 * 1 * 3)]  # 2 per face: xy, xz, yz faces
-    assert lattice((3, 3, 3), diagonals="none").n_springs == 54
-    assert lattice((3, 3, 3), diagonals="face").n_springs == 54 + 72
-
-
-def test_from_trimesh_box_gives_the_lattice():
-    box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
-    voxel = from_trimesh(box, pitch=1.0)
-    expected = lattice((3, 3, 3), 1.0, origin=(-1.0, -1.0, -1.0))
-    assert voxel.n_nodes == 27 and voxel.n_springs == 86
-    assert _pairs(voxel) == _pairs(expected)
-
-
-def test_from_trimesh_icosphere_fills_the_ball():
-    sphere = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
-    mesh = from_trimesh(sphere, pitch=0.25)
-    radius = np.linalg.norm(mesh.rest_positions, axis=1)
-    assert radius.max() <= 1.0 + 0.25 * np.sqrt(3) / 2 + 1e-9
-    # nodes fill the ball: about its volume over the cell volume, surface voxels included
-    assert 0.8 * (4 / 3 * np.pi / 0.25**3) < mesh.n_nodes < 2.0 * (4 / 3 * np.pi / 0.25**3)
-    assert np.allclose(np.unique(np.round(mesh.rest_lengths, 9)), [0.25, 0.25 * np.sqrt(3)])
-    # every node belongs to a complete cell, so it has at least 3 edges and 1 diagonal
-    degree = np.bincount(mesh.springs.ravel(), minlength=mesh.n_nodes)
-    assert degree.min() >= 4
-
-
-def test_from_trimesh_rejects_open_surfaces():
-    box = trimesh.creation.box()
-    open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])
-    with pytest.raises(InputError, match="watertight"):
-        from_trimesh(open_box, pitch=0.1)
-
-
-def test_fixed_nodes_by_index_and_by_predicate():
-    cube = lattice((3, 3, 3))
-    bottom = cube.with_fixed(where=bottom_layer)
-    assert len(bottom.fixed) == 9
-    assert np.all(cube.rest_positions[bottom.fixed, 2] == 0.0)
-    both = cube.with_fixed([26], where=lambda p: p[:, 0] == 0)
-    assert 26 in both.fixed and len(both.fixed) == 10
-    with pytest.raises(InputError, match="out of range"):
-        cube.with_fixed([27])
-
-
-def test_bad_meshes_are_refused_with_clear_messages():
-    with pytest.raises(InputError, match=r"expected \(n_nodes, 3\)"):
-        Mesh(np.zeros((4, 2)), np.array([[0, 1]]))
-    with pytest.raises(InputError, match="node index 5 is out of range"):
-        Mesh(np.eye(3), np.array([[0, 5]]))
-    with pytest.raises(InputError, match="itself"):
-        Mesh(np.eye(3), np.array([[1, 1]]))
-    with pytest.raises(InputError, match="NaN"):
-        Mesh(np.array([[0, 0, np.nan], [1, 0, 0]]), np.array([[0, 1]]))
-
-
-# -- tetrahedral meshes -------------------------------------------------------------------------
 def _kuhn_cube():
     """The unit cube split into 6 tetrahedra around its body diagonal (0,0,0)-(1,1,1)."""
-    corners = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
-    paths = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
-    tetrahedra = []
-    for path in paths:
-        corner, tet = np.zeros(3, int), [0]
-        for axis in path:
-            corner[axis] = 1
-            tet.append(int(corner @ [4, 2, 1]))
-        tetrahedra.append(tet)
-    return corners, np.array(tetrahedra)
+    return kuhn_block((1, 1, 1))
 
 
 def _tet_volumes(mesh):
@@ -197,15 +107,11 @@ def test_from_surface_tetra_refuses_open_surfaces_and_explains_a_missing_tetgen(
 
 
 def test_surface_nodes_of_a_lattice_and_of_a_tetrahedral_mesh():
-    import trimesh
-
-    from neurofuzzy.mesh import from_surface_tetra, surface_nodes
-
     cube = lattice((3, 3, 3))
     assert np.flatnonzero(~surface_nodes(cube)).tolist() == [13]
     # a block with a corner cut out: the node on the re-entrant corner has all six edge
     # neighbours but is on the surface
-    from neurofuzzy.mesh import _cell_lattice
+    from neurofuzzy.mesh.lattice import _cell_lattice
 
     cells = np.ones((4, 4, 3), bool)
     cells[2:, 2:, 2:] = False

@@ -26,8 +26,10 @@ from typing import Literal
 
 import numpy as np
 
-from .errors import InputError
-from .mesh import Mesh, from_surface_tetra, from_tetra, from_trimesh
+from ..errors import InputError
+from .core import Mesh
+from .lattice import from_trimesh
+from .tetra import from_surface_tetra, from_tetra
 
 __all__ = ["MeshFile", "read_mesh", "SURFACE_SUFFIXES", "VOLUME_SUFFIXES", "REGION_KEYS"]
 

@@ -1,32 +1,4 @@
-"""Optical marker recordings → experiments: CSV and C3D readers, marker-to-node matching,
-resampling to the model's step, applied forces.
-
-A recording is a :class:`MarkerData`: marker names, capture times and positions (NaN where a
-marker was not seen). :func:`markers_to_experiment` attaches the markers to nodes of a mesh and
-writes them into an :class:`~neurofuzzy.experiment.Experiment` of the DESIGN.md contract: the
-nodes with markers are ``observed``, the others are not, and every frame in which a marker was
-not seen (occlusion, a dropped capture frame) is a gap, NaN, that the learners treat as "not
-measured then". Nothing is interpolated across a gap.
-
-File formats
-------------
-Marker CSV
-    Columns ``time,marker,x,y,z`` (header required; ``node`` instead of ``marker`` names the
-    node directly). One row per marker and capture frame; a missing row or an empty/``nan``
-    coordinate is a marker not seen. Time in seconds. The length unit must be stated, either
-    in a comment line ``# units: mm`` (m, cm or mm) or with ``units=``; coordinates are
-    converted to metres.
-C3D
-    Read with the ``c3d`` package (pure Python). The unit comes from ``POINT:UNITS``, the rate
-    from the header; points with a negative residual are "not seen". Times start at 0 s at the
-    file's first frame (force CSV times count from there).
-Map CSV
-    Columns ``marker,node``: which node each marker is attached to. Without a map, each marker
-    goes to the node nearest to its first seen position, and must lie within ``max_distance``.
-Force CSV
-    Columns ``time,node,fx,fy,fz`` in newtons. A node's force holds from its row's time until
-    the next row of that node (zero before its first row).
-"""
+"""Readers of marker recordings (CSV, C3D), marker-to-node maps and force files."""
 
 from __future__ import annotations
 
@@ -40,12 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, closest_name
-from .experiment import Experiment
-from .mesh import Mesh
+from ..errors import InputError, closest_name
 
 __all__ = ["MarkerData", "read_markers", "read_marker_csv", "read_c3d", "read_marker_map",
-           "read_forces", "match_markers", "markers_to_experiment", "LENGTH_UNITS"]
+           "read_forces", "LENGTH_UNITS", "TIME_TOLERANCE"]
 
 #: metres per unit of every length unit a file may state
 LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
@@ -88,7 +58,6 @@ class MarkerData:
         return float(np.median(np.diff(self.times))) if len(self.times) > 1 else float("nan")
 
 
-# -- readers --------------------------------------------------------------------------------
 def read_markers(path: str | os.PathLike, *, units: str | None = None) -> MarkerData:
     """Read a marker recording, ``.csv`` or ``.c3d`` (by extension); see the module docstring.
 
@@ -248,174 +217,6 @@ def read_forces(path: str | os.PathLike, *, n_nodes: int, times: np.ndarray) -> 
         start = np.searchsorted(times, time - TIME_TOLERANCE * period)
         forces[start:, node] = value
     return forces
-
-
-# -- markers → experiment -------------------------------------------------------------------
-def match_markers(markers: MarkerData, mesh: Mesh, *, mapping: dict[str, int] | None = None,
-                  max_distance: float | None = None) -> dict[str, int]:
-    """Marker name → node index.
-
-    With ``mapping`` (e.g. from :func:`read_marker_map`) the map is checked and used; markers
-    it leaves out are dropped. A ``node`` CSV maps each marker to its node. Otherwise each
-    marker goes to the node nearest to its first seen position; it must lie within
-    ``max_distance`` (default: half the shortest spring), and no two markers may share a node.
-    """
-    source = markers.source
-    n_nodes = mesh.n_nodes
-    if markers.by_node and mapping is None:
-        mapping = {name: int(name) for name in markers.names}
-    if mapping is not None:
-        for name, node in mapping.items():
-            if name not in markers.names:
-                hint = closest_name(name, markers.names)
-                raise InputError(f"the map names marker {name!r}, which the recording does not "
-                                 "have" + (f"; did you mean {hint!r}?" if hint else ""),
-                                 source=source)
-            if not 0 <= node < n_nodes:
-                raise InputError(f"marker {name!r} is mapped to node {node}; the model has "
-                                 f"{n_nodes} nodes (0..{n_nodes - 1})", source=source)
-        _no_shared_nodes(mapping, source)
-        return dict(mapping)
-    limit = 0.5 * float(np.min(mesh.rest_lengths)) if max_distance is None else max_distance
-    first = _first_seen(markers)
-    distance = np.linalg.norm(first[:, None, :] - mesh.rest_positions[None, :, :], axis=2)
-    nearest = np.argmin(distance, axis=1)
-    gap = distance[np.arange(markers.n_markers), nearest]
-    far = np.flatnonzero(~(gap <= limit))
-    if far.size:
-        worst = far[np.argmax(gap[far])]
-        raise InputError(f"{far.size} marker(s) lie farther than {limit:.3g} m from every node, "
-                         f"e.g. {markers.names[worst]!r} at {gap[worst]:.3g} m from node "
-                         f"{nearest[worst]}; check the units and the coordinate frame, or give "
-                         "a map file (marker,node) or a larger max_distance", source=source)
-    mapping = {name: int(node) for name, node in zip(markers.names, nearest)}
-    _no_shared_nodes(mapping, source)
-    return mapping
-
-
-def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None = None,
-                          mapping: dict[str, int] | None = None,
-                          max_distance: float | None = None,
-                          forces: str | os.PathLike | np.ndarray | None = None,
-                          masses: np.ndarray | None = None,
-                          source: str | None = None) -> tuple[Experiment, dict]:
-    """An experiment from a marker recording on ``mesh``.
-
-    Parameters
-    ----------
-    markers : MarkerData
-    mesh : Mesh
-        The model's topology; its rest positions are in the recording's coordinate frame.
-    dt : float, optional
-        The model's step, the spacing of the experiment's frames (default: the capture's
-        frame period). Frames are resampled to it: a frame on a capture time takes that
-        capture; a frame between two consecutive captures in which the marker was seen is
-        linearly interpolated; anything else (a marker not seen, a dropped capture frame, a
-        frame between captures more than one period apart) is a gap. Upsampling gives
-        piecewise-linear motion: prefer the capture rate with ``substeps`` in the fit.
-    mapping, max_distance
-        As in :func:`match_markers`.
-    forces : path or (n_frames, n_nodes, 3) array, optional
-        A force CSV (:func:`read_forces`) or forces at the experiment's frames.
-    masses : (n_nodes,) float, optional
-        Known node masses.
-
-    Returns
-    -------
-    experiment : Experiment
-        Frame 0 is the first capture at which every matched marker is seen (earlier frames are
-        dropped). A marker is attached to its node: its constant offset from the node at
-        frame 0 is removed, so the node starts at its rest position.
-    summary : dict
-        ``markers``, ``nodes`` (matched), ``unmatched`` (markers left out by the map),
-        ``dt``, ``frames``, ``dropped_leading_frames``, ``gaps`` (fraction of missing
-        (frame, observed node) values), ``capture_period``.
-    """
-    mapping = match_markers(markers, mesh, mapping=mapping, max_distance=max_distance)
-    names = list(mapping)
-    columns = [markers.names.index(name) for name in names]
-    nodes = np.array([mapping[name] for name in names], dtype=np.intp)
-    capture = markers.positions[:, columns]                  # (T_capture, K, 3)
-    seen = np.isfinite(capture).all(axis=2)
-    complete = np.flatnonzero(seen.all(axis=1))
-    if complete.size == 0:
-        raise InputError("no capture frame sees every matched marker, so the initial state is "
-                         "unknown; map fewer markers or repair the recording",
-                         source=markers.source)
-    first = int(complete[0])
-    times = markers.times[first:] - markers.times[first]
-    capture = capture[first:]
-    period = markers.frame_period
-    if dt is None:
-        dt = period
-    if not (dt is not None and math.isfinite(dt) and dt > 0):
-        raise InputError(f"the time step {dt} is not a positive number; give dt", key="dt")
-    n_frames = int(math.floor(times[-1] / dt * (1 + TIME_TOLERANCE) + TIME_TOLERANCE)) + 1
-    if n_frames < 2:
-        raise InputError(f"the recording spans {times[-1]:.3g} s, less than one step of "
-                         f"{dt:.3g} s", source=markers.source)
-    resampled = _resample(times, capture, np.arange(n_frames) * dt, period)
-    positions = np.full((n_frames, mesh.n_nodes, 3), np.nan)
-    # attach each marker to its node: remove its offset at frame 0
-    positions[:, nodes] = resampled + (mesh.rest_positions[nodes] - resampled[0])[None]
-    observed = np.zeros(mesh.n_nodes, dtype=bool)
-    observed[nodes] = True
-    if isinstance(forces, (str, os.PathLike)):
-        forces = read_forces(forces, n_nodes=mesh.n_nodes,
-                             times=np.arange(n_frames) * dt + markers.times[first])
-    experiment = Experiment(mesh=mesh, dt=float(dt), positions=positions,
-                            external_forces=forces, observed=observed, masses=masses,
-                            source=source or markers.source)
-    measured = experiment.measured()[:, observed]
-    summary = {
-        "markers": len(names), "nodes": nodes.tolist(),
-        "unmatched": [n for n in markers.names if n not in mapping],
-        "dt": float(dt), "frames": n_frames, "capture_period": period,
-        "dropped_leading_frames": first, "gaps": float(1.0 - measured.mean()),
-    }
-    return experiment, summary
-
-
-# -- helpers --------------------------------------------------------------------------------
-def _resample(times: np.ndarray, values: np.ndarray, targets: np.ndarray,
-              period: float) -> np.ndarray:
-    """Values (T, K, 3) with NaN gaps at ``targets``: exact on capture times, linear between
-    two consecutive captures (no dropped frame between them) that both saw the marker."""
-    tolerance = TIME_TOLERANCE * period
-    right = np.clip(np.searchsorted(times, targets - tolerance), 0, len(times) - 1)
-    on_frame = np.abs(times[right] - targets) <= tolerance
-    left = np.clip(right - 1, 0, len(times) - 1)
-    out = np.where(on_frame[:, None, None], values[right], np.nan)
-    between = ~on_frame & (right > 0)
-    consecutive = (times[right] - times[left]) <= 1.5 * period
-    weight = np.where(between, (targets - times[left]) / np.where(between, times[right]
-                                                                   - times[left], 1.0), 0.0)
-    interpolated = (values[left] * (1 - weight)[:, None, None]
-                    + values[right] * weight[:, None, None])     # NaN if either end is a gap
-    use = between & consecutive
-    out[use] = interpolated[use]
-    return out
-
-
-def _first_seen(markers: MarkerData) -> np.ndarray:
-    """(n_markers, 3): each marker's first seen position."""
-    seen = np.isfinite(markers.positions).all(axis=2)
-    never = np.flatnonzero(~seen.any(axis=0))
-    if never.size:
-        raise InputError(f"marker {markers.names[never[0]]!r} is never seen",
-                         source=markers.source)
-    first = np.argmax(seen, axis=0)
-    return markers.positions[first, np.arange(markers.n_markers)]
-
-
-def _no_shared_nodes(mapping: dict[str, int], source: str) -> None:
-    by_node: dict[int, str] = {}
-    for name, node in mapping.items():
-        if node in by_node:
-            raise InputError(f"markers {by_node[node]!r} and {name!r} both belong to node "
-                             f"{node}; give a map file (marker,node) that attaches each marker "
-                             "to its own node", source=source)
-        by_node[node] = name
 
 
 def _length_unit(flag: str | None, stated: str | None, source: str) -> float:

@@ -1,0 +1,172 @@
+"""Tetrahedral meshes: springs on the edges of tetrahedra (:func:`from_tetra`), TetGen
+tetrahedralisation of a closed surface (:func:`from_surface_tetra`), and the surface nodes of a
+mesh (:func:`surface_nodes`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..errors import InputError
+from .core import TET_EDGES, Mesh, as_float_array, as_index_array, check_range, require_watertight
+from .lattice import lattice_cells
+
+__all__ = ["from_tetra", "from_surface_tetra", "surface_nodes"]
+
+
+def from_tetra(points, tetrahedra, *, cell_region=None,
+               region_names: Mapping[int, str] | None = None) -> Mesh:
+    """A spring network on the edges of a tetrahedral mesh.
+
+    Nodes are the points that belong to some tetrahedron (renumbered in the order of their
+    index in ``points``; points in no tetrahedron are dropped). Springs are the unique
+    tetrahedron edges, ``(a, b)`` with ``a < b``, sorted. The tetrahedra are kept on the mesh
+    (``Mesh.tetrahedra``, in the new node numbering).
+
+    Parameters
+    ----------
+    points : (n_points, 3) float
+        Point coordinates.
+    tetrahedra : (n_tets, 4) int
+        Point indices of every tetrahedron.
+    cell_region : (n_tets,) int, optional
+        Region id of every tetrahedron (e.g. Gmsh physical tags). A spring whose every
+        containing tetrahedron lies in region ``r`` goes to the spring group of ``r``; a spring
+        shared by tetrahedra of different regions goes to the group ``"interface"``.
+    region_names : dict of int → str, optional
+        Group name of a region id (default ``"region{r}"``).
+
+    Returns
+    -------
+    Mesh
+        Without ``cell_region`` every spring is in one group ``"edge"``. With it, the groups
+        are the regions in increasing id that own at least one spring, then ``"interface"``
+        (if any spring is shared).
+    """
+    points = as_float_array(points, "points")
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"got shape {points.shape}; expected (n_points, 3)", key="points")
+    tetrahedra = as_index_array(tetrahedra, "tetrahedra")
+    if tetrahedra.ndim != 2 or tetrahedra.shape[1] != 4 or len(tetrahedra) == 0:
+        raise InputError(f"got shape {tetrahedra.shape}; expected (n_tets, 4) with n_tets >= 1",
+                         key="tetrahedra")
+    check_range(tetrahedra, len(points), "tetrahedra")
+    used, local = np.unique(tetrahedra, return_inverse=True)
+    local = local.reshape(tetrahedra.shape)
+    n_nodes = len(used)
+    edges = np.sort(local[:, TET_EDGES].reshape(-1, 2), axis=1)     # (6 n_tets, 2)
+    keys, edge_spring = np.unique(edges[:, 0] * n_nodes + edges[:, 1], return_inverse=True)
+    springs = np.stack([keys // n_nodes, keys % n_nodes], axis=1)
+    if cell_region is None:
+        spring_group = np.zeros(len(springs), dtype=np.intp)
+        group_names: tuple[str, ...] = ("edge",)
+    else:
+        region = as_index_array(cell_region, "cell_region")
+        if region.shape != (len(tetrahedra),):
+            raise InputError(f"got shape {region.shape}; expected ({len(tetrahedra)},), one "
+                             "region id per tetrahedron", key="cell_region")
+        edge_region = np.repeat(region, len(TET_EDGES))
+        lowest = np.full(len(springs), region.max())
+        highest = np.full(len(springs), region.min())
+        np.minimum.at(lowest, edge_spring, edge_region)
+        np.maximum.at(highest, edge_spring, edge_region)
+        shared = lowest != highest
+        owners = np.unique(lowest[~shared])
+        spring_group = np.searchsorted(owners, lowest)
+        spring_group[shared] = len(owners)
+        names = dict(region_names or {})
+        group_names = tuple(str(names.get(int(r), f"region{int(r)}")) for r in owners)
+        if shared.any():
+            group_names += ("interface",)
+        if len(set(group_names)) < len(group_names):
+            raise InputError(f"region names must differ from each other and from 'interface'; "
+                             f"got {list(group_names)}", key="region_names")
+    return Mesh(rest_positions=points[used], springs=springs, spring_group=spring_group,
+                group_names=group_names, tetrahedra=local)
+
+
+def from_surface_tetra(surface, *, max_edge: float | None = None, quality: bool = True) -> Mesh:
+    """Tetrahedralise a closed surface with TetGen and put springs on the tetrahedron edges.
+
+    Needs the optional ``tetgen`` package (``pip install tetgen``; it installs with numpy
+    only). The surface vertices are kept as nodes; TetGen adds points inside (and, with
+    ``quality``, on the surface) as needed.
+
+    Parameters
+    ----------
+    surface : trimesh.Trimesh
+        A watertight triangle surface.
+    max_edge : float, optional
+        Target edge length, in the surface's length unit. TetGen bounds the volume of every
+        tetrahedron by that of a regular tetrahedron with this edge, ``max_edge³ / (6√2)``, so
+        edge lengths scatter around it (for a box: median 0.9, 90th percentile 1.1, largest
+        1.4 × ``max_edge``). Default: no volume bound (the coarsest mesh TetGen's quality
+        criterion allows).
+    quality : bool
+        Let TetGen add points to bound the radius-edge ratio of every tetrahedron (TetGen's
+        ``-q``; default ratio 2). Without it, slivers are likely.
+
+    Returns
+    -------
+    Mesh
+        As :func:`from_tetra` without regions: one spring group ``"edge"``.
+    """
+    require_watertight(surface)
+    options: dict = {"quality": bool(quality)}
+    if max_edge is not None:
+        if not (np.isfinite(max_edge) and max_edge > 0):
+            raise InputError(f"got {max_edge}; expected a positive length", key="max_edge")
+        options.update(maxvolume=float(max_edge) ** 3 / (6.0 * np.sqrt(2.0)), fixedvolume=True)
+    try:
+        import tetgen
+    except ImportError:
+        raise InputError("tetrahedral meshing needs the optional tetgen package: "
+                         "pip install tetgen, or neurofuzzy[tetra] (or use the voxel lattice, "
+                         "from_trimesh)",
+                         key="method") from None
+    del tetgen                          # imported to fail early; it runs in a child process
+    vertices = np.asarray(surface.vertices, dtype=np.float64)
+    faces = np.asarray(surface.faces, dtype=np.int32)
+    # TetGen aborts the whole process (not just raises) on some bad surfaces, e.g.
+    # self-intersecting ones; a child process keeps the caller alive and lets us say why.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    try:
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context(method)) as pool:
+            nodes, elements = pool.submit(_tetgen, vertices, faces, options).result()
+    except (RuntimeError, BrokenProcessPool) as error:
+        why = "it crashed" if isinstance(error, BrokenProcessPool) else str(error)
+        raise InputError(f"TetGen could not tetrahedralise the surface ({why}); check it "
+                         "for self-intersections, e.g. with trimesh or pymeshfix",
+                         key="mesh") from None
+    return from_tetra(nodes, elements)
+
+
+def _tetgen(vertices: np.ndarray, faces: np.ndarray, options: dict):
+    import tetgen
+
+    return tuple(tetgen.TetGen(vertices, faces).tetrahedralize(**options)[:2])
+
+
+def surface_nodes(mesh: Mesh) -> np.ndarray:
+    """(n_nodes,) bool: nodes on the surface of the object, where optical markers can sit.
+
+    Tetrahedral meshes: the corners of faces that belong to a single tetrahedron. Lattices:
+    nodes that are a corner of fewer than eight complete cells.
+    """
+    if mesh.tetrahedra is not None:
+        faces = np.sort(mesh.tetrahedra[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]]
+                        .reshape(-1, 3), axis=1)
+        unique, counts = np.unique(faces, axis=0, return_counts=True)
+        surface = np.zeros(mesh.n_nodes, dtype=bool)
+        surface[unique[counts == 1].ravel()] = True
+        return surface
+    cells = lattice_cells(mesh)
+    if cells is None:
+        raise InputError("the surface of a mesh is known for lattices and tetrahedral meshes; "
+                         "this mesh is neither", key="mesh")
+    return cells.cells_per_node() < 8
