@@ -199,7 +199,7 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     for name in rules.outputs:
         b, a = before[name], after[name]
         arrow = f"{b.term} -> {a.term}" if a.term != b.term else a.term
-        lines.append(f"  {name:<10} {b.value:10.4g} -> {a.value:10.4g} "
+        lines.append(f"  {name:<15} {b.value:10.4g} -> {a.value:10.4g} "
                      f"{rules.outputs[name].unit:<7} {arrow} ({a})")
     explained = rules.explain(material_values(rules, learner.model_))
     lines.append("  in the expert's words: " +

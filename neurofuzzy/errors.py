@@ -14,8 +14,7 @@ __all__ = [
     "NeurofuzzyError",
     "InputError",
     "UnstableTimeStepError",
-    "closest_name",
-]
+    "closest_name", "RuleFileDeprecationWarning"]
 
 
 class NeurofuzzyError(ValueError):
@@ -58,3 +57,8 @@ def closest_name(name: str, known: Iterable[str]) -> str | None:
     """Return the known name closest to ``name`` (for "did you mean" hints), or None."""
     matches = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
     return matches[0] if matches else None
+
+
+class RuleFileDeprecationWarning(FutureWarning):
+    """A rule file uses a form that still loads but will not forever (the message names
+    FILE:LINE and what to change). A FutureWarning, so it is shown by default."""

@@ -3,9 +3,9 @@
 
 import json
 
-import meshio
 import numpy as np
 import pytest
+from helpers import write_gmsh
 
 from neurofuzzy.cli import main
 from neurofuzzy.datasets import kuhn_block
@@ -24,14 +24,8 @@ def organ_file(path):
     centre = points[tetrahedra].mean(axis=1)
     tumour = (np.abs(centre[:, 0] - 0.02) < 0.01) & (np.abs(centre[:, 1] - 0.02) < 0.01) & (
         centre[:, 2] > 0.01)
-    region = np.where(tumour, 2, 1)
-    meshio.write(path, meshio.Mesh(points, [("tetra", tetrahedra)],
-                                   cell_data={"gmsh:physical": [region],
-                                              "gmsh:geometrical": [region]},
-                                   field_data={"organ": np.array([1, 3]),
-                                               "tumour": np.array([2, 3])}),
-                 file_format="gmsh22", binary=False)
-    return path
+    return write_gmsh(path, points, tetrahedra, np.where(tumour, 2, 1),
+                      {1: "organ", 2: "tumour"})
 
 
 def hidden_truth(path):
@@ -98,8 +92,8 @@ def test_fit_start_learns_each_region_and_says_it_in_words(organ, capsys):
     twin = json.loads((folder / "fit.json").read_text())
     assert [r["region"] for r in twin["regions"]] == ["liver", "tumour"]
     words = {r["region"]: {q["quantity"]: q for q in r["quantities"]} for r in twin["regions"]}
-    assert words["liver"]["stiffness"]["label_before"] == "firm"
-    assert words["liver"]["stiffness"]["label_after"] == "hard"
+    assert words["liver"]["youngs_modulus"]["label_before"] == "firm"
+    assert words["liver"]["youngs_modulus"]["label_after"] == "hard"
 
 
 def test_start_model_refuses_a_model_of_another_object(organ):

@@ -7,8 +7,9 @@ exits with status 2; ``--json`` output goes to stdout, progress to stderr.
 from __future__ import annotations
 
 import sys
+import warnings
 
-from ..errors import NeurofuzzyError
+from ..errors import NeurofuzzyError, RuleFileDeprecationWarning
 from .common import EXIT_BAD_INPUT
 
 __all__ = ["main", "EXIT_BAD_INPUT"]
@@ -23,7 +24,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        return args.run(args) or 0
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", RuleFileDeprecationWarning)
+            warnings.showwarning = _show_warning
+            return args.run(args) or 0
     except NeurofuzzyError as error:
         print(f"neurofuzzy: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -34,3 +38,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("neurofuzzy: interrupted", file=sys.stderr)
         return 130
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Our deprecation notes as one line (they name FILE:LINE themselves); others as usual."""
+    if issubclass(category, RuleFileDeprecationWarning):
+        print(f"neurofuzzy: deprecated: {message}", file=sys.stderr)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line),
+              file=sys.stderr, end="")

@@ -48,7 +48,7 @@ def mesh(args) -> int:
 
     from ..io import save_model
     from ..mesh import read_mesh
-    from ..learn import load_rule_base
+    from ..rules import resolve as load_rule_base
     from ..rules import initialize
 
     source = Path(args.mesh)

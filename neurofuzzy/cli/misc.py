@@ -46,7 +46,7 @@ def demo(args) -> int:
 
 
 def rules_check(args) -> int:
-    from ..learn import load_rule_base
+    from ..rules import resolve as load_rule_base
 
     rule_base = load_rule_base(args.rules)
     print(rule_base.summary())
@@ -54,7 +54,7 @@ def rules_check(args) -> int:
 
 
 def rules_show(args) -> int:
-    from ..learn import load_rule_base
+    from ..rules import resolve as load_rule_base
 
     rule_base = load_rule_base(args.rules)
     values = rule_base.tissue(args.tissue)

@@ -18,8 +18,8 @@ from ._sensitivity import Run, Sensitivity
 from .gradient import GradientLearner, auto_substeps
 from .identifiability import Identifiability
 from .paper import PaperLearner
-from .start import StartModel, estimate_start, load_rule_base, start_model
+from .start import StartModel, estimate_start, start_model
 
 __all__ = ["Learner", "PaperLearner", "GradientLearner", "Identifiability", "auto_substeps",
-           "StartModel", "start_model", "estimate_start", "load_rule_base", "Parameterization",
+           "StartModel", "start_model", "estimate_start", "Parameterization",
            "Sensitivity", "Run"]

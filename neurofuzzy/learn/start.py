@@ -31,7 +31,7 @@ from ..model import SpringMassModel, tie_index
 from ..progress import note
 from ._base import TiedSprings
 
-__all__ = ["StartModel", "start_model", "estimate_start", "load_rule_base"]
+__all__ = ["StartModel", "start_model", "estimate_start"]
 
 #: Largest dense equation-error system (entries per force component) we build.
 MAX_ENTRIES = 3e7
@@ -120,7 +120,7 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         source = "the given model" if isinstance(model, SpringMassModel) else str(model)
         note(progress, f"start values: {source}")
         return StartModel(given, "model", f"model {source}",
-                          rules=None if rules is None else load_rule_base(rules),
+                          rules=None if rules is None else _rules(rules),
                           tissue=tissue or _single_tissue(given))
     check_experiments(_topology_model(first), experiments)
     tie = tie or "groups"
@@ -129,7 +129,7 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
 
         if not tissue:
             raise InputError("a rule base needs a tissue (--tissue NAME)", key="tissue")
-        rule_base = load_rule_base(rules)
+        rule_base = _rules(rules)
         start = initialize(rule_base, first.mesh, tissue).tied(tie)
         if first.masses is not None:
             start = start.replace(node_mass=first.masses)
@@ -154,19 +154,10 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     return start
 
 
-def load_rule_base(value):
-    """A :class:`~neurofuzzy.rules.RuleBase` from itself, a path, or the name of a shipped one
-    (``"liver"``)."""
-    from pathlib import Path
+def _rules(value):
+    from ..rules import resolve
 
-    from ..rules import RuleBase, load_rules, shipped
-
-    if isinstance(value, RuleBase):
-        return value
-    path = Path(value)
-    if not path.exists() and path.suffix == "" and "/" not in str(value):
-        path = shipped(str(value))
-    return load_rules(path)
+    return resolve(value)
 
 
 def _topology_model(experiment: Experiment) -> SpringMassModel:

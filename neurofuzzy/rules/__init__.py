@@ -1,6 +1,7 @@
 """Fuzzy rule bases: medical words in, model parameters out, words back.
 
-- :func:`load_rules` reads and validates a YAML rule base (format: ``rules/README.md``);
+- :func:`load_rules` reads and validates a YAML rule base (format: ``rules/README.md``;
+  :mod:`.parser`), :func:`resolve` also takes the name of a shipped one;
 - :meth:`RuleBase.infer` / :meth:`RuleBase.tissue` turn words into material values
   (scikit-fuzzy membership functions, vectorised over many descriptions);
 - :func:`initialize` makes a start model of a lattice mesh from a tissue;
@@ -8,11 +9,15 @@
 - :func:`material_values` reads the material values a (fitted) model stands for.
 """
 
-from .base import QUANTITIES, Label, RuleBase, RuleBaseError, load_rules
+from ..errors import RuleFileDeprecationWarning
+from .parser import load_rules
 from .physical import initialize, lattice_geometry, material_values, materials
+from .rulebase import RuleBase
+from .terms import QUANTITIES, Label, RuleBaseError
 
-__all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "initialize",
-           "lattice_geometry", "material_values", "materials", "QUANTITIES"]
+__all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "resolve", "initialize",
+           "lattice_geometry", "material_values", "materials", "QUANTITIES",
+           "RuleFileDeprecationWarning", "shipped"]
 
 
 def shipped(name: str):
@@ -38,4 +43,14 @@ def shipped(name: str):
     raise InputError(f"no shipped rule base {name!r}", key="rules")
 
 
-__all__.append("shipped")
+def resolve(value) -> RuleBase:
+    """A :class:`RuleBase` from itself, a path, or the name of a shipped one (``"liver"``)."""
+    from pathlib import Path
+
+    if isinstance(value, RuleBase):
+        return value
+    path = Path(value)
+    if not path.exists() and path.suffix == "" and "/" not in str(value):
+        path = shipped(str(value))
+    return load_rules(path)
+

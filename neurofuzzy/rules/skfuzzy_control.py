@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import RuleBase
+from .rulebase import RuleBase
 from .membership import apply_hedges
 
 __all__ = ["control_system", "control_infer"]

@@ -1,65 +1,24 @@
+"""Materials ↔ spring parameters: start models from words, E and ν of the spring networks,
+regions of tissues, and words back from fitted models."""
+
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from helpers import cli_process, write_gmsh
 
-from neurofuzzy.datasets import paper_cube_mesh, point_load, top_centre_node
+from neurofuzzy.datasets import kuhn_block, paper_cube_mesh, point_load, top_centre_node
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.mesh import lattice
-from neurofuzzy.rules import RuleBaseError, initialize, lattice_geometry, load_rules, material_values
-from neurofuzzy.rules.membership import HEDGES, apply_hedges, evaluate
+from neurofuzzy.rules import initialize, lattice_geometry, load_rules, material_values
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = ROOT / "rules"
 SHIPPED = sorted(RULES.glob("*.yaml"))
 TISSUES = Path(__file__).parent / "data" / "cube_tissues.yaml"
-
-
-def cli(*args):
-    """The command in this process (fast; test_cli.py runs it in fresh interpreters)."""
-    import contextlib
-    import io
-    from types import SimpleNamespace
-
-    from neurofuzzy.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        status = main([str(a) for a in args])
-    return SimpleNamespace(returncode=status, stdout=out.getvalue(), stderr=err.getvalue())
-
-
-def cli_process(*args):
-    """The installed command in a fresh interpreter, as a user runs it."""
-    return subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=300)
-
-
-@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
-def test_every_shipped_rule_base_passes_check(path):
-    result = cli("rules", "check", path)
-    assert result.returncode == 0, result.stderr
-    assert "rules" in result.stdout and "tissues" in result.stdout
-
-
-def test_shipped_rule_bases_cover_the_organs():
-    tissues = {name for path in SHIPPED for name in load_rules(path).tissues}
-    assert {"grey_matter", "white_matter", "ventricle_wall", "liver", "kidney", "muscle", "fat",
-            "tumour"} <= tissues
-
-
-def test_words_are_ordered_in_stiffness():
-    rules = load_rules(RULES / "soft_tissue.yaml")
-    words = ["very soft", "soft", "firm", "hard", "stony"]
-    stiffness = rules.infer([{"consistency": w} for w in words])["stiffness"]
-    assert np.all(np.diff(stiffness) > 0), dict(zip(words, stiffness))
-    soft, not_soft = rules.infer([{"consistency": "soft"}, {"consistency": "not soft"}])["stiffness"]
-    assert not_soft > soft
 
 
 @pytest.mark.parametrize("path", [p for p in SHIPPED if p.stem != "soft_tissue"],
@@ -77,33 +36,6 @@ def test_round_trip_from_words_to_a_model_and_back(path):
         assert all(label.degree >= 0.5 for label in labels.values()), (tissue, labels)
         explained = rules.explain(recovered)
         assert explained["words"] == {k: str(v) for k, v in words.items()}, tissue
-
-
-def test_vectorised_inference_matches_skfuzzy_control():
-    pytest.importorskip("networkx")
-    from neurofuzzy.rules.skfuzzy_control import control_infer
-
-    rules = load_rules(RULES / "soft_tissue.yaml")
-    rng = np.random.default_rng(0)
-    inputs = [dict(zip(rules.inputs, x)) for x in rng.uniform(0.5, 9.5, (40, 3))]
-    ours = rules.infer(inputs)
-    theirs = control_infer(rules, inputs)
-    for name in rules.outputs:
-        assert np.allclose(ours[name], theirs[name], rtol=1e-3), name
-
-
-def test_membership_functions_and_hedges_stay_in_unit_interval(rng):
-    grid = np.linspace(-5, 15, 801)
-    specs = [("trimf", [0, 3, 7]), ("trapmf", [1, 2, 4, 9]), ("gaussmf", [4, 1.5]),
-             ("gbellmf", [2, 3, 5]), ("sigmf", [5, -2]), ("points", [[0, 0], [2, 1], [9, 0.3]])]
-    for kind, params in specs:
-        mu = evaluate(kind, params, grid, lambda x: np.asarray(x, float))
-        assert mu.min() >= 0 and mu.max() <= 1 and mu.max() > 0.5, kind
-        for hedges in (["very"], ["not"], ["somewhat", "very"], list(HEDGES)):
-            hedged = apply_hedges(mu, hedges)
-            assert hedged.min() >= 0 and hedged.max() <= 1
-        assert np.all(apply_hedges(mu, ["very"]) <= mu + 1e-15)
-        assert np.all(apply_hedges(mu, ["somewhat"]) >= mu - 1e-15)
 
 
 def test_lattice_springs_from_youngs_modulus_give_that_modulus():
@@ -237,28 +169,9 @@ def test_tetra_geometry_is_van_gelder_on_a_split_cube():
 def _two_region_gmsh_file(path):
     """A 4x2x2 block of 1 cm cubes (6 tetrahedra each) in a Gmsh file: physical group 'core'
     (id 1) for x < 2 cm, 'shell' (id 2) for x > 2 cm."""
-    import meshio
-
-    shape = (4, 2, 2)
-    node_shape = tuple(n + 1 for n in shape)
-    points = np.argwhere(np.ones(node_shape, bool)) * 0.01
-    lower = np.argwhere(np.ones(shape, bool))
-    tetrahedra = []
-    for order in [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]:
-        corner, tet = lower, [lower]
-        for axis in order:
-            corner = corner + np.eye(3, dtype=int)[axis]
-            tet.append(corner)
-        tetrahedra.append(np.stack([np.ravel_multi_index(c.T, node_shape) for c in tet], 1))
-    tetrahedra = np.concatenate(tetrahedra)
+    points, tetrahedra = kuhn_block((4, 2, 2), 0.01)
     region = np.where(points[tetrahedra, 0].mean(axis=1) < 0.02, 1, 2)
-    meshio.write(path, meshio.Mesh(points, [("tetra", tetrahedra)],
-                                   cell_data={"gmsh:physical": [region],
-                                              "gmsh:geometrical": [region]},
-                                   field_data={"core": np.array([1, 3]),
-                                               "shell": np.array([2, 3])}),
-                 file_format="gmsh22")
-    return path
+    return write_gmsh(path, points, tetrahedra, region, {1: "core", 2: "shell"})
 
 
 def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
@@ -270,7 +183,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     rules = load_rules(TISSUES)
     regions = read.tissue_regions({"core": "soft_tissue", "shell": "firm_tissue"})
     model = initialize(rules, read.mesh, regions=regions)
-    soft, firm = (rules.tissue(t)["stiffness"] for t in ("soft_tissue", "firm_tissue"))
+    soft, firm = (rules.tissue(t)["youngs_modulus"] for t in ("soft_tissue", "firm_tissue"))
     assert firm > 2 * soft
     modulus = model.spring_stiffness / tetra_geometry(read.mesh).spring_factor
     x = read.mesh.rest_positions[:, 0][read.mesh.springs]
@@ -281,7 +194,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     # tetrahedron_regions below
     into_shell = ~core & ~shell
     assert np.allclose(modulus[into_shell], soft)
-    assert material_values(rules, model, springs=np.flatnonzero(shell))["stiffness"] \
+    assert material_values(rules, model, springs=np.flatnonzero(shell))["youngs_modulus"] \
         == pytest.approx(firm, rel=1e-9)
     density = rules.tissue("soft_tissue")["density"]
     assert model.node_mass.sum() == pytest.approx(density * 0.04 * 0.02 * 0.02, rel=1e-9)
@@ -298,7 +211,7 @@ def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
     tissue_of = {"core": "soft_tissue", "shell": "firm_tissue"}
     model = initialize(rules, mesh,
                                tetrahedron_regions=read.tissue_regions(tissue_of, of="tetrahedra"))
-    soft, firm = (rules.tissue(t)["stiffness"] for t in ("soft_tissue", "firm_tissue"))
+    soft, firm = (rules.tissue(t)["youngs_modulus"] for t in ("soft_tissue", "firm_tissue"))
     geometry = tetra_geometry(mesh)
     modulus = model.spring_stiffness / geometry.spring_factor
     group = np.asarray(mesh.group_names)[mesh.spring_group]
@@ -364,85 +277,10 @@ def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):
                  "--report", report, "--json")
     assert result.returncode == 0, result.stderr
     twin = json.loads(report.with_suffix(".json").read_text())
-    stiffness = next(q for q in twin["regions"][0]["quantities"] if q["quantity"] == "stiffness")
+    stiffness = next(q for q in twin["regions"][0]["quantities"] if q["quantity"] == "youngs_modulus")
     assert stiffness["label_before"] == "soft" and stiffness["label_after"] == "firm"
     assert stiffness["changed"] and stiffness["degree_after"] >= 0.5
     assert twin["regions"][0]["explained"]["words"]["consistency"] == "firm"
     page = report.read_text()
     assert "soft → firm" in page and page.count("data:image/png;base64") >= 2
     assert np.isfinite(json.loads(result.stdout)["rms_error"])
-
-
-# -- bad input: FILE:LINE: message, exit 2, all problems at once -------------------------------
-BASE = """\
-name: test
-inputs:
-  consistency:
-    universe: [0, 10]
-    terms:
-      soft: {trimf: [0, 0, 5]}
-      firm: {trimf: [2, 5, 8]}
-outputs:
-  stiffness:
-    quantity: youngs_modulus
-    universe: {min: 100, max: 100000, scale: log, unit: Pa}
-    terms:
-      soft: {trimf: [100, 1000, 5000]}
-      firm: {trimf: [1000, 5000, 20000]}
-rules:
-  - if: consistency is soft
-    then: stiffness is soft
-  - if: consistency is firm
-    then: stiffness is firm
-tissues:
-  jelly: {consistency: very soft}
-"""
-
-BAD = [
-    ("malformed YAML", ("      firm: {trimf: [2, 5, 8]}", "      firm: {trimf: [2, 5, 8]"),
-     r":8: malformed YAML"),
-    ("unknown term in a tissue", ("{consistency: very soft}", "{consistency: very sotf}"),
-     r":21: tissue 'jelly': consistency has no term 'sotf'; did you mean 'soft'\?"),
-    ("unknown variable in a tissue", ("{consistency: very soft}", "{consistancy: soft}"),
-     r":21: tissue 'jelly': unknown input 'consistancy'; did you mean 'consistency'\?"),
-    ("misspelt hedge", ("if: consistency is soft", "if: consistency is vrey soft"),
-     r":16: unknown hedge 'vrey'; did you mean 'very'\?"),
-    ("impossible parameters", ("firm: {trimf: [2, 5, 8]}", "firm: {trimf: [5, 2, 8]}"),
-     r":7: consistency.firm: trimf needs a <= b <= c"),
-    ("zero over the universe", ("firm: {trimf: [2, 5, 8]}", "firm: {trimf: [20, 25, 30]}"),
-     r":7: consistency.firm: the term is zero over the whole universe"),
-    ("undefined variable in a rule", ("if: consistency is firm", "if: hardness is firm"),
-     r":18: rule names undefined input variable 'hardness'"),
-    ("unknown membership function", ("soft: {trimf: [0, 0, 5]}", "soft: {trimff: [0, 0, 5]}"),
-     r":6: consistency.soft: unknown membership function 'trimff'; did you mean 'trimf'\?"),
-]
-
-
-@pytest.mark.parametrize("what, change, message", BAD, ids=[b[0] for b in BAD])
-def test_bad_rule_files_name_file_and_line(tmp_path, what, change, message):
-    path = tmp_path / "bad.yaml"
-    text = BASE.replace(*change)
-    assert text != BASE
-    path.write_text(text)
-    with pytest.raises(Exception) as caught:
-        load_rules(path)
-    assert caught.type.__name__ in ("RuleBaseError", "InputError")
-    import re
-    assert re.search(re.escape(str(path)) + message, str(caught.value)), str(caught.value)
-    result = cli("rules", "check", path)
-    assert result.returncode == 2 and "Traceback" not in result.stderr
-    assert re.search(message, result.stderr)
-    assert path.read_text() == text                       # never written over
-
-
-def test_all_problems_are_reported_at_once(tmp_path):
-    path = tmp_path / "bad.yaml"
-    path.write_text(BASE.replace("if: consistency is soft", "if: consistency is vrey soft")
-                    .replace("firm: {trimf: [2, 5, 8]}", "firm: {trimf: [5, 2, 8]}")
-                    .replace("{consistency: very soft}", "{consistency: very sotf}"))
-    with pytest.raises(RuleBaseError) as caught:
-        load_rules(path)
-    lines = [str(p) for p in caught.value.problems]
-    assert len(lines) >= 3
-    assert any(":7:" in l for l in lines) and any(":16:" in l for l in lines) \
-        and any(":21:" in l for l in lines)

@@ -1,0 +1,146 @@
+"""Fuzzy inference, vectorised over many descriptions: words in, output values out."""
+
+from __future__ import annotations
+
+import numpy as np
+import skfuzzy as fuzz
+
+from ..errors import InputError, closest_name
+from .membership import apply_hedges
+from .terms import GRID_POINTS, Phrase, Variable, parse_phrase
+
+__all__ = ["infer", "tissue_values"]
+
+
+def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
+    """Output values for many descriptions at once (vectorised over descriptions).
+
+    Parameters
+    ----------
+    descriptions : list of dict
+        Each maps input variable names to words ("very soft"), :class:`Phrase` objects or
+        crisp numbers; inputs left out do not constrain the rules that use them (their
+        clauses count as fully true).
+
+    Returns
+    -------
+    dict of output name → (n_descriptions,) float, in physical units.
+    """
+    n = len(descriptions)
+    sets = {}
+    for name, variable in rules.inputs.items():
+        phrases = [_phrase(rules, d.get(name), variable) for d in descriptions]
+        sets[name] = _input_sets(variable, phrases)          # (n, G) or None
+    strengths = []
+    for rule in rules.rules:
+        groups = []
+        for group in rule.antecedent:
+            degrees = [_possibility(sets[c.variable], rules.inputs[c.variable], c.phrase, n)
+                       for c in group]
+            groups.append(_combine(degrees, rules.and_method))
+        strengths.append(_combine(groups, rules.or_method, is_or=True) * rule.weight)
+    results = {}
+    for name, variable in rules.outputs.items():
+        aggregated = np.zeros((n, GRID_POINTS))
+        for rule, strength in zip(rules.rules, strengths):
+            for clause in rule.consequents:
+                if clause.variable != name:
+                    continue
+                shape = apply_hedges(variable.terms[clause.phrase.term].values,
+                                     clause.phrase.hedges)
+                aggregated = np.maximum(aggregated,
+                                        np.minimum(strength[:, None], shape[None, :]))
+        results[name] = variable.to_physical(_defuzzify(rules, variable, aggregated))
+    return results
+
+def _phrase(rules, value, variable: Variable) -> Phrase | None:
+    if value is None or isinstance(value, Phrase):
+        return value
+    if isinstance(value, (int, float, np.floating, np.integer)):
+        return Phrase((), None, float(value))
+    phrase, problem = parse_phrase(str(value), variable)
+    if problem:
+        raise InputError(problem, source=rules.source, key=variable.name)
+    return phrase
+
+def _input_sets(variable, phrases):
+    """``(sets (n, G) or None, crisp (n,) internal values, NaN where fuzzy)``."""
+    crisp = np.full(len(phrases), np.nan)
+    if all(p is None for p in phrases):
+        return None, crisp
+    out = np.ones((len(phrases), GRID_POINTS))
+    for i, phrase in enumerate(phrases):
+        if phrase is None:
+            continue
+        if phrase.term is None:
+            crisp[i] = variable.to_internal(phrase.value)
+        else:
+            out[i] = apply_hedges(variable.terms[phrase.term].values, phrase.hedges)
+    return out, crisp
+
+def _possibility(inputs, variable, phrase, n):
+    """Degree to which the input matches the clause.
+
+    A described (fuzzy) input matches by the similarity of the two fuzzy sets,
+    ``Σ min(A, B) / Σ max(A, B)`` (Jaccard): 1 when they coincide, so "very soft" fires
+    the rule on "very soft" fully and the rule on "soft" partly, and the other way round
+    (sup-min possibility would give 1 to both and lose the order of the hedges). A crisp
+    input matches by the clause's membership at that value.
+    """
+    sets, crisp = inputs
+    clause = apply_hedges(variable.terms[phrase.term].values, phrase.hedges)
+    if sets is None:
+        return np.ones(n)
+    union = np.maximum(sets, clause[None, :]).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        degree = np.where(union > 0, np.minimum(sets, clause[None, :]).sum(axis=1) / union,
+                          0.0)
+    is_crisp = np.isfinite(crisp)
+    if is_crisp.any():
+        degree[is_crisp] = np.interp(crisp[is_crisp], variable.grid, clause)
+    return degree
+
+def _defuzzify(rules, variable, aggregated):
+    grid = variable.grid
+    total = aggregated.sum(axis=1)
+    if np.any(total <= 0):     # no rule fired: NaN for those rows
+        return np.where(total > 0, _centroid(grid, aggregated), np.nan)
+    if rules.defuzzification == "centroid":
+        return _centroid(grid, aggregated)
+    return np.array([fuzz.defuzz(grid, row, rules.defuzzification) for row in aggregated])
+
+
+def tissue_values(rules, name: str) -> dict[str, float]:
+    """Inferred output values (physical units) of a tissue of the rule base."""
+    if name not in rules.tissues:
+        hint = closest_name(name, rules.tissues)
+        raise InputError(f"no tissue {name!r}" + (f"; did you mean {hint!r}?" if hint else
+                                                  f"; tissues: {sorted(rules.tissues)}"),
+                         source=rules.source, key="tissue")
+    values = infer(rules, [rules.tissues[name]])
+    missing = [k for k, v in values.items() if not np.isfinite(v[0])]
+    if missing:
+        raise InputError(f"no rule fires for tissue {name!r} on {missing}; add a rule",
+                         source=rules.source, key="tissues")
+    return {k: float(v[0]) for k, v in values.items()}
+
+
+def _combine(degrees, method, is_or=False):
+    out = degrees[0]
+    for d in degrees[1:]:
+        if is_or:
+            out = np.maximum(out, d) if method == "max" else out + d - out * d
+        else:
+            out = np.minimum(out, d) if method == "min" else out * d
+    return out
+
+
+def _centroid(grid, aggregated):
+    """Centroid of piecewise-linear membership functions (exact per segment, as skfuzzy)."""
+    x0, x1 = grid[:-1], grid[1:]
+    m0, m1 = aggregated[:, :-1], aggregated[:, 1:]
+    width = x1 - x0
+    area = ((m0 + m1) * width).sum(axis=1) / 2
+    moment = (width * (x0 * (2 * m0 + m1) + x1 * (m0 + 2 * m1))).sum(axis=1) / 6
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return moment / area

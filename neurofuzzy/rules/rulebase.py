@@ -1,0 +1,67 @@
+"""The :class:`RuleBase`: a parsed, validated rule base and its three jobs (infer values from
+words, describe values in words, explain values by words)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import inference, words
+from .terms import Label, Phrase, Rule, Variable
+
+__all__ = ["RuleBase"]
+
+
+class RuleBase:
+    """A parsed, validated rule base (use :func:`load_rules`)."""
+
+    def __init__(self, *, name, source, inputs, outputs, rules, tissues, defuzzification,
+                 and_method, or_method, renamed=None):
+        self.name = name
+        self.source = source
+        self.inputs: dict[str, Variable] = inputs
+        self.outputs: dict[str, Variable] = outputs
+        self.rules: list[Rule] = rules
+        self.tissues: dict[str, dict[str, Phrase]] = tissues
+        self.defuzzification = defuzzification
+        self.and_method = and_method
+        self.or_method = or_method
+        #: old output names of a deprecated file → their new names (:mod:`.parser`)
+        self.renamed: dict[str, str] = dict(renamed or {})
+
+    @property
+    def variables(self) -> dict[str, Variable]:
+        return {**self.inputs, **self.outputs}
+
+    def infer(self, descriptions: list[dict]) -> dict[str, np.ndarray]:
+        """Output values for many descriptions at once (:func:`.inference.infer`)."""
+        return inference.infer(self, descriptions)
+
+    def tissue(self, name: str) -> dict[str, float]:
+        """Inferred output values (physical units) of a tissue of the rule base."""
+        return inference.tissue_values(self, name)
+
+    def describe(self, values: dict[str, float]) -> dict[str, Label]:
+        """For every output value: the term with the highest membership and all degrees."""
+        return words.describe(self, self._current(values))
+
+    def explain(self, values: dict[str, float], *, hedges=("very", "somewhat")) -> dict:
+        """The input words whose inferred outputs come closest to ``values``
+        (:func:`.words.explain`)."""
+        return words.explain(self, self._current(values), hedges=hedges)
+
+    def _current(self, values: dict) -> dict:
+        """Values keyed by an old (renamed) output name, under the new one."""
+        return {self.renamed.get(name, name): value for name, value in values.items()}
+
+    def summary(self) -> str:
+        lines = [f"rule base {self.name!r} ({self.source})"]
+        for role, variables in (("input", self.inputs), ("output", self.outputs)):
+            for v in variables.values():
+                unit = f" {v.unit}" if v.unit else ""
+                quantity = f" = {v.quantity}" if v.quantity else ""
+                lines.append(f"  {role} {v.name}{quantity}: {v.low:g}..{v.high:g}{unit} "
+                             f"({v.scale}); terms: {', '.join(v.terms)}")
+        lines.append(f"  {len(self.rules)} rules; defuzzification {self.defuzzification}, "
+                     f"and={self.and_method}, or={self.or_method}")
+        lines.append(f"  tissues: {', '.join(self.tissues) or '(none)'}")
+        return "\n".join(lines)
