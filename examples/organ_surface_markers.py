@@ -125,7 +125,7 @@ def main(argv):
 
     # 4. import the files as a mocap user would
     imported = markers_to_experiment(read_markers(out / "markers.csv"), mesh,
-                                     forces=out / "forces.csv", masses=start.node_mass)
+                                     forces=out / "forces.csv", node_mass=start.node_mass)
     experiment, summary = imported.experiment, imported.summary
     save_experiment(experiment, out / "experiment.npz")
     print(f"imported: {summary['markers']} markers -> nodes, {summary['frames']} frames, "

@@ -39,8 +39,8 @@ class Experiment:
         Applied load (constant, or ``external_forces[t]`` acting from frame t to t + 1).
     observed : (n_nodes,) bool, optional
         Nodes that have measurements (default: all).
-    masses : (n_nodes,) float, optional
-        Known node masses (the paper's "predefined masses").
+    node_mass : (n_nodes,) float, optional
+        Known node masses (the paper's "predefined masses"; the file key is ``masses``).
     truth : dict of str to array, optional
         Ground truth of synthetic data (``true_stiffness`` …): reported, never read by a fitter.
     source : str
@@ -52,7 +52,7 @@ class Experiment:
     positions: np.ndarray
     external_forces: np.ndarray | None = None
     observed: np.ndarray | None = None
-    masses: np.ndarray | None = None
+    node_mass: np.ndarray | None = None
     truth: dict = field(default_factory=dict)
     source: str = "<experiment>"
 
@@ -110,8 +110,8 @@ class Experiment:
                 raise InputError("contains NaN or infinite values", source=src,
                                  key="external_forces")
         masses = None
-        if self.masses is not None:
-            masses = _float_array(self.masses, src, "masses")
+        if self.node_mass is not None:
+            masses = _float_array(self.node_mass, src, "masses")
             if masses.shape != (n_nodes,):
                 raise InputError(f"got shape {masses.shape}; expected (n_nodes,) = ({n_nodes},)",
                                  source=src, key="masses")
@@ -121,7 +121,7 @@ class Experiment:
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "observed", observed)
         object.__setattr__(self, "external_forces", forces)
-        object.__setattr__(self, "masses", masses)
+        object.__setattr__(self, "node_mass", masses)
         object.__setattr__(self, "truth", dict(self.truth))
 
     @property
@@ -209,7 +209,7 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
              "true_masses": model.node_mass}
     return Experiment(mesh=model.mesh, dt=dt, positions=positions,
                       external_forces=external_forces, observed=observed,
-                      masses=model.node_mass if with_masses else None, truth=truth,
+                      node_mass=model.node_mass if with_masses else None, truth=truth,
                       source=source)
 
 

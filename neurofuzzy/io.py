@@ -123,7 +123,7 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
     truth = {key: value for key, value in data.items() if key.startswith("true_")}
     return Experiment(mesh=mesh, dt=data["dt"], positions=data["positions"],
                       external_forces=data.get("external_forces"),
-                      observed=data.get("observed"), masses=data.get("masses"), truth=truth,
+                      observed=data.get("observed"), node_mass=data.get("masses"), truth=truth,
                       source=source)
 
 
@@ -145,8 +145,8 @@ def save_experiment(experiment: Experiment, path: str | os.PathLike) -> Path:
         data["tetrahedra"] = mesh.tetrahedra
     if experiment.external_forces is not None:
         data["external_forces"] = experiment.external_forces
-    if experiment.masses is not None:
-        data["masses"] = experiment.masses
+    if experiment.node_mass is not None:
+        data["masses"] = experiment.node_mass
     for key, value in experiment.truth.items():
         data[key if key.startswith("true_") else f"true_{key}"] = np.asarray(value)
     buffer = _io.BytesIO()

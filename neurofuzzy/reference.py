@@ -89,7 +89,7 @@ def reference_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
                                     external_forces=external_forces, method=method,
                                     substeps=substeps)
     return Experiment(mesh=model.mesh, dt=dt, positions=trajectory.positions,
-                      external_forces=external_forces, masses=model.node_mass,
+                      external_forces=external_forces, node_mass=model.node_mass,
                       truth={"true_stiffness": model.spring_stiffness,
                              "true_damping": model.spring_damping,
                              "true_masses": model.node_mass}, source=source)

@@ -27,10 +27,10 @@ def test_fit_json_has_the_promised_keys(cube_file, tmp_path, capsys):
     assert status == 0
     captured = capsys.readouterr()
     result = json.loads(captured.out)
-    for key in ("stiffness", "damping", "masses", "rms_error", "rms_error_initial", "cycles",
+    for key in ("stiffness", "damping", "node_mass", "rms_error", "rms_error_initial", "cycles",
                 "seconds", "std_errors", "unidentifiable"):
         assert key in result, key
-    assert len(result["stiffness"]) == 86 and len(result["masses"]) == 27
+    assert len(result["stiffness"]) == 86 and len(result["node_mass"]) == 27
     assert np.allclose(result["stiffness"], CUBE["stiffness"], rtol=1e-6)
     assert np.allclose(result["damping"], CUBE["damping"], rtol=1e-6)
     assert result["rms_error"] < 1e-6 * result["rms_error_initial"] + 1e-15
@@ -226,7 +226,7 @@ def test_fit_refuses_unknown_masses_it_cannot_estimate(cube_experiment, tmp_path
     observed = np.ones(27, bool)
     observed[13] = False
     surface = cube_experiment.replace(
-        observed=observed, masses=None,
+        observed=observed, node_mass=None,
         positions=np.where(observed[None, :, None], cube_experiment.positions, np.nan))
     path = save_experiment(surface, tmp_path / "surface.npz")
     assert main(["fit", str(path), "--quiet"]) == 2

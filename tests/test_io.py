@@ -25,7 +25,7 @@ def test_experiment_round_trip(tmp_path, cube_experiment):
     assert np.array_equal(loaded.mesh.springs, cube_experiment.mesh.springs)
     assert np.array_equal(loaded.mesh.fixed, cube_experiment.mesh.fixed)
     assert loaded.mesh.group_names == ("edge", "diagonal")
-    assert np.array_equal(loaded.masses, cube_experiment.masses)
+    assert np.array_equal(loaded.node_mass, cube_experiment.node_mass)
     assert np.array_equal(loaded.truth["true_stiffness"], cube_experiment.truth["true_stiffness"])
     assert loaded.dt == cube_experiment.dt
     assert not list(tmp_path.glob(".*.tmp"))           # no temporary file left behind

@@ -249,7 +249,7 @@ def test_import_then_fit_recovers_the_cube(files, tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary["markers"] == 26 and summary["frames"] == 251
     experiment = load_experiment(out)
-    assert experiment.observed.sum() == 26 and experiment.masses is not None
+    assert experiment.observed.sum() == 26 and experiment.node_mass is not None
     start = paper_cube_model(stiffness=70.0, damping=0.03, tie="global")
     learner = GradientLearner(substeps=1).fit(start, experiment)
     assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-5)

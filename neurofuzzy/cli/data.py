@@ -101,7 +101,7 @@ def import_markers(args) -> int:
     topology = Path(args.topology)
     if topology.suffix.lower() == ".npz":
         reference = load_experiment(topology)
-        mesh, masses, dt = reference.mesh, reference.masses, reference.dt
+        mesh, masses, dt = reference.mesh, reference.node_mass, reference.dt
     elif topology.suffix.lower() in (".yaml", ".yml"):
         model = load_model(topology)
         mesh, masses, dt = model.mesh, model.node_mass, None
@@ -112,7 +112,7 @@ def import_markers(args) -> int:
     mapping = read_marker_map(args.map) if args.map else None
     imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
-        forces=args.forces, masses=masses, source=args.out)
+        forces=args.forces, node_mass=masses, source=args.out)
     experiment, summary = imported.experiment, imported.summary
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",

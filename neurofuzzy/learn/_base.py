@@ -103,7 +103,7 @@ class Learner:
         return {
             "stiffness": model.spring_stiffness.tolist(),
             "damping": model.spring_damping.tolist(),
-            "masses": model.node_mass.tolist(),
+            "node_mass": model.node_mass.tolist(),
             "effects": [{"name": e.name, "parameters": e.params.tolist()} for e in model.effects],
             "rms_error": self.rms_error_,
             "rms_error_initial": self.rms_error_initial_,

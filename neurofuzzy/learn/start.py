@@ -131,16 +131,16 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
             raise InputError("a rule base needs a tissue (--tissue NAME)", key="tissue")
         rule_base = _rules(rules)
         start = initialize(rule_base, first.mesh, tissue).tied(tie)
-        if first.masses is not None:
-            start = start.replace(node_mass=first.masses)
+        if first.node_mass is not None:
+            start = start.replace(node_mass=first.node_mass)
         note(progress, f"start values: rules {rule_base.source}, tissue {tissue}")
         return StartModel(start, "rules", f"rules {rule_base.source}, tissue {tissue}",
                           rules=rule_base, tissue=tissue)
-    estimate_mass = first.masses is None
+    estimate_mass = first.node_mass is None
     if estimate_mass:
         note(progress, f"neurofuzzy: note: {first.source} gives no 'masses'; estimating one "
                        "mass per node from the data")
-    guess = SpringMassModel(first.mesh, node_mass=1.0 if estimate_mass else first.masses,
+    guess = SpringMassModel(first.mesh, node_mass=1.0 if estimate_mass else first.node_mass,
                             spring_stiffness=1.0, spring_damping=1.0,
                             spring_tie=tie_index(first.mesh, tie))
     start = estimate_start(guess, experiments, estimate_mass=estimate_mass)

@@ -83,7 +83,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
                           mapping: dict[str, int] | None = None,
                           max_distance: float | None = None,
                           forces: str | os.PathLike | np.ndarray | None = None,
-                          masses: np.ndarray | None = None,
+                          node_mass: np.ndarray | None = None,
                           source: str | None = None) -> MarkerImport:
     """An experiment from a marker recording on ``mesh``.
 
@@ -103,7 +103,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
         As in :func:`match_markers`.
     forces : path or (n_frames, n_nodes, 3) array, optional
         A force CSV (:func:`read_forces`) or forces at the experiment's frames.
-    masses : (n_nodes,) float, optional
+    node_mass : (n_nodes,) float, optional
         Known node masses.
 
     Returns
@@ -144,7 +144,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
         forces = read_forces(forces, n_nodes=mesh.n_nodes,
                              times=np.arange(n_frames) * dt + markers.times[first])
     experiment = Experiment(mesh=mesh, dt=float(dt), positions=positions,
-                            external_forces=forces, observed=observed, masses=masses,
+                            external_forces=forces, observed=observed, node_mass=node_mass,
                             source=source or markers.source)
     measured = experiment.measured()[:, observed]
     summary = {
