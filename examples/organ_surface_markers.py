@@ -23,7 +23,7 @@ The same with the command line, on the files this script writes:
         --out organ.yaml
     neurofuzzy import OUT/markers.csv --topology organ.yaml --forces OUT/forces.csv \\
         --out trial.npz
-    neurofuzzy fit trial.npz --rules liver --tissue liver --out fitted.yaml \\
+    neurofuzzy fit trial.npz --start organ.yaml --rules liver --out fitted.yaml \\
         --report fit.html --export paraview
 """
 

@@ -112,3 +112,32 @@ def test_learners_follow_the_estimator_convention(cls):
     with pytest.raises(nf.InputError, match="did you mean 'learn_masses'"):
         learner.set_params(learn_mass=True)
     assert not any(name.endswith("_") and not name.startswith("_") for name in vars(learner))
+
+
+def test_meshes_and_markers_through_nf(tmp_path):
+    import trimesh
+
+    box = trimesh.creation.box(extents=(0.02, 0.02, 0.02))
+    voxels = nf.from_trimesh(box, 0.01)
+    assert (voxels.n_nodes, voxels.n_springs) == (27, 86)
+    box.export(tmp_path / "box.stl")
+    read = nf.read_mesh(tmp_path / "box.stl", pitch=0.01)
+    assert isinstance(read, nf.MeshFile) and read.mesh.n_springs == 86
+    points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    tetra = nf.from_tetra(points, [[0, 1, 2, 3]])
+    assert tetra.n_springs == 6 and tetra.n_tetrahedra == 1
+    assert isinstance(nf.Mesh(points, [[0, 1], [1, 2]]), nf.Mesh)
+    pytest.importorskip("tetgen")
+    assert nf.from_surface_tetra(box, max_edge=0.01).n_tetrahedra > 0
+
+    mesh = voxels.with_fixed(where=nf.bottom_layer)
+    model = nf.SpringMassModel.uniform(mesh, stiffness=50.0, damping=0.02, total_mass=0.008)
+    load = np.zeros((27, 3))
+    load[22] = (0.0, 0.0, -0.1)
+    data = nf.simulate_experiment(model, dt=1e-3, n_frames=20, external_forces=load)
+    rows = [f"{t * 1e-3:.4f},m{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
+            for t in range(20) for i, (x, y, z) in enumerate(data.positions[t])]
+    (tmp_path / "markers.csv").write_text("# units: mm\ntime,marker,x,y,z\n" + "\n".join(rows))
+    imported = nf.markers_to_experiment(nf.read_markers(tmp_path / "markers.csv"), mesh)
+    assert np.allclose(imported.experiment.positions, data.positions, atol=1e-9)
+    assert imported.summary["markers"] == 27

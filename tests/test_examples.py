@@ -69,9 +69,39 @@ def test_organ_surface_markers_example_and_the_readme_commands(tmp_path, method)
         "--tissue", "liver", "--out", "organ.yaml")
     run("import", "markers.csv", "--topology", "organ.yaml", "--forces", "forces.csv",
         "--out", "trial.npz")
-    run("fit", "trial.npz", "--rules", "liver", "--tissue", "liver", "--out", "cli.yaml",
+    run("fit", "trial.npz", "--start", "organ.yaml", "--rules", "liver", "--out", "cli.yaml",
         "--report", "fit.html", "--export", "cli-paraview", "--quiet")
     by_cli, by_api = load_model(tmp_path / "cli.yaml"), load_model(tmp_path / "fitted.yaml")
     assert np.allclose(by_cli.spring_stiffness, by_api.spring_stiffness, rtol=1e-3)
     assert "hard" in (tmp_path / "fit.html").read_text()
     assert (tmp_path / "cli-paraview" / "trial.pvd").exists()
+
+
+@pytest.mark.slow
+def test_organ_with_tumour_example_and_the_readme_commands(tmp_path):
+    """Two tissues: the example learns each region from surface markers; on its files the
+    README's commands (mesh --region -> import -> fit --start) give the same values and words."""
+    import json
+    import re
+
+    result = subprocess.run([sys.executable, str(EXAMPLES / "organ_with_tumour.py"),
+                             str(tmp_path), "--quick"], capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr
+    rows = dict((name, (float(error), words)) for name, error, words in re.findall(
+        r"^(liver|tumour)\s+\S+\s+\S+\s+\S+\s+(\S+)%\s+(.+)$", result.stdout, flags=re.M))
+    assert rows["liver"][0] < 1.0 and rows["liver"][1].startswith("firm -> hard")
+    assert rows["tumour"][0] < 10.0 and rows["tumour"][1].startswith("very_hard -> very_hard")
+    commands = re.findall(r"^  (neurofuzzy .+)$", result.stdout, flags=re.M)
+    assert [c.split()[1] for c in commands] == ["mesh", "import", "fit"]
+    for command in commands:
+        done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *command.split()[1:],
+                               "--quiet"] if command.split()[1] == "fit" else
+                              [sys.executable, "-m", "neurofuzzy.cli", *command.split()[1:]],
+                              capture_output=True, text=True, cwd=tmp_path, timeout=600)
+        assert done.returncode == 0, done.stderr
+    materials = json.loads(done.stdout)["materials"]
+    assert materials["liver"]["labels"]["youngs_modulus"] == "hard"
+    assert materials["tumour"]["labels"]["youngs_modulus"] == "very_hard"
+    report = json.loads((tmp_path / "fit.json").read_text())
+    assert [region["region"] for region in report["regions"]] == ["liver", "tumour"]

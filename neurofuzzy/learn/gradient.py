@@ -137,7 +137,11 @@ class GradientLearner(Learner):
                              key="method")
         auto = check_substeps(self.substeps) == "auto"
         started = time.perf_counter()
-        self.rms_error_initial_ = rms_error(model, experiments)
+        # the start's error as the fit would simulate it (one step per frame can be unstable
+        # for a start that continuous physics fits with substeps)
+        initial_steps = (max(auto_substeps(model, e.dt) for e in experiments) if auto
+                         else int(self.substeps))
+        self.rms_error_initial_ = rms_error(model, experiments, substeps=initial_steps)
         self.n_cycles_ = 0
         self._trace = []        # (E, RMS) best so far after every simulation of the data
         model = _stable_start(model, min(e.dt for e in experiments)
