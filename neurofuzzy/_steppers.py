@@ -41,7 +41,7 @@ class NumpyStepper:
             model.spring_stiffness, model.spring_damping, model.spring_rest_length))
         self.step_weight = (self.h * model.node_inverse_mass).astype(self.dtype)
         self.fixed = model.mesh.fixed
-        self.effects = model.effects
+        self.other_terms = model.force_terms[1:]          # elements and effects
 
     def trajectory(self, p, v, loads, n_frames: int, substeps: int):
         """Frames 0..n_frames-1 from ``(p, v)``; ``loads[t]`` acts from frame t to t + 1
@@ -64,8 +64,8 @@ class NumpyStepper:
                                                   coefficients=self.coefficients)
             if load_t is not None:
                 force += load_t
-            for effect in self.effects:
-                force += effect.force(self.model, pt.T, vt.T).T
+            for term in self.other_terms:
+                force += term.force(self.model, pt.T, vt.T).T
             force *= self.step_weight
             vt += force
             pt += h * vt
@@ -80,8 +80,8 @@ class NumbaStepper:
     _frames_kernel = None
 
     def __init__(self, model, h: float, dtype=np.float64):
-        if model.effects:
-            raise ValueError("the numba stepper does not support effects")
+        if len(model.force_terms) > 1:
+            raise ValueError("the numba stepper steps springs only (no elements, no effects)")
         self.h = float(h)
         self.dtype = np.dtype(dtype)
         self.a = np.ascontiguousarray(model.mesh.springs[:, 0])
@@ -150,8 +150,8 @@ def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64, work:
     ``"auto"`` takes numba when it is installed, the model has no effects and the job is large
     enough (``work`` = springs × steps above 2·10⁷) to repay its compilation.
     """
-    if backend == "numba" or (backend == "auto" and not model.effects and work >= 2e7
-                              and numba_available()):
+    if backend == "numba" or (backend == "auto" and len(model.force_terms) == 1
+                              and work >= 2e7 and numba_available()):
         return NumbaStepper(model, h, dtype)
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"unknown backend {backend!r}")

@@ -187,6 +187,10 @@ def model_to_dict(model: SpringMassModel) -> dict:
         data["springs"]["region"] = model.spring_region.tolist()
     if mesh.tetrahedra is not None:
         data["tetrahedra"] = mesh.tetrahedra.tolist()
+    if model.has_elements:
+        data["elements"] = {"youngs_modulus": model.element_youngs_modulus.tolist(),
+                            "poisson_ratio": model.element_poisson_ratio.tolist(),
+                            "viscosity": model.element_viscosity.tolist()}
     return data
 
 
@@ -208,11 +212,22 @@ def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
             spring_damping=springs["damping"], spring_rest_length=springs.get("rest_length"),
             spring_tie=np.asarray(springs["tie"]) if "tie" in springs else None,
             effects=tuple(effect_from_dict(e, source) for e in data.get("effects") or ()),
-            **_regions_from_dict(data, nodes, springs, source))
+            **_regions_from_dict(data, nodes, springs, source), **_elements_from_dict(data))
     except KeyError as error:
         raise InputError(f"missing key {error.args[0]!r}", source=source) from None
     except InputError as error:
         raise InputError(error.detail, source=source, key=error.key) from None
+
+
+def _elements_from_dict(data: dict) -> dict:
+    elements = data.get("elements")
+    if elements is None:
+        return {}
+    if not isinstance(elements, dict):
+        raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
+                         key="elements")
+    return {f"element_{key}": elements.get(key)
+            for key in ("youngs_modulus", "poisson_ratio", "viscosity")}
 
 
 def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> dict:

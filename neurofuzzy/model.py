@@ -84,6 +84,11 @@ class SpringMassModel:
         The rule-base tissue of every region (default unknown).
     spring_region, node_region : (n_springs,), (n_nodes,) int, optional
         Region of every spring and node (default 0).
+    element_youngs_modulus, element_poisson_ratio, element_viscosity : (n_tetrahedra,) float,
+        optional
+        Tetrahedral finite elements on ``mesh.tetrahedra`` (:mod:`neurofuzzy.forces.tetrahedra`):
+        Young's modulus (Pa), Poisson's ratio in (0, 0.5) and viscosity (Pa·s) of every
+        element; all three or none. Element models usually give their springs zero stiffness.
     """
 
     mesh: Mesh
@@ -97,6 +102,9 @@ class SpringMassModel:
     region_tissues: tuple | None = None
     spring_region: np.ndarray | None = None
     node_region: np.ndarray | None = None
+    element_youngs_modulus: np.ndarray | None = None
+    element_poisson_ratio: np.ndarray | None = None
+    element_viscosity: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -144,9 +152,12 @@ class SpringMassModel:
                 raise InputError(f"expected ({size_name},) = ({n},) integers in "
                                  f"0..{len(names) - 1}, one region index each", key=key)
             values[key] = index.astype(np.intp)
+        values.update(self._element_values())
         object.__setattr__(self, "region_names", names)
         object.__setattr__(self, "region_tissues", tissues)
         for key, value in values.items():
+            if value is None:
+                continue
             value = np.array(value)
             value.setflags(write=False)
             object.__setattr__(self, key, value)
@@ -181,6 +192,36 @@ class SpringMassModel:
                    spring_stiffness=_per_spring(mesh, stiffness, "stiffness"),
                    spring_damping=_per_spring(mesh, damping, "damping"),
                    spring_tie=tie_index(mesh, tie))
+
+    @classmethod
+    def continuum(cls, mesh: Mesh, *, youngs_modulus, poisson_ratio, viscosity,
+                  density) -> SpringMassModel:
+        """A tetrahedral finite-element model of ``mesh`` (which needs ``tetrahedra``).
+
+        Parameters
+        ----------
+        youngs_modulus, poisson_ratio, viscosity : float or (n_tetrahedra,) float
+            E (Pa), ν in (0, 0.5) and η (Pa·s) of every element.
+        density : float or (n_tetrahedra,) float
+            kg/m³; every node carries a quarter of the mass of each of its tetrahedra
+            (lumped mass).
+
+        The springs of the mesh (its tetrahedron edges) get zero stiffness and damping.
+        """
+        from .forces import tetrahedron_geometry
+
+        geometry = tetrahedron_geometry(mesh)
+        n = mesh.n_tetrahedra
+        element_mass = np.broadcast_to(np.asarray(density, float), (n,)) * geometry.volume
+        node_mass = np.bincount(geometry.nodes.ravel(), np.repeat(element_mass / 4, 4),
+                                mesh.n_nodes)
+        if np.any(node_mass <= 0):
+            raise InputError("some nodes belong to no tetrahedron, so they carry no mass",
+                             key="tetrahedra")
+        return cls(mesh, node_mass=node_mass, spring_stiffness=0.0, spring_damping=0.0,
+                   element_youngs_modulus=np.broadcast_to(youngs_modulus, (n,)),
+                   element_poisson_ratio=np.broadcast_to(poisson_ratio, (n,)),
+                   element_viscosity=np.broadcast_to(viscosity, (n,)))
 
     def replace(self, **changes) -> SpringMassModel:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -222,13 +263,40 @@ class SpringMassModel:
     def n_springs(self) -> int:
         return self.mesh.n_springs
 
+    def _element_values(self) -> dict:
+        keys = ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity")
+        given = [getattr(self, key) is not None for key in keys]
+        if not any(given):
+            return {}
+        if not all(given):
+            raise InputError("give all three of element_youngs_modulus, element_poisson_ratio "
+                             "and element_viscosity, or none", key="element_youngs_modulus")
+        n = self.mesh.n_tetrahedra
+        if n == 0:
+            raise InputError("element parameters need a mesh with tetrahedra",
+                             key="element_youngs_modulus")
+        out = {key: _vector(getattr(self, key), n, key, "n_tetrahedra") for key in keys}
+        if np.any(out["element_youngs_modulus"] <= 0):
+            raise InputError("must be positive (Pa)", key="element_youngs_modulus")
+        nu = out["element_poisson_ratio"]
+        if np.any((nu <= 0) | (nu >= 0.5)):
+            raise InputError("must lie in (0, 0.5)", key="element_poisson_ratio")
+        if np.any(out["element_viscosity"] < 0):
+            raise InputError("must not be negative (Pa s)", key="element_viscosity")
+        return out
+
+    @property
+    def has_elements(self) -> bool:
+        """True when the model carries tetrahedral finite elements."""
+        return self.element_youngs_modulus is not None
+
     @property
     def force_terms(self) -> tuple:
-        """Every force term of the model: its springs, then its effects (each a
-        :class:`~neurofuzzy.forces.ForceTerm`)."""
-        from .forces import SPRINGS
+        """Every force term of the model: its springs, its tetrahedral elements (if any),
+        then its effects (each a :class:`~neurofuzzy.forces.ForceTerm`)."""
+        from .forces import SPRINGS, TETRAHEDRA
 
-        return (SPRINGS, *self.effects)
+        return (SPRINGS, *((TETRAHEDRA,) if self.has_elements else ()), *self.effects)
 
     @property
     def node_inverse_mass(self) -> np.ndarray:

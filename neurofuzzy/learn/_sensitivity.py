@@ -79,16 +79,16 @@ class Sensitivity:
     def _force(model, p, v, state) -> np.ndarray:
         """(N, 3) every force term (no external load), the springs from ``state``."""
         force = SPRINGS.force_of_state(model, state)
-        for effect in model.effects:
-            force += effect.force(model, p, v)
+        for term in model.force_terms[1:]:              # elements (fixed here) and effects
+            force += term.force(model, p, v)
         return force
 
     def _force_tangent(self, model, state, p, v, tp, tv) -> np.ndarray:
         """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction."""
         param = self.parameters
         d_force = SPRINGS.state_jvp(model, p, v, tp, tv, state)
-        for effect in model.effects:
-            d_force += effect.state_jvp(model, p, v, tp, tv)
+        for term in model.force_terms[1:]:
+            d_force += term.state_jvp(model, p, v, tp, tv)
         templates = SPRINGS.parameter_templates(state)
         n_ties = param.tied.n_ties
         for name, values in (("log_stiffness", model.spring_stiffness),
@@ -253,8 +253,8 @@ class Sensitivity:
                     jac = effect.parameter_jacobian(model, p, v)
                     grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,
                                                                          lam_force)
-                for effect in model.effects:
-                    e_p, e_v = effect.state_vjp(model, p, v, lam_force)
+                for term in model.force_terms[1:]:
+                    e_p, e_v = term.state_vjp(model, p, v, lam_force)
                     d_p += e_p
                     d_v += e_v
                 lam_p = lam_p + d_p

@@ -101,6 +101,10 @@ class PaperLearner(Learner):
         if int(self.cycles) < 1:
             raise InputError(f"got {self.cycles}; expected >= 1", key="cycles")
         experiments = check_experiments(model, experiments)
+        if model.has_elements:
+            raise InputError("the paper's learner learns spring networks (eqs. 3.7-3.22); fit "
+                             "a model with tetrahedral elements with the gradient learner",
+                             key="method")
         started = time.perf_counter()
         self.rms_error_initial_ = rms_error(model, experiments)
 

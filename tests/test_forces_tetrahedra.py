@@ -1,0 +1,179 @@
+"""Tetrahedral finite elements, checked against code nobody here wrote (scikit-fem's linear
+elasticity), closed-form solutions, and their own finite differences."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.errors import InputError
+from neurofuzzy.forces import TETRAHEDRA
+from neurofuzzy.io import load_model, save_model
+from neurofuzzy.mesh import from_tetra
+from neurofuzzy.model import SpringMassModel
+from neurofuzzy.simulation import simulate, stability_limit
+
+E, NU, ETA, RHO = 6000.0, 0.45, 2.0, 1000.0
+
+
+def block(shape=(2, 2, 2), spacing=0.01, jitter=0.0, seed=0):
+    points, tetrahedra = kuhn_block(shape, spacing)
+    if jitter:
+        rng = np.random.default_rng(seed)
+        inner = np.all((points > 0) & (points < np.array(shape) * spacing), axis=1)
+        points[inner] += rng.uniform(-jitter, jitter, (inner.sum(), 3)) * spacing
+    return from_tetra(points, tetrahedra)
+
+
+def continuum(mesh, **options):
+    values = dict(youngs_modulus=E, poisson_ratio=NU, viscosity=ETA, density=RHO)
+    values.update(options)
+    return SpringMassModel.continuum(mesh, **values)
+
+
+def state(model, seed, size=1e-3, speed=1e-2):
+    rng = np.random.default_rng(seed)
+    p = model.mesh.rest_positions + rng.normal(0, size, (model.n_nodes, 3))
+    return p, rng.normal(0, speed, (model.n_nodes, 3))
+
+
+def test_stiffness_at_rest_is_scikit_fem_linear_elasticity_to_round_off():
+    skfem = pytest.importorskip("skfem")
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    mesh = block((3, 2, 2), jitter=0.2)
+    rng = np.random.default_rng(1)
+    moduli, ratios = rng.uniform(2e3, 2e4, mesh.n_tetrahedra), rng.uniform(0.1, 0.49,
+                                                                           mesh.n_tetrahedra)
+    model = continuum(mesh, youngs_modulus=moduli, poisson_ratio=ratios)
+    stiffness, _ = TETRAHEDRA.rest_matrices(model)
+    fem = skfem.MeshTet(mesh.rest_positions.T.copy(), mesh.tetrahedra.T.copy())
+    basis = skfem.Basis(fem, skfem.ElementVector(skfem.ElementTetP1()))
+    reference = None
+    for k in range(mesh.n_tetrahedra):        # per-element materials: one element at a time
+        one = basis.with_elements(np.array([k]))
+        part = skfem.asm(linear_elasticity(*lame_parameters(moduli[k], ratios[k])), one)
+        reference = part if reference is None else reference + part
+    ours = np.empty(3 * mesh.n_nodes, int)
+    ours[basis.nodal_dofs.T.ravel()] = np.arange(3 * mesh.n_nodes)   # skfem dof -> 3 node + axis
+    ours_in_skfem_order = stiffness.toarray()[np.ix_(ours.argsort(), ours.argsort())]
+    scale = np.abs(reference.toarray()).max()
+    assert np.abs(ours_in_skfem_order - reference.toarray()).max() < 1e-10 * scale
+
+
+def test_uniaxial_stress_with_lateral_contraction_is_exact():
+    """u = ε (x, -ν y, -ν z): no force inside or on the free faces, σ = E ε on the end."""
+    mesh = block((3, 2, 2), spacing=0.01)
+    model = continuum(mesh)
+    strain = 1e-7
+    x = mesh.rest_positions
+    displaced = x + strain * x * np.array([1.0, -NU, -NU])
+    force = TETRAHEDRA.force(model, displaced, np.zeros_like(x))
+    end = np.isclose(x[:, 0], 0.03)
+    start = np.isclose(x[:, 0], 0.0)
+    area = 0.02 * 0.02
+    assert force[end, 0].sum() == pytest.approx(-E * strain * area, rel=1e-5)
+    assert force[start, 0].sum() == pytest.approx(E * strain * area, rel=1e-5)
+    elsewhere = ~(end | start)
+    assert np.abs(force[elsewhere]).max() < 1e-5 * E * strain * area
+    assert np.abs(force[:, 1:]).max() < 1e-5 * E * strain * area      # no lateral stress
+
+
+def test_rigid_motion_gives_no_force_and_rotated_states_rotated_forces():
+    model = continuum(block(jitter=0.2))
+    x = model.mesh.rest_positions
+    angle = 0.7
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0],
+                         [0, 0, 1.0]])
+    moved = x @ rotation.T + [0.3, -0.1, 0.2]
+    assert np.abs(TETRAHEDRA.force(model, moved, np.zeros_like(x))).max() < 1e-9
+    p, v = state(model, 2)
+    rotated = TETRAHEDRA.force(model, p @ rotation.T, v @ rotation.T)
+    assert np.allclose(rotated, TETRAHEDRA.force(model, p, v) @ rotation.T, atol=1e-12)
+
+
+def test_forces_balance_and_state_derivatives_are_exact():
+    model = continuum(block(jitter=0.2))
+    p, v = state(model, 3)
+    force = TETRAHEDRA.force(model, p, v)
+    assert np.allclose(force.sum(axis=0), 0.0, atol=1e-12 * np.abs(force).max())
+    rng = np.random.default_rng(4)
+    dp, dv = rng.normal(size=(2, model.n_nodes, 2, 3))
+    jvp = TETRAHEDRA.state_jvp(model, p, v, dp, dv)
+    eps = 1e-7
+    for k in range(2):
+        numeric = (TETRAHEDRA.force(model, p + eps * dp[:, k], v + eps * dv[:, k])
+                   - TETRAHEDRA.force(model, p - eps * dp[:, k], v - eps * dv[:, k])) / (2 * eps)
+        assert np.abs(jvp[:, k] - numeric).max() <= 1e-6 * np.abs(numeric).max()
+    cotangent = rng.normal(size=(model.n_nodes, 3))
+    lam_p, lam_v = TETRAHEDRA.state_vjp(model, p, v, cotangent)
+    forward = np.sum(jvp[:, 0] * cotangent)
+    assert forward == pytest.approx(np.sum(lam_p * dp[:, 0]) + np.sum(lam_v * dv[:, 0]),
+                                    rel=1e-10)
+
+
+def test_parameter_templates_match_finite_differences():
+    mesh = block(jitter=0.2)
+    model = continuum(mesh)
+    p, v = state(model, 5)
+    templates = TETRAHEDRA.parameter_templates(model, p, v)
+    for name, step in (("youngs_modulus", 1.0), ("poisson_ratio", 1e-6), ("viscosity", 1e-4)):
+        assert templates[name].shape == (mesh.n_tetrahedra, 4, 3)
+        for element in (0, 7, mesh.n_tetrahedra - 1):
+            values = getattr(model, f"element_{name}").copy()
+            plus, minus = values.copy(), values.copy()
+            plus[element] += step
+            minus[element] -= step
+            numeric = (TETRAHEDRA.force(model.replace(**{f"element_{name}": plus}), p, v)
+                       - TETRAHEDRA.force(model.replace(**{f"element_{name}": minus}), p, v)
+                       ) / (2 * step)
+            nodes = mesh.tetrahedra[element]
+            assert np.allclose(templates[name][element], numeric[nodes], rtol=1e-5,
+                               atol=1e-8 * np.abs(numeric).max())
+            others = np.setdiff1d(np.arange(model.n_nodes), nodes)
+            assert np.abs(numeric[others]).max() < 1e-9 * np.abs(numeric).max()
+
+
+def test_a_damped_block_settles_at_scikit_fem_static_solution():
+    """Dynamic simulation of the element model (our stepper) ends where scikit-fem's static
+    linear-elasticity solve puts it."""
+    skfem = pytest.importorskip("skfem")
+    from scipy.sparse.linalg import spsolve
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    mesh = block((2, 2, 3), spacing=0.01)
+    x = mesh.rest_positions
+    mesh = mesh.with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = continuum(mesh, viscosity=100.0)          # settles within the 0.4 s
+    load = np.zeros((mesh.n_nodes, 3))
+    top = np.flatnonzero(np.isclose(x[:, 2], 0.03))
+    load[top, 2] = -1e-3 / len(top)
+    dt = 1e-3
+    steps = int(np.ceil(dt / stability_limit(model).max_step))
+    final = simulate(model, dt=dt, n_frames=400, external_forces=load,
+                     substeps=steps).positions[-1]
+
+    fem = skfem.MeshTet(x.T.copy(), mesh.tetrahedra.T.copy())
+    basis = skfem.Basis(fem, skfem.ElementVector(skfem.ElementTetP1()))
+    K = skfem.asm(linear_elasticity(*lame_parameters(E, NU)), basis)
+    f = np.zeros(3 * mesh.n_nodes)
+    f[basis.nodal_dofs[2, top]] = load[top, 2]
+    fixed = basis.nodal_dofs[:, mesh.fixed].ravel()
+    free = np.setdiff1d(np.arange(3 * mesh.n_nodes), fixed)
+    u = np.zeros(3 * mesh.n_nodes)
+    u[free] = spsolve(K[free][:, free].tocsc(), f[free])
+    expected = u[basis.nodal_dofs].T
+    displacement = final - x
+    assert np.abs(displacement - expected).max() < 0.01 * np.abs(expected).max()
+
+
+def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
+    model = continuum(block(), youngs_modulus=np.linspace(1e3, 2e3, 48))
+    loaded = load_model(save_model(model, tmp_path / "m.yaml"))
+    assert loaded.has_elements
+    assert np.array_equal(loaded.element_youngs_modulus, model.element_youngs_modulus)
+    assert np.allclose(loaded.force_terms[1].force(loaded, *state(model, 6)),
+                       TETRAHEDRA.force(model, *state(model, 6)))
+    with pytest.raises(InputError, match="element_poisson_ratio: must lie in"):
+        model.replace(element_poisson_ratio=np.full(48, 0.5))
+    with pytest.raises(InputError, match="all three"):
+        model.replace(element_viscosity=None)
