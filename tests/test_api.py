@@ -141,3 +141,18 @@ def test_meshes_and_markers_through_nf(tmp_path):
     imported = nf.markers_to_experiment(nf.read_markers(tmp_path / "markers.csv"), mesh)
     assert np.allclose(imported.experiment.positions, data.positions, atol=1e-9)
     assert imported.summary["markers"] == 27
+
+
+def test_every_subpackage_is_installed():
+    """pyproject lists the packages explicitly (the rule files are mapped in as
+    neurofuzzy.shipped_rules); a new subpackage missing there would be absent from a
+    non-editable install."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = {".".join(path.parent.relative_to(root).parts)
+             for path in (root / "neurofuzzy").rglob("__init__.py")}
+    assert found <= listed, sorted(found - listed)
