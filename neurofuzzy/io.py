@@ -190,7 +190,8 @@ def model_to_dict(model: SpringMassModel) -> dict:
     if model.has_elements:
         data["elements"] = {"youngs_modulus": model.element_youngs_modulus.tolist(),
                             "poisson_ratio": model.element_poisson_ratio.tolist(),
-                            "viscosity": model.element_viscosity.tolist()}
+                            "viscosity": model.element_viscosity.tolist(),
+                            "tie": model.element_tie.tolist()}
     return data
 
 
@@ -227,7 +228,7 @@ def _elements_from_dict(data: dict) -> dict:
         raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
                          key="elements")
     return {f"element_{key}": elements.get(key)
-            for key in ("youngs_modulus", "poisson_ratio", "viscosity")}
+            for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie")}
 
 
 def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> dict:

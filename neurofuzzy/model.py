@@ -89,6 +89,9 @@ class SpringMassModel:
         Tetrahedral finite elements on ``mesh.tetrahedra`` (:mod:`neurofuzzy.forces.tetrahedra`):
         Young's modulus (Pa), Poisson's ratio in (0, 0.5) and viscosity (Pa·s) of every
         element; all three or none. Element models usually give their springs zero stiffness.
+    element_tie : (n_tetrahedra,) int, optional
+        Tie group of every element (default: all elements one group); tied elements are
+        learned as one E, ν and η (E and η keep their start ratios).
     """
 
     mesh: Mesh
@@ -105,6 +108,7 @@ class SpringMassModel:
     element_youngs_modulus: np.ndarray | None = None
     element_poisson_ratio: np.ndarray | None = None
     element_viscosity: np.ndarray | None = None
+    element_tie: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -231,7 +235,16 @@ class SpringMassModel:
         """A copy with spring tying ``"global"``, ``"groups"`` or ``"none"`` within each
         region (tie groups never span two regions)."""
         combined = tie_index(self.mesh, tie) * len(self.region_names) + self.spring_region
-        return self.replace(spring_tie=combined)
+        changes = {"spring_tie": combined}
+        if self.has_elements:
+            n = self.mesh.n_tetrahedra
+            changes["element_tie"] = (np.arange(n, dtype=np.intp) if tie == "none"
+                                      else np.zeros(n, np.intp))
+        return self.replace(**changes)
+
+    @property
+    def n_element_ties(self) -> int:
+        return int(self.element_tie.max()) + 1 if self.has_elements else 0
 
     def region_springs(self, region: str) -> np.ndarray:
         """Indices of the springs of the region named ``region``."""
@@ -276,6 +289,11 @@ class SpringMassModel:
             raise InputError("element parameters need a mesh with tetrahedra",
                              key="element_youngs_modulus")
         out = {key: _vector(getattr(self, key), n, key, "n_tetrahedra") for key in keys}
+        tie = np.zeros(n, np.intp) if self.element_tie is None else np.asarray(self.element_tie)
+        if tie.shape != (n,) or not np.issubdtype(tie.dtype, np.integer):
+            raise InputError(f"expected ({n},) integers, one tie group per element",
+                             key="element_tie")
+        out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
         if np.any(out["element_youngs_modulus"] <= 0):
             raise InputError("must be positive (Pa)", key="element_youngs_modulus")
         nu = out["element_poisson_ratio"]

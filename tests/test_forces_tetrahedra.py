@@ -10,6 +10,7 @@ from neurofuzzy.forces import TETRAHEDRA
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
+from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.simulation import simulate, stability_limit
 
 E, NU, ETA, RHO = 6000.0, 0.45, 2.0, 1000.0
@@ -177,3 +178,61 @@ def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
         model.replace(element_poisson_ratio=np.full(48, 0.5))
     with pytest.raises(InputError, match="all three"):
         model.replace(element_viscosity=None)
+
+
+def _element_data(truth, frames=80):
+    x = truth.mesh.rest_positions
+    top = np.flatnonzero(np.isclose(x[:, 2], x[:, 2].max()))
+    steps = int(np.ceil(1e-3 / stability_limit(truth).max_step))
+    experiments = []
+    for direction in ((0, 0, -1e-3), (1e-3, 0, 0)):
+        load = np.zeros((truth.n_nodes, 3))
+        load[top] = np.array(direction) / len(top)
+        experiments.append(simulate_experiment(truth, dt=1e-3, n_frames=frames,
+                                               external_forces=load, substeps=steps))
+    return experiments, steps
+
+
+def test_element_parameter_gradients_are_exact():
+    from neurofuzzy.learn import Parameterization, Sensitivity
+
+    mesh = block((1, 1, 2)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = continuum(mesh, viscosity=20.0)
+    (data, _), steps = _element_data(truth, frames=30)
+    rng = np.random.default_rng(8)
+    start = truth.replace(element_youngs_modulus=truth.element_youngs_modulus * 1.2,
+                          element_poisson_ratio=np.full(mesh.n_tetrahedra, 0.4),
+                          element_tie=rng.integers(0, 2, mesh.n_tetrahedra))
+    parameters = Parameterization(start)
+    assert parameters.names() == [f"{q}[element group {k}]" for q in
+                                  ("youngs_modulus", "poisson_ratio", "viscosity")
+                                  for k in (0, 1)]
+    sensitivity = Sensitivity(parameters, 0.01)
+    theta = parameters.initial()
+    assert np.allclose(parameters.model(theta).element_poisson_ratio, 0.4)
+    loss, gradient, _ = sensitivity.gradient(theta, data, substeps=steps)
+    run = sensitivity.run(theta, data, substeps=steps, tangents=True)
+    assert np.allclose(run.jacobian.reshape(-1, theta.size).T @ run.residuals.ravel(),
+                       gradient, rtol=1e-8, atol=1e-12 * np.abs(gradient).max())
+    for k in range(theta.size):
+        step = np.zeros(theta.size)
+        step[k] = 1e-6
+        numeric = (sensitivity.gradient(theta + step, data, substeps=steps)[0]
+                   - sensitivity.gradient(theta - step, data, substeps=steps)[0]) / 2e-6
+        assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-9 * np.abs(gradient).max())
+
+
+@pytest.mark.slow
+def test_gradient_learner_recovers_youngs_modulus_poisson_ratio_and_viscosity():
+    from neurofuzzy.learn import GradientLearner
+
+    mesh = block((2, 2, 2)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = continuum(mesh, viscosity=20.0)
+    experiments, steps = _element_data(truth)
+    start = continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.3, viscosity=40.0)
+    learner = GradientLearner(substeps=steps).fit(start, experiments)
+    fitted = learner.model_
+    assert fitted.element_youngs_modulus == pytest.approx(E, rel=1e-6)
+    assert fitted.element_poisson_ratio == pytest.approx(NU, rel=1e-6)
+    assert fitted.element_viscosity == pytest.approx(20.0, rel=1e-5)
+    assert learner.parameter_names_[0] == "youngs_modulus[all elements]"

@@ -1,9 +1,13 @@
 """The free parameters of a fit as one flat vector, and back to a model.
 
-Blocks, in this order (each optional but the springs):
+Blocks, in this order (each optional):
 
 - ``log_stiffness`` (n_ties,): log of the shared stiffness of every tie group;
-- ``log_damping`` (n_ties,): log of the shared viscosity of every tie group;
+- ``log_damping`` (n_ties,): log of the shared viscosity of every tie group (both spring
+  blocks are left out for element models whose springs are all zero);
+- ``log_youngs_modulus``, ``logit_poisson_ratio``, ``log_viscosity`` (n_element_ties,): the
+  tetrahedral elements' E, ν = σ(θ)/2 (so ν stays in (0, 0.5)) and η of every element tie
+  group (element models);
 - ``log_mass`` (n_free_nodes,): log of every free node's mass (when masses are learned);
 - effect parameters, raw, one block per effect (when effects are learned).
 
@@ -20,7 +24,10 @@ from ..errors import InputError
 from ..model import SpringMassModel
 from ._base import TiedSprings
 
-__all__ = ["Parameterization"]
+__all__ = ["Parameterization", "ELEMENT_BLOCKS"]
+
+#: The element parameter blocks, in order.
+ELEMENT_BLOCKS = ("log_youngs_modulus", "logit_poisson_ratio", "log_viscosity")
 
 
 @dataclass
@@ -53,16 +60,31 @@ class Parameterization:
         self.tied = TiedSprings.of(model)
         self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.spring_stiffness)
         self.damping_shared, self.damping_ratio = self.tied.split(model.spring_damping)
+        self.learn_springs = not (model.has_elements and not np.any(model.spring_stiffness)
+                                  and not np.any(model.spring_damping))
         for key, shared in (("spring_stiffness", self.stiffness_shared),
                             ("spring_damping", self.damping_shared)):
-            if np.any(shared <= 0):
+            if self.learn_springs and np.any(shared <= 0):
                 raise InputError("the gradient learner needs positive start values (it learns "
                                  "their logarithm); give a rough positive guess", key=key)
+        if model.has_elements:
+            self.element_tie = model.element_tie
+            elements = TiedSprings(model.element_tie, model.n_element_ties)
+            self.modulus_shared, self.modulus_ratio = elements.split(
+                model.element_youngs_modulus)
+            self.viscosity_shared, self.viscosity_ratio = elements.split(
+                model.element_viscosity)
+            # η = 0 has no logarithm: start from η/E = 1 ns, a viscosity too small to see
+            self.viscosity_shared = np.maximum(self.viscosity_shared, 1e-9 * self.modulus_shared)
+            self.ratio_shared = elements.split(model.element_poisson_ratio)[0]
         self.free_nodes = np.flatnonzero(model.mesh.free)
         self.learn_masses = learn_masses
         self.effects = list(model.effects) if learn_effects else []
         blocks, start = [], 0
-        sizes = [("log_stiffness", model.n_ties), ("log_damping", model.n_ties)]
+        sizes = ([("log_stiffness", model.n_ties), ("log_damping", model.n_ties)]
+                 if self.learn_springs else [])
+        if model.has_elements:
+            sizes += [(name, model.n_element_ties) for name in ELEMENT_BLOCKS]
         if learn_masses:
             sizes.append(("log_mass", len(self.free_nodes)))
         sizes += [(f"effect:{i}", len(e.params)) for i, e in enumerate(self.effects)]
@@ -75,8 +97,14 @@ class Parameterization:
     def initial(self) -> np.ndarray:
         """(n_params,) the start model's parameter vector."""
         theta = np.empty(self.size)
-        theta[self.blocks["log_stiffness"].slice] = np.log(self.stiffness_shared)
-        theta[self.blocks["log_damping"].slice] = np.log(self.damping_shared)
+        if self.learn_springs:
+            theta[self.blocks["log_stiffness"].slice] = np.log(self.stiffness_shared)
+            theta[self.blocks["log_damping"].slice] = np.log(self.damping_shared)
+        if self.base.has_elements:
+            theta[self.blocks["log_youngs_modulus"].slice] = np.log(self.modulus_shared)
+            ratio = 2.0 * self.ratio_shared
+            theta[self.blocks["logit_poisson_ratio"].slice] = np.log(ratio / (1.0 - ratio))
+            theta[self.blocks["log_viscosity"].slice] = np.log(self.viscosity_shared)
         if self.learn_masses:
             theta[self.blocks["log_mass"].slice] = np.log(self.base.node_mass[self.free_nodes])
         for i, effect in enumerate(self.effects):
@@ -85,10 +113,15 @@ class Parameterization:
 
     def model(self, theta: np.ndarray) -> SpringMassModel:
         """The model with parameter vector ``theta``."""
-        tie = self.tied.tie
-        stiffness = np.exp(theta[self.blocks["log_stiffness"].slice])[tie] * self.stiffness_ratio
-        damping = np.exp(theta[self.blocks["log_damping"].slice])[tie] * self.damping_ratio
-        changes = {"spring_stiffness": stiffness, "spring_damping": damping}
+        changes = {}
+        if self.learn_springs:
+            tie = self.tied.tie
+            changes["spring_stiffness"] = np.exp(
+                theta[self.blocks["log_stiffness"].slice])[tie] * self.stiffness_ratio
+            changes["spring_damping"] = np.exp(
+                theta[self.blocks["log_damping"].slice])[tie] * self.damping_ratio
+        if self.base.has_elements:
+            changes.update(self.element_values(theta))
         if self.learn_masses:
             mass = self.base.node_mass.copy()
             mass[self.free_nodes] = np.exp(theta[self.blocks["log_mass"].slice])
@@ -98,11 +131,27 @@ class Parameterization:
                                        for i, e in enumerate(self.effects))
         return self.base.replace(**changes)
 
+    def element_values(self, theta: np.ndarray) -> dict[str, np.ndarray]:
+        """The elements' E, ν and η (per element) of the parameter vector ``theta``."""
+        tie = self.element_tie
+        logistic = 1.0 / (1.0 + np.exp(-theta[self.blocks["logit_poisson_ratio"].slice]))
+        return {"element_youngs_modulus": np.exp(
+                    theta[self.blocks["log_youngs_modulus"].slice])[tie] * self.modulus_ratio,
+                "element_poisson_ratio": 0.5 * logistic[tie],
+                "element_viscosity": np.exp(
+                    theta[self.blocks["log_viscosity"].slice])[tie] * self.viscosity_ratio}
+
     def names(self) -> list[str]:
         """A readable name for every parameter ("stiffness[edge]", "mass[node 4]" …)."""
         names = []
-        for quantity in ("stiffness", "damping"):
-            names += [f"{quantity}[{label}]" for label in self.tie_labels()]
+        if self.learn_springs:
+            for quantity in ("stiffness", "damping"):
+                names += [f"{quantity}[{label}]" for label in self.tie_labels()]
+        if self.base.has_elements:
+            n = self.base.n_element_ties
+            groups = ["all elements"] if n == 1 else [f"element group {k}" for k in range(n)]
+            for quantity in ("youngs_modulus", "poisson_ratio", "viscosity"):
+                names += [f"{quantity}[{label}]" for label in groups]
         if self.learn_masses:
             names += [f"mass[node {i}]" for i in self.free_nodes]
         for effect in self.effects:
@@ -130,8 +179,8 @@ class Parameterization:
     def springs_of(self, index: int) -> np.ndarray:
         """Springs whose value parameter ``index`` sets (empty for masses and effects)."""
         for name in ("log_stiffness", "log_damping"):
-            block = self.blocks[name]
-            if block.start <= index < block.stop:
+            block = self.blocks.get(name)
+            if block is not None and block.start <= index < block.stop:
                 return np.flatnonzero(self.tied.tie == index - block.start)
         return np.zeros(0, dtype=int)
 

@@ -22,7 +22,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..experiment import Experiment
-from ..forces import SPRINGS, incidence
+import scipy.sparse as sp
+
+from ..forces import SPRINGS, TETRAHEDRA, incidence
 from ._parameters import Parameterization
 
 __all__ = ["Sensitivity", "Run"]
@@ -73,6 +75,23 @@ class Sensitivity:
         self.incidence = incidence(model.mesh)
         # (n_ties * n_nodes, n_springs): spring j into the block of its tie group
         self.tie_incidence = self.incidence.grouped(parameters.tied.tie, parameters.tied.n_ties)
+        if model.has_elements:
+            # (n_element_ties * n_nodes, 4 n_elements): element e's node j into its tie block
+            nodes = model.mesh.tetrahedra
+            tie = np.repeat(model.element_tie, 4)
+            self.element_incidence = sp.csr_matrix(
+                (np.ones(nodes.size), (tie * self.n_nodes + nodes.ravel(),
+                                       np.arange(nodes.size))),
+                shape=(model.n_element_ties * self.n_nodes, nodes.size))
+
+    @staticmethod
+    def _element_weights(model) -> dict[str, tuple[np.ndarray, str]]:
+        """Per block: the derivative of every element's value by its parameter, and the
+        template it scales (``dE/d log E = E``, ``dν/d logit = ν (1 - 2ν)``, …)."""
+        nu = model.element_poisson_ratio
+        return {"log_youngs_modulus": (model.element_youngs_modulus, "youngs_modulus"),
+                "logit_poisson_ratio": (nu * (1.0 - 2.0 * nu), "poisson_ratio"),
+                "log_viscosity": (model.element_viscosity, "viscosity")}
 
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
@@ -89,13 +108,21 @@ class Sensitivity:
         d_force = SPRINGS.state_jvp(model, p, v, tp, tv, state)
         for term in model.force_terms[1:]:
             d_force += term.state_jvp(model, p, v, tp, tv)
-        templates = SPRINGS.parameter_templates(state)
-        n_ties = param.tied.n_ties
-        for name, values in (("log_stiffness", model.spring_stiffness),
-                             ("log_damping", model.spring_damping)):
-            per_spring = values[:, None] * templates[name[4:]]     # ∂f/∂log θ
-            d_force[:, param.blocks[name].slice] += (self.tie_incidence @ per_spring).reshape(
-                n_ties, self.n_nodes, 3).transpose(1, 0, 2)
+        if param.learn_springs:
+            templates = SPRINGS.parameter_templates(state)
+            n_ties = param.tied.n_ties
+            for name, values in (("log_stiffness", model.spring_stiffness),
+                                 ("log_damping", model.spring_damping)):
+                per_spring = values[:, None] * templates[name[4:]]     # ∂f/∂log θ
+                d_force[:, param.blocks[name].slice] += (
+                    self.tie_incidence @ per_spring).reshape(n_ties, self.n_nodes, 3
+                                                             ).transpose(1, 0, 2)
+        if model.has_elements:
+            templates = TETRAHEDRA.parameter_templates(model, p, v)       # (K, 4, 3)
+            for name, (factor, key) in self._element_weights(model).items():
+                local = (factor[:, None, None] * templates[key]).reshape(-1, 3)
+                d_force[:, param.blocks[name].slice] += (self.element_incidence @ local).reshape(
+                    model.n_element_ties, self.n_nodes, 3).transpose(1, 0, 2)
         for i, effect in enumerate(param.effects):
             d_force[:, param.blocks[f"effect:{i}"].slice] += effect.parameter_jacobian(
                 model, p, v)
@@ -245,10 +272,19 @@ class Sensitivity:
                     grad[param.blocks["log_mass"].slice] -= np.einsum(
                         "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * inertial[nodes])
                 d_p, d_v, per_spring = SPRINGS.vjp(model, lam_force, state)
-                for name, values in (("log_stiffness", model.spring_stiffness),
-                                     ("log_damping", model.spring_damping)):
-                    grad[param.blocks[name].slice] += np.bincount(
-                        tie, values * per_spring[name[4:]], n_ties)
+                if param.learn_springs:
+                    for name, values in (("log_stiffness", model.spring_stiffness),
+                                         ("log_damping", model.spring_damping)):
+                        grad[param.blocks[name].slice] += np.bincount(
+                            tie, values * per_spring[name[4:]], n_ties)
+                if model.has_elements:
+                    templates = TETRAHEDRA.parameter_templates(model, p, v)
+                    lam_local = lam_force[model.mesh.tetrahedra]            # (K, 4, 3)
+                    for name, (factor, key) in self._element_weights(model).items():
+                        grad[param.blocks[name].slice] += np.bincount(
+                            model.element_tie, factor * np.einsum("ejk,ejk->e", lam_local,
+                                                                  templates[key]),
+                            model.n_element_ties)
                 for i, effect in enumerate(param.effects):
                     jac = effect.parameter_jacobian(model, p, v)
                     grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,

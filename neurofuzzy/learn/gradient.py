@@ -51,8 +51,12 @@ def _stable_start(model: SpringMassModel, h: float) -> SpringMassModel:
         return model
     # h² ω² + 2 h γ scales linearly in a common factor of stiffness and viscosity
     factor = 0.8 * (limit.max_step / h) ** 2
-    return model.replace(spring_stiffness=model.spring_stiffness * factor,
-                         spring_damping=model.spring_damping * factor)
+    changes = {"spring_stiffness": model.spring_stiffness * factor,
+               "spring_damping": model.spring_damping * factor}
+    if model.has_elements:
+        changes.update(element_youngs_modulus=model.element_youngs_modulus * factor,
+                       element_viscosity=model.element_viscosity * factor)
+    return model.replace(**changes)
 
 
 def auto_substeps(model: SpringMassModel, dt: float) -> int:
@@ -247,7 +251,8 @@ class GradientLearner(Learner):
         lower = np.full_like(theta, -np.inf)
         upper = np.full_like(theta, np.inf)
         span = np.log(self.bounds)
-        for name in ("log_stiffness", "log_damping", "log_mass"):
+        for name in ("log_stiffness", "log_damping", "log_mass", "log_youngs_modulus",
+                     "log_viscosity"):
             if name in parameters.blocks:
                 block = parameters.blocks[name].slice
                 lower[block] = theta[block] - span
