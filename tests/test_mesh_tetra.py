@@ -111,11 +111,11 @@ def test_surface_nodes_of_a_lattice_and_of_a_tetrahedral_mesh():
     assert np.flatnonzero(~surface_nodes(cube)).tolist() == [13]
     # a block with a corner cut out: the node on the re-entrant corner has all six edge
     # neighbours but is on the surface
-    from neurofuzzy.mesh.lattice import _cell_lattice
+    from neurofuzzy.mesh import cell_lattice
 
     cells = np.ones((4, 4, 3), bool)
     cells[2:, 2:, 2:] = False
-    block = _cell_lattice(cells, np.ones(3), np.zeros(3), "body")
+    block = cell_lattice(cells, np.ones(3), np.zeros(3), "body")
     surface = surface_nodes(block)
     corner = int(np.flatnonzero((block.rest_positions == [2, 2, 2]).all(axis=1))[0])
     edges = block.springs[block.spring_group == 0]

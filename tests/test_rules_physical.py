@@ -43,11 +43,11 @@ def test_lattice_springs_from_youngs_modulus_give_that_modulus():
     E, spacing = 5000.0, 0.01
     mesh = lattice((7, 7, 7), spacing)
     geometry = lattice_geometry(mesh)
-    from neurofuzzy.forces import projected_laplacian as _projected_laplacian
+    from neurofuzzy.forces import projected_laplacian
 
     direction = mesh.rest_positions[mesh.springs[:, 1]] - mesh.rest_positions[mesh.springs[:, 0]]
     direction /= np.linalg.norm(direction, axis=1)[:, None]
-    K = _projected_laplacian(mesh.springs, direction, E * geometry.spring_factor,
+    K = projected_laplacian(mesh.springs, direction, E * geometry.spring_factor,
                              mesh.n_nodes).tocsr()
     z = mesh.rest_positions[:, 2]
     bottom, top = np.isclose(z, 0), np.isclose(z, z.max())
@@ -81,12 +81,12 @@ def _uniaxial_block_test(mesh, spring_stiffness, strain=1e-3):
     solution of the linearised springs. Returns (modulus, poisson along x, poisson along y)."""
     import scipy.sparse.linalg as spla
 
-    from neurofuzzy.forces import projected_laplacian as _projected_laplacian
+    from neurofuzzy.forces import projected_laplacian
 
     positions = mesh.rest_positions - mesh.rest_positions.min(axis=0)
     direction = positions[mesh.springs[:, 1]] - positions[mesh.springs[:, 0]]
     direction /= np.linalg.norm(direction, axis=1)[:, None]
-    K = _projected_laplacian(mesh.springs, direction, spring_stiffness, mesh.n_nodes).tocsr()
+    K = projected_laplacian(mesh.springs, direction, spring_stiffness, mesh.n_nodes).tocsr()
     x, y, z = positions.T
     tol = 1e-9 * z.max()
     bottom, top = np.abs(z) < tol, np.abs(z - z.max()) < tol

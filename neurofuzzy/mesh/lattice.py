@@ -12,7 +12,8 @@ import numpy as np
 from ..errors import InputError
 from .core import Mesh, require_watertight
 
-__all__ = ["lattice", "from_trimesh", "LatticeCells", "lattice_cells", "Diagonals"]
+__all__ = ["lattice", "from_trimesh", "cell_lattice", "LatticeCells", "lattice_cells",
+           "Diagonals"]
 
 Diagonals = Literal["none", "body", "face", "both"]
 
@@ -101,7 +102,7 @@ def lattice(shape: Sequence[int], spacing: float | Sequence[float] = 1.0, *,
     if len(shape) != 3 or min(shape) < 2:
         raise InputError(f"got {shape}; expected three node counts, each >= 2", key="shape")
     occupied = np.ones(tuple(n - 1 for n in shape), dtype=bool)
-    return _cell_lattice(occupied, np.broadcast_to(np.asarray(spacing, float), (3,)),
+    return cell_lattice(occupied, np.broadcast_to(np.asarray(spacing, float), (3,)),
                          np.asarray(origin, float), diagonals)
 
 
@@ -138,12 +139,14 @@ def from_trimesh(mesh, pitch: float, *, diagonals: Diagonals = "body") -> Mesh:
     if not cells.any():
         raise InputError(f"pitch {pitch} is too coarse: no complete cell fits inside the surface",
                          key="pitch")
-    return _cell_lattice(cells, np.full(3, float(pitch)), origin, diagonals)
+    return cell_lattice(cells, np.full(3, float(pitch)), origin, diagonals)
 
 
-def _cell_lattice(cells: np.ndarray, spacing: np.ndarray, origin: np.ndarray,
+def cell_lattice(cells: np.ndarray, spacing: np.ndarray, origin: np.ndarray,
                   diagonals: Diagonals) -> Mesh:
-    """Springs of all complete cells ``cells`` (bool, one less than the node grid per axis)."""
+    """The lattice of the cubic cells marked in ``cells`` ((nx, ny, nz) bool, one less than
+    the node grid per axis; cell ``(i, j, k)`` has its lower corner at
+    ``origin + (i, j, k) * spacing``), with the springs of every marked cell."""
     if diagonals not in _GROUPS_FOR:
         raise InputError(f"got {diagonals!r}; expected one of {list(_GROUPS_FOR)}",
                          key="diagonals")
