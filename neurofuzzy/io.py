@@ -191,7 +191,8 @@ def model_to_dict(model: SpringMassModel) -> dict:
         data["elements"] = {"youngs_modulus": model.element_youngs_modulus.tolist(),
                             "poisson_ratio": model.element_poisson_ratio.tolist(),
                             "viscosity": model.element_viscosity.tolist(),
-                            "tie": model.element_tie.tolist()}
+                            "tie": model.element_tie.tolist(),
+                            "region": model.element_region.tolist()}
     return data
 
 
@@ -228,7 +229,7 @@ def _elements_from_dict(data: dict) -> dict:
         raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
                          key="elements")
     return {f"element_{key}": elements.get(key)
-            for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie")}
+            for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region")}
 
 
 def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> dict:

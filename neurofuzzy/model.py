@@ -90,8 +90,10 @@ class SpringMassModel:
         Young's modulus (Pa), Poisson's ratio in (0, 0.5) and viscosity (Pa·s) of every
         element; all three or none. Element models usually give their springs zero stiffness.
     element_tie : (n_tetrahedra,) int, optional
-        Tie group of every element (default: all elements one group); tied elements are
+        Tie group of every element (default: one group per region); tied elements are
         learned as one E, ν and η (E and η keep their start ratios).
+    element_region : (n_tetrahedra,) int, optional
+        Region of every element (default 0).
     """
 
     mesh: Mesh
@@ -109,6 +111,7 @@ class SpringMassModel:
     element_poisson_ratio: np.ndarray | None = None
     element_viscosity: np.ndarray | None = None
     element_tie: np.ndarray | None = None
+    element_region: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -239,7 +242,7 @@ class SpringMassModel:
         if self.has_elements:
             n = self.mesh.n_tetrahedra
             changes["element_tie"] = (np.arange(n, dtype=np.intp) if tie == "none"
-                                      else np.zeros(n, np.intp))
+                                      else self.element_region)
         return self.replace(**changes)
 
     @property
@@ -289,7 +292,14 @@ class SpringMassModel:
             raise InputError("element parameters need a mesh with tetrahedra",
                              key="element_youngs_modulus")
         out = {key: _vector(getattr(self, key), n, key, "n_tetrahedra") for key in keys}
-        tie = np.zeros(n, np.intp) if self.element_tie is None else np.asarray(self.element_tie)
+        region = (np.zeros(n, np.intp) if self.element_region is None
+                  else np.asarray(self.element_region))
+        if region.shape != (n,) or not np.issubdtype(region.dtype, np.integer) or (
+                region.min() < 0 or region.max() >= len(self.region_names)):
+            raise InputError(f"expected ({n},) integers in 0..{len(self.region_names) - 1}, "
+                             "one region index per element", key="element_region")
+        out["element_region"] = region.astype(np.intp)
+        tie = region if self.element_tie is None else np.asarray(self.element_tie)
         if tie.shape != (n,) or not np.issubdtype(tie.dtype, np.integer):
             raise InputError(f"expected ({n},) integers, one tie group per element",
                              key="element_tie")

@@ -236,3 +236,40 @@ def test_gradient_learner_recovers_youngs_modulus_poisson_ratio_and_viscosity():
     assert fitted.element_poisson_ratio == pytest.approx(NU, rel=1e-6)
     assert fitted.element_viscosity == pytest.approx(20.0, rel=1e-5)
     assert learner.parameter_names_[0] == "youngs_modulus[all elements]"
+
+
+@pytest.mark.slow
+def test_element_model_from_words_mesh_command_and_fit_start(tmp_path, capsys):
+    """mesh --elements tetra -> fit --start: the learned numbers are the tissue's E, ν, η,
+    and the words come back from them directly."""
+    import json
+
+    from helpers import write_gmsh
+
+    from neurofuzzy.cli import main
+    from neurofuzzy.io import save_experiment
+    from neurofuzzy.mesh import read_mesh
+    from neurofuzzy.rules import initialize, load_rules, materials, shipped
+
+    points, tetrahedra = kuhn_block((2, 2, 2), 0.01)
+    path = write_gmsh(tmp_path / "block.msh", points, tetrahedra,
+                      np.ones(len(tetrahedra), int), {1: "block"})
+    assert main(["mesh", str(path), "--rules", "liver", "--tissue", "liver", "--elements",
+                 "tetra", "--fix-below", "0.001", "--out", str(tmp_path / "block.yaml")]) == 0
+    model = load_model(tmp_path / "block.yaml")
+    rules = load_rules(shipped("liver"))
+    assert model.has_elements and model.element_youngs_modulus == pytest.approx(
+        rules.tissue("liver")["youngs_modulus"])
+    mesh = read_mesh(path).mesh.with_fixed(where=lambda p: p[:, 2] <= 0.001)
+    truth = initialize(rules, mesh, "fibrotic_liver", elements=True)
+    experiments, steps = _element_data(truth)
+    files = [str(save_experiment(e, tmp_path / f"case{i}.npz")) for i, e in
+             enumerate(experiments)]
+    capsys.readouterr()
+    assert main(["fit", *files, "--start", str(tmp_path / "block.yaml"), "--rules", "liver",
+                 "--substeps", str(steps), "--json", "--quiet"]) == 0
+    found = json.loads(capsys.readouterr().out)["materials"]["liver"]
+    expected = materials(truth, rules)["fibrotic_liver"]
+    for key in ("youngs_modulus", "poisson_ratio", "viscosity", "density"):
+        assert found[key] == pytest.approx(expected[key], rel=1e-5), key
+    assert found["labels"]["youngs_modulus"] == "hard"

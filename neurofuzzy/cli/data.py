@@ -83,7 +83,8 @@ def mesh(args) -> int:
     if not args.tissue and not tissue_of:
         raise InputError("give --tissue NAME (and --region REGION=TISSUE for regions)",
                          key="--tissue")
-    model = initialize(rule_base, mesh, args.tissue, **regions).tied(args.tie)
+    model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
+                       **regions).tied(args.tie)
     save_model(model, args.out)
     print(model.summary())
     print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else

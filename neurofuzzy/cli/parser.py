@@ -147,6 +147,11 @@ def build_parser() -> argparse.ArgumentParser:
                              "spring of the minimum) in place")
     fixing.add_argument("--fix-below", type=float, metavar="Z",
                         help="hold the nodes with z <= Z (metres) in place")
+    mesh.add_argument("--elements", choices=("springs", "tetra"), default="springs",
+                      help="springs: the paper's spring network (default); tetra: linear "
+                           "tetrahedral finite elements whose parameters are the tissue's "
+                           "Young's modulus, Poisson's ratio and viscosity (needs tetrahedra: "
+                           "a volume mesh or --tetra)")
     mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
     mesh.add_argument("--out", required=True, metavar="MODEL.yaml")
     mesh.set_defaults(run=data.mesh)

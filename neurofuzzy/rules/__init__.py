@@ -11,12 +11,13 @@
 
 from ..errors import RuleFileDeprecationWarning
 from .parser import load_rules
-from .physical import initialize, lattice_geometry, material_values, materials
+from .materials import element_model, materials
+from .physical import initialize, lattice_geometry, material_values
 from .rulebase import RuleBase
 from .terms import QUANTITIES, Label, RuleBaseError
 
 __all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "resolve", "initialize",
-           "lattice_geometry", "material_values", "materials", "QUANTITIES",
+           "lattice_geometry", "material_values", "materials", "element_model", "QUANTITIES",
            "RuleFileDeprecationWarning", "shipped"]
 
 

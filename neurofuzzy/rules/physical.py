@@ -43,8 +43,7 @@ from ..mesh import TET_EDGES, Mesh, lattice_cells
 from ..model import SpringMassModel
 
 __all__ = ["LatticeGeometry", "lattice_geometry", "TetraGeometry", "tetra_geometry",
-           "spring_geometry", "initialize", "material_values", "materials",
-           "SPRING_POISSON_RATIO"]
+           "spring_geometry", "initialize", "material_values"]
 
 
 @dataclass(frozen=True)
@@ -167,7 +166,8 @@ def spring_geometry(mesh: Mesh) -> LatticeGeometry | TetraGeometry:
 
 
 def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | None = None,
-               tetrahedron_regions: dict | None = None) -> SpringMassModel:
+               tetrahedron_regions: dict | None = None,
+               elements: bool = False) -> SpringMassModel:
     """The start model of ``mesh`` from a rule base's tissue(s).
 
     Parameters
@@ -189,6 +189,11 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
         node the mass of a quarter of each of its tetrahedra. This is exact at interfaces,
         where node regions have to give interface springs to one side.
         (``MeshFile.tissue_regions(..., of="tetrahedra")``.)
+    elements : bool
+        Build tetrahedral finite elements (the mesh needs tetrahedra) whose parameters are the
+        tissue's Young's modulus, Poisson's ratio and viscosity themselves, with masses lumped
+        from density (:func:`neurofuzzy.rules.materials.element_model`); the springs get zero
+        stiffness. Default: the spring network of the module docstring.
 
     Returns
     -------
@@ -220,6 +225,14 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
         node_share = np.eye(len(names))[node_index]
         spring_share = node_share[mesh.springs[:, 0]]
     values = {name: rules.tissue(name) for name in names}
+    if elements:
+        from .materials import element_model
+
+        tet_index = (_index_of(tet_tissue, names) if tetrahedron_regions else
+                     np.argmax(node_share[mesh.tetrahedra].sum(axis=1), axis=1))
+        return element_model(rules, mesh, names, values, tet_index,
+                             spring_region=np.argmax(spring_share, axis=1),
+                             node_region=np.argmax(node_share, axis=1)).tied("groups")
     stiffness = np.zeros(mesh.n_springs)
     damping = np.zeros(mesh.n_springs)
     mass = np.zeros(mesh.n_nodes)
@@ -318,42 +331,3 @@ def material_values(rules, model: SpringMassModel, springs=None, nodes=None) -> 
     return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
             if variable.quantity in by_quantity}
 
-
-#: Poisson's ratio an isotropic spring network stands for (cubic lattice with body diagonals;
-#: van Gelder springs on tetrahedra, averaged over orientations): see the module docstring.
-SPRING_POISSON_RATIO = 0.25
-
-
-def materials(model: SpringMassModel, rules=None, tissue: str | None = None) -> dict:
-    """The material values every region of ``model`` stands for, with words.
-
-    Returns ``{region: {"youngs_modulus": Pa, "poisson_ratio": ..., "viscosity": Pa·s,
-    "density": kg/m³, "tissue": str or None, "labels": {quantity: word}}}`` (the form of
-    ``fit --json``'s ``"materials"``). For spring models, E, η and ρ are what the spring
-    constants, viscosities and masses correspond to (the mapping of the module docstring) and
-    ν is the 1/4 the springs are locked to. ``labels`` (with ``rules``) are the rule base's
-    words for each quantity.
-    """
-    geometry = spring_geometry(model.mesh)
-    moving = model.mesh.free[model.mesh.springs].any(axis=1)
-    out = {}
-    for index, region in enumerate(model.region_names):
-        springs = np.flatnonzero((model.spring_region == index) & moving)
-        nodes = np.flatnonzero((model.node_region == index) & model.mesh.free)
-        if springs.size == 0 or nodes.size == 0:
-            continue
-        factor = geometry.spring_factor[springs]
-        values = {
-            "youngs_modulus": float(np.median(model.spring_stiffness[springs] / factor)),
-            "poisson_ratio": SPRING_POISSON_RATIO,
-            "viscosity": float(np.median(model.spring_damping[springs] / factor)),
-            "density": float(np.sum(model.node_mass[nodes])
-                             / np.sum(geometry.node_volume[nodes])),
-            "tissue": model.region_tissues[index] or tissue,
-        }
-        if rules is not None:
-            described = rules.describe(material_values(rules, model, springs, nodes))
-            values["labels"] = {rules.outputs[name].quantity: label.term
-                                for name, label in described.items()}
-        out[region] = values
-    return out

@@ -15,7 +15,8 @@ __all__ = ["QUANTITIES", "Term", "Variable", "Phrase", "Clause", "Rule", "Label"
            "RuleBaseError", "parse_phrase"]
 
 #: Physical quantities an output variable may stand for.
-QUANTITIES = ("youngs_modulus", "stiffness", "viscosity", "damping", "density", "node_mass")
+QUANTITIES = ("youngs_modulus", "poisson_ratio", "stiffness", "viscosity", "damping",
+              "density", "node_mass")
 DEFUZZIFICATION = ("centroid", "bisector", "mom", "som", "lom")
 GRID_POINTS = 401
 TOP_KEYS = ("name", "description", "extends", "defuzzification", "and", "or", "inputs",
