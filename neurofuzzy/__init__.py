@@ -6,7 +6,7 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
   :func:`from_surface_tetra`, :func:`bottom_layer`, :func:`surface_nodes`; mesh files:
   :func:`read_mesh`, :class:`MeshFile`
 - physics: :class:`SpringMassModel`, the force terms (:class:`ForceTerm`, :class:`SpringForce`,
-  :data:`SPRINGS`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
+  :data:`SPRINGS`, :class:`TetrahedronForce`, :data:`TETRAHEDRA`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
   :class:`StiffInclusion`, :class:`SoftInclusion`, :class:`NonlinearStiffening`,
   :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`,
   :func:`stability_limit`, :func:`reference_simulate`
@@ -38,6 +38,7 @@ _EXPORTS = {
     "MeshFile": "mesh", "read_mesh": "mesh",
     "SpringMassModel": "model",
     "ForceTerm": "forces", "SpringForce": "forces", "SPRINGS": "forces",
+    "TetrahedronForce": "forces", "TETRAHEDRA": "forces",
     "Effect": "effects", "EFFECTS": "effects", "Gravity": "effects", "NodeDrag": "effects",
     "StiffInclusion": "effects", "SoftInclusion": "effects",
     "NonlinearStiffening": "effects", "UnmodeledLoad": "effects",
@@ -80,7 +81,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .experiment import (Experiment, check_experiments, rms_error,  # noqa: F401
                              simulate_experiment, simulate_like)
     from .export import export_paraview  # noqa: F401
-    from .forces import SPRINGS, ForceTerm, SpringForce  # noqa: F401
+    from .forces import SPRINGS, TETRAHEDRA, ForceTerm, SpringForce, TetrahedronForce  # noqa: F401
     from .io import load_experiment, load_model, save_experiment, save_model  # noqa: F401
     from .learn import (GradientLearner, PaperLearner, StartModel,  # noqa: F401
                         estimate_start, start_model)
