@@ -234,6 +234,10 @@ def check_experiments(model: SpringMassModel,
         if not np.array_equal(mesh.fixed, model.mesh.fixed):
             raise InputError("its fixed nodes differ from the model's", source=experiment.source,
                              key="fixed")
+        if model.has_elements and mesh.tetrahedra is not None and not np.array_equal(
+                mesh.tetrahedra, model.mesh.tetrahedra):
+            raise InputError("its tetrahedra differ from the model's elements",
+                             source=experiment.source, key="tetrahedra")
     return experiments
 
 
