@@ -105,3 +105,20 @@ def test_organ_with_tumour_example_and_the_readme_commands(tmp_path):
     assert materials["tumour"]["labels"]["youngs_modulus"] == "very_hard"
     report = json.loads((tmp_path / "fit.json").read_text())
     assert [region["region"] for region in report["regions"]] == ["liver", "tumour"]
+
+
+@pytest.mark.slow
+def test_springs_or_elements_on_scikit_fem_continuum_data():
+    """On continuum data from scikit-fem, elements recover E, nu and eta; springs cannot."""
+    import re
+
+    pytest.importorskip("skfem")
+    result = subprocess.run([sys.executable, str(EXAMPLES / "springs_or_elements.py"),
+                             "--quick"], capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr
+    rows = {model: (float(e), float(nu), float(eta)) for model, e, nu, eta in re.findall(
+        r"^\s+0\.45 (elements|springs)\s+\S+\s+(\S+)%\s+(\S+)\s+\S+\s+(\S+)%", result.stdout,
+        flags=re.M)}
+    e_error, nu, eta_error = rows["elements"]
+    assert abs(e_error) < 5.0 and abs(nu - 0.45) < 0.03 and abs(eta_error) < 20.0
+    assert abs(rows["springs"][0]) > 4 * abs(e_error) and rows["springs"][1] == 0.25
