@@ -135,16 +135,11 @@ def kuhn_block(shape, spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
         Grid nodes, ``spacing`` apart, the block's corner at the origin.
     tetrahedra : (6 · n_cells, 4) int
     """
+    from .mesh import kuhn_tetrahedra
+
     shape = tuple(int(n) for n in shape)
     node_shape = tuple(n + 1 for n in shape)
     points = np.argwhere(np.ones(node_shape, bool)).astype(float) * spacing
-    lower = np.argwhere(np.ones(shape, bool))
-    tetrahedra = []
-    for path in [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]:
-        corner, tet = lower.copy(), [lower]
-        for axis in path:
-            corner = corner.copy()
-            corner[:, axis] += 1
-            tet.append(corner)
-        tetrahedra.append(np.stack([np.ravel_multi_index(c.T, node_shape) for c in tet], 1))
-    return points, np.concatenate(tetrahedra)
+    tetrahedra = kuhn_tetrahedra(np.argwhere(np.ones(shape, bool)),
+                                 lambda corners: np.ravel_multi_index(corners.T, node_shape))
+    return points, tetrahedra

@@ -124,3 +124,37 @@ def test_surface_nodes_of_a_lattice_and_of_a_tetrahedral_mesh():
     tets = from_surface_tetra(trimesh.creation.box(extents=(1, 1, 1)), max_edge=0.3)
     on_faces = np.isclose(np.abs(tets.rest_positions).max(axis=1), 0.5)
     assert np.array_equal(surface_nodes(tets), on_faces)
+
+
+def test_a_lattice_splits_into_conforming_kuhn_tetrahedra():
+    from neurofuzzy.mesh import lattice_to_tetra
+
+    cube = lattice((3, 3, 3), 0.01).with_fixed(where=bottom_layer)
+    split = lattice_to_tetra(cube)
+    assert split.n_nodes == 27 and split.n_tetrahedra == 8 * 6
+    assert np.array_equal(split.rest_positions, cube.rest_positions)
+    assert np.array_equal(split.fixed, cube.fixed)
+    assert _tet_volumes(split).sum() == pytest.approx(0.02**3)
+    faces = np.sort(split.tetrahedra[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]]
+                    .reshape(-1, 3), axis=1)
+    _, counts = np.unique(faces, axis=0, return_counts=True)
+    assert set(counts.tolist()) == {1, 2}                  # conforming: inner faces shared once
+    assert (counts == 1).sum() == 6 * 4 * 2                # 6 faces x 4 squares x 2 triangles
+    with pytest.raises(InputError, match="only a lattice of cubic cells"):
+        lattice_to_tetra(from_tetra([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]]))
+
+
+def test_mesh_command_builds_elements_on_a_voxelised_surface(tmp_path):
+    from helpers import cli
+
+    from neurofuzzy.io import load_model
+
+    trimesh.creation.box(extents=(0.03, 0.03, 0.03)).export(tmp_path / "box.stl")
+    result = cli("mesh", tmp_path / "box.stl", "--pitch", "0.01", "--rules", "liver",
+                 "--tissue", "liver", "--elements", "tetra", "--fix-bottom",
+                 "--out", tmp_path / "box.yaml")
+    assert result.returncode == 0, result.stderr
+    model = load_model(tmp_path / "box.yaml")
+    cells = int(round(np.prod(np.ptp(model.mesh.rest_positions, axis=0)) / 0.01**3))
+    assert model.has_elements and model.mesh.n_tetrahedra == 6 * cells
+    assert np.all(model.spring_stiffness == 0) and len(model.mesh.fixed) > 0

@@ -83,6 +83,10 @@ def mesh(args) -> int:
     if not args.tissue and not tissue_of:
         raise InputError("give --tissue NAME (and --region REGION=TISSUE for regions)",
                          key="--tissue")
+    if args.elements == "tetra" and mesh.tetrahedra is None:
+        from ..mesh import lattice_to_tetra
+
+        mesh = lattice_to_tetra(mesh)        # voxel lattice: six tetrahedra per cubic cell
     model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
                        **regions).tied(args.tie)
     save_model(model, args.out)

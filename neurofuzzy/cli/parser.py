@@ -150,8 +150,8 @@ def build_parser() -> argparse.ArgumentParser:
     mesh.add_argument("--elements", choices=("springs", "tetra"), default="springs",
                       help="springs: the paper's spring network (default); tetra: linear "
                            "tetrahedral finite elements whose parameters are the tissue's "
-                           "Young's modulus, Poisson's ratio and viscosity (needs tetrahedra: "
-                           "a volume mesh or --tetra)")
+                           "Young's modulus, Poisson's ratio and viscosity (a voxel lattice is "
+                           "split into six tetrahedra per cell)")
     mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
     mesh.add_argument("--out", required=True, metavar="MODEL.yaml")
     mesh.set_defaults(run=data.mesh)

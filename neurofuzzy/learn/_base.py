@@ -100,7 +100,12 @@ class Learner:
     def to_dict(self) -> dict:
         """JSON-ready summary of the fitted model and the fit."""
         model = self.model_
+        elements = {} if not model.has_elements else {"elements": {
+            "youngs_modulus": model.element_youngs_modulus.tolist(),
+            "poisson_ratio": model.element_poisson_ratio.tolist(),
+            "viscosity": model.element_viscosity.tolist()}}
         return {
+            **elements,
             "stiffness": model.spring_stiffness.tolist(),
             "damping": model.spring_damping.tolist(),
             "node_mass": model.node_mass.tolist(),

@@ -26,8 +26,9 @@ around it.
 from .core import TET_EDGES, Mesh, bottom_layer
 from .files import MeshFile, read_mesh
 from .lattice import LatticeCells, cell_lattice, from_trimesh, lattice, lattice_cells
-from .tetra import from_surface_tetra, from_tetra, surface_nodes
+from .tetra import (from_surface_tetra, from_tetra, kuhn_tetrahedra, lattice_to_tetra,
+                    surface_nodes)
 
 __all__ = ["Mesh", "lattice", "from_trimesh", "cell_lattice", "from_tetra", "from_surface_tetra",
            "surface_nodes", "lattice_cells", "LatticeCells", "bottom_layer", "TET_EDGES",
-           "read_mesh", "MeshFile"]
+           "read_mesh", "MeshFile", "lattice_to_tetra", "kuhn_tetrahedra"]

@@ -12,7 +12,8 @@ from ..errors import InputError
 from .core import TET_EDGES, Mesh, as_float_array, as_index_array, check_range, require_watertight
 from .lattice import lattice_cells
 
-__all__ = ["from_tetra", "from_surface_tetra", "surface_nodes"]
+__all__ = ["from_tetra", "from_surface_tetra", "surface_nodes", "lattice_to_tetra",
+           "kuhn_tetrahedra"]
 
 
 def from_tetra(points, tetrahedra, *, cell_region=None,
@@ -170,3 +171,42 @@ def surface_nodes(mesh: Mesh) -> np.ndarray:
         raise InputError("the surface of a mesh is known for lattices and tetrahedral meshes; "
                          "this mesh is neither", key="mesh")
     return cells.cells_per_node() < 8
+
+
+#: The six orders in which a cube's Kuhn tetrahedra step along the axes from corner (0,0,0)
+#: to (1,1,1); every tetrahedron contains that diagonal, and neighbouring cubes split their
+#: shared faces the same way (a conforming mesh).
+KUHN_PATHS = ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0))
+
+
+def kuhn_tetrahedra(lower: np.ndarray, node_of) -> np.ndarray:
+    """(6 n_cells, 4) int: the Kuhn tetrahedra of the cells whose lower corners are ``lower``
+    ((n_cells, 3) int grid indices); ``node_of(corners)`` maps (n, 3) grid indices to nodes."""
+    tetrahedra = []
+    for path in KUHN_PATHS:
+        corner, tet = lower.copy(), [node_of(lower)]
+        for axis in path:
+            corner = corner.copy()
+            corner[:, axis] += 1
+            tet.append(node_of(corner))
+        tetrahedra.append(np.stack(tet, axis=1))
+    return np.concatenate(tetrahedra)
+
+
+def lattice_to_tetra(mesh: Mesh) -> Mesh:
+    """A lattice mesh (:func:`~neurofuzzy.mesh.lattice`, :func:`~neurofuzzy.mesh.from_trimesh`)
+    with every complete cubic cell split into its six Kuhn tetrahedra: the same nodes and
+    fixed nodes, springs on the tetrahedron edges (:func:`from_tetra`), ready for tetrahedral
+    elements."""
+    cells = lattice_cells(mesh)
+    if cells is None or not cells.cells.any():
+        raise InputError("only a lattice of cubic cells can be split into tetrahedra; this "
+                         "mesh is not one", key="mesh")
+    lookup = np.full(cells.index.max(axis=0) + 1, -1, dtype=np.intp)
+    lookup[tuple(cells.index.T)] = np.arange(mesh.n_nodes)
+    tetrahedra = kuhn_tetrahedra(np.argwhere(cells.cells), lambda c: lookup[tuple(c.T)])
+    split = from_tetra(mesh.rest_positions, tetrahedra)
+    if split.n_nodes != mesh.n_nodes:
+        raise InputError(f"{mesh.n_nodes - split.n_nodes} node(s) belong to no complete cell",
+                         key="mesh")
+    return split.with_fixed(mesh.fixed)
