@@ -11,7 +11,8 @@ from scipy.signal import savgol_filter
 
 from ..errors import InputError
 from ..experiment import Experiment, simulate_like
-from ..forces import SPRINGS, incidence
+from ..forces import SPRINGS, TETRAHEDRA, incidence, tetrahedron_geometry
+from ..learn import element_log_derivatives
 from ..model import SpringMassModel
 from ..simulation import internal_forces
 
@@ -154,15 +155,24 @@ def templates(model, samples: Samples, force_of) -> np.ndarray:
 
 
 def model_templates(model, samples) -> np.ndarray:
-    """Templates of the model's own tied stiffness and viscosity (their log-derivatives)."""
+    """Templates of the model's own tied parameters (their log-derivatives): spring stiffness
+    and viscosity, and for element models every element tie group's E, ν and η."""
     maps = incidence(model.mesh)
 
     def force_of(p, v):
-        templates = SPRINGS.parameter_templates(SPRINGS.state(model, p, v))
-        return np.concatenate([
-            maps.group_sums(values[:, None] * templates[name], model.spring_tie, model.n_ties)
-            for name, values in (("stiffness", model.spring_stiffness),
-                                 ("damping", model.spring_damping))], axis=1)
+        per_unit = SPRINGS.parameter_templates(SPRINGS.state(model, p, v))
+        columns = [maps.group_sums(values[:, None] * per_unit[name], model.spring_tie,
+                                   model.n_ties)
+                   for name, values in (("stiffness", model.spring_stiffness),
+                                        ("damping", model.spring_damping))]
+        if model.has_elements:
+            geometry = tetrahedron_geometry(model.mesh)
+            local = TETRAHEDRA.parameter_templates(model, p, v)
+            for factor, key in element_log_derivatives(model).values():
+                columns.append(geometry.group_sums(factor[:, None, None] * local[key],
+                                                   model.element_tie, model.n_element_ties,
+                                                   model.n_nodes))
+        return np.concatenate(columns, axis=1)
 
     return templates(model, samples, force_of)
 

@@ -67,6 +67,14 @@ class TetrahedronGeometry:
             return np.swapaxes(difference, 1, 2)             # columns = edges
         return np.moveaxis(difference, 1, -1)                # (K, P, 3, 3)
 
+    def group_sums(self, local: np.ndarray, group: np.ndarray, n_groups: int,
+                   n_nodes: int) -> np.ndarray:
+        """(n_nodes, n_groups, 3): per-element node forces ``local`` (n_elements, 4, 3)
+        summed within each group of elements."""
+        out = np.zeros((n_nodes, n_groups, 3))
+        np.add.at(out, (self.nodes.ravel(), np.repeat(group, 4)), local.reshape(-1, 3))
+        return out
+
     def scatter(self, columns: np.ndarray, n_nodes: int) -> np.ndarray:
         """Node forces (n_nodes, [P,] 3) from per-element ``[f1 f2 f3]`` (as columns,
         (n_elements, [P,] 3, 3)); node 0 of every element gets ``-(f1 + f2 + f3)``."""

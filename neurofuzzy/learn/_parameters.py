@@ -24,10 +24,20 @@ from ..errors import InputError
 from ..model import SpringMassModel
 from ._base import TiedSprings
 
-__all__ = ["Parameterization", "ELEMENT_BLOCKS"]
+__all__ = ["Parameterization", "ELEMENT_BLOCKS", "element_log_derivatives"]
 
 #: The element parameter blocks, in order.
 ELEMENT_BLOCKS = ("log_youngs_modulus", "logit_poisson_ratio", "log_viscosity")
+
+
+def element_log_derivatives(model) -> dict[str, tuple[np.ndarray, str]]:
+    """Per element block: the derivative of every element's value by its parameter and the
+    force template it scales (``dE/d log E = E``, ``dν/d logit = ν (1 - 2ν)`` for
+    ``ν = σ/2``, ``dη/d log η = η``)."""
+    nu = model.element_poisson_ratio
+    return {"log_youngs_modulus": (model.element_youngs_modulus, "youngs_modulus"),
+            "logit_poisson_ratio": (nu * (1.0 - 2.0 * nu), "poisson_ratio"),
+            "log_viscosity": (model.element_viscosity, "viscosity")}
 
 
 @dataclass

@@ -25,7 +25,7 @@ from ..experiment import Experiment
 import scipy.sparse as sp
 
 from ..forces import SPRINGS, TETRAHEDRA, incidence
-from ._parameters import Parameterization
+from ._parameters import Parameterization, element_log_derivatives
 
 __all__ = ["Sensitivity", "Run"]
 
@@ -84,14 +84,6 @@ class Sensitivity:
                                        np.arange(nodes.size))),
                 shape=(model.n_element_ties * self.n_nodes, nodes.size))
 
-    @staticmethod
-    def _element_weights(model) -> dict[str, tuple[np.ndarray, str]]:
-        """Per block: the derivative of every element's value by its parameter, and the
-        template it scales (``dE/d log E = E``, ``dν/d logit = ν (1 - 2ν)``, …)."""
-        nu = model.element_poisson_ratio
-        return {"log_youngs_modulus": (model.element_youngs_modulus, "youngs_modulus"),
-                "logit_poisson_ratio": (nu * (1.0 - 2.0 * nu), "poisson_ratio"),
-                "log_viscosity": (model.element_viscosity, "viscosity")}
 
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
@@ -119,7 +111,7 @@ class Sensitivity:
                                                              ).transpose(1, 0, 2)
         if model.has_elements:
             templates = TETRAHEDRA.parameter_templates(model, p, v)       # (K, 4, 3)
-            for name, (factor, key) in self._element_weights(model).items():
+            for name, (factor, key) in element_log_derivatives(model).items():
                 local = (factor[:, None, None] * templates[key]).reshape(-1, 3)
                 d_force[:, param.blocks[name].slice] += (self.element_incidence @ local).reshape(
                     model.n_element_ties, self.n_nodes, 3).transpose(1, 0, 2)
@@ -280,7 +272,7 @@ class Sensitivity:
                 if model.has_elements:
                     templates = TETRAHEDRA.parameter_templates(model, p, v)
                     lam_local = lam_force[model.mesh.tetrahedra]            # (K, 4, 3)
-                    for name, (factor, key) in self._element_weights(model).items():
+                    for name, (factor, key) in element_log_derivatives(model).items():
                         grad[param.blocks[name].slice] += np.bincount(
                             model.element_tie, factor * np.einsum("ejk,ejk->e", lam_local,
                                                                   templates[key]),

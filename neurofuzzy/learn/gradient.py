@@ -251,6 +251,10 @@ class GradientLearner(Learner):
         lower = np.full_like(theta, -np.inf)
         upper = np.full_like(theta, np.inf)
         span = np.log(self.bounds)
+        if "logit_poisson_ratio" in parameters.blocks:
+            # Poisson's ratio between 0.001 and 0.4999 (θ = logit 2ν)
+            block = parameters.blocks["logit_poisson_ratio"].slice
+            lower[block], upper[block] = np.log(0.002 / 0.998), np.log(0.9998 / 0.0002)
         for name in ("log_stiffness", "log_damping", "log_mass", "log_youngs_modulus",
                      "log_viscosity"):
             if name in parameters.blocks:
