@@ -52,11 +52,14 @@ class TetrahedronGeometry:
     inverse_rest : (n_elements, 3, 3) float
         ``B = Dm⁻¹``.
     volume : (n_elements,) float
+    node_of_corner : (n_nodes, 4 n_elements) sparse
+        Sums per-corner values (element e's corner j in column 4e + j) into their nodes.
     """
 
     nodes: np.ndarray
     inverse_rest: np.ndarray
     volume: np.ndarray
+    node_of_corner: sp.csr_matrix
 
     def edges(self, positions: np.ndarray) -> np.ndarray:
         """(n_elements, 3, 3) ``[x1-x0, x2-x0, x3-x0]`` as columns; also for tangents
@@ -81,10 +84,8 @@ class TetrahedronGeometry:
         per_node = np.moveaxis(columns, -1, 1)               # (K, 3, [P,] 3)
         first = -per_node.sum(axis=1, keepdims=True)
         local = np.concatenate([first, per_node], axis=1)    # (K, 4, [P,] 3)
-        out = np.zeros((n_nodes, *local.shape[2:]))
         flat = local.reshape(len(self.nodes) * 4, -1)
-        np.add.at(out.reshape(n_nodes, -1), self.nodes.ravel(), flat)
-        return out
+        return np.asarray(self.node_of_corner @ flat).reshape(n_nodes, *local.shape[2:])
 
 
 def tetrahedron_geometry(mesh) -> TetrahedronGeometry:
@@ -103,8 +104,11 @@ def tetrahedron_geometry(mesh) -> TetrahedronGeometry:
             bad = int(np.flatnonzero(flat)[0])
             raise InputError(f"tetrahedron {bad} (nodes {nodes[bad].tolist()}) has zero volume",
                              key="tetrahedra")
+        corners_to_nodes = sp.csr_matrix(
+            (np.ones(nodes.size), (nodes.ravel(), np.arange(nodes.size))),
+            shape=(mesh.n_nodes, nodes.size))
         found = _CACHE[mesh] = TetrahedronGeometry(nodes, np.linalg.inv(rest),
-                                                   np.abs(determinant) / 6.0)
+                                                   np.abs(determinant) / 6.0, corners_to_nodes)
     return found
 
 
