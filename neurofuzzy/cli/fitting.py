@@ -59,7 +59,8 @@ def fit(args) -> int:
 
         fit_report(start, learner, args.report, files=files)
     result = learner.to_dict()
-    result.update(method=args.method, tie=args.tie or "model", start=start.to_dict(),
+    result.update(method=args.method, tie=args.tie or ("model" if args.start else "groups"),
+                  start=start.to_dict(),
                   experiments=[str(p) for p in inputs])
     if start.rules is not None or any(start.model.region_tissues):
         from ..rules import materials
