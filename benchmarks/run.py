@@ -9,6 +9,8 @@ Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
 2. simulation: spring-steps per second from 100 to 100,000 springs, numpy and numba backends,
    and the step rate at 10,000 springs (target: 2,000 steps/s on one core), recording every
    10th step as a real-time simulator renders;
+2b. tetrahedral elements: steps per second at 288, 10,368 (and 48,000) tetrahedra, numpy and
+   numba (target: 1,000 steps/s at 10,000 tetrahedra on one core with numba);
 3. fitting the cube's tied constants to 0.1 %: the paper's learner, scipy's least_squares with
    finite differences on our simulator, and ours (from the same start, and as `neurofuzzy fit`
    runs it, with the equation-error start);
@@ -35,13 +37,13 @@ import trimesh  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 from neurofuzzy import simulate  # noqa: E402
-from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model,  # noqa: E402
-                                 per_spring_cube)
+from neurofuzzy.datasets import (CUBE, kuhn_block, paper_cube_experiment,  # noqa: E402
+                                 paper_cube_model, per_spring_cube)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
 from neurofuzzy.learn import GradientLearner, PaperLearner, estimate_start  # noqa: E402
-from neurofuzzy.mesh import bottom_layer, from_trimesh, lattice  # noqa: E402
+from neurofuzzy.mesh import bottom_layer, from_tetra, from_trimesh, lattice  # noqa: E402
 from neurofuzzy.model import SpringMassModel  # noqa: E402
-from neurofuzzy.simulation import numba_available  # noqa: E402
+from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
 
 
 def timed(function, repeat=1):
@@ -127,6 +129,45 @@ def bench_simulation(results, quick):
     results["sim_steps_per_s_10k_springs"] = best
     rows.append(("step rate at 10k springs (best backend)",
                  f"{best:,.0f} steps/s (target 2,000)"))
+    return rows
+
+
+def bench_elements(results, quick):
+    """Step rate of tetrahedral-element models (SVK + Kelvin–Voigt), numpy and numba."""
+    shapes = [(4, 4, 3), (12, 12, 12)] + ([] if quick else [(20, 20, 20)])
+    backends = ["numpy"] + (["numba"] if numba_available() else [])
+    rows, table = [], {}
+    for shape in shapes:
+        points, tetrahedra = kuhn_block(shape, 0.03 / max(shape))
+        mesh = from_tetra(points, tetrahedra).with_fixed(where=bottom_layer)
+        model = SpringMassModel.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
+                                          viscosity=2.0, density=1000.0)
+        load = np.zeros((mesh.n_nodes, 3))
+        load[-1] = (0, 0, -1e-3)
+        h = stability_limit(model).max_step
+        for backend in backends:
+            steps = 100 if backend == "numpy" else 2000
+            steps = max(steps * 10368 // mesh.n_tetrahedra // (4 if quick else 1), 20)
+            if backend == "numba":
+                simulate(model, dt=h, n_frames=2, external_forces=load, backend="numba")
+            seconds, _ = timed(lambda: simulate(model, dt=10 * h, n_frames=steps // 10 + 1,
+                                                substeps=10, external_forces=load,
+                                                backend=backend, check_stability=False),
+                               repeat=2)
+            rate = 10 * (steps // 10) / seconds
+            table.setdefault(backend, {})[mesh.n_tetrahedra] = rate
+            rows.append((f"simulate {mesh.n_tetrahedra:>6} tetrahedra ({backend})",
+                         f"{rate:,.0f} steps/s, "
+                         f"{rate * mesh.n_tetrahedra / 1e6:.2f} M element-steps/s"))
+    results["sim_element_steps_per_s"] = {b: {str(k): v for k, v in d.items()}
+                                          for b, d in table.items()}
+    at_10k = {b: d[10368] for b, d in table.items()}
+    results["sim_steps_per_s_10k_tetrahedra"] = max(at_10k.values())
+    rows.append(("step rate at 10,368 tetrahedra (best backend)",
+                 f"{max(at_10k.values()):,.0f} steps/s (target 1,000 with numba)"))
+    if "numba" in at_10k:
+        rows.append(("  numba / numpy at 10,368 tetrahedra",
+                     f"{at_10k['numba'] / at_10k['numpy']:.1f}x"))
     return rows
 
 
@@ -271,6 +312,7 @@ def main(argv=None):
     started = time.perf_counter()
     sections = [lambda: bench_accumulation(results),
                 lambda: bench_simulation(results, args.quick),
+                lambda: bench_elements(results, args.quick),
                 lambda: bench_tied_fit(results)]
     if not args.quick:
         sections.append(lambda: bench_per_spring_cube(results))

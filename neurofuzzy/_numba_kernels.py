@@ -1,7 +1,9 @@
 """Compiled inner loops (numba) of :class:`neurofuzzy._steppers.NumbaStepper`.
 
 Imported only when numba is installed; module-level so that ``cache=True`` keeps the machine
-code between runs.
+code between runs. The arithmetic is that of :class:`neurofuzzy.forces.SpringForce` and
+:class:`neurofuzzy.forces.TetrahedronForce` (tested equal); the elements' stress is written
+``S = λ tr(X) I + 2 μ X`` with ``X = G + (η/E) Ġ``, the same as ``E L(G) + η L(Ġ)``.
 """
 
 import numba
@@ -9,7 +11,59 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True)
-def advance(p, v, a, b, stiffness, damping, rest, weight, load, h, n_steps, force):
+def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, force):
+    F = np.empty((3, 3))
+    Fd = np.empty((3, 3))
+    X = np.empty((3, 3))
+    S = np.empty((3, 3))
+    for e in range(tets.shape[0]):
+        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+        B = inverse_rest[e]
+        # F = Ds B and Ḟ = Ḋs B (Ds columns: x1 - x0, x2 - x0, x3 - x0)
+        for r in range(3):
+            d1 = p[n1, r] - p[n0, r]
+            d2 = p[n2, r] - p[n0, r]
+            d3 = p[n3, r] - p[n0, r]
+            w1 = v[n1, r] - v[n0, r]
+            w2 = v[n2, r] - v[n0, r]
+            w3 = v[n3, r] - v[n0, r]
+            for c in range(3):
+                F[r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
+                Fd[r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+        # X = G + (η/E) Ġ with G = ½(FᵀF - I), Ġ = sym(FᵀḞ)
+        for i in range(3):
+            for k in range(i, 3):
+                ff = F[0, i] * F[0, k] + F[1, i] * F[1, k] + F[2, i] * F[2, k]
+                fd = (F[0, i] * Fd[0, k] + F[1, i] * Fd[1, k] + F[2, i] * Fd[2, k]
+                      + Fd[0, i] * F[0, k] + Fd[1, i] * F[1, k] + Fd[2, i] * F[2, k])
+                x = 0.5 * ff + 0.5 * ratio[e] * fd
+                if i == k:
+                    x -= 0.5
+                X[i, k] = x
+                X[k, i] = x
+        trace = X[0, 0] + X[1, 1] + X[2, 2]
+        for i in range(3):
+            for k in range(3):
+                S[i, k] = 2.0 * mu[e] * X[i, k]
+            S[i, i] += lam[e] * trace
+        # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
+        scale = -volume[e]
+        for r in range(3):
+            P0 = F[r, 0] * S[0, 0] + F[r, 1] * S[1, 0] + F[r, 2] * S[2, 0]
+            P1 = F[r, 0] * S[0, 1] + F[r, 1] * S[1, 1] + F[r, 2] * S[2, 1]
+            P2 = F[r, 0] * S[0, 2] + F[r, 1] * S[1, 2] + F[r, 2] * S[2, 2]
+            f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
+            f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
+            f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
+            force[n1, r] += f1
+            force[n2, r] += f2
+            force[n3, r] += f3
+            force[n0, r] -= f1 + f2 + f3
+
+
+@numba.njit(cache=True, nogil=True)
+def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu, ratio,
+            weight, load, h, n_steps, force):
     n_springs, n_nodes = a.shape[0], p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -32,20 +86,23 @@ def advance(p, v, a, b, stiffness, damping, rest, weight, load, h, n_steps, forc
             force[ib, 0] -= fx
             force[ib, 1] -= fy
             force[ib, 2] -= fz
+        if tets.shape[0]:
+            _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, force)
         for i in range(n_nodes):
             step = h * weight[i]
             for k in range(3):
                 v[i, k] += step * force[i, k]
                 p[i, k] += h * v[i, k]
 
+
 @numba.njit(cache=True, nogil=True)
-def frames(p, v, a, b, stiffness, damping, rest, weight, loads, h, n_frames, substeps,
-           force, positions, velocities):
+def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu, ratio,
+           weight, loads, h, n_frames, substeps, force, positions, velocities):
     positions[0] = p
     velocities[0] = v
     for t in range(1, n_frames):
-        advance(p, v, a, b, stiffness, damping, rest, weight,
-                loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
+        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu,
+                ratio, weight, loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
         if not np.isfinite(p.sum()):
             positions[t:] = np.nan
             velocities[t:] = np.nan

@@ -7,8 +7,9 @@ positions and velocities of shape (n_nodes, 3)):
   stored as separate contiguous rows (structure of arrays), gathers and the force
   accumulation as sparse matrix products (the fastest of ``np.bincount``, ``np.add.at`` and a
   sparse incidence matrix measured in ``benchmarks/run.py``);
-- :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs and nodes
-  (optional; ``pip install numba``), about six times faster on 10,000 springs.
+- :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs, tetrahedral
+  elements and nodes (optional; ``pip install numba``), about six times faster on 10,000
+  springs.
 
 Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). Models with
 effects use the numpy stepper, which adds the effect forces at every step.
@@ -74,21 +75,24 @@ class NumpyStepper:
 
 
 class NumbaStepper:
-    """The same step as one compiled loop (requires numba); no effects."""
+    """The same step as one compiled loop (requires numba): springs and tetrahedral elements,
+    no effects."""
 
     _kernel = None
     _frames_kernel = None
 
     def __init__(self, model, h: float, dtype=np.float64):
-        if len(model.force_terms) > 1:
-            raise ValueError("the numba stepper steps springs only (no elements, no effects)")
+        if not compiled_terms_only(model):
+            raise ValueError("the numba stepper steps springs and elements only (no effects)")
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        self.a = np.ascontiguousarray(model.mesh.springs[:, 0])
-        self.b = np.ascontiguousarray(model.mesh.springs[:, 1])
-        self.stiffness = model.spring_stiffness.astype(self.dtype)
-        self.damping = model.spring_damping.astype(self.dtype)
-        self.rest = model.spring_rest_length.astype(self.dtype)
+        springs = np.flatnonzero((model.spring_stiffness != 0) | (model.spring_damping != 0))
+        self.a = np.ascontiguousarray(model.mesh.springs[springs, 0])
+        self.b = np.ascontiguousarray(model.mesh.springs[springs, 1])
+        self.stiffness = model.spring_stiffness[springs].astype(self.dtype)
+        self.damping = model.spring_damping[springs].astype(self.dtype)
+        self.rest = model.spring_rest_length[springs].astype(self.dtype)
+        self.elements = _element_arrays(model, self.dtype)
         self.weight = model.node_inverse_mass.astype(self.dtype)
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
@@ -106,7 +110,8 @@ class NumbaStepper:
         loads = (np.zeros((1, p.shape[0], 3), dtype=self.dtype) if loads is None
                  else np.ascontiguousarray(loads[:max(n_frames - 1, 1)], self.dtype))
         NumbaStepper._frames_kernel(pc, vc, self.a, self.b, self.stiffness, self.damping,
-                                    self.rest, self.weight, loads, self.dtype.type(self.h),
+                                    self.rest, *self.elements, self.weight, loads,
+                                    self.dtype.type(self.h),
                                     int(n_frames), int(substeps), self.force, positions,
                                     velocities)
         return positions.astype(float, copy=False), velocities.astype(float, copy=False)
@@ -117,10 +122,34 @@ class NumbaStepper:
         vc[self.fixed] = 0.0
         load = self.zero_load if load is None else np.ascontiguousarray(load, dtype=self.dtype)
         NumbaStepper._kernel(pc, vc, self.a, self.b, self.stiffness, self.damping, self.rest,
-                             self.weight, load, self.dtype.type(self.h), int(n_steps),
-                             self.force)
+                             *self.elements, self.weight, load, self.dtype.type(self.h),
+                             int(n_steps), self.force)
         p[...] = pc
         v[...] = vc
+
+
+def compiled_terms_only(model) -> bool:
+    """True when every force term of ``model`` is one the compiled loop knows (springs and
+    tetrahedral elements, no effects)."""
+    return not model.effects
+
+
+def _element_arrays(model, dtype):
+    """``(tets, inverse_rest, volume, λ, μ, η/E)`` of the model's elements (empty when it has
+    none), in the kernel's layout."""
+    if not model.has_elements:
+        empty = np.zeros(0, dtype)
+        return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty, empty, empty,
+                empty)
+    from .forces.tetrahedra import lame_factors, tetrahedron_geometry
+
+    geometry = tetrahedron_geometry(model.mesh)
+    E = model.element_youngs_modulus
+    a, b, _, _ = lame_factors(model.element_poisson_ratio)
+    return (np.ascontiguousarray(geometry.nodes, np.intp),
+            np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
+            (E * a).astype(dtype), (E * b).astype(dtype),
+            (model.element_viscosity / E).astype(dtype))
 
 
 def _compile():
@@ -148,9 +177,10 @@ def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64, work:
     """A stepper for ``model``: ``backend`` "numpy", "numba" or "auto".
 
     ``"auto"`` takes numba when it is installed, the model has no effects and the job is large
-    enough (``work`` = springs × steps above 2·10⁷) to repay its compilation.
+    enough (``work`` = springs × steps above 2·10⁷, an element counting as ten springs) to
+    repay its compilation.
     """
-    if backend == "numba" or (backend == "auto" and len(model.force_terms) == 1
+    if backend == "numba" or (backend == "auto" and compiled_terms_only(model)
                               and work >= 2e7 and numba_available()):
         return NumbaStepper(model, h, dtype)
     if backend not in ("auto", "numpy", "numba"):

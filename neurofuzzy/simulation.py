@@ -147,8 +147,9 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     p = _state(initial_positions, model.mesh.rest_positions, n_nodes, "initial_positions")
     v = _state(initial_velocities, np.zeros((n_nodes, 3)), n_nodes, "initial_velocities")
     v[model.mesh.fixed] = 0.0
+    n_elements = model.mesh.n_tetrahedra if model.has_elements else 0
     stepper = make_stepper(model, dt / substeps, backend, dtype,
-                           work=model.n_springs * n_frames * substeps)
+                           work=(model.n_springs + 10 * n_elements) * n_frames * substeps)
 
     with np.errstate(over="ignore", invalid="ignore"):
         positions, velocities = stepper.trajectory(p, v, forces, n_frames, substeps)

@@ -167,6 +167,33 @@ def test_a_damped_block_settles_at_scikit_fem_static_solution():
     assert np.abs(displacement - expected).max() < 0.01 * np.abs(expected).max()
 
 
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_fast_steppers_step_elements_as_the_reference_step(backend):
+    """Both steppers (numba's compiled element loop included) reproduce
+    :func:`~neurofuzzy.simulation.step`, which sums the force terms one by one."""
+    if backend == "numba":
+        pytest.importorskip("numba")
+    from neurofuzzy.simulation import step
+
+    mesh = block((2, 2, 2), jitter=0.2, seed=3).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    rng = np.random.default_rng(4)
+    k = mesh.n_tetrahedra
+    model = continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
+                      poisson_ratio=rng.uniform(0.2, 0.48, k), viscosity=rng.uniform(1, 5, k))
+    model = model.replace(spring_stiffness=np.where(np.arange(mesh.n_springs) % 3 == 0, 5.0, 0.0))
+    loads = rng.normal(0, 1e-3, (20, mesh.n_nodes, 3))
+    dt, substeps = 2e-4, 3
+    fast = simulate(model, dt=dt, n_frames=20, external_forces=loads, substeps=substeps,
+                    backend=backend)
+    p, v = mesh.rest_positions.copy(), np.zeros((mesh.n_nodes, 3))
+    for t in range(1, 20):
+        for _ in range(substeps):
+            p, v = step(model, p, v, dt / substeps, loads[t - 1])
+        assert np.allclose(fast.positions[t], p, rtol=0, atol=1e-13)
+        assert np.allclose(fast.velocities[t], v, rtol=0, atol=1e-9)
+    assert np.abs(fast.positions[-1] - mesh.rest_positions).max() > 1e-6   # it moved
+
+
 def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
     model = continuum(block(), youngs_modulus=np.linspace(1e3, 2e3, 48))
     loaded = load_model(save_model(model, tmp_path / "m.yaml"))
