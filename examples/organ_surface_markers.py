@@ -19,8 +19,8 @@ fitted.yaml, report.html (+ .json) and paraview/ (organ.pvd, organ.xdmf).
 
 The same with the command line, on the files this script writes:
 
-    neurofuzzy mesh OUT/organ.stl --pitch 0.01 --fix-bottom --rules liver --tissue liver \\
-        --out organ.yaml
+    neurofuzzy mesh OUT/organ.stl --elements springs --pitch 0.01 --fix-bottom --rules liver \\
+        --tissue liver --out organ.yaml
     neurofuzzy import OUT/markers.csv --topology organ.yaml --forces OUT/forces.csv \\
         --out trial.npz
     neurofuzzy fit trial.npz --start organ.yaml --rules liver --out fitted.yaml \\

@@ -117,7 +117,7 @@ def main(argv):
           f"{1e6 * learner.rms_error_:.1f} µm (noise {MARKER_NOISE * 1e6 * np.sqrt(3):.1f} µm "
           f"per marker); {learner.n_cycles_} simulations")
     print(f"\nthe same with the command line (in {out}/):\n"
-          f"  neurofuzzy mesh organ.msh --rules liver --region organ=liver "
+          f"  neurofuzzy mesh organ.msh --elements springs --rules liver --region organ=liver "
           f"--region tumour=tumour --fix-below {fix_below:.4f} --out organ.yaml\n"
           "  neurofuzzy import markers.csv --topology organ.yaml --forces forces.csv "
           "--out trial.npz\n"

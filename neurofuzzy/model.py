@@ -346,19 +346,32 @@ class SpringMassModel:
 
     def summary(self) -> str:
         """Short human-readable description of the parameters."""
-        lines = [f"SpringMassModel: {self.n_nodes} nodes ({len(self.mesh.fixed)} fixed), "
-                 f"{self.n_springs} springs, {self.n_ties} tie group(s)",
-                 f"  node mass: {_describe(self.node_mass)}"]
-        for g, name in enumerate(self.mesh.group_names):
+        springs = bool(np.any(self.spring_stiffness != 0) or np.any(self.spring_damping != 0))
+        if self.has_elements:
+            lines = [f"SpringMassModel: {self.n_nodes} nodes ({len(self.mesh.fixed)} fixed), "
+                     f"{self.mesh.n_tetrahedra} tetrahedral elements, {self.n_element_ties} "
+                     f"tie group(s)" + (f", {self.n_springs} springs" if springs else "")]
+        else:
+            lines = [f"SpringMassModel: {self.n_nodes} nodes ({len(self.mesh.fixed)} fixed), "
+                     f"{self.n_springs} springs, {self.n_ties} tie group(s)"]
+        lines.append(f"  node mass: {_describe(self.node_mass)}")
+        if self.has_elements:
+            lines.append(f"  elements: Young's modulus {_describe(self.element_youngs_modulus)}"
+                         f" Pa, Poisson's ratio {_describe(self.element_poisson_ratio)}, "
+                         f"viscosity {_describe(self.element_viscosity)} Pa s")
+        for g, name in enumerate(self.mesh.group_names if springs or not self.has_elements
+                                 else ()):
             sel = self.mesh.spring_group == g
             lines.append(f"  {name} ({int(sel.sum())} springs): stiffness "
                          f"{_describe(self.spring_stiffness[sel])}, damping "
                          f"{_describe(self.spring_damping[sel])}")
         if len(self.region_names) > 1 or self.region_tissues[0] is not None:
             for index, (name, tissue) in enumerate(zip(self.region_names, self.region_tissues)):
+                parts = (f"{int(np.sum(self.element_region == index))} elements"
+                         if self.has_elements else
+                         f"{int(np.sum(self.spring_region == index))} springs")
                 lines.append(f"  region {name}{f' ({tissue})' if tissue and tissue != name else ''}"
-                             f": {int(np.sum(self.node_region == index))} nodes, "
-                             f"{int(np.sum(self.spring_region == index))} springs")
+                             f": {int(np.sum(self.node_region == index))} nodes, {parts}")
         lines += [f"  effect: {effect}" for effect in self.effects]
         return "\n".join(lines)
 

@@ -65,7 +65,8 @@ def test_organ_surface_markers_example_and_the_readme_commands(tmp_path, method)
         assert done.returncode == 0, done.stderr
         return done
 
-    run("mesh", "organ.stl", "--pitch", "0.014", "--fix-bottom", "--rules", "liver",
+    run("mesh", "organ.stl", "--elements", "springs", "--pitch", "0.014", "--fix-bottom",
+        "--rules", "liver",
         "--tissue", "liver", "--out", "organ.yaml")
     run("import", "markers.csv", "--topology", "organ.yaml", "--forces", "forces.csv",
         "--out", "trial.npz")

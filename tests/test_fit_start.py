@@ -42,7 +42,8 @@ def hidden_truth(path):
 def organ(tmp_path_factory):
     folder = tmp_path_factory.mktemp("organ")
     mesh_file = organ_file(folder / "organ.msh")
-    assert main(["mesh", str(mesh_file), "--rules", "liver", "--region", "organ=liver",
+    assert main(["mesh", str(mesh_file), "--elements", "springs", "--rules", "liver",
+                 "--region", "organ=liver",
                  "--region", "tumour=tumour", "--fix-bottom", "--out",
                  str(folder / "organ.yaml")]) == 0
     truth = hidden_truth(mesh_file)

@@ -258,8 +258,9 @@ def test_mesh_command_gives_gmsh_regions_their_tissues(tmp_path, capsys):
                                                "hard": np.array([2, 3])}),
                  file_format="gmsh22", binary=False)
     out = tmp_path / "block.yaml"
-    assert main(["mesh", str(path), "--rules", "liver", "--region", "soft=liver",
-                 "--region", "hard=tumour", "--fix-below", "0.001", "--out", str(out)]) == 0
+    assert main(["mesh", str(path), "--elements", "springs", "--rules", "liver",
+                 "--region", "soft=liver", "--region", "hard=tumour", "--fix-below", "0.001",
+                 "--out", str(out)]) == 0
     model = load_model(out)
     names = np.asarray(model.mesh.group_names)[model.mesh.spring_group]
     soft = np.median(model.spring_stiffness[names == "soft"] / model.mesh.rest_lengths[

@@ -125,9 +125,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     mesh = commands.add_parser(
         "mesh", help="mesh file + rule base -> model (YAML)",
-        description="Build a spring network from a mesh file (a closed surface: STL, OBJ, PLY, "
-                    "GLB -> voxel lattice or, with --tetra, tetrahedra; a volume mesh: VTU, "
-                    "VTK, Gmsh .msh) and give it start values from a rule base's tissue(s).")
+        description="Build a model of tetrahedral finite elements (or, with --elements "
+                    "springs, a spring network) from a mesh file (a closed surface: STL, OBJ, "
+                    "PLY, GLB -> voxel lattice or, with --tetra, tetrahedra; a volume mesh: "
+                    "VTU, VTK, Gmsh .msh) and give it start values from a rule base's "
+                    "tissue(s).")
     mesh.add_argument("mesh", metavar="MESH")
     mesh.add_argument("--rules", required=True, help="rule base: a YAML file or a shipped name")
     mesh.add_argument("--tissue", help="tissue of the whole object (or of the regions not "
@@ -147,11 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
                              "spring of the minimum) in place")
     fixing.add_argument("--fix-below", type=float, metavar="Z",
                         help="hold the nodes with z <= Z (metres) in place")
-    mesh.add_argument("--elements", choices=("springs", "tetra"), default="springs",
-                      help="springs: the paper's spring network (default); tetra: linear "
-                           "tetrahedral finite elements whose parameters are the tissue's "
-                           "Young's modulus, Poisson's ratio and viscosity (a voxel lattice is "
-                           "split into six tetrahedra per cell)")
+    mesh.add_argument("--elements", choices=("tetra", "springs"), default="tetra",
+                      help="tetra (default): linear tetrahedral finite elements whose "
+                           "parameters are the tissue's Young's modulus, Poisson's ratio and "
+                           "viscosity (a voxel lattice is split into six tetrahedra per cell); "
+                           "springs: the paper's spring network on the mesh's edges")
     mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
     mesh.add_argument("--out", required=True, metavar="MODEL.yaml")
     mesh.set_defaults(run=data.mesh)
