@@ -212,6 +212,45 @@ def test_forces_hold_until_the_next_row_of_their_node(tmp_path):
         read_forces(path, n_nodes=27, times=np.arange(6) * 0.0005)
 
 
+def test_forces_at_a_point_go_to_the_nearest_surface_nodes(tmp_path, truth):
+    """A probe's force at a point (mm) reaches the nearest surface node, or is shared by the
+    nearest few; a probe's next row replaces its previous one; far points are refused."""
+    mesh = truth.mesh
+    top = int(np.argmax(paper_cube_experiment(truth).external_forces[:, 2] != 0))  # top centre
+    x, y, z = 1e3 * (mesh.rest_positions[top] + [1e-4, 0, 5e-4])     # near, slightly above
+    path = tmp_path / "probe.csv"
+    path.write_text(f"# length units: mm\ntime,x,y,z,fx,fy,fz\n0.0,{x},{y},{z},0,0,-0.2\n"
+                    f"0.001,{x},{y},{z},0,0,-0.1\n")
+    times = np.arange(6) * 0.0005
+    forces = read_forces(path, mesh=mesh, times=times)
+    assert np.allclose(forces[:2, top], [0, 0, -0.2]) and np.allclose(forces[2:, top],
+                                                                        [0, 0, -0.1])
+    assert np.count_nonzero(np.abs(forces).sum(axis=2)) == 6          # one node, every frame
+    shared = read_forces(path, mesh=mesh, times=times, spread=5)
+    assert np.allclose(shared.sum(axis=1)[:2], [0, 0, -0.2])           # the force is kept
+    assert np.count_nonzero(np.abs(shared[0]).sum(axis=1)) == 5
+    assert shared[0, top, 2] < shared[0].sum(axis=0)[2] / 5            # nearest gets the most
+    assert 13 not in np.flatnonzero(np.abs(shared[0]).sum(axis=1))    # never the inner node
+    # two probes; a probe that moves stops pushing where it was
+    path.write_text(f"# length units: m\ntime,probe,x,y,z,fx,fy,fz\n"
+                    f"0,a,{x / 1e3},{y / 1e3},{z / 1e3},0,0,-0.2\n"
+                    f"0,b,{mesh.rest_positions[0][0]},{mesh.rest_positions[0][1]},"
+                    f"{mesh.rest_positions[0][2]},0.1,0,0\n"
+                    f"0.001,a,{mesh.rest_positions[0][0]},{mesh.rest_positions[0][1]},"
+                    f"{mesh.rest_positions[0][2]},0,0,-0.3\n")
+    moved = read_forces(path, mesh=mesh, times=times)
+    assert np.allclose(moved[:2, top], [0, 0, -0.2]) and np.allclose(moved[2:, top], 0)
+    assert np.allclose(moved[:2, 0], [0.1, 0, 0]) and np.allclose(moved[2:, 0], [0.1, 0, -0.3])
+    for text, message in [
+            (f"time,x,y,z,fx,fy,fz\n0,{x},{y},{z},0,0,1\n", "length units: mm"),
+            (f"# length units: m\ntime,x,y,z,fx,fy,fz\n0,{x},{y},{z},0,0,1\n",
+             r"probe.csv:3: the point .* farther than the longest edge"),
+            (f"# length units: mm\ntime,x,y,fx,fy,fz\n0,{x},{y},0,0,1\n", "missing column 'z'")]:
+        path.write_text(text)
+        with pytest.raises(InputError, match=message):
+            read_forces(path, mesh=mesh, times=times)
+
+
 @pytest.mark.parametrize("text, message", [
     ("# units: mm\ntime,marker,x,y\n0,M1,1,2\n", r"missing column 'z'"),
     ("# units: mm\ntime,marker,x,y,z\n0,M1,1,2\n", r":3: 4 values; the header has 5"),
@@ -241,10 +280,18 @@ def files(tmp_path_factory, truth, recording):
     return {"model": model, "markers": markers, "forces": forces, "folder": folder}
 
 
-def test_import_then_fit_recovers_the_cube(files, tmp_path, capsys):
+@pytest.mark.parametrize("force_file", ["node", "point"])
+def test_import_then_fit_recovers_the_cube(files, tmp_path, capsys, force_file, truth):
+    forces = files["forces"]
+    if force_file == "point":        # where the probe touched (cm), not which node
+        top = int(files["forces"].read_text().splitlines()[1].split(",")[1])
+        x, y, z = 100 * truth.mesh.rest_positions[top]
+        forces = tmp_path / "probe.csv"
+        forces.write_text(f"# length units: cm\ntime,x,y,z,fx,fy,fz\n"
+                          f"0.0,{x + 0.02},{y - 0.01},{z + 0.01},0,0,{CUBE['force'][2]}\n")
     out = tmp_path / "imported.npz"
     status = main(["import", str(files["markers"]), "--topology", str(files["model"]),
-                   "--forces", str(files["forces"]), "--out", str(out), "--json"])
+                   "--forces", str(forces), "--out", str(out), "--json"])
     assert status == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["markers"] == 26 and summary["frames"] == 251

@@ -117,7 +117,7 @@ def import_markers(args) -> int:
     mapping = read_marker_map(args.map) if args.map else None
     imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
-        forces=args.forces, node_mass=masses, source=args.out)
+        forces=args.forces, node_mass=masses, source=args.out, force_spread=args.force_spread)
     experiment, summary = imported.experiment, imported.summary
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",

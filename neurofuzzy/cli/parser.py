@@ -171,7 +171,12 @@ def build_parser() -> argparse.ArgumentParser:
     importer.add_argument("--map", metavar="MAP.csv",
                           help="marker,node pairs (default: each marker to its nearest node)")
     importer.add_argument("--forces", metavar="FORCES.csv",
-                          help="time,node,fx,fy,fz in N, each row held until the node's next")
+                          help="time,node,fx,fy,fz in N, each row held until the node's next; "
+                               "or time,x,y,z,fx,fy,fz: a probe's force at a point (unit in a "
+                               "'# length units: mm' line), given to the nearest surface node")
+    importer.add_argument("--force-spread", type=int, default=1, metavar="K",
+                          help="share each point force among the K nearest surface nodes "
+                               "(inverse-distance weights; default 1)")
     importer.add_argument("--units", choices=("m", "cm", "mm"),
                           help="length unit of the marker file (CSV: required unless the file "
                                "has a '# units: mm' line; C3D: overrides POINT:UNITS)")

@@ -25,7 +25,10 @@ Map CSV
     goes to the node nearest to its first seen position, and must lie within ``max_distance``.
 Force CSV
     Columns ``time,node,fx,fy,fz`` in newtons. A node's force holds from its row's time until
-    the next row of that node (zero before its first row).
+    the next row of that node (zero before its first row). Or ``time,x,y,z,fx,fy,fz`` (and an
+    optional ``probe`` column): a probe's force at a point, which goes to the nearest surface
+    node (or is shared by the ``force_spread`` nearest); the points' unit is stated in a line
+    ``# length units: mm``. See :func:`read_forces`.
 """
 
 from .attach import MarkerImport, match_markers, markers_to_experiment

@@ -84,7 +84,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
                           max_distance: float | None = None,
                           forces: str | os.PathLike | np.ndarray | None = None,
                           node_mass: np.ndarray | None = None,
-                          source: str | None = None) -> MarkerImport:
+                          source: str | None = None, force_spread: int = 1) -> MarkerImport:
     """An experiment from a marker recording on ``mesh``.
 
     Parameters
@@ -105,6 +105,8 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
         A force CSV (:func:`read_forces`) or forces at the experiment's frames.
     node_mass : (n_nodes,) float, optional
         Known node masses.
+    force_spread : int
+        Surface nodes sharing each point force of a ``time,x,y,z,fx,fy,fz`` force CSV.
 
     Returns
     -------
@@ -141,7 +143,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
     observed = np.zeros(mesh.n_nodes, dtype=bool)
     observed[nodes] = True
     if isinstance(forces, (str, os.PathLike)):
-        forces = read_forces(forces, n_nodes=mesh.n_nodes,
+        forces = read_forces(forces, mesh=mesh, spread=force_spread,
                              times=np.arange(n_frames) * dt + markers.times[first])
     experiment = Experiment(mesh=mesh, dt=float(dt), positions=positions,
                             external_forces=forces, observed=observed, node_mass=node_mass,

@@ -181,25 +181,56 @@ def read_marker_map(path: str | os.PathLike) -> dict[str, int]:
     return mapping
 
 
-def read_forces(path: str | os.PathLike, *, n_nodes: int, times: np.ndarray) -> np.ndarray:
-    """Applied forces of a ``time,node,fx,fy,fz`` CSV (newtons) at the given frame times.
+def read_forces(path: str | os.PathLike, *, times: np.ndarray, n_nodes: int | None = None,
+                mesh=None, spread: int = 1) -> np.ndarray:
+    """Applied forces of a force CSV (newtons) at the given frame times.
+
+    Two forms, told apart by the header:
+
+    - ``time,node,fx,fy,fz``: a node's force holds from its row's time until the next row of
+      that node (zero before its first row).
+    - ``time,x,y,z,fx,fy,fz`` (optional ``probe`` column): the force of a probe acting at a
+      point, for users who know where the probe touched rather than our node numbering. The
+      point goes to the nearest surface node of ``mesh`` at rest, or is shared by the
+      ``spread`` nearest surface nodes (weights proportional to inverse distance, summing to
+      the force). A probe's row holds until that probe's next row (without a ``probe``
+      column every row belongs to one probe). The coordinates' length unit must be stated
+      in a line ``# length units: mm`` (m, cm or mm); a point farther from the surface than
+      the mesh's longest edge is refused.
+
+    Parameters
+    ----------
+    times : (n_frames,) float
+        Frame times (seconds, on the file's clock).
+    n_nodes : int, optional
+        Number of nodes (node form; taken from ``mesh`` when given).
+    mesh : Mesh, optional
+        The model's mesh; required for the point form.
+    spread : int
+        Surface nodes sharing a point force (point form).
 
     Returns
     -------
     forces : (n_frames, n_nodes, 3) float
-        ``forces[t]`` is the force in effect at ``times[t]`` (and until the next frame): each
-        row holds until the next row of the same node, zero before a node's first row.
+        ``forces[t]`` is the force in effect at ``times[t]`` (and until the next frame).
     """
     path = Path(path)
     source = str(path)
-    header, rows, stated = _read_csv(path, required=[("time",), ("node",), ("fx",), ("fy",),
-                                                     ("fz",)])
+    if mesh is not None:
+        n_nodes = mesh.n_nodes
+    if n_nodes is None:
+        raise ValueError("read_forces needs n_nodes or mesh")
+    header, rows, stated = _read_csv(path, required=[("time",), ("node", "x"), ("fx",),
+                                                     ("fy",), ("fz",)])
     if stated.get("units") not in (None, "N", "n"):
         raise InputError(f"force unit {stated['units']!r}; forces must be in newtons (N)",
                          source=source)
     times = np.asarray(times, float)
     period = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
     forces = np.zeros((len(times), n_nodes, 3))
+    if "node" not in header:
+        return _point_forces(header, rows, stated, source, times, period, forces, mesh,
+                             spread)
     entries = []
     for line, row in rows:
         time = _number(row[header["time"]], source, line, "time")
@@ -207,15 +238,71 @@ def read_forces(path: str | os.PathLike, *, n_nodes: int, times: np.ndarray) -> 
         if not re.fullmatch(r"\d+", node) or int(node) >= n_nodes:
             raise InputError(f"node {node!r} is not a node index of this model (0.."
                              f"{n_nodes - 1})", source=source, line=line)
-        value = [_number(row[header[key]], source, line, key) for key in ("fx", "fy", "fz")]
-        if not (math.isfinite(time) and all(map(math.isfinite, value))):
-            raise InputError("NaN or infinite value; every force row needs numbers",
-                             source=source, line=line)
+        value = _force_value(row, header, source, line, time)
         entries.append((time, int(node), value))
     entries.sort(key=lambda entry: entry[0])          # stable: file order within a time
     for time, node, value in entries:
         start = np.searchsorted(times, time - TIME_TOLERANCE * period)
         forces[start:, node] = value
+    return forces
+
+
+def _force_value(row, header, source: str, line: int, time: float) -> list[float]:
+    value = [_number(row[header[key]], source, line, key) for key in ("fx", "fy", "fz")]
+    if not (math.isfinite(time) and all(map(math.isfinite, value))):
+        raise InputError("NaN or infinite value; every force row needs numbers",
+                         source=source, line=line)
+    return value
+
+
+def _point_forces(header, rows, stated, source, times, period, forces, mesh, spread):
+    """The ``time,x,y,z,fx,fy,fz`` form of :func:`read_forces`."""
+    from ..mesh import surface_nodes
+
+    for column in ("y", "z"):
+        if column not in header:
+            raise InputError(f"missing column {column!r}; a point force needs x,y,z",
+                             source=source)
+    if mesh is None:
+        raise InputError("forces at points (x,y,z) need the model's mesh", source=source)
+    if "length units" not in stated:
+        raise InputError("the points' length unit is not stated; add a line "
+                         "'# length units: mm' (m, cm or mm)", source=source)
+    scale = _length_unit(None, stated["length units"], source)
+    if not (isinstance(spread, (int, np.integer)) and spread >= 1):
+        raise InputError(f"got {spread!r}; expected a positive number of nodes",
+                         key="spread")
+    surface = np.flatnonzero(surface_nodes(mesh))
+    rest = mesh.rest_positions[surface]
+    reach = float(mesh.rest_lengths.max()) if mesh.n_springs else np.inf
+    spread = min(int(spread), len(surface))
+    entries = []
+    for line, row in rows:
+        time = _number(row[header["time"]], source, line, "time")
+        point = np.array([_number(row[header[key]], source, line, key) for key in "xyz"])
+        if not np.all(np.isfinite(point)):
+            raise InputError("NaN or infinite point", source=source, line=line)
+        distance = np.linalg.norm(rest - scale * point, axis=1)
+        nearest = np.argsort(distance)[:spread]
+        if distance[nearest[0]] > reach:
+            raise InputError(f"the point ({', '.join(f'{c:g}' for c in point)}) is "
+                             f"{distance[nearest[0]]:.3g} m from the nearest surface node, "
+                             f"farther than the longest edge ({reach:.3g} m); check the "
+                             "coordinates and their unit", source=source, line=line)
+        weight = 1.0 / np.maximum(distance[nearest], 1e-12 * reach)
+        probe = row[header["probe"]].strip() if "probe" in header else ""
+        entries.append((time, probe, surface[nearest], weight / weight.sum(),
+                        np.array(_force_value(row, header, source, line, time))))
+    entries.sort(key=lambda entry: entry[0])
+    acting: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for time, probe, nodes, weight, value in entries:
+        start = np.searchsorted(times, time - TIME_TOLERANCE * period)
+        if probe in acting:                           # the probe's previous row stops here
+            old_nodes, old_load = acting[probe]
+            np.add.at(forces[start:], (slice(None), old_nodes), -old_load)
+        load = weight[:, None] * value
+        np.add.at(forces[start:], (slice(None), nodes), load)
+        acting[probe] = (nodes, load)
     return forces
 
 
