@@ -253,6 +253,13 @@ class SpringMassModel:
         """Indices of the springs of the region named ``region``."""
         return np.flatnonzero(self.spring_region == self._region_index(region))
 
+    def region_elements(self, region: str) -> np.ndarray:
+        """Indices of the tetrahedral elements of the region named ``region`` (empty for
+        spring models)."""
+        if not self.has_elements:
+            return np.zeros(0, dtype=np.intp)
+        return np.flatnonzero(self.element_region == self._region_index(region))
+
     def region_nodes(self, region: str) -> np.ndarray:
         """Indices of the nodes of the region named ``region``."""
         return np.flatnonzero(self.node_region == self._region_index(region))

@@ -286,8 +286,9 @@ def _words_sections(rules, region, tissue, start, fitted):
 
     plt = _pyplot()
     springs, nodes = start.region_springs(region), start.region_nodes(region)
-    before = material_values(rules, start, springs, nodes)
-    after = material_values(rules, fitted, springs, nodes)
+    elements = start.region_elements(region)
+    before = material_values(rules, start, springs, nodes, elements)
+    after = material_values(rules, fitted, springs, nodes, elements)
     labels_before = rules.describe(before)
     labels_after = rules.describe(after)
     explained = rules.explain(after)

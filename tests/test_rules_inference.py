@@ -28,7 +28,7 @@ def test_vectorised_inference_matches_skfuzzy_control():
 
     rules = load_rules(RULES / "soft_tissue.yaml")
     rng = np.random.default_rng(0)
-    inputs = [dict(zip(rules.inputs, x)) for x in rng.uniform(0.5, 9.5, (40, 3))]
+    inputs = [dict(zip(rules.inputs, x)) for x in rng.uniform(0.5, 9.5, (40, len(rules.inputs)))]
     ours = rules.infer(inputs)
     theirs = control_infer(rules, inputs)
     for name in rules.outputs:

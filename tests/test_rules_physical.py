@@ -14,6 +14,7 @@ from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.mesh import lattice
 from neurofuzzy.rules import initialize, lattice_geometry, load_rules, material_values
+from neurofuzzy.rules.materials import DEFAULT_POISSON_RATIO
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = ROOT / "rules"
@@ -23,19 +24,31 @@ TISSUES = Path(__file__).parent / "data" / "cube_tissues.yaml"
 
 @pytest.mark.parametrize("path", [p for p in SHIPPED if p.stem != "soft_tissue"],
                          ids=lambda p: p.stem)
-def test_round_trip_from_words_to_a_model_and_back(path):
+@pytest.mark.parametrize("elements", [False, True], ids=["springs", "elements"])
+def test_round_trip_from_words_to_a_model_and_back(path, elements):
+    """Words → model → values → words. Element models carry every quantity; a spring network
+    carries all but Poisson's ratio, which it locks at 1/4."""
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+
     rules = load_rules(path)
-    mesh = paper_cube_mesh()
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)) if elements else paper_cube_mesh()
     for tissue, words in rules.tissues.items():
-        model = initialize(rules, mesh, tissue)
-        values = {tissue: rules.tissue(tissue)}
+        model = initialize(rules, mesh, tissue, elements=elements)
+        values = rules.tissue(tissue)
         recovered = material_values(rules, model)
-        for name, value in values[tissue].items():
+        assert set(recovered) == set(values)
+        if not elements:
+            assert recovered.pop("poisson_ratio") == 0.25
+            values.pop("poisson_ratio")
+        for name, value in values.items():
             assert recovered[name] == pytest.approx(value, rel=1e-9), (tissue, name)
         labels = rules.describe(recovered)
         assert all(label.degree >= 0.5 for label in labels.values()), (tissue, labels)
         explained = rules.explain(recovered)
-        assert explained["words"] == {k: str(v) for k, v in words.items()}, tissue
+        expected = {k: str(v) for k, v in words.items()
+                    if elements or k != "compressibility"}
+        assert {k: explained["words"][k] for k in expected} == expected, tissue
 
 
 def test_lattice_springs_from_youngs_modulus_give_that_modulus():
@@ -259,10 +272,16 @@ def test_words_to_a_tetrahedral_model_and_back():
     mesh = from_tetra(points, np.concatenate(tetrahedra)).with_fixed(
         where=lambda p: p[:, 2] == 0)
     rules = load_rules(TISSUES)
-    model = initialize(rules, mesh, "firm_tissue")
+    model = initialize(rules, mesh, "firm_tissue")                  # springs on tetrahedra
     recovered = material_values(rules, model)
+    assert recovered.pop("poisson_ratio") == 0.25                   # springs lock it
     for name, value in rules.tissue("firm_tissue").items():
-        assert recovered[name] == pytest.approx(value, rel=1e-9), name
+        if name != "poisson_ratio":
+            assert recovered[name] == pytest.approx(value, rel=1e-9), name
+    # as elements: "firm_tissue" says nothing about compressibility, so ν is the default
+    elements = material_values(rules, initialize(rules, mesh, "firm_tissue", elements=True))
+    assert elements["poisson_ratio"] == DEFAULT_POISSON_RATIO
+    assert elements["youngs_modulus"] == pytest.approx(recovered["youngs_modulus"], rel=1e-9)
 
 
 def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):

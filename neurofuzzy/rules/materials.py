@@ -7,19 +7,15 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import SpringMassModel
-from .physical import material_values, spring_geometry
+from .physical import SPRING_POISSON_RATIO, material_values, spring_geometry
 
-__all__ = ["materials", "element_model", "SPRING_POISSON_RATIO", "DEFAULT_POISSON_RATIO"]
+__all__ = ["materials", "element_model", "element_values", "SPRING_POISSON_RATIO",
+           "DEFAULT_POISSON_RATIO"]
 
 #: Poisson's ratio of an element model whose rule base says nothing about it: soft tissue is
 #: nearly incompressible (0.45-0.49 in most measurements; 0.45 keeps linear tetrahedra from
 #: locking on coarse meshes).
 DEFAULT_POISSON_RATIO = 0.45
-
-
-#: Poisson's ratio an isotropic spring network stands for (cubic lattice with body diagonals;
-#: van Gelder springs on tetrahedra, averaged over orientations): see the module docstring.
-SPRING_POISSON_RATIO = 0.25
 
 
 def materials(model: SpringMassModel, rules=None, tissue: str | None = None) -> dict:
@@ -60,19 +56,25 @@ def materials(model: SpringMassModel, rules=None, tissue: str | None = None) -> 
     return out
 
 
+def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, float]:
+    """E, ν, η (medians) and density of the elements ``chosen`` (bool mask) of an element
+    model, by quantity."""
+    return {
+        "youngs_modulus": float(np.median(model.element_youngs_modulus[chosen])),
+        "poisson_ratio": float(np.median(model.element_poisson_ratio[chosen])),
+        "viscosity": float(np.median(model.element_viscosity[chosen])),
+        "density": _region_density(model, chosen),
+    }
+
+
 def _element_materials(model: SpringMassModel, rules, tissue) -> dict:
     out = {}
     for index, region in enumerate(model.region_names):
         chosen = model.element_region == index
         if not chosen.any():
             continue
-        values = {
-            "youngs_modulus": float(np.median(model.element_youngs_modulus[chosen])),
-            "poisson_ratio": float(np.median(model.element_poisson_ratio[chosen])),
-            "viscosity": float(np.median(model.element_viscosity[chosen])),
-            "density": _region_density(model, chosen),
-            "tissue": model.region_tissues[index] or tissue,
-        }
+        values = {**element_values(model, chosen),
+                  "tissue": model.region_tissues[index] or tissue}
         if rules is not None:
             by_output = {name: values[variable.quantity]
                          for name, variable in rules.outputs.items()
@@ -81,6 +83,15 @@ def _element_materials(model: SpringMassModel, rules, tissue) -> dict:
                                 for name, label in rules.describe(by_output).items()}
         out[region] = values
     return out
+
+
+def _poisson_inputs(rules) -> set[str]:
+    """The input variables of the rules that conclude on a Poisson's-ratio output."""
+    outputs = {name for name, variable in rules.outputs.items()
+               if variable.quantity == "poisson_ratio"}
+    return {clause.variable for rule in rules.rules
+            if any(c.variable in outputs for c in rule.consequents)
+            for group in rule.antecedent for clause in group}
 
 
 def _region_density(model, chosen) -> float:
@@ -101,7 +112,9 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
     """An element model of ``mesh``: every tetrahedron takes E, ν, η and density of its
     tissue (``element_tissue`` indexes ``names``; ``values[name]`` are the tissue's inferred
     outputs). ν comes from an output of quantity ``poisson_ratio`` where the rule base has
-    one, else :data:`DEFAULT_POISSON_RATIO`."""
+    one and the tissue's description names an input of its rules; else (the expert said
+    nothing about compressibility, and every ν rule would fire at once, giving the centre of
+    the universe) :data:`DEFAULT_POISSON_RATIO`."""
     if mesh.tetrahedra is None:
         raise InputError("element models need a mesh with tetrahedra (a volume mesh, or "
                          "--tetra for a surface)", key="elements")
@@ -115,8 +128,10 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
                 raise InputError(f"an element model needs the rule base's {key}; it has "
                                  f"{sorted(quantities)}", source=rules.source, key="outputs")
             per_tissue[key][index] = quantities[key]
-        per_tissue["poisson_ratio"][index] = quantities.get("poisson_ratio",
-                                                            DEFAULT_POISSON_RATIO)
+        said = _poisson_inputs(rules) & set(rules.tissues.get(name, {}))
+        per_tissue["poisson_ratio"][index] = (quantities["poisson_ratio"] if said
+                                              and "poisson_ratio" in quantities
+                                              else DEFAULT_POISSON_RATIO)
     model = SpringMassModel.continuum(
         mesh, **{key: value[element_tissue] for key, value in per_tissue.items()})
     return model.replace(region_names=tuple(names), region_tissues=tuple(names),

@@ -308,12 +308,29 @@ def _spring_value(quantities, material, direct, factor, source):
                      key="outputs")
 
 
-def material_values(rules, model: SpringMassModel, springs=None, nodes=None) -> dict:
-    """The material quantities a model's parameters stand for, per output variable of
-    ``rules`` (medians over the given springs and nodes; default all).
+#: Poisson's ratio an isotropic spring network stands for (cubic lattice with body diagonals;
+#: van Gelder springs on tetrahedra, averaged over orientations).
+SPRING_POISSON_RATIO = 0.25
 
-    Springs with both ends fixed are left out: their values are never learned.
+
+def material_values(rules, model: SpringMassModel, springs=None, nodes=None,
+                    elements=None) -> dict:
+    """The material quantities a model's parameters stand for, per output variable of
+    ``rules``.
+
+    Spring models: medians over the given springs and nodes (default all; springs with both
+    ends fixed are left out, their values are never learned); Poisson's ratio is the 1/4 a
+    spring network is locked to. Element models: the elements' own E, ν, η (medians over
+    ``elements``, default all) and the density of their lumped masses.
     """
+    if model.has_elements:
+        from .materials import element_values
+
+        chosen = (np.ones(model.mesh.n_tetrahedra, bool) if elements is None
+                  else np.isin(np.arange(model.mesh.n_tetrahedra), elements))
+        by_quantity = element_values(model, chosen)
+        return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
+                if variable.quantity in by_quantity}
     geometry = spring_geometry(model.mesh)
     moving = model.mesh.free[model.mesh.springs].any(axis=1)
     springs = np.flatnonzero(moving) if springs is None else np.intersect1d(
@@ -322,6 +339,7 @@ def material_values(rules, model: SpringMassModel, springs=None, nodes=None) -> 
     factor = geometry.spring_factor[springs]
     by_quantity = {
         "youngs_modulus": float(np.median(model.spring_stiffness[springs] / factor)),
+        "poisson_ratio": SPRING_POISSON_RATIO,
         "stiffness": float(np.median(model.spring_stiffness[springs])),
         "viscosity": float(np.median(model.spring_damping[springs] / factor)),
         "damping": float(np.median(model.spring_damping[springs])),
