@@ -13,7 +13,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - data: :class:`Experiment`, :func:`simulate_experiment`, :func:`reference_experiment`,
   :func:`check_experiments`, :func:`simulate_like`, :func:`rms_error`,
   :func:`load_experiment`, :func:`save_experiment`, :func:`load_model`, :func:`save_model`;
-  marker recordings: :func:`read_markers`, :func:`markers_to_experiment`
+  marker recordings: :func:`read_markers`, :func:`markers_to_experiment`; markers between
+  nodes: :class:`EmbeddedMarkers`, :class:`Observation`, :func:`embed_points`
 - learning: :func:`start_model` (:class:`StartModel`), :func:`estimate_start`,
   :class:`PaperLearner`, :class:`GradientLearner`
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
@@ -48,6 +49,8 @@ _EXPORTS = {
     "check_experiments": "experiment", "simulate_like": "experiment", "rms_error": "experiment",
     "load_experiment": "io", "load_model": "io", "save_experiment": "io", "save_model": "io",
     "read_markers": "markers", "markers_to_experiment": "markers",
+    "EmbeddedMarkers": "observation", "Observation": "observation",
+    "embed_points": "observation",
     "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "learn",
     "StartModel": "learn", "estimate_start": "learn",
     "load_rules": "rules", "initialize": "rules", "material_values": "rules",
@@ -90,6 +93,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
                        from_trimesh, lattice, surface_nodes)
     from .mesh import MeshFile, read_mesh  # noqa: F401
     from .model import SpringMassModel  # noqa: F401
+    from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
     from .reference import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401
     from .rules import initialize, load_rules, material_values, materials  # noqa: F401

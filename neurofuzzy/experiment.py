@@ -8,12 +8,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 
 from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
 from .model import SpringMassModel
+from .observation import EmbeddedMarkers, Observation
 from .simulation import simulate
 
 __all__ = ["Experiment", "simulate_experiment", "check_experiments", "simulate_like",
@@ -45,6 +48,11 @@ class Experiment:
         Ground truth of synthetic data (``true_stiffness`` …): reported, never read by a fitter.
     source : str
         Where the data came from (a file name), used in messages.
+    markers : EmbeddedMarkers, optional
+        Markers anywhere in the object, observed through the tetrahedra containing them
+        (:mod:`neurofuzzy.observation`). When given, the markers are what is measured: nodes
+        need not be observed (``positions`` may be all NaN), and the learners compare the
+        markers' interpolated positions with their measurements.
     """
 
     mesh: Mesh
@@ -55,6 +63,7 @@ class Experiment:
     node_mass: np.ndarray | None = None
     truth: dict = field(default_factory=dict)
     source: str = "<experiment>"
+    markers: EmbeddedMarkers | None = None
 
     def __post_init__(self):
         src = self.source
@@ -81,8 +90,22 @@ class Experiment:
                 raise InputError(f"got {observed.dtype} of shape {observed.shape}; expected bool "
                                  f"of shape (n_nodes,) = ({n_nodes},)", source=src,
                                  key="observed")
-            if not observed.any():
+            if not observed.any() and self.markers is None:
                 raise InputError("no node is observed", source=src, key="observed")
+        if self.markers is not None:
+            if not isinstance(self.markers, EmbeddedMarkers):
+                raise InputError("expected EmbeddedMarkers", source=src, key="markers")
+            if self.markers.positions.shape[0] != positions.shape[0]:
+                raise InputError(f"has {self.markers.positions.shape[0]} frames; the node "
+                                 f"positions have {positions.shape[0]}", source=src,
+                                 key="marker_positions")
+            try:
+                self.markers.operator(n_nodes)
+            except InputError as error:
+                raise InputError(error.detail, source=src, key=error.key) from None
+            if not np.isfinite(self.markers.positions[0]).all():
+                raise InputError("every marker needs a position at frame 0 (the initial "
+                                 "state)", source=src, key="marker_positions")
         if np.isinf(positions[:, observed]).any():
             frame, node = np.argwhere(np.isinf(positions[:, observed]).any(axis=-1))[0]
             node = np.flatnonzero(observed)[node]
@@ -151,6 +174,17 @@ class Experiment:
     def replace(self, **changes) -> Experiment:
         return replace(self, **changes)
 
+    def first_frames(self, n_frames: int) -> Experiment:
+        """The experiment cut to its first ``n_frames`` frames (loads and markers too)."""
+        forces = self.external_forces
+        if forces is not None and forces.ndim == 3:
+            forces = forces[:n_frames]
+        markers = self.markers
+        if markers is not None:
+            markers = replace(markers, positions=markers.positions[:n_frames])
+        return self.replace(positions=self.positions[:n_frames], external_forces=forces,
+                            markers=markers)
+
     def tracked(self) -> np.ndarray:
         """(n_nodes,) bool: nodes whose error counts (observed and not fixed)."""
         return self.observed & self.mesh.free
@@ -171,6 +205,21 @@ class Experiment:
     def complete(self) -> bool:
         """Every free node is measured at every frame (no unobserved nodes, no gaps)."""
         return bool(np.all(self.measured() | ~self.mesh.free[None, :]))
+
+    @cached_property
+    def observation(self) -> Observation:
+        """What is measured, as one linear operator on the node positions: the tracked
+        nodes (observed, not fixed), or the embedded markers."""
+        if self.markers is not None:
+            operator = self.markers.operator(self.n_nodes)
+            # a marker that moves only with fixed nodes never moves: it does not count
+            moves = np.asarray(operator[:, self.mesh.free].sum(axis=1)).ravel() > 1e-12
+            return Observation(operator, self.markers.positions,
+                               np.isfinite(self.markers.positions).all(axis=-1) & moves)
+        rows = np.flatnonzero(self.tracked())
+        operator = sp.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)),
+                                 shape=(len(rows), self.n_nodes))
+        return Observation(operator, self.positions[:, rows], self.tracked_frames()[:, rows])
 
 
 def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
@@ -252,11 +301,11 @@ def simulate_like(model: SpringMassModel, experiment: Experiment,
 
 def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
               substeps: int = 1) -> float:
-    """Root-mean-square node distance between free simulation and measurement.
+    """Root-mean-square distance between free simulation and measurement.
 
-    Over all experiments, frames 1 onwards, and the nodes that are measured (observed, not in a
-    gap) and not fixed: ``sqrt(mean |p_sim - p_measured|²)``, simulating with ``substeps``
-    steps per frame. Infinite when the simulation diverges.
+    Over all experiments, frames 1 onwards, and what is measured (observed nodes that are not
+    fixed, or embedded markers; not in a gap): ``sqrt(mean |p_sim - p_measured|²)``,
+    simulating with ``substeps`` steps per frame. Infinite when the simulation diverges.
     """
     experiments = check_experiments(model, experiments)
     total, count = 0.0, 0
@@ -266,10 +315,10 @@ def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experim
                 simulated = simulate_like(model, experiment, substeps)
         except UnstableTimeStepError:
             return float("inf")
-        tracked = experiment.tracked_frames()[1:]
-        diff = simulated[1:][tracked] - experiment.positions[1:][tracked]
+        observation = experiment.observation
+        diff = observation.residuals(simulated)[1:]
         total += float(np.sum(diff * diff))
-        count += diff.shape[0]
+        count += int(observation.seen[1:].sum())
     value = np.sqrt(total / max(count, 1))
     return float(value) if np.isfinite(value) else float("inf")
 

@@ -25,8 +25,10 @@ from .model import SpringMassModel
 __all__ = ["load_experiment", "save_experiment", "load_model", "save_model", "atomic_write"]
 
 REQUIRED_KEYS = ("rest_positions", "springs", "dt", "positions")
+#: embedded markers (:class:`~neurofuzzy.observation.EmbeddedMarkers`): all or none
+MARKER_KEYS = ("marker_positions", "marker_nodes", "marker_weights", "marker_names")
 OPTIONAL_KEYS = ("fixed", "external_forces", "observed", "masses", "spring_groups",
-                 "group_names", "tetrahedra")
+                 "group_names", "tetrahedra", *MARKER_KEYS)
 MODEL_FORMAT = "neurofuzzy-model/1"
 
 
@@ -121,10 +123,36 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
                                          fixed=data.get("fixed", np.zeros(0, dtype=np.intp)),
                                          tetrahedra=data.get("tetrahedra")))
     truth = {key: value for key, value in data.items() if key.startswith("true_")}
+    markers = check("marker_positions", lambda: _markers(data))
     return Experiment(mesh=mesh, dt=data["dt"], positions=data["positions"],
                       external_forces=data.get("external_forces"),
                       observed=data.get("observed"), node_mass=data.get("masses"), truth=truth,
-                      source=source)
+                      source=source, markers=markers)
+
+
+def _markers(data: dict):
+    """The embedded markers of an experiment file, or None."""
+    from .observation import EmbeddedMarkers
+
+    present = [key for key in MARKER_KEYS if key in data]
+    if not present:
+        return None
+    missing = [key for key in MARKER_KEYS[:3] if key not in data]
+    if missing:
+        raise InputError(f"embedded markers need {', '.join(MARKER_KEYS[:3])}; "
+                         f"{', '.join(missing)} missing", key=missing[0])
+    if data["marker_nodes"].dtype.kind not in "iu":
+        raise InputError(f"expected integer node indices, got dtype "
+                         f"{data['marker_nodes'].dtype}", key="marker_nodes")
+    for key in ("marker_positions", "marker_weights"):
+        if data[key].dtype.kind not in "iuf":
+            raise InputError(f"expected numbers, got dtype {data[key].dtype}", key=key)
+    names = data.get("marker_names", np.zeros(0, str))
+    if names.ndim != 1 or (names.size and names.dtype.kind not in "US"):
+        raise InputError("expected a 1-D array of strings", key="marker_names")
+    return EmbeddedMarkers(nodes=data["marker_nodes"], weights=data["marker_weights"],
+                           positions=data["marker_positions"],
+                           names=tuple(str(name) for name in names))
 
 
 def save_experiment(experiment: Experiment, path: str | os.PathLike) -> Path:
@@ -147,6 +175,11 @@ def save_experiment(experiment: Experiment, path: str | os.PathLike) -> Path:
         data["external_forces"] = experiment.external_forces
     if experiment.node_mass is not None:
         data["masses"] = experiment.node_mass
+    if experiment.markers is not None:
+        markers = experiment.markers
+        data.update(marker_positions=markers.positions, marker_nodes=markers.nodes,
+                    marker_weights=markers.weights,
+                    marker_names=np.array(markers.names, dtype=str))
     for key, value in experiment.truth.items():
         data[key if key.startswith("true_") else f"true_{key}"] = np.asarray(value)
     buffer = _io.BytesIO()

@@ -139,8 +139,9 @@ def test_meshes_and_markers_through_nf(tmp_path):
             for t in range(20) for i, (x, y, z) in enumerate(data.positions[t])]
     (tmp_path / "markers.csv").write_text("# units: mm\ntime,marker,x,y,z\n" + "\n".join(rows))
     imported = nf.markers_to_experiment(nf.read_markers(tmp_path / "markers.csv"), mesh)
-    assert np.allclose(imported.experiment.positions, data.positions, atol=1e-9)
-    assert imported.summary["markers"] == 27
+    observation = imported.experiment.observation        # markers embedded where they are
+    assert np.allclose(observation.frames(data.positions), observation.values, atol=1e-9)
+    assert imported.summary["markers"] == 27 and imported.summary["attach"] == "embed"
 
 
 def test_every_subpackage_is_installed():

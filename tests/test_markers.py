@@ -23,8 +23,10 @@ SURFACE = [n for n in range(27) if n != 13]
 
 
 def attach(*args, **options):
-    """``markers_to_experiment`` as (experiment, summary), checking the result type."""
-    result = markers_to_experiment(*args, **options)
+    """``markers_to_experiment`` as (experiment, summary), checking the result type; markers
+    follow nodes (``attach="node"``) unless said otherwise, so that positions can be
+    compared node by node."""
+    result = markers_to_experiment(*args, **{"attach": "node", **options})
     assert isinstance(result, MarkerImport)
     return result.experiment, result.summary
 
@@ -172,8 +174,11 @@ def test_markers_are_attached_to_their_nodes(tmp_path, truth, recording):
 def test_markers_far_from_every_node_are_refused(tmp_path, truth, recording):
     markers = read_markers(write_marker_csv(tmp_path / "far.csv", recording,
                                             offset=(0.004, 0.0, 0.0), unit="mm"))
-    with pytest.raises(InputError, match=r"far.csv: 26 marker\(s\) lie farther than 0.005 m|"
-                                         r"farther than .* from every node"):
+    with pytest.raises(InputError, match=r"far.csv: 26 marker\(s\) lie farther than 0.003 m "
+                                         r"from every node"):
+        markers_to_experiment(markers, truth.mesh, max_distance=0.003, attach="node")
+    with pytest.raises(InputError, match=r"far.csv: 9 marker\(s\) lie farther than 0.003 m "
+                                         r"outside the mesh"):      # the +x face's nine
         markers_to_experiment(markers, truth.mesh, max_distance=0.003)
 
 
@@ -295,8 +300,9 @@ def test_import_then_fit_recovers_the_cube(files, tmp_path, capsys, force_file, 
     assert status == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["markers"] == 26 and summary["frames"] == 251
+    assert summary["attach"] == "embed" and summary["offset_markers"] == 0
     experiment = load_experiment(out)
-    assert experiment.observed.sum() == 26 and experiment.node_mass is not None
+    assert experiment.markers.n_markers == 26 and experiment.node_mass is not None
     start = paper_cube_model(stiffness=70.0, damping=0.03, tie="global")
     learner = GradientLearner(substeps=1).fit(start, experiment)
     assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-5)
@@ -346,8 +352,8 @@ def test_import_a_c3d_recording(files, recording, tmp_path, capsys):
     c3d_file = write_c3d(tmp_path / "trial.c3d", recording, invisible=[(50, 0), (51, 0)])
     out = tmp_path / "trial.npz"
     assert main(["import", str(c3d_file), "--topology", str(files["model"]), "--forces",
-                 str(files["forces"]), "--out", str(out)]) == 0
-    assert "26 markers on 27 nodes, 251 frames" in capsys.readouterr().out
+                 str(files["forces"]), "--out", str(out), "--attach", "node"]) == 0
+    assert "26 markers on nodes of 27, 251 frames" in capsys.readouterr().out
     experiment = load_experiment(out)
     assert not experiment.measured()[50:52, SURFACE[0]].any()
     assert np.allclose(experiment.forces_per_frame(), recording.forces_per_frame())

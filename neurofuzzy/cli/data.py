@@ -117,7 +117,8 @@ def import_markers(args) -> int:
     mapping = read_marker_map(args.map) if args.map else None
     imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
-        forces=args.forces, node_mass=masses, source=args.out, force_spread=args.force_spread)
+        forces=args.forces, node_mass=masses, source=args.out, force_spread=args.force_spread,
+        attach=args.attach)
     experiment, summary = imported.experiment, imported.summary
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",
@@ -129,10 +130,16 @@ def import_markers(args) -> int:
     else:
         unmatched = (f"; {len(summary['unmatched'])} marker(s) not in the map"
                      if summary["unmatched"] else "")
-        print(f"wrote {args.out}: {summary['markers']} markers on {mesh.n_nodes} nodes, "
+        how = ("embedded in the mesh's tetrahedra" if summary["attach"] == "embed"
+               else f"on nodes of {mesh.n_nodes}")
+        print(f"wrote {args.out}: {summary['markers']} markers {how}, "
               f"{summary['frames']} frames of {summary['dt']:.4g} s (capture period "
               f"{summary['capture_period']:.4g} s), {100 * summary['gaps']:.1f} % gaps"
               f"{unmatched}")
+        if summary.get("offset_markers"):
+            print(f"  {summary['offset_markers']} marker(s) lie outside the mesh (up to "
+                  f"{1e3 * summary['max_distance_outside']:.3g} mm): their constant offset, "
+                  f"from {summary['rest_frames']} frame(s) at rest, is removed")
         if summary["dropped_leading_frames"]:
             print(f"  dropped the first {summary['dropped_leading_frames']} capture frames: "
                   "not every marker was seen yet")

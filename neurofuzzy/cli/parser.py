@@ -174,6 +174,12 @@ def build_parser() -> argparse.ArgumentParser:
                           help="time,node,fx,fy,fz in N, each row held until the node's next; "
                                "or time,x,y,z,fx,fy,fz: a probe's force at a point (unit in a "
                                "'# length units: mm' line), given to the nearest surface node")
+    importer.add_argument("--attach", choices=("auto", "embed", "node"), default="auto",
+                          help="embed: each marker in the tetrahedron that contains it, "
+                               "observed by barycentric interpolation (lattices are split into "
+                               "tetrahedra for this); node: each marker follows its nearest "
+                               "node (or --map), its frame-0 offset removed; auto (default): "
+                               "node with --map or a time,node,... file, else embed")
     importer.add_argument("--force-spread", type=int, default=1, metavar="K",
                           help="share each point force among the K nearest surface nodes "
                                "(inverse-distance weights; default 1)")
@@ -184,8 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="the model's step (s) to resample to (default: the topology "
                                "file's dt, else the capture's frame period)")
     importer.add_argument("--max-distance", type=float, default=None,
-                          help="farthest a marker may lie from its node at the start (m; "
-                               "default half the shortest spring)")
+                          help="farthest a marker may lie from its node (--attach node) or "
+                               "outside the mesh (embed) at the start (m; default half the "
+                               "shortest spring)")
     importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
     importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     importer.set_defaults(run=data.import_markers)

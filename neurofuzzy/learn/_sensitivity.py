@@ -38,11 +38,12 @@ class Run:
     ----------
     positions : (n_frames, n_nodes, 3) float
         Simulated positions (with resets at the window starts).
-    residuals : (n_frames - 1, n_tracked, 3) float
-        ``(simulated - measured) / length_unit`` at frames 1.., tracked nodes; 0 in the gaps.
+    residuals : (n_frames - 1, n_rows, 3) float
+        ``(simulated - measured) / length_unit`` at frames 1.., per measured row (tracked
+        node or embedded marker, :class:`~neurofuzzy.observation.Observation`); 0 in the gaps.
     n_measured : int
         Number of residual values that come from a measurement (not from a gap).
-    jacobian : (n_frames - 1, n_tracked, 3, n_params) float or None
+    jacobian : (n_frames - 1, n_rows, 3, n_params) float or None
         ``∂ residuals / ∂ θ`` (forward mode only).
     """
 
@@ -142,9 +143,9 @@ class Sensitivity:
         weight = model.node_inverse_mass[:, None]          # (N, 1)
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
-        tracked = experiment.tracked()
-        # (frame, tracked node) pairs without a measurement (gaps) carry no residual
-        seen = experiment.tracked_frames()[:, tracked]
+        # the measured rows (tracked nodes or embedded markers); gaps carry no residual
+        observation = experiment.observation
+        seen = observation.seen
         n_frames, n_params = experiment.n_frames, param.size
         starts = set(int(t) for t in starts) | {0}
         blocks = param.blocks
@@ -152,7 +153,7 @@ class Sensitivity:
                      if param.learn_masses else None)
 
         positions = np.empty((n_frames, self.n_nodes, 3))
-        jacobian = (np.empty((n_frames - 1, int(tracked.sum()), 3, n_params)) if tangents
+        jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, n_params)) if tangents
                     else None)
         p = v = tp = tv = None
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -185,13 +186,10 @@ class Sensitivity:
                         v[model.mesh.fixed] = 0.0
                         p = p + h * v
                     if tangents:
-                        jacobian[t - 1] = (tp[tracked].transpose(0, 2, 1) / self.length_unit
-                                           * seen[t][:, None, None])
+                        jacobian[t - 1] = (observation.apply(tp).transpose(0, 2, 1)
+                                           / self.length_unit * seen[t][:, None, None])
                 positions[t] = p
-            residuals = np.where(
-                seen[:, :, None],
-                positions[:, tracked] - np.nan_to_num(experiment.positions[:, tracked]), 0.0
-            )[1:] / self.length_unit
+            residuals = observation.residuals(positions)[1:] / self.length_unit
         return Run(positions=positions, residuals=residuals,
                    n_measured=3 * int(seen[1:].sum()), jacobian=jacobian)
 
@@ -204,8 +202,7 @@ class Sensitivity:
         weight = model.node_inverse_mass[:, None]
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
-        tracked = experiment.tracked()
-        seen = experiment.tracked_frames()
+        observation = experiment.observation
         n_frames = experiment.n_frames
         starts = set(int(t) for t in starts) | {0}
         fixed = model.mesh.fixed
@@ -227,10 +224,10 @@ class Sensitivity:
                     p = p + h * v
                 positions[t] = p
         scale = 1.0 / self.length_unit
-        residuals = np.where(seen[:, :, None],
-                             positions - np.nan_to_num(experiment.positions), 0.0) * scale
-        run = Run(positions=positions, residuals=residuals[1:, tracked],
-                  n_measured=3 * int(seen[1:].sum()))
+        with np.errstate(over="ignore", invalid="ignore"):
+            residuals = observation.residuals(positions) * scale
+        run = Run(positions=positions, residuals=residuals[1:],
+                  n_measured=3 * int(observation.seen[1:].sum()))
         loss = 0.5 * float(np.sum(residuals[1:] ** 2))
         grad = np.zeros(param.size)
         if not np.isfinite(loss):
@@ -247,7 +244,7 @@ class Sensitivity:
                 lam_p[:] = 0.0
                 lam_v[:] = 0.0
                 continue
-            lam_p += residuals[t] * scale                          # ∂L/∂p(t)
+            lam_p += observation.adjoint(residuals[t]) * scale     # ∂L/∂p(t)
             for _ in range(substeps):
                 index -= 1
                 _, p, v = states[index]

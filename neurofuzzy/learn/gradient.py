@@ -210,7 +210,7 @@ class GradientLearner(Learner):
     def _method(self, parameters, experiments) -> str:
         if self.method != "auto":
             return self.method
-        n_residuals = sum(3 * int(e.tracked_frames()[1:].sum()) for e in experiments)
+        n_residuals = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
         return "lm" if n_residuals * parameters.size <= MAX_JACOBIAN_ENTRIES else "lbfgs"
 
     def _fit_stages(self, sensitivity, experiments, theta, substeps, windows, method, lower,
@@ -240,7 +240,7 @@ class GradientLearner(Learner):
                 starts = [tuple(range(0, e.n_frames, int(window))) for e in experiments]
                 what = f"window {window} frames"
             else:
-                data = [_beginning(e, int(window)) for e in experiments]
+                data = [e.first_frames(int(window)) for e in experiments]
                 starts = [(0,)] * len(experiments)
                 what = f"first {window} frames"
             theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active)
@@ -335,12 +335,3 @@ class GradientLearner(Learner):
         values = theta.copy()
         values[active] = result.x
         return values
-
-
-def _beginning(experiment: Experiment, n_frames: int) -> Experiment:
-    """The first ``n_frames`` frames of ``experiment``."""
-    forces = experiment.external_forces
-    if forces is not None and forces.ndim == 3:
-        forces = forces[:n_frames]
-    return experiment.replace(positions=experiment.positions[:n_frames],
-                              external_forces=forces)

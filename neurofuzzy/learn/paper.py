@@ -105,6 +105,12 @@ class PaperLearner(Learner):
             raise InputError("the paper's learner learns spring networks (eqs. 3.7-3.22); fit "
                              "a model with tetrahedral elements with the gradient learner",
                              key="method")
+        embedded = next((e for e in experiments if e.markers is not None), None)
+        if embedded is not None:
+            raise InputError("observes markers embedded in the mesh; the paper's learner "
+                             "teacher-forces measured node positions (Figure 2): fit it with "
+                             "the gradient learner, or import with --attach node",
+                             source=embedded.source, key="method")
         started = time.perf_counter()
         self.rms_error_initial_ = rms_error(model, experiments)
 

@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import InputError, closest_name
 from ..experiment import Experiment
 from ..mesh import Mesh
+from ..observation import EmbeddedMarkers, embed_points
 from .readers import TIME_TOLERANCE, MarkerData, read_forces
 
 __all__ = ["MarkerImport", "match_markers", "markers_to_experiment"]
@@ -25,12 +26,14 @@ class MarkerImport:
     ----------
     experiment : Experiment
         Frame 0 is the first capture at which every matched marker is seen (earlier frames are
-        dropped). A marker is attached to its node: its constant offset from the node at
-        frame 0 is removed, so the node starts at its rest position.
+        dropped). Embedded markers (the default) are the experiment's ``markers``; a marker
+        attached to a node has its constant offset from the node at frame 0 removed, so the
+        node starts at its rest position.
     summary : dict
-        ``markers``, ``nodes`` (matched), ``unmatched`` (markers left out by the map),
-        ``dt``, ``frames``, ``dropped_leading_frames``, ``gaps`` (fraction of missing
-        (frame, observed node) values), ``capture_period``.
+        ``markers``, ``attach`` ("embed" or "node"), ``unmatched`` (markers left out by the
+        map), ``dt``, ``frames``, ``dropped_leading_frames``, ``gaps`` (fraction of missing
+        (frame, marker) values), ``capture_period``; node attachment: ``nodes``; embedding:
+        ``rest_frames``, ``max_distance_outside`` (m), ``offset_markers``.
     """
 
     experiment: Experiment
@@ -84,7 +87,8 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
                           max_distance: float | None = None,
                           forces: str | os.PathLike | np.ndarray | None = None,
                           node_mass: np.ndarray | None = None,
-                          source: str | None = None, force_spread: int = 1) -> MarkerImport:
+                          source: str | None = None, force_spread: int = 1,
+                          attach: str = "auto") -> MarkerImport:
     """An experiment from a marker recording on ``mesh``.
 
     Parameters
@@ -100,23 +104,39 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
         frame between captures more than one period apart) is a gap. Upsampling gives
         piecewise-linear motion: prefer the capture rate with ``substeps`` in the fit.
     mapping, max_distance
-        As in :func:`match_markers`.
+        As in :func:`match_markers` (node attachment). When embedding, ``max_distance`` is
+        how far outside the mesh a marker may lie (default: half the shortest spring).
     forces : path or (n_frames, n_nodes, 3) array, optional
         A force CSV (:func:`read_forces`) or forces at the experiment's frames.
     node_mass : (n_nodes,) float, optional
         Known node masses.
     force_spread : int
         Surface nodes sharing each point force of a ``time,x,y,z,fx,fy,fz`` force CSV.
+    attach : {"auto", "embed", "node"}
+        ``"embed"``: every marker is embedded in the tetrahedron that contains it at rest and
+        observed by barycentric interpolation of its four nodes
+        (:class:`~neurofuzzy.observation.EmbeddedMarkers`; lattices without tetrahedra are
+        split into Kuhn tetrahedra for this). ``"node"``: each marker follows one node
+        (nearest, or ``mapping``), its frame-0 offset removed. ``"auto"``: ``"node"`` for a
+        ``time,node,…`` recording or with a ``mapping``, else ``"embed"`` where the mesh
+        allows it.
 
     Returns
     -------
     MarkerImport
         The experiment and a summary of the import.
     """
-    mapping = match_markers(markers, mesh, mapping=mapping, max_distance=max_distance)
-    names = list(mapping)
+    if attach not in ("auto", "embed", "node"):
+        raise InputError(f"got {attach!r}; expected auto, embed or node", key="attach")
+    tetrahedra = None
+    if attach != "node" and mapping is None and not markers.by_node:
+        tetrahedra = _embedding_tetrahedra(mesh, required=attach == "embed")
+    if tetrahedra is None:
+        mapping = match_markers(markers, mesh, mapping=mapping, max_distance=max_distance)
+        names = list(mapping)
+    else:
+        names = list(markers.names)
     columns = [markers.names.index(name) for name in names]
-    nodes = np.array([mapping[name] for name in names], dtype=np.intp)
     capture = markers.positions[:, columns]                  # (T_capture, K, 3)
     seen = np.isfinite(capture).all(axis=2)
     complete = np.flatnonzero(seen.all(axis=1))
@@ -137,25 +157,83 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
         raise InputError(f"the recording spans {times[-1]:.3g} s, less than one step of "
                          f"{dt:.3g} s", source=markers.source)
     resampled = _resample(times, capture, np.arange(n_frames) * dt, period)
-    positions = np.full((n_frames, mesh.n_nodes, 3), np.nan)
-    # attach each marker to its node: remove its offset at frame 0
-    positions[:, nodes] = resampled + (mesh.rest_positions[nodes] - resampled[0])[None]
-    observed = np.zeros(mesh.n_nodes, dtype=bool)
-    observed[nodes] = True
     if isinstance(forces, (str, os.PathLike)):
         forces = read_forces(forces, mesh=mesh, spread=force_spread,
                              times=np.arange(n_frames) * dt + markers.times[first])
+    positions = np.full((n_frames, mesh.n_nodes, 3), np.nan)
+    observed = np.zeros(mesh.n_nodes, dtype=bool)
+    summary = {"markers": len(names), "dt": float(dt), "frames": n_frames,
+               "capture_period": period, "dropped_leading_frames": first,
+               "unmatched": [n for n in markers.names if n not in names]}
+    embedded = None
+    if tetrahedra is None:
+        nodes = np.array([mapping[name] for name in names], dtype=np.intp)
+        # attach each marker to its node: remove its offset at frame 0
+        positions[:, nodes] = resampled + (mesh.rest_positions[nodes] - resampled[0])[None]
+        observed[nodes] = True
+        summary.update(attach="node", nodes=nodes.tolist())
+    else:
+        embedded, details = _embed(markers, names, resampled, mesh, tetrahedra, forces,
+                                   max_distance)
+        summary.update(attach="embed", **details)
     experiment = Experiment(mesh=mesh, dt=float(dt), positions=positions,
                             external_forces=forces, observed=observed, node_mass=node_mass,
-                            source=source or markers.source)
-    measured = experiment.measured()[:, observed]
-    summary = {
-        "markers": len(names), "nodes": nodes.tolist(),
-        "unmatched": [n for n in markers.names if n not in mapping],
-        "dt": float(dt), "frames": n_frames, "capture_period": period,
-        "dropped_leading_frames": first, "gaps": float(1.0 - measured.mean()),
-    }
+                            source=source or markers.source, markers=embedded)
+    measured = (np.isfinite(embedded.positions).all(axis=-1) if embedded is not None
+                else experiment.measured()[:, observed])
+    summary["gaps"] = float(1.0 - measured.mean())
     return MarkerImport(experiment, summary)
+
+
+#: A marker farther outside the mesh than this fraction of the shortest spring carries a
+#: constant offset (estimated from the frames at rest); closer ones are embedded as measured.
+OFFSET_FRACTION = 0.1
+
+
+def _embedding_tetrahedra(mesh: Mesh, required: bool):
+    """The mesh's tetrahedra, a lattice's Kuhn split, or None (node attachment)."""
+    if mesh.tetrahedra is not None:
+        return mesh.tetrahedra
+    from ..mesh import lattice_to_tetra
+
+    try:
+        return lattice_to_tetra(mesh).tetrahedra
+    except InputError:
+        if required:
+            raise InputError("markers can be embedded only in a mesh with tetrahedra or a "
+                             "lattice of cubic cells", key="attach") from None
+        return None
+
+
+def _embed(markers, names, resampled, mesh, tetrahedra, forces, max_distance):
+    """Embedded markers and a summary. Each marker's rest position is its mean over the
+    frames before the load starts (frame 0 alone when it starts at once); markers that lie
+    outside the mesh by more than :data:`OFFSET_FRACTION` of the shortest spring keep that
+    constant offset, estimated from those rest frames, the others none."""
+    rest_frames = 1
+    if forces is not None:
+        loads = np.broadcast_to(forces, (len(resampled),) + np.shape(forces)[-2:])
+        moving = np.flatnonzero(np.abs(loads).max(axis=(1, 2)) > 0)
+        rest_frames = max(1, int(moving[0]) + 1 if moving.size else len(resampled))
+    rest_point = np.nanmean(resampled[:rest_frames], axis=0)
+    nodes, weights, distance = embed_points(mesh, rest_point, tetrahedra=tetrahedra)
+    shortest = float(np.min(mesh.rest_lengths))
+    limit = 0.5 * shortest if max_distance is None else max_distance
+    far = np.flatnonzero(~(distance <= limit))
+    if far.size:
+        worst = far[np.argmax(distance[far])]
+        raise InputError(f"{far.size} marker(s) lie farther than {limit:.3g} m outside the "
+                         f"mesh, e.g. {names[worst]!r} at {distance[worst]:.3g} m; check the "
+                         "units and the coordinate frame, or give a larger max_distance",
+                         source=markers.source)
+    offset = np.where((distance > OFFSET_FRACTION * shortest)[:, None],
+                      np.einsum("mk,mkj->mj", weights, mesh.rest_positions[nodes]) - rest_point,
+                      0.0)
+    embedded = EmbeddedMarkers(nodes=nodes, weights=weights, positions=resampled + offset,
+                               names=tuple(names))
+    return embedded, {"rest_frames": rest_frames,
+                      "max_distance_outside": float(distance.max()),
+                      "offset_markers": int(np.count_nonzero(offset.any(axis=1)))}
 
 
 def _resample(times: np.ndarray, values: np.ndarray, targets: np.ndarray,
