@@ -49,10 +49,18 @@ def test_organ_surface_markers_example_and_the_readme_commands(tmp_path, method)
     rows = re.findall(r"^(stiffness|viscosity) (\w+)\s+\S+\s+(\S+)\s+(\S+)\s+(\S+)%$",
                       result.stdout, flags=re.M)
     assert len(rows) == (4 if method == "voxel" else 2)
-    # quick mode: 150 frames of 20 µm noise determine stiffness to < 0.1 %, viscosity (a
-    # weaker effect in this load case) to a few per cent (full mode: < 1 %)
-    for quantity, _, fitted, truth, error in rows:
-        assert float(error) < (0.1 if quantity == "stiffness" else 10.0)
+    # quick mode: 150 frames of 20 µm noise determine stiffness to < 0.1 %; viscosity (a
+    # weaker effect in this load case) to within three of the fit's own standard errors
+    import json
+
+    std_errors = json.loads((tmp_path / "report.json").read_text())["std_errors"]
+    for quantity, group, fitted, truth, error in rows:
+        if quantity == "stiffness":
+            assert float(error) < 0.1
+        else:                                   # std errors are of log(damping)
+            damping = [key for key in std_errors if key.startswith("damping")]
+            key = f"damping[{group}]" if f"damping[{group}]" in std_errors else damping[0]
+            assert float(error) < 300 * std_errors[key], (group, error, std_errors)
     for name in ("report.html", "report.json", "fitted.yaml", "paraview/organ.pvd",
                  "paraview/organ.xdmf"):
         assert (tmp_path / name).exists(), name
