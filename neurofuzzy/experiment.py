@@ -20,6 +20,7 @@ from .observation import EmbeddedMarkers, Observation
 from .simulation import simulate
 
 __all__ = ["Experiment", "simulate_experiment", "check_experiments", "simulate_like",
+           "require_node_observations",
            "rms_error"]
 
 
@@ -288,6 +289,16 @@ def check_experiments(model: SpringMassModel,
             raise InputError("its tetrahedra differ from the model's elements",
                              source=experiment.source, key="tetrahedra")
     return experiments
+
+
+def require_node_observations(experiments: Sequence[Experiment], why: str) -> None:
+    """Refuse experiments that observe embedded markers, for a method that needs measured
+    node positions; ``why`` says what it does with them."""
+    embedded = next((e for e in experiments if e.markers is not None), None)
+    if embedded is not None:
+        raise InputError(f"observes markers embedded in the mesh; {why}, so import the "
+                         "recording with --attach node (each marker following a node) for it",
+                         source=embedded.source, key="markers")
 
 
 def simulate_like(model: SpringMassModel, experiment: Experiment,

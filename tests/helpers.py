@@ -36,3 +36,22 @@ def write_gmsh(path, points, tetrahedra, region, names):
                                                for tag, name in names.items()}),
                  file_format="gmsh22", binary=False)
     return path
+
+
+def assert_gradient_exact(sensitivity, theta, experiment, substeps):
+    """The adjoint gradient equals Jᵀr of the forward sensitivities and central differences
+    of the loss, for every parameter; returns ``(loss, gradient, run)``."""
+    import pytest
+
+    loss, gradient, _ = sensitivity.gradient(theta, experiment, substeps=substeps)
+    run = sensitivity.run(theta, experiment, substeps=substeps, tangents=True)
+    assert 0.5 * np.sum(run.residuals**2) == pytest.approx(loss, rel=1e-12)
+    assert np.allclose(run.jacobian.reshape(-1, theta.size).T @ run.residuals.ravel(),
+                       gradient, rtol=1e-8, atol=1e-12 * np.abs(gradient).max())
+    for k in range(theta.size):
+        step = np.zeros(theta.size)
+        step[k] = 1e-6
+        numeric = (sensitivity.gradient(theta + step, experiment, substeps=substeps)[0]
+                   - sensitivity.gradient(theta - step, experiment, substeps=substeps)[0]) / 2e-6
+        assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-9 * np.abs(gradient).max())
+    return loss, gradient, run

@@ -3,6 +3,7 @@ elasticity), closed-form solutions, and their own finite differences."""
 
 import numpy as np
 import pytest
+from helpers import assert_gradient_exact
 
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.errors import InputError
@@ -237,16 +238,7 @@ def test_element_parameter_gradients_are_exact():
     sensitivity = Sensitivity(parameters, 0.01)
     theta = parameters.initial()
     assert np.allclose(parameters.model(theta).element_poisson_ratio, 0.4)
-    loss, gradient, _ = sensitivity.gradient(theta, data, substeps=steps)
-    run = sensitivity.run(theta, data, substeps=steps, tangents=True)
-    assert np.allclose(run.jacobian.reshape(-1, theta.size).T @ run.residuals.ravel(),
-                       gradient, rtol=1e-8, atol=1e-12 * np.abs(gradient).max())
-    for k in range(theta.size):
-        step = np.zeros(theta.size)
-        step[k] = 1e-6
-        numeric = (sensitivity.gradient(theta + step, data, substeps=steps)[0]
-                   - sensitivity.gradient(theta - step, data, substeps=steps)[0]) / 2e-6
-        assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-9 * np.abs(gradient).max())
+    assert_gradient_exact(sensitivity, theta, data, steps)
 
 
 @pytest.mark.slow

@@ -9,8 +9,7 @@ import numpy as np
 
 from ..serialization import json_safe
 from ..effects import SoftInclusion, StiffInclusion
-from ..errors import InputError
-from ..experiment import Experiment, check_experiments
+from ..experiment import Experiment, check_experiments, require_node_observations
 from ..learn import GradientLearner
 from ..model import SpringMassModel
 from ..progress import note
@@ -119,12 +118,8 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         Report each round on stderr.
     """
     experiments = check_experiments(model, experiments)
-    embedded = next((e for e in experiments if e.markers is not None), None)
-    if embedded is not None:
-        raise InputError("observes markers embedded in the mesh; the diagnosis reads node "
-                         "accelerations from node trajectories and does not yet take embedded "
-                         "markers: import with --attach node for the diagnosis",
-                         source=embedded.source, key="markers")
+    require_node_observations(experiments, "the diagnosis reads node accelerations from node "
+                                           "trajectories (embedded markers are not yet supported)")
 
     def say(message):
         note(progress, message)

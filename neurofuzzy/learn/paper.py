@@ -31,7 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import InputError, NeurofuzzyError
-from ..experiment import Experiment, check_experiments, rms_error
+from ..experiment import Experiment, check_experiments, require_node_observations, rms_error
 from ..model import SpringMassModel
 from ..forces import SPRINGS, incidence
 from ..progress import Progress
@@ -105,12 +105,8 @@ class PaperLearner(Learner):
             raise InputError("the paper's learner learns spring networks (eqs. 3.7-3.22); fit "
                              "a model with tetrahedral elements with the gradient learner",
                              key="method")
-        embedded = next((e for e in experiments if e.markers is not None), None)
-        if embedded is not None:
-            raise InputError("observes markers embedded in the mesh; the paper's learner "
-                             "teacher-forces measured node positions (Figure 2): fit it with "
-                             "the gradient learner, or import with --attach node",
-                             source=embedded.source, key="method")
+        require_node_observations(experiments, "the paper's learner teacher-forces measured "
+                                  "node positions (Figure 2; the gradient learner takes markers)")
         started = time.perf_counter()
         self.rms_error_initial_ = rms_error(model, experiments)
 
