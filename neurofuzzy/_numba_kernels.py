@@ -3,7 +3,8 @@
 Imported only when numba is installed; module-level so that ``cache=True`` keeps the machine
 code between runs. The arithmetic is that of :class:`neurofuzzy.forces.SpringForce` and
 :class:`neurofuzzy.forces.TetrahedronForce` (tested equal); the elements' stress is written
-``S = λ tr(X) I + 2 μ X`` with ``X = G + (η/E) Ġ``, the same as ``E L(G) + η L(Ġ)``.
+``S = π I + 2 μ X`` with ``X = G + (η/E) Ġ`` and ``π = λ tr X`` (per element) or the mean of
+the node-averaged ``Λ θ̄ + H θ̄̇`` over the element's corners (nodal volumetric form).
 """
 
 import numba
@@ -11,25 +12,54 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, force):
+def _deformation(p, v, n0, n1, n2, n3, B, F, Fd):
+    """F = Ds B and Ḟ = Ḋs B (Ds columns: x1 - x0, x2 - x0, x3 - x0)."""
+    for r in range(3):
+        d1 = p[n1, r] - p[n0, r]
+        d2 = p[n2, r] - p[n0, r]
+        d3 = p[n3, r] - p[n0, r]
+        w1 = v[n1, r] - v[n0, r]
+        w2 = v[n2, r] - v[n0, r]
+        w3 = v[n3, r] - v[n0, r]
+        for c in range(3):
+            F[r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
+            Fd[r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+
+
+@numba.njit(cache=True, nogil=True)
+def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, node_volume,
+                    node_lam, node_lam_rate, node_strain, force):
+    """Element forces into ``force``; with ``nodal`` the volumetric stress comes from the
+    node averages of ``θ`` and ``θ̇`` (one pass for the averages, one for the forces)."""
     F = np.empty((3, 3))
     Fd = np.empty((3, 3))
     X = np.empty((3, 3))
     S = np.empty((3, 3))
-    for e in range(tets.shape[0]):
+    n_elements = tets.shape[0]
+    if nodal:
+        node_strain[:] = 0.0
+        for e in range(n_elements):
+            n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+            _deformation(p, v, n0, n1, n2, n3, inverse_rest[e], F, Fd)
+            theta = 0.0
+            theta_rate = 0.0
+            for r in range(3):
+                for c in range(3):
+                    theta += F[r, c] * F[r, c]
+                    theta_rate += F[r, c] * Fd[r, c]
+            theta = 0.5 * theta - 1.5                  # tr G = ½ (|F|² - 3)
+            corner = 0.25 * volume[e]
+            for j in range(4):
+                node_strain[tets[e, j], 0] += corner * theta
+                node_strain[tets[e, j], 1] += corner * theta_rate
+        for i in range(node_strain.shape[0]):
+            if node_volume[i] > 0.0:
+                node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
+                                     + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
+    for e in range(n_elements):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
-        # F = Ds B and Ḟ = Ḋs B (Ds columns: x1 - x0, x2 - x0, x3 - x0)
-        for r in range(3):
-            d1 = p[n1, r] - p[n0, r]
-            d2 = p[n2, r] - p[n0, r]
-            d3 = p[n3, r] - p[n0, r]
-            w1 = v[n1, r] - v[n0, r]
-            w2 = v[n2, r] - v[n0, r]
-            w3 = v[n3, r] - v[n0, r]
-            for c in range(3):
-                F[r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
-                Fd[r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+        _deformation(p, v, n0, n1, n2, n3, B, F, Fd)
         # X = G + (η/E) Ġ with G = ½(FᵀF - I), Ġ = sym(FᵀḞ)
         for i in range(3):
             for k in range(i, 3):
@@ -41,11 +71,15 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, force):
                     x -= 0.5
                 X[i, k] = x
                 X[k, i] = x
-        trace = X[0, 0] + X[1, 1] + X[2, 2]
+        if nodal:
+            pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
+                               + node_strain[n3, 0])
+        else:
+            pressure = lam[e] * (X[0, 0] + X[1, 1] + X[2, 2])
         for i in range(3):
             for k in range(3):
                 S[i, k] = 2.0 * mu[e] * X[i, k]
-            S[i, i] += lam[e] * trace
+            S[i, i] += pressure
         # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
         scale = -volume[e]
         for r in range(3):
@@ -63,7 +97,8 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, force):
 
 @numba.njit(cache=True, nogil=True)
 def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu, ratio,
-            weight, load, h, n_steps, force):
+            nodal, node_volume, node_lam, node_lam_rate, node_strain, weight, load, h,
+            n_steps, force):
     n_springs, n_nodes = a.shape[0], p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -87,7 +122,8 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
             force[ib, 1] -= fy
             force[ib, 2] -= fz
         if tets.shape[0]:
-            _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, force)
+            _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal,
+                            node_volume, node_lam, node_lam_rate, node_strain, force)
         for i in range(n_nodes):
             step = h * weight[i]
             for k in range(3):
@@ -97,12 +133,14 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
 
 @numba.njit(cache=True, nogil=True)
 def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu, ratio,
-           weight, loads, h, n_frames, substeps, force, positions, velocities):
+           nodal, node_volume, node_lam, node_lam_rate, node_strain, weight, loads, h,
+           n_frames, substeps, force, positions, velocities):
     positions[0] = p
     velocities[0] = v
     for t in range(1, n_frames):
         advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu,
-                ratio, weight, loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
+                ratio, nodal, node_volume, node_lam, node_lam_rate, node_strain, weight,
+                loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
         if not np.isfinite(p.sum()):
             positions[t:] = np.nan
             velocities[t:] = np.nan

@@ -135,21 +135,27 @@ def compiled_terms_only(model) -> bool:
 
 
 def _element_arrays(model, dtype):
-    """``(tets, inverse_rest, volume, λ, μ, η/E)`` of the model's elements (empty when it has
-    none), in the kernel's layout."""
+    """``(tets, inverse_rest, volume, λ, μ, η/E, nodal, node_volume, Λ, H, node_strain)`` of
+    the model's elements in the kernel's layout (empty when it has none; ``node_strain`` is
+    scratch space of the nodal volumetric form)."""
     if not model.has_elements:
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty, empty, empty,
-                empty)
-    from .forces.tetrahedra import lame_factors, tetrahedron_geometry
+                empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
+    from .forces.tetrahedra import Materials
 
-    geometry = tetrahedron_geometry(model.mesh)
-    E = model.element_youngs_modulus
-    a, b, _, _ = lame_factors(model.element_poisson_ratio)
+    materials = Materials.of(model)
+    geometry = materials.geometry
+    nodal = materials.nodal
+    n_nodes = model.n_nodes
+    node_values = ((geometry.node_volume, materials.node_lam, materials.node_lam_rate)
+                   if nodal else (np.zeros(n_nodes),) * 3)
     return (np.ascontiguousarray(geometry.nodes, np.intp),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
-            (E * a).astype(dtype), (E * b).astype(dtype),
-            (model.element_viscosity / E).astype(dtype))
+            materials.lam.astype(dtype), (0.5 * materials.shear).astype(dtype),
+            (model.element_viscosity / model.element_youngs_modulus).astype(dtype), nodal,
+            *(np.ascontiguousarray(values, dtype) for values in node_values),
+            np.zeros((n_nodes, 2), dtype))
 
 
 def _compile():

@@ -225,7 +225,8 @@ def model_to_dict(model: SpringMassModel) -> dict:
                             "poisson_ratio": model.element_poisson_ratio.tolist(),
                             "viscosity": model.element_viscosity.tolist(),
                             "tie": model.element_tie.tolist(),
-                            "region": model.element_region.tolist()}
+                            "region": model.element_region.tolist(),
+                            "volumetric": model.element_volumetric}
     return data
 
 
@@ -261,8 +262,11 @@ def _elements_from_dict(data: dict) -> dict:
     if not isinstance(elements, dict):
         raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
                          key="elements")
-    return {f"element_{key}": elements.get(key)
-            for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region")}
+    values = {f"element_{key}": elements.get(key)
+              for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region")}
+    # files written before the nodal volumetric form existed hold per-element elements
+    values["element_volumetric"] = elements.get("volumetric", "element")
+    return values
 
 
 def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> dict:

@@ -34,6 +34,8 @@ __all__ = ["SpringMassModel", "Tie", "tie_index"]
 
 Tie = Literal["global", "groups", "none"]
 TIES: tuple[str, ...] = ("global", "groups", "none")
+#: How tetrahedral elements form their volumetric stress (:mod:`neurofuzzy.forces.tetrahedra`).
+VOLUMETRIC: tuple[str, ...] = ("nodal", "element")
 
 PerSpring = float | Sequence[float] | np.ndarray | Mapping[str, float]
 
@@ -94,6 +96,11 @@ class SpringMassModel:
         learned as one E, ν and η (E and η keep their start ratios).
     element_region : (n_tetrahedra,) int, optional
         Region of every element (default 0).
+    element_volumetric : {"nodal", "element"}
+        How the elements' volumetric stress is formed
+        (:mod:`neurofuzzy.forces.tetrahedra`): averaged over the tetrahedra around every
+        node (the default; free of volumetric locking for nearly incompressible tissue) or
+        per element (the textbook linear tetrahedron).
     """
 
     mesh: Mesh
@@ -112,6 +119,7 @@ class SpringMassModel:
     element_viscosity: np.ndarray | None = None
     element_tie: np.ndarray | None = None
     element_region: np.ndarray | None = None
+    element_volumetric: str = "nodal"
 
     def __post_init__(self):
         mesh = self.mesh
@@ -202,7 +210,7 @@ class SpringMassModel:
 
     @classmethod
     def continuum(cls, mesh: Mesh, *, youngs_modulus, poisson_ratio, viscosity,
-                  density) -> SpringMassModel:
+                  density, volumetric: str = "nodal") -> SpringMassModel:
         """A tetrahedral finite-element model of ``mesh`` (which needs ``tetrahedra``).
 
         Parameters
@@ -212,6 +220,8 @@ class SpringMassModel:
         density : float or (n_tetrahedra,) float
             kg/m³; every node carries a quarter of the mass of each of its tetrahedra
             (lumped mass).
+        volumetric : {"nodal", "element"}
+            The elements' volumetric form (``element_volumetric``).
 
         The springs of the mesh (its tetrahedron edges) get zero stiffness and damping.
         """
@@ -228,7 +238,8 @@ class SpringMassModel:
         return cls(mesh, node_mass=node_mass, spring_stiffness=0.0, spring_damping=0.0,
                    element_youngs_modulus=np.broadcast_to(youngs_modulus, (n,)),
                    element_poisson_ratio=np.broadcast_to(poisson_ratio, (n,)),
-                   element_viscosity=np.broadcast_to(viscosity, (n,)))
+                   element_viscosity=np.broadcast_to(viscosity, (n,)),
+                   element_volumetric=volumetric)
 
     def replace(self, **changes) -> SpringMassModel:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -311,6 +322,11 @@ class SpringMassModel:
             raise InputError(f"expected ({n},) integers, one tie group per element",
                              key="element_tie")
         out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
+        if self.element_volumetric not in VOLUMETRIC:
+            hint = closest_name(str(self.element_volumetric), VOLUMETRIC)
+            raise InputError(f"got {self.element_volumetric!r}; expected one of "
+                             f"{list(VOLUMETRIC)}" + (f" (did you mean {hint!r}?)" if hint
+                                                      else ""), key="element_volumetric")
         if np.any(out["element_youngs_modulus"] <= 0):
             raise InputError("must be positive (Pa)", key="element_youngs_modulus")
         nu = out["element_poisson_ratio"]

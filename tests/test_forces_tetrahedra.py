@@ -46,7 +46,7 @@ def test_stiffness_at_rest_is_scikit_fem_linear_elasticity_to_round_off():
     rng = np.random.default_rng(1)
     moduli, ratios = rng.uniform(2e3, 2e4, mesh.n_tetrahedra), rng.uniform(0.1, 0.49,
                                                                            mesh.n_tetrahedra)
-    model = continuum(mesh, youngs_modulus=moduli, poisson_ratio=ratios)
+    model = continuum(mesh, youngs_modulus=moduli, poisson_ratio=ratios, volumetric="element")
     stiffness, _ = TETRAHEDRA.rest_matrices(model)
     fem = skfem.MeshTet(mesh.rest_positions.T.copy(), mesh.tetrahedra.T.copy())
     basis = skfem.Basis(fem, skfem.ElementVector(skfem.ElementTetP1()))
@@ -62,10 +62,12 @@ def test_stiffness_at_rest_is_scikit_fem_linear_elasticity_to_round_off():
     assert np.abs(ours_in_skfem_order - reference.toarray()).max() < 1e-10 * scale
 
 
-def test_uniaxial_stress_with_lateral_contraction_is_exact():
-    """u = ε (x, -ν y, -ν z): no force inside or on the free faces, σ = E ε on the end."""
-    mesh = block((3, 2, 2), spacing=0.01)
-    model = continuum(mesh)
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_uniaxial_stress_with_lateral_contraction_is_exact(volumetric):
+    """u = ε (x, -ν y, -ν z): no force inside or on the free faces, σ = E ε on the end (for
+    the nodal volumetric form too: averaging a homogeneous strain changes nothing)."""
+    mesh = block((3, 2, 2), spacing=0.01, jitter=0.2)
+    model = continuum(mesh, volumetric=volumetric)
     strain = 1e-7
     x = mesh.rest_positions
     displaced = x + strain * x * np.array([1.0, -NU, -NU])
@@ -80,8 +82,9 @@ def test_uniaxial_stress_with_lateral_contraction_is_exact():
     assert np.abs(force[:, 1:]).max() < 1e-5 * E * strain * area      # no lateral stress
 
 
-def test_rigid_motion_gives_no_force_and_rotated_states_rotated_forces():
-    model = continuum(block(jitter=0.2))
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_rigid_motion_gives_no_force_and_rotated_states_rotated_forces(volumetric):
+    model = continuum(block(jitter=0.2), volumetric=volumetric)
     x = model.mesh.rest_positions
     angle = 0.7
     rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0],
@@ -93,8 +96,9 @@ def test_rigid_motion_gives_no_force_and_rotated_states_rotated_forces():
     assert np.allclose(rotated, TETRAHEDRA.force(model, p, v) @ rotation.T, atol=1e-12)
 
 
-def test_forces_balance_and_state_derivatives_are_exact():
-    model = continuum(block(jitter=0.2))
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_forces_balance_and_state_derivatives_are_exact(volumetric):
+    model = continuum(block(jitter=0.2), volumetric=volumetric)
     p, v = state(model, 3)
     force = TETRAHEDRA.force(model, p, v)
     assert np.allclose(force.sum(axis=0), 0.0, atol=1e-12 * np.abs(force).max())
@@ -113,14 +117,29 @@ def test_forces_balance_and_state_derivatives_are_exact():
                                     rel=1e-10)
 
 
-def test_parameter_templates_match_finite_differences():
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_parameter_derivatives_match_finite_differences(volumetric):
+    """parameter_jvp along single elements' E, ν, η equals central differences of the force
+    (the nodal form moves the neighbours' nodes too, the per-element form only the element's
+    own), and parameter_vjp is its adjoint."""
+    import scipy.sparse as sp
+
     mesh = block(jitter=0.2)
-    model = continuum(mesh)
+    k = mesh.n_tetrahedra
+    rng = np.random.default_rng(9)
+    model = continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
+                      poisson_ratio=rng.uniform(0.3, 0.48, k), viscosity=rng.uniform(1, 5, k),
+                      volumetric=volumetric)
     p, v = state(model, 5)
-    templates = TETRAHEDRA.parameter_templates(model, p, v)
+    chosen = [0, 7, k - 1]
+    unit = sp.csr_matrix((np.ones(3), (chosen, range(3))), shape=(k, 3))
+    zero = sp.csr_matrix((k, 3))
     for name, step in (("youngs_modulus", 1.0), ("poisson_ratio", 1e-6), ("viscosity", 1e-4)):
-        assert templates[name].shape == (mesh.n_tetrahedra, 4, 3)
-        for element in (0, 7, mesh.n_tetrahedra - 1):
+        directions = {other: (unit if other == name else zero)
+                      for other in ("youngs_modulus", "poisson_ratio", "viscosity")}
+        jvp = TETRAHEDRA.parameter_jvp(model, p, v, directions)
+        assert jvp.shape == (model.n_nodes, 3, 3)
+        for column, element in enumerate(chosen):
             values = getattr(model, f"element_{name}").copy()
             plus, minus = values.copy(), values.copy()
             plus[element] += step
@@ -128,11 +147,37 @@ def test_parameter_templates_match_finite_differences():
             numeric = (TETRAHEDRA.force(model.replace(**{f"element_{name}": plus}), p, v)
                        - TETRAHEDRA.force(model.replace(**{f"element_{name}": minus}), p, v)
                        ) / (2 * step)
-            nodes = mesh.tetrahedra[element]
-            assert np.allclose(templates[name][element], numeric[nodes], rtol=1e-5,
-                               atol=1e-8 * np.abs(numeric).max())
-            others = np.setdiff1d(np.arange(model.n_nodes), nodes)
-            assert np.abs(numeric[others]).max() < 1e-9 * np.abs(numeric).max()
+            assert np.allclose(jvp[:, column], numeric, rtol=1e-5,
+                               atol=1e-7 * np.abs(numeric).max())
+            outside = ~np.isin(np.arange(model.n_nodes), mesh.tetrahedra[element])
+            moved_outside = np.abs(numeric[outside]).max() / np.abs(numeric).max()
+            if volumetric == "element":
+                assert moved_outside < 1e-9
+            else:
+                assert moved_outside > 1e-3          # the node averages reach the neighbours
+    cotangent = rng.normal(size=(model.n_nodes, 3))
+    gradients = TETRAHEDRA.parameter_vjp(model, p, v, cotangent)
+    directions = {name: rng.normal(size=(k, 2)) for name in gradients}
+    forward = np.einsum("npk,nk->p", TETRAHEDRA.parameter_jvp(model, p, v, directions),
+                        cotangent)
+    backward = sum(directions[name].T @ gradients[name] for name in gradients)
+    assert np.allclose(forward, backward, rtol=1e-10)
+
+
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_stiffness_at_rest_is_the_force_derivative(volumetric):
+    """The assembled rest matrices (used for the stability bound) are -∂f/∂x and -∂f/∂v at
+    rest, for the non-local nodal form too."""
+    model = continuum(block(jitter=0.2), volumetric=volumetric)
+    stiffness, damping = TETRAHEDRA.rest_matrices(model)
+    rng = np.random.default_rng(10)
+    dp, dv = rng.normal(size=(2, model.n_nodes, 1, 3))
+    rest, still = model.mesh.rest_positions, np.zeros((model.n_nodes, 3))
+    jvp = TETRAHEDRA.state_jvp(model, rest, still, dp, np.zeros_like(dv))[:, 0].ravel()
+    assert np.allclose(-stiffness @ dp[:, 0].ravel(), jvp, atol=1e-12 * np.abs(jvp).max())
+    jvp = TETRAHEDRA.state_jvp(model, rest, still, np.zeros_like(dp), dv)[:, 0].ravel()
+    assert np.allclose(-damping @ dv[:, 0].ravel(), jvp, atol=1e-12 * np.abs(jvp).max())
+    assert abs(stiffness - stiffness.T).max() < 1e-12 * abs(stiffness).max()   # an energy
 
 
 def test_a_damped_block_settles_at_scikit_fem_static_solution():
@@ -145,7 +190,7 @@ def test_a_damped_block_settles_at_scikit_fem_static_solution():
     mesh = block((2, 2, 3), spacing=0.01)
     x = mesh.rest_positions
     mesh = mesh.with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    model = continuum(mesh, viscosity=100.0)          # settles within the 0.4 s
+    model = continuum(mesh, viscosity=100.0, volumetric="element")   # settles within 0.4 s
     load = np.zeros((mesh.n_nodes, 3))
     top = np.flatnonzero(np.isclose(x[:, 2], 0.03))
     load[top, 2] = -1e-3 / len(top)
@@ -168,8 +213,9 @@ def test_a_damped_block_settles_at_scikit_fem_static_solution():
     assert np.abs(displacement - expected).max() < 0.01 * np.abs(expected).max()
 
 
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
 @pytest.mark.parametrize("backend", ["numpy", "numba"])
-def test_fast_steppers_step_elements_as_the_reference_step(backend):
+def test_fast_steppers_step_elements_as_the_reference_step(backend, volumetric):
     """Both steppers (numba's compiled element loop included) reproduce
     :func:`~neurofuzzy.simulation.step`, which sums the force terms one by one."""
     if backend == "numba":
@@ -180,7 +226,8 @@ def test_fast_steppers_step_elements_as_the_reference_step(backend):
     rng = np.random.default_rng(4)
     k = mesh.n_tetrahedra
     model = continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
-                      poisson_ratio=rng.uniform(0.2, 0.48, k), viscosity=rng.uniform(1, 5, k))
+                      poisson_ratio=rng.uniform(0.2, 0.48, k), viscosity=rng.uniform(1, 5, k),
+                      volumetric=volumetric)
     model = model.replace(spring_stiffness=np.where(np.arange(mesh.n_springs) % 3 == 0, 5.0, 0.0))
     loads = rng.normal(0, 1e-3, (20, mesh.n_nodes, 3))
     dt, substeps = 2e-4, 3
@@ -198,7 +245,7 @@ def test_fast_steppers_step_elements_as_the_reference_step(backend):
 def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
     model = continuum(block(), youngs_modulus=np.linspace(1e3, 2e3, 48))
     loaded = load_model(save_model(model, tmp_path / "m.yaml"))
-    assert loaded.has_elements
+    assert loaded.has_elements and loaded.element_volumetric == "nodal"
     assert np.array_equal(loaded.element_youngs_modulus, model.element_youngs_modulus)
     assert np.allclose(loaded.force_terms[1].force(loaded, *state(model, 6)),
                        TETRAHEDRA.force(model, *state(model, 6)))
@@ -206,6 +253,8 @@ def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
         model.replace(element_poisson_ratio=np.full(48, 0.5))
     with pytest.raises(InputError, match="all three"):
         model.replace(element_viscosity=None)
+    with pytest.raises(InputError, match="did you mean 'nodal'"):
+        model.replace(element_volumetric="nodes")
 
 
 def _element_data(truth, frames=80):
@@ -221,12 +270,13 @@ def _element_data(truth, frames=80):
     return experiments, steps
 
 
-def test_element_parameter_gradients_are_exact():
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_element_parameter_gradients_are_exact(volumetric):
     from neurofuzzy.learn import Parameterization, Sensitivity
 
     mesh = block((1, 1, 2)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    truth = continuum(mesh, viscosity=20.0)
-    (data, _), steps = _element_data(truth, frames=30)
+    truth = continuum(mesh, viscosity=20.0, volumetric=volumetric)
+    (data, _), steps = _element_data(truth, frames=12)
     rng = np.random.default_rng(8)
     start = truth.replace(element_youngs_modulus=truth.element_youngs_modulus * 1.2,
                           element_poisson_ratio=np.full(mesh.n_tetrahedra, 0.4),

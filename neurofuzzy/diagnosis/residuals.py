@@ -11,8 +11,8 @@ from scipy.signal import savgol_filter
 
 from ..errors import InputError
 from ..experiment import Experiment, simulate_like
-from ..forces import SPRINGS, TETRAHEDRA, incidence, tetrahedron_geometry
-from ..learn import element_log_derivatives
+from ..forces import SPRINGS, TETRAHEDRA, incidence
+from ..learn import element_directions
 from ..model import SpringMassModel
 from ..simulation import internal_forces
 
@@ -158,6 +158,7 @@ def model_templates(model, samples) -> np.ndarray:
     """Templates of the model's own tied parameters (their log-derivatives): spring stiffness
     and viscosity, and for element models every element tie group's E, ν and η."""
     maps = incidence(model.mesh)
+    directions = element_directions(model) if model.has_elements else None
 
     def force_of(p, v):
         per_unit = SPRINGS.parameter_templates(SPRINGS.state(model, p, v))
@@ -166,12 +167,7 @@ def model_templates(model, samples) -> np.ndarray:
                    for name, values in (("stiffness", model.spring_stiffness),
                                         ("damping", model.spring_damping))]
         if model.has_elements:
-            geometry = tetrahedron_geometry(model.mesh)
-            local = TETRAHEDRA.parameter_templates(model, p, v)
-            for factor, key in element_log_derivatives(model).values():
-                columns.append(geometry.group_sums(factor[:, None, None] * local[key],
-                                                   model.element_tie, model.n_element_ties,
-                                                   model.n_nodes))
+            columns.append(TETRAHEDRA.parameter_jvp(model, p, v, directions))
         return np.concatenate(columns, axis=1)
 
     return templates(model, samples, force_of)

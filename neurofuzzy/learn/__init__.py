@@ -13,7 +13,7 @@ end in ``_`` (``model_``, ``history_``, ``rms_error_`` …).
 """
 
 from ._base import Learner
-from ._parameters import Parameterization, element_log_derivatives
+from ._parameters import Parameterization, element_directions
 from ._sensitivity import Run, Sensitivity
 from .gradient import GradientLearner, auto_substeps
 from .identifiability import Identifiability
@@ -22,4 +22,4 @@ from .start import StartModel, estimate_start, start_model
 
 __all__ = ["Learner", "PaperLearner", "GradientLearner", "Identifiability", "auto_substeps",
            "StartModel", "start_model", "estimate_start", "Parameterization",
-           "Sensitivity", "Run", "element_log_derivatives"]
+           "Sensitivity", "Run", "element_directions"]

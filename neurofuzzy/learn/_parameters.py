@@ -19,25 +19,30 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import SpringMassModel
 from ._base import TiedSprings
 
-__all__ = ["Parameterization", "ELEMENT_BLOCKS", "element_log_derivatives"]
+__all__ = ["Parameterization", "ELEMENT_BLOCKS", "element_directions"]
 
 #: The element parameter blocks, in order.
 ELEMENT_BLOCKS = ("log_youngs_modulus", "logit_poisson_ratio", "log_viscosity")
 
 
-def element_log_derivatives(model) -> dict[str, tuple[np.ndarray, str]]:
-    """Per element block: the derivative of every element's value by its parameter and the
-    force template it scales (``dE/d log E = E``, ``dν/d logit = ν (1 - 2ν)`` for
-    ``ν = σ/2``, ``dη/d log η = η``)."""
+def element_directions(model) -> dict[str, sp.csr_matrix]:
+    """Per element quantity, the sparse (n_elements, 3 n_element_ties) derivative of every
+    element's value by the element parameters (the three element blocks side by side, in
+    ``ELEMENT_BLOCKS`` order): ``dE/d log E = E``, ``dν/d logit = ν (1 - 2ν)`` for ``ν = σ/2``,
+    ``dη/d log η = η``, each in its element's tie-group column."""
+    n, ties = model.mesh.n_tetrahedra, model.n_element_ties
     nu = model.element_poisson_ratio
-    return {"log_youngs_modulus": (model.element_youngs_modulus, "youngs_modulus"),
-            "logit_poisson_ratio": (nu * (1.0 - 2.0 * nu), "poisson_ratio"),
-            "log_viscosity": (model.element_viscosity, "viscosity")}
+    factors = {"youngs_modulus": model.element_youngs_modulus,
+               "poisson_ratio": nu * (1.0 - 2.0 * nu), "viscosity": model.element_viscosity}
+    return {name: sp.csr_matrix((factors[name], (np.arange(n), block * ties + model.element_tie)),
+                                shape=(n, 3 * ties))
+            for block, name in enumerate(factors)}
 
 
 @dataclass

@@ -22,10 +22,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..experiment import Experiment
-import scipy.sparse as sp
-
 from ..forces import SPRINGS, TETRAHEDRA, incidence
-from ._parameters import Parameterization, element_log_derivatives
+from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
 
 __all__ = ["Sensitivity", "Run"]
 
@@ -76,15 +74,9 @@ class Sensitivity:
         self.incidence = incidence(model.mesh)
         # (n_ties * n_nodes, n_springs): spring j into the block of its tie group
         self.tie_incidence = self.incidence.grouped(parameters.tied.tie, parameters.tied.n_ties)
-        if model.has_elements:
-            # (n_element_ties * n_nodes, 4 n_elements): element e's node j into its tie block
-            nodes = model.mesh.tetrahedra
-            tie = np.repeat(model.element_tie, 4)
-            self.element_incidence = sp.csr_matrix(
-                (np.ones(nodes.size), (tie * self.n_nodes + nodes.ravel(),
-                                       np.arange(nodes.size))),
-                shape=(model.n_element_ties * self.n_nodes, nodes.size))
-
+        if model.has_elements:         # the three element blocks lie side by side
+            self.element_slice = slice(parameters.blocks[ELEMENT_BLOCKS[0]].start,
+                                       parameters.blocks[ELEMENT_BLOCKS[-1]].stop)
 
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
@@ -95,8 +87,9 @@ class Sensitivity:
             force += term.force(model, p, v)
         return force
 
-    def _force_tangent(self, model, state, p, v, tp, tv) -> np.ndarray:
-        """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction."""
+    def _force_tangent(self, model, state, p, v, tp, tv, directions) -> np.ndarray:
+        """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction
+        (``directions``: :func:`element_directions` of ``model``, for element models)."""
         param = self.parameters
         d_force = SPRINGS.state_jvp(model, p, v, tp, tv, state)
         for term in model.force_terms[1:]:
@@ -111,11 +104,7 @@ class Sensitivity:
                     self.tie_incidence @ per_spring).reshape(n_ties, self.n_nodes, 3
                                                              ).transpose(1, 0, 2)
         if model.has_elements:
-            templates = TETRAHEDRA.parameter_templates(model, p, v)       # (K, 4, 3)
-            for name, (factor, key) in element_log_derivatives(model).items():
-                local = (factor[:, None, None] * templates[key]).reshape(-1, 3)
-                d_force[:, param.blocks[name].slice] += (self.element_incidence @ local).reshape(
-                    model.n_element_ties, self.n_nodes, 3).transpose(1, 0, 2)
+            d_force[:, self.element_slice] += TETRAHEDRA.parameter_jvp(model, p, v, directions)
         for i, effect in enumerate(param.effects):
             d_force[:, param.blocks[f"effect:{i}"].slice] += effect.parameter_jacobian(
                 model, p, v)
@@ -151,6 +140,7 @@ class Sensitivity:
         blocks = param.blocks
         mass_rows = (np.arange(blocks["log_mass"].start, blocks["log_mass"].stop)
                      if param.learn_masses else None)
+        directions = element_directions(model) if model.has_elements and tangents else None
 
         positions = np.empty((n_frames, self.n_nodes, 3))
         jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, n_params)) if tangents
@@ -173,7 +163,8 @@ class Sensitivity:
                         state = SPRINGS.state(model, p, v)
                         force = self._force(model, p, v, state) + loads[t - 1]
                         if tangents:
-                            d_force = self._force_tangent(model, state, p, v, tp, tv)
+                            d_force = self._force_tangent(model, state, p, v, tp, tv,
+                                                          directions)
                             d_velocity = tv + (h * weight)[:, :, None] * d_force
                             if mass_rows is not None:
                                 nodes = param.free_nodes
@@ -239,6 +230,7 @@ class Sensitivity:
         index = len(states)
         n_ties = param.tied.n_ties
         tie = param.tied.tie
+        directions = element_directions(model) if model.has_elements else None
         for t in range(n_frames - 1, 0, -1):
             if t in starts:
                 lam_p[:] = 0.0
@@ -267,13 +259,9 @@ class Sensitivity:
                         grad[param.blocks[name].slice] += np.bincount(
                             tie, values * per_spring[name[4:]], n_ties)
                 if model.has_elements:
-                    templates = TETRAHEDRA.parameter_templates(model, p, v)
-                    lam_local = lam_force[model.mesh.tetrahedra]            # (K, 4, 3)
-                    for name, (factor, key) in element_log_derivatives(model).items():
-                        grad[param.blocks[name].slice] += np.bincount(
-                            model.element_tie, factor * np.einsum("ejk,ejk->e", lam_local,
-                                                                  templates[key]),
-                            model.n_element_ties)
+                    per_element = TETRAHEDRA.parameter_vjp(model, p, v, lam_force)
+                    for name, direction in directions.items():
+                        grad[self.element_slice] += direction.T @ per_element[name]
                 for i, effect in enumerate(param.effects):
                     jac = effect.parameter_jacobian(model, p, v)
                     grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,
