@@ -18,6 +18,9 @@ from_surface_tetra
     Tetrahedralise a closed triangle surface with TetGen (the optional ``tetgen`` package) and
     build the springs as :func:`from_tetra` does.
 
+The surface: :func:`surface_nodes`, :func:`surface_triangles` and :func:`patch_loads`, the
+node loads of a probe pressing on a patch of the surface.
+
 Lattice meshes carry no tetrahedra (``Mesh.tetrahedra is None``); tetrahedral meshes keep
 theirs, so :mod:`neurofuzzy.rules` can weigh every spring by the volume of the tetrahedra
 around it.
@@ -26,9 +29,11 @@ around it.
 from .core import TET_EDGES, Mesh, bottom_layer
 from .files import MeshFile, read_mesh
 from .lattice import LatticeCells, cell_lattice, from_trimesh, lattice, lattice_cells
+from .surface import patch_loads, surface_triangles
 from .tetra import (from_surface_tetra, from_tetra, kuhn_tetrahedra, lattice_to_tetra,
                     surface_nodes)
 
 __all__ = ["Mesh", "lattice", "from_trimesh", "cell_lattice", "from_tetra", "from_surface_tetra",
            "surface_nodes", "lattice_cells", "LatticeCells", "bottom_layer", "TET_EDGES",
-           "read_mesh", "MeshFile", "lattice_to_tetra", "kuhn_tetrahedra"]
+           "read_mesh", "MeshFile", "lattice_to_tetra", "kuhn_tetrahedra", "surface_triangles",
+           "patch_loads"]
