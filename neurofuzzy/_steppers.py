@@ -150,7 +150,7 @@ def _element_arrays(model, dtype):
     n_nodes = model.n_nodes
     node_values = ((geometry.node_volume, materials.node_lam, materials.node_lam_rate)
                    if nodal else (np.zeros(n_nodes),) * 3)
-    return (np.ascontiguousarray(geometry.nodes, np.intp),
+    return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
             materials.lam.astype(dtype), (0.5 * materials.shear).astype(dtype),
             (model.element_viscosity / model.element_youngs_modulus).astype(dtype), nodal,

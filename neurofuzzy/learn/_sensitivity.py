@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence
+from ._compiled import CompiledModel, compiled_possible
 from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
 
 __all__ = ["Sensitivity", "Run"]
@@ -64,10 +65,19 @@ class Sensitivity:
         Which parameters are free.
     length_unit : float
         Residuals are divided by it (dimensionless residuals; e.g. the mean spring length).
+    backend : {"auto", "numpy", "numba"}
+        Forward passes in the compiled kernel (:mod:`neurofuzzy._numba_sensitivity`, one call
+        per experiment) or the numpy reference path; ``"auto"`` compiles when numba is
+        installed and the model has only springs and elements with fixed masses.
     """
 
-    def __init__(self, parameters: Parameterization, length_unit: float):
+    def __init__(self, parameters: Parameterization, length_unit: float, *,
+                 backend: str = "auto"):
+        if backend not in ("auto", "numpy", "numba"):
+            raise InputError(f"got {backend!r}; expected 'auto', 'numpy' or 'numba'",
+                             key="backend")
         self.parameters = parameters
+        self.backend = backend
         model = parameters.base
         self.length_unit = float(length_unit)
         self.n_nodes = model.n_nodes
@@ -129,6 +139,11 @@ class Sensitivity:
         """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities."""
         param = self.parameters
         model = param.model(theta)
+        if self.backend != "numpy" and compiled_possible(param, model):
+            return self._compiled_run(model, experiment, substeps, starts, tangents)
+        if self.backend == "numba":
+            raise InputError("the compiled path needs numba and a model of springs and "
+                             "elements with fixed masses", key="backend")
         weight = model.node_inverse_mass[:, None]          # (N, 1)
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
@@ -183,6 +198,18 @@ class Sensitivity:
             residuals = observation.residuals(positions)[1:] / self.length_unit
         return Run(positions=positions, residuals=residuals,
                    n_measured=3 * int(seen[1:].sum()), jacobian=jacobian)
+
+    def _compiled_run(self, model, experiment, substeps, starts, tangents) -> Run:
+        states = {t: self._window_state(experiment, t) for t in set(int(t) for t in starts)
+                  | {0}}
+        positions, jacobian = CompiledModel(self.parameters, model).run(
+            experiment, states, substeps=substeps, scale=1.0 / self.length_unit,
+            tangents=tangents)
+        observation = experiment.observation
+        with np.errstate(over="ignore", invalid="ignore"):
+            residuals = observation.residuals(positions)[1:] / self.length_unit
+        return Run(positions=positions, residuals=residuals,
+                   n_measured=3 * int(observation.seen[1:].sum()), jacobian=jacobian)
 
     # -- reverse pass -------------------------------------------------------------------------
     def gradient(self, theta: np.ndarray, experiment: Experiment, *, substeps: int = 1,

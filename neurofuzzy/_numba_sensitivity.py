@@ -1,0 +1,313 @@
+"""Compiled forward sensitivities (numba) of :class:`neurofuzzy.learn.Sensitivity`.
+
+One call runs a whole experiment: every frame and substep of semi-implicit Euler for the
+state and its tangents along every parameter direction, with the observation operator
+applied at every frame, so no Python runs per time step. The arithmetic is that of the numpy
+reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_templates`` and
+:meth:`neurofuzzy.forces.TetrahedronForce.state_jvp`, ``parameter_jvp``; tested equal):
+
+- springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, parameters ``log s`` and ``log c`` of
+  the spring's tie group (columns ``stiffness_column[j]``, ``damping_column[j]``, -1 when
+  not learned);
+- tetrahedral elements ``S = 2μ (G + β Ġ) + π I`` (module :mod:`neurofuzzy.forces.tetrahedra`),
+  parameters ``log E``, ``logit 2ν`` and ``log η`` of the element's tie group; the volumetric
+  ``π`` per element or from the node averages (two passes over the elements).
+
+Imported only when numba is installed (module-level, ``cache=True``).
+"""
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True)
+def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
+                     damping_column, force, d_force):
+    n_params = tp.shape[1]
+    for j in range(a.shape[0]):
+        ia, ib = a[j], b[j]
+        dx = p[ib, 0] - p[ia, 0]
+        dy = p[ib, 1] - p[ia, 1]
+        dz = p[ib, 2] - p[ia, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        ux, uy, uz = dx / length, dy / length, dz / length
+        wx = v[ib, 0] - v[ia, 0]
+        wy = v[ib, 1] - v[ia, 1]
+        wz = v[ib, 2] - v[ia, 2]
+        closing = wx * ux + wy * uy + wz * uz
+        stretch = length - rest[j]
+        magnitude = stiffness[j] * stretch + damping[j] * closing
+        force[ia, 0] += magnitude * ux
+        force[ia, 1] += magnitude * uy
+        force[ia, 2] += magnitude * uz
+        force[ib, 0] -= magnitude * ux
+        force[ib, 1] -= magnitude * uy
+        force[ib, 2] -= magnitude * uz
+        for q in range(n_params):
+            ddx = tp[ib, q, 0] - tp[ia, q, 0]
+            ddy = tp[ib, q, 1] - tp[ia, q, 1]
+            ddz = tp[ib, q, 2] - tp[ia, q, 2]
+            dl = ux * ddx + uy * ddy + uz * ddz
+            dux = (ddx - ux * dl) / length
+            duy = (ddy - uy * dl) / length
+            duz = (ddz - uz * dl) / length
+            d_closing = ((tv[ib, q, 0] - tv[ia, q, 0]) * ux + (tv[ib, q, 1] - tv[ia, q, 1]) * uy
+                         + (tv[ib, q, 2] - tv[ia, q, 2]) * uz
+                         + wx * dux + wy * duy + wz * duz)
+            dm = stiffness[j] * dl + damping[j] * d_closing
+            if q == stiffness_column[j]:
+                dm += stiffness[j] * stretch
+            if q == damping_column[j]:
+                dm += damping[j] * closing
+            fx = dm * ux + magnitude * dux
+            fy = dm * uy + magnitude * duy
+            fz = dm * uz + magnitude * duz
+            d_force[ia, q, 0] += fx
+            d_force[ia, q, 1] += fy
+            d_force[ia, q, 2] += fz
+            d_force[ib, q, 0] -= fx
+            d_force[ib, q, 1] -= fy
+            d_force[ib, q, 2] -= fz
+
+
+@numba.njit(cache=True, nogil=True)
+def _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd):
+    """F, Ḟ and their tangents dF, dḞ (P, 3, 3) of one element."""
+    n_params = tp.shape[1]
+    for r in range(3):
+        d1 = p[n1, r] - p[n0, r]
+        d2 = p[n2, r] - p[n0, r]
+        d3 = p[n3, r] - p[n0, r]
+        w1 = v[n1, r] - v[n0, r]
+        w2 = v[n2, r] - v[n0, r]
+        w3 = v[n3, r] - v[n0, r]
+        for c in range(3):
+            F[r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
+            Fd[r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+        for q in range(n_params):
+            d1 = tp[n1, q, r] - tp[n0, q, r]
+            d2 = tp[n2, q, r] - tp[n0, q, r]
+            d3 = tp[n3, q, r] - tp[n0, q, r]
+            w1 = tv[n1, q, r] - tv[n0, q, r]
+            w2 = tv[n2, q, r] - tv[n0, q, r]
+            w3 = tv[n3, q, r] - tv[n0, q, r]
+            for c in range(3):
+                dF[q, r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
+                dFd[q, r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+
+
+@numba.njit(cache=True, nogil=True)
+def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, nodal,
+                      node_volume, node_lam, node_lam_rate, modulus_column, ratio_column,
+                      viscosity_column, ratio_factor, shear_ratio_factor, d_node_lam,
+                      d_node_lam_rate, node_strain, d_node_strain, force, d_force):
+    n_params = tp.shape[1]
+    F = np.empty((3, 3))
+    Fd = np.empty((3, 3))
+    G = np.empty((3, 3))
+    Gd = np.empty((3, 3))
+    S = np.empty((3, 3))
+    dF = np.empty((n_params, 3, 3))
+    dFd = np.empty((n_params, 3, 3))
+    dS = np.empty((3, 3))
+    d_pressure = np.empty(n_params)
+    n_elements = tets.shape[0]
+    if nodal:    # node averages of θ, θ̇ and their tangents → node pressures and tangents
+        node_strain[:] = 0.0
+        d_node_strain[:] = 0.0
+        for e in range(n_elements):
+            n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+            _gradients(p, v, tp, tv, n0, n1, n2, n3, inverse_rest[e], F, Fd, dF, dFd)
+            theta = -1.5
+            theta_rate = 0.0
+            for r in range(3):
+                for c in range(3):
+                    theta += 0.5 * F[r, c] * F[r, c]
+                    theta_rate += F[r, c] * Fd[r, c]
+            corner = 0.25 * volume[e]
+            for j in range(4):
+                node = tets[e, j]
+                node_strain[node, 0] += corner * theta
+                node_strain[node, 1] += corner * theta_rate
+            for q in range(n_params):
+                d_theta = 0.0
+                d_theta_rate = 0.0
+                for r in range(3):
+                    for c in range(3):
+                        d_theta += F[r, c] * dF[q, r, c]
+                        d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
+                for j in range(4):
+                    node = tets[e, j]
+                    d_node_strain[node, q, 0] += corner * d_theta
+                    d_node_strain[node, q, 1] += corner * d_theta_rate
+        for i in range(node_strain.shape[0]):
+            if node_volume[i] > 0.0:
+                theta = node_strain[i, 0] / node_volume[i]
+                theta_rate = node_strain[i, 1] / node_volume[i]
+                node_strain[i, 0] = node_lam[i] * theta + node_lam_rate[i] * theta_rate
+                for q in range(n_params):
+                    d_node_strain[i, q, 0] = (
+                        (node_lam[i] * d_node_strain[i, q, 0]
+                         + node_lam_rate[i] * d_node_strain[i, q, 1]) / node_volume[i]
+                        + d_node_lam[i, q] * theta + d_node_lam_rate[i, q] * theta_rate)
+    for e in range(n_elements):
+        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+        B = inverse_rest[e]
+        _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd)
+        r_e = ratio[e]
+        for i in range(3):
+            for k in range(i, 3):
+                g = 0.5 * (F[0, i] * F[0, k] + F[1, i] * F[1, k] + F[2, i] * F[2, k])
+                gd = 0.5 * (F[0, i] * Fd[0, k] + F[1, i] * Fd[1, k] + F[2, i] * Fd[2, k]
+                            + Fd[0, i] * F[0, k] + Fd[1, i] * F[1, k] + Fd[2, i] * F[2, k])
+                if i == k:
+                    g -= 0.5
+                G[i, k] = g
+                G[k, i] = g
+                Gd[i, k] = gd
+                Gd[k, i] = gd
+        theta = G[0, 0] + G[1, 1] + G[2, 2]
+        theta_rate = Gd[0, 0] + Gd[1, 1] + Gd[2, 2]
+        if nodal:
+            pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
+                               + node_strain[n3, 0])
+            for q in range(n_params):
+                d_pressure[q] = 0.25 * (d_node_strain[n0, q, 0] + d_node_strain[n1, q, 0]
+                                        + d_node_strain[n2, q, 0] + d_node_strain[n3, q, 0])
+        else:
+            pressure = lam[e] * (theta + r_e * theta_rate)
+            for q in range(n_params):
+                d_theta = 0.0
+                d_theta_rate = 0.0
+                for r in range(3):
+                    for c in range(3):
+                        d_theta += F[r, c] * dF[q, r, c]
+                        d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
+                d_pressure[q] = lam[e] * (d_theta + r_e * d_theta_rate)
+            # the element's own λ and λβ by its parameters
+            if modulus_column[e] >= 0:
+                d_pressure[modulus_column[e]] += lam[e] * theta
+            if viscosity_column[e] >= 0:
+                d_pressure[viscosity_column[e]] += lam[e] * r_e * theta_rate
+            if ratio_column[e] >= 0:
+                d_pressure[ratio_column[e]] += ratio_factor[e] * lam[e] * (
+                    theta + r_e * theta_rate)
+        two_mu = 2.0 * mu[e]
+        for i in range(3):
+            for k in range(3):
+                S[i, k] = two_mu * (G[i, k] + r_e * Gd[i, k])
+            S[i, i] += pressure
+        scale = -volume[e]
+        for r in range(3):       # P = F S → -V P Bᵀ into the four nodes
+            P0 = F[r, 0] * S[0, 0] + F[r, 1] * S[1, 0] + F[r, 2] * S[2, 0]
+            P1 = F[r, 0] * S[0, 1] + F[r, 1] * S[1, 1] + F[r, 2] * S[2, 1]
+            P2 = F[r, 0] * S[0, 2] + F[r, 1] * S[1, 2] + F[r, 2] * S[2, 2]
+            f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
+            f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
+            f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
+            force[n1, r] += f1
+            force[n2, r] += f2
+            force[n3, r] += f3
+            force[n0, r] -= f1 + f2 + f3
+        for q in range(n_params):
+            # dS = 2μ (dG + β dĠ) + dπ I, plus the element's own shear part by its parameters
+            for i in range(3):
+                for k in range(i, 3):
+                    dg = 0.5 * (F[0, i] * dF[q, 0, k] + F[1, i] * dF[q, 1, k]
+                                + F[2, i] * dF[q, 2, k] + dF[q, 0, i] * F[0, k]
+                                + dF[q, 1, i] * F[1, k] + dF[q, 2, i] * F[2, k])
+                    dgd = 0.5 * (dF[q, 0, i] * Fd[0, k] + dF[q, 1, i] * Fd[1, k]
+                                 + dF[q, 2, i] * Fd[2, k] + Fd[0, i] * dF[q, 0, k]
+                                 + Fd[1, i] * dF[q, 1, k] + Fd[2, i] * dF[q, 2, k]
+                                 + F[0, i] * dFd[q, 0, k] + F[1, i] * dFd[q, 1, k]
+                                 + F[2, i] * dFd[q, 2, k] + dFd[q, 0, i] * F[0, k]
+                                 + dFd[q, 1, i] * F[1, k] + dFd[q, 2, i] * F[2, k])
+                    x = two_mu * (dg + r_e * dgd)
+                    if q == modulus_column[e]:
+                        x += two_mu * G[i, k]
+                    if q == viscosity_column[e]:
+                        x += two_mu * r_e * Gd[i, k]
+                    if q == ratio_column[e]:
+                        x += shear_ratio_factor[e] * two_mu * (G[i, k] + r_e * Gd[i, k])
+                    dS[i, k] = x
+                    dS[k, i] = x
+                dS[i, i] += d_pressure[q]
+            for r in range(3):   # dP = dF S + F dS
+                P0 = 0.0
+                P1 = 0.0
+                P2 = 0.0
+                for m in range(3):
+                    P0 += dF[q, r, m] * S[m, 0] + F[r, m] * dS[m, 0]
+                    P1 += dF[q, r, m] * S[m, 1] + F[r, m] * dS[m, 1]
+                    P2 += dF[q, r, m] * S[m, 2] + F[r, m] * dS[m, 2]
+                f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
+                f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
+                f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
+                d_force[n1, q, r] += f1
+                d_force[n2, q, r] += f2
+                d_force[n3, q, r] += f3
+                d_force[n0, q, r] -= f1 + f2 + f3
+
+
+@numba.njit(cache=True, nogil=True)
+def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
+            inverse_rest, volume, lam, mu, ratio, nodal, node_volume, node_lam, node_lam_rate,
+            modulus_column, ratio_column, viscosity_column, ratio_factor, shear_ratio_factor,
+            d_node_lam, d_node_lam_rate, weight, loads, h, n_frames, substeps, n_params,
+            start_index, start_p, start_v, rows_start, rows_node, rows_weight, seen, scale,
+            tangents, positions, jacobian):
+    """Positions (n_frames, N, 3) and, with ``tangents``, ``jacobian`` (n_frames - 1, rows,
+    3, P) = H tp / length_unit at every measured (frame, row), 0 elsewhere."""
+    n_nodes = p.shape[0]
+    n_rows = rows_start.shape[0] - 1
+    force = np.empty((n_nodes, 3))
+    width = n_params if tangents else 0
+    tp = np.zeros((n_nodes, width, 3))
+    tv = np.zeros((n_nodes, width, 3))
+    d_force = np.empty((n_nodes, width, 3))
+    node_strain = np.zeros((n_nodes, 2))
+    d_node_strain = np.zeros((n_nodes, width, 2))
+    for t in range(n_frames):
+        if start_index[t] >= 0:
+            p[:] = start_p[start_index[t]]
+            v[:] = start_v[start_index[t]]
+            tp[:] = 0.0
+            tv[:] = 0.0
+            positions[t] = p
+            if t > 0 and tangents:
+                jacobian[t - 1] = 0.0
+            continue
+        load = loads[min(t - 1, loads.shape[0] - 1)]
+        for _ in range(substeps):
+            force[:] = load
+            d_force[:] = 0.0
+            _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
+                             damping_column, force, d_force)
+            if tets.shape[0]:
+                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio,
+                                  nodal, node_volume, node_lam, node_lam_rate, modulus_column,
+                                  ratio_column, viscosity_column, ratio_factor,
+                                  shear_ratio_factor, d_node_lam, d_node_lam_rate,
+                                  node_strain, d_node_strain, force, d_force)
+            for i in range(n_nodes):
+                step = h * weight[i]
+                for k in range(3):
+                    v[i, k] += step * force[i, k]
+                    p[i, k] += h * v[i, k]
+                    for q in range(width):
+                        tv[i, q, k] += step * d_force[i, q, k]
+                        tp[i, q, k] += h * tv[i, q, k]
+        positions[t] = p
+        if tangents:
+            for row in range(n_rows):
+                for k in range(3):
+                    for q in range(width):
+                        jacobian[t - 1, row, k, q] = 0.0
+                if not seen[t, row]:
+                    continue
+                for entry in range(rows_start[row], rows_start[row + 1]):
+                    node = rows_node[entry]
+                    w = rows_weight[entry] * scale
+                    for k in range(3):
+                        for q in range(width):
+                            jacobian[t - 1, row, k, q] += w * tp[node, q, k]

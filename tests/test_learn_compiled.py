@@ -1,0 +1,77 @@
+"""The compiled forward sensitivities compute what the numpy reference path computes."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import kuhn_block, paper_cube_experiment, paper_cube_model
+from neurofuzzy.effects import Gravity
+from neurofuzzy.errors import InputError
+from neurofuzzy.experiment import Experiment, simulate_experiment
+from neurofuzzy.learn import Parameterization, Sensitivity
+from neurofuzzy.mesh import from_tetra
+from neurofuzzy.model import SpringMassModel
+from neurofuzzy.observation import EmbeddedMarkers, embed_points
+from neurofuzzy.simulation import stability_limit
+
+pytest.importorskip("numba")
+
+
+def both(start, data, substeps, starts=(0,), shift=0.01):
+    parameters = Parameterization(start)
+    theta = parameters.initial() + shift
+    return [Sensitivity(parameters, 0.01, backend=backend).run(
+        theta, data, substeps=substeps, starts=starts, tangents=True)
+        for backend in ("numpy", "numba")]
+
+
+def assert_same(reference, compiled):
+    assert np.allclose(compiled.positions, reference.positions, rtol=0, atol=1e-15)
+    assert np.allclose(compiled.residuals, reference.residuals, rtol=0, atol=1e-13)
+    scale = np.abs(reference.jacobian).max()
+    assert scale > 0
+    assert np.abs(compiled.jacobian - reference.jacobian).max() < 1e-12 * scale
+    assert compiled.n_measured == reference.n_measured
+
+
+@pytest.mark.parametrize("starts", [(0,), (0, 20, 40)], ids=["whole", "windows"])
+def test_springs_with_tie_groups(starts):
+    model = paper_cube_model(tie="groups")
+    assert_same(*both(model, paper_cube_experiment(model), 2, starts))
+
+
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric):
+    mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    rng = np.random.default_rng(0)
+    truth = SpringMassModel.continuum(
+        mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra), poisson_ratio=0.45,
+        viscosity=2.0, density=1000.0, volumetric=volumetric).replace(
+        element_tie=rng.integers(0, 3, mesh.n_tetrahedra))
+    load = np.zeros((mesh.n_nodes, 3))
+    load[-1] = (0.0, 0.01, -0.05)
+    steps = int(np.ceil(1e-3 / stability_limit(truth).max_step))
+    nodes = simulate_experiment(truth, dt=1e-3, n_frames=30, external_forces=load,
+                                substeps=steps)
+    assert_same(*both(truth, nodes, steps))
+    points = rng.uniform((0.002, 0.002, 0.005), (0.028, 0.028, 0.02), (12, 3))
+    corners, weights, _ = embed_points(mesh, points)
+    seen = np.einsum("mk,tmkj->tmj", weights, nodes.positions[:, corners])
+    seen[5:8, 3] = np.nan                                             # a gap
+    positions = np.full_like(nodes.positions, np.nan)
+    positions[0] = mesh.rest_positions
+    markers = Experiment(mesh=mesh, dt=1e-3, positions=positions, external_forces=load,
+                         node_mass=truth.node_mass, observed=np.zeros(mesh.n_nodes, bool),
+                         markers=EmbeddedMarkers(corners, weights, seen))
+    assert_same(*both(truth, markers, steps))
+
+
+def test_models_with_effects_take_the_numpy_path():
+    model = paper_cube_model(tie="global").with_effects(Gravity([0.0, 0.0, -9.81]))
+    data = paper_cube_experiment(model)
+    parameters = Parameterization(model)
+    with pytest.raises(InputError, match="compiled path"):
+        Sensitivity(parameters, 0.01, backend="numba").run(parameters.initial(), data)
+    auto = Sensitivity(parameters, 0.01).run(parameters.initial(), data, tangents=True)
+    numpy = Sensitivity(parameters, 0.01, backend="numpy").run(parameters.initial(), data,
+                                                             tangents=True)
+    assert np.array_equal(auto.jacobian, numpy.jacobian)
