@@ -210,7 +210,9 @@ def _comparison_html(summary, several: bool, table_html) -> str:
         first, second = entry["groups"]
         low, high = entry["interval"]
         relative = "" if entry["relative"] is None else f"{entry['relative']:+.1%}"
-        rows.append([*([entry["region"]] if several else []), entry["quantity"],
+        unit = UNITS[entry["quantity"]]
+        rows.append([*([entry["region"]] if several else []),
+                     entry["quantity"] + (f" ({unit})" if unit else ""),
                      f"{second} − {first}", f"{entry['n'][1]} / {entry['n'][0]}",
                      f"{entry['difference']:.4g}", relative, f"[{low:.4g}, {high:.4g}]",
                      "yes" if entry["excludes_zero"] else "no"])
