@@ -231,15 +231,16 @@ def test_several_manifest_problems_are_reported_together(tmp_path, data_file):
 
 def test_a_yaml_manifest_with_defaults_is_the_same_as_the_csv(tmp_path, data_file):
     csv_path = _manifest(tmp_path, "# two specimens\nid,group,experiments,rules,tissue,tie\n"
-                                   "a,healthy,a.npz,liver,liver,global\n"
+                                   "a,healthy,a.npz; a.npz,liver,liver,global\n"
                                    "b,fibrotic,a.npz,liver,fibrotic_liver,global\n")
     yaml_path = _manifest(tmp_path, "defaults: {rules: liver, tissue: liver, tie: global}\n"
                                     "specimens:\n"
-                                    "  - {id: a, group: healthy, experiments: [a.npz]}\n"
+                                    "  - {id: a, group: healthy, experiments: [a.npz, a.npz]}\n"
                                     "  - id: b\n    group: fibrotic\n    experiments: a.npz\n"
                                     "    tissue: fibrotic_liver\n", "cohort.yaml")
     from_csv, from_yaml = read_manifest(csv_path), read_manifest(yaml_path)
     assert [s.id for s in from_yaml] == ["a", "b"] and from_yaml[1].line == 4
+    assert len(from_csv[0].experiments) == 2 and len(from_csv[1].experiments) == 1
     assert [s.fingerprint() for s in from_csv] == [s.fingerprint() for s in from_yaml]
     assert from_csv[0].fingerprint() != from_csv[1].fingerprint()      # another tissue
     bad = _manifest(tmp_path, "specimens:\n  - id: a\n    group: x\n    experiment: a.npz\n",
@@ -264,7 +265,51 @@ def test_the_report_twin_never_replaces_a_file_the_user_did_not_name(tmp_path, d
     assert clash.returncode == 2 and "--workers" in clash.stderr
 
 
+def test_an_unreachable_scheduler_exits_2(tmp_path, data_file, monkeypatch):
+    import neurofuzzy.batch.run
+
+    monkeypatch.setattr(neurofuzzy.batch.run, "CONNECT_TIMEOUT", "0.2s")
+    path = _manifest(tmp_path, "id,group,experiments\na,x,a.npz\n")
+    result = cli("fit-many", path, "--out", tmp_path / "out", "--scheduler", "tcp://127.0.0.1:1")
+    assert result.returncode == 2
+    assert "--scheduler: cannot reach the Dask scheduler tcp://127.0.0.1:1" in result.stderr
+
+
+def test_dask_is_imported_only_when_a_batch_runs():
+    import subprocess
+    import sys
+
+    code = ("import sys, neurofuzzy, neurofuzzy.batch\n"
+            "from neurofuzzy.cli.parser import build_parser\n"
+            "build_parser().parse_args(['fit-many', 'm.csv', '--out', 'x'])\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+
+
 # -- the parts --------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_a_specimen_asked_to_be_diagnosed_names_the_missing_effect(tmp_path):
+    """The cube hangs under gravity its model does not know: the specimen's diagnosis names
+    it, writes its report, and the table shows it."""
+    import neurofuzzy as nf
+    from neurofuzzy.batch.table import table_rows
+    from neurofuzzy.io import save_experiment
+
+    hidden = paper_cube_model().with_effects(nf.Gravity([0.0, 0.0, -9.81]))
+    save_experiment(paper_cube_experiment(hidden, n_frames=120), tmp_path / "a.npz")
+    _manifest(tmp_path, "id,group,experiments,tie,substeps,diagnose\ng1,g,a.npz,global,1,yes\n")
+    [specimen] = read_manifest(tmp_path / "cohort.csv")
+    outcome = fit_specimen(specimen)
+    assert outcome["status"] == "ok", outcome.get("error")
+    assert outcome["fit"]["diagnosis"]["effects"] == ["gravity"]
+    assert outcome["fit"]["diagnosis"]["rms_after"] < 1e-3 * outcome["fit"]["rms_error"]
+    assert {"diagnosis.html", "diagnosis.json"} <= set(outcome["files"])
+    [row] = table_rows([specimen], {"g1": {"status": "ok", "fit": outcome["fit"]}})
+    assert row["effects"] == "gravity"
+
+
 def test_median_difference_is_seeded_and_moves_with_a_shift():
     rng = np.random.default_rng(5)
     first, second = rng.normal(10, 2, 9), rng.normal(14, 2, 7)
@@ -316,8 +361,7 @@ def test_a_specimen_from_marker_recordings_fits_in_process(tmp_path):
     assert {"fitted.yaml", "report.html", "report.json"} <= set(outcome["files"])
 
 
-def test_the_summary_compares_every_pair_of_groups_in_manifest_order():
-    from neurofuzzy.batch import Cohort
+def _records_of_three_groups():
     from neurofuzzy.batch.manifest import Specimen
 
     groups = ["a", "b", "c"]
@@ -328,6 +372,26 @@ def test_the_summary_compares_every_pair_of_groups_in_manifest_order():
         "labels": {"youngs_modulus": "soft" if s.group == "a" else "firm"}}}}}
         for s in specimens}
     records["c2"] = {"status": "failed", "error": "c2.npz: positions: broken"}
+    return specimens, records
+
+
+def test_the_table_is_also_parquet_when_pyarrow_is_installed(tmp_path):
+    pytest.importorskip("pyarrow")
+    import pyarrow.parquet
+
+    from neurofuzzy.batch.table import write_table
+
+    specimens, records = _records_of_three_groups()
+    write_table(tmp_path / "results.csv", specimens, records)
+    table = pyarrow.parquet.read_table(tmp_path / "results.parquet").to_pylist()
+    assert [row["id"] for row in table] == [s.id for s in specimens]
+    assert table[0]["youngs_modulus"] == 1000.0 and table[-1]["status"] == "failed"
+
+
+def test_the_summary_compares_every_pair_of_groups_in_manifest_order():
+    from neurofuzzy.batch import Cohort
+
+    specimens, records = _records_of_three_groups()
     summary = cohort_summary(Cohort(tuple(specimens), records, (), (), None, None, None, 0.0))
     pairs = [(c["groups"], c["quantity"]) for c in summary["comparisons"]]
     assert pairs == [(["a", "b"], "youngs_modulus"), (["a", "c"], "youngs_modulus"),

@@ -162,8 +162,14 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
         note(progress, f"fit-many: {len(resumed)} of {len(specimens)} specimens already "
                        f"fitted in {out} (resumed)")
     if pending:
-        _run(pending, fingerprints, records, out, table, specimens, scheduler, workers,
-             progress, len(resumed))
+        try:
+            _run(pending, fingerprints, records, out, table, specimens, scheduler, workers,
+                 progress, len(resumed))
+        except KeyboardInterrupt:
+            finished = sum(record is not None for record in records.values())
+            note(True, f"fit-many: interrupted; the {finished} of {len(specimens)} specimens "
+                       f"that finished are in {out}: run again with --resume for the rest")
+            raise
     if report is not None:
         from .cohort import cohort_report
 
