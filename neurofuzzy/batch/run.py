@@ -24,7 +24,7 @@ import json
 import logging
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
@@ -170,14 +170,14 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
             note(True, f"fit-many: interrupted; the {finished} of {len(specimens)} specimens "
                        f"that finished are in {out}: run again with --resume for the rest")
             raise
-    if report is not None:
-        from .cohort import cohort_report
+    cohort = Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out,
+                    table, None, time.perf_counter() - started)
+    if report is None:
+        return cohort
+    from .cohort import cohort_report
 
-        cohort = Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out,
-                        table, None, time.perf_counter() - started)
-        report = cohort_report(cohort, report, seed=seed)
-    return Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out, table,
-                  report, time.perf_counter() - started)
+    written = cohort_report(cohort, report, seed=seed)
+    return replace(cohort, report=written, seconds=time.perf_counter() - started)
 
 
 # -- running ----------------------------------------------------------------------------------
@@ -188,7 +188,11 @@ def _run(pending, fingerprints, records, out, table, specimens, scheduler, worke
     total = len(specimens)
     counter = Progress("fit-many", total, enabled=progress)
     with _client(scheduler, workers) as client:
-        threads = max(1, sum(client.nthreads().values()))
+        threads = sum(client.nthreads().values())
+        if not threads:
+            note(progress, f"fit-many: the scheduler {scheduler} has no workers yet; the "
+                           "specimens wait for some")
+        threads = max(threads, 1)
         note(progress, f"fit-many: {len(pending)} specimens on {threads} worker thread(s)"
                        f"{' at ' + scheduler if scheduler else ''}")
         futures = {client.submit(fit_specimen, specimen, pure=False,
