@@ -20,6 +20,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
 - diagnosis: :func:`diagnose` (:class:`Diagnosis`)
+- many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
+  :func:`cohort_report`
 - output: :func:`fit_report`, :func:`diagnosis_report`, :func:`export_paraview`
 - errors: :class:`NeurofuzzyError`, :class:`InputError`, :class:`UnstableTimeStepError`
 
@@ -56,6 +58,7 @@ _EXPORTS = {
     "load_rules": "rules", "initialize": "rules", "material_values": "rules",
     "materials": "rules", "shipped_rules": "rules",
     "diagnose": "diagnosis", "Diagnosis": "diagnosis",
+    "fit_many": "batch", "Cohort": "batch", "read_manifest": "batch", "cohort_report": "batch",
     "fit_report": "report", "diagnosis_report": "report",
     "export_paraview": "export",
 }
@@ -77,6 +80,7 @@ def __dir__():
 
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly
+    from .batch import Cohort, cohort_report, fit_many, read_manifest  # noqa: F401
     from .diagnosis import Diagnosis, diagnose  # noqa: F401
     from .effects import (EFFECTS, Effect, Gravity, NodeDrag,  # noqa: F401
                           NonlinearStiffening, SoftInclusion, StiffInclusion, UnmodeledLoad)

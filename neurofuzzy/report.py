@@ -49,13 +49,18 @@ def figure_html(figure, alt: str) -> str:
 
 
 def table_html(header: list[str], rows: list[list], highlight: list[bool] | None = None) -> str:
-    """An HTML table; rows flagged in ``highlight`` are marked as changed."""
+    """An HTML table; rows flagged in ``highlight`` are marked as changed. Cells are text,
+    except values with an ``__html__`` method, whose markup is used as it is."""
     out = ["<table><tr>" + "".join(f"<th>{html.escape(str(h))}</th>" for h in header) + "</tr>"]
     for index, row in enumerate(rows):
         css = ' class="changed"' if highlight and highlight[index] else ""
-        out.append(f"<tr{css}>" + "".join(f"<td>{html.escape(_fmt(c))}</td>" for c in row)
-                   + "</tr>")
+        out.append(f"<tr{css}>" + "".join(f"<td>{_cell(c)}</td>" for c in row) + "</tr>")
     return "".join(out) + "</table>"
+
+
+def _cell(value) -> str:
+    """A cell's HTML: escaped text, or the markup of a value that has ``__html__`` (a link)."""
+    return value.__html__() if hasattr(value, "__html__") else html.escape(_fmt(value))
 
 
 def _fmt(value) -> str:

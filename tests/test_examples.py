@@ -131,3 +131,27 @@ def test_springs_or_elements_on_scikit_fem_continuum_data():
     e_error, nu, eta_error = rows["elements"]
     assert abs(e_error) < 5.0 and abs(nu - 0.45) < 0.03 and abs(eta_error) < 20.0
     assert abs(rows["springs"][0]) > 4 * abs(e_error) and rows["springs"][1] == 0.25
+
+
+@pytest.mark.slow
+def test_cohort_example_fits_both_groups_in_parallel_and_serially_alike(tmp_path):
+    """fit-many on a local cluster and a serial loop give the same fits; the true moduli and
+    words of both groups are recovered; the speed-up is measured and printed."""
+    import json
+    import re
+
+    result = subprocess.run([sys.executable, str(EXAMPLES / "cohort.py"), str(tmp_path),
+                             "--quick"], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert float(re.search(r"^speed-up: (\S+)x", result.stdout, flags=re.M).group(1)) > 0
+    difference = re.search(r"stiffnesses: (\S+)\)", result.stdout).group(1)
+    assert float(difference) < 1e-9                    # the same task, the same numbers
+    errors = dict(re.findall(r"^(healthy|fibrotic)\s+\d+ Pa\s+\d+ Pa\s+(\S+)%", result.stdout,
+                             flags=re.M))
+    assert set(errors) == {"healthy", "fibrotic"}
+    assert all(abs(float(error)) < 1.0 for error in errors.values())
+    assert "healthy: firm (2/2)" in result.stdout and "fibrotic: hard (2/2)" in result.stdout
+    twin = json.loads((tmp_path / "cohort.json").read_text())
+    [modulus] = [c for c in twin["comparisons"] if c["quantity"] == "youngs_modulus"]
+    assert modulus["excludes_zero"] and modulus["difference"] > 0
+    assert (tmp_path / "results" / "results.csv").read_text().count("\n") == 5

@@ -29,19 +29,14 @@ def _start(args, progress: bool):
 
 def fit(args) -> int:
     from ..io import save_model
-    from ..learn import GradientLearner, PaperLearner
+    from ..learn.run import fit_summary, make_learner
 
     progress = not args.quiet and not args.json
     inputs, experiments, start = _start(args, progress)
-    if args.method == "paper":
-        learner = PaperLearner(learning_rate=args.learning_rate,
-                               mass_learning_rate=args.mass_learning_rate,
-                               cycles=args.cycles or 100, learn_masses=args.learn_masses,
-                               progress=progress)
-    else:
-        learner = GradientLearner(learn_masses=args.learn_masses,
-                                  substeps=_substeps(args.substeps),
-                                  max_iterations=args.cycles or 100, progress=progress)
+    learner = make_learner(args.method, cycles=args.cycles or None,
+                           learn_masses=args.learn_masses, substeps=_substeps(args.substeps),
+                           learning_rate=args.learning_rate,
+                           mass_learning_rate=args.mass_learning_rate, progress=progress)
     learner.fit(start.model, experiments)
     if args.out:
         save_model(learner.model_, args.out)
@@ -58,14 +53,9 @@ def fit(args) -> int:
         from ..report import fit_report
 
         fit_report(start, learner, args.report, files=files)
-    result = learner.to_dict()
-    result.update(method=args.method, tie=args.tie or ("model" if args.start else "groups"),
-                  start=start.to_dict(),
-                  experiments=[str(p) for p in inputs])
-    if start.rules is not None or any(start.model.region_tissues):
-        from ..rules import materials
-
-        result["materials"] = materials(learner.model_, start.rules, start.tissue)
+    result = fit_summary(learner, start, method=args.method,
+                         tie=args.tie or ("model" if args.start else "groups"),
+                         experiments=inputs)
     if args.json:
         print_json(result)
     else:

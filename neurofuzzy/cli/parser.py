@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import data, fitting, misc
+from . import batch, data, fitting, misc
 from .common import usage
 
 __all__ = ["build_parser"]
@@ -92,6 +92,32 @@ def build_parser() -> argparse.ArgumentParser:
     diagnose.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     diagnose.add_argument("--quiet", action="store_true", help="no progress on stderr")
     diagnose.set_defaults(run=fitting.diagnose)
+
+    many = commands.add_parser(
+        "fit-many", help="fit many specimens as tasks on Dask and compare their groups",
+        description="Fit every specimen of a manifest (CSV or YAML: id, group, experiments, "
+                    "start or rules + tissue, options) as one independent task on Dask: a "
+                    "local cluster of single-threaded processes by default, or an existing "
+                    "cluster. Writes one folder per specimen and a table under --out as each "
+                    "finishes; --resume keeps what is finished. Exit status 1 when some "
+                    "specimens failed (their errors are recorded, the rest are written).")
+    many.add_argument("manifest", metavar="MANIFEST", help="CSV or YAML, one row per specimen")
+    many.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    many.add_argument("--report", metavar="COHORT.html",
+                      help="write the cohort report (and a .json twin): materials, words and "
+                           "distributions per group, the groups compared")
+    many.add_argument("--scheduler", metavar="ADDRESS",
+                      help="an existing Dask scheduler (tcp://HOST:PORT) whose workers can "
+                           "read the input files (default: a local cluster)")
+    many.add_argument("--workers", type=int, default=None, metavar="N",
+                      help="processes of the local cluster (default: the cores)")
+    many.add_argument("--resume", action="store_true",
+                      help="keep the finished specimens in DIR whose inputs are unchanged; "
+                           "fit the others")
+    many.add_argument("--seed", type=int, default=0, help="seed of the report's bootstrap")
+    many.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    many.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    many.set_defaults(run=batch.fit_many)
 
     rules = commands.add_parser("rules", help="check and show fuzzy rule bases")
     rules_commands = rules.add_subparsers(dest="rules_command", metavar="ACTION")

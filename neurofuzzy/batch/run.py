@@ -1,0 +1,330 @@
+"""Many specimens at once: :func:`fit_many` runs every specimen of a manifest as one task on
+Dask and keeps the books (results folder, table, resume, failures, progress).
+
+Layout of the output folder ``OUT``:
+
+- ``OUT/<id>/fit.json``: the finished fit (``neurofuzzy fit --json``'s object under
+  ``"fit"``, with ``quality``), written last, so it marks the specimen as done; beside it
+  ``fitted.yaml``, ``report.html`` (+ ``report.json``) and, when asked for, the diagnosis;
+- ``OUT/<id>/error.json``: a specimen that failed (its message; a traceback only for what is
+  not an input error);
+- ``OUT/results.csv``: one row per specimen and material region, rewritten atomically after
+  every specimen (``results.parquet`` too when pyarrow is installed).
+
+Every file is written atomically by this process (the workers return their outputs), so an
+interrupted batch leaves only finished specimens behind, and ``resume=True`` fits only those
+whose ``fit.json`` is missing or was made from other inputs (a fingerprint of the input files'
+contents and the options). Dask is imported here only, when a batch runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from ..errors import InputError
+from ..io import atomic_write
+from ..progress import Progress, note
+from .manifest import Specimen, read_manifest
+from .table import TABLE_NAME, write_table
+from .task import OUTPUT_FILES, fit_specimen
+
+__all__ = ["fit_many", "Cohort", "THREAD_LIMITS", "RECORD_FORMAT"]
+
+#: environment of local workers: one thread each for every numerical library, so that
+#: ``n`` single-threaded workers use ``n`` cores and no more
+THREAD_LIMITS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+                 "NUMBA_NUM_THREADS": "1"}
+#: how long to wait for an existing scheduler
+CONNECT_TIMEOUT = "10s"
+#: marks the records this module writes (``fit.json``, ``error.json``)
+RECORD_FORMAT = "neurofuzzy-fit-many/1"
+
+
+@dataclass(frozen=True)
+class Cohort:
+    """What :func:`fit_many` did.
+
+    Attributes
+    ----------
+    specimens : tuple of Specimen
+        The manifest's specimens, in its order.
+    records : dict
+        Specimen id → its record: ``{"id", "group", "status": "ok", "fit": {…}, …}`` or
+        ``{"id", "group", "status": "failed", "error", …}``.
+    computed : tuple of str
+        Ids fitted (or failed) in this run.
+    resumed : tuple of str
+        Ids whose finished results were kept (``resume=True``).
+    out : Path
+        The output folder; ``table`` its ``results.csv``; ``report`` the cohort report or None.
+    seconds : float
+        Wall time.
+    """
+
+    specimens: tuple[Specimen, ...]
+    records: dict
+    computed: tuple[str, ...]
+    resumed: tuple[str, ...]
+    out: Path
+    table: Path
+    report: Path | None
+    seconds: float
+
+    @property
+    def ok(self) -> list[str]:
+        """Ids of the specimens that are fitted."""
+        return [s.id for s in self.specimens if self.records[s.id]["status"] == "ok"]
+
+    @property
+    def failed(self) -> list[str]:
+        """Ids of the specimens that failed."""
+        return [s.id for s in self.specimens if self.records[s.id]["status"] == "failed"]
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (the object of ``fit-many --json``)."""
+        return {"specimens": len(self.specimens), "ok": self.ok,
+                "failed": [{"id": i, "error": self.records[i]["error"]} for i in self.failed],
+                "computed": list(self.computed), "resumed": list(self.resumed),
+                "out": str(self.out), "table": str(self.table),
+                "report": None if self.report is None else str(self.report),
+                "seconds": self.seconds}
+
+
+def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
+             workers: int | None = None, resume: bool = False, seed: int = 0,
+             progress: bool = False) -> Cohort:
+    """Fit every specimen of ``manifest``, each as one task on Dask, and keep the books.
+
+    Parameters
+    ----------
+    manifest : path
+        CSV or YAML (:func:`~neurofuzzy.batch.read_manifest`).
+    out : path
+        Output folder (see the module docstring); created if needed.
+    report : path, optional
+        Write the cohort report here (HTML, with a JSON twin;
+        :func:`~neurofuzzy.batch.cohort_report`).
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://HOST:PORT``); its workers must be able
+        to import neurofuzzy and read the input files. Default: a local cluster of
+        ``workers`` processes with one thread each.
+    workers : int, optional
+        Processes of the local cluster (default: the machine's cores).
+    resume : bool
+        Keep the finished results in ``out`` whose inputs are unchanged; fit the others.
+        Without it, an ``out`` holding results of an earlier run is refused.
+    seed : int
+        Seed of the report's bootstrap.
+    progress : bool
+        Progress on stderr (done / failed / running, ETA).
+
+    Returns
+    -------
+    Cohort
+
+    Raises
+    ------
+    InputError
+        A bad manifest, a bad option, an output that would overwrite an input or an earlier
+        run's results (without ``resume``), an unreachable scheduler. A specimen that fails
+        does not raise: it is recorded, and the others go on.
+    """
+    started = time.perf_counter()
+    specimens = read_manifest(manifest)
+    out = Path(out)
+    report = None if report is None else Path(report)
+    _check_outputs(out, report, manifest, specimens, resume)
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        raise InputError(f"got {workers!r}; expected a positive number of processes",
+                         key="--workers")
+    if workers is not None and scheduler:
+        raise InputError("an existing cluster has its own workers; give --workers only for "
+                         "the local cluster", key="--workers")
+    fingerprints = {s.id: s.fingerprint() for s in specimens}
+    records = {s.id: _finished(out / s.id, fingerprints[s.id]) if resume else None
+               for s in specimens}
+    resumed = tuple(i for i, record in records.items() if record is not None)
+    pending = [s for s in specimens if records[s.id] is None]
+    for specimen in specimens:
+        if records[specimen.id] is not None:
+            records[specimen.id]["group"] = specimen.group       # labels may be renamed
+    table = out / TABLE_NAME
+    out.mkdir(parents=True, exist_ok=True)
+    write_table(table, specimens, records)
+    if resumed:
+        note(progress, f"fit-many: {len(resumed)} of {len(specimens)} specimens already "
+                       f"fitted in {out} (resumed)")
+    if pending:
+        try:
+            _run(pending, fingerprints, records, out, table, specimens, scheduler, workers,
+                 progress, len(resumed))
+        except KeyboardInterrupt:
+            finished = sum(record is not None for record in records.values())
+            note(True, f"fit-many: interrupted; the {finished} of {len(specimens)} specimens "
+                       f"that finished are in {out}: run again with --resume for the rest")
+            raise
+    cohort = Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out,
+                    table, None, time.perf_counter() - started)
+    if report is None:
+        return cohort
+    from .cohort import cohort_report
+
+    written = cohort_report(cohort, report, seed=seed)
+    return replace(cohort, report=written, seconds=time.perf_counter() - started)
+
+
+# -- running ----------------------------------------------------------------------------------
+def _run(pending, fingerprints, records, out, table, specimens, scheduler, workers, progress,
+         n_resumed) -> None:
+    from dask.distributed import as_completed
+
+    total = len(specimens)
+    counter = Progress("fit-many", total, enabled=progress)
+    with _client(scheduler, workers) as client:
+        threads = sum(client.nthreads().values())
+        if not threads:
+            note(progress, f"fit-many: the scheduler {scheduler} has no workers yet; the "
+                           "specimens wait for some")
+        threads = max(threads, 1)
+        note(progress, f"fit-many: {len(pending)} specimens on {threads} worker thread(s)"
+                       f"{' at ' + scheduler if scheduler else ''}")
+        futures = {client.submit(fit_specimen, specimen, pure=False,
+                                 key=f"fit-{specimen.id}-{fingerprints[specimen.id][:12]}"):
+                   specimen for specimen in pending}
+        finished, failed, began = 0, 0, time.perf_counter()
+        for future in as_completed(futures):
+            specimen = futures[future]
+            outcome = _outcome(future, specimen)
+            records[specimen.id] = _write_specimen(out / specimen.id, specimen,
+                                                   fingerprints[specimen.id], outcome)
+            write_table(table, specimens, records)
+            finished += 1
+            failed += outcome["status"] == "failed"
+            left = len(pending) - finished
+            eta = (time.perf_counter() - began) / finished * left
+            counter.update(n_resumed + finished,
+                           f"done, {failed} failed, {min(threads, left)} running, "
+                           f"{max(left - threads, 0)} waiting, ETA {eta:.0f} s")
+            if outcome["status"] == "failed":
+                note(progress, f"fit-many: {specimen.id} failed: {outcome['error']}")
+
+
+def _outcome(future, specimen: Specimen) -> dict:
+    """The task's result, or its failure when the worker could not deliver one."""
+    try:
+        return future.result()
+    except Exception as error:  # noqa: BLE001
+        # deliberately broad: a worker that died (KilledWorker), lost its connection or could
+        # not unpickle the task fails this specimen only; it is recorded and the batch goes on
+        return {"id": specimen.id, "status": "failed", "kind": "error",
+                "error": f"the worker could not run the fit: {type(error).__name__}: {error}",
+                "seconds": None}
+
+
+@contextlib.contextmanager
+def _client(scheduler: str | None, workers: int | None):
+    """A Dask client of the scheduler at ``scheduler``, or of a new local cluster."""
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, ValueError, TimeoutError) as error:
+            raise InputError(f"cannot reach the Dask scheduler {scheduler} ({error})",
+                             key="--scheduler") from None
+        with client:
+            yield client
+        return
+    with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                      processes=True, dashboard_address=None, silence_logs=logging.ERROR,
+                      env=THREAD_LIMITS) as cluster, Client(cluster) as client:
+        yield client
+
+
+# -- the books --------------------------------------------------------------------------------
+def _finished(folder: Path, fingerprint: str) -> dict | None:
+    """The record of a finished fit made from the same inputs, or None."""
+    try:
+        record = json.loads((folder / "fit.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if (isinstance(record, dict) and record.get("format") == RECORD_FORMAT
+            and record.get("status") == "ok" and record.get("fingerprint") == fingerprint):
+        return record
+    return None
+
+
+def _write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: dict) -> dict:
+    """Write one specimen's outputs atomically (``fit.json`` last) and return its record."""
+    from ..serialization import json_safe
+
+    record = {"format": RECORD_FORMAT, "id": specimen.id, "group": specimen.group,
+              "status": outcome["status"], "fingerprint": fingerprint,
+              "seconds": outcome.get("seconds"), "worker": outcome.get("worker"),
+              "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    folder.mkdir(parents=True, exist_ok=True)
+    if outcome["status"] == "ok":
+        for name, content in outcome["files"].items():
+            with atomic_write(folder / name, "wb") as handle:
+                handle.write(content)
+        for name in set(OUTPUT_FILES) - set(outcome["files"]):       # of an earlier run
+            (folder / name).unlink(missing_ok=True)
+        record.update(fit=outcome["fit"], files=sorted(outcome["files"]))
+        _write_json(folder / "fit.json", record)
+        (folder / "error.json").unlink(missing_ok=True)
+    else:
+        (folder / "fit.json").unlink(missing_ok=True)       # an earlier result is stale now
+        record.update({key: outcome[key] for key in ("kind", "error", "traceback")
+                       if key in outcome})
+        _write_json(folder / "error.json", record)
+    return json_safe(record)
+
+
+def _write_json(path: Path, value: dict) -> None:
+    from ..serialization import json_safe
+
+    with atomic_write(path, "w") as handle:
+        json.dump(json_safe(value), handle, indent=1)
+
+
+def _check_outputs(out: Path, report: Path | None, manifest, specimens, resume: bool) -> None:
+    """Refuse outputs that would overwrite an input, or an earlier run (without resume)."""
+    if out.exists() and not out.is_dir():
+        raise InputError("is a file; --out names the folder of the results", source=str(out))
+    earlier = (out / TABLE_NAME).exists() or any(
+        (out / s.id / name).exists() for s in specimens for name in ("fit.json", "error.json"))
+    if earlier and not resume:
+        raise InputError("holds the results of an earlier fit-many; add --resume to keep "
+                         "what is finished and fit the rest, or choose another --out",
+                         source=str(out))
+    if report is None:
+        return
+    inputs = {Path(manifest).resolve(), *(p.resolve() for s in specimens for p in s.inputs)}
+    twin = report.with_suffix(".json")
+    if report.suffix.lower() == ".json":
+        raise InputError("the report is HTML with a .json twin beside it; name an .html file",
+                         key="--report", source=str(report))
+    for path in (report, twin):
+        if path.resolve() in inputs:
+            raise InputError("is an input of the batch; neurofuzzy never writes over its "
+                             "input", key="--report", source=str(path))
+    if twin.exists() and not _is_cohort_twin(twin):
+        raise InputError(f"the report's JSON twin would replace {twin}, which is not a "
+                         "neurofuzzy cohort report; move it or name another --report",
+                         key="--report", source=str(report))
+
+
+def _is_cohort_twin(path: Path) -> bool:
+    from .cohort import REPORT_FORMAT
+
+    try:
+        return json.loads(path.read_text(encoding="utf-8")).get("format") == REPORT_FORMAT
+    except (OSError, ValueError, AttributeError):
+        return False

@@ -1,0 +1,183 @@
+"""One specimen's fit, run on a Dask worker: :func:`fit_specimen`.
+
+The fit is the one of ``neurofuzzy fit``: :func:`~neurofuzzy.learn.start_model`, the learner
+of :func:`~neurofuzzy.learn.run.make_learner`, :func:`~neurofuzzy.learn.run.fit_summary`
+(materials and words), :func:`~neurofuzzy.report.fit_report`; optionally
+:func:`~neurofuzzy.diagnosis.diagnose`. The task reads its inputs from their paths and
+returns every output as bytes: the command writes them, so workers need to see the inputs
+(a shared file system on a cluster), not the output folder.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import NeurofuzzyError
+from .manifest import Specimen, relative_path
+
+__all__ = ["fit_specimen", "fit_quality", "load_specimen_experiments", "OUTPUT_FILES"]
+
+#: the files a finished specimen's folder holds beside ``fit.json`` (diagnosis files only
+#: when asked for)
+OUTPUT_FILES = ("fitted.yaml", "report.html", "report.json", "diagnosis.html",
+                "diagnosis.json")
+
+
+def fit_specimen(specimen: Specimen) -> dict:
+    """Fit one specimen; never raises for a failure of its own.
+
+    Parameters
+    ----------
+    specimen : Specimen
+
+    Returns
+    -------
+    dict
+        ``{"id", "status": "ok", "fit": {…}, "files": {name: bytes}, "seconds", "worker"}``
+        (``worker``: ``HOST:PID`` of the process that ran it), where
+        ``fit`` is the object of ``neurofuzzy fit --json`` plus ``quality`` (:func:`fit_quality`)
+        and, when asked for, ``diagnosis``; or ``{"id", "status": "failed", "error",
+        "kind": "input" | "error", "traceback" (for "error" only), "seconds"}``.
+    """
+    started = time.perf_counter()
+    worker = f"{socket.gethostname()}:{os.getpid()}"
+    try:
+        fit, files = _fit(specimen)
+    except NeurofuzzyError as error:
+        # bad input of this one specimen (a corrupt file, an unstable start): recorded with
+        # its message, and the batch goes on
+        return {"id": specimen.id, "status": "failed", "kind": "input", "error": str(error),
+                "seconds": time.perf_counter() - started, "worker": worker}
+    except Exception as error:  # noqa: BLE001
+        # deliberately broad: whatever else stops one specimen (a bug, a fit that runs out
+        # of memory) is recorded with its traceback, and the other specimens go on
+        return {"id": specimen.id, "status": "failed", "kind": "error",
+                "error": f"{type(error).__name__}: {error}",
+                "traceback": traceback.format_exc(), "seconds": time.perf_counter() - started,
+                "worker": worker}
+    return {"id": specimen.id, "status": "ok", "fit": fit, "files": files,
+            "seconds": time.perf_counter() - started, "worker": worker}
+
+
+def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
+    from ..io import save_model
+    from ..learn import start_model
+    from ..learn.run import fit_summary, make_learner
+    from ..report import fit_report
+    from ..serialization import json_safe
+
+    options = specimen.options
+    experiments = load_specimen_experiments(specimen)
+    start = start_model(experiments, model=specimen.start, rules=specimen.rules,
+                        tissue=specimen.tissue, tie=options.get("tie"))
+    learner = make_learner(options.get("method", "gradient"), cycles=options.get("cycles"),
+                           learn_masses=options.get("learn_masses", False),
+                           substeps=options.get("substeps", "auto"))
+    learner.fit(start.model, experiments)
+    base = Path(specimen.source).parent
+    inputs = [relative_path(path, base) for path in specimen.experiments or specimen.markers]
+    fit = fit_summary(learner, start, method=options.get("method", "gradient"),
+                      tie=options.get("tie") or ("model" if specimen.start else "groups"),
+                      experiments=inputs)
+    fit["quality"] = fit_quality(learner.model_, experiments, learner.substeps_,
+                                 rms=learner.rms_error_)
+    with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
+        folder = Path(folder)
+        save_model(learner.model_, folder / "fitted.yaml")
+        fit_report(start, learner, folder / "report.html",
+                   title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})",
+                   files={"fitted model": folder / "fitted.yaml"})
+        if options.get("diagnose"):
+            from ..diagnosis import diagnose
+            from ..report import diagnosis_report
+
+            diagnosis = diagnose(learner.model_, experiments,
+                                 substeps=options.get("substeps", "auto"))
+            diagnosis_report(diagnosis, folder / "diagnosis.html",
+                             title=f"neurofuzzy diagnosis: specimen {specimen.id}")
+            fit["diagnosis"] = {"effects": diagnosis.names, "rms_before": diagnosis.rms_before,
+                                "rms_after": diagnosis.rms_after,
+                                "noise_rms": diagnosis.noise_rms}
+        files = {name: (folder / name).read_bytes() for name in OUTPUT_FILES
+                 if (folder / name).exists()}
+    return json_safe(fit), files
+
+
+def load_specimen_experiments(specimen: Specimen) -> list:
+    """The specimen's experiments: its experiment files, or its marker recordings (with
+    their force files) on the start model's mesh.
+
+    Returns
+    -------
+    list of Experiment
+    """
+    from ..io import load_experiment
+
+    if specimen.experiments:
+        return [load_experiment(path) for path in specimen.experiments]
+    from ..io import load_model
+    from ..markers import markers_to_experiment, read_markers
+
+    model = load_model(specimen.start)
+    forces = specimen.forces or (None,) * len(specimen.markers)
+    return [markers_to_experiment(read_markers(path, units=specimen.options.get("units")),
+                                  model.mesh, dt=specimen.options.get("dt"), forces=force,
+                                  node_mass=model.node_mass, source=str(path)).experiment
+            for path, force in zip(specimen.markers, forces)]
+
+
+def fit_quality(model, experiments, substeps: int = 1, *, rms: float | None = None) -> dict:
+    """How well ``model`` explains ``experiments``, against the markers' own noise.
+
+    The marker noise is estimated from the fitted model's trajectory error: a model's error
+    is smooth in time, white noise is not, so the first differences of the error give the
+    noise's standard deviation σ (:func:`~neurofuzzy.diagnosis.residuals.marker_noise`,
+    median-based, 0 for noise-free data).
+
+    Parameters
+    ----------
+    model : SpringMassModel
+        The fitted model.
+    experiments : sequence of Experiment
+    substeps : int
+        Integration steps per frame with which ``model`` reproduces the data.
+    rms : float, optional
+        The RMS error if known (:func:`~neurofuzzy.experiment.rms_error` otherwise).
+
+    Returns
+    -------
+    dict
+        ``rms_error`` (m), ``noise_rms`` (m: ``σ√3``, what noise alone adds to a marker's
+        3-D RMS error) and ``noise_ratio`` (``rms_error / noise_rms``: 1 means the fit
+        explains everything but the noise; None for noise-free data).
+    """
+    from ..diagnosis.residuals import marker_noise
+    from ..experiment import rms_error, simulate_like
+
+    if rms is None:
+        rms = rms_error(model, experiments, substeps=substeps)
+    variance, count = 0.0, 0
+    for experiment in experiments:
+        observation = experiment.observation
+        always = observation.seen[1:].all(axis=0)       # rows without gaps
+        if not always.any():
+            continue
+        with np.errstate(all="ignore"):
+            simulated = simulate_like(model, experiment, substeps)
+        error = observation.residuals(simulated)[1:, always]
+        if not np.all(np.isfinite(error)):
+            return {"rms_error": rms, "noise_rms": None, "noise_ratio": None}
+        motion = observation.values[1:, always] - observation.values[:1, always]
+        sigma = marker_noise(error, motion)
+        variance += sigma**2 * error.size
+        count += error.size
+    noise_rms = float(np.sqrt(3 * variance / count)) if count else 0.0
+    ratio = rms / noise_rms if noise_rms > 0 and np.isfinite(rms) else None
+    return {"rms_error": rms, "noise_rms": noise_rms, "noise_ratio": ratio}

@@ -1,0 +1,91 @@
+"""One fit as ``neurofuzzy fit`` does it: the learner its options choose (:func:`make_learner`)
+and the summary it prints with ``--json`` (:func:`fit_summary`).
+
+Shared by the ``fit`` command and by ``fit-many``, whose every specimen is the same fit; the
+start comes from :func:`~neurofuzzy.learn.start_model`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from ._base import Learner
+
+__all__ = ["METHODS", "make_learner", "fit_summary"]
+
+#: the learners ``method`` may name
+METHODS = ("gradient", "paper")
+
+
+def make_learner(method: str = "gradient", *, cycles: int | None = None,
+                 learn_masses: bool = False, substeps: int | str = "auto",
+                 learning_rate: float = 0.1, mass_learning_rate: float = 0.1,
+                 progress: bool = False) -> Learner:
+    """The learner of ``neurofuzzy fit --method METHOD`` with its options (unfitted).
+
+    Parameters
+    ----------
+    method : {"gradient", "paper"}
+        :class:`~neurofuzzy.learn.GradientLearner` or the paper's
+        :class:`~neurofuzzy.learn.PaperLearner`.
+    cycles : int, optional
+        Learning cycles (paper, default 100) or iterations per stage (gradient, default 100).
+    learn_masses : bool
+    substeps : int or "auto"
+        Gradient method only: integration steps per frame.
+    learning_rate, mass_learning_rate : float
+        Paper method only: η for springs and η_m for masses.
+    progress : bool
+        Report progress on stderr.
+
+    Raises
+    ------
+    InputError
+        An unknown method or a non-positive number of cycles.
+    """
+    from ..errors import InputError, closest_name
+
+    if method not in METHODS:
+        hint = closest_name(str(method), METHODS)
+        raise InputError(f"got {method!r}; expected one of {', '.join(METHODS)}"
+                         + (f" (did you mean {hint!r}?)" if hint else ""), key="method")
+    if cycles is not None and not (isinstance(cycles, int) and cycles >= 1):
+        raise InputError(f"got {cycles!r}; expected a positive integer", key="cycles")
+    if method == "paper":
+        from .paper import PaperLearner
+
+        return PaperLearner(learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
+                            cycles=cycles or 100, learn_masses=learn_masses, progress=progress)
+    from .gradient import GradientLearner
+
+    return GradientLearner(learn_masses=learn_masses, substeps=substeps,
+                           max_iterations=cycles or 100, progress=progress)
+
+
+def fit_summary(learner: Learner, start, *, method: str, tie: str,
+                experiments: Sequence[str]) -> dict:
+    """The JSON object of ``neurofuzzy fit --json`` for a fitted ``learner``.
+
+    ``learner.to_dict()`` plus ``method``, ``tie``, ``start`` (where the start came from),
+    ``experiments`` (the files) and, when the start has a rule base or tissues, ``materials``
+    (per region E, ν, η, ρ and words; :func:`~neurofuzzy.rules.materials`).
+
+    Parameters
+    ----------
+    learner : Learner
+        Fitted.
+    start : StartModel
+        The start of the fit (:func:`~neurofuzzy.learn.start_model`).
+    method, tie : str
+        As given to the fit (``tie`` "model" when the start model's own tying was kept).
+    experiments : sequence of str
+        The experiment files, for the record.
+    """
+    result = learner.to_dict()
+    result.update(method=method, tie=tie, start=start.to_dict(),
+                  experiments=[str(p) for p in experiments])
+    if start.rules is not None or any(start.model.region_tissues):
+        from ..rules import materials
+
+        result["materials"] = materials(learner.model_, start.rules, start.tissue)
+    return result
