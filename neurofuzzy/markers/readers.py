@@ -117,6 +117,9 @@ def read_marker_csv(path: str | os.PathLike, *, units: str | None = None) -> Mar
             raise InputError(f"{label} {str(marker_names[marker])!r} appears twice at time "
                              f"{frame_times[frame]:g} s", source=source, line=line)
         seen[frame, marker] = True
+    if len(frame_times) < 2:
+        raise InputError(f"every row has the time {frame_times[0]:g} s: a recording needs at "
+                         "least two capture times (frames)", source=source, line=rows[-1][0])
     positions[frame_of, marker_of] = np.asarray(coordinates, dtype=float) * unit
     return MarkerData(names=tuple(str(n) for n in marker_names), times=frame_times,
                       positions=positions, source=source, by_node=label == "node")
@@ -132,6 +135,11 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
     source = str(path)
     if not path.is_file():
         raise InputError("no such file", source=source)
+    with open(path, "rb") as handle:
+        head = handle.read(2)
+    if len(head) < 2 or head[1] != 0x50:
+        raise InputError("not a C3D file (byte 2 of a C3D file is 0x50, the key of its "
+                         "parameter section)", source=source)
     try:
         with open(path, "rb") as handle, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -141,8 +149,9 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
             expected = int(reader.last_frame) - int(reader.first_frame) + 1
             stated = _c3d_units(reader)
             frames = [points[:, :4].astype(float) for _, points, _ in reader.read_frames()]
+    # the c3d package checks its file with assert and trusts the header's sizes
     except (struct.error, ValueError, KeyError, IndexError, EOFError, OSError, AttributeError,
-            TypeError) as error:
+            TypeError, AssertionError, MemoryError, OverflowError, ZeroDivisionError) as error:
         raise InputError(f"not a readable C3D file ({type(error).__name__}: {error})",
                          source=source) from None
     truncated = [w for w in caught if "end of file" in str(w.message).lower()]
@@ -153,6 +162,9 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
         raise InputError("the file holds no 3-D points", source=source)
     if not (math.isfinite(rate) and rate > 0):
         raise InputError(f"point rate {rate} is not a positive number", source=source)
+    if len(frames) < 2:
+        raise InputError(f"holds {len(frames)} frame: a recording needs at least two",
+                         source=source)
     unit = _length_unit(units, stated, source)
     data = np.stack(frames)                                    # (T, M, 4)
     positions = np.where(data[:, :, 3:4] < 0, np.nan, data[:, :, :3]) * unit
@@ -164,20 +176,42 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
                       source=source)
 
 
-def read_marker_map(path: str | os.PathLike) -> dict[str, int]:
-    """Read a ``marker,node`` CSV: marker name → node index."""
+def read_marker_map(path: str | os.PathLike, *, markers: MarkerData | None = None,
+                    n_nodes: int | None = None) -> dict[str, int]:
+    """Read a ``marker,node`` CSV: marker name → node index.
+
+    Given the recording (``markers``) and the model's ``n_nodes``, every row is checked
+    against them here, so a bad row is reported as the map's ``FILE:LINE``.
+    """
     path = Path(path)
+    source = str(path)
     header, rows, _ = _read_csv(path, required=[("marker",), ("node",)])
     mapping: dict[str, int] = {}
+    by_node: dict[int, str] = {}
     for line, row in rows:
         name = row[header["marker"]].strip()
         node = row[header["node"]].strip()
         if not re.fullmatch(r"\d+", node):
             raise InputError(f"node {node!r} is not a node index (a non-negative integer)",
-                             source=str(path), line=line)
+                             source=source, line=line)
         if name in mapping:
-            raise InputError(f"marker {name!r} is mapped twice", source=str(path), line=line)
+            raise InputError(f"marker {name!r} is mapped twice", source=source, line=line)
+        if markers is not None and name not in markers.names:
+            hint = closest_name(name, markers.names)
+            raise InputError(f"marker {name!r} is not in {markers.source}" +
+                             (f"; did you mean {hint!r}?" if hint else ""), source=source,
+                             line=line)
+        if n_nodes is not None and int(node) >= n_nodes:
+            raise InputError(f"node {node} is out of range: the model has {n_nodes} nodes "
+                             f"(0..{n_nodes - 1})", source=source, line=line)
+        if int(node) in by_node:
+            raise InputError(f"markers {by_node[int(node)]!r} and {name!r} both belong to node "
+                             f"{node}; attach each marker to its own node", source=source,
+                             line=line)
+        by_node[int(node)] = name
         mapping[name] = int(node)
+    if not mapping:
+        raise InputError("no rows: expected marker,node pairs", source=source)
     return mapping
 
 
