@@ -292,7 +292,8 @@ class _Builder:
         node = yaml.ScalarNode(tag, event.value, event.start_mark, event.end_mark, event.style)
         try:
             return self.constructor.yaml_constructors[tag](self.constructor, node)
-        except (ValueError, TypeError, OverflowError, yaml.constructor.ConstructorError):
+        except (ValueError, TypeError, OverflowError, IndexError, KeyError, AttributeError,
+                yaml.constructor.ConstructorError):     # e.g. !!int with no digits
             self.fail(f"{event.value!r} is not a valid {tag.rsplit(':', 1)[-1]}", event)
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
-from .outcome import check_outcome
+from .outcome import check_outcome, explained, require_motion
 
 __all__ = ["fit", "diagnose"]
 
@@ -66,6 +66,7 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     from ..learn import GradientLearner, PaperLearner
 
     inputs, experiments, start = _start(args, progress)
+    require_motion(experiments)
     if args.method == "paper":
         learner = PaperLearner(learning_rate=args.learning_rate,
                                mass_learning_rate=args.mass_learning_rate,
@@ -74,7 +75,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     else:
         learner = GradientLearner(learn_masses=args.learn_masses, substeps=substeps,
                                   max_iterations=args.cycles or 100, progress=progress)
-    learner.fit(start.model, experiments)
+    with explained("fit", experiments, start.model, substeps):
+        learner.fit(start.model, experiments)
     check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,
                   learner.rms_error_, learner.substeps_)
     if out:
@@ -109,8 +111,10 @@ def diagnose(args) -> int:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
         inputs, experiments, start = _start(args, progress)
-        result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
-                               substeps=substeps, progress=progress)
+        require_motion(experiments)
+        with explained("diagnosis", experiments, start.model, substeps):
+            result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
+                                   substeps=substeps, progress=progress)
         check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
                       result.rms_after, substeps)
         if out:

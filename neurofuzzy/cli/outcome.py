@@ -4,13 +4,15 @@ written (the learners themselves return whatever they reached: the command line 
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
 
-from ..errors import NeurofuzzyError
+from ..errors import InputError, NeurofuzzyError
 
-__all__ = ["FitFailedError", "check_outcome", "measured_motion"]
+__all__ = ["FitFailedError", "check_outcome", "explained", "measured_motion",
+           "require_motion"]
 
 #: plausible mean density of an object (kg/m³): from foam and lung to bone, with room to spare
 PLAUSIBLE_DENSITY = (10.0, 2e4)
@@ -33,6 +35,33 @@ def measured_motion(experiments) -> float:
         total += float(np.sum(moved * moved))
         count += int(seen.sum())
     return math.sqrt(total / count) if count else 0.0
+
+
+def require_motion(experiments) -> None:
+    """Refuse measurements that never move from frame 0: there is nothing to learn from."""
+    if measured_motion(experiments) == 0.0:
+        files = ", ".join(str(e.source) for e in experiments)
+        raise InputError("the measured positions never move from frame 0, so there is "
+                         "nothing to fit; check the recording (and its load)", source=files,
+                         key="positions")
+
+
+@contextlib.contextmanager
+def explained(what: str, experiments, start_model, substeps):
+    """A learner's own error (it diverged, a matrix became singular …) re-raised as a
+    :class:`FitFailedError` naming the files and the likely cause; errors about an input
+    file pass unchanged."""
+    try:
+        yield
+    except FitFailedError:
+        raise
+    except NeurofuzzyError as error:
+        if isinstance(error, InputError) and error.source is not None:
+            raise
+        files = ", ".join(str(e.source) for e in experiments)
+        cause = _likely_cause(experiments, start_model, start_model, substeps)
+        raise FitFailedError(f"{files}: the {what} failed: {error}; {cause}; nothing "
+                             "written") from None
 
 
 def check_outcome(what: str, experiments, start_model, end_model, rms_initial: float,

@@ -137,9 +137,15 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
         raise InputError("no such file", source=source)
     with open(path, "rb") as handle:
         head = handle.read(2)
-    if len(head) < 2 or head[1] != 0x50:
+        if len(head) == 2 and head[0] >= 1:
+            handle.seek(512 * (head[0] - 1) + 3)
+            processor = handle.read(1)
+    if len(head) < 2 or head[1] != 0x50 or head[0] < 1:
         raise InputError("not a C3D file (byte 2 of a C3D file is 0x50, the key of its "
                          "parameter section)", source=source)
+    if processor not in (b"\x54", b"\x55", b"\x56"):
+        raise InputError("not a readable C3D file: its parameter section names no known "
+                         "processor type (84 Intel, 85 DEC, 86 MIPS)", source=source)
     try:
         with open(path, "rb") as handle, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -151,7 +157,8 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
             frames = [points[:, :4].astype(float) for _, points, _ in reader.read_frames()]
     # the c3d package checks its file with assert and trusts the header's sizes
     except (struct.error, ValueError, KeyError, IndexError, EOFError, OSError, AttributeError,
-            TypeError, AssertionError, MemoryError, OverflowError, ZeroDivisionError) as error:
+            TypeError, AssertionError, MemoryError, OverflowError, ZeroDivisionError,
+            UnboundLocalError) as error:
         raise InputError(f"not a readable C3D file ({type(error).__name__}: {error})",
                          source=source) from None
     truncated = [w for w in caught if "end of file" in str(w.message).lower()]

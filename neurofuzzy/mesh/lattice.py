@@ -133,7 +133,11 @@ def from_trimesh(mesh, pitch: float, *, diagonals: Diagonals = "body") -> Mesh:
     check_cell_count(float(np.prod(np.floor(extents / pitch) + 2)), "pitch",
                      f"a pitch of {pitch:g} is too fine for a surface of extents "
                      f"{np.round(extents, 6).tolist()}: use at least about {smallest:.3g}")
-    grid = mesh.voxelized(pitch).fill()
+    try:
+        grid = mesh.voxelized(pitch).fill()
+    except (ValueError, IndexError, MemoryError) as error:      # trimesh's subdivision
+        raise InputError(f"trimesh cannot voxelise the surface at pitch {pitch:g} ({error}); "
+                         "check it for degenerate or far-off triangles", key="pitch") from None
     corners = np.asarray(grid.matrix, dtype=bool)
     origin = np.asarray(grid.transform[:3, 3], float)
     if min(corners.shape) < 2:

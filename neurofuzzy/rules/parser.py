@@ -115,9 +115,10 @@ class _Builder:
                 variable = self.variable(source, role, str(name), spec, section.line_of(name))
                 if variable is not None:
                     store[variable.name] = variable
-        if not inputs:
+        broken_base = "extends" in data and base is None    # already reported; the rest
+        if not inputs and not broken_base:                  # would follow from it
             self.problem(source, data.line, "no input variables ('inputs:')")
-        if not outputs:
+        if not outputs and not broken_base:
             self.problem(source, data.line, "no output variables ('outputs:')")
         rules = list(base.rules) if base else []
         for index, spec in enumerate(data["rules"] if isinstance(data.get("rules"), list)
@@ -125,7 +126,7 @@ class _Builder:
             rule = self.rule(source, spec, data["rules"].line_of(index), inputs, outputs)
             if rule is not None:
                 rules.append(rule)
-        if not rules:
+        if not rules and not broken_base:
             self.problem(source, data.line, "no rules ('rules:')")
         tissues = dict(base.tissues) if base else {}
         section = data["tissues"] if isinstance(data.get("tissues"), dict) else {}
