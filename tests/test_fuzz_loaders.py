@@ -53,6 +53,12 @@ def mutations(draw, data: bytes, max_edits: int = 4):
     return bytes(data)
 
 
+def mutated_loads_or_refuses(load, path, original, data):
+    """Write a mutation of ``original`` (drawn from ``data``) to ``path`` and load it."""
+    path.write_bytes(data.draw(mutations(original)))
+    loads_or_refuses(load, path)
+
+
 def loads_or_refuses(load, path):
     """Call ``load(path)``; anything raised must be our error and name the file."""
     try:
@@ -94,9 +100,7 @@ def model_text(tmp_path_factory, cube_model):
 @FAST
 @given(data=st.data())
 def test_mutated_model_files_load_or_raise_our_error(tmp_path, model_text, data):
-    path = tmp_path / "model.yaml"
-    path.write_bytes(data.draw(mutations(model_text)))
-    loads_or_refuses(load_model, path)
+    mutated_loads_or_refuses(load_model, tmp_path / "model.yaml", model_text, data)
 
 
 # -- experiment files ---------------------------------------------------------------------
@@ -114,9 +118,7 @@ def experiment_bytes(tmp_path_factory, cube_experiment):
 @given(data=st.data())
 def test_mutated_experiment_files_load_or_raise_our_error(tmp_path, experiment_bytes, data):
     source = experiment_bytes[data.draw(st.integers(0, 1))]
-    path = tmp_path / "e.npz"
-    path.write_bytes(data.draw(mutations(source)))
-    loads_or_refuses(load_experiment, path)
+    mutated_loads_or_refuses(load_experiment, tmp_path / "e.npz", source, data)
 
 
 ARRAYS = st.sampled_from([
@@ -179,12 +181,8 @@ def c3d_bytes():
 @FAST
 @given(data=st.data())
 def test_mutated_c3d_loads_or_raises_our_error(tmp_path, c3d_bytes, data):
-    path = tmp_path / "markers.c3d"
-    path.write_bytes(data.draw(mutations(c3d_bytes)))
-    try:
-        read_markers(path, units="mm")
-    except NeurofuzzyError as error:
-        assert str(path) in str(error)
+    mutated_loads_or_refuses(lambda path: read_markers(path, units="mm"),
+                             tmp_path / "markers.c3d", c3d_bytes, data)
 
 
 # -- meshes -------------------------------------------------------------------------------
@@ -211,7 +209,6 @@ def mesh_files(tmp_path_factory):
 @given(data=st.data())
 def test_mutated_mesh_files_load_or_raise_our_error(tmp_path, mesh_files, data):
     suffix = data.draw(st.sampled_from(sorted(mesh_files)))
-    path = tmp_path / f"mesh{suffix}"
-    path.write_bytes(data.draw(mutations(mesh_files[suffix])))
     pitch = 0.005 if suffix in (".stl", ".obj") else None
-    loads_or_refuses(lambda p: read_mesh(p, pitch=pitch), path)
+    mutated_loads_or_refuses(lambda path: read_mesh(path, pitch=pitch),
+                             tmp_path / f"mesh{suffix}", mesh_files[suffix], data)
