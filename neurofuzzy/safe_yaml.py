@@ -209,8 +209,7 @@ class _Builder:
             elif isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
                 kind = "mapping" if isinstance(event, yaml.MappingStartEvent) else "sequence"
                 if event.tag not in (None, "!", _CONTAINER_TAGS[kind]):
-                    self.fail(f"unknown tag {_shown(event.tag)}; neurofuzzy files hold plain numbers, "
-                              "words, lists and mappings: remove the tag", event)
+                    self.fail(_unknown_tag(event.tag), event)
                 if stack and isinstance(stack[-1].value, Mapping) and stack[-1].key is None:
                     self.fail("a mapping key must be a plain value, not a "
                               f"{kind}", event)
@@ -287,8 +286,7 @@ class _Builder:
             if tag not in _SCALAR_TAGS:                   # dates, '=': keep the text
                 return event.value
         elif tag not in _SCALAR_TAGS:
-            self.fail(f"unknown tag {_shown(tag)}; neurofuzzy files hold plain numbers, words, "
-                      "lists and mappings: remove the tag", event)
+            self.fail(_unknown_tag(tag), event)
         node = yaml.ScalarNode(tag, event.value, event.start_mark, event.end_mark, event.style)
         try:
             return self.constructor.yaml_constructors[tag](self.constructor, node)
@@ -297,9 +295,10 @@ class _Builder:
             self.fail(f"{event.value!r} is not a valid {tag.rsplit(':', 1)[-1]}", event)
 
 
-def _shown(tag: str) -> str:
-    """A tag as it is written: ``!!int``, ``!foo``."""
-    return "!!" + tag[len(_TAG):] if tag.startswith(_TAG) else tag
+def _unknown_tag(tag: str) -> str:
+    shown = "!!" + tag[len(_TAG):] if tag.startswith(_TAG) else tag    # as it is written
+    return (f"unknown tag {shown}; neurofuzzy files hold plain numbers, words, lists and "
+            "mappings: remove the tag")
 
 
 class _MergeKey:
