@@ -15,6 +15,7 @@ import scipy.sparse as sp
 
 from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
+from .mesh.core import check_coordinates
 from .model import SpringMassModel
 from .observation import EmbeddedMarkers, Observation
 from .simulation import simulate
@@ -107,6 +108,13 @@ class Experiment:
             if not np.isfinite(self.markers.positions[0]).all():
                 raise InputError("every marker needs a position at frame 0 (the initial "
                                  "state)", source=src, key="marker_positions")
+        _require_motion(self.mesh, observed, self.markers, src)
+        try:
+            check_coordinates(positions, "positions")
+            if self.markers is not None:
+                check_coordinates(self.markers.positions, "marker_positions")
+        except InputError as error:
+            raise InputError(error.detail, source=src, key=error.key) from None
         if np.isinf(positions[:, observed]).any():
             frame, node = np.argwhere(np.isinf(positions[:, observed]).any(axis=-1))[0]
             node = np.flatnonzero(observed)[node]
@@ -332,6 +340,22 @@ def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experim
         count += int(observation.seen[1:].sum())
     value = np.sqrt(total / max(count, 1))
     return float(value) if np.isfinite(value) else float("inf")
+
+
+def _require_motion(mesh: Mesh, observed: np.ndarray, markers, source: str) -> None:
+    """Refuse an experiment in which nothing can move, or nothing measured can."""
+    free = mesh.free
+    if not free.any():
+        raise InputError(f"all {mesh.n_nodes} nodes are fixed, so nothing can move; fix only "
+                         "the nodes that are held", source=source, key="fixed")
+    if markers is not None:
+        moves = np.asarray(markers.operator(mesh.n_nodes)[:, free].sum(axis=1)).ravel() > 1e-12
+        if not moves.any():
+            raise InputError("every marker sits on fixed nodes only, so nothing measured can "
+                             "move", source=source, key="marker_nodes")
+    elif not (observed & free).any():
+        raise InputError("every observed node is fixed, so nothing measured can move; observe "
+                         "free nodes", source=source, key="observed")
 
 
 def _float_array(value, source: str, key: str) -> np.ndarray:

@@ -12,15 +12,18 @@ import io as _io
 import os
 import tempfile
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from . import safe_yaml
 from .errors import InputError, closest_name
 from .experiment import Experiment
 from .mesh import Mesh
 from .model import SpringMassModel
+from .safe_yaml import kind_of
 
 __all__ = ["load_experiment", "save_experiment", "load_model", "save_model", "atomic_write"]
 
@@ -30,6 +33,10 @@ MARKER_KEYS = ("marker_positions", "marker_nodes", "marker_weights", "marker_nam
 OPTIONAL_KEYS = ("fixed", "external_forces", "observed", "masses", "spring_groups",
                  "group_names", "tetrahedra", *MARKER_KEYS)
 MODEL_FORMAT = "neurofuzzy-model/1"
+#: most bytes the arrays of one experiment file may hold uncompressed
+MAX_EXPERIMENT_BYTES = 2 * 2**30
+#: largest model file read (a 24,000-tetrahedron model is 4 MB and loads in 2 s)
+MAX_MODEL_FILE_BYTES = 64 * 2**20
 
 
 @contextlib.contextmanager
@@ -65,24 +72,7 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
         value has the wrong shape, type or range. The message names the file and the key.
     """
     source = str(path)
-    try:
-        with open(path, "rb") as handle:
-            if handle.read(4) != b"PK\x03\x04":
-                raise InputError("not a readable .npz experiment file (not a zip archive)",
-                                 source=source)
-        with np.load(path, allow_pickle=False) as archive:
-            data = {key: archive[key] for key in archive.files}
-    except FileNotFoundError:
-        raise InputError("no such file", source=source) from None
-    except IsADirectoryError:
-        raise InputError("is a directory, not an experiment file", source=source) from None
-    except (zipfile.BadZipFile, OSError, EOFError) as error:
-        raise InputError(f"not a readable .npz experiment file ({error})",
-                         source=source) from None
-    except ValueError as error:  # object arrays need pickle, which we refuse
-        raise InputError(f"holds arrays we will not unpickle ({error}); store plain numeric "
-                         "arrays", source=source) from None
-
+    data = read_npz(path)
     known = REQUIRED_KEYS + OPTIONAL_KEYS
     for key in data:
         if key not in known and not key.startswith("true_"):
@@ -128,6 +118,82 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
                       external_forces=data.get("external_forces"),
                       observed=data.get("observed"), node_mass=data.get("masses"), truth=truth,
                       source=source, markers=markers)
+
+
+def read_npz(path: str | os.PathLike, *, max_bytes: int | None = None) -> dict[str, np.ndarray]:
+    """The arrays of an ``.npz`` file, read member by member without trusting it.
+
+    Every member must be a ``.npy`` array of plain (non-object) values whose header agrees
+    with its size; the members together may hold at most ``max_bytes`` (default
+    :data:`MAX_EXPERIMENT_BYTES`) uncompressed, checked before anything is decompressed.
+    Whatever zipfile, zlib or numpy's format reader raise on a broken file becomes an
+    :class:`InputError` naming the file and the member.
+    """
+    source = str(path)
+    limit = MAX_EXPERIMENT_BYTES if max_bytes is None else max_bytes
+    path = Path(path)
+    if not path.exists():
+        raise InputError("no such file", source=source)
+    if path.is_dir():
+        raise InputError("is a directory, not an experiment file", source=source)
+    key = None
+    try:
+        with open(path, "rb") as handle:
+            if handle.read(4) != b"PK\x03\x04":
+                raise InputError("not a readable .npz experiment file (not a zip archive)",
+                                 source=source)
+        with zipfile.ZipFile(path) as archive:
+            members = archive.infolist()
+            total = sum(member.file_size for member in members)
+            if total > limit:
+                raise InputError(f"its arrays hold {total / 2**30:.2f} GB uncompressed; the "
+                                 f"limit is {limit / 2**30:.2f} GB (split the recording into "
+                                 "several experiment files)", source=source)
+            data = {}
+            for member in members:
+                key = member.filename[:-4] if member.filename.endswith(".npy") \
+                    else member.filename
+                if key in data:
+                    raise InputError("appears twice in the archive", source=source, key=key)
+                with archive.open(member) as handle:
+                    data[key] = _read_npy(handle, member.file_size)
+            return data
+    except InputError as error:
+        raise InputError(error.detail, source=source, key=error.key or key) from None
+    except PermissionError as error:
+        raise InputError(f"cannot read the file ({error.strerror})", source=source) from None
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, SyntaxError,
+            TypeError, KeyError, NotImplementedError, RuntimeError, OverflowError,
+            MemoryError) as error:
+        # a corrupt archive, deflate stream or .npy header, or an encrypted member
+        what = f"member {key!r} is" if key is not None else "it is"
+        raise InputError(f"not a readable .npz experiment file: {what} corrupt or not a "
+                         f".npy array ({type(error).__name__}: {error})", source=source,
+                         key=key) from None
+
+
+def _read_npy(handle, size: int) -> np.ndarray:
+    """One ``.npy`` member of ``size`` bytes; its header must agree with its size."""
+    version = np.lib.format.read_magic(handle)
+    if version == (1, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_1_0(handle)
+    elif version in ((2, 0), (3, 0)):
+        shape, fortran, dtype = np.lib.format.read_array_header_2_0(handle)
+    else:
+        raise InputError(f"unsupported .npy format version {version}")
+    if dtype.hasobject:
+        raise InputError("holds Python objects, which neurofuzzy will not unpickle; store "
+                         "plain numeric arrays")
+    count = int(np.prod(shape, dtype=object))
+    nbytes = count * dtype.itemsize
+    if nbytes > size:
+        raise InputError(f"its header promises {shape} {dtype} ({nbytes} bytes) but the "
+                         f"member holds {size} bytes: truncated or corrupt")
+    buffer = bytearray(handle.read(nbytes))
+    if len(buffer) != nbytes:
+        raise InputError(f"truncated: {len(buffer)} of {nbytes} bytes")
+    return np.frombuffer(buffer, dtype=dtype, count=count).reshape(
+        shape, order="F" if fortran else "C")
 
 
 def _markers(data: dict):
@@ -230,13 +296,106 @@ def model_to_dict(model: SpringMassModel) -> dict:
     return data
 
 
-def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
-    """Inverse of :func:`model_to_dict`."""
-    from .effects import effect_from_dict
+#: the keys of a model file, per section: (required, optional)
+MODEL_KEYS = {
+    None: (("format", "nodes", "springs"), ("effects", "regions", "tetrahedra", "elements")),
+    "nodes": (("rest_positions", "mass"), ("fixed", "region")),
+    "springs": (("nodes", "stiffness", "damping"),
+                ("group", "group_names", "rest_length", "tie", "region")),
+    "regions": (("names",), ("tissues",)),
+    "elements": ((), ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
+                      "volumetric")),
+}
+#: keys whose value is a single word, not a list
+_MODEL_SCALAR_KEYS = {("elements", "volumetric")}
+#: where an array a model checks (its key) is in the file: (section, key)
+_MODEL_FILE_KEY = {
+    "rest_positions": ("nodes", "rest_positions"), "node_mass": ("nodes", "mass"),
+    "fixed": ("nodes", "fixed"), "node_region": ("nodes", "region"),
+    "springs": ("springs", "nodes"), "spring_group": ("springs", "group"),
+    "group_names": ("springs", "group_names"), "spring_stiffness": ("springs", "stiffness"),
+    "spring_damping": ("springs", "damping"), "spring_rest_length": ("springs", "rest_length"),
+    "spring_tie": ("springs", "tie"), "spring_region": ("springs", "region"),
+    "tetrahedra": (None, "tetrahedra"), "region_names": ("regions", "names"),
+    "region_tissues": ("regions", "tissues"), "effects": (None, "effects"),
+    **{f"element_{key}": ("elements", key)
+       for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
+                   "volumetric")},
+}
 
+
+def check_model_dict(data, source: str = "<model>") -> None:
+    """Check the layout of a model file's content (sections, keys, lists) before it is used.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the key (``springs.stiffness``) and, for files read by
+        :func:`load_model`, its line.
+    """
     if not isinstance(data, dict) or data.get("format") != MODEL_FORMAT:
         raise InputError(f"not a neurofuzzy model file (expected 'format: {MODEL_FORMAT}')",
-                         source=source)
+                         source=source, line=_line_of(data, "format"))
+    for section, (required, optional) in MODEL_KEYS.items():
+        where = data if section is None else data.get(section)
+        if where is None and section in ("regions", "elements"):
+            continue
+        if not isinstance(where, dict):
+            keys = ", ".join(f"{k}:" for k in required + optional)
+            raise InputError(f"expected a mapping ({keys}), got {kind_of(where)}",
+                             source=source, key=section, line=_line_of(data, section))
+        for key in where:
+            if key not in required + optional:
+                hint = closest_name(str(key), required + optional)
+                raise InputError("unknown key" + (f"; did you mean {hint!r}?" if hint else
+                                                  f"; known: {list(required + optional)}"),
+                                 source=source, key=_dotted(section, key),
+                                 line=_line_of(where, key))
+        for key in required:
+            if key not in where:
+                raise InputError(f"missing key {key!r}", source=source,
+                                 key=section, line=_line_of(data, section))
+        for key, value in where.items():
+            if section is None and (key in MODEL_KEYS or key == "format"):
+                continue
+            if (section, key) in _MODEL_SCALAR_KEYS:
+                if not isinstance(value, str):
+                    raise InputError(f"expected a word, got {kind_of(value)}", source=source,
+                                     key=_dotted(section, key), line=_line_of(where, key))
+                continue
+            if value is not None and not isinstance(value, list):
+                raise InputError(f"expected a list, got {kind_of(value)}", source=source,
+                                 key=_dotted(section, key), line=_line_of(where, key))
+
+
+def _dotted(section, key) -> str:
+    return str(key) if section is None else f"{section}.{key}"
+
+
+def _line_of(mapping, key) -> int | None:
+    """The line of ``key`` in a mapping read by :mod:`neurofuzzy.safe_yaml` (else None)."""
+    line_of = getattr(mapping, "line_of", None)
+    return line_of(key) if line_of is not None else None
+
+
+def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
+    """Inverse of :func:`model_to_dict`."""
+    check_model_dict(data, source)
+    try:
+        return _model_from_checked_dict(data, source)
+    except InputError as error:
+        section, key = _MODEL_FILE_KEY.get(error.key, (None, error.key))
+        where = data if section is None else data.get(section, {})
+        raise InputError(error.detail, source=source, key=_dotted(section, key),
+                         line=_line_of(where, key)) from None
+    except (TypeError, ValueError) as error:     # numpy on lists of the wrong shape or type
+        raise InputError(f"a list holds values of the wrong type or shape ({error})",
+                         source=source) from None
+
+
+def _model_from_checked_dict(data: dict, source: str) -> SpringMassModel:
+    from .effects import effect_from_dict
+
     try:
         nodes, springs = data["nodes"], data["springs"]
         mesh = Mesh(rest_positions=nodes["rest_positions"], springs=springs["nodes"],
@@ -251,8 +410,6 @@ def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
             **_regions_from_dict(data, nodes, springs, source), **_elements_from_dict(data))
     except KeyError as error:
         raise InputError(f"missing key {error.args[0]!r}", source=source) from None
-    except InputError as error:
-        raise InputError(error.detail, source=source, key=error.key) from None
 
 
 def _elements_from_dict(data: dict) -> dict:
@@ -293,16 +450,14 @@ def save_model(model: SpringMassModel, path: str | os.PathLike) -> Path:
 
 
 def load_model(path: str | os.PathLike) -> SpringMassModel:
-    """Read a model written by :func:`save_model`."""
-    source = str(path)
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = yaml.safe_load(handle)
-    except FileNotFoundError:
-        raise InputError("no such file", source=source) from None
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        problem = getattr(error, "problem", None) or str(error)
-        raise InputError(f"malformed YAML: {problem}", source=source, line=line) from None
-    return model_from_dict(data, source)
+    """Read a model written by :func:`save_model`.
+
+    Raises
+    ------
+    InputError
+        The file is missing, larger than :data:`MAX_MODEL_FILE_BYTES`, not YAML (see
+        :mod:`neurofuzzy.safe_yaml`), not laid out as a model file, or holds impossible values;
+        the message names the file, the key and the line.
+    """
+    return model_from_dict(safe_yaml.load(path, max_bytes=MAX_MODEL_FILE_BYTES,
+                                          kind="model file"), str(path))

@@ -69,9 +69,15 @@ def _fmt(value) -> str:
     return str(value)
 
 
+#: the key of a report's JSON twin that says neurofuzzy wrote it (the command line replaces
+#: an existing twin only if it has it)
+REPORT_MARKER = "generator"
+
+
 def write_report(path, title: str, sections: list[tuple[str, str]], data: dict) -> Path:
     """Write ``path`` (HTML) and its JSON twin (same name, ``.json``) atomically."""
     path = Path(path)
+    data = {REPORT_MARKER: f"neurofuzzy report: {title}", **data}
     body = "".join(f"<h2>{html.escape(heading)}</h2>{content}" for heading, content in sections)
     page = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
             f"</title><style>{_STYLE}</style></head><body><h1>{html.escape(title)}</h1>"

@@ -171,6 +171,10 @@ def numba_available() -> bool:
     return True
 
 
+#: most integration steps per frame a caller may ask for
+MAX_SUBSTEPS = 10_000
+
+
 def check_substeps(value, key: str = "substeps") -> int | str:
     """``value`` as a positive int or ``"auto"``; :class:`InputError` naming ``key`` otherwise.
 
@@ -181,6 +185,10 @@ def check_substeps(value, key: str = "substeps") -> int | str:
     if value == "auto":
         return "auto"
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1:
+        if value > MAX_SUBSTEPS:
+            raise InputError(f"got {value}; at most {MAX_SUBSTEPS} steps per frame (more would "
+                             "run for hours: check dt and the model's units, or use 'auto')",
+                             key=key)
         return int(value)
     raise InputError(f"got {value!r}; expected a positive integer or 'auto'", key=key)
 

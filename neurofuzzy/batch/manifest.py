@@ -180,9 +180,9 @@ def read_manifest(path: str | os.PathLike) -> list[Specimen]:
 
 # -- reading ----------------------------------------------------------------------------------
 def _csv_rows(path: Path) -> list[tuple[int, dict]]:
-    from ..markers.readers import _read_csv      # comments, header, line numbers, widths
+    from ..markers.readers import read_csv_table
 
-    header, rows, _ = _read_csv(path, required=[("id",)])
+    header, rows, _ = read_csv_table(path, required=[("id",)])
     _check_columns(header, str(path), _header_line(path))
     names = list(header)
     return [(line, {name: cells[header[name]].strip() for name in names})
@@ -396,14 +396,14 @@ def _rule_path(rules: str) -> Path:
 
 def _rule_files(path: Path) -> list[Path]:
     """A rule file and the files it extends (for fingerprints)."""
-    import yaml
+    from ..rules._yaml import load
 
     files = []
     while path not in files and path.is_file():
         files.append(path)
         try:
-            data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except (yaml.YAMLError, UnicodeDecodeError):
+            data = load(path)
+        except InputError:
             break              # the rule parser reports it; the bytes are fingerprinted
         parent = data.get("extends") if isinstance(data, dict) else None
         if not parent:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .common import print_json, refuse_overwrite, written
+from .common import Outputs, at_least, naming, positive, print_json, vtu_series, written
 
 __all__ = ["simulate", "mesh", "import_markers", "export"]
 
@@ -18,7 +18,13 @@ def simulate(args) -> int:
     from ..experiment import simulate_experiment
     from ..io import load_model, save_experiment
 
-    refuse_overwrite(args.out, [Path(args.model)])
+    positive(args.dt, "--dt")
+    at_least(args.frames, 2, "--frames")
+    at_least(args.noise, 0, "--noise")
+    at_least(args.seed, 0, "--seed")
+    substeps = _substeps(args.substeps)
+    outputs = Outputs([Path(args.model)])
+    out = outputs.file(args.out, "--out")
     model = paper_cube_model() if args.model == "cube" else load_model(args.model)
     loads = np.zeros((model.n_nodes, 3))
     if args.force:
@@ -31,14 +37,16 @@ def simulate(args) -> int:
             if not 0 <= index < model.n_nodes:
                 raise InputError(f"node {index} is out of range 0..{model.n_nodes - 1}",
                                  key="--force")
+            if not np.all(np.isfinite(vector)):
+                raise InputError(f"got {vector}; a force needs finite numbers", key="--force")
             loads[index] += vector
     else:
         loads[top_centre_node(model.mesh)] = CUBE["force"]
-    experiment = simulate_experiment(model, dt=args.dt or CUBE["dt"], n_frames=args.frames,
-                                     external_forces=loads,
-                                     substeps=_substeps(args.substeps),
-                                     noise=args.noise, seed=args.seed, source=args.out)
-    save_experiment(experiment, args.out)
+    with outputs, naming(args.model):
+        experiment = simulate_experiment(model, dt=args.dt or CUBE["dt"], n_frames=args.frames,
+                                         external_forces=loads, substeps=substeps,
+                                         noise=args.noise, seed=args.seed, source=args.out)
+        save_experiment(experiment, out)
     print(f"wrote {args.out}: {experiment.n_frames} frames of {experiment.n_nodes} nodes")
     return 0
 
@@ -52,7 +60,13 @@ def mesh(args) -> int:
     from ..rules import initialize
 
     source = Path(args.mesh)
-    refuse_overwrite(args.out, [source, Path(args.rules)])
+    positive(args.pitch, "--pitch")
+    positive(args.max_edge, "--max-edge")
+    positive(args.scale, "--scale")
+    if args.fix_below is not None and not np.isfinite(args.fix_below):
+        raise InputError(f"got {args.fix_below}; expected a height in metres", key="--fix-below")
+    outputs = Outputs([source, Path(args.rules)])
+    out = outputs.file(args.out, "--out")
     method = "tetra" if args.tetra else "voxel"
     read = read_mesh(source, pitch=args.pitch, max_edge=args.max_edge, method=method)
     mesh = read.mesh
@@ -89,7 +103,8 @@ def mesh(args) -> int:
         mesh = lattice_to_tetra(mesh)        # voxel lattice: six tetrahedra per cubic cell
     model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
                        **regions).tied(args.tie)
-    save_model(model, args.out)
+    with outputs:
+        save_model(model, out)
     print(model.summary())
     print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
                                               " (none: use --fix-bottom or --fix-below)"))
@@ -102,7 +117,11 @@ def import_markers(args) -> int:
     from ..markers import markers_to_experiment, read_marker_map, read_markers
 
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
-    refuse_overwrite(args.out, inputs)
+    positive(args.dt, "--dt")
+    positive(args.max_distance, "--max-distance")
+    at_least(args.force_spread, 1, "--force-spread")
+    outputs = Outputs(inputs)
+    out = outputs.file(args.out, "--out")
     topology = Path(args.topology)
     if topology.suffix.lower() == ".npz":
         reference = load_experiment(topology)
@@ -114,7 +133,8 @@ def import_markers(args) -> int:
         raise InputError("expected a model (.yaml) or an experiment file (.npz)",
                          source=str(topology), key="--topology")
     markers = read_markers(args.markers, units=args.units)
-    mapping = read_marker_map(args.map) if args.map else None
+    mapping = read_marker_map(args.map, markers=markers, n_nodes=mesh.n_nodes) \
+        if args.map else None
     imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
         forces=args.forces, node_mass=masses, source=args.out, force_spread=args.force_spread,
@@ -123,7 +143,8 @@ def import_markers(args) -> int:
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",
               file=sys.stderr)
-    save_experiment(experiment, args.out)
+    with outputs:
+        save_experiment(experiment, out)
     summary.update(markers_file=str(args.markers), topology=str(topology), out=str(args.out))
     if args.json:
         print_json(summary)
@@ -150,11 +171,17 @@ def export(args) -> int:
     from ..export import export_paraview
     from ..io import load_experiment, load_model
 
-    model = load_model(args.model)
-    experiment = load_experiment(args.experiment) if args.experiment else None
-    files = export_paraview(args.out, model, experiment, every=args.every,
-                            substeps=_substeps(args.substeps), stem=args.stem,
-                            formats=args.formats)
+    at_least(args.every, 1, "--every")
+    substeps = _substeps(args.substeps)
+    outputs = Outputs([Path(p) for p in (args.model, args.experiment) if p])
+    folder = outputs.folder(args.out, "--out", owns=vtu_series(args.stem))
+    with outputs, naming(args.model):
+        model = load_model(args.model)
+        experiment = load_experiment(args.experiment) if args.experiment else None
+        files = export_paraview(folder, model, experiment, every=args.every,
+                                substeps=substeps, stem=args.stem, formats=args.formats)
+        files = {kind: outputs.target_of(path) if isinstance(path, Path) else path
+                 for kind, path in files.items()}
     frames = len(files.get("vtu", [])) or 1
     written(files.get("pvd"), files.get("xdmf"))
     print(f"{frames} frames; open the .pvd in ParaView to play the simulation")

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import print_json, refuse_overwrite, written
+from .common import Outputs, at_least, positive, print_json, vtu_series, written
+from .outcome import check_outcome, explained, require_motion
 
 __all__ = ["fit", "diagnose"]
 
@@ -16,43 +17,33 @@ def _start(args, progress: bool):
     from ..learn import start_model
 
     inputs = [Path(p) for p in args.experiments]
-    protected = inputs + [Path(p) for p in (args.rules, args.start) if p]
-    for option in ("out", "report"):
-        refuse_overwrite(getattr(args, option, None), protected)
-    if getattr(args, "report", None):            # and the report's JSON twin
-        refuse_overwrite(str(Path(args.report).with_suffix(".json")), protected)
     experiments = [load_experiment(p) for p in inputs]
     start = start_model(experiments, model=args.start, rules=args.rules, tissue=args.tissue,
                         tie=args.tie, progress=progress)
     return inputs, experiments, start
 
 
+def _protected(args) -> list[Path]:
+    """The files a fit or diagnosis reads (never written over)."""
+    return [Path(p) for p in args.experiments] + [Path(p) for p in (args.rules, args.start)
+                                                  if p]
+
+
 def fit(args) -> int:
-    from ..io import save_model
-    from ..learn.run import fit_summary, make_learner
+    from ..learn.run import fit_summary
 
     progress = not args.quiet and not args.json
-    inputs, experiments, start = _start(args, progress)
-    learner = make_learner(args.method, cycles=args.cycles or None,
-                           learn_masses=args.learn_masses, substeps=_substeps(args.substeps),
-                           learning_rate=args.learning_rate,
-                           mass_learning_rate=args.mass_learning_rate, progress=progress)
-    learner.fit(start.model, experiments)
-    if args.out:
-        save_model(learner.model_, args.out)
-    files = {"fitted model": args.out} if args.out else {}
-    exported = {}
-    if args.export:
-        from ..export import export_paraview
-
-        exported = export_paraview(args.export, learner.model_, experiments[0],
-                                   substeps=learner.substeps_, stem=Path(inputs[0]).stem)
-        files.update({f"ParaView {kind}": path for kind, path in exported.items()
-                      if kind in ("pvd", "xdmf")})
-    if args.report:
-        from ..report import fit_report
-
-        fit_report(start, learner, args.report, files=files)
+    positive(args.cycles, "--cycles", integer=True)
+    positive(args.learning_rate, "--learning-rate")
+    at_least(args.mass_learning_rate, 0, "--mass-learning-rate")
+    substeps = _substeps(args.substeps)
+    with Outputs(_protected(args)) as outputs:
+        out = outputs.file(args.out, "--out")
+        report = outputs.file(args.report, "--report", twins=(".json",))
+        export = outputs.folder(args.export, "--export",
+                                owns=vtu_series(Path(args.experiments[0]).stem))
+        inputs, experiments, start, learner, exported = _fit(args, progress, substeps, out,
+                                                             report, export, outputs)
     result = fit_summary(learner, start, method=args.method,
                          tie=args.tie or ("model" if args.start else "groups"),
                          experiments=inputs)
@@ -66,24 +57,62 @@ def fit(args) -> int:
     return 0
 
 
+def _fit(args, progress, substeps, out, report, export, outputs):
+    """Fit, refuse a failed fit, write the staged outputs."""
+    from ..io import save_model
+    from ..learn.run import make_learner
+
+    inputs, experiments, start = _start(args, progress)
+    require_motion(experiments)
+    learner = make_learner(args.method, cycles=args.cycles, learn_masses=args.learn_masses,
+                           substeps=substeps, learning_rate=args.learning_rate,
+                           mass_learning_rate=args.mass_learning_rate, progress=progress)
+    with explained("fit", experiments, start.model, substeps):
+        learner.fit(start.model, experiments)
+    check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,
+                  learner.rms_error_, learner.substeps_)
+    if out:
+        save_model(learner.model_, out)
+    files = {"fitted model": args.out} if args.out else {}
+    exported = {}
+    if export:
+        from ..export import export_paraview
+
+        exported = export_paraview(export, learner.model_, experiments[0],
+                                   substeps=learner.substeps_, stem=Path(inputs[0]).stem)
+        exported = {kind: outputs.target_of(path) if isinstance(path, (str, Path)) else path
+                    for kind, path in exported.items()}
+        files.update({f"ParaView {kind}": path for kind, path in exported.items()
+                      if kind in ("pvd", "xdmf")})
+    if report:
+        from ..report import fit_report
+
+        fit_report(start, learner, report, files=files)
+    return inputs, experiments, start, learner, exported
+
+
 def diagnose(args) -> int:
     from ..diagnosis import diagnose as run_diagnosis
     from ..io import save_model
     from ..report import diagnosis_report
 
     progress = not args.quiet and not args.json
-    if args.max_effects < 0:
-        from ..errors import InputError
-
-        raise InputError(f"got {args.max_effects}; expected 0 or more", key="--max-effects")
-    inputs, experiments, start = _start(args, progress)
-    result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
-                           substeps=_substeps(args.substeps),
-                           progress=progress)
-    if args.out:
-        save_model(result.model_, args.out)
-    if args.report:
-        diagnosis_report(result, args.report)
+    at_least(args.max_effects, 0, "--max-effects")
+    substeps = _substeps(args.substeps)
+    with Outputs(_protected(args)) as outputs:
+        out = outputs.file(args.out, "--out")
+        report = outputs.file(args.report, "--report", twins=(".json",))
+        inputs, experiments, start = _start(args, progress)
+        require_motion(experiments)
+        with explained("diagnosis", experiments, start.model, substeps):
+            result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
+                                   substeps=substeps, progress=progress)
+        check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
+                      result.rms_after, substeps)
+        if out:
+            save_model(result.model_, out)
+        if report:
+            diagnosis_report(result, report)
     data = result.to_dict()
     data.update(experiments=[str(p) for p in inputs], start=start.to_dict())
     if args.json:

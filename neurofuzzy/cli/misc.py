@@ -7,17 +7,28 @@ import time
 from pathlib import Path
 
 from ..progress import note
-from .common import print_json
+from .common import Outputs, positive, print_json
 
 __all__ = ["demo", "rules_check", "rules_show"]
 
 
 def demo(args) -> int:
+    positive(args.cycles, "--cycles", integer=True)
+    outputs = Outputs()
+    staged = outputs.folder(args.out, "--out")
+    started = time.perf_counter()
+    with outputs:
+        _demo(args, staged)
+    print(f"\nwrote {args.out}/: error_per_cycle.png (the paper's Figure 4), table.txt, "
+          f"summary.json, report.html (+ .json), diagnosis.html (+ .json) "
+          f"({time.perf_counter() - started:.1f} s)")
+    return 0
+
+
+def _demo(args, out: Path) -> None:
     from ..demo import comparison_table, paper_experiments, plot_error_curves, words_and_diagnosis
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
+    out.mkdir(parents=True)
     progress = not args.quiet
     note(progress, "neurofuzzy demo: the paper's cube (27 nodes, 86 springs, bottom fixed, "
                    "constant force on the top centre node, 250 steps)")
@@ -39,10 +50,6 @@ def demo(args) -> int:
     print()
     for line in words_and_diagnosis(out, progress=progress):
         print(line)
-    print(f"\nwrote {out}/: error_per_cycle.png (the paper's Figure 4), table.txt, "
-          f"summary.json, report.html (+ .json), diagnosis.html (+ .json) "
-          f"({time.perf_counter() - started:.1f} s)")
-    return 0
 
 
 def rules_check(args) -> int:

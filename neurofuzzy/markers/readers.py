@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import InputError, closest_name
 
 __all__ = ["MarkerData", "read_markers", "read_marker_csv", "read_c3d", "read_marker_map",
-           "read_forces", "LENGTH_UNITS", "TIME_TOLERANCE"]
+           "read_forces", "read_csv_table", "LENGTH_UNITS", "TIME_TOLERANCE"]
 
 #: metres per unit of every length unit a file may state
 LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
@@ -78,7 +78,7 @@ def read_marker_csv(path: str | os.PathLike, *, units: str | None = None) -> Mar
     """Read a ``time,marker,x,y,z`` (or ``time,node,x,y,z``) CSV; see the module docstring."""
     path = Path(path)
     source = str(path)
-    header, rows, stated = _read_csv(path, required=[("time",), ("marker", "node"),
+    header, rows, stated = read_csv_table(path, required=[("time",), ("marker", "node"),
                                                      ("x",), ("y",), ("z",)])
     unit = _length_unit(units, stated.get("units"), source)
     label = "node" if "node" in header else "marker"
@@ -117,6 +117,9 @@ def read_marker_csv(path: str | os.PathLike, *, units: str | None = None) -> Mar
             raise InputError(f"{label} {str(marker_names[marker])!r} appears twice at time "
                              f"{frame_times[frame]:g} s", source=source, line=line)
         seen[frame, marker] = True
+    if len(frame_times) < 2:
+        raise InputError(f"every row has the time {frame_times[0]:g} s: a recording needs at "
+                         "least two capture times (frames)", source=source, line=rows[-1][0])
     positions[frame_of, marker_of] = np.asarray(coordinates, dtype=float) * unit
     return MarkerData(names=tuple(str(n) for n in marker_names), times=frame_times,
                       positions=positions, source=source, by_node=label == "node")
@@ -132,6 +135,17 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
     source = str(path)
     if not path.is_file():
         raise InputError("no such file", source=source)
+    with open(path, "rb") as handle:
+        head = handle.read(2)
+        if len(head) == 2 and head[0] >= 1:
+            handle.seek(512 * (head[0] - 1) + 3)
+            processor = handle.read(1)
+    if len(head) < 2 or head[1] != 0x50 or head[0] < 1:
+        raise InputError("not a C3D file (byte 2 of a C3D file is 0x50, the key of its "
+                         "parameter section)", source=source)
+    if processor not in (b"\x54", b"\x55", b"\x56"):
+        raise InputError("not a readable C3D file: its parameter section names no known "
+                         "processor type (84 Intel, 85 DEC, 86 MIPS)", source=source)
     try:
         with open(path, "rb") as handle, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -141,8 +155,10 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
             expected = int(reader.last_frame) - int(reader.first_frame) + 1
             stated = _c3d_units(reader)
             frames = [points[:, :4].astype(float) for _, points, _ in reader.read_frames()]
+    # the c3d package checks its file with assert and trusts the header's sizes
     except (struct.error, ValueError, KeyError, IndexError, EOFError, OSError, AttributeError,
-            TypeError) as error:
+            TypeError, AssertionError, MemoryError, OverflowError, ZeroDivisionError,
+            UnboundLocalError) as error:
         raise InputError(f"not a readable C3D file ({type(error).__name__}: {error})",
                          source=source) from None
     truncated = [w for w in caught if "end of file" in str(w.message).lower()]
@@ -153,6 +169,9 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
         raise InputError("the file holds no 3-D points", source=source)
     if not (math.isfinite(rate) and rate > 0):
         raise InputError(f"point rate {rate} is not a positive number", source=source)
+    if len(frames) < 2:
+        raise InputError(f"holds {len(frames)} frame: a recording needs at least two",
+                         source=source)
     unit = _length_unit(units, stated, source)
     data = np.stack(frames)                                    # (T, M, 4)
     positions = np.where(data[:, :, 3:4] < 0, np.nan, data[:, :, :3]) * unit
@@ -164,20 +183,42 @@ def read_c3d(path: str | os.PathLike, *, units: str | None = None) -> MarkerData
                       source=source)
 
 
-def read_marker_map(path: str | os.PathLike) -> dict[str, int]:
-    """Read a ``marker,node`` CSV: marker name → node index."""
+def read_marker_map(path: str | os.PathLike, *, markers: MarkerData | None = None,
+                    n_nodes: int | None = None) -> dict[str, int]:
+    """Read a ``marker,node`` CSV: marker name → node index.
+
+    Given the recording (``markers``) and the model's ``n_nodes``, every row is checked
+    against them here, so a bad row is reported as the map's ``FILE:LINE``.
+    """
     path = Path(path)
-    header, rows, _ = _read_csv(path, required=[("marker",), ("node",)])
+    source = str(path)
+    header, rows, _ = read_csv_table(path, required=[("marker",), ("node",)])
     mapping: dict[str, int] = {}
+    by_node: dict[int, str] = {}
     for line, row in rows:
         name = row[header["marker"]].strip()
         node = row[header["node"]].strip()
         if not re.fullmatch(r"\d+", node):
             raise InputError(f"node {node!r} is not a node index (a non-negative integer)",
-                             source=str(path), line=line)
+                             source=source, line=line)
         if name in mapping:
-            raise InputError(f"marker {name!r} is mapped twice", source=str(path), line=line)
+            raise InputError(f"marker {name!r} is mapped twice", source=source, line=line)
+        if markers is not None and name not in markers.names:
+            hint = closest_name(name, markers.names)
+            raise InputError(f"marker {name!r} is not in {markers.source}" +
+                             (f"; did you mean {hint!r}?" if hint else ""), source=source,
+                             line=line)
+        if n_nodes is not None and int(node) >= n_nodes:
+            raise InputError(f"node {node} is out of range: the model has {n_nodes} nodes "
+                             f"(0..{n_nodes - 1})", source=source, line=line)
+        if int(node) in by_node:
+            raise InputError(f"markers {by_node[int(node)]!r} and {name!r} both belong to node "
+                             f"{node}; attach each marker to its own node", source=source,
+                             line=line)
+        by_node[int(node)] = name
         mapping[name] = int(node)
+    if not mapping:
+        raise InputError("no rows: expected marker,node pairs", source=source)
     return mapping
 
 
@@ -220,7 +261,7 @@ def read_forces(path: str | os.PathLike, *, times: np.ndarray, n_nodes: int | No
         n_nodes = mesh.n_nodes
     if n_nodes is None:
         raise ValueError("read_forces needs n_nodes or mesh")
-    header, rows, stated = _read_csv(path, required=[("time",), ("node", "x"), ("fx",),
+    header, rows, stated = read_csv_table(path, required=[("time",), ("node", "x"), ("fx",),
                                                      ("fy",), ("fz",)])
     if stated.get("units") not in (None, "N", "n"):
         raise InputError(f"force unit {stated['units']!r}; forces must be in newtons (N)",
@@ -330,7 +371,7 @@ def _c3d_units(reader) -> str | None:
         return None
 
 
-def _read_csv(path: Path, required: list[tuple[str, ...]]):
+def read_csv_table(path: Path, required: list[tuple[str, ...]]):
     """Header (column name → index), data rows as (line, cells), stated ``# key: value``."""
     source = str(path)
     if not path.is_file():

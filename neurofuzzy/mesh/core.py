@@ -53,10 +53,17 @@ class Mesh:
             raise InputError(f"got shape {positions.shape}; expected (n_nodes, 3)",
                              key="rest_positions")
         n_nodes = positions.shape[0]
+        if n_nodes == 0:
+            raise InputError("no nodes; expected (n_nodes, 3) positions", key="rest_positions")
+        check_coordinates(positions, "rest_positions")
         springs = as_index_array(self.springs, "springs")
         if springs.ndim != 2 or springs.shape[1] != 2:
             raise InputError(f"got shape {springs.shape}; expected (n_springs, 2)", key="springs")
+        if len(springs) == 0:
+            raise InputError("no springs: nothing connects the nodes; expected (n_springs, 2) "
+                             "node pairs (the edges of the mesh)", key="springs")
         check_range(springs, n_nodes, "springs")
+        check_unique_rows(springs, "springs", "spring", "connects the same two nodes as")
         if np.any(springs[:, 0] == springs[:, 1]):
             bad = int(np.flatnonzero(springs[:, 0] == springs[:, 1])[0])
             raise InputError(f"spring {bad} connects node {springs[bad, 0]} to itself",
@@ -85,7 +92,7 @@ class Mesh:
         check_range(fixed, n_nodes, "fixed")
         tetrahedra = None
         if self.tetrahedra is not None:
-            tetrahedra = check_tetrahedra(self.tetrahedra, n_nodes)
+            tetrahedra = check_tetrahedra(self.tetrahedra, n_nodes, positions)
         for name, value in (("rest_positions", positions), ("springs", springs),
                             ("spring_group", groups), ("group_names", names), ("fixed", fixed),
                             ("tetrahedra", tetrahedra)):
@@ -195,7 +202,9 @@ def check_range(index: np.ndarray, n_nodes: int, key: str) -> None:
                          f"(valid 0..{n_nodes - 1})", key=key)
 
 
-def check_tetrahedra(value, n_nodes: int) -> np.ndarray:
+def check_tetrahedra(value, n_nodes: int, positions: np.ndarray | None = None) -> np.ndarray:
+    """(n_tets, 4) node indices: in range, four distinct nodes per row, no tetrahedron twice
+    and, given the ``positions``, none flat (zero volume)."""
     tetrahedra = as_index_array(value, "tetrahedra")
     if tetrahedra.ndim != 2 or tetrahedra.shape[1] != 4:
         raise InputError(f"got shape {tetrahedra.shape}; expected (n_tets, 4)", key="tetrahedra")
@@ -206,7 +215,60 @@ def check_tetrahedra(value, n_nodes: int) -> np.ndarray:
         bad = int(np.flatnonzero(repeated)[0])
         raise InputError(f"tetrahedron {bad} repeats a node: {tetrahedra[bad].tolist()}; "
                          "expected four distinct nodes", key="tetrahedra")
+    check_unique_rows(tetrahedra, "tetrahedra", "tetrahedron", "has the same four nodes as")
+    if positions is not None and len(tetrahedra):
+        points = positions[tetrahedra]                          # (n_tets, 4, 3)
+        edges = points[:, 1:] - points[:, :1]
+        volume = np.abs(np.linalg.det(edges)) / 6.0
+        size = np.max(np.abs(points - points.mean(axis=1, keepdims=True)), axis=(1, 2))
+        flat = volume <= 1e-12 * size**3 / 6.0
+        if flat.any():
+            bad = int(np.flatnonzero(flat)[0])
+            raise InputError(f"tetrahedron {bad} (nodes {tetrahedra[bad].tolist()}) has zero "
+                             "volume: its four nodes lie in one plane; remove it or fix the "
+                             "positions", key="tetrahedra")
     return tetrahedra
+
+
+#: most cells (voxels or tetrahedra) a mesh builder makes: a 126³ lattice; the simulator's
+#: step rate is about 2,000 steps/s at 10,000 springs, so far larger objects are unusable
+MAX_CELLS = 2_000_000
+#: memory of a mesh per cell, roughly (nodes, springs, groups and the builders' temporaries)
+BYTES_PER_CELL = 400
+
+
+def check_cell_count(count: float, key: str, hint: str) -> None:
+    """Refuse to build a mesh of ``count`` cells above :data:`MAX_CELLS` (checked before
+    anything is allocated), naming the number, the memory it would take and ``hint``."""
+    if not count <= MAX_CELLS:
+        raise InputError(f"would make {count:.3g} cells (about {count * BYTES_PER_CELL / 1e9:.3g}"
+                         f" GB) where at most {MAX_CELLS:.3g} are allowed; {hint}", key=key)
+
+
+#: largest coordinate accepted (metres): beyond it a file is in other units or corrupt
+MAX_COORDINATE = 1e6
+
+
+def check_coordinates(values: np.ndarray, key: str) -> None:
+    """Refuse finite coordinates beyond :data:`MAX_COORDINATE` (their squares would overflow
+    long before a simulation could use them); NaN and infinity are left to the caller."""
+    large = np.isfinite(values) & (np.abs(np.nan_to_num(values)) > MAX_COORDINATE)
+    if large.any():
+        where = tuple(int(i) for i in np.argwhere(large)[0])
+        raise InputError(f"coordinate {values[where]:g} at index {list(where)} is absurdly "
+                         f"large (beyond {MAX_COORDINATE:g} m); positions are in metres",
+                         key=key)
+
+
+def check_unique_rows(index: np.ndarray, key: str, what: str, same: str) -> None:
+    """Refuse a row of node indices that repeats an earlier one (in any order)."""
+    rows = np.sort(index, axis=1)
+    _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    repeat = np.flatnonzero(first[inverse.ravel()] != np.arange(len(rows)))
+    if repeat.size:
+        bad = int(repeat[0])
+        raise InputError(f"{what} {bad} {same} {what} {int(first[inverse.ravel()[bad]])} "
+                         f"({index[bad].tolist()}); list each once", key=key)
 
 
 def require_watertight(mesh) -> None:

@@ -19,6 +19,8 @@ needs them. Every failure is an :class:`~neurofuzzy.errors.InputError` naming th
 from __future__ import annotations
 
 import os
+import struct
+import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -174,7 +176,8 @@ def _read_surface(path: Path, source: str, *, pitch, max_edge, method: Method) -
 
     try:
         surface = trimesh.load(str(path), force="mesh")
-    except (ValueError, OSError, KeyError, IndexError, EOFError) as error:
+    except (ValueError, OSError, KeyError, IndexError, EOFError, TypeError, AttributeError,
+            struct.error, zlib.error, OverflowError, MemoryError, AssertionError) as error:
         raise InputError(f"not a readable {path.suffix} surface, perhaps truncated or corrupt "
                          f"({_describe(error)})", source=source) from None
     except ImportError as error:        # trimesh imports some parsers' helpers on demand
@@ -219,6 +222,7 @@ def _read_volume(path: Path, source: str, reader: str) -> MeshFile:
     except ImportError:
         raise InputError("reading volume meshes needs meshio: pip install meshio",
                          source=source) from None
+    _CorruptionError = _meshio_corruption_error(meshio)
     try:
         data = getattr(meshio, reader).read(str(path))
     except ImportError as error:        # e.g. XDMF with HDF5 data needs h5py
@@ -227,8 +231,9 @@ def _read_volume(path: Path, source: str, reader: str) -> MeshFile:
     # meshio's readers report a malformed file as ReadError, but a truncated one often as the
     # numpy/parsing error it runs into (ValueError, IndexError, KeyError) and the legacy VTK
     # reader as an AssertionError on the file content.
-    except (meshio.ReadError, ValueError, OSError, KeyError, IndexError, EOFError,
-            AssertionError) as error:
+    except (meshio.ReadError, _CorruptionError, ValueError, OSError, KeyError, IndexError,
+            EOFError, AssertionError, TypeError, AttributeError, SyntaxError, struct.error,
+            zlib.error, OverflowError, MemoryError) as error:
         raise InputError(f"not a readable {reader} file, perhaps truncated or corrupt "
                          f"({_describe(error)})", source=source) from None
     blocks = [i for i, block in enumerate(data.cells) if block.type in ("tetra", "tetra10")]
@@ -283,6 +288,11 @@ def _region_masks(mesh: Mesh, region: np.ndarray,
         nodes[name].setflags(write=False)
         tetrahedra[name].setflags(write=False)
     return nodes, tetrahedra
+
+
+def _meshio_corruption_error(meshio) -> type:
+    """meshio's CorruptionError (a bad VTU array) is not exported and not a ReadError."""
+    return getattr(getattr(meshio, "_exceptions", None), "CorruptionError", meshio.ReadError)
 
 
 def _describe(error: BaseException) -> str:

@@ -10,7 +10,7 @@ from typing import Literal
 import numpy as np
 
 from ..errors import InputError
-from .core import Mesh, require_watertight
+from .core import MAX_CELLS, Mesh, check_cell_count, require_watertight
 
 __all__ = ["lattice", "from_trimesh", "cell_lattice", "LatticeCells", "lattice_cells",
            "Diagonals"]
@@ -101,6 +101,8 @@ def lattice(shape: Sequence[int], spacing: float | Sequence[float] = 1.0, *,
     shape = tuple(int(n) for n in shape)
     if len(shape) != 3 or min(shape) < 2:
         raise InputError(f"got {shape}; expected three node counts, each >= 2", key="shape")
+    check_cell_count(float(np.prod([n - 1 for n in shape], dtype=float)), "shape",
+                     "use fewer nodes")
     occupied = np.ones(tuple(n - 1 for n in shape), dtype=bool)
     return cell_lattice(occupied, np.broadcast_to(np.asarray(spacing, float), (3,)),
                          np.asarray(origin, float), diagonals)
@@ -126,7 +128,16 @@ def from_trimesh(mesh, pitch: float, *, diagonals: Diagonals = "body") -> Mesh:
     require_watertight(mesh)
     if not (np.isfinite(pitch) and pitch > 0):
         raise InputError(f"got {pitch}; expected a positive length", key="pitch")
-    grid = mesh.voxelized(pitch).fill()
+    extents = np.asarray(mesh.extents, float)
+    smallest = float(np.cbrt(np.prod(extents + 2 * pitch) / MAX_CELLS)) * 1.1
+    check_cell_count(float(np.prod(np.floor(extents / pitch) + 2)), "pitch",
+                     f"a pitch of {pitch:g} is too fine for a surface of extents "
+                     f"{np.round(extents, 6).tolist()}: use at least about {smallest:.3g}")
+    try:
+        grid = mesh.voxelized(pitch).fill()
+    except (ValueError, IndexError, MemoryError) as error:      # trimesh's subdivision
+        raise InputError(f"trimesh cannot voxelise the surface at pitch {pitch:g} ({error}); "
+                         "check it for degenerate or far-off triangles", key="pitch") from None
     corners = np.asarray(grid.matrix, dtype=bool)
     origin = np.asarray(grid.transform[:3, 3], float)
     if min(corners.shape) < 2:

@@ -9,7 +9,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..errors import InputError
-from .core import TET_EDGES, Mesh, as_float_array, as_index_array, check_range, require_watertight
+from .core import (MAX_CELLS, TET_EDGES, Mesh, as_float_array, as_index_array, check_cell_count,
+                   check_range, require_watertight)
 from .lattice import lattice_cells
 
 __all__ = ["from_tetra", "from_surface_tetra", "surface_nodes", "lattice_to_tetra",
@@ -119,6 +120,11 @@ def from_surface_tetra(surface, *, max_edge: float | None = None, quality: bool 
         if not (np.isfinite(max_edge) and max_edge > 0):
             raise InputError(f"got {max_edge}; expected a positive length", key="max_edge")
         options.update(maxvolume=float(max_edge) ** 3 / (6.0 * np.sqrt(2.0)), fixedvolume=True)
+        volume = abs(float(surface.volume))
+        check_cell_count(volume / options["maxvolume"], "max_edge",
+                         f"a max_edge of {max_edge:g} is too fine for a volume of {volume:.3g}: "
+                         "use at least about "
+                         f"{np.cbrt(volume * 6.0 * np.sqrt(2.0) / MAX_CELLS) * 1.1:.3g}")
     try:
         import tetgen
     except ImportError:

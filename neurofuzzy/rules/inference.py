@@ -57,6 +57,10 @@ def _phrase(rules, value, variable: Variable) -> Phrase | None:
     if value is None or isinstance(value, Phrase):
         return value
     if isinstance(value, (int, float, np.floating, np.integer)):
+        if not variable.low <= value <= variable.high:      # also NaN; never clamped
+            raise InputError(f"{float(value):g} is outside the universe [{variable.low:g}, "
+                             f"{variable.high:g}]; give a value in it, or words",
+                             source=rules.source, key=variable.name)
         return Phrase((), None, float(value))
     phrase, problem = parse_phrase(str(value), variable)
     if problem:

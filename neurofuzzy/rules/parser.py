@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, RuleFileDeprecationWarning, closest_name
+from ..safe_yaml import kind_of
 from . import _yaml
 from .membership import HEDGES, MEMBERSHIP_FUNCTIONS, check_parameters, evaluate
 from .rulebase import RuleBase
@@ -75,14 +76,28 @@ class _Builder:
                                             source=source, line=getattr(data, "line", 1))])
         base = None
         if "extends" in data:
-            parent = (path.parent / str(data["extends"])).resolve()
-            if parent in seen or parent == path.resolve():
+            extends = data["extends"]
+            parent = (path.parent / str(extends)).resolve()
+            if not isinstance(extends, str) or not extends.strip():
+                self.problem(source, data.line_of("extends"), f"extends must name a rule file "
+                             f"(e.g. extends: soft_tissue.yaml), got {extends!r}")
+            elif parent in seen or parent == path.resolve():
                 self.problem(source, data.line_of("extends"), "extends itself (a cycle)")
             elif not parent.exists():
                 self.problem(source, data.line_of("extends"), f"extends {parent.name}, "
                              "which does not exist")
+            elif not parent.is_file():
+                self.problem(source, data.line_of("extends"), f"extends {extends!r}, which is "
+                             f"a directory ({parent}), not a rule file")
             else:
                 base = _Builder().build(parent, seen + (path.resolve(),))
+        for key in ("rules", "tissues"):
+            expected = list if key == "rules" else dict
+            if data.get(key) is not None and not isinstance(data[key], expected):
+                self.problem(source, data.line_of(key), f"{key} must be a " + (
+                    "list of rules (- if: ... then: ...)" if key == "rules" else
+                    "mapping of tissue names to descriptions (NAME: {variable: words})") +
+                    f", got {kind_of(data[key])}")
         for key in data:
             if key not in TOP_KEYS:
                 hint = closest_name(str(key), TOP_KEYS)
@@ -100,19 +115,21 @@ class _Builder:
                 variable = self.variable(source, role, str(name), spec, section.line_of(name))
                 if variable is not None:
                     store[variable.name] = variable
-        if not inputs:
+        broken_base = "extends" in data and base is None    # already reported; the rest
+        if not inputs and not broken_base:                  # would follow from it
             self.problem(source, data.line, "no input variables ('inputs:')")
-        if not outputs:
+        if not outputs and not broken_base:
             self.problem(source, data.line, "no output variables ('outputs:')")
         rules = list(base.rules) if base else []
-        for index, spec in enumerate(data.get("rules") or []):
+        for index, spec in enumerate(data["rules"] if isinstance(data.get("rules"), list)
+                                     else []):
             rule = self.rule(source, spec, data["rules"].line_of(index), inputs, outputs)
             if rule is not None:
                 rules.append(rule)
-        if not rules:
+        if not rules and not broken_base:
             self.problem(source, data.line, "no rules ('rules:')")
         tissues = dict(base.tissues) if base else {}
-        section = data.get("tissues") or {}
+        section = data["tissues"] if isinstance(data.get("tissues"), dict) else {}
         for name, spec in section.items():
             tissue = self.tissue(source, str(name), spec, section.line_of(name), inputs)
             if tissue is not None:
@@ -166,6 +183,10 @@ class _Builder:
         if scale not in ("linear", "log"):
             self.problem(source, spec.line_of("universe"), f"{name}: scale must be 'linear' or "
                          f"'log', got {scale!r}")
+            return None
+        if not (np.isfinite(low) and np.isfinite(high)):
+            self.problem(source, spec.line_of("universe"), f"{name}: universe bounds must be "
+                         f"finite numbers, got [{low:g}, {high:g}]")
             return None
         if not low < high or (scale == "log" and low <= 0):
             self.problem(source, spec.line_of("universe"), f"{name}: universe needs low < high"
@@ -290,6 +311,12 @@ class _Builder:
                               f"; inputs are {list(inputs)}"))
                 continue
             if isinstance(words, (int, float)) and not isinstance(words, bool):
+                low, high = inputs[variable].low, inputs[variable].high
+                if not low <= words <= high:         # also NaN; never clamped
+                    self.problem(source, at, f"tissue {name!r}: {variable} = {words:g} is "
+                                 f"outside its universe [{low:g}, {high:g}]; give a value in "
+                                 "it, or words")
+                    continue
                 described[variable] = Phrase((), None, float(words))
                 continue
             phrase, problem = parse_phrase(str(words), inputs[variable])
