@@ -256,6 +256,30 @@ def test_forces_at_a_point_go_to_the_nearest_surface_nodes(tmp_path, truth):
             read_forces(path, mesh=mesh, times=times)
 
 
+def test_a_probe_with_a_contact_radius_presses_on_a_patch(tmp_path, truth):
+    """A radius (column in the file's unit, or the option in metres) spreads the force as a
+    uniform traction over the surface within it: the consistent loads of patch_loads, the
+    same whichever way the radius is given; a bad radius names the line."""
+    from neurofuzzy.mesh import patch_loads
+
+    mesh = truth.mesh
+    point = mesh.rest_positions[22] + [0.002, -0.001, 0.0]          # on the top, off a node
+    x, y, z = 1e3 * point
+    path = tmp_path / "probe.csv"
+    path.write_text(f"# length units: mm\ntime,x,y,z,fx,fy,fz,radius\n"
+                    f"0.0,{x},{y},{z},0,0,-0.2,6\n")
+    times = np.arange(4) * 0.0005
+    forces = read_forces(path, mesh=mesh, times=times)
+    expected = patch_loads(mesh, point, 0.006, (0, 0, -0.2))
+    assert np.allclose(forces, expected[None]) and np.count_nonzero(expected[:, 2]) > 3
+    path.write_text(f"# length units: mm\ntime,x,y,z,fx,fy,fz\n0.0,{x},{y},{z},0,0,-0.2\n")
+    assert np.allclose(read_forces(path, mesh=mesh, times=times, radius=0.006), forces)
+    path.write_text(f"# length units: mm\ntime,x,y,z,fx,fy,fz,radius\n"
+                    f"0.0,{x},{y},{z},0,0,-0.2,-1\n")
+    with pytest.raises(InputError, match=r"probe.csv:3: radius '-1'"):
+        read_forces(path, mesh=mesh, times=times)
+
+
 @pytest.mark.parametrize("text, message", [
     ("# units: mm\ntime,marker,x,y\n0,M1,1,2\n", r"missing column 'z'"),
     ("# units: mm\ntime,marker,x,y,z\n0,M1,1,2\n", r":3: 4 values; the header has 5"),
@@ -285,18 +309,23 @@ def files(tmp_path_factory, truth, recording):
     return {"model": model, "markers": markers, "forces": forces, "folder": folder}
 
 
-@pytest.mark.parametrize("force_file", ["node", "point"])
+@pytest.mark.parametrize("force_file", ["node", "point", "point, radius 0"])
 def test_import_then_fit_recovers_the_cube(files, tmp_path, capsys, force_file, truth):
     forces = files["forces"]
-    if force_file == "point":        # where the probe touched (cm), not which node
+    options = []
+    if force_file.startswith("point"):        # where the probe touched (cm), not which node
         top = int(files["forces"].read_text().splitlines()[1].split(",")[1])
         x, y, z = 100 * truth.mesh.rest_positions[top]
         forces = tmp_path / "probe.csv"
         forces.write_text(f"# length units: cm\ntime,x,y,z,fx,fy,fz\n"
                           f"0.0,{x + 0.02},{y - 0.01},{z + 0.01},0,0,{CUBE['force'][2]}\n")
+    if force_file.endswith("radius 0"):     # the nearest surface point: exactly the node
+        forces.write_text(f"# length units: cm\ntime,x,y,z,fx,fy,fz\n"
+                          f"0.0,{x},{y},{z + 0.01},0,0,{CUBE['force'][2]}\n")
+        options = ["--probe-radius", "0"]
     out = tmp_path / "imported.npz"
     status = main(["import", str(files["markers"]), "--topology", str(files["model"]),
-                   "--forces", str(forces), "--out", str(out), "--json"])
+                   "--forces", str(forces), "--out", str(out), "--json", *options])
     assert status == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["markers"] == 26 and summary["frames"] == 251

@@ -120,6 +120,7 @@ def import_markers(args) -> int:
     positive(args.dt, "--dt")
     positive(args.max_distance, "--max-distance")
     at_least(args.force_spread, 1, "--force-spread")
+    at_least(args.probe_radius, 0, "--probe-radius")
     outputs = Outputs(inputs)
     out = outputs.file(args.out, "--out")
     topology = Path(args.topology)
@@ -138,7 +139,7 @@ def import_markers(args) -> int:
     imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
         forces=args.forces, node_mass=masses, source=args.out, force_spread=args.force_spread,
-        attach=args.attach)
+        probe_radius=args.probe_radius, attach=args.attach)
     experiment, summary = imported.experiment, imported.summary
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",

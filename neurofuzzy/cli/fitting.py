@@ -18,8 +18,11 @@ def _start(args, progress: bool):
 
     inputs = [Path(p) for p in args.experiments]
     experiments = [load_experiment(p) for p in inputs]
+    elements = {"tetra": True, "springs": False}.get(args.elements)
+    if getattr(args, "method", None) == "paper":
+        elements = False                 # the paper's learner is the spring network's
     start = start_model(experiments, model=args.start, rules=args.rules, tissue=args.tissue,
-                        tie=args.tie, progress=progress)
+                        tie=args.tie, elements=elements, progress=progress)
     return inputs, experiments, start
 
 

@@ -198,14 +198,20 @@ def build_parser() -> argparse.ArgumentParser:
                           help="marker,node pairs (default: each marker to its nearest node)")
     importer.add_argument("--forces", metavar="FORCES.csv",
                           help="time,node,fx,fy,fz in N, each row held until the node's next; "
-                               "or time,x,y,z,fx,fy,fz: a probe's force at a point (unit in a "
-                               "'# length units: mm' line), given to the nearest surface node")
+                               "or time,x,y,z,fx,fy,fz[,radius]: a probe's force at a point "
+                               "(unit in a '# length units: mm' line), a uniform traction "
+                               "within the contact radius, else given to the nearest surface "
+                               "node")
     importer.add_argument("--attach", choices=("auto", "embed", "node"), default="auto",
                           help="embed: each marker in the tetrahedron that contains it, "
                                "observed by barycentric interpolation (lattices are split into "
                                "tetrahedra for this); node: each marker follows its nearest "
                                "node (or --map), its frame-0 offset removed; auto (default): "
                                "node with --map or a time,node,... file, else embed")
+    importer.add_argument("--probe-radius", type=float, default=None, metavar="R",
+                          help="contact radius of the probes of a point-force CSV without a "
+                               "radius column (m): the force becomes a uniform traction on the "
+                               "surface within R of the point")
     importer.add_argument("--force-spread", type=int, default=1, metavar="K",
                           help="share each point force among the K nearest surface nodes "
                                "(inverse-distance weights; default 1)")
@@ -234,6 +240,10 @@ def _start_options(command) -> None:
     command.add_argument("--rules", help="start from a rule base (a YAML file, or the name of "
                                          "a shipped one: liver, brain, kidney, …) …")
     command.add_argument("--tissue", help="… and this tissue of it")
+    command.add_argument("--elements", choices=("tetra", "springs"), default=None,
+                         help="with --rules: tetrahedral elements (the default when the "
+                              "experiment has tetrahedra) or the spring network on the mesh's "
+                              "edges (the paper's learner always uses springs)")
     command.add_argument("--tie", choices=("global", "groups", "none"), default=None,
                          help="share spring parameters: one value for all springs, one per "
                               "spring group, or one per spring, within each region (default: "

@@ -76,7 +76,7 @@ class StartModel:
 def start_model(experiments: Experiment | Sequence[Experiment], *,
                 model: SpringMassModel | str | os.PathLike | None = None,
                 rules=None, tissue: str | None = None, tie: str | None = None,
-                progress: bool = False) -> StartModel:
+                elements: bool | None = None, progress: bool = False) -> StartModel:
     """The start of a fit of ``experiments``: the policy of ``neurofuzzy fit``.
 
     1. ``model`` (a :class:`SpringMassModel` or a model file, e.g. written by
@@ -84,7 +84,8 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
        and tie groups (``tie`` re-ties it within its regions); ``rules`` then only lends the
        words for the report (each region's tissue, or ``tissue`` for regions without one);
     2. ``rules`` and ``tissue``: the rule base's start values for the experiments' mesh (known
-       masses of the experiments replace the rule base's);
+       masses of the experiments replace the rule base's): tetrahedral elements when the mesh
+       has tetrahedra, else the spring network (``elements`` decides otherwise);
     3. otherwise the equation-error estimate from the data (:func:`estimate_start`), with one
        mass per node estimated when the experiments give none.
 
@@ -98,6 +99,9 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         With ``rules``: the tissue of the whole object.
     tie : {"global", "groups", "none"}, optional
         Parameter tying (default: the model's own, else ``"groups"``).
+    elements : bool, optional
+        With ``rules``: tetrahedral elements (True) or springs (False); default elements
+        when the experiments' mesh has tetrahedra.
     progress : bool
         Say on stderr where the start came from.
 
@@ -130,7 +134,9 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         if not tissue:
             raise InputError("a rule base needs a tissue (--tissue NAME)", key="tissue")
         rule_base = _rules(rules)
-        start = initialize(rule_base, first.mesh, tissue).tied(tie)
+        if elements is None:
+            elements = first.mesh.tetrahedra is not None
+        start = initialize(rule_base, first.mesh, tissue, elements=elements).tied(tie)
         if first.node_mass is not None:
             start = start.replace(node_mass=first.node_mass)
         note(progress, f"start values: rules {rule_base.source}, tissue {tissue}")

@@ -88,6 +88,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
                           forces: str | os.PathLike | np.ndarray | None = None,
                           node_mass: np.ndarray | None = None,
                           source: str | None = None, force_spread: int = 1,
+                          probe_radius: float | None = None,
                           attach: str = "auto") -> MarkerImport:
     """An experiment from a marker recording on ``mesh``.
 
@@ -112,6 +113,10 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
         Known node masses.
     force_spread : int
         Surface nodes sharing each point force of a ``time,x,y,z,fx,fy,fz`` force CSV.
+    probe_radius : float, optional
+        Contact radius (m) of the probes of such a CSV without a ``radius`` column: each
+        force becomes a uniform traction on the surface within it
+        (:func:`~neurofuzzy.markers.read_forces`).
     attach : {"auto", "embed", "node"}
         ``"embed"``: every marker is embedded in the tetrahedron that contains it at rest and
         observed by barycentric interpolation of its four nodes
@@ -158,7 +163,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
                          f"{dt:.3g} s", source=markers.source)
     resampled = _resample(times, capture, np.arange(n_frames) * dt, period)
     if isinstance(forces, (str, os.PathLike)):
-        forces = read_forces(forces, mesh=mesh, spread=force_spread,
+        forces = read_forces(forces, mesh=mesh, spread=force_spread, radius=probe_radius,
                              times=np.arange(n_frames) * dt + markers.times[first])
     positions = np.full((n_frames, mesh.n_nodes, 3), np.nan)
     observed = np.zeros(mesh.n_nodes, dtype=bool)

@@ -223,21 +223,26 @@ def read_marker_map(path: str | os.PathLike, *, markers: MarkerData | None = Non
 
 
 def read_forces(path: str | os.PathLike, *, times: np.ndarray, n_nodes: int | None = None,
-                mesh=None, spread: int = 1) -> np.ndarray:
+                mesh=None, spread: int = 1, radius: float | None = None) -> np.ndarray:
     """Applied forces of a force CSV (newtons) at the given frame times.
 
     Two forms, told apart by the header:
 
     - ``time,node,fx,fy,fz``: a node's force holds from its row's time until the next row of
       that node (zero before its first row).
-    - ``time,x,y,z,fx,fy,fz`` (optional ``probe`` column): the force of a probe acting at a
-      point, for users who know where the probe touched rather than our node numbering. The
-      point goes to the nearest surface node of ``mesh`` at rest, or is shared by the
-      ``spread`` nearest surface nodes (weights proportional to inverse distance, summing to
-      the force). A probe's row holds until that probe's next row (without a ``probe``
-      column every row belongs to one probe). The coordinates' length unit must be stated
-      in a line ``# length units: mm`` (m, cm or mm); a point farther from the surface than
-      the mesh's longest edge is refused.
+    - ``time,x,y,z,fx,fy,fz`` (optional ``probe`` and ``radius`` columns): the force of a
+      probe acting at a point, for users who know where the probe touched rather than our
+      node numbering. With a contact radius (the ``radius`` column, in the file's length
+      unit, or ``radius``) the force is a uniform traction on the surface within that radius
+      of the point, given to the nodes as its consistent loads
+      (:func:`~neurofuzzy.mesh.patch_loads`; radius 0: the nearest surface point, shared by
+      its triangle's corners), so models of any resolution feel the same probe. Without
+      one, the point goes to the nearest surface node at rest, or is shared by the
+      ``spread`` nearest surface nodes (weights proportional to inverse distance). A
+      probe's row holds until that probe's next row (without a ``probe`` column every row
+      belongs to one probe). The coordinates' length unit must be stated in a line
+      ``# length units: mm`` (m, cm or mm); a point farther from the surface than the
+      mesh's longest edge is refused.
 
     Parameters
     ----------
@@ -248,7 +253,10 @@ def read_forces(path: str | os.PathLike, *, times: np.ndarray, n_nodes: int | No
     mesh : Mesh, optional
         The model's mesh; required for the point form.
     spread : int
-        Surface nodes sharing a point force (point form).
+        Surface nodes sharing a point force (point form without a radius).
+    radius : float, optional
+        Contact radius of every probe (m; point form), unless the file has a ``radius``
+        column.
 
     Returns
     -------
@@ -271,7 +279,7 @@ def read_forces(path: str | os.PathLike, *, times: np.ndarray, n_nodes: int | No
     forces = np.zeros((len(times), n_nodes, 3))
     if "node" not in header:
         return _point_forces(header, rows, stated, source, times, period, forces, mesh,
-                             spread)
+                             spread, radius)
     entries = []
     for line, row in rows:
         time = _number(row[header["time"]], source, line, "time")
@@ -296,9 +304,9 @@ def _force_value(row, header, source: str, line: int, time: float) -> list[float
     return value
 
 
-def _point_forces(header, rows, stated, source, times, period, forces, mesh, spread):
+def _point_forces(header, rows, stated, source, times, period, forces, mesh, spread, radius):
     """The ``time,x,y,z,fx,fy,fz`` form of :func:`read_forces`."""
-    from ..mesh import surface_nodes
+    from ..mesh import patch_weights, surface_nodes
 
     for column in ("y", "z"):
         if column not in header:
@@ -317,6 +325,8 @@ def _point_forces(header, rows, stated, source, times, period, forces, mesh, spr
     rest = mesh.rest_positions[surface]
     reach = float(mesh.rest_lengths.max()) if mesh.n_springs else np.inf
     spread = min(int(spread), len(surface))
+    if radius is not None and not (np.isfinite(radius) and radius >= 0):
+        raise InputError(f"got {radius!r}; expected a contact radius >= 0 (m)", key="radius")
     entries = []
     for line, row in rows:
         time = _number(row[header["time"]], source, line, "time")
@@ -330,9 +340,21 @@ def _point_forces(header, rows, stated, source, times, period, forces, mesh, spr
                              f"{distance[nearest[0]]:.3g} m from the nearest surface node, "
                              f"farther than the longest edge ({reach:.3g} m); check the "
                              "coordinates and their unit", source=source, line=line)
-        weight = 1.0 / np.maximum(distance[nearest], 1e-12 * reach)
+        contact = radius
+        if "radius" in header:
+            contact = scale * _number(row[header["radius"]], source, line, "radius")
+            if not (math.isfinite(contact) and contact >= 0):
+                raise InputError(f"radius {row[header['radius']]!r}: expected a contact "
+                                 "radius >= 0", source=source, line=line)
+        if contact is None:
+            weight = 1.0 / np.maximum(distance[nearest], 1e-12 * reach)
+            nodes, weight = surface[nearest], weight / weight.sum()
+        else:
+            shares = patch_weights(mesh, scale * point, contact)
+            nodes = np.flatnonzero(shares)
+            weight = shares[nodes]
         probe = row[header["probe"]].strip() if "probe" in header else ""
-        entries.append((time, probe, surface[nearest], weight / weight.sum(),
+        entries.append((time, probe, nodes, weight,
                         np.array(_force_value(row, header, source, line, time))))
     entries.sort(key=lambda entry: entry[0])
     acting: dict[str, tuple[np.ndarray, np.ndarray]] = {}

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from .core import Mesh
 
-__all__ = ["surface_triangles", "patch_loads", "PATCH_QUADRATURE"]
+__all__ = ["surface_triangles", "patch_loads", "patch_weights", "PATCH_QUADRATURE"]
 
 #: Each surface triangle is cut into this many sub-triangles per edge for the patch integral
 #: (n² quadrature points): a patch a tenth of a triangle across still receives points.
@@ -76,8 +76,13 @@ def patch_loads(mesh: Mesh, point, radius: float, force) -> np.ndarray:
     force : (3,) float
         Total force (N).
     """
+    return patch_weights(mesh, point, radius)[:, None] * np.asarray(force, float)
+
+
+def patch_weights(mesh: Mesh, point, radius: float) -> np.ndarray:
+    """(n_nodes,) the share of a probe's force every node takes (summing to 1): the
+    consistent loads of :func:`patch_loads` per unit force."""
     point = np.asarray(point, float)
-    force = np.asarray(force, float)
     if not (np.isfinite(radius) and radius >= 0):
         raise InputError(f"got {radius!r}; expected a radius >= 0 (m)", key="radius")
     faces = surface_triangles(mesh)
@@ -86,19 +91,17 @@ def patch_loads(mesh: Mesh, point, radius: float, force) -> np.ndarray:
                                          corners[:, 2] - corners[:, 0]), axis=1)
     weights = _face_quadrature(PATCH_QUADRATURE)                       # (Q, 3)
     samples = np.einsum("qk,fkj->fqj", weights, corners)               # (F, Q, 3)
-    distance = np.linalg.norm(samples - point, axis=2)
-    inside = distance <= radius
-    loads = np.zeros((mesh.n_nodes, 3))
+    inside = np.linalg.norm(samples - point, axis=2) <= radius
+    shares = np.zeros(mesh.n_nodes)
     if not inside.any():      # a point, or a patch between the quadrature points: the nearest
         from trimesh.triangles import closest_point, points_to_barycentric
 
         # surface point, shared by its triangle's corners
         nearest = closest_point(corners, np.broadcast_to(point, (len(faces), 3)))
         face = int(np.argmin(np.linalg.norm(nearest - point, axis=1)))
-        share = points_to_barycentric(corners[[face]], nearest[[face]])[0]
-        np.add.at(loads, faces[face], share[:, None] * force)
-        return loads
-    share = inside * (area[:, None] / len(weights))                    # (F, Q) area per point
-    per_corner = share @ weights                                       # (F, 3)
-    np.add.at(loads, faces.ravel(), (per_corner.ravel() / per_corner.sum())[:, None] * force)
-    return loads
+        np.add.at(shares, faces[face],
+                  points_to_barycentric(corners[[face]], nearest[[face]])[0])
+        return shares
+    per_corner = (inside * (area[:, None] / len(weights))) @ weights   # (F, 3)
+    np.add.at(shares, faces.ravel(), per_corner.ravel() / per_corner.sum())
+    return shares
