@@ -134,6 +134,26 @@ def test_springs_or_elements_on_scikit_fem_continuum_data():
 
 
 @pytest.mark.slow
+def test_the_pipeline_recovers_the_continuum_through_mesh_import_fit(tmp_path):
+    """mesh -> import -> fit --rules on scikit-fem continuum data with 20 um marker noise: E
+    within 5 %, nu within 0.03, eta within 20 %, the right words, and a marker error within
+    1.5 times the noise (the issue's acceptance, on the default mesh)."""
+    import re
+
+    pytest.importorskip("skfem")
+    result = subprocess.run([sys.executable, str(EXAMPLES / "continuum_pipeline.py"),
+                             str(tmp_path), "--quick"], capture_output=True, text=True,
+                            timeout=1200)
+    assert result.returncode == 0, result.stderr
+    row = re.search(r"^\s+0\.45 voxel\s+\d+\s+\S+\s+(\S+)%\s+(\S+)\s+\S+\s+(\S+)%\s+(\S+)"
+                    r"\s+\S+\s+(.+)$", result.stdout, flags=re.M)
+    e_error, nu, eta_error, ratio = (float(row.group(k)) for k in range(1, 5))
+    assert abs(e_error) < 5.0 and abs(nu - 0.45) < 0.03 and abs(eta_error) < 20.0
+    assert ratio < 1.5
+    assert row.group(5).split(", ") == ["firm", "nearly_incompressible", "medium"]
+
+
+@pytest.mark.slow
 def test_cohort_example_fits_both_groups_in_parallel_and_serially_alike(tmp_path):
     """fit-many on a local cluster and a serial loop give the same fits; the true moduli and
     words of both groups are recovered; the speed-up is measured and printed."""

@@ -154,7 +154,35 @@ def test_mesh_command_builds_elements_on_a_voxelised_surface(tmp_path):
                  "--tissue", "liver", "--elements", "tetra", "--fix-bottom",
                  "--out", tmp_path / "box.yaml")
     assert result.returncode == 0, result.stderr
+    from neurofuzzy.mesh import lattice_cells, read_mesh
+
     model = load_model(tmp_path / "box.yaml")
-    cells = int(round(np.prod(np.ptp(model.mesh.rest_positions, axis=0)) / 0.01**3))
+    cells = int(lattice_cells(read_mesh(tmp_path / "box.stl", pitch=0.01).mesh).cells.sum())
     assert model.has_elements and model.mesh.n_tetrahedra == 6 * cells
     assert np.all(model.spring_stiffness == 0) and len(model.mesh.fixed) > 0
+
+
+def test_voxel_elements_take_the_surface_true_size(tmp_path):
+    """A 4 x 4 x 3 cm block at 4 mm cells voxelises 3.2 cm tall; split into elements it is
+    stretched onto the surface's bounding box (the volume is the block's)."""
+    from helpers import cli
+
+    from neurofuzzy.io import load_model
+    from neurofuzzy.mesh import lattice_to_tetra, read_mesh
+
+    box = trimesh.creation.box(extents=(0.04, 0.04, 0.03))
+    box.apply_translation((0.02, 0.02, 0.015))
+    box.export(tmp_path / "block.stl")
+    read = read_mesh(tmp_path / "block.stl", pitch=0.004)
+    assert np.allclose(read.surface_bounds, [[0, 0, 0], [0.04, 0.04, 0.03]])
+    lattice_extent = np.ptp(read.mesh.rest_positions, axis=0)
+    assert abs(lattice_extent[2] - 0.03) > 0.001                     # the voxels' own size
+    split = lattice_to_tetra(read.mesh, bounds=read.surface_bounds)
+    assert np.allclose(split.rest_positions.min(axis=0), 0, atol=1e-12)
+    assert np.allclose(split.rest_positions.max(axis=0), (0.04, 0.04, 0.03))
+    assert _tet_volumes(split).sum() == pytest.approx(0.04 * 0.04 * 0.03)
+    result = cli("mesh", tmp_path / "block.stl", "--pitch", "0.004", "--rules", "liver",
+                 "--tissue", "liver", "--fix-bottom", "--out", tmp_path / "block.yaml")
+    assert result.returncode == 0, result.stderr
+    assert np.allclose(np.ptp(load_model(tmp_path / "block.yaml").mesh.rest_positions, axis=0),
+                       (0.04, 0.04, 0.03))

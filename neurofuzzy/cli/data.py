@@ -74,6 +74,12 @@ def mesh(args) -> int:
         raise InputError(f"got {args.scale}; expected a positive factor", key="--scale")
     if args.scale != 1.0:
         mesh = replace(mesh, rest_positions=mesh.rest_positions * args.scale)
+    if args.elements == "tetra" and mesh.tetrahedra is None:
+        from ..mesh import lattice_to_tetra
+
+        # six tetrahedra per voxel, stretched onto the surface's bounding box
+        bounds = None if read.surface_bounds is None else read.surface_bounds * args.scale
+        mesh = lattice_to_tetra(mesh, bounds=bounds)
     if args.fix_bottom:
         z = mesh.rest_positions[:, 2]
         mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
@@ -97,10 +103,6 @@ def mesh(args) -> int:
     if not args.tissue and not tissue_of:
         raise InputError("give --tissue NAME (and --region REGION=TISSUE for regions)",
                          key="--tissue")
-    if args.elements == "tetra" and mesh.tetrahedra is None:
-        from ..mesh import lattice_to_tetra
-
-        mesh = lattice_to_tetra(mesh)        # voxel lattice: six tetrahedra per cubic cell
     model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
                        **regions).tied(args.tie)
     with outputs:

@@ -69,12 +69,17 @@ class MeshFile:
     tetrahedron_regions : dict of str → (n_tetrahedra,) bool
         Region name → its tetrahedra (``mesh.tetrahedra`` rows); same names and order as
         ``regions``. They partition the tetrahedra.
+    surface_bounds : (2, 3) float or None
+        The bounding box of the surface a voxel lattice was made from (its boundary lies up to
+        half a cell off the surface; :func:`~neurofuzzy.mesh.lattice_to_tetra` can stretch
+        the split lattice onto it).
     """
 
     mesh: Mesh
     regions: dict[str, np.ndarray]
     source: str
     tetrahedron_regions: dict[str, np.ndarray] = field(default_factory=dict)
+    surface_bounds: np.ndarray | None = None
 
     def tissue_regions(self, tissue_of: Mapping[str, str], *,
                        of: Literal["nodes", "tetrahedra"] = "nodes") -> dict[str, np.ndarray]:
@@ -150,8 +155,10 @@ def read_mesh(path: str | os.PathLike, *, pitch: float | None = None,
                          key="method")
     suffix = path.suffix.lower()
     if suffix in SURFACE_SUFFIXES:
-        mesh = _read_surface(path, source, pitch=pitch, max_edge=max_edge, method=method)
-        return MeshFile(mesh=mesh, regions={}, source=source)
+        mesh, bounds = _read_surface(path, source, pitch=pitch, max_edge=max_edge,
+                                     method=method)
+        return MeshFile(mesh=mesh, regions={}, source=source,
+                        surface_bounds=bounds if method == "voxel" else None)
     if suffix in _VOLUME_READERS:
         for key, value in (("pitch", pitch), ("max_edge", max_edge)):
             if value is not None:
@@ -164,7 +171,8 @@ def read_mesh(path: str | os.PathLike, *, pitch: float | None = None,
                      f"{' '.join(VOLUME_SUFFIXES)}", source=source)
 
 
-def _read_surface(path: Path, source: str, *, pitch, max_edge, method: Method) -> Mesh:
+def _read_surface(path: Path, source: str, *, pitch, max_edge, method: Method):
+    """The mesh of a surface file, and the surface's bounding box (2, 3)."""
     wrong = ("max_edge", max_edge) if method == "voxel" else ("pitch", pitch)
     if wrong[1] is not None:
         raise InputError(f"does not apply to method={method!r}; the voxel lattice takes "
@@ -188,12 +196,13 @@ def _read_surface(path: Path, source: str, *, pitch, max_edge, method: Method) -
         raise InputError("contains no triangles; expected a closed triangle surface",
                          source=source)
     size = float(np.max(surface.extents))
+    bounds = np.array(surface.bounds, float)
     try:
         if method == "voxel":
             return from_trimesh(surface, pitch if pitch is not None
-                                else size / DEFAULT_DIVISIONS)
+                                else size / DEFAULT_DIVISIONS), bounds
         return from_surface_tetra(surface, max_edge=max_edge if max_edge is not None
-                                  else size / DEFAULT_DIVISIONS)
+                                  else size / DEFAULT_DIVISIONS), bounds
     except InputError as error:
         raise InputError(error.detail, source=source, key=error.key) from None
 

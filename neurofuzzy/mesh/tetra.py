@@ -199,11 +199,18 @@ def kuhn_tetrahedra(lower: np.ndarray, node_of) -> np.ndarray:
     return np.concatenate(tetrahedra)
 
 
-def lattice_to_tetra(mesh: Mesh) -> Mesh:
+def lattice_to_tetra(mesh: Mesh, *, bounds=None) -> Mesh:
     """A lattice mesh (:func:`~neurofuzzy.mesh.lattice`, :func:`~neurofuzzy.mesh.from_trimesh`)
     with every complete cubic cell split into its six Kuhn tetrahedra: the same nodes and
     fixed nodes, springs on the tetrahedron edges (:func:`from_tetra`), ready for tetrahedral
-    elements."""
+    elements.
+
+    ``bounds`` ((2, 3): lower and upper corner), for example the bounding box of the surface
+    a voxel lattice came from (:attr:`MeshFile.surface_bounds`): the nodes are stretched per
+    axis so that the mesh spans it. A voxel lattice's boundary lies up to half a cell off the
+    surface (a 3 cm block at 4 mm cells comes out 3.2 cm tall); elements take its true size
+    (the cells become slightly rectangular, which tetrahedra do not mind).
+    """
     cells = lattice_cells(mesh)
     if cells is None or not cells.cells.any():
         raise InputError("only a lattice of cubic cells can be split into tetrahedra; this "
@@ -211,7 +218,12 @@ def lattice_to_tetra(mesh: Mesh) -> Mesh:
     lookup = np.full(cells.index.max(axis=0) + 1, -1, dtype=np.intp)
     lookup[tuple(cells.index.T)] = np.arange(mesh.n_nodes)
     tetrahedra = kuhn_tetrahedra(np.argwhere(cells.cells), lambda c: lookup[tuple(c.T)])
-    split = from_tetra(mesh.rest_positions, tetrahedra)
+    points = mesh.rest_positions
+    if bounds is not None:
+        bounds = np.asarray(bounds, float)
+        low, high = points.min(axis=0), points.max(axis=0)
+        points = bounds[0] + (points - low) * (bounds[1] - bounds[0]) / (high - low)
+    split = from_tetra(points, tetrahedra)
     if split.n_nodes != mesh.n_nodes:
         raise InputError(f"{mesh.n_nodes - split.n_nodes} node(s) belong to no complete cell",
                          key="mesh")
