@@ -142,7 +142,7 @@ def _element_arrays(model, dtype):
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty, empty, empty,
                 empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
-    from .forces.tetrahedra import Materials
+    from .forces.tetra_geometry import Materials
 
     materials = Materials.of(model)
     geometry = materials.geometry

@@ -50,8 +50,9 @@ def assert_gradient_exact(sensitivity, theta, experiment, substeps):
                        gradient, rtol=1e-8, atol=1e-12 * np.abs(gradient).max())
     for k in range(theta.size):
         step = np.zeros(theta.size)
-        step[k] = 1e-6
+        step[k] = 1e-6 * max(1.0, abs(theta[k]))       # raw effect parameters may be large
         numeric = (sensitivity.gradient(theta + step, experiment, substeps=substeps)[0]
-                   - sensitivity.gradient(theta - step, experiment, substeps=substeps)[0]) / 2e-6
+                   - sensitivity.gradient(theta - step, experiment, substeps=substeps)[0]
+                   ) / (2 * step[k])
         assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-9 * np.abs(gradient).max())
     return loss, gradient, run

@@ -95,3 +95,70 @@ def test_both_learners_fit_effect_parameters():
     assert np.allclose(gradient.model_.effects[0].params, [0, 0, -9.81], atol=1e-8)
     paper = PaperLearner(learning_rate=0.0, cycles=30).fit(start, data)
     assert np.allclose(paper.model_.effects[0].params, [0, 0, -9.81], atol=1e-6)
+
+
+def _element_block():
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import SpringMassModel
+
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    return SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+                                     viscosity=2.0, density=1000.0)
+
+
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_an_element_inclusion_is_extra_youngs_modulus_on_its_region(volumetric, rng):
+    """Its force is exactly the model's own with E + δ on the region's elements (and the same
+    viscosity), for both volumetric forms; derivatives are exact; it round-trips."""
+    from neurofuzzy.forces import TETRAHEDRA
+
+    model = _element_block().replace(element_volumetric=volumetric)
+    region = [0, 1, 5, 9]
+    inclusion = StiffInclusion.of_elements(model, region, 2500.0)
+    assert inclusion.options["poisson_ratio"] == pytest.approx(0.45)
+    p = model.mesh.rest_positions + rng.normal(0, 2e-4, (model.n_nodes, 3))
+    v = rng.normal(0, 1e-2, (model.n_nodes, 3))
+    stiffer = model.element_youngs_modulus.copy()
+    stiffer[region] += 2500.0
+    both = TETRAHEDRA.force(model, p, v) + inclusion.force(model, p, v)
+    assert np.allclose(both, TETRAHEDRA.force(model.replace(element_youngs_modulus=stiffer),
+                                              p, v), rtol=0, atol=1e-12 * np.abs(both).max())
+    jacobian = inclusion.parameter_jacobian(model, p, v)
+    assert np.allclose(jacobian[:, 0] * 2500.0, inclusion.force(model, p, v))
+    assert inclusion.labels == ("extra_youngs_modulus",)
+    assert inclusion.relative(model)["extra_youngs_modulus"] == pytest.approx(2500 / 6000)
+    dp, dv = rng.normal(size=(2, model.n_nodes, 1, 3))
+    jvp = inclusion.state_jvp(model, p, v, dp, dv)[:, 0]
+    numeric = (inclusion.force(model, p + 1e-7 * dp[:, 0], v + 1e-7 * dv[:, 0])
+               - inclusion.force(model, p - 1e-7 * dp[:, 0], v - 1e-7 * dv[:, 0])) / 2e-7
+    assert np.allclose(jvp, numeric, atol=1e-6 * np.abs(numeric).max())
+    cotangent = rng.normal(size=(model.n_nodes, 3))
+    lam_p, lam_v = inclusion.state_vjp(model, p, v, cotangent)
+    assert np.sum(jvp * cotangent) == pytest.approx(np.sum(lam_p * dp[:, 0])
+                                                    + np.sum(lam_v * dv[:, 0]), rel=1e-10)
+    restored = effect_from_dict(effect_to_dict(SoftInclusion([-100.0], elements=region,
+                                                             poisson_ratio=0.4)))
+    assert restored.name == "soft_inclusion" and restored.elements.tolist() == region
+    assert restored.options["poisson_ratio"] == 0.4
+    with pytest.raises(InputError, match="springs or its elements"):
+        StiffInclusion([1.0])
+    with pytest.raises(InputError, match="Poisson's ratio"):
+        StiffInclusion([1.0], elements=region)
+
+
+def test_element_inclusion_gradients_are_exact():
+    from helpers import assert_gradient_exact
+
+    from neurofuzzy.experiment import simulate_experiment
+
+    model = _element_block()
+    truth = model.with_effects(StiffInclusion.of_elements(model, [0, 1, 2, 3, 4, 5], 8000.0))
+    load = np.zeros((model.n_nodes, 3))
+    load[-1] = (0.0, 0.01, -0.02)
+    data = simulate_experiment(truth, dt=1e-3, n_frames=12, external_forces=load, substeps=4)
+    start = model.with_effects(StiffInclusion([3000.0], elements=[0, 1, 2, 3, 4, 5],
+                                              poisson_ratio=0.4))
+    parameters = Parameterization(start)
+    assert parameters.names()[-1] == "stiff_inclusion.extra_youngs_modulus"
+    assert_gradient_exact(Sensitivity(parameters, 0.01), parameters.initial(), data, 4)

@@ -166,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                   "file's length unit; default extent / 10)")
     mesh.add_argument("--tetra", action="store_true",
                       help="tetrahedralise a surface (tetgen) instead of voxelising it")
-    mesh.add_argument("--max-edge", type=float, help="with --tetra: target edge length")
+    mesh.add_argument("--max-edge", type=float, help="with --tetra: target edge length "
+                                                     "(default 1.5 x extent / 10)")
     mesh.add_argument("--scale", type=float, default=1.0,
                       help="multiply coordinates by this to get metres (e.g. 0.001 for mm)")
     fixing = mesh.add_mutually_exclusive_group()

@@ -48,127 +48,20 @@ matrices for the node averages).
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import InputError
-from ..model import VOLUMETRIC
 from .base import ForceTerm
+from .tetra_geometry import (Materials, TetrahedronGeometry, broadcast_per_element,
+                             corner_forces, lame_factors, tetrahedron_geometry)
 
 __all__ = ["TetrahedronForce", "TETRAHEDRA", "TetrahedronGeometry", "tetrahedron_geometry",
-           "lame_factors", "VOLUMETRIC"]
+           "lame_factors", "Materials"]
 
 #: The elements' parameters, in the order of every per-element parameter dictionary.
 PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
-
-_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-@dataclass(frozen=True)
-class TetrahedronGeometry:
-    """Rest geometry of the tetrahedra of a mesh.
-
-    Attributes
-    ----------
-    nodes : (n_elements, 4) int
-    inverse_rest : (n_elements, 3, 3) float
-        ``B = Dm⁻¹``.
-    volume : (n_elements,) float
-    node_of_corner : (n_nodes, 4 n_elements) sparse
-        Sums per-corner values (element e's corner j in column 4e + j) into their nodes.
-    node_volume : (n_nodes,) float
-        ``V_a = Σ_{e∋a} V_e / 4``.
-    average : (n_nodes, n_elements) sparse
-        Volume-weighted average over a node's tetrahedra, ``(V_e/4) / V_a``.
-    corner_mean : (n_elements, n_nodes) sparse
-        Mean over an element's four corners (``¼`` per corner).
-    """
-
-    nodes: np.ndarray
-    inverse_rest: np.ndarray
-    volume: np.ndarray
-    node_of_corner: sp.csr_matrix
-    node_volume: np.ndarray
-    average: sp.csr_matrix
-    corner_mean: sp.csr_matrix
-
-    def edges(self, positions: np.ndarray) -> np.ndarray:
-        """(n_elements, 3, 3) ``[x1-x0, x2-x0, x3-x0]`` as columns; also for tangents
-        (n_nodes, P, 3) → (n_elements, P, 3, 3)."""
-        corners = positions[self.nodes]                      # (K, 4, [P,] 3)
-        difference = corners[:, 1:] - corners[:, :1]         # (K, 3, [P,] 3): rows = edges
-        if difference.ndim == 3:
-            return np.swapaxes(difference, 1, 2)             # columns = edges
-        return np.moveaxis(difference, 1, -1)                # (K, P, 3, 3)
-
-    def scatter(self, columns: np.ndarray, n_nodes: int) -> np.ndarray:
-        """Node forces (n_nodes, [P,] 3) from per-element ``[f1 f2 f3]`` (as columns,
-        (n_elements, [P,] 3, 3)); node 0 of every element gets ``-(f1 + f2 + f3)``."""
-        return self.scatter_local(corner_forces(columns), n_nodes)
-
-    def scatter_local(self, local: np.ndarray, n_nodes: int) -> np.ndarray:
-        """Node sums (n_nodes, ...) of per-corner values (n_elements, 4, ...)."""
-        flat = local.reshape(len(self.nodes) * 4, -1)
-        return np.asarray(self.node_of_corner @ flat).reshape(n_nodes, *local.shape[2:])
-
-    def corner_matrix(self, local: np.ndarray, n_nodes: int) -> sp.csr_matrix:
-        """(3 n_nodes, n_elements) sparse: column e holds element e's per-corner forces
-        ``local[e]`` (4, 3) at its nodes' rows ``3 node + axis``."""
-        rows = (3 * self.nodes[:, :, None] + np.arange(3)).ravel()
-        columns = np.repeat(np.arange(len(self.nodes)), 12)
-        return sp.csr_matrix((local.ravel(), (rows, columns)),
-                             shape=(3 * n_nodes, len(self.nodes)))
-
-
-def corner_forces(columns: np.ndarray) -> np.ndarray:
-    """(n_elements, 4, [P,] 3) per-corner forces from ``[f1 f2 f3]`` as columns
-    (n_elements, [P,] 3, 3)."""
-    per_node = np.moveaxis(columns, -1, 1)                   # (K, 3, [P,] 3)
-    return np.concatenate([-per_node.sum(axis=1, keepdims=True), per_node], axis=1)
-
-
-def tetrahedron_geometry(mesh) -> TetrahedronGeometry:
-    """The (cached) :class:`TetrahedronGeometry` of ``mesh.tetrahedra``."""
-    found = _CACHE.get(mesh)
-    if found is None:
-        if mesh.tetrahedra is None:
-            raise InputError("the mesh has no tetrahedra", key="tetrahedra")
-        nodes = np.asarray(mesh.tetrahedra)
-        corners = mesh.rest_positions[nodes]
-        rest = np.swapaxes(corners[:, 1:] - corners[:, :1], 1, 2)
-        determinant = np.linalg.det(rest)
-        scale = np.max(np.abs(corners - corners.mean(axis=1, keepdims=True)), axis=(1, 2))
-        flat = np.abs(determinant) <= 1e-12 * scale**3
-        if flat.any():
-            bad = int(np.flatnonzero(flat)[0])
-            raise InputError(f"tetrahedron {bad} (nodes {nodes[bad].tolist()}) has zero volume",
-                             key="tetrahedra")
-        n_nodes, n_elements = mesh.n_nodes, len(nodes)
-        volume = np.abs(determinant) / 6.0
-        corners_to_nodes = sp.csr_matrix(
-            (np.ones(nodes.size), (nodes.ravel(), np.arange(nodes.size))),
-            shape=(n_nodes, nodes.size))
-        element_of_corner = np.repeat(np.arange(n_elements), 4)
-        incidence = sp.csr_matrix((np.ones(nodes.size), (nodes.ravel(), element_of_corner)),
-                                  shape=(n_nodes, n_elements))
-        node_volume = incidence @ (volume / 4)
-        average = sp.diags(1.0 / np.where(node_volume > 0, node_volume, 1.0)) @ (
-            incidence @ sp.diags(volume / 4))
-        found = _CACHE[mesh] = TetrahedronGeometry(
-            nodes, np.linalg.inv(rest), volume, corners_to_nodes, node_volume,
-            sp.csr_matrix(average), sp.csr_matrix(0.25 * incidence.T))
-    return found
-
-
-def lame_factors(poisson_ratio: np.ndarray):
-    """``(a, b, da/dν, db/dν)`` with ``λ = E a`` and ``μ = E b``."""
-    nu = np.asarray(poisson_ratio, float)
-    denominator = (1 + nu) * (1 - 2 * nu)
-    return (nu / denominator, 0.5 / (1 + nu), (1 + 2 * nu * nu) / denominator**2,
-            -0.5 / (1 + nu) ** 2)
 
 
 def _sym(matrix):
@@ -178,86 +71,6 @@ def _sym(matrix):
 def _trace_product(x, y):
     """``tr(xᵀ y)`` over the last two axes."""
     return np.einsum("...ij,...ij->...", x, y)
-
-
-def _column(values, like):
-    """(K,) per-element values shaped to broadcast against (K, [P,] 3, 3) arrays."""
-    return values.reshape((-1,) + (1,) * (like.ndim - 1))
-
-
-@dataclass(frozen=True)
-class Materials:
-    """Per-element constants of a model's elements (derived from E, ν, η), and the
-    volumetric coupling.
-
-    Attributes
-    ----------
-    shear, shear_rate : (K,) float
-        ``2μ`` and ``2μβ = 2bη``: the deviatoric-and-shear part of ``S`` per unit ``G``, ``Ġ``.
-    lam, lam_rate : (K,) float
-        ``λ`` and ``λβ = aη``.
-    node_lam, node_lam_rate : (n_nodes,) float or None
-        Their node averages ``Λ``, ``H`` (nodal volumetric form only).
-    """
-
-    geometry: TetrahedronGeometry
-    nodal: bool
-    shear: np.ndarray
-    shear_rate: np.ndarray
-    lam: np.ndarray
-    lam_rate: np.ndarray
-    node_lam: np.ndarray | None
-    node_lam_rate: np.ndarray | None
-
-    @classmethod
-    def of(cls, model) -> Materials:
-        geometry = tetrahedron_geometry(model.mesh)
-        E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
-                      model.element_viscosity)
-        a, b, _, _ = lame_factors(nu)
-        nodal = model.element_volumetric == "nodal"
-        lam, lam_rate = E * a, eta * a
-        return cls(geometry, nodal, 2 * E * b, 2 * eta * b, lam, lam_rate,
-                   geometry.average @ lam if nodal else None,
-                   geometry.average @ lam_rate if nodal else None)
-
-    def pressure(self, theta, theta_rate):
-        """``π`` (K, ...) from the volumetric strain and rate (K, ...)."""
-        if not self.nodal:
-            return _column(self.lam, theta) * theta + _column(self.lam_rate, theta) * theta_rate
-        average = self.geometry.average
-        at_nodes = (_column(self.node_lam, theta[:1]) * (average @ theta)
-                    + _column(self.node_lam_rate, theta[:1]) * (average @ theta_rate))
-        return self.geometry.corner_mean @ at_nodes
-
-    def pressure_transpose(self, lam_pressure):
-        """The adjoint of :meth:`pressure`: cotangents of ``θ`` and ``θ̇`` (K,)."""
-        if not self.nodal:
-            return self.lam * lam_pressure, self.lam_rate * lam_pressure
-        at_nodes = self.geometry.corner_mean.T @ lam_pressure
-        average = self.geometry.average
-        return (average.T @ (self.node_lam * at_nodes),
-                average.T @ (self.node_lam_rate * at_nodes))
-
-    def pressure_of_constants(self, d_lam, d_lam_rate, theta, theta_rate):
-        """``∂π`` (K, P) for changes ``d_lam``, ``d_lam_rate`` (K, P, sparse or dense) of
-        the elements' ``λ`` and ``λβ`` at fixed strains ``θ``, ``θ̇`` (K,)."""
-        if not self.nodal:
-            return sp.csr_matrix(sp.diags(theta) @ d_lam + sp.diags(theta_rate) @ d_lam_rate)
-        average = self.geometry.average
-        at_nodes = (sp.diags(average @ theta) @ (average @ d_lam)
-                    + sp.diags(average @ theta_rate) @ (average @ d_lam_rate))
-        return sp.csr_matrix(self.geometry.corner_mean @ at_nodes)
-
-    def constants_transpose(self, lam_pressure, theta, theta_rate):
-        """The adjoint of :meth:`pressure_of_constants`: per-element cotangents (K,) of
-        ``λ`` and ``λβ``."""
-        if not self.nodal:
-            return lam_pressure * theta, lam_pressure * theta_rate
-        at_nodes = self.geometry.corner_mean.T @ lam_pressure
-        average = self.geometry.average
-        return (average.T @ ((average @ theta) * at_nodes),
-                average.T @ ((average @ theta_rate) * at_nodes))
 
 
 @dataclass(frozen=True)
@@ -300,16 +113,26 @@ class TetrahedronForce(ForceTerm):
         inverse_transpose = np.swapaxes(geometry.inverse_rest, 1, 2)
         if first_piola.ndim == 4:
             inverse_transpose = inverse_transpose[:, None]
-        return -_column(geometry.volume, first_piola) * (first_piola @ inverse_transpose)
+        return -broadcast_per_element(geometry.volume, first_piola) * (first_piola @ inverse_transpose)
 
     def force(self, model, positions, velocities):
-        materials = Materials.of(model)
-        state = self._state(materials, positions, velocities)
-        return materials.geometry.scatter(
-            self._columns(materials.geometry, state.F @ state.stress), model.n_nodes)
+        return self.force_of(Materials.of(model), positions, velocities)
 
     def state_jvp(self, model, positions, velocities, dp, dv):
-        materials = Materials.of(model)
+        return self.state_jvp_of(Materials.of(model), positions, velocities, dp, dv)
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        return self.state_vjp_of(Materials.of(model), positions, velocities, cotangent)
+
+    # the same for any per-element materials (an inclusion's extra stiffness on part of a model)
+    def force_of(self, materials: Materials, positions, velocities):
+        """(n_nodes, 3) force of elements with the given :class:`Materials`."""
+        state = self._state(materials, positions, velocities)
+        return materials.geometry.scatter(
+            self._columns(materials.geometry, state.F @ state.stress), len(positions))
+
+    def state_jvp_of(self, materials: Materials, positions, velocities, dp, dv):
+        """:meth:`state_jvp` of elements with the given :class:`Materials`."""
         geometry = materials.geometry
         state = self._state(materials, positions, velocities)
         B = geometry.inverse_rest[:, None]
@@ -321,14 +144,14 @@ class TetrahedronForce(ForceTerm):
         d_theta = _trace_product(F, dF)                              # (K, P)
         d_theta_rate = _trace_product(dF, F_rate) + _trace_product(F, dF_rate)
         d_pressure = materials.pressure(d_theta, d_theta_rate)
-        d_stress = (_column(materials.shear, d_green) * d_green
-                    + _column(materials.shear_rate, d_green) * d_green_rate
+        d_stress = (broadcast_per_element(materials.shear, d_green) * d_green
+                    + broadcast_per_element(materials.shear_rate, d_green) * d_green_rate
                     + d_pressure[..., None, None] * np.eye(3))
         d_piola = dF @ state.stress[:, None] + F @ d_stress
-        return geometry.scatter(self._columns(geometry, d_piola), model.n_nodes)
+        return geometry.scatter(self._columns(geometry, d_piola), len(positions))
 
-    def state_vjp(self, model, positions, velocities, cotangent):
-        materials = Materials.of(model)
+    def state_vjp_of(self, materials: Materials, positions, velocities, cotangent):
+        """:meth:`state_vjp` of elements with the given :class:`Materials`."""
         geometry = materials.geometry
         state = self._state(materials, positions, velocities)
         B = geometry.inverse_rest
@@ -344,8 +167,9 @@ class TetrahedronForce(ForceTerm):
                  + lam_theta[:, None, None] * F + lam_theta_rate[:, None, None] * F_rate)
         lam_F_rate = F @ lam_green_rate + lam_theta_rate[:, None, None] * F
         # the adjoint of ``edges`` is ``scatter``: column j to node j+1, minus the sum to node 0
-        return (geometry.scatter(lam_F @ np.swapaxes(B, 1, 2), model.n_nodes),
-                geometry.scatter(lam_F_rate @ np.swapaxes(B, 1, 2), model.n_nodes))
+        n_nodes = len(positions)
+        return (geometry.scatter(lam_F @ np.swapaxes(B, 1, 2), n_nodes),
+                geometry.scatter(lam_F_rate @ np.swapaxes(B, 1, 2), n_nodes))
 
     # -- parameters ---------------------------------------------------------------------------
     def _unit_forces(self, model, positions, velocities):
@@ -426,9 +250,12 @@ class TetrahedronForce(ForceTerm):
         """``(K, C)``: ``-∂f/∂x`` and ``-∂f/∂v`` at rest, assembled (3N, 3N): the shear part
         element by element, the volumetric part ``Dᵀ W D`` from the rest divergence ``D``
         (and, for the nodal form, its node averages)."""
-        materials = Materials.of(model)
+        return self.rest_matrices_of(Materials.of(model))
+
+    def rest_matrices_of(self, materials: Materials):
+        """:meth:`rest_matrices` of elements with the given :class:`Materials`."""
         geometry = materials.geometry
-        n_nodes = model.n_nodes
+        n_nodes = len(geometry.node_volume)
         rows = (3 * geometry.nodes[:, :, None] + np.arange(3)).reshape(-1, 12)
         divergence = self._rest_divergence(geometry, n_nodes)              # (K, 3N)
         matrices = []

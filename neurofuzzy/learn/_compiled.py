@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..forces import TETRAHEDRA
-from ..forces.tetrahedra import Materials, lame_factors
+from ..forces.tetra_geometry import Materials, lame_factors
 from ..simulation import numba_available
 from ._parameters import ELEMENT_BLOCKS, element_directions
 

@@ -1,0 +1,34 @@
+"""Physical effects a model may carry besides its springs, as extra force terms.
+
+Each effect is one class with a name from the fixed vocabulary of DESIGN.md, a parameter vector
+the learners fit, the force it adds, its derivatives (for the gradient learner) and the
+physical units of its parameters (for the paper's learner). Adding an effect means adding one
+subclass and registering it with :func:`register`; the simulator, both learners, the model
+files and the diagnosis pick it up from the registry (the diagnosis asks every registered class
+for candidates through :meth:`Effect.propose`).
+
+Modules: :mod:`.base` (the interface, the registry, model-file form), :mod:`.nodes` (gravity,
+node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.inclusions`
+(regions of springs or of tetrahedral elements).
+
+=====================  ====================================================  ===============
+name                   force on node i                                        parameters
+=====================  ====================================================  ===============
+gravity                ``m_i g``                                              ``g`` (3,)
+node_drag              ``-b v_i`` (viscous drag of the surrounding medium)    ``b``
+stiff_inclusion        springs ``R`` get ``k (l - L0) u`` extra, k > 0;       ``k`` per group;
+                       elements ``R`` get Young's modulus ``E + δ``, δ > 0    ``δ`` (Pa)
+soft_inclusion         the same with k < 0 (k > -s), δ < 0                    as above
+nonlinear_stiffening   every spring gets ``κ (l - L0)³ / L0² u`` extra        ``κ`` per group
+unmodeled_load         a constant force ``f`` at one node                     ``f`` (3,)
+=====================  ====================================================  ===============
+"""
+
+from .base import EFFECTS, Effect, effect_from_dict, effect_to_dict, register
+from .nodes import Gravity, NodeDrag, UnmodeledLoad
+from .inclusions import SoftInclusion, StiffInclusion
+from .springs import NonlinearStiffening, SpringEffect
+
+__all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
+           "NonlinearStiffening", "UnmodeledLoad", "EFFECTS", "register", "effect_to_dict",
+           "effect_from_dict"]

@@ -1,0 +1,138 @@
+"""The effect interface: :class:`Effect` (a force term with a few learned parameters), the
+registry of effect classes by name, and their model-file form."""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import InputError, closest_name
+from ..forces import ForceTerm
+
+__all__ = ["Effect", "EFFECTS", "register", "effect_to_dict", "effect_from_dict"]
+
+#: Registry of effect classes by name.
+EFFECTS: dict[str, type[Effect]] = {}
+
+
+def register(cls: type[Effect]) -> type[Effect]:
+    """Class decorator: make an effect known by its ``name``."""
+    EFFECTS[cls.name] = cls
+    return cls
+
+
+class Effect(ForceTerm):
+    """A force term ``F(p, v; θ)`` with a few learned parameters, added to the spring forces.
+
+    Subclasses set ``name``, ``unit`` (the exponents of length, time and mass of the
+    parameters' unit) and ``_labels`` (or a ``labels`` property), and implement :meth:`force`,
+    :meth:`parameter_jacobian` and :meth:`propose`; forces that depend on the state also
+    implement :meth:`state_jvp` and :meth:`state_vjp` (node-major, see
+    :mod:`neurofuzzy.forces.base`).
+
+    Parameters
+    ----------
+    params : (n_params,) float
+        Parameter values (see the table in the module docstring).
+    **options
+        Fixed, non-learned settings (which springs, which node).
+    """
+
+    def __init__(self, params, **options):
+        self.params = np.array(params, dtype=float).ravel()
+        self.options = options
+        if self.params.shape != (len(self.labels),):
+            raise InputError(f"{self.name} takes {len(self.labels)} parameter(s) "
+                             f"({', '.join(self.labels)}), got {self.params.size}",
+                             key="params")
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """Short names of the parameters."""
+        return self._labels
+
+    _labels: ClassVar[tuple[str, ...]] = ()
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}.{label}" for label in self.labels)
+
+    def parameter_units(self, length: float, time: float, mass: float) -> np.ndarray:
+        """(n_params,) the unit of every parameter for given units of length, time, mass."""
+        a, b, c = self.unit
+        return np.full(len(self.params), length**a * time**b * mass**c)
+
+    def with_params(self, params) -> Effect:
+        """A copy with new parameter values (same options)."""
+        return type(self)(params, **self.options)
+
+    @property
+    def springs(self) -> np.ndarray:
+        """Springs the effect acts on locally (empty for global effects)."""
+        return np.asarray(self.options.get("springs", []), dtype=int)
+
+    @property
+    def elements(self) -> np.ndarray:
+        """Tetrahedral elements the effect acts on locally (empty for the others)."""
+        return np.asarray(self.options.get("elements", []), dtype=int)
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """Nodes the effect acts on locally (empty for global effects)."""
+        node = self.options.get("node")
+        return np.zeros(0, dtype=int) if node is None else np.array([int(node)])
+
+    @abstractmethod
+    def parameter_jacobian(self, model, positions: np.ndarray,
+                           velocities: np.ndarray) -> np.ndarray:
+        """(n_nodes, n_params, 3): derivative of :meth:`force` with respect to ``params``."""
+
+    @classmethod
+    def propose(cls, model, evidence) -> list:
+        """Instances of this effect worth scoring against a diagnosis' residuals (zero
+        parameters; the diagnosis estimates them).
+
+        ``evidence`` offers ``present`` (names of the effects the model has),
+        ``mean_force`` ((n_nodes, 3) mean residual force per node), ``taken_nodes`` /
+        ``taken_springs`` (already used by located effects) and ``inclusion_region(taken)``
+        (the compact region of springs whose stiffness change best explains the residual).
+        Default: one global instance when the model does not carry the effect yet.
+        """
+        return [] if cls.name in evidence.present else [cls(np.zeros(len(cls._labels)))]
+
+    def equation(self) -> str:
+        """The force term in words and numbers, e.g. ``F_i += m_i (0, 0, -9.81)``."""
+        return f"{self.name}: {self._values()}"
+
+    def _values(self) -> str:
+        return ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.labels, self.params))
+
+    def __repr__(self) -> str:
+        return self.equation()
+
+
+def effect_to_dict(effect: Effect) -> dict:
+    """Plain-Python description of an effect (for model files)."""
+    options = {key: (value.tolist() if isinstance(value, np.ndarray) else value)
+               for key, value in effect.options.items()}
+    return {"name": effect.name, "params": effect.params.tolist(), **options}
+
+
+def effect_from_dict(data: dict, source: str = "<model>") -> Effect:
+    """Inverse of :func:`effect_to_dict`."""
+    if not isinstance(data, dict) or "name" not in data or "params" not in data:
+        raise InputError("each effect needs 'name' and 'params'", source=source, key="effects")
+    name = data["name"]
+    if name not in EFFECTS:
+        hint = closest_name(str(name), EFFECTS)
+        raise InputError(f"unknown effect {name!r}" + (f"; did you mean {hint!r}?" if hint
+                                                        else f"; known: {sorted(EFFECTS)}"),
+                         source=source, key="effects")
+    options = {key: value for key, value in data.items() if key not in ("name", "params")}
+    try:
+        return EFFECTS[name](data["params"], **options)
+    except TypeError as error:
+        raise InputError(f"bad options for {name}: {error}", source=source,
+                         key="effects") from None

@@ -1,0 +1,156 @@
+"""Inclusions: a compact region stiffer (or softer) than the rest of the object.
+
+On a spring network the region is a set of springs with extra stiffness ``k`` (N/m, one per
+spring group): they pull with ``(s_j + k) (l - L0)``. On a tetrahedral-element model it is a
+set of elements with extra Young's modulus ``δ`` (Pa) at a Poisson's ratio ``ν_R`` fixed
+when the inclusion is made (the region's own at the time): the element force of the
+materials ``(δ on the region, ν_R, no viscosity)`` added to the model's own (the force is
+linear in the material constants, for both volumetric forms). With ``ν_R`` the region's
+Poisson's ratio this is exactly the model with ``E_e + δ`` there; keeping it fixed keeps the
+inclusion's force independent of the model's own parameters, so the learners' derivatives
+stay exact when both are fitted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..forces import TETRAHEDRA, Materials, tetrahedron_geometry
+from .base import Effect, register
+from .springs import SpringEffect
+
+__all__ = ["StiffInclusion", "SoftInclusion"]
+
+
+class _Inclusion(SpringEffect):
+    """A compact region of springs (``springs=``) or of tetrahedral elements (``elements=``)
+    with extra stiffness: ``k`` per spring group, or one extra Young's modulus ``δ``."""
+
+    coefficient = "extra_stiffness"
+
+    def __init__(self, params, *, springs=None, elements=None, poisson_ratio=None, **options):
+        if (springs is None) == (elements is None):
+            raise InputError("an inclusion needs its springs or its elements (one of them)",
+                             key="params")
+        if elements is None:
+            super().__init__(params, springs=springs, **options)
+            return
+        options["elements"] = sorted(int(e) for e in np.ravel(elements))
+        if not options["elements"]:
+            raise InputError("an inclusion needs at least one element", key="elements")
+        if poisson_ratio is None or not 0 < float(poisson_ratio) < 0.5:
+            raise InputError(f"got {poisson_ratio!r}; an inclusion of elements needs the "
+                             "Poisson's ratio of its extra stiffness, in (0, 0.5)",
+                             key="poisson_ratio")
+        options["poisson_ratio"] = float(poisson_ratio)
+        Effect.__init__(self, params, **options)
+
+    @classmethod
+    def of_elements(cls, model, elements, extra: float = 0.0):
+        """The inclusion of ``elements`` of ``model`` at their own Poisson's ratio (median)."""
+        nu = float(np.median(model.element_poisson_ratio[np.asarray(elements, int)]))
+        return cls([extra], elements=elements, poisson_ratio=nu)
+
+    @property
+    def on_elements(self) -> bool:
+        return "elements" in self.options
+
+    @property
+    def labels(self):
+        return ("extra_youngs_modulus",) if self.on_elements else super().labels
+
+    @property
+    def unit(self):
+        """Pa for elements, N/m for springs (exponents of length, time, mass)."""
+        return (-1, -2, 1) if self.on_elements else (0, -2, 1)
+
+    def shape(self, model, state, selection):
+        return state.stretch, np.ones_like(state.stretch)
+
+    # -- elements -----------------------------------------------------------------------------
+    def materials(self, model, extra: float) -> Materials:
+        """The region's extra materials: Young's modulus ``extra`` on its elements, zero
+        elsewhere, the inclusion's Poisson's ratio, no viscosity."""
+        if not model.has_elements:
+            raise InputError("an inclusion of elements needs a model with tetrahedral elements",
+                             key="elements")
+        modulus = np.zeros(model.mesh.n_tetrahedra)
+        modulus[self.elements] = extra
+        return Materials.from_values(tetrahedron_geometry(model.mesh), modulus,
+                                     self.options["poisson_ratio"], np.zeros_like(modulus),
+                                     nodal=model.element_volumetric == "nodal")
+
+    def force(self, model, positions, velocities):
+        if not self.on_elements:
+            return super().force(model, positions, velocities)
+        return TETRAHEDRA.force_of(self.materials(model, self.params[0]), positions, velocities)
+
+    def parameter_jacobian(self, model, positions, velocities):
+        if not self.on_elements:
+            return super().parameter_jacobian(model, positions, velocities)
+        return TETRAHEDRA.force_of(self.materials(model, 1.0), positions,
+                                   velocities)[:, None, :]
+
+    def state_jvp(self, model, positions, velocities, dp, dv):
+        if not self.on_elements:
+            return super().state_jvp(model, positions, velocities, dp, dv)
+        return TETRAHEDRA.state_jvp_of(self.materials(model, self.params[0]), positions,
+                                       velocities, dp, dv)
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        if not self.on_elements:
+            return super().state_vjp(model, positions, velocities, cotangent)
+        return TETRAHEDRA.state_vjp_of(self.materials(model, self.params[0]), positions,
+                                       velocities, cotangent)
+
+    def rest_matrices(self, model):
+        """The region's extra stiffness at rest (elements; springs add none to the bound)."""
+        if not self.on_elements:
+            return None
+        return TETRAHEDRA.rest_matrices_of(self.materials(model, max(self.params[0], 0.0)))
+
+    def relative(self, model) -> dict[str, float]:
+        """The extra stiffness relative to the region's own (per spring group, or ``δ / E``)."""
+        if not self.on_elements:
+            return super().relative(model)
+        own = float(np.mean(model.element_youngs_modulus[self.elements]))
+        return {self.labels[0]: float(self.params[0] / own)}
+
+    def equation(self):
+        if self.on_elements:
+            return (f"{self.name}: {len(self.elements)} elements stiffer by δ (E_e + δ); "
+                    f"{self._values()} Pa")
+        return (f"{self.name}: {len(self.springs)} springs pull harder by k (l - L0); "
+                f"{self._values()}")
+
+
+@register
+class StiffInclusion(_Inclusion):
+    """A compact region stiffer than the rest (k > 0 or δ > 0)."""
+
+    name = "stiff_inclusion"
+
+    @classmethod
+    def propose(cls, model, evidence):
+        """The compact region (of springs, or of elements for element models) that best
+        explains the residual (the diagnosis names it soft_inclusion when the fitted extra
+        stiffness comes out negative)."""
+        if model.has_elements and not np.any(model.spring_stiffness):
+            region = evidence.element_region(evidence.taken_elements)
+            return [cls.of_elements(model, region)] if region else []
+        region = evidence.inclusion_region(evidence.taken_springs)
+        return [cls.for_model(model, [0.0], springs=region)] if region else []
+
+
+@register
+class SoftInclusion(_Inclusion):
+    """A compact region softer than the rest (k < 0 or δ < 0)."""
+
+    name = "soft_inclusion"
+
+    @classmethod
+    def propose(cls, model, evidence):
+        """None of its own: :class:`StiffInclusion`'s region, refitted, turns soft when its
+        extra stiffness is negative."""
+        return []

@@ -1,0 +1,134 @@
+"""Effects along springs: :class:`SpringEffect` (a central force with one coefficient per
+spring group) and :class:`NonlinearStiffening`."""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import ClassVar
+
+import numpy as np
+
+from ..forces import SPRINGS, central_jvp, central_vjp, incidence
+from .base import Effect, register
+
+__all__ = ["SpringEffect", "NonlinearStiffening"]
+
+
+class SpringEffect(Effect):
+    """A central, position-dependent force along a subset of springs (all when no ``springs``),
+    with one coefficient per spring group (stiffness units, N/m), so that it does not depend
+    on the springs' own stiffness while the learners change it.
+
+    Options: ``groups`` (the spring-group indices that have a coefficient, in parameter order),
+    ``group_names`` (for labels) and optionally ``springs``. Subclasses implement
+    :meth:`shape`, the magnitude per unit coefficient and its derivative by length.
+    """
+
+    unit = (0, -2, 1)
+
+    def __init__(self, params, *, groups, group_names=None, springs=None, **options):
+        if springs is not None:
+            options["springs"] = [int(j) for j in np.ravel(springs)]
+        options["groups"] = [int(g) for g in np.ravel(groups)]
+        if group_names is not None:
+            options["group_names"] = [str(n) for n in group_names]
+        super().__init__(params, **options)
+
+    @classmethod
+    def for_model(cls, model, params=None, springs=None):
+        """The effect on ``springs`` (default all) of ``model``, one coefficient per group."""
+        selection = np.arange(model.n_springs) if springs is None else np.asarray(springs, int)
+        groups = np.unique(model.mesh.spring_group[selection])
+        names = [model.mesh.group_names[g] for g in groups]
+        params = np.zeros(len(groups)) if params is None else np.broadcast_to(
+            np.asarray(params, float), (len(groups),))
+        return cls(params, groups=groups, group_names=names, springs=springs)
+
+    @property
+    def labels(self):
+        names = self.options.get("group_names") or [f"group{g}" for g in self.options["groups"]]
+        return tuple(f"{self.coefficient}[{n}]" for n in names)
+
+    coefficient: ClassVar[str] = "k"
+
+    def _selection(self, model):
+        springs = self.options.get("springs")
+        return np.arange(model.n_springs) if springs is None else np.asarray(springs, int)
+
+    @abstractmethod
+    def shape(self, model, state, selection):
+        """``(g, dg_dl)`` per selected spring: magnitude and its length derivative per unit
+        coefficient."""
+
+    def magnitude(self, model, state, selection):
+        """``(m, dm_dl, dm_dparams)`` of shapes (n,), (n,), (n_params, n)."""
+        index = np.searchsorted(self.options["groups"], model.mesh.spring_group[selection])
+        index = np.minimum(index, len(self.params) - 1)
+        known = np.asarray(self.options["groups"])[index] == model.mesh.spring_group[selection]
+        coefficient = np.where(known, self.params[index], 0.0)
+        g, dg = self.shape(model, state, selection)
+        dm = np.zeros((len(self.params), len(selection)))
+        dm[index[known], np.flatnonzero(known)] = g[known]
+        return coefficient * g, coefficient * dg, dm
+
+    def _parts(self, model, positions, velocities):
+        selection = self._selection(model)
+        state = SPRINGS.state(model, positions, velocities).select(selection)
+        return selection, state, self.magnitude(model, state, selection)
+
+    def _scatter(self, model, selection, per_spring):
+        """(n_nodes, ...) net of a per-selected-spring array (node a +, node b -)."""
+        full = np.zeros((model.n_springs, *per_spring.shape[1:]))
+        full[selection] = per_spring
+        return incidence(model.mesh).accumulate(full)
+
+    def force(self, model, positions, velocities):
+        selection, state, (m, _, _) = self._parts(model, positions, velocities)
+        return self._scatter(model, selection, m[:, None] * state.direction)
+
+    def parameter_jacobian(self, model, positions, velocities):
+        selection, state, (_, _, dm) = self._parts(model, positions, velocities)
+        return self._scatter(model, selection,
+                             dm.T[:, :, None] * state.direction[:, None, :])
+
+    def state_jvp(self, model, positions, velocities, dp, dv):
+        selection, state, (m, dm_dl, _) = self._parts(model, positions, velocities)
+        dd = incidence(model.mesh).difference(dp)[selection]            # (n, P, 3)
+        return self._scatter(model, selection, central_jvp(state, m, dm_dl, None, dd, None))
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        selection, state, (m, dm_dl, _) = self._parts(model, positions, velocities)
+        lam_f = -incidence(model.mesh).difference(cotangent)[selection]
+        lam_d, _ = central_vjp(state, m, dm_dl, None, lam_f)
+        return -self._scatter(model, selection, lam_d), np.zeros_like(cotangent)
+
+    def relative(self, model) -> dict[str, float]:
+        """Each coefficient relative to the mean stiffness of its group's selected springs."""
+        selection = self._selection(model)
+        out = {}
+        for label, group, value in zip(self.labels, self.options["groups"], self.params):
+            chosen = selection[model.mesh.spring_group[selection] == group]
+            out[label] = float(value / np.mean(model.spring_stiffness[chosen]))
+        return out
+
+
+@register
+class NonlinearStiffening(SpringEffect):
+    """Spring force grows faster than linear: ``κ (l - L0)³ / L0²`` extra (κ per group, N/m);
+    relative to the spring's stiffness, ``β = κ / s``: ``f = s (l - L0) [1 + β ((l - L0)/L0)²]``."""
+
+    name = "nonlinear_stiffening"
+    coefficient = "kappa"
+
+    def shape(self, model, state, selection):
+        rest2 = model.spring_rest_length[selection] ** 2
+        return state.stretch**3 / rest2, 3 * state.stretch**2 / rest2
+
+    @classmethod
+    def propose(cls, model, evidence):
+        return [] if cls.name in evidence.present else [cls.for_model(model, [0.0])]
+
+    def equation(self):
+        return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {self._values()}"
+
+
