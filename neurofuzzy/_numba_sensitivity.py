@@ -97,10 +97,13 @@ def _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd):
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, nodal,
-                      node_volume, node_lam, node_lam_rate, modulus_column, ratio_column,
-                      viscosity_column, ratio_factor, shear_ratio_factor, d_node_lam,
+def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate, lam,
+                      lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
+                      element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
                       d_node_lam_rate, node_strain, d_node_strain, force, d_force):
+    """Element forces and their tangents. ``S = shear G + shear_rate Ġ + π I``; the element's
+    parameter columns (CSR ``element_ptr``/``element_column``) carry the derivatives of its
+    four constants, and with ``nodal`` those of the node averages (``d_node_lam*``)."""
     n_params = tp.shape[1]
     F = np.empty((3, 3))
     Fd = np.empty((3, 3))
@@ -109,7 +112,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
     S = np.empty((3, 3))
     dF = np.empty((n_params, 3, 3))
     dFd = np.empty((n_params, 3, 3))
-    dS = np.empty((3, 3))
+    dS = np.empty((n_params, 3, 3))
     d_pressure = np.empty(n_params)
     n_elements = tets.shape[0]
     if nodal:    # node averages of θ, θ̇ and their tangents → node pressures and tangents
@@ -154,7 +157,6 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
         _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd)
-        r_e = ratio[e]
         for i in range(3):
             for k in range(i, 3):
                 g = 0.5 * (F[0, i] * F[0, k] + F[1, i] * F[1, k] + F[2, i] * F[2, k])
@@ -175,7 +177,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
                 d_pressure[q] = 0.25 * (d_node_strain[n0, q, 0] + d_node_strain[n1, q, 0]
                                         + d_node_strain[n2, q, 0] + d_node_strain[n3, q, 0])
         else:
-            pressure = lam[e] * (theta + r_e * theta_rate)
+            pressure = lam[e] * theta + lam_rate[e] * theta_rate
             for q in range(n_params):
                 d_theta = 0.0
                 d_theta_rate = 0.0
@@ -183,19 +185,10 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
                     for c in range(3):
                         d_theta += F[r, c] * dF[q, r, c]
                         d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
-                d_pressure[q] = lam[e] * (d_theta + r_e * d_theta_rate)
-            # the element's own λ and λβ by its parameters
-            if modulus_column[e] >= 0:
-                d_pressure[modulus_column[e]] += lam[e] * theta
-            if viscosity_column[e] >= 0:
-                d_pressure[viscosity_column[e]] += lam[e] * r_e * theta_rate
-            if ratio_column[e] >= 0:
-                d_pressure[ratio_column[e]] += ratio_factor[e] * lam[e] * (
-                    theta + r_e * theta_rate)
-        two_mu = 2.0 * mu[e]
+                d_pressure[q] = lam[e] * d_theta + lam_rate[e] * d_theta_rate
         for i in range(3):
             for k in range(3):
-                S[i, k] = two_mu * (G[i, k] + r_e * Gd[i, k])
+                S[i, k] = shear[e] * G[i, k] + shear_rate[e] * Gd[i, k]
             S[i, i] += pressure
         scale = -volume[e]
         for r in range(3):       # P = F S → -V P Bᵀ into the four nodes
@@ -209,8 +202,10 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
             force[n2, r] += f2
             force[n3, r] += f3
             force[n0, r] -= f1 + f2 + f3
+        if n_params == 0:
+            continue
+        # dS = shear dG + shear_rate dĠ + dπ I: the state's part for every direction...
         for q in range(n_params):
-            # dS = 2μ (dG + β dĠ) + dπ I, plus the element's own shear part by its parameters
             for i in range(3):
                 for k in range(i, 3):
                     dg = 0.5 * (F[0, i] * dF[q, 0, k] + F[1, i] * dF[q, 1, k]
@@ -222,24 +217,27 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
                                  + F[0, i] * dFd[q, 0, k] + F[1, i] * dFd[q, 1, k]
                                  + F[2, i] * dFd[q, 2, k] + dFd[q, 0, i] * F[0, k]
                                  + dFd[q, 1, i] * F[1, k] + dFd[q, 2, i] * F[2, k])
-                    x = two_mu * (dg + r_e * dgd)
-                    if q == modulus_column[e]:
-                        x += two_mu * G[i, k]
-                    if q == viscosity_column[e]:
-                        x += two_mu * r_e * Gd[i, k]
-                    if q == ratio_column[e]:
-                        x += shear_ratio_factor[e] * two_mu * (G[i, k] + r_e * Gd[i, k])
-                    dS[i, k] = x
-                    dS[k, i] = x
-                dS[i, i] += d_pressure[q]
+                    x = shear[e] * dg + shear_rate[e] * dgd
+                    dS[q, i, k] = x
+                    dS[q, k, i] = x
+                dS[q, i, i] += d_pressure[q]
+        # ...then the element's own constants by the parameters they depend on
+        for entry in range(element_ptr[e], element_ptr[e + 1]):
+            q = element_column[entry]
+            extra = 0.0 if nodal else d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
+            for i in range(3):
+                for k in range(3):
+                    dS[q, i, k] += d_shear[entry] * G[i, k] + d_shear_rate[entry] * Gd[i, k]
+                dS[q, i, i] += extra
+        for q in range(n_params):
             for r in range(3):   # dP = dF S + F dS
                 P0 = 0.0
                 P1 = 0.0
                 P2 = 0.0
                 for m in range(3):
-                    P0 += dF[q, r, m] * S[m, 0] + F[r, m] * dS[m, 0]
-                    P1 += dF[q, r, m] * S[m, 1] + F[r, m] * dS[m, 1]
-                    P2 += dF[q, r, m] * S[m, 2] + F[r, m] * dS[m, 2]
+                    P0 += dF[q, r, m] * S[m, 0] + F[r, m] * dS[q, m, 0]
+                    P1 += dF[q, r, m] * S[m, 1] + F[r, m] * dS[q, m, 1]
+                    P2 += dF[q, r, m] * S[m, 2] + F[r, m] * dS[q, m, 2]
                 f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
                 f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
                 f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
@@ -251,13 +249,19 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio, 
 
 @numba.njit(cache=True, nogil=True)
 def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
-            inverse_rest, volume, lam, mu, ratio, nodal, node_volume, node_lam, node_lam_rate,
-            modulus_column, ratio_column, viscosity_column, ratio_factor, shear_ratio_factor,
-            d_node_lam, d_node_lam_rate, weight, loads, h, n_frames, substeps, n_params,
-            start_index, start_p, start_v, rows_start, rows_node, rows_weight, seen, scale,
-            tangents, positions, jacobian):
+            inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+            node_lam, node_lam_rate, element_ptr, element_column, d_shear, d_shear_rate, d_lam,
+            d_lam_rate, d_node_lam, d_node_lam_rate, drag, drag_column, force_direction,
+            weight, loads, h, n_frames, substeps, n_params, start_index, start_p, start_v,
+            rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
     """Positions (n_frames, N, 3) and, with ``tangents``, ``jacobian`` (n_frames - 1, rows,
-    3, P) = H tp / length_unit at every measured (frame, row), 0 elsewhere."""
+    3, P) = H tp / length_unit at every measured (frame, row), 0 elsewhere.
+
+    Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
+    learned), constant forces already in ``loads`` with their parameter columns in
+    ``force_direction`` (N, P, 3) (gravity, unmodeled loads); inclusions of elements are in
+    the element constants and their CSR columns.
+    """
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
     force = np.empty((n_nodes, 3))
@@ -279,16 +283,21 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             continue
         load = loads[min(t - 1, loads.shape[0] - 1)]
         for _ in range(substeps):
-            force[:] = load
-            d_force[:] = 0.0
+            for i in range(n_nodes):
+                for k in range(3):
+                    force[i, k] = load[i, k] - drag * v[i, k]
+                    for q in range(width):
+                        d_force[i, q, k] = force_direction[i, q, k] - drag * tv[i, q, k]
+                    if 0 <= drag_column < width:
+                        d_force[i, drag_column, k] -= v[i, k]
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
                              damping_column, force, d_force)
             if tets.shape[0]:
-                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, lam, mu, ratio,
-                                  nodal, node_volume, node_lam, node_lam_rate, modulus_column,
-                                  ratio_column, viscosity_column, ratio_factor,
-                                  shear_ratio_factor, d_node_lam, d_node_lam_rate,
-                                  node_strain, d_node_strain, force, d_force)
+                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate,
+                                  lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                                  element_ptr, element_column, d_shear, d_shear_rate, d_lam,
+                                  d_lam_rate, d_node_lam, d_node_lam_rate, node_strain,
+                                  d_node_strain, force, d_force)
             for i in range(n_nodes):
                 step = h * weight[i]
                 for k in range(3):

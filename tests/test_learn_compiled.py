@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from neurofuzzy.datasets import kuhn_block, paper_cube_experiment, paper_cube_model
-from neurofuzzy.effects import Gravity
+from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, StiffInclusion,
+                                UnmodeledLoad)
 from neurofuzzy.errors import InputError
 from neurofuzzy.experiment import Experiment, simulate_experiment
 from neurofuzzy.learn import Parameterization, Sensitivity
@@ -65,9 +66,32 @@ def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric):
     assert_same(*both(truth, markers, steps))
 
 
-def test_models_with_effects_take_the_numpy_path():
-    model = paper_cube_model(tie="global").with_effects(Gravity([0.0, 0.0, -9.81]))
-    data = paper_cube_experiment(model)
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_learned_effects_of_element_models(volumetric):
+    """Gravity, an unmodeled load, a node drag and an inclusion of elements, all learned with
+    the elements' own parameters: the kernel's effect columns equal the numpy path's."""
+    mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+                                      viscosity=2.0, density=1000.0, volumetric=volumetric)
+    model = model.with_effects(Gravity([0.1, 0.0, -9.81]), UnmodeledLoad([0.0, 0.002, 0.0],
+                                                                       node=mesh.n_nodes - 2),
+                               NodeDrag([0.05]),
+                               StiffInclusion([4000.0], elements=[3, 4, 10, 11, 12],
+                                              poisson_ratio=0.4))
+    load = np.zeros((mesh.n_nodes, 3))
+    load[-1] = (0.0, 0.01, -0.05)
+    steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
+    data = simulate_experiment(model, dt=1e-3, n_frames=25, external_forces=load,
+                               substeps=steps)
+    numpy_run, compiled_run = both(model, data, steps)
+    assert_same(numpy_run, compiled_run)
+    assert compiled_run.jacobian.shape[-1] == 3 + 3 + 3 + 1 + 1
+
+
+def test_models_the_kernel_does_not_know_take_the_numpy_path():
+    model = paper_cube_model(tie="global").with_effects(
+        NonlinearStiffening.for_model(paper_cube_model(), [100.0, 50.0]))
+    data = paper_cube_experiment(paper_cube_model(tie="global"))
     parameters = Parameterization(model)
     with pytest.raises(InputError, match="compiled path"):
         Sensitivity(parameters, 0.01, backend="numba").run(parameters.initial(), data)
@@ -75,3 +99,5 @@ def test_models_with_effects_take_the_numpy_path():
     numpy = Sensitivity(parameters, 0.01, backend="numpy").run(parameters.initial(), data,
                                                              tangents=True)
     assert np.array_equal(auto.jacobian, numpy.jacobian)
+    gravity = paper_cube_model(tie="global").with_effects(Gravity([0.0, 0.0, -9.81]))
+    assert_same(*both(gravity, paper_cube_experiment(gravity), 1))

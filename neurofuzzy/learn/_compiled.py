@@ -1,25 +1,39 @@
 """The compiled path of :meth:`neurofuzzy.learn.Sensitivity.run`: the model, its parameter
 directions, the experiment's loads, window starts and observation operator laid out for
 :func:`neurofuzzy._numba_sensitivity.forward` (one call per experiment, no Python per time
-step). Used when numba is installed and the model carries only springs and tetrahedral
-elements with fixed masses; everything else takes the numpy reference path."""
+step).
+
+Used when numba is installed, masses are fixed and every effect of the model is one the kernel
+knows: gravity and unmodeled loads (constant forces), a node drag, and inclusions of elements
+(extra element constants). Everything else takes the numpy reference path.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
-from ..forces import TETRAHEDRA
+from ..effects import Gravity, NodeDrag, StiffInclusion, SoftInclusion, UnmodeledLoad
 from ..forces.tetra_geometry import Materials, lame_factors
 from ..simulation import numba_available
-from ._parameters import ELEMENT_BLOCKS, element_directions
+from ._parameters import ELEMENT_BLOCKS
 
 __all__ = ["compiled_possible", "CompiledModel"]
+
+_CONSTANT = (Gravity, UnmodeledLoad)
+
+
+def _element_inclusion(effect) -> bool:
+    return isinstance(effect, (StiffInclusion, SoftInclusion)) and effect.on_elements
 
 
 def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
-    return (numba_available() and not model.effects and not parameters.effects
-            and not parameters.learn_masses)
+    if not numba_available() or parameters.learn_masses:
+        return False
+    drags = sum(isinstance(effect, NodeDrag) for effect in model.effects)
+    return drags <= 1 and all(isinstance(effect, (*_CONSTANT, NodeDrag))
+                              or _element_inclusion(effect) for effect in model.effects)
 
 
 class CompiledModel:
@@ -42,42 +56,90 @@ class CompiledModel:
             if parameters.learn_springs else no_column,
             (blocks["log_damping"].start + tie).astype(np.intp)
             if parameters.learn_springs else no_column)
-        self.elements = self._elements(parameters, model, n_params)
+        # the model's effects are the parameterisation's, in order, when they are learned
+        columns = {i: blocks[f"effect:{i}"].start for i in range(len(parameters.effects))}
+        self.elements = self._elements(parameters, model, n_params, columns)
+        self.effects = self._effects(model, n_params, columns)
         self.weight = model.node_inverse_mass
         self.n_params = n_params
 
     @staticmethod
-    def _elements(parameters, model, n_params):
+    def _elements(parameters, model, n_params, columns):
+        """Element constants (the model's plus its inclusions') and the CSR of their
+        derivatives by the parameters, with the node averages' derivatives."""
         n_nodes = model.n_nodes
         if not model.has_elements:
             empty, none = np.zeros(0), np.zeros(0, np.intp)
-            return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), empty, empty, empty, empty,
-                    False, empty, empty, empty, none, none, none, empty, empty,
+            return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), *(empty,) * 5, False,
+                    *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
                     np.zeros((0, n_params)), np.zeros((0, n_params)))
-        materials = Materials.of(model)
-        geometry = materials.geometry
-        nu = model.element_poisson_ratio
+        own = Materials.of(model)
+        geometry = own.geometry
+        parts = [own] + [effect.materials(model, effect.params[0])
+                         for effect in model.effects if _element_inclusion(effect)]
+        total = {key: sum(getattr(part, key) for part in parts)
+                 for key in ("shear", "shear_rate", "lam", "lam_rate")}
+        # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
+        E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
+                      model.element_viscosity)
         a, b, da, db = lame_factors(nu)
         logistic = nu * (1.0 - 2.0 * nu)                     # dν/d logit (2ν)
         first = parameters.blocks[ELEMENT_BLOCKS[0]].start
         ties, tie = model.n_element_ties, model.element_tie
+        index = np.arange(model.mesh.n_tetrahedra)
+        zero = np.zeros_like(E)
+        entries = [(index, first + tie, 2 * b * E, zero, a * E, zero),
+                   (index, first + ties + tie, 2 * db * E * logistic, 2 * db * eta * logistic,
+                    da * E * logistic, da * eta * logistic),
+                   (index, first + 2 * ties + tie, zero, 2 * b * eta, zero, a * eta)]
+        for i, effect in enumerate(model.effects):
+            if _element_inclusion(effect) and i in columns:
+                region = effect.elements
+                ai, bi, _, _ = lame_factors(effect.options["poisson_ratio"])
+                ones = np.ones(len(region))
+                entries.append((region, np.full(len(region), columns[i]),
+                                2 * bi * ones, 0 * ones, ai * ones, 0 * ones))
+        element, column, *values = (np.concatenate(part) for part in zip(*entries))
+        order = np.lexsort((column, element))
+        element, column = element[order], column[order].astype(np.intp)
+        values = [np.ascontiguousarray(value[order], float) for value in values]
+        pointer = np.searchsorted(element, np.arange(len(E) + 1)).astype(np.intp)
         d_node_lam = np.zeros((n_nodes, n_params))
         d_node_lam_rate = np.zeros((n_nodes, n_params))
-        if materials.nodal:
-            d_lam, d_lam_rate = TETRAHEDRA.lame_changes(model, element_directions(model))
-            span = slice(first, first + 3 * ties)
-            d_node_lam[:, span] = (geometry.average @ d_lam).toarray()
-            d_node_lam_rate[:, span] = (geometry.average @ d_lam_rate).toarray()
-            node_values = (geometry.node_volume, materials.node_lam, materials.node_lam_rate)
+        if own.nodal:
+            for target, value in ((d_node_lam, values[2]), (d_node_lam_rate, values[3])):
+                per_element = sp.csr_matrix((value, (element, column)),
+                                            shape=(len(E), n_params))
+                target[:] = (geometry.average @ per_element).toarray()
+            node_lam = geometry.average @ total["lam"]
+            node_lam_rate = geometry.average @ total["lam_rate"]
+            node_values = (geometry.node_volume, node_lam, node_lam_rate)
         else:
             node_values = (np.zeros(n_nodes),) * 3
         return (np.array(geometry.nodes, np.intp, order="C"),
-                np.ascontiguousarray(geometry.inverse_rest), geometry.volume, materials.lam,
-                0.5 * materials.shear, model.element_viscosity / model.element_youngs_modulus,
-                materials.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
-                (first + tie).astype(np.intp), (first + ties + tie).astype(np.intp),
-                (first + 2 * ties + tie).astype(np.intp), da / a * logistic,
-                db / b * logistic, d_node_lam, d_node_lam_rate)
+                np.ascontiguousarray(geometry.inverse_rest), geometry.volume,
+                *(np.ascontiguousarray(total[key], float)
+                  for key in ("shear", "shear_rate", "lam", "lam_rate")),
+                own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
+                pointer, column, *values, d_node_lam, d_node_lam_rate)
+
+    @staticmethod
+    def _effects(model, n_params, columns):
+        """``(drag, drag_column, force_direction, constant_force)``."""
+        drag, drag_column = 0.0, -1
+        direction = np.zeros((model.n_nodes, n_params, 3))
+        constant = np.zeros((model.n_nodes, 3))
+        for i, effect in enumerate(model.effects):
+            column = columns.get(i)
+            if isinstance(effect, NodeDrag):
+                drag = float(effect.params[0])
+                drag_column = -1 if column is None else column
+            elif isinstance(effect, _CONSTANT):
+                constant += effect.force(model, model.mesh.rest_positions, None)
+                if column is not None:
+                    span = slice(column, column + len(effect.params))
+                    direction[:, span] = effect.parameter_jacobian(model, None, None)
+        return drag, int(drag_column), direction, constant
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool):
         """``(positions, jacobian)`` of one experiment; ``states`` maps every window start
@@ -95,15 +157,16 @@ class CompiledModel:
         positions = np.empty((n_frames, n_nodes, 3))
         jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, self.n_params)) if tangents
                     else np.zeros((0, 0, 3, 0)))
+        drag, drag_column, direction, constant = self.effects
         # writable C-ordered copies: numba compiles one signature per array layout
-        loads = np.array(experiment.forces_per_frame(), dtype=float, order="C")
+        loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
         h = experiment.dt / substeps
         with np.errstate(over="ignore", invalid="ignore"):
             forward(start_p[0].copy(), start_v[0].copy(), *self.springs, *self.elements,
-                    self.weight, loads, h, n_frames, int(substeps), self.n_params,
-                    start_index, start_p, start_v, operator.indptr.astype(np.intp),
-                    operator.indices.astype(np.intp), operator.data.astype(float),
+                    drag, drag_column, direction, self.weight, loads, h, n_frames,
+                    int(substeps), self.n_params, start_index, start_p, start_v,
+                    operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
+                    operator.data.astype(float),
                     np.array(observation.seen, dtype=bool, order="C"), float(scale),
-                    bool(tangents),
-                    positions, jacobian)
+                    bool(tangents), positions, jacobian)
         return positions, (jacobian if tangents else None)
