@@ -109,6 +109,16 @@ def _object_plot(ax, model, node_values, highlight_springs=(), highlight_nodes=(
     return scatter
 
 
+def _where(finding) -> str:
+    """Where a located effect acts (the report's summary table)."""
+    parts = [f"{key} {values}" if len(values) <= 12 else f"{len(values)} {key}"
+             for key in ("springs", "elements", "nodes") if (values := getattr(finding, key))]
+    if finding.centroid is not None:
+        parts.append("centroid (" + ", ".join(f"{1e3 * c:.1f}" for c in finding.centroid)
+                     + ") mm")
+    return "; ".join(parts)
+
+
 def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") -> Path:
     """HTML + JSON report of a :class:`~neurofuzzy.diagnosis.Diagnosis`."""
     plt = _pyplot()
@@ -116,8 +126,7 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
     sections = []
     names = ", ".join(diagnosis.names)
     rows = [[f.name, f"{f.confidence:.3f}", f.runner_up,
-             "; ".join(f"{k} = {v:.4g}" for k, v in f.parameters.items()),
-             (f"springs {f.springs}" if f.springs else "") + (f"nodes {f.nodes}" if f.nodes else ""),
+             "; ".join(f"{k} = {v:.4g}" for k, v in f.parameters.items()), _where(f),
              f.rms_before, f.rms_after] for f in diagnosis.effects]
     summary = (f"<p>Answer: <b>{html.escape(names)}</b>. RMS error of the fitted model "
                f"{diagnosis.rms_before:.4g} → {diagnosis.rms_after:.4g} (marker noise alone: "
@@ -128,12 +137,14 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
     sections.append(("Summary", summary))
 
     first = diagnosis.rounds[0]["residuals"]
+    forces = first.kind == "force"
     figure = plt.figure(figsize=(11, 4.6))
     ax = figure.add_subplot(1, 2, 1, projection="3d")
     springs = set(j for f in diagnosis.effects for j in f.springs)
     nodes = [n for f in diagnosis.effects for n in f.nodes]
-    scatter = _object_plot(ax, model, first.per_node, springs, nodes,
-                           "one-step residual force per node (N)")
+    scatter = _object_plot(ax, model, first.per_node if forces else first.per_node * 1e6,
+                           springs, nodes, "one-step residual force per node (N)" if forces
+                           else "marker error per node (µm)")
     figure.colorbar(scatter, ax=ax, shrink=0.7)
     ax = figure.add_subplot(1, 2, 2, projection="3d")
     scatter = _object_plot(ax, model, first.per_node_error * 1e3, springs, nodes,
@@ -151,7 +162,7 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
         ax.axhline(round_info["residuals"].noise_floor, color="0.5", linestyle=":",
                    linewidth=0.8)
     ax.set_xlabel("frame")
-    ax.set_ylabel("RMS residual force (N)")
+    ax.set_ylabel("RMS residual force (N)" if forces else "RMS marker error (m)")
     ax.legend()
     sections.append(("When: residual over time", figure_html(figure, "residual over time") +
                      "<p class='note'>Dotted: the noise floor.</p>"))

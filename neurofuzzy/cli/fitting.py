@@ -123,14 +123,24 @@ def diagnose(args) -> int:
     else:
         print(f"effects: {', '.join(result.names)}")
         for finding in result.effects:
-            where = (f" springs {finding.springs}" if finding.springs else "") + \
-                (f" node {finding.nodes}" if finding.nodes else "")
             print(f"  {finding.name} (confidence {finding.confidence:.2f}, runner-up "
-                  f"{finding.runner_up}){where}: {finding.parameters}")
+                  f"{finding.runner_up}){_where(finding)}: {finding.parameters}")
         print(f"RMS error: {result.rms_before:.4g} -> {result.rms_after:.4g} "
               f"(marker noise {result.noise_rms:.3g})")
         written(args.out, args.report)
     return 0
+
+
+def _where(finding) -> str:
+    """Where a located effect acts, in a few words (the JSON has the full lists)."""
+    if finding.centroid is None:
+        return ""
+    parts = [f"{len(getattr(finding, key))} {key}" for key in ("springs", "elements")
+             if getattr(finding, key)]
+    if len(finding.nodes) == 1:
+        parts.append(f"node {finding.nodes[0]}")
+    centre = ", ".join(f"{1e3 * c:.1f}" for c in finding.centroid)
+    return f" at ({centre}) mm" + (f" ({', '.join(parts)})" if parts else "")
 
 
 def _substeps(value):

@@ -13,10 +13,15 @@ Each round (DESIGN.md, "Diagnosis"):
    together with the model's own parameter templates (sparse identification of dynamics, as in
    SINDy): the Bayesian information criterion with the noise floor as variance, ``ΔBIC =
    (RSS_model - RSS_model+candidate) / σ² - k ln n``, favours the simpler explanation;
-   ``none`` when no candidate explains at least ``MIN_EXPLAINED`` of the residual with strong
-   evidence (``ΔBIC > MIN_EVIDENCE``);
+   ``none`` when no candidate explains enough of the residual (the evidence's
+   ``min_explained``) with strong evidence (``ΔBIC > MIN_EVIDENCE``);
 5. add the winner, refit everything, and keep it only if the gap (RMS above the noise floor)
    shrinks at least ``MIN_SHRINK`` times; repeat until ``none``.
+
+Element models and markers embedded anywhere are diagnosed in trajectory space instead
+(:mod:`.trajectory`): the evidence is the fitted model's free-run marker error, candidates are
+scored by the sensitivities of the error to their parameters (a linearised refit), and an
+inclusion is a region of elements with extra Young's modulus.
 """
 
 from .loop import Diagnosis, Finding, diagnose

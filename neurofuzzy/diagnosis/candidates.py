@@ -1,5 +1,7 @@
 """Candidates of the effect catalogue, proposed where the residuals point (every registered
-effect class proposes its own, :meth:`~neurofuzzy.effects.Effect.propose`)."""
+effect class proposes its own, :meth:`~neurofuzzy.effects.Effect.propose`), and the evidence
+of one-step residual forces they are scored against (:class:`Evidence`; the trajectory-space
+evidence of element models and embedded markers is :mod:`.trajectory`)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,9 @@ import numpy as np
 
 from ..effects import EFFECTS
 from ..model import SpringMassModel
-from .residuals import Samples, orthonormal, spring_templates
+from .residuals import (Residuals, Samples, model_templates, orthonormal, residual_analysis,
+                        spring_templates)
+from .scoring import Candidate, initial_params, score_candidates
 
 __all__ = ["Evidence", "propose_candidates", "inclusion_region"]
 
@@ -19,13 +23,41 @@ REGION_GAIN = 0.005
 
 @dataclass
 class Evidence:
-    """What the residuals say, for :meth:`~neurofuzzy.effects.Effect.propose`: the effects the
-    model has, the mean residual force per node, what located effects already use, and the
-    inclusion region search."""
+    """What the one-step residual forces say: for :meth:`~neurofuzzy.effects.Effect.propose`
+    the effects the model has, the mean residual force per node, what located effects already
+    use and the inclusion region search; for the diagnosis the candidates' scores and start
+    parameters."""
 
     model: SpringMassModel
     samples: Samples
     base: np.ndarray
+    analysis: Residuals | None = None
+
+    @classmethod
+    def of(cls, model, experiments, substeps: int) -> Evidence:
+        analysis = residual_analysis(model, experiments, substeps=substeps)
+        return cls(model, analysis.samples, model_templates(model, analysis.samples), analysis)
+
+    def residuals(self) -> Residuals:
+        return self.analysis
+
+    #: least fraction of the residual above the noise a candidate must explain
+    min_explained = 0.3
+
+    @property
+    def noise_rms(self) -> float:
+        """RMS marker error that noise alone explains (metres, per marker)."""
+        return self.samples.marker_noise * np.sqrt(3.0)
+
+    @property
+    def size(self) -> int:
+        return int(self.samples.force.size)
+
+    def score(self, candidates) -> list[Candidate]:
+        return score_candidates(self.model, self.samples, self.base, candidates)
+
+    def initial_params(self, effect) -> np.ndarray:
+        return initial_params(effect, self.model, self.samples, self.base)
 
     @property
     def present(self) -> set[str]:
@@ -49,13 +81,20 @@ class Evidence:
     def taken_springs(self) -> set[int]:
         return {int(j) for e in self.model.effects for j in e.springs}
 
+    @property
+    def taken_elements(self) -> set[int]:
+        return {int(k) for e in self.model.effects for k in e.elements}
+
     def inclusion_region(self, taken: set[int]) -> list[int]:
         return inclusion_region(self.model, self.samples, taken, self.base)
 
+    def element_region(self, taken: set[int]) -> list[int]:
+        """Element regions are searched in trajectory space (:mod:`.trajectory`)."""
+        return []
 
-def propose_candidates(model, samples: Samples, base: np.ndarray) -> list:
-    """Every effect of the registry, instantiated where the residuals point."""
-    evidence = Evidence(model, samples, base)
+
+def propose_candidates(model, evidence) -> list:
+    """Every effect of the registry, instantiated where the residuals (``evidence``) point."""
     return [effect for cls in EFFECTS.values() for effect in cls.propose(model, evidence)]
 
 

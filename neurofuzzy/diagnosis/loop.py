@@ -3,25 +3,27 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..serialization import json_safe
 from ..effects import SoftInclusion, StiffInclusion
-from ..experiment import Experiment, check_experiments, require_node_observations
+from ..experiment import Experiment, check_experiments
+from ..forces import tetrahedron_geometry
 from ..learn import GradientLearner
 from ..model import SpringMassModel
 from ..progress import note
-from .candidates import propose_candidates
-from .residuals import model_templates, residual_analysis
-from .scoring import Candidate, confidence, initial_params, score_candidates
+from ..serialization import json_safe
+from .candidates import Evidence, propose_candidates
+from .scoring import Candidate, confidence
+from .trajectory import TrajectoryEvidence
 
 __all__ = ["diagnose", "Diagnosis", "Finding"]
 
-#: A candidate must explain at least this fraction of the residual force above the noise…
-MIN_EXPLAINED = 0.3
-#: …with at least this much evidence (ΔBIC; 10 is "very strong" on Kass & Raftery's scale).
+#: A candidate must explain at least a fraction of the residual above the noise (the
+#: evidence's ``min_explained``: 0.3 of the one-step residual force, 0.1 of the linearised
+#: marker error) with at least this much evidence (ΔBIC; 10 is "very strong" on Kass &
+#: Raftery's scale)…
 MIN_EVIDENCE = 10.0
 #: …and refitting with it must shrink the gap above the noise floor at least this many times.
 MIN_SHRINK = 1.5
@@ -32,7 +34,12 @@ MAX_REFITS = 3
 
 @dataclass
 class Finding:
-    """An effect the diagnosis added to the model."""
+    """An effect the diagnosis added to the model.
+
+    ``springs`` or ``elements`` and ``nodes`` say where a located effect acts (an inclusion:
+    its springs or elements and their nodes; a load: its node), ``centroid`` its centre at
+    rest (metres; None for global effects).
+    """
 
     name: str
     confidence: float
@@ -45,16 +52,19 @@ class Finding:
     gap_after: float
     runner_up: str
     candidates: list
+    elements: list = field(default_factory=list)
+    centroid: list | None = None
 
     def to_dict(self) -> dict:
         out = {"name": self.name, "confidence": self.confidence, "parameters": self.parameters,
                "rms_before": self.rms_before, "rms_after": self.rms_after,
                "gap_before": self.gap_before, "gap_after": self.gap_after,
                "runner_up": self.runner_up}
-        if self.springs:
-            out["springs"] = self.springs
-        if self.nodes:
-            out["nodes"] = self.nodes
+        for key in ("springs", "elements", "nodes"):
+            if getattr(self, key):
+                out[key] = getattr(self, key)
+        if self.centroid is not None:
+            out["centroid"] = self.centroid
         return out
 
 
@@ -121,8 +131,10 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         Report each round on stderr.
     """
     experiments = check_experiments(model, experiments)
-    require_node_observations(experiments, "the diagnosis reads node accelerations from node "
-                                           "trajectories (embedded markers are not yet supported)")
+    # one-step residual forces need measured nodes; element models and embedded markers are
+    # diagnosed from the free-run marker error (trajectory space)
+    in_trajectory_space = model.has_elements or any(e.markers is not None
+                                                     for e in experiments)
 
     def say(message):
         note(progress, message)
@@ -135,28 +147,31 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
     ranked: list[Candidate] = []
     noise_rms = 0.0
     for _ in range(max_effects):
-        residuals = residual_analysis(current, experiments, substeps=steps)
-        samples = residuals.samples
-        noise_rms = samples.marker_noise * np.sqrt(3.0)
-        base = model_templates(current, samples)
-        ranked = score_candidates(current, samples, base,
-                                  propose_candidates(current, samples, base))
+        evidence = (TrajectoryEvidence if in_trajectory_space else Evidence).of(
+            current, experiments, steps)
+        noise_rms = evidence.noise_rms
+        candidates = propose_candidates(current, evidence)
+        say(f"diagnose: scoring {len(candidates)} candidates "
+            f"({', '.join(sorted({c.name for c in candidates}))})")
+        ranked = evidence.score(candidates)
         winner = ranked[0] if ranked else None
-        round_info = {"residuals": residuals, "candidates": ranked, "rms": rms, "winner": "none"}
+        round_info = {"residuals": evidence.residuals(), "candidates": ranked, "rms": rms,
+                      "winner": "none"}
         rounds.append(round_info)
-        if winner is None or winner.score < MIN_EVIDENCE or winner.explained < MIN_EXPLAINED:
+        if (winner is None or winner.score < MIN_EVIDENCE
+                or winner.explained < evidence.min_explained):
             say(f"diagnose: none (best {winner.name if winner else '-'}: explains "
                 f"{winner.explained if winner else 0:.0%}, ΔBIC {winner.score if winner else 0:.3g})")
             break
-        if not significant(rms, noise_rms, samples.force.size):
+        if not significant(rms, noise_rms, evidence.size):
             say(f"diagnose: the error ({rms:.3g}) is what marker noise ({noise_rms:.3g}) "
                 "explains; answering none")
             break
         gap_before = gap(rms, noise_rms)
         for rank, winner in enumerate(c for c in ranked[:MAX_REFITS]
                                       if c.score >= MIN_EVIDENCE
-                                      and c.explained >= MIN_EXPLAINED):
-            refit = _refit(winner, current, samples, base, experiments, substeps)
+                                      and c.explained >= evidence.min_explained):
+            refit = _refit(winner, current, evidence, experiments, substeps)
             gap_after = gap(refit.rms_error_, noise_rms)
             if gap_after * MIN_SHRINK <= gap_before:
                 break
@@ -168,12 +183,14 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         round_info["winner"] = winner.name
         added = refit.model_.effects[-1]
         others = [c for c in ranked if c is not winner]
+        nodes, centroid = where(current, added)
         findings.append(Finding(
             name=winner.name, confidence=confidence([winner, *others]),
             parameters=dict(zip(added.labels, added.params.tolist())),
-            springs=winner.springs, nodes=winner.nodes, rms_before=rms,
+            springs=winner.springs, nodes=nodes, rms_before=rms,
             rms_after=refit.rms_error_, gap_before=gap_before, gap_after=gap_after,
-            runner_up=others[0].name if others else "none", candidates=ranked))
+            runner_up=others[0].name if others else "none", candidates=ranked,
+            elements=winner.elements, centroid=centroid))
         say(f"diagnose: found {winner.name} (explains {winner.explained:.0%}); RMS "
             f"{rms:.3g} -> {refit.rms_error_:.3g}")
         current, rms, steps = refit.model_, refit.rms_error_, refit.substeps_
@@ -181,10 +198,28 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
                      noise_rms=noise_rms, candidates=ranked, rounds=rounds)
 
 
-def _refit(candidate: Candidate, model, samples, base, experiments, substeps):
+def where(model, effect) -> tuple[list[int], list[float] | None]:
+    """The nodes a located effect acts on and their centre at rest (metres): an inclusion's
+    springs' or elements' nodes, a load's node; ``([], None)`` for a global effect."""
+    if len(effect.elements):
+        geometry = tetrahedron_geometry(model.mesh)
+        corners = model.mesh.rest_positions[geometry.nodes[effect.elements]]
+        volume = geometry.volume[effect.elements]
+        centre = (corners.mean(axis=1) * volume[:, None]).sum(axis=0) / volume.sum()
+        return np.unique(geometry.nodes[effect.elements]).tolist(), centre.tolist()
+    if len(effect.springs):
+        nodes = np.unique(model.mesh.springs[effect.springs])
+    else:
+        nodes = effect.nodes
+    if not len(nodes):
+        return [], None
+    return [int(n) for n in nodes], model.mesh.rest_positions[nodes].mean(axis=0).tolist()
+
+
+def _refit(candidate: Candidate, model, evidence, experiments, substeps):
     """The model with the candidate's effect (started at its least-squares parameters),
     refitted; an inclusion's sign decides stiff or soft (the candidate is renamed)."""
-    effect = candidate.effect.with_params(initial_params(candidate.effect, model, samples, base))
+    effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
     if effect.name in ("stiff_inclusion", "soft_inclusion"):
         kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
         effect = kind(effect.params, **effect.options)

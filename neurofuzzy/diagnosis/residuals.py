@@ -76,6 +76,10 @@ class Residuals:
         Estimated standard deviation of the marker positions.
     samples : Samples
         The measured states and residual forces behind these numbers.
+    kind : {"force", "position"}
+        One-step residual forces (N; ``per_node``, ``per_frame`` and ``noise_floor`` are
+        forces), or marker errors of the free run (m; the diagnosis in trajectory space,
+        :mod:`.trajectory`).
     """
 
     force: np.ndarray
@@ -86,6 +90,7 @@ class Residuals:
     noise_floor: float
     marker_noise: float
     samples: Samples = field(repr=False, default=None)
+    kind: str = "force"
 
 
 @dataclass

@@ -22,11 +22,14 @@ class Candidate:
     effect: object = None     # the Effect to add (None for "none")
     springs: list = field(default_factory=list)
     nodes: list = field(default_factory=list)
+    elements: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "score": self.score,
-                "explained": self.explained, "springs": self.springs,
-                "nodes": self.nodes}
+        out = {"name": self.name, "score": self.score, "explained": self.explained,
+               "springs": self.springs, "nodes": self.nodes}
+        if self.elements:
+            out["elements"] = self.elements
+        return out
 
 
 def score_candidates(model, samples: Samples, base: np.ndarray,

@@ -126,7 +126,11 @@ class NonlinearStiffening(SpringEffect):
 
     @classmethod
     def propose(cls, model, evidence):
-        return [] if cls.name in evidence.present else [cls.for_model(model, [0.0])]
+        """One coefficient per spring group, for spring networks (element models carry their
+        springs at zero stiffness: stiffening of their material is not in the catalogue)."""
+        if cls.name in evidence.present or not np.any(model.spring_stiffness):
+            return []
+        return [cls.for_model(model, [0.0])]
 
     def equation(self):
         return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {self._values()}"
