@@ -1,0 +1,96 @@
+"""The diagnosis of element models from embedded surface markers: nothing, hidden gravity and a
+hidden stiffer region of elements, in noisy data of our own simulator (the continuum data of
+another solver are in tests/test_examples.py, marked slow)."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.diagnosis import diagnose
+from neurofuzzy.effects import Gravity, StiffInclusion
+from neurofuzzy.experiment import Experiment, simulate_experiment
+from neurofuzzy.mesh import from_tetra, patch_loads
+from neurofuzzy.model import SpringMassModel
+from neurofuzzy.observation import EmbeddedMarkers, embed_points
+from neurofuzzy.simulation import stability_limit
+
+E, NU, ETA, RHO = 6000.0, 0.3, 2.0, 1050.0
+SHAPE, CELL = (4, 4, 3), 0.01
+NOISE = 5e-6
+DT, FRAMES = 1e-3, 61
+
+
+def block(youngs_modulus=E):
+    mesh = from_tetra(*kuhn_block(SHAPE, CELL)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    return SpringMassModel.continuum(mesh, youngs_modulus=youngs_modulus, poisson_ratio=NU,
+                                     viscosity=ETA, density=RHO)
+
+
+def surface_markers():
+    """A 5 mm grid on the top and on the sides x = 0 and y = 0 (not on the held base)."""
+    grid = np.arange(0.0025, 0.04, 0.005)
+    heights = np.arange(0.0025, 0.03, 0.005)
+    return np.array([(x, y, 0.03) for x in grid for y in grid]
+                    + [(x, 0.0, z) for x in grid for z in heights]
+                    + [(0.0, y, z) for y in grid for z in heights])
+
+
+def measured(truth, seed=1):
+    """Noisy embedded-marker data of ``truth`` pushed by a probe on its top."""
+    load = patch_loads(truth.mesh, (0.02, 0.02, 0.03), 0.01, (0.0, 0.0, -0.05))
+    steps = int(np.ceil(DT / stability_limit(truth).max_step))
+    data = simulate_experiment(truth, dt=DT, n_frames=FRAMES, external_forces=load,
+                               substeps=steps)
+    nodes, weights, _ = embed_points(truth.mesh, surface_markers())
+    seen = np.einsum("mk,tmkj->tmj", weights, data.positions[:, nodes])
+    seen = seen + np.random.default_rng(seed).normal(0.0, NOISE, seen.shape)
+    positions = np.full_like(data.positions, np.nan)
+    positions[0] = truth.mesh.rest_positions
+    return Experiment(mesh=truth.mesh, dt=DT, positions=positions,
+                      external_forces=data.external_forces, node_mass=truth.node_mass,
+                      markers=EmbeddedMarkers(nodes=nodes, weights=weights, positions=seen),
+                      observed=np.zeros(truth.n_nodes, bool))
+
+
+def start():
+    """A start 30 % too soft, as a rule base's first guess might be."""
+    return block(0.7 * E)
+
+
+def region_centre(model, elements):
+    corners = model.mesh.rest_positions[model.mesh.tetrahedra[elements]]
+    return corners.mean(axis=(0, 1))
+
+
+def test_nothing_hidden_answers_none():
+    result = diagnose(start(), measured(block()))
+    assert result.names == ["none"]
+    assert result.rms_after < 1.5 * result.noise_rms
+
+
+@pytest.mark.slow
+def test_hidden_gravity_is_named_and_measured():
+    truth = block().with_effects(Gravity([0.0, 0.0, -9.81]))
+    result = diagnose(start(), measured(truth))
+    assert result.names[0] == "gravity"
+    g = np.array(list(result.effects[0].parameters.values()))
+    assert g[2] == pytest.approx(-9.81, rel=0.05) and np.abs(g[:2]).max() < 0.5
+    assert result.effects[0].centroid is None
+    assert result.rms_after < 1.5 * result.noise_rms < result.rms_before
+
+
+@pytest.mark.slow
+def test_hidden_stiff_region_is_found_with_its_centroid_inside():
+    truth = block()
+    geometry = truth.mesh.rest_positions[truth.mesh.tetrahedra].mean(axis=1)
+    inside = np.flatnonzero(np.all(np.abs(geometry - (0.015, 0.02, 0.015)) < 0.01, axis=1))
+    hidden = StiffInclusion.of_elements(truth, inside, 4 * E)
+    result = diagnose(start(), measured(truth.with_effects(hidden)))
+    assert result.names[0] == "stiff_inclusion"
+    finding = result.effects[0]
+    assert finding.elements and finding.nodes
+    low = truth.mesh.rest_positions[truth.mesh.tetrahedra[inside]].min(axis=(0, 1))
+    high = truth.mesh.rest_positions[truth.mesh.tetrahedra[inside]].max(axis=(0, 1))
+    assert np.all((low <= finding.centroid) & (finding.centroid <= high)), finding.centroid
+    assert finding.to_dict()["centroid"] == finding.centroid
+    assert result.rms_after < result.rms_before
