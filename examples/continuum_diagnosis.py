@@ -19,7 +19,7 @@ Then, with the command line only:
     neurofuzzy diagnose trial.npz --rules liver --tissue liver --json
 
 Run:  python examples/continuum_diagnosis.py [OUT_DIR] [--case plain|gravity|inclusion]
-      [--pitch METRES]   (needs scikit-fem; default: all three cases, 1 cm voxel cells)
+      [--pitch METRES]   (needs scikit-fem; default: all three cases, 6 mm voxel cells)
 """
 
 import json
@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum_pipeline import DT, E, ETA, FORCE, NOISE, PROBE, RADIUS, REST, RHO, SIZE
-from continuum_pipeline import marker_points
+from continuum_pipeline import DT, E, ETA, FORCE, PROBE, RADIUS, REST, RHO
+from continuum_pipeline import marker_points, write_recording
 from neurofuzzy.continuum_reference import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 
@@ -61,23 +61,9 @@ def motion(case: str, n_frames: int, points: np.ndarray) -> tuple[np.ndarray, in
 
 def write_inputs(out: Path, case: str, n_frames: int, seed: int = 1) -> float:
     """block.stl, markers.csv (mm), probe.csv; returns the peak motion (m)."""
-    import trimesh
-
     points = marker_points()
     moved, touch = motion(case, n_frames, points)
-    seen = points[None] + moved + np.random.default_rng(seed).normal(0.0, NOISE, moved.shape)
-    lines = ["# units: mm", "time,marker,x,y,z"]
-    for t in range(n_frames):
-        lines += [f"{t * DT:.4f},M{m},{1e3 * x:.5f},{1e3 * y:.5f},{1e3 * z:.5f}"
-                  for m, (x, y, z) in enumerate(seen[t])]
-    (out / "markers.csv").write_text("\n".join(lines) + "\n")
-    (out / "probe.csv").write_text(
-        "# length units: mm\ntime,x,y,z,fx,fy,fz,radius\n"
-        f"{touch * DT:g},{1e3 * PROBE[0]:g},{1e3 * PROBE[1]:g},{1e3 * PROBE[2]:g},0,0,"
-        f"{-FORCE},{1e3 * RADIUS:g}\n")
-    box = trimesh.creation.box(extents=SIZE)
-    box.apply_translation(np.array(SIZE) / 2)
-    box.export(out / "block.stl")
+    write_recording(out, points, moved, touch, seed)
     return float(np.abs(moved).max())
 
 
@@ -120,7 +106,7 @@ def describe(case: str, result: dict) -> str:
 def main(argv):
     out = Path(next((a for a in argv if not a.startswith("--")), "continuum-diagnosis"))
     cases = [argv[argv.index("--case") + 1]] if "--case" in argv else list(CASES)
-    pitch = float(argv[argv.index("--pitch") + 1]) if "--pitch" in argv else 0.01
+    pitch = float(argv[argv.index("--pitch") + 1]) if "--pitch" in argv else 0.006
     if any(case not in CASES for case in cases):
         raise SystemExit(f"--case takes one of {', '.join(CASES)}")
     n_frames = REST + 101

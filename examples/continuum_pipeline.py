@@ -71,30 +71,37 @@ def continuum_motion(poisson_ratio: float, n_frames: int, points: np.ndarray) ->
 
 def write_inputs(out: Path, poisson_ratio: float, n_frames: int, seed: int = 0) -> dict:
     """block.stl, markers.csv (mm) and probe.csv; returns the motion's size."""
-    import trimesh
-
     points = marker_points()
     motion = continuum_motion(poisson_ratio, n_frames, points)
-    rng = np.random.default_rng(seed)
-    seen = points[None] + motion + rng.normal(0.0, NOISE, motion.shape)
+    write_recording(out, points, motion, REST, seed)
+    return {"markers": len(points), "peak": float(np.abs(motion).max()),
+            "rms": float(np.sqrt(np.mean(np.sum(motion**2, axis=-1))))}
+
+
+def write_recording(out: Path, points, motion, touch: int, seed: int) -> None:
+    """What the lab has: markers.csv (mm, ``motion`` plus noise), probe.csv (the probe's
+    point, force and contact radius from frame ``touch``) and the block's surface."""
+    import trimesh
+
+    seen = points[None] + motion + np.random.default_rng(seed).normal(0.0, NOISE, motion.shape)
     lines = ["# units: mm", "time,marker,x,y,z"]
-    for t in range(n_frames):
+    for t in range(len(motion)):
         lines += [f"{t * DT:.4f},M{m},{1e3 * x:.5f},{1e3 * y:.5f},{1e3 * z:.5f}"
                   for m, (x, y, z) in enumerate(seen[t])]
     (out / "markers.csv").write_text("\n".join(lines) + "\n")
     (out / "probe.csv").write_text(
         "# length units: mm\ntime,x,y,z,fx,fy,fz,radius\n"
-        f"{REST * DT:g},{1e3 * PROBE[0]:g},{1e3 * PROBE[1]:g},{1e3 * PROBE[2]:g},0,0,"
+        f"{touch * DT:g},{1e3 * PROBE[0]:g},{1e3 * PROBE[1]:g},{1e3 * PROBE[2]:g},0,0,"
         f"{-FORCE},{1e3 * RADIUS:g}\n")
     box = trimesh.creation.box(extents=SIZE)
     box.apply_translation(np.array(SIZE) / 2)
     box.export(out / "block.stl")
-    return {"markers": len(points), "peak": float(np.abs(motion).max()),
-            "rms": float(np.sqrt(np.mean(np.sum(motion**2, axis=-1))))}
 
 
 def pipeline(out: Path, mesh_options: list[str]) -> tuple[dict, str]:
-    """The three commands; returns fit --json and the model's one-line size."""
+    """The three commands; returns fit --json and the model's one-line size. ``fit
+    --rules`` builds its own start on the experiment's mesh (elements where it has
+    tetrahedra), so a spring network is asked for again there."""
     def run(*args):
         done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *args],
                               capture_output=True, text=True, cwd=out)
@@ -106,8 +113,9 @@ def pipeline(out: Path, mesh_options: list[str]) -> tuple[dict, str]:
                   "--tissue", "liver", "--out", "model.yaml").splitlines()[0]
     run("import", "markers.csv", "--topology", "model.yaml", "--forces", "probe.csv",
         "--out", "trial.npz")
+    springs = ["--elements", "springs"] if "springs" in mesh_options else []
     fitted = json.loads(run("fit", "trial.npz", "--rules", "liver", "--tissue", "liver",
-                            "--json", "--quiet"))
+                            *springs, "--json", "--quiet"))
     return fitted, summary
 
 

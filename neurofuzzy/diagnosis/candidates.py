@@ -15,14 +15,37 @@ from .residuals import (Residuals, Samples, model_templates, orthonormal, residu
                         spring_templates)
 from .scoring import Candidate, initial_params, score_candidates
 
-__all__ = ["Evidence", "propose_candidates", "inclusion_region"]
+__all__ = ["Evidence", "TakenByEffects", "propose_candidates", "inclusion_region"]
 
 #: A spring joins (or leaves) an inclusion region when that explains this much more residual.
 REGION_GAIN = 0.005
 
 
+class TakenByEffects:
+    """What a model's effects already have (for :meth:`~neurofuzzy.effects.Effect.propose`):
+    their names and the nodes, springs and elements located effects use."""
+
+    model: SpringMassModel
+
+    @property
+    def present(self) -> set[str]:
+        return {e.name for e in self.model.effects}
+
+    @property
+    def taken_nodes(self) -> set[int]:
+        return {int(n) for e in self.model.effects for n in e.nodes}
+
+    @property
+    def taken_springs(self) -> set[int]:
+        return {int(j) for e in self.model.effects for j in e.springs}
+
+    @property
+    def taken_elements(self) -> set[int]:
+        return {int(k) for e in self.model.effects for k in e.elements}
+
+
 @dataclass
-class Evidence:
+class Evidence(TakenByEffects):
     """What the one-step residual forces say: for :meth:`~neurofuzzy.effects.Effect.propose`
     the effects the model has, the mean residual force per node, what located effects already
     use and the inclusion region search; for the diagnosis the candidates' scores and start
@@ -60,10 +83,6 @@ class Evidence:
         return initial_params(effect, self.model, self.samples, self.base)
 
     @property
-    def present(self) -> set[str]:
-        return {e.name for e in self.model.effects}
-
-    @property
     def mean_force(self) -> np.ndarray:
         """(n_nodes, 3) mean residual force of every node over the frames and experiments."""
         mean_force = np.zeros((self.model.n_nodes, 3))
@@ -72,18 +91,6 @@ class Evidence:
             mean_force[rows] += data["residual"][:, rows].mean(axis=0) / len(
                 self.samples.experiment)
         return mean_force
-
-    @property
-    def taken_nodes(self) -> set[int]:
-        return {int(n) for e in self.model.effects for n in e.nodes}
-
-    @property
-    def taken_springs(self) -> set[int]:
-        return {int(j) for e in self.model.effects for j in e.springs}
-
-    @property
-    def taken_elements(self) -> set[int]:
-        return {int(k) for e in self.model.effects for k in e.elements}
 
     def inclusion_region(self, taken: set[int]) -> list[int]:
         return inclusion_region(self.model, self.samples, taken, self.base)

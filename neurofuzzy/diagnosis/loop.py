@@ -171,7 +171,8 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         for rank, winner in enumerate(c for c in ranked[:MAX_REFITS]
                                       if c.score >= MIN_EVIDENCE
                                       and c.explained >= evidence.min_explained):
-            refit = _refit(winner, current, evidence, experiments, substeps)
+            refit = _refit(winner, current, evidence, experiments, substeps,
+                           staged=not in_trajectory_space)
             gap_after = gap(refit.rms_error_, noise_rms)
             if gap_after * MIN_SHRINK <= gap_before:
                 break
@@ -216,15 +217,18 @@ def where(model, effect) -> tuple[list[int], list[float] | None]:
     return [int(n) for n in nodes], model.mesh.rest_positions[nodes].mean(axis=0).tolist()
 
 
-def _refit(candidate: Candidate, model, evidence, experiments, substeps):
+def _refit(candidate: Candidate, model, evidence, experiments, substeps, staged=True):
     """The model with the candidate's effect (started at its least-squares parameters),
-    refitted; an inclusion's sign decides stiff or soft (the candidate is renamed)."""
+    refitted; an inclusion's sign decides stiff or soft (the candidate is renamed). From
+    markers (``staged=False``) the refit starts from the fitted model and the linearised
+    step, so it fits the whole recording at once rather than growing beginnings of it."""
     effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
     if effect.name in ("stiff_inclusion", "soft_inclusion"):
         kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
         effect = kind(effect.params, **effect.options)
         candidate.name = effect.name
-    return GradientLearner(substeps=substeps).fit(model.with_effects(effect), experiments)
+    learner = GradientLearner(substeps=substeps, windows=None if staged else ())
+    return learner.fit(model.with_effects(effect), experiments)
 
 
 def significant(rms: float, noise_rms: float, n: int) -> bool:

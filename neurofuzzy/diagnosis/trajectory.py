@@ -33,6 +33,7 @@ import numpy as np
 from ..effects import StiffInclusion
 from ..forces import tetrahedron_geometry
 from ..learn import Parameterization, Sensitivity
+from .candidates import TakenByEffects
 from .residuals import Residuals, marker_noise, orthonormal
 from .scoring import Candidate, residual_sum_of_squares
 
@@ -77,7 +78,7 @@ def _blocks(model, taken: set[int]) -> _Blocks:
 
 
 @dataclass
-class TrajectoryEvidence:
+class TrajectoryEvidence(TakenByEffects):
     """What the free-run marker error of a fitted model says.
 
     Attributes
@@ -143,23 +144,7 @@ class TrajectoryEvidence:
             own[block] = False
         return residual, [jacobian[:, own]] + [jacobian[:, block] for block in added]
 
-    # -- what Effect.propose asks ---------------------------------------------------------------
-    @property
-    def present(self) -> set[str]:
-        return {e.name for e in self.model.effects}
-
-    @property
-    def taken_nodes(self) -> set[int]:
-        return {int(n) for e in self.model.effects for n in e.nodes}
-
-    @property
-    def taken_springs(self) -> set[int]:
-        return {int(j) for e in self.model.effects for j in e.springs}
-
-    @property
-    def taken_elements(self) -> set[int]:
-        return {int(k) for e in self.model.effects for k in e.elements}
-
+    # -- what Effect.propose asks (beside TakenByEffects) ----------------------------------------
     @property
     def mean_force(self) -> np.ndarray:
         """(n_nodes, 3): where a steady push would shrink the error, from the mean marker
