@@ -197,8 +197,11 @@ class TrajectoryEvidence(TakenByEffects):
         sensitivities with and without each candidate's."""
         if not candidates:
             return []
-        _, columns = self._sensitivities(candidates)
-        self._candidate_columns = dict(zip(map(id, candidates), columns[1:]))
+        self._candidate_columns = {}
+        for group in self._passes(candidates):
+            _, columns = self._sensitivities(group)
+            self._candidate_columns.update(zip(map(id, group), columns[1:]))
+        columns = [None] + [self._candidate_columns[id(c)] for c in candidates]
         target = self.residual
         n = target.size
         sigma2 = max(self.noise, 1e-12 * float(np.abs(target).max() or 1.0)) ** 2
@@ -217,6 +220,16 @@ class TrajectoryEvidence(TakenByEffects):
                 elements=[int(k) for k in effect.elements]))
         scored.sort(key=lambda c: -c.score)
         return scored
+
+    def _passes(self, candidates) -> list[list]:
+        """Candidates grouped into forward passes: all that the compiled kernel runs in one,
+        each of the others (numpy path) alone, so one of them does not slow the rest."""
+        compiled, alone = [], []
+        for effect in candidates:
+            probe = Parameterization(self.model.with_effects(effect))
+            fast = Sensitivity(probe, self.length_unit).compiled
+            (compiled if fast else alone).append(effect)
+        return ([compiled] if compiled else []) + [[effect] for effect in alone]
 
     def initial_params(self, effect) -> np.ndarray:
         """The candidate's parameters of the linearised refit (the Gauss–Newton step)."""

@@ -8,8 +8,8 @@ files and the diagnosis pick it up from the registry (the diagnosis asks every r
 for candidates through :meth:`Effect.propose`).
 
 Modules: :mod:`.base` (the interface, the registry, model-file form), :mod:`.nodes` (gravity,
-node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.inclusions`
-(regions of springs or of tetrahedral elements).
+node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.stiffening` (springs or elements that
+stiffen with strain), :mod:`.inclusions` (regions of springs or of tetrahedral elements).
 
 =====================  ====================================================  ===============
 name                   force on node i                                        parameters
@@ -19,7 +19,8 @@ node_drag              ``-b v_i`` (viscous drag of the surrounding medium)    ``
 stiff_inclusion        springs ``R`` get ``k (l - L0) u`` extra, k > 0;       ``k`` per group;
                        elements ``R`` get Young's modulus ``E + δ``, δ > 0    ``δ`` (Pa)
 soft_inclusion         the same with k < 0 (k > -s), δ < 0                    as above
-nonlinear_stiffening   every spring gets ``κ (l - L0)³ / L0² u`` extra        ``κ`` per group
+nonlinear_stiffening   every spring gets ``κ (l - L0)³ / L0² u`` extra;      ``κ`` per group;
+                       every element the stress ``2 κ (G:G) G`` extra        ``κ`` (Pa)
 unmodeled_load         a constant force ``f`` at one node                     ``f`` (3,)
 =====================  ====================================================  ===============
 """
@@ -27,7 +28,8 @@ unmodeled_load         a constant force ``f`` at one node                     ``
 from .base import EFFECTS, Effect, effect_from_dict, effect_to_dict, register
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .inclusions import SoftInclusion, StiffInclusion
-from .springs import NonlinearStiffening, SpringEffect
+from .springs import SpringEffect
+from .stiffening import NonlinearStiffening
 
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
            "NonlinearStiffening", "UnmodeledLoad", "EFFECTS", "register", "effect_to_dict",

@@ -1,5 +1,5 @@
-"""Effects along springs: :class:`SpringEffect` (a central force with one coefficient per
-spring group) and :class:`NonlinearStiffening`."""
+"""Effects along springs: :class:`SpringEffect`, a central force with one coefficient per
+spring group (the base of :class:`~.stiffening.NonlinearStiffening` and of the inclusions)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from typing import ClassVar
 import numpy as np
 
 from ..forces import SPRINGS, central_jvp, central_vjp, incidence
-from .base import Effect, register
+from .base import Effect
 
-__all__ = ["SpringEffect", "NonlinearStiffening"]
+__all__ = ["SpringEffect"]
 
 
 class SpringEffect(Effect):
@@ -110,29 +110,3 @@ class SpringEffect(Effect):
             chosen = selection[model.mesh.spring_group[selection] == group]
             out[label] = float(value / np.mean(model.spring_stiffness[chosen]))
         return out
-
-
-@register
-class NonlinearStiffening(SpringEffect):
-    """Spring force grows faster than linear: ``κ (l - L0)³ / L0²`` extra (κ per group, N/m);
-    relative to the spring's stiffness, ``β = κ / s``: ``f = s (l - L0) [1 + β ((l - L0)/L0)²]``."""
-
-    name = "nonlinear_stiffening"
-    coefficient = "kappa"
-
-    def shape(self, model, state, selection):
-        rest2 = model.spring_rest_length[selection] ** 2
-        return state.stretch**3 / rest2, 3 * state.stretch**2 / rest2
-
-    @classmethod
-    def propose(cls, model, evidence):
-        """One coefficient per spring group, for spring networks (element models carry their
-        springs at zero stiffness: stiffening of their material is not in the catalogue)."""
-        if cls.name in evidence.present or not np.any(model.spring_stiffness):
-            return []
-        return [cls.for_model(model, [0.0])]
-
-    def equation(self):
-        return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {self._values()}"
-
-

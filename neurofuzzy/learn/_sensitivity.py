@@ -88,6 +88,13 @@ class Sensitivity:
             self.element_slice = slice(parameters.blocks[ELEMENT_BLOCKS[0]].start,
                                        parameters.blocks[ELEMENT_BLOCKS[-1]].stop)
 
+    @property
+    def compiled(self) -> bool:
+        """Do forward passes run in the compiled kernel (numba, and every force term of the
+        model one it computes)?"""
+        return self.backend != "numpy" and compiled_possible(self.parameters,
+                                                             self.parameters.base)
+
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
     def _force(model, p, v, state) -> np.ndarray:

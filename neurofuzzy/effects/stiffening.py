@@ -1,0 +1,133 @@
+"""Nonlinear stiffening: the material grows stiffer with strain, as soft tissue does.
+
+On a spring network every spring pulls ``κ (l - L0)³ / L0²`` extra (κ per spring group, N/m).
+On a tetrahedral-element model every element gains the strain energy
+``W = ½ κ V (G:G)²`` (κ in Pa, one value), i.e. the extra second Piola–Kirchhoff stress
+``S = 2 κ (G:G) G`` with ``G`` the Green strain: quartic in the strain, so nothing changes at
+small strain, and independent of the model's own E, ν and η (their derivatives stay exact when
+both are fitted). The force is conservative, so its position Jacobian is symmetric: the
+state VJP is the JVP of the cotangent.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..forces import TETRAHEDRA, tetrahedron_geometry
+from .base import Effect, register
+from .springs import SpringEffect
+
+__all__ = ["NonlinearStiffening"]
+
+
+def _sym(matrix):
+    return 0.5 * (matrix + np.swapaxes(matrix, -1, -2))
+
+
+@register
+class NonlinearStiffening(SpringEffect):
+    """Spring force grows faster than linear: ``κ (l - L0)³ / L0²`` extra (κ per group, N/m);
+    relative to the spring's stiffness, ``β = κ / s``: ``f = s (l - L0) [1 + β ((l - L0)/L0)²]``.
+    On elements (``on="elements"``, one κ in Pa): extra stress ``2 κ (G:G) G``."""
+
+    name = "nonlinear_stiffening"
+    coefficient = "kappa"
+
+    def __init__(self, params, *, on: str = "springs", **options):
+        if on not in ("springs", "elements"):
+            raise InputError(f"got {on!r}; nonlinear_stiffening acts on 'springs' or "
+                             "'elements'", key="on")
+        if on == "springs":
+            super().__init__(params, **options)
+            return
+        if options:
+            raise InputError(f"nonlinear_stiffening on elements takes no options "
+                             f"({', '.join(sorted(options))})", key="on")
+        Effect.__init__(self, params, on="elements")
+
+    @property
+    def on_elements(self) -> bool:
+        return self.options.get("on") == "elements"
+
+    @property
+    def labels(self):
+        return ("kappa",) if self.on_elements else super().labels
+
+    @property
+    def unit(self):
+        """Pa for elements, N/m for springs (exponents of length, time, mass)."""
+        return (-1, -2, 1) if self.on_elements else (0, -2, 1)
+
+    def shape(self, model, state, selection):
+        rest2 = model.spring_rest_length[selection] ** 2
+        return state.stretch**3 / rest2, 3 * state.stretch**2 / rest2
+
+    @classmethod
+    def propose(cls, model, evidence):
+        """One coefficient per spring group on spring networks, one κ on element models."""
+        if cls.name in evidence.present:
+            return []
+        if model.has_elements and not np.any(model.spring_stiffness):
+            return [cls([0.0], on="elements")]
+        return [cls.for_model(model, [0.0])]
+
+    # -- elements -----------------------------------------------------------------------------
+    def _strain(self, model, positions):
+        geometry = tetrahedron_geometry(model.mesh)
+        F = geometry.edges(positions) @ geometry.inverse_rest
+        green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
+        return geometry, F, green
+
+    def _element_force(self, model, positions, kappa):
+        geometry, F, green = self._strain(model, positions)
+        squared = np.einsum("kij,kij->k", green, green)
+        stress = 2.0 * kappa * squared[:, None, None] * green
+        return geometry.scatter(TETRAHEDRA._columns(geometry, F @ stress), len(positions))
+
+    def force(self, model, positions, velocities):
+        if not self.on_elements:
+            return super().force(model, positions, velocities)
+        return self._element_force(model, positions, self.params[0])
+
+    def parameter_jacobian(self, model, positions, velocities):
+        if not self.on_elements:
+            return super().parameter_jacobian(model, positions, velocities)
+        return self._element_force(model, positions, 1.0)[:, None, :]
+
+    def state_jvp(self, model, positions, velocities, dp, dv):
+        if not self.on_elements:
+            return super().state_jvp(model, positions, velocities, dp, dv)
+        geometry, F, green = self._strain(model, positions)
+        kappa = self.params[0]
+        squared = np.einsum("kij,kij->k", green, green)[:, None, None, None]
+        dF = geometry.edges(dp) @ geometry.inverse_rest[:, None]          # (K, P, 3, 3)
+        F, green = F[:, None], green[:, None]
+        d_green = _sym(np.swapaxes(F, -1, -2) @ dF)
+        inner = np.einsum("kpij,kpij->kp", green, d_green)[..., None, None]
+        stress = 2.0 * kappa * squared * green
+        d_stress = 2.0 * kappa * (2.0 * inner * green + squared * d_green)
+        d_piola = dF @ stress + F @ d_stress
+        return geometry.scatter(TETRAHEDRA._columns(geometry, d_piola), len(positions))
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        if not self.on_elements:
+            return super().state_vjp(model, positions, velocities, cotangent)
+        # conservative: ∂F/∂p is symmetric, so (∂F/∂p)ᵀ λ = (∂F/∂p) λ; no velocity part
+        lam_p = self.state_jvp(model, positions, velocities, cotangent[:, None, :],
+                               np.zeros_like(cotangent)[:, None, :])[:, 0]
+        return lam_p, np.zeros_like(cotangent)
+
+    def relative(self, model) -> dict[str, float]:
+        """κ per group relative to its springs' stiffness, or to the elements' mean shear
+        modulus ``μ``."""
+        if not self.on_elements:
+            return super().relative(model)
+        shear = model.element_youngs_modulus / (2.0 * (1.0 + model.element_poisson_ratio))
+        return {"kappa": float(self.params[0] / np.mean(shear))}
+
+    def equation(self):
+        if self.on_elements:
+            return (f"nonlinear_stiffening: S += 2 κ (G:G) G on every element; "
+                    f"κ = {self.params[0]:.4g} Pa")
+        return f"nonlinear_stiffening: f += κ (l - L0)³ / L0²; {self._values()}"
