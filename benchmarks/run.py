@@ -16,7 +16,9 @@ Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
    runs it, with the equation-error start);
 4. per-spring identification: all 86 stiffnesses and viscosities of the cube from two load
    cases made by RK4 at a 10x finer step (median relative error, target < 1 %);
-5. per-spring fit of a 10,000-spring mesh built with from_trimesh (target < 60 s), peak memory.
+5. per-spring fit of a 10,000-spring mesh built with from_trimesh (target < 60 s), peak memory;
+6. per-spring identification against scipy's least_squares with finite differences, one and two
+   load cases, and where the time goes (benchmarks/identification.py; full run only).
 """
 
 from __future__ import annotations
@@ -44,6 +46,9 @@ from neurofuzzy.learn import GradientLearner, PaperLearner, estimate_start  # no
 from neurofuzzy.mesh import bottom_layer, from_tetra, from_trimesh, lattice  # noqa: E402
 from neurofuzzy.model import SpringMassModel  # noqa: E402
 from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from identification import bench_identification  # noqa: E402
 
 
 def timed(function, repeat=1):
@@ -317,6 +322,8 @@ def main(argv=None):
     if not args.quick:
         sections.append(lambda: bench_per_spring_cube(results))
     sections.append(lambda: bench_large_fit(results, args.quick))
+    if not args.quick:
+        sections.append(lambda: bench_identification(results))
     for section in sections:
         for row in section():
             rows.append(row)

@@ -1,4 +1,4 @@
-"""Exact-gradient learner: trust-region Gauss–Newton or L-BFGS on the discrete simulator, with
+"""Exact-gradient learner: Levenberg–Marquardt (Gauss–Newton) or L-BFGS on the discrete simulator, with
 multiple shooting.
 
 The objective is the paper's error ``E`` (eq. 2.2) over all experiments, with lengths in units
@@ -12,11 +12,13 @@ minimises the free-running error that :func:`rms_error` reports.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
+from scipy.optimize import minimize
 
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, rms_error
@@ -24,6 +26,7 @@ from ..model import SpringMassModel
 from ..simulation import check_substeps, stability_limit
 from ..progress import Progress
 from ._base import Learner
+from ._lm import levenberg_marquardt
 from ._parameters import Parameterization
 from ._sensitivity import Sensitivity
 from .identifiability import analyse, structurally_unidentifiable
@@ -41,6 +44,16 @@ DEFAULT_WINDOW = 25
 
 #: Residuals (in spring lengths) beyond this mean the simulation diverged.
 DIVERGED = 1e6
+
+
+def _side_by_side(sensitivity, run, experiments, starts) -> list:
+    """``run(experiment, starts)`` for every experiment: in threads, one per core, when the
+    compiled kernel (which releases the GIL) does the work; one after the other otherwise."""
+    workers = min(len(experiments), os.cpu_count() or 1)
+    if workers < 2 or not sensitivity.compiled:
+        return [run(e, s) for e, s in zip(experiments, starts)]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(run, experiments, starts))
 
 
 def _stable_start(model: SpringMassModel, h: float) -> SpringMassModel:
@@ -96,7 +109,7 @@ class GradientLearner(Learner):
         stage on the whole trajectory; ``None`` means ``(25,)``, ``()`` none. Windows need every
         free node observed; otherwise only the whole trajectory is used.
     method : {"auto", "lm", "lbfgs"}
-        Trust-region Gauss–Newton with the full Jacobian (``"lm"``), L-BFGS-B with the adjoint
+        Levenberg–Marquardt on the normal equations of the full Jacobian (``"lm"``, :mod:`._lm`), L-BFGS-B with the adjoint
         gradient (``"lbfgs"``), or the first when the Jacobian fits in memory.
     max_iterations : int
         Function evaluations (``"lm"``) or iterations (``"lbfgs"``) per stage.
@@ -292,8 +305,8 @@ class GradientLearner(Learner):
         self.n_cycles_ += 1
 
     def _residuals(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:
-        runs = [sensitivity.run(theta, e, substeps=substeps, starts=s)
-                for e, s in zip(experiments, starts)]
+        runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
+            theta, e, substeps=substeps, starts=s), experiments, starts)
         self._record(runs, sensitivity.length_unit)
         residuals = np.concatenate([run.residuals.ravel() for run in runs])
         if not np.all(np.abs(residuals) < DIVERGED):
@@ -301,9 +314,9 @@ class GradientLearner(Learner):
         return residuals
 
     def _jacobian(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:
-        blocks = [sensitivity.run(theta, e, substeps=substeps, starts=s,
-                                  tangents=True).jacobian.reshape(-1, theta.size)
-                  for e, s in zip(experiments, starts)]
+        blocks = [run.jacobian.reshape(-1, theta.size) for run in _side_by_side(
+            sensitivity, lambda e, s: sensitivity.run(theta, e, substeps=substeps, starts=s,
+                                                      tangents=True), experiments, starts)]
         self.n_cycles_ += 1
         jacobian = np.concatenate(blocks)
         return np.where(np.abs(jacobian) < DIVERGED**2, jacobian, 0.0)
@@ -315,14 +328,12 @@ class GradientLearner(Learner):
             values[active] = x
             return values
 
-        result = least_squares(
+        result = levenberg_marquardt(
             lambda x: self._residuals(sensitivity, experiments, full(x), starts, substeps),
-            theta[active],
-            jac=lambda x: self._jacobian(sensitivity, experiments, full(x), starts,
-                                         substeps)[:, active],
-            bounds=(lower[active], upper[active]), method="trf", x_scale="jac",
-            ftol=self.tolerance, xtol=self.tolerance, gtol=self.tolerance,
-            max_nfev=int(self.max_iterations))
+            lambda x: self._jacobian(sensitivity, experiments, full(x), starts,
+                                     substeps)[:, active],
+            theta[active], lower[active], upper[active],
+            max_evaluations=int(self.max_iterations), tolerance=self.tolerance)
         return full(result.x)
 
     def _solve_lbfgs(self, sensitivity, experiments, theta, starts, substeps, lower, upper,

@@ -1,0 +1,123 @@
+"""Per-spring identification of the cube against what a practitioner would write.
+
+Every stiffness and viscosity of the paper's cube (172 unknowns) from RK4 data (10 substeps
+per frame, another integrator than ours): ``neurofuzzy``'s gradient learner (exact forward
+sensitivities, Levenberg–Marquardt, Richardson over two substep levels) with one and with two
+load cases, against ``scipy.optimize.least_squares`` with 2-point finite differences on the
+plain numpy simulator, at the finer of our two substep levels, from the same start, in the
+same run. Also where our time goes: simulations (residuals), sensitivities (Jacobians) and
+the solver's linear algebra, from a profile of the fit.
+
+Run on its own:  python benchmarks/identification.py [--skip-fd]
+"""
+
+from __future__ import annotations
+
+import cProfile
+import pstats
+import sys
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from neurofuzzy import simulate
+from neurofuzzy.datasets import CUBE, per_spring_cube
+from neurofuzzy.errors import NeurofuzzyError
+from neurofuzzy.learn import GradientLearner
+
+
+def _errors(fitted, truth, moving):
+    stiffness = np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]
+    damping = np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]
+    return float(np.median(stiffness)), float(np.median(damping))
+
+
+def _profiled_fit(start, data):
+    """The fit, its seconds and the split of its time (s) by what it did."""
+    profile = cProfile.Profile()
+    began = time.perf_counter()
+    profile.enable()
+    learner = GradientLearner(substeps="auto").fit(start, data)
+    profile.disable()
+    seconds = time.perf_counter() - began
+    stats = pstats.Stats(profile).stats
+    cumulative = {}
+    for (filename, _, function), (_, _, _, total, _) in stats.items():
+        if filename.endswith("gradient.py") and function in ("_residuals", "_jacobian"):
+            cumulative[function] = cumulative.get(function, 0.0) + total
+        if filename.endswith("_lm.py") and function == "levenberg_marquardt":
+            cumulative["solver"] = cumulative.get("solver", 0.0) + total
+    simulation = cumulative.get("_residuals", 0.0)
+    sensitivities = cumulative.get("_jacobian", 0.0)
+    algebra = max(cumulative.get("solver", 0.0) - simulation - sensitivities, 0.0)
+    return learner, seconds, {"simulation": simulation, "sensitivities": sensitivities,
+                              "linear_algebra": algebra,
+                              "other": max(seconds - simulation - sensitivities - algebra, 0)}
+
+
+def _finite_differences(start, data, substeps):
+    """scipy's least_squares, 2-point finite differences, on log parameters; the plain numpy
+    simulator at ``substeps``; returns (model, seconds, simulations)."""
+    tracked = data.tracked()
+    calls = [0]
+    n = start.n_springs
+
+    def model(x):
+        return start.replace(spring_stiffness=np.exp(x[:n]), spring_damping=np.exp(x[n:]))
+
+    def residuals(x):
+        calls[0] += 1
+        try:
+            run = simulate(model(x), dt=data.dt, n_frames=data.n_frames,
+                           external_forces=data.external_forces, substeps=substeps,
+                           check_stability=False, backend="numpy")
+        except NeurofuzzyError:                    # diverged: a cost the solver rejects
+            return np.full(int(tracked.sum()) * 3 * (data.n_frames - 1), 1e3)
+        error = (run.positions - data.positions)[1:, tracked] / CUBE["edge_length"]
+        return np.where(np.isfinite(error), error, 1e3).ravel()
+
+    x0 = np.log(np.concatenate([start.spring_stiffness, start.spring_damping]))
+    began = time.perf_counter()
+    solution = least_squares(residuals, x0, x_scale="jac")
+    return model(solution.x), time.perf_counter() - began, calls[0]
+
+
+def bench_identification(results, skip_fd=False):
+    base, truth, data = per_spring_cube(seed=0)
+    start = base.tied("none")
+    moving = base.mesh.free[base.mesh.springs].any(axis=1)
+    rows, entry = [], {}
+    for cases in (1, 2):
+        learner, seconds, split = _profiled_fit(start, data[:cases])
+        stiffness, damping = _errors(learner.model_, truth, moving)
+        entry[f"ours_{cases}"] = {"seconds": seconds, "cycles": learner.n_cycles_,
+                                  "substeps": learner.substeps_,
+                                  "median_stiffness_error": stiffness,
+                                  "median_damping_error": damping, "time_split": split}
+        shares = ", ".join(f"{k.replace('_', ' ')} {v:.1f} s" for k, v in split.items())
+        rows.append((f"per-spring cube, {cases} load case(s): gradient learner",
+                     f"{seconds:.1f} s, {learner.n_cycles_} simulations, median error "
+                     f"stiffness {stiffness:.3%}, viscosity {damping:.3%} ({shares})"))
+    if not skip_fd:
+        substeps = entry["ours_1"]["substeps"]
+        fitted, seconds, calls = _finite_differences(start, data[0], substeps)
+        stiffness, damping = _errors(fitted, truth, moving)
+        ratio = seconds / entry["ours_1"]["seconds"]
+        entry["fd_least_squares_1"] = {"seconds": seconds, "simulations": calls,
+                                       "substeps": substeps,
+                                       "median_stiffness_error": stiffness,
+                                       "median_damping_error": damping,
+                                       "speedup_of_ours": ratio}
+        rows.append(("  least_squares + finite differences, 1 load case",
+                     f"{seconds:.0f} s, {calls} simulations at {substeps} substeps, median "
+                     f"error stiffness {stiffness:.3%}, viscosity {damping:.3%}; ours "
+                     f"{ratio:.1f}x faster"))
+    results["identification"] = entry
+    return rows
+
+
+if __name__ == "__main__":
+    found = {}
+    for name, value in bench_identification(found, skip_fd="--skip-fd" in sys.argv):
+        print(f"{name:<52} {value}", flush=True)

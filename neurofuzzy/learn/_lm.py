@@ -1,0 +1,128 @@
+"""Levenberg–Marquardt on the normal equations, for the gradient learner.
+
+scipy's ``least_squares(method="trf")`` decomposes the dense Jacobian (an SVD of m × n) at
+every iteration; with m ≈ 10⁴ residuals and n ≈ 10² parameters that SVD was most of a fit.
+Here each iteration forms ``JᵀJ`` (n × n) once and solves the damped normal equations
+``(JᵀJ + μ D) δ = -Jᵀr`` (``D`` = diag(JᵀJ), Marquardt's scaling, so the step does not depend
+on the parameters' units) by Cholesky, for as many trial ``μ`` as a rejected step needs. The
+squared condition number of ``JᵀJ`` is harmless here: its eigenvalues are damped by ``μ D``,
+and the parameters the data cannot determine are reported by the identifiability analysis,
+not resolved by the solver.
+
+BLAS runs on one thread here: the matrices are small (n × n, n ≈ 10²), and a multithreaded
+Cholesky of them took 70 ms instead of 0.2 ms on a 2-core machine with another job running.
+
+Stopping: the relative cost change or the relative step below ``tolerance`` (as before), or a
+step that is statistically nothing, every parameter moving less than ``STEP_OF_STD_ERROR`` of
+its standard error (``σ² (JᵀJ)⁻¹`` with ``σ²`` the residual variance). On exact data the
+standard errors shrink with the residual, so this never stops a fit early; on noisy data, or
+for a model that lacks an effect, it ends the long plateaus where the cost creeps down by
+amounts far below anything the data can tell apart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from threadpoolctl import threadpool_limits
+
+#: A step smaller than this fraction of every parameter's standard error ends the fit.
+STEP_OF_STD_ERROR = 0.01
+#: Starting damping relative to the largest diagonal entry of ``JᵀJ``.
+INITIAL_DAMPING = 1e-3
+
+
+@dataclass
+class Solution:
+    x: np.ndarray
+    cost: float
+    evaluations: int
+    reason: str
+
+
+def _damped_step(normal, gradient, damping):
+    """``δ`` solving ``(JᵀJ + μ D) δ = -Jᵀr``; None when the matrix is not positive definite."""
+    diagonal = np.diag(normal).copy()
+    diagonal[diagonal <= 0] = max(float(diagonal.max(initial=0.0)), 1.0) * 1e-12
+    matrix = normal + damping * np.diag(diagonal)
+    try:
+        factor = scipy.linalg.cho_factor(matrix, check_finite=False)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    step = -scipy.linalg.cho_solve(factor, gradient, check_finite=False)
+    return step if np.all(np.isfinite(step)) else None
+
+
+def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluations: int,
+                        tolerance: float) -> Solution:
+    """Minimise ``½‖r(x)‖²`` within the box ``[lower, upper]`` (steps are clipped to it).
+
+    ``residuals(x)`` returns r (m,), ``jacobian(x)`` returns J (m, n). ``max_evaluations``
+    bounds the residual evaluations (as ``max_nfev`` did).
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance)
+
+
+def _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance) -> Solution:
+    x = np.clip(np.asarray(x0, float), lower, upper)
+    r = residuals(x)
+    cost = 0.5 * float(r @ r)
+    evaluations = 1
+    if not np.isfinite(cost):
+        return Solution(x, cost, evaluations, "the start is not finite")
+    J = jacobian(x)
+    normal = J.T @ J
+    damping = INITIAL_DAMPING
+    while True:
+        gradient = J.T @ r
+        while True:
+            if evaluations >= max_evaluations:
+                return Solution(x, cost, evaluations, "evaluation limit")
+            step = _damped_step(normal, gradient, damping)
+            if step is None:
+                damping *= 10.0
+                if damping > 1e16:
+                    return Solution(x, cost, evaluations, "no descent direction")
+                continue
+            trial = np.clip(x + step, lower, upper)
+            step = trial - x
+            r_trial = residuals(trial)
+            evaluations += 1
+            cost_trial = 0.5 * float(r_trial @ r_trial)
+            predicted = -(gradient @ step + 0.5 * step @ normal @ step)
+            if np.isfinite(cost_trial) and cost_trial < cost:
+                break
+            damping *= 4.0
+            if damping > 1e16 or not np.any(step):
+                return Solution(x, cost, evaluations, "no step lowers the cost")
+        ratio = (cost - cost_trial) / predicted if predicted > 0 else 0.0
+        damping *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
+        decrease = cost - cost_trial
+        x, r, cost = trial, r_trial, cost_trial
+        if decrease <= tolerance * cost or (np.linalg.norm(step)
+                                             <= tolerance * (tolerance + np.linalg.norm(x))):
+            return Solution(x, cost, evaluations, "converged")
+        J = jacobian(x)
+        normal = J.T @ J
+        if _insignificant(step, normal, cost, len(r)):
+            return Solution(x, cost, evaluations, "step below the standard errors")
+
+
+def _insignificant(step, normal, cost, m) -> bool:
+    """Is every component of ``step`` below ``STEP_OF_STD_ERROR`` of its standard error
+    (``normal`` = JᵀJ, ``m`` residuals)?"""
+    n = len(step)
+    if m <= n or not np.any(step):
+        return False
+    variance = 2.0 * cost / (m - n)
+    try:
+        values, vectors = np.linalg.eigh(normal)
+    except np.linalg.LinAlgError:
+        return False
+    # directions the data cannot determine have (near) zero eigenvalues: infinite errors
+    values = np.maximum(values, max(float(values.max()), 1e-300) * 1e-14)
+    errors = np.sqrt(variance * np.einsum("ij,j,ij->i", vectors, 1.0 / values, vectors))
+    return bool(np.all(np.abs(step) <= STEP_OF_STD_ERROR * errors))
