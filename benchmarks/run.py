@@ -14,8 +14,7 @@ Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
 3. fitting the cube's tied constants to 0.1 %: the paper's learner, scipy's least_squares with
    finite differences on our simulator, and ours (from the same start, and as `neurofuzzy fit`
    runs it, with the equation-error start);
-4. per-spring identification: all 86 stiffnesses and viscosities of the cube from two load
-   cases made by RK4 at a 10x finer step (median relative error, target < 1 %);
+4. (per-spring identification of the cube: section 6)
 5. per-spring fit of a 10,000-spring mesh built with from_trimesh (target < 60 s), peak memory;
 6. per-spring identification against scipy's least_squares with finite differences, one and two
    load cases, and where the time goes (benchmarks/identification.py; full run only).
@@ -40,7 +39,7 @@ from scipy.optimize import least_squares  # noqa: E402
 
 from neurofuzzy import simulate  # noqa: E402
 from neurofuzzy.datasets import (CUBE, kuhn_block, paper_cube_experiment,  # noqa: E402
-                                 paper_cube_model, per_spring_cube)
+                                 paper_cube_model)
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
 from neurofuzzy.learn import GradientLearner, PaperLearner, estimate_start  # noqa: E402
 from neurofuzzy.mesh import bottom_layer, from_tetra, from_trimesh, lattice  # noqa: E402
@@ -249,25 +248,6 @@ def bench_tied_fit(results):
     ]
 
 
-# -- 4. per-spring constants of the cube, two load cases, RK4 data --------------------------
-def bench_per_spring_cube(results):
-    base, truth, data = per_spring_cube(seed=0)
-    seconds, learner = timed(lambda: GradientLearner(substeps="auto").fit(base, data))
-    moving = base.mesh.free[base.mesh.springs].any(axis=1)
-    fitted = learner.model_
-    stiffness = np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]
-    damping = np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]
-    results["per_spring_cube"] = {
-        "median_stiffness_error": float(np.median(stiffness)),
-        "median_damping_error": float(np.median(damping)),
-        "max_stiffness_error": float(stiffness.max()), "max_damping_error": float(damping.max()),
-        "springs": int(moving.sum()), "seconds": seconds, "cycles": learner.n_cycles_,
-        "substeps": learner.substeps_, "extrapolated": learner.extrapolated_}
-    return [("per-spring cube (2 load cases, RK4 data)",
-             f"median error stiffness {np.median(stiffness):.3%}, viscosity "
-             f"{np.median(damping):.3%} over {int(moving.sum())} springs, {seconds:.0f} s")]
-
-
 # -- 5. per-spring fit of a 10k-spring mesh --------------------------------------------------
 def bench_large_fit(results, quick):
     surface = trimesh.creation.capsule(height=0.04, radius=0.02)
@@ -319,8 +299,6 @@ def main(argv=None):
                 lambda: bench_simulation(results, args.quick),
                 lambda: bench_elements(results, args.quick),
                 lambda: bench_tied_fit(results)]
-    if not args.quick:
-        sections.append(lambda: bench_per_spring_cube(results))
     sections.append(lambda: bench_large_fit(results, args.quick))
     if not args.quick:
         sections.append(lambda: bench_identification(results))
