@@ -19,7 +19,8 @@ Then, with the command line only:
     neurofuzzy diagnose trial.npz --rules liver --tissue liver --json
 
 Run:  python examples/continuum_diagnosis.py [OUT_DIR] [--case plain|gravity|inclusion]
-      [--pitch METRES]   (needs scikit-fem; default: all three cases, 6 mm voxel cells)
+      [--pitch METRES] [--frames N]   (needs scikit-fem; default: all three cases, 6 mm voxel
+      cells, 101 frames after the probe touches)
 """
 
 import json
@@ -104,12 +105,14 @@ def describe(case: str, result: dict) -> str:
 
 
 def main(argv):
-    out = Path(next((a for a in argv if not a.startswith("--")), "continuum-diagnosis"))
+    values = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a.startswith("--")}
+    out = Path(next((a for a in argv if not a.startswith("--") and a not in values),
+                    "continuum-diagnosis"))
     cases = [argv[argv.index("--case") + 1]] if "--case" in argv else list(CASES)
     pitch = float(argv[argv.index("--pitch") + 1]) if "--pitch" in argv else 0.006
     if any(case not in CASES for case in cases):
         raise SystemExit(f"--case takes one of {', '.join(CASES)}")
-    n_frames = REST + 101
+    n_frames = REST + (int(argv[argv.index("--frames") + 1]) if "--frames" in argv else 101)
     print(f"{'case':<10}{'peak (um)':>10}{'RMS before':>11}{'after':>8}{'noise':>8}"
           f"{'time':>7}  answer")
     for case in cases:
