@@ -27,6 +27,23 @@ def _deformation(p, v, n0, n1, n2, n3, B, F, Fd):
 
 
 @numba.njit(cache=True, nogil=True)
+def _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3):
+    """``P = F S``; node j + 1 gets column j of ``scale P Bᵀ`` (``scale = -V``), node 0 minus
+    their sum."""
+    for r in range(3):
+        P0 = F[r, 0] * S[0, 0] + F[r, 1] * S[1, 0] + F[r, 2] * S[2, 0]
+        P1 = F[r, 0] * S[0, 1] + F[r, 1] * S[1, 1] + F[r, 2] * S[2, 1]
+        P2 = F[r, 0] * S[0, 2] + F[r, 1] * S[1, 2] + F[r, 2] * S[2, 2]
+        f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
+        f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
+        f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
+        force[n1, r] += f1
+        force[n2, r] += f2
+        force[n3, r] += f3
+        force[n0, r] -= f1 + f2 + f3
+
+
+@numba.njit(cache=True, nogil=True)
 def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, node_volume,
                     node_lam, node_lam_rate, node_strain, force):
     """Element forces into ``force``; with ``nodal`` the volumetric stress comes from the
@@ -80,19 +97,7 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, nod
             for k in range(3):
                 S[i, k] = 2.0 * mu[e] * X[i, k]
             S[i, i] += pressure
-        # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
-        scale = -volume[e]
-        for r in range(3):
-            P0 = F[r, 0] * S[0, 0] + F[r, 1] * S[1, 0] + F[r, 2] * S[2, 0]
-            P1 = F[r, 0] * S[0, 1] + F[r, 1] * S[1, 1] + F[r, 2] * S[2, 1]
-            P2 = F[r, 0] * S[0, 2] + F[r, 1] * S[1, 2] + F[r, 2] * S[2, 2]
-            f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
-            f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
-            f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
-            force[n1, r] += f1
-            force[n2, r] += f2
-            force[n3, r] += f3
-            force[n0, r] -= f1 + f2 + f3
+        _scatter_piola(force, F, S, B, -volume[e], n0, n1, n2, n3)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -19,6 +19,8 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
+from ._numba_kernels import _deformation, _scatter_piola
+
 
 @numba.njit(cache=True, nogil=True)
 def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
@@ -74,16 +76,8 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
 def _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd):
     """F, Ḟ and their tangents dF, dḞ (P, 3, 3) of one element."""
     n_params = tp.shape[1]
+    _deformation(p, v, n0, n1, n2, n3, B, F, Fd)
     for r in range(3):
-        d1 = p[n1, r] - p[n0, r]
-        d2 = p[n2, r] - p[n0, r]
-        d3 = p[n3, r] - p[n0, r]
-        w1 = v[n1, r] - v[n0, r]
-        w2 = v[n2, r] - v[n0, r]
-        w3 = v[n3, r] - v[n0, r]
-        for c in range(3):
-            F[r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
-            Fd[r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
         for q in range(n_params):
             d1 = tp[n1, q, r] - tp[n0, q, r]
             d2 = tp[n2, q, r] - tp[n0, q, r]
@@ -94,6 +88,18 @@ def _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd):
             for c in range(3):
                 dF[q, r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
                 dFd[q, r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+
+
+@numba.njit(cache=True, nogil=True)
+def _volumetric_tangent(F, Fd, dF, dFd, q):
+    """Tangent ``q`` of the volumetric strain ``θ = tr G`` and of its rate."""
+    d_theta = 0.0
+    d_theta_rate = 0.0
+    for r in range(3):
+        for c in range(3):
+            d_theta += F[r, c] * dF[q, r, c]
+            d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
+    return d_theta, d_theta_rate
 
 
 @numba.njit(cache=True, nogil=True)
@@ -133,12 +139,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                 node_strain[node, 0] += corner * theta
                 node_strain[node, 1] += corner * theta_rate
             for q in range(n_params):
-                d_theta = 0.0
-                d_theta_rate = 0.0
-                for r in range(3):
-                    for c in range(3):
-                        d_theta += F[r, c] * dF[q, r, c]
-                        d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
+                d_theta, d_theta_rate = _volumetric_tangent(F, Fd, dF, dFd, q)
                 for j in range(4):
                     node = tets[e, j]
                     d_node_strain[node, q, 0] += corner * d_theta
@@ -179,29 +180,14 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
         else:
             pressure = lam[e] * theta + lam_rate[e] * theta_rate
             for q in range(n_params):
-                d_theta = 0.0
-                d_theta_rate = 0.0
-                for r in range(3):
-                    for c in range(3):
-                        d_theta += F[r, c] * dF[q, r, c]
-                        d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
+                d_theta, d_theta_rate = _volumetric_tangent(F, Fd, dF, dFd, q)
                 d_pressure[q] = lam[e] * d_theta + lam_rate[e] * d_theta_rate
         for i in range(3):
             for k in range(3):
                 S[i, k] = shear[e] * G[i, k] + shear_rate[e] * Gd[i, k]
             S[i, i] += pressure
         scale = -volume[e]
-        for r in range(3):       # P = F S → -V P Bᵀ into the four nodes
-            P0 = F[r, 0] * S[0, 0] + F[r, 1] * S[1, 0] + F[r, 2] * S[2, 0]
-            P1 = F[r, 0] * S[0, 1] + F[r, 1] * S[1, 1] + F[r, 2] * S[2, 1]
-            P2 = F[r, 0] * S[0, 2] + F[r, 1] * S[1, 2] + F[r, 2] * S[2, 2]
-            f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
-            f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
-            f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
-            force[n1, r] += f1
-            force[n2, r] += f2
-            force[n3, r] += f3
-            force[n0, r] -= f1 + f2 + f3
+        _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3)
         if n_params == 0:
             continue
         # dS = shear dG + shear_rate dĠ + dπ I: the state's part for every direction...
