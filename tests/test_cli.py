@@ -208,7 +208,12 @@ def test_mesh_command_builds_a_model_from_a_surface_and_rules(tmp_path, capsys):
     model = load_model(out)
     assert model.n_nodes == 5 * 5 * 3 and len(model.mesh.fixed) == 25
     assert np.allclose(model.mesh.rest_positions[model.mesh.fixed, 2], -0.01)
-    assert "25 fixed nodes" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "25 fixed nodes" in printed
+    assert "voxel cells of 0.01 m; --pitch P refines or coarsens" in printed
+    assert main(["mesh", str(tmp_path / "box.stl"), "--fix-bottom", "--rules", "liver",
+                 "--tissue", "liver", "--out", str(tmp_path / "default.yaml")]) == 0
+    assert "voxel cells of 0.004 m (default extent / 10)" in capsys.readouterr().out
 
     open_box = trimesh.Trimesh(box.vertices, box.faces[:-1])     # one face missing
     open_box.export(tmp_path / "open.stl")

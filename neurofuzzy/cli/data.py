@@ -56,6 +56,7 @@ def mesh(args) -> int:
 
     from ..io import save_model
     from ..mesh import read_mesh
+    from ..mesh.files import SURFACE_SUFFIXES
     from ..rules import resolve as load_rule_base
     from ..rules import initialize
 
@@ -110,8 +111,28 @@ def mesh(args) -> int:
     print(model.summary())
     print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
                                               " (none: use --fix-bottom or --fix-below)"))
+    if source.suffix.lower() in SURFACE_SUFFIXES:
+        bounds = (read.surface_bounds if read.surface_bounds is not None else np.array(
+            [read.mesh.rest_positions.min(axis=0), read.mesh.rest_positions.max(axis=0)]))
+        print(_resolution(args, bounds))
     written(args.out)
     return 0
+
+
+def _resolution(args, bounds) -> str:
+    """What resolution a surface was meshed at, and the option that changes it (a finer mesh
+    resolves more and fits slower: fit time grows with the node count)."""
+    from ..mesh.files import DEFAULT_DIVISIONS, TETRA_EDGE_FACTOR
+
+    extent = float(np.max(bounds[1] - bounds[0])) * args.scale
+    if args.tetra:
+        size = args.max_edge * args.scale if args.max_edge else (
+            TETRA_EDGE_FACTOR * extent / DEFAULT_DIVISIONS)
+        how = "" if args.max_edge else f" (default 1.5 x extent / {DEFAULT_DIVISIONS})"
+        return f"TetGen tetrahedra, edges up to {size:.3g} m{how}; --max-edge L refines or coarsens"
+    size = args.pitch * args.scale if args.pitch else extent / DEFAULT_DIVISIONS
+    how = "" if args.pitch else f" (default extent / {DEFAULT_DIVISIONS})"
+    return f"voxel cells of {size:.3g} m{how}; --pitch P refines or coarsens"
 
 
 def import_markers(args) -> int:
