@@ -106,10 +106,13 @@ def _volumetric_tangent(F, Fd, dF, dFd, q):
 def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
                       element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                      d_node_lam_rate, node_strain, d_node_strain, force, d_force):
-    """Element forces and their tangents. ``S = shear G + shear_rate Ġ + π I``; the element's
-    parameter columns (CSR ``element_ptr``/``element_column``) carry the derivatives of its
-    four constants, and with ``nodal`` those of the node averages (``d_node_lam*``)."""
+                      d_node_lam_rate, kappa, kappa_column, node_strain, d_node_strain, force,
+                      d_force):
+    """Element forces and their tangents. ``S = shear G + shear_rate Ġ + π I
+    + 2 κ (G:G) G`` (the last term: strain stiffening, ``kappa_column`` its parameter or -1);
+    the element's parameter columns (CSR ``element_ptr``/``element_column``) carry the
+    derivatives of its four constants, and with ``nodal`` those of the node averages
+    (``d_node_lam*``)."""
     n_params = tp.shape[1]
     F = np.empty((3, 3))
     Fd = np.empty((3, 3))
@@ -120,6 +123,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
     dFd = np.empty((n_params, 3, 3))
     dS = np.empty((n_params, 3, 3))
     d_pressure = np.empty(n_params)
+    inner = np.empty(n_params)
     n_elements = tets.shape[0]
     if nodal:    # node averages of θ, θ̇ and their tangents → node pressures and tangents
         node_strain[:] = 0.0
@@ -182,16 +186,23 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
             for q in range(n_params):
                 d_theta, d_theta_rate = _volumetric_tangent(F, Fd, dF, dFd, q)
                 d_pressure[q] = lam[e] * d_theta + lam_rate[e] * d_theta_rate
+        squared = 0.0
         for i in range(3):
             for k in range(3):
-                S[i, k] = shear[e] * G[i, k] + shear_rate[e] * Gd[i, k]
+                squared += G[i, k] * G[i, k]
+        stiffening = 2.0 * kappa * squared
+        for i in range(3):
+            for k in range(3):
+                S[i, k] = (shear[e] + stiffening) * G[i, k] + shear_rate[e] * Gd[i, k]
             S[i, i] += pressure
         scale = -volume[e]
         _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3)
         if n_params == 0:
             continue
-        # dS = shear dG + shear_rate dĠ + dπ I: the state's part for every direction...
+        # dS = shear dG + shear_rate dĠ + dπ I + 2κ (2 (G:dG) G + (G:G) dG): the state's
+        # part for every direction...
         for q in range(n_params):
+            inner[q] = 0.0
             for i in range(3):
                 for k in range(i, 3):
                     dg = 0.5 * (F[0, i] * dF[q, 0, k] + F[1, i] * dF[q, 1, k]
@@ -203,10 +214,19 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                                  + F[0, i] * dFd[q, 0, k] + F[1, i] * dFd[q, 1, k]
                                  + F[2, i] * dFd[q, 2, k] + dFd[q, 0, i] * F[0, k]
                                  + dFd[q, 1, i] * F[1, k] + dFd[q, 2, i] * F[2, k])
-                    x = shear[e] * dg + shear_rate[e] * dgd
+                    x = (shear[e] + stiffening) * dg + shear_rate[e] * dgd
                     dS[q, i, k] = x
                     dS[q, k, i] = x
+                    inner[q] += dg * G[i, k] * (1.0 if i == k else 2.0)
                 dS[q, i, i] += d_pressure[q]
+            if kappa != 0.0:
+                for i in range(3):
+                    for k in range(3):
+                        dS[q, i, k] += 4.0 * kappa * inner[q] * G[i, k]
+        if kappa_column >= 0:
+            for i in range(3):
+                for k in range(3):
+                    dS[kappa_column, i, k] += 2.0 * squared * G[i, k]
         # ...then the element's own constants by the parameters they depend on
         for entry in range(element_ptr[e], element_ptr[e + 1]):
             q = element_column[entry]
@@ -237,7 +257,8 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
 def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
             inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
             node_lam, node_lam_rate, element_ptr, element_column, d_shear, d_shear_rate, d_lam,
-            d_lam_rate, d_node_lam, d_node_lam_rate, drag, drag_column, force_direction,
+            d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column, drag, drag_column,
+            force_direction,
             weight, loads, h, n_frames, substeps, n_params, start_index, start_p, start_v,
             rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
     """Positions (n_frames, N, 3) and, with ``tangents``, ``jacobian`` (n_frames - 1, rows,
@@ -246,7 +267,8 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
     ``force_direction`` (N, P, 3) (gravity, unmodeled loads); inclusions of elements are in
-    the element constants and their CSR columns.
+    the element constants and their CSR columns; strain stiffening of the elements is
+    ``kappa`` (its column ``kappa_column``).
     """
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
@@ -282,8 +304,8 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                 _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate,
                                   lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
                                   element_ptr, element_column, d_shear, d_shear_rate, d_lam,
-                                  d_lam_rate, d_node_lam, d_node_lam_rate, node_strain,
-                                  d_node_strain, force, d_force)
+                                  d_lam_rate, d_node_lam, d_node_lam_rate, kappa,
+                                  kappa_column, node_strain, d_node_strain, force, d_force)
             for i in range(n_nodes):
                 step = h * weight[i]
                 for k in range(3):

@@ -96,7 +96,6 @@ def test_hidden_stiff_region_is_found_with_its_centroid_inside():
     assert result.rms_after < result.rms_before
 
 
-@pytest.mark.slow
 def test_hidden_strain_stiffening_is_named_and_measured():
     """A probe pressing 4 times harder (about 10 % strain) on tissue that stiffens with strain
     (κ = 20 μ): the diagnosis names nonlinear_stiffening and recovers κ."""

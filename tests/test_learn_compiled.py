@@ -68,8 +68,9 @@ def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric):
 
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])
 def test_learned_effects_of_element_models(volumetric):
-    """Gravity, an unmodeled load, a node drag and an inclusion of elements, all learned with
-    the elements' own parameters: the kernel's effect columns equal the numpy path's."""
+    """Gravity, an unmodeled load, a node drag, an inclusion of elements and their strain
+    stiffening, all learned with the elements' own parameters: the kernel's effect columns
+    equal the numpy path's."""
     mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
                                       viscosity=2.0, density=1000.0, volumetric=volumetric)
@@ -77,7 +78,8 @@ def test_learned_effects_of_element_models(volumetric):
                                                                        node=mesh.n_nodes - 2),
                                NodeDrag([0.05]),
                                StiffInclusion([4000.0], elements=[3, 4, 10, 11, 12],
-                                              poisson_ratio=0.4))
+                                              poisson_ratio=0.4),
+                               NonlinearStiffening([5e4], on="elements"))
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0.0, 0.01, -0.05)
     steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
@@ -85,7 +87,7 @@ def test_learned_effects_of_element_models(volumetric):
                                substeps=steps)
     numpy_run, compiled_run = both(model, data, steps)
     assert_same(numpy_run, compiled_run)
-    assert compiled_run.jacobian.shape[-1] == 3 + 3 + 3 + 1 + 1
+    assert compiled_run.jacobian.shape[-1] == 3 + 3 + 3 + 1 + 1 + 1
 
 
 def test_models_the_kernel_does_not_know_take_the_numpy_path():

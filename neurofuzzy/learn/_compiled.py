@@ -4,8 +4,9 @@ directions, the experiment's loads, window starts and observation operator laid 
 step).
 
 Used when numba is installed, masses are fixed and every effect of the model is one the kernel
-knows: gravity and unmodeled loads (constant forces), a node drag, and inclusions of elements
-(extra element constants). Everything else takes the numpy reference path.
+knows: gravity and unmodeled loads (constant forces), a node drag, inclusions of elements
+(extra element constants) and strain stiffening of elements. Everything else takes the numpy
+reference path.
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..effects import Gravity, NodeDrag, StiffInclusion, SoftInclusion, UnmodeledLoad
+from ..effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion, StiffInclusion,
+                       UnmodeledLoad)
 from ..forces.tetra_geometry import Materials, lame_factors
 from ..simulation import numba_available
 from ._parameters import ELEMENT_BLOCKS
@@ -27,13 +29,19 @@ def _element_inclusion(effect) -> bool:
     return isinstance(effect, (StiffInclusion, SoftInclusion)) and effect.on_elements
 
 
+def _element_stiffening(effect) -> bool:
+    return isinstance(effect, NonlinearStiffening) and effect.on_elements
+
+
 def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
     if not numba_available() or parameters.learn_masses:
         return False
     drags = sum(isinstance(effect, NodeDrag) for effect in model.effects)
-    return drags <= 1 and all(isinstance(effect, (*_CONSTANT, NodeDrag))
-                              or _element_inclusion(effect) for effect in model.effects)
+    stiffenings = sum(_element_stiffening(effect) for effect in model.effects)
+    return drags <= 1 and stiffenings <= 1 and all(
+        isinstance(effect, (*_CONSTANT, NodeDrag)) or _element_inclusion(effect)
+        or _element_stiffening(effect) for effect in model.effects)
 
 
 class CompiledModel:
@@ -72,7 +80,7 @@ class CompiledModel:
             empty, none = np.zeros(0), np.zeros(0, np.intp)
             return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), *(empty,) * 5, False,
                     *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
-                    np.zeros((0, n_params)), np.zeros((0, n_params)))
+                    np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1)
         own = Materials.of(model)
         geometry = own.geometry
         parts = [own] + [effect.materials(model, effect.params[0])
@@ -121,7 +129,16 @@ class CompiledModel:
                 *(np.ascontiguousarray(total[key], float)
                   for key in ("shear", "shear_rate", "lam", "lam_rate")),
                 own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
-                pointer, column, *values, d_node_lam, d_node_lam_rate)
+                pointer, column, *values, d_node_lam, d_node_lam_rate,
+                *CompiledModel._stiffening(model, columns))
+
+    @staticmethod
+    def _stiffening(model, columns):
+        """``(kappa, kappa_column)`` of the elements' strain stiffening (0, -1 without)."""
+        for i, effect in enumerate(model.effects):
+            if _element_stiffening(effect):
+                return float(effect.params[0]), int(columns.get(i, -1))
+        return 0.0, -1
 
     @staticmethod
     def _effects(model, n_params, columns):
