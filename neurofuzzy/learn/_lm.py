@@ -30,12 +30,15 @@ from threadpoolctl import threadpool_limits
 
 #: A step smaller than this fraction of every parameter's standard error ends the fit.
 STEP_OF_STD_ERROR = 0.01
-#: Starting damping relative to the largest diagonal entry of ``JᵀJ``.
+#: Starting Marquardt damping ``μ`` (steps solve ``(JᵀJ + μ diag JᵀJ) δ = -Jᵀr``).
 INITIAL_DAMPING = 1e-3
 
 
 @dataclass
 class Solution:
+    """Where the solver stopped, its cost ``½‖r‖²``, the residual evaluations it used and
+    why it stopped."""
+
     x: np.ndarray
     cost: float
     evaluations: int
