@@ -17,7 +17,8 @@ Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
 4. (per-spring identification of the cube: section 6)
 5. per-spring fit of a 10,000-spring mesh built with from_trimesh (target < 60 s), peak memory;
 6. per-spring identification against scipy's least_squares with finite differences, one and two
-   load cases, and where the time goes (benchmarks/identification.py; full run only).
+   load cases, and where the time goes; a per-region fit of 10,368 tetrahedra
+   (benchmarks/identification.py; full run only).
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from neurofuzzy.model import SpringMassModel  # noqa: E402
 from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
-from identification import bench_identification  # noqa: E402
+from identification import bench_identification, bench_large_elements  # noqa: E402
 
 
 def timed(function, repeat=1):
@@ -302,6 +303,7 @@ def main(argv=None):
     sections.append(lambda: bench_large_fit(results, args.quick))
     if not args.quick:
         sections.append(lambda: bench_identification(results))
+        sections.append(lambda: bench_large_elements(results))
     for section in sections:
         for row in section():
             rows.append(row)
