@@ -24,7 +24,6 @@ Run:  python examples/continuum_diagnosis.py [OUT_DIR] [--case plain|gravity|inc
 """
 
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -32,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from continuum_pipeline import DT, E, ETA, FORCE, PROBE, RADIUS, REST, RHO
-from continuum_pipeline import marker_points, write_recording
+from continuum_pipeline import command, marker_points, write_recording
 from neurofuzzy.continuum_reference import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 
@@ -71,11 +70,7 @@ def write_inputs(out: Path, case: str, n_frames: int, seed: int = 1) -> float:
 def diagnose(out: Path, pitch: float) -> dict:
     """mesh -> import -> diagnose --json, as a user runs them."""
     def run(*args):
-        done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *args],
-                              capture_output=True, text=True, cwd=out)
-        if done.returncode != 0:
-            raise SystemExit(f"neurofuzzy {' '.join(args)} failed:\n{done.stderr}")
-        return done.stdout
+        return command(out, *args)
 
     run("mesh", "block.stl", "--pitch", str(pitch), "--fix-bottom", "--rules", "liver",
         "--tissue", "liver", "--out", "model.yaml")

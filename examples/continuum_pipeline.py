@@ -98,16 +98,21 @@ def write_recording(out: Path, points, motion, touch: int, seed: int) -> None:
     box.export(out / "block.stl")
 
 
+def command(out: Path, *args) -> str:
+    """``neurofuzzy ARGS`` in ``out``, as a user types it; its standard output."""
+    done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *args],
+                          capture_output=True, text=True, cwd=out)
+    if done.returncode != 0:
+        raise SystemExit(f"neurofuzzy {' '.join(args)} failed:\n{done.stderr}")
+    return done.stdout
+
+
 def pipeline(out: Path, mesh_options: list[str]) -> tuple[dict, str]:
     """The three commands; returns fit --json and the model's one-line size. ``fit
     --rules`` builds its own start on the experiment's mesh (elements where it has
     tetrahedra), so a spring network is asked for again there."""
     def run(*args):
-        done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *args],
-                              capture_output=True, text=True, cwd=out)
-        if done.returncode != 0:
-            raise SystemExit(f"neurofuzzy {' '.join(args)} failed:\n{done.stderr}")
-        return done.stdout
+        return command(out, *args)
 
     summary = run("mesh", "block.stl", *mesh_options, "--fix-bottom", "--rules", "liver",
                   "--tissue", "liver", "--out", "model.yaml").splitlines()[0]

@@ -27,6 +27,29 @@ def _deformation(p, v, n0, n1, n2, n3, B, F, Fd):
 
 
 @numba.njit(cache=True, nogil=True)
+def _spring(p, v, ia, ib, stiffness, damping, rest, force):
+    """One spring's force ``(s (l - L0) + c closing) u`` added to ``force`` (node a +,
+    node b -); returns ``(ux, uy, uz, length, closing, stretch, magnitude)``."""
+    dx = p[ib, 0] - p[ia, 0]
+    dy = p[ib, 1] - p[ia, 1]
+    dz = p[ib, 2] - p[ia, 2]
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    ux, uy, uz = dx / length, dy / length, dz / length
+    closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
+               + (v[ib, 2] - v[ia, 2]) * uz)
+    stretch = length - rest
+    magnitude = stiffness * stretch + damping * closing
+    fx, fy, fz = magnitude * ux, magnitude * uy, magnitude * uz
+    force[ia, 0] += fx
+    force[ia, 1] += fy
+    force[ia, 2] += fz
+    force[ib, 0] -= fx
+    force[ib, 1] -= fy
+    force[ib, 2] -= fz
+    return ux, uy, uz, length, closing, stretch, magnitude
+
+
+@numba.njit(cache=True, nogil=True)
 def _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3):
     """``P = F S``; node j + 1 gets column j of ``scale P Bᵀ`` (``scale = -V``), node 0 minus
     their sum."""
@@ -110,22 +133,7 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
             for k in range(3):
                 force[i, k] = load[i, k]
         for j in range(n_springs):
-            ia, ib = a[j], b[j]
-            dx = p[ib, 0] - p[ia, 0]
-            dy = p[ib, 1] - p[ia, 1]
-            dz = p[ib, 2] - p[ia, 2]
-            length = np.sqrt(dx * dx + dy * dy + dz * dz)
-            ux, uy, uz = dx / length, dy / length, dz / length
-            closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
-                       + (v[ib, 2] - v[ia, 2]) * uz)
-            magnitude = stiffness[j] * (length - rest[j]) + damping[j] * closing
-            fx, fy, fz = magnitude * ux, magnitude * uy, magnitude * uz
-            force[ia, 0] += fx
-            force[ia, 1] += fy
-            force[ia, 2] += fz
-            force[ib, 0] -= fx
-            force[ib, 1] -= fy
-            force[ib, 2] -= fz
+            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
         if tets.shape[0]:
             _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal,
                             node_volume, node_lam, node_lam_rate, node_strain, force)

@@ -19,7 +19,7 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
-from ._numba_kernels import _deformation, _scatter_piola
+from ._numba_kernels import _deformation, _scatter_piola, _spring
 
 
 @numba.njit(cache=True, nogil=True)
@@ -28,23 +28,11 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
     n_params = tp.shape[1]
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]
-        dx = p[ib, 0] - p[ia, 0]
-        dy = p[ib, 1] - p[ia, 1]
-        dz = p[ib, 2] - p[ia, 2]
-        length = np.sqrt(dx * dx + dy * dy + dz * dz)
-        ux, uy, uz = dx / length, dy / length, dz / length
+        ux, uy, uz, length, closing, stretch, magnitude = _spring(
+            p, v, ia, ib, stiffness[j], damping[j], rest[j], force)
         wx = v[ib, 0] - v[ia, 0]
         wy = v[ib, 1] - v[ia, 1]
         wz = v[ib, 2] - v[ia, 2]
-        closing = wx * ux + wy * uy + wz * uz
-        stretch = length - rest[j]
-        magnitude = stiffness[j] * stretch + damping[j] * closing
-        force[ia, 0] += magnitude * ux
-        force[ia, 1] += magnitude * uy
-        force[ia, 2] += magnitude * uz
-        force[ib, 0] -= magnitude * ux
-        force[ib, 1] -= magnitude * uy
-        force[ib, 2] -= magnitude * uz
         for q in range(n_params):
             ddx = tp[ib, q, 0] - tp[ia, q, 0]
             ddy = tp[ib, q, 1] - tp[ia, q, 1]
