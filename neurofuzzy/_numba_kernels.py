@@ -66,6 +66,16 @@ def _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3):
         force[n0, r] -= f1 + f2 + f3
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _row(x, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20, b21, b22):
+    """Row ``r`` of ``Dx B`` (``Dx`` columns: x1 - x0, x2 - x0, x3 - x0), as three scalars."""
+    d1 = x[n1, r] - x[n0, r]
+    d2 = x[n2, r] - x[n0, r]
+    d3 = x[n3, r] - x[n0, r]
+    return (d1 * b00 + d2 * b10 + d3 * b20, d1 * b01 + d2 * b11 + d3 * b21,
+            d1 * b02 + d2 * b12 + d3 * b22)
+
+
 @numba.njit(cache=True, nogil=True)
 def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, node_volume,
                     node_lam, node_lam_rate, node_strain, force):
@@ -112,42 +122,12 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, nod
         b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
         b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
         # F = Ds B, Ḟ = Ḋs B, row r = coordinate r
-        d1 = p[n1, 0] - p[n0, 0]
-        d2 = p[n2, 0] - p[n0, 0]
-        d3 = p[n3, 0] - p[n0, 0]
-        f00 = d1 * b00 + d2 * b10 + d3 * b20
-        f01 = d1 * b01 + d2 * b11 + d3 * b21
-        f02 = d1 * b02 + d2 * b12 + d3 * b22
-        d1 = p[n1, 1] - p[n0, 1]
-        d2 = p[n2, 1] - p[n0, 1]
-        d3 = p[n3, 1] - p[n0, 1]
-        f10 = d1 * b00 + d2 * b10 + d3 * b20
-        f11 = d1 * b01 + d2 * b11 + d3 * b21
-        f12 = d1 * b02 + d2 * b12 + d3 * b22
-        d1 = p[n1, 2] - p[n0, 2]
-        d2 = p[n2, 2] - p[n0, 2]
-        d3 = p[n3, 2] - p[n0, 2]
-        f20 = d1 * b00 + d2 * b10 + d3 * b20
-        f21 = d1 * b01 + d2 * b11 + d3 * b21
-        f22 = d1 * b02 + d2 * b12 + d3 * b22
-        d1 = v[n1, 0] - v[n0, 0]
-        d2 = v[n2, 0] - v[n0, 0]
-        d3 = v[n3, 0] - v[n0, 0]
-        g00 = d1 * b00 + d2 * b10 + d3 * b20
-        g01 = d1 * b01 + d2 * b11 + d3 * b21
-        g02 = d1 * b02 + d2 * b12 + d3 * b22
-        d1 = v[n1, 1] - v[n0, 1]
-        d2 = v[n2, 1] - v[n0, 1]
-        d3 = v[n3, 1] - v[n0, 1]
-        g10 = d1 * b00 + d2 * b10 + d3 * b20
-        g11 = d1 * b01 + d2 * b11 + d3 * b21
-        g12 = d1 * b02 + d2 * b12 + d3 * b22
-        d1 = v[n1, 2] - v[n0, 2]
-        d2 = v[n2, 2] - v[n0, 2]
-        d3 = v[n3, 2] - v[n0, 2]
-        g20 = d1 * b00 + d2 * b10 + d3 * b20
-        g21 = d1 * b01 + d2 * b11 + d3 * b21
-        g22 = d1 * b02 + d2 * b12 + d3 * b22
+        f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         # X = G + (η/E) Ġ, G = ½(FᵀF - I), Ġ = sym(FᵀḞ) (columns i, k of F)
         rt = ratio[e]
         x00 = 0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0) + rt * (
