@@ -8,8 +8,9 @@ files and the diagnosis pick it up from the registry (the diagnosis asks every r
 for candidates through :meth:`Effect.propose`).
 
 Modules: :mod:`.base` (the interface, the registry, model-file form), :mod:`.nodes` (gravity,
-node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.stiffening` (springs or elements that
-stiffen with strain), :mod:`.inclusions` (regions of springs or of tetrahedral elements).
+node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.stiffening`
+(springs or elements that stiffen with strain), :mod:`.inclusions` (regions of springs or of
+tetrahedral elements).
 
 =====================  ====================================================  ===============
 name                   force on node i                                        parameters
