@@ -88,20 +88,18 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, nod
         for e in range(n_elements):
             n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
             B = inverse_rest[e]
+            b00, b01, b02 = B[0, 0], B[0, 1], B[0, 2]
+            b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
+            b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
             theta = -1.5
             theta_rate = 0.0
             for r in range(3):
-                d1 = p[n1, r] - p[n0, r]
-                d2 = p[n2, r] - p[n0, r]
-                d3 = p[n3, r] - p[n0, r]
-                w1 = v[n1, r] - v[n0, r]
-                w2 = v[n2, r] - v[n0, r]
-                w3 = v[n3, r] - v[n0, r]
-                for c in range(3):
-                    f = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
-                    fd = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
-                    theta += 0.5 * f * f                 # tr G = ½ (|F|² - 3)
-                    theta_rate += f * fd
+                fa, fb, fc = _row(p, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20,
+                                  b21, b22)
+                ga, gb, gc = _row(v, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20,
+                                  b21, b22)
+                theta += 0.5 * (fa * fa + fb * fb + fc * fc)    # tr G = ½ (|F|² - 3)
+                theta_rate += fa * ga + fb * gb + fc * gc
             corner = 0.25 * volume[e]
             node_strain[n0, 0] += corner * theta
             node_strain[n1, 0] += corner * theta
