@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .serialization import json_safe
-from .io import atomic_write
+from .serialization import atomic_write
 
 __all__ = ["write_report", "figure_html", "table_html", "fit_report", "diagnosis_report"]
 

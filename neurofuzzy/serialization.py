@@ -1,10 +1,16 @@
-"""JSON-ready values: numpy scalars and arrays to Python, non-finite floats to ``None``."""
+"""Writing results: JSON-ready values (numpy scalars and arrays to Python, non-finite floats
+to ``None``) and atomic writes (a temporary file beside the target, then a rename)."""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
 import numpy as np
 
-__all__ = ["json_safe"]
+__all__ = ["json_safe", "atomic_write"]
 
 
 def json_safe(value):
@@ -23,3 +29,26 @@ def json_safe(value):
     if isinstance(value, np.integer):
         return int(value)
     return value
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | os.PathLike, mode: str = "wb"):
+    """Open a temporary file beside ``path``; on success rename it onto ``path``.
+
+    Use as ``with atomic_write(path) as handle: ...``. On an exception the temporary file is
+    removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o666 & ~umask)         # mkstemp makes 0600; outputs are ordinary files
+    try:
+        with os.fdopen(fd, mode) as handle:
+            yield handle
+        os.replace(temporary, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+        raise

@@ -28,7 +28,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
-from ..io import atomic_write
+from ..serialization import atomic_write
 from ..progress import Progress, note
 from .manifest import Specimen, read_manifest
 from .table import TABLE_NAME, write_table

@@ -15,7 +15,7 @@ import importlib.util
 import io
 from pathlib import Path
 
-from ..io import atomic_write
+from ..serialization import atomic_write
 
 __all__ = ["QUANTITIES", "COLUMNS", "TABLE_NAME", "table_rows", "write_table"]
 
