@@ -146,7 +146,7 @@ class Sensitivity:
         """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities."""
         param = self.parameters
         model = param.model(theta)
-        if self.backend != "numpy" and compiled_possible(param, model):
+        if self.compiled:
             return self._compiled_run(model, experiment, substeps, starts, tangents)
         if self.backend == "numba":
             raise InputError("the compiled path needs numba and a model of springs and "
