@@ -263,6 +263,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
                      f" in {learner.n_cycles_} cycles.</p>"))
     sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
                      "</pre>"))
+    if getattr(learner, "prior", None) is not None:
+        sections.append(_prior_section(plt, learner, data))
     text, suggestions = identifiability_html(learner)
     sections.append(("What the data determine", text))
     data.update({"rms_error_initial": learner.rms_error_initial_,
@@ -284,6 +286,36 @@ def fit_report(start, learner, path, *, title: str | None = None,
     tissues = sorted({tissue for _, tissue in _tissues(start)})
     return write_report(path, title or f"neurofuzzy fit{': ' + ', '.join(tissues) if tissues else ''}",
                         sections, data)
+
+
+def _prior_section(plt, learner, data) -> tuple[str, str]:
+    """The regions found after a fit with the rule base as a prior: in words, and on the
+    object (every element or spring coloured by its Young's modulus against the
+    description, the regions found ringed)."""
+    from .learn.regions import describe_regions, item_values, regions_found
+
+    found = regions_found(learner.model_, learner.prior)
+    data.update(prior=learner.prior_, regions_found=found["regions"])
+    model, prior = learner.model_, learner.prior
+    kind, values = item_values(model)
+    items = model.mesh.tetrahedra if kind == "elements" else model.mesh.springs
+    centres = model.mesh.rest_positions[items].mean(axis=1)
+    region = model.element_region if kind == "elements" else model.spring_region
+    centre = np.array([prior.sets[k]["youngs_modulus"].centre for k in region])
+    figure = plt.figure(figsize=(6, 5))
+    ax = figure.add_subplot(projection="3d")
+    shown = ax.scatter(*centres.T, c=np.log10(values["youngs_modulus"]) - centre, cmap="coolwarm",
+                       vmin=-1, vmax=1, s=12, depthshade=False)
+    for entry in found["regions"]:
+        ax.scatter(*centres[entry[kind]].T, s=70, facecolors="none", edgecolors="k")
+    figure.colorbar(shown, ax=ax, shrink=0.6, label="log₁₀ (E / described E)")
+    ax.set_title(f"{kind}: Young's modulus against the description")
+    info = learner.prior_
+    text = (f"<p>{html.escape(describe_regions(found))}.</p><p>Prior weight α = "
+            f"{info['alpha']:.3g} ({html.escape(info['how'])}; marker noise "
+            f"{info['noise'] * 1e6:.3g} µm).</p>")
+    return "Where the tissue differs from its description", text + figure_html(
+        figure, "fitted Young's modulus per item against the description")
 
 
 def _tissues(start) -> list[tuple[str, str]]:

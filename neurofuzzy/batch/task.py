@@ -158,7 +158,7 @@ def fit_quality(model, experiments, substeps: int = 1, *, rms: float | None = No
         3-D RMS error) and ``noise_ratio`` (``rms_error / noise_rms``: 1 means the fit
         explains everything but the noise; None for noise-free data).
     """
-    from ..diagnosis.residuals import marker_noise
+    from ..noise import marker_noise
     from ..experiment import rms_error, simulate_like
 
     if rms is None:

@@ -56,6 +56,9 @@ def fit(args) -> int:
         print(learner.model_.summary())
         print(f"RMS error: {result['rms_error_initial']:.4g} -> {result['rms_error']:.4g} "
               f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
+        if result.get("prior"):
+            print(f"prior: weight {result['prior']['alpha']:.3g} ({result['prior']['how']}); "
+                  f"{result['regions_found_words']}")
         written(args.out, args.report, exported.get("pvd"), exported.get("xdmf"))
     return 0
 
@@ -63,13 +66,15 @@ def fit(args) -> int:
 def _fit(args, progress, substeps, out, report, export, outputs):
     """Fit, refuse a failed fit, write the staged outputs."""
     from ..io import save_model
-    from ..learn.run import make_learner
+    from ..learn.run import make_learner, make_prior
 
     inputs, experiments, start = _start(args, progress)
     require_motion(experiments)
+    prior = make_prior(start, args.prior, tie=args.tie, method=args.method)
     learner = make_learner(args.method, cycles=args.cycles, learn_masses=args.learn_masses,
                            substeps=substeps, learning_rate=args.learning_rate,
-                           mass_learning_rate=args.mass_learning_rate, progress=progress)
+                           mass_learning_rate=args.mass_learning_rate, prior=prior,
+                           progress=progress)
     with explained("fit", experiments, start.model, substeps):
         learner.fit(start.model, experiments)
     check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,

@@ -46,6 +46,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="integration steps per frame: a number, or 'auto' (default): "
                           "try the paper's one step per frame and continuous physics, keep "
                           "the better (gradient method only)")
+    fit.add_argument("--prior", default="default", metavar="off|auto|WEIGHT",
+                     help="the rule base's words as a prior on every fitted value: 'auto' "
+                          "(the default with --tie none and --rules) chooses its weight by "
+                          "the discrepancy principle, a number fixes it (1 = Bayesian: the "
+                          "fuzzy set's spread against the measured noise), 'off' (the default "
+                          "otherwise) fits the data alone")
     fit.add_argument("--learning-rate", type=float, default=0.1,
                      help="paper method: η for springs (default 0.1)")
     fit.add_argument("--mass-learning-rate", type=float, default=0.1,

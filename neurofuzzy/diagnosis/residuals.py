@@ -14,6 +14,7 @@ from ..experiment import Experiment, simulate_like
 from ..forces import SPRINGS, TETRAHEDRA, incidence
 from ..learn import element_directions
 from ..model import SpringMassModel
+from ..noise import marker_noise
 from ..simulation import internal_forces
 
 __all__ = ["Residuals", "Samples", "residual_analysis", "templates", "model_templates",
@@ -37,21 +38,6 @@ def measured_states(positions: np.ndarray, experiment: Experiment, discrete: boo
         v = (positions[2:] - positions[:-2]) / (2 * h)
     a = (positions[2:] - 2 * positions[1:-1] + positions[:-2]) / (h * h)
     return p, v, a
-
-
-def marker_noise(error: np.ndarray, motion: np.ndarray) -> float:
-    """Standard deviation of white marker noise in a trajectory error ``measured - model``.
-
-    Model errors are smooth in time, noise is not: the first difference of the error is
-    dominated by noise (variance 2σ²). Robust (median-based); 0 when it is negligible next to
-    the motion (noise-free data).
-    """
-    if error.shape[0] < 3 or error.size == 0:
-        return 0.0
-    first = np.diff(error, axis=0)
-    sigma = float(np.sqrt(np.median(first**2) / 0.455 / 2.0))
-    scale = float(np.abs(motion).max()) or 1.0
-    return sigma if sigma > 1e-7 * scale else 0.0
 
 
 @dataclass

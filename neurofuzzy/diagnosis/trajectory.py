@@ -34,7 +34,8 @@ from ..effects import StiffInclusion
 from ..forces import tetrahedron_geometry
 from ..learn import Parameterization, Sensitivity
 from .candidates import TakenByEffects
-from .residuals import Residuals, marker_noise, orthonormal
+from ..noise import marker_noise
+from .residuals import Residuals, orthonormal
 from .scoring import Candidate, residual_sum_of_squares
 
 __all__ = ["TrajectoryEvidence", "BLOCKS_PER_SIDE", "REGION_FRACTION", "RIDGE",

@@ -115,8 +115,13 @@ def _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance)
 
 
 def _insignificant(step, normal, cost, m) -> bool:
-    """Is every component of ``step`` below ``STEP_OF_STD_ERROR`` of its standard error
-    (``normal`` = JᵀJ, ``m`` residuals)?"""
+    """Is ``step`` below ``STEP_OF_STD_ERROR`` of the standard error along every direction
+    (eigenvectors of ``normal`` = JᵀJ, ``m`` residuals)?
+
+    Measured in the directions of ``JᵀJ``, not per parameter: with many parameters (one per
+    element) some combinations are barely determined, which makes every parameter's own
+    standard error large, while the well-determined combinations may still be moving.
+    """
     n = len(step)
     if m <= n or not np.any(step):
         return False
@@ -125,7 +130,6 @@ def _insignificant(step, normal, cost, m) -> bool:
         values, vectors = np.linalg.eigh(normal)
     except np.linalg.LinAlgError:
         return False
-    # directions the data cannot determine have (near) zero eigenvalues: infinite errors
-    values = np.maximum(values, max(float(values.max()), 1e-300) * 1e-14)
-    errors = np.sqrt(variance * np.einsum("ij,j,ij->i", vectors, 1.0 / values, vectors))
-    return bool(np.all(np.abs(step) <= STEP_OF_STD_ERROR * errors))
+    # the step along direction k against that direction's standard error σ / √λ_k
+    whitened = np.abs(vectors.T @ step) * np.sqrt(np.maximum(values, 0.0))
+    return bool(np.all(whitened <= STEP_OF_STD_ERROR * np.sqrt(variance)))

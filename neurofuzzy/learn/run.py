@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 from ._base import Learner
 
-__all__ = ["METHODS", "make_learner", "fit_summary"]
+__all__ = ["METHODS", "make_learner", "make_prior", "fit_summary"]
 
 #: the learners ``method`` may name
 METHODS = ("gradient", "paper")
@@ -19,7 +19,7 @@ METHODS = ("gradient", "paper")
 
 def make_learner(method: str = "gradient", *, cycles: int | None = None,
                  learn_masses: bool = False, substeps: int | str = "auto",
-                 learning_rate: float = 0.1, mass_learning_rate: float = 0.1,
+                 learning_rate: float = 0.1, mass_learning_rate: float = 0.1, prior=None,
                  progress: bool = False) -> Learner:
     """The learner of ``neurofuzzy fit --method METHOD`` with its options (unfitted).
 
@@ -35,6 +35,8 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         Gradient method only: integration steps per frame.
     learning_rate, mass_learning_rate : float
         Paper method only: η for springs and η_m for masses.
+    prior : FuzzyPrior, optional
+        Gradient method only: the rule base as a prior (:func:`make_prior`).
     progress : bool
         Report progress on stderr.
 
@@ -54,12 +56,36 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
     if method == "paper":
         from .paper import PaperLearner
 
+        if prior is not None:
+            raise InputError("the paper's learner takes no prior; use the gradient method or "
+                             "--prior off", key="prior")
         return PaperLearner(learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
                             cycles=cycles or 100, learn_masses=learn_masses, progress=progress)
     from .gradient import GradientLearner
 
     return GradientLearner(learn_masses=learn_masses, substeps=substeps,
-                           max_iterations=cycles or 100, progress=progress)
+                           max_iterations=cycles or 100, prior=prior, progress=progress)
+
+
+def make_prior(start, prior="default", *, tie: str | None = None, method: str = "gradient"):
+    """The prior of ``neurofuzzy fit --prior PRIOR`` (a :class:`~.prior.FuzzyPrior` or None).
+
+    ``"default"`` is ``"auto"`` for a fit of every spring or element (``tie="none"``) of a
+    start with a rule base (``start.rules``), else off; ``"off"``; ``"auto"`` (weight by the
+    discrepancy principle) or a weight ``α`` need the rule base.
+    """
+    from ..errors import InputError
+    from .prior import FuzzyPrior, parse_prior
+
+    if prior == "default":
+        prior = ("auto" if start.rules is not None and tie == "none" and method == "gradient"
+                 else "off")
+    prior = parse_prior(prior)
+    if prior == "off":
+        return None
+    if start.rules is None:
+        raise InputError("a prior needs a rule base (--rules R --tissue T)", key="prior")
+    return FuzzyPrior(start.rules, start.model, tissue=start.tissue, weight=prior)
 
 
 def fit_summary(learner: Learner, start, *, method: str, tie: str,
@@ -68,7 +94,9 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
 
     ``learner.to_dict()`` plus ``method``, ``tie``, ``start`` (where the start came from),
     ``experiments`` (the files) and, when the start has a rule base or tissues, ``materials``
-    (per region E, ν, η, ρ and words; :func:`~neurofuzzy.rules.materials`).
+    (per region E, ν, η, ρ and words; :func:`~neurofuzzy.rules.materials`), and after a
+    fit with a prior ``regions_found`` (:func:`~.regions.regions_found`), ``regions_rest``
+    and ``regions_found_words``.
 
     Parameters
     ----------
@@ -88,4 +116,10 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
         from ..rules import materials
 
         result["materials"] = materials(learner.model_, start.rules, start.tissue)
+    if getattr(learner, "prior", None) is not None:
+        from .regions import describe_regions, regions_found
+
+        found = regions_found(learner.model_, learner.prior)
+        result.update(regions_found=found["regions"], regions_rest=found["rest"],
+                      regions_found_words=describe_regions(found))
     return result

@@ -9,7 +9,7 @@ from ..errors import InputError, closest_name
 from .membership import apply_hedges
 from .terms import GRID_POINTS, Phrase, Variable, parse_phrase
 
-__all__ = ["infer", "tissue_values"]
+__all__ = ["infer", "aggregate", "tissue_values", "tissue_sets"]
 
 
 def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
@@ -26,6 +26,15 @@ def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
     -------
     dict of output name → (n_descriptions,) float, in physical units.
     """
+    return {name: rules.outputs[name].to_physical(
+                _defuzzify(rules, rules.outputs[name], aggregated))
+            for name, aggregated in aggregate(rules, descriptions).items()}
+
+
+def aggregate(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
+    """The inferred output fuzzy sets before defuzzification: for every output, the
+    (n_descriptions, GRID_POINTS) maximum of every rule's consequent clipped at the rule's
+    strength, on the output's grid (internal coordinates, :attr:`Variable.grid`)."""
     n = len(descriptions)
     sets = {}
     for name, variable in rules.inputs.items():
@@ -50,7 +59,7 @@ def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
                                      clause.phrase.hedges)
                 aggregated = np.maximum(aggregated,
                                         np.minimum(strength[:, None], shape[None, :]))
-        results[name] = variable.to_physical(_defuzzify(rules, variable, aggregated))
+        results[name] = aggregated
     return results
 
 def _phrase(rules, value, variable: Variable) -> Phrase | None:
@@ -127,6 +136,13 @@ def tissue_values(rules, name: str) -> dict[str, float]:
         raise InputError(f"no rule fires for tissue {name!r} on {missing}; add a rule",
                          source=rules.source, key="tissues")
     return {k: float(v[0]) for k, v in values.items()}
+
+
+def tissue_sets(rules, name: str) -> dict[str, np.ndarray]:
+    """The inferred output fuzzy sets of a tissue (the expert's description before
+    defuzzification): output name → (GRID_POINTS,) membership on the output's grid."""
+    tissue_values(rules, name)             # the checks: a known tissue, rules that fire
+    return {key: value[0] for key, value in aggregate(rules, [rules.tissues[name]]).items()}
 
 
 def _combine(degrees, method, is_or=False):

@@ -40,6 +40,11 @@ class RuleBase:
         """Inferred output values (physical units) of a tissue of the rule base."""
         return inference.tissue_values(self, name)
 
+    def tissue_sets(self, name: str) -> dict[str, np.ndarray]:
+        """The inferred output fuzzy sets of a tissue, before defuzzification, on each
+        output's grid (:func:`.inference.tissue_sets`)."""
+        return inference.tissue_sets(self, name)
+
     def describe(self, values: dict[str, float]) -> dict[str, Label]:
         """For every output value: the term with the highest membership and all degrees."""
         return words.describe(self, self._current(values))

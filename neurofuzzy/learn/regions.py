@@ -1,0 +1,140 @@
+"""Where the fitted tissue differs from its description: connected **regions found**.
+
+After a fit with the rule base as a prior (:mod:`.prior`), every element (or spring) whose
+fitted value carries another word than its region's description ("hard" in tissue described
+as "firm") is flagged; flagged neighbours with the same word (elements sharing a face, springs
+sharing a node, within one region) form a region found. Each is reported with its elements or
+springs, nodes, centroid, size, median value, word and degree of membership, and the rest of
+the tissue with its own word: "a region of 24 elements near (2.0, 2.0, 1.5) cm is hard (0.93),
+the rest firm".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from .prior import _elements_sharing_a_face, _spring_factor, _springs_sharing_a_node
+
+__all__ = ["regions_found", "describe_regions", "MIN_ITEMS"]
+
+#: Smallest region reported (elements or springs): one item alone is as likely noise.
+MIN_ITEMS = 2
+
+_QUANTITIES = ("youngs_modulus", "viscosity", "poisson_ratio")
+
+
+def item_values(model) -> tuple[str, dict[str, np.ndarray]]:
+    """``("elements", {quantity: per element})`` for element models, else ``("springs",
+    {quantity: the E and η every spring stands for})``."""
+    if model.has_elements:
+        return "elements", {"youngs_modulus": model.element_youngs_modulus,
+                            "poisson_ratio": model.element_poisson_ratio,
+                            "viscosity": model.element_viscosity}
+    factor = _spring_factor(model)
+    return "springs", {"youngs_modulus": model.spring_stiffness / factor,
+                       "viscosity": model.spring_damping / factor}
+
+
+def regions_found(model, prior, *, min_items: int = MIN_ITEMS) -> dict:
+    """The regions of ``model`` (fitted with ``prior``) whose words differ from the
+    description.
+
+    Returns
+    -------
+    dict
+        ``{"regions": [{"elements" or "springs": [...], "nodes": [...], "centroid": [x, y, z],
+        "size": n, "volume": m³ (elements), "quantity", "value", "label", "degree",
+        "described": the description's word}], "rest": {region: {quantity: {"value",
+        "label"}}}}`` (values in SI units, the centroid in metres), regions largest first.
+    """
+    kind, values = item_values(model)
+    if kind == "elements":
+        item_region = model.element_region
+        a, b = _elements_sharing_a_face(model.mesh.tetrahedra)
+        points = model.mesh.rest_positions[model.mesh.tetrahedra]
+        centres, weights = points.mean(axis=1), _volumes(points)
+        item_nodes = model.mesh.tetrahedra
+    else:
+        item_region = model.spring_region
+        a, b = _springs_sharing_a_node(model.mesh)
+        points = model.mesh.rest_positions[model.mesh.springs]
+        centres, weights = points.mean(axis=1), np.ones(len(points))
+        item_nodes = model.mesh.springs
+        moving = model.mesh.free[model.mesh.springs].any(axis=1)
+    rules = prior.rules
+    found, rest = [], {}
+    for quantity in _QUANTITIES:
+        if quantity not in values:
+            continue
+        value = values[quantity]
+        for region, sets in enumerate(prior.sets):
+            chosen = sets.get(quantity)
+            members = item_region == region
+            if kind == "springs":
+                members &= moving            # springs between fixed nodes say nothing
+            if chosen is None or not members.any():
+                continue
+            variable = rules.outputs[chosen.output]
+            terms = list(variable.terms)
+            degrees = np.stack([variable.membership(t, value) for t in terms])
+            best = np.argmax(degrees, axis=0)
+            described = terms.index(prior.label(region, quantity))
+            flagged = members & (best != described)
+            calm = members & ~flagged
+            if calm.any():
+                typical = float(np.median(value[calm]))
+                rest.setdefault(model.region_names[region], {})[quantity] = {
+                    "value": typical, "label": _word(rules, chosen.output, typical)[0]}
+            keep = flagged[a] & flagged[b] & (best[a] == best[b])
+            graph = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])),
+                                  shape=(len(value), len(value)))
+            _, component = connected_components(graph, directed=False)
+            for label in np.unique(component[flagged]):
+                items = np.flatnonzero(flagged & (component == label))
+                if len(items) < min_items:
+                    continue
+                typical = float(np.median(value[items]))
+                word, degree = _word(rules, chosen.output, typical)
+                w = weights[items]
+                entry = {kind: items.tolist(),
+                         "nodes": np.unique(item_nodes[items]).tolist(),
+                         "centroid": (w @ centres[items] / w.sum()).tolist(),
+                         "size": int(len(items)), "quantity": quantity, "value": typical,
+                         "label": word, "degree": degree,
+                         "described": terms[described], "region": model.region_names[region]}
+                if kind == "elements":
+                    entry["volume"] = float(w.sum())
+                found.append(entry)
+    found.sort(key=lambda entry: -entry["size"])
+    return {"regions": found, "rest": rest}
+
+
+def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm") -> str:
+    """The regions found in words: "a region of 24 elements near (2.0, 2.0, 1.5) cm is hard
+    (youngs_modulus 0.93); the rest: firm"."""
+    parts = []
+    for entry in result["regions"]:
+        kind = "elements" if "elements" in entry else "springs"
+        where = ", ".join(f"{c / unit:.1f}" for c in entry["centroid"])
+        parts.append(f"a region of {entry['size']} {kind} near ({where}) {unit_name} is "
+                     f"{entry['label']} ({entry['quantity'].replace('_', ' ')} "
+                     f"{entry['degree']:.2f}; described {entry['described']})")
+    rest = "; ".join(f"{region}: " + ", ".join(f"{q.replace('_', ' ')} {v['label']}"
+                                               for q, v in quantities.items())
+                     for region, quantities in result["rest"].items())
+    if not parts:
+        return f"no region differs from the description ({rest})" if rest else \
+            "no region differs from the description"
+    return "; ".join(parts) + (f"; the rest: {rest}" if rest else "")
+
+
+def _word(rules, output, value) -> tuple[str, float]:
+    label = rules.describe({output: value})[output]
+    return label.term, float(label.degree)
+
+
+def _volumes(points: np.ndarray) -> np.ndarray:
+    edges = points[:, 1:] - points[:, :1]
+    return np.abs(np.linalg.det(edges)) / 6.0

@@ -1,0 +1,242 @@
+"""The rule base as a prior (issue 14): the fuzzy sets as penalty terms with exact derivatives,
+the noise level, the weight by the discrepancy principle, regions found, and the command."""
+
+import json
+
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.errors import InputError
+from neurofuzzy.experiment import simulate_experiment
+from neurofuzzy.io import save_experiment
+from neurofuzzy.learn import GradientLearner, Parameterization
+from neurofuzzy.learn.gradient import auto_substeps
+from neurofuzzy.learn.prior import FuzzyPrior, parse_prior
+from neurofuzzy.noise import noise_level
+from neurofuzzy.learn.regions import describe_regions, regions_found
+from neurofuzzy.mesh import from_tetra
+from neurofuzzy.model import SpringMassModel
+from neurofuzzy.rules import initialize, resolve
+
+from helpers import cli
+
+RULES = resolve("liver")
+FIRM, STONY = 5000.0, 25000.0          # liver is described "firm"; 5× stiffer reads "hard"
+
+
+def block(shape=(2, 2, 1), cell=0.01):
+    return from_tetra(*kuhn_block(shape, cell)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+
+
+def continuum(mesh, modulus=FIRM, tissue="liver"):
+    model = SpringMassModel.continuum(mesh, youngs_modulus=modulus, poisson_ratio=0.45,
+                                      viscosity=2.0, density=1050.0)
+    return model.replace(region_tissues=(tissue,))
+
+
+def load_cases(truth, *, noise, frames=21, dt=2e-3, force=0.03, directions=None):
+    """Noisy recordings of every node of ``truth`` under a load on its top, one per
+    direction."""
+    mesh = truth.mesh
+    top = np.flatnonzero(mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9)
+    substeps = auto_substeps(truth, dt)
+    data = []
+    for seed, direction in enumerate(directions or ((0, 0, -1.0), (1.0, 0, 0), (0, 1.0, 0))):
+        load = np.zeros((mesh.n_nodes, 3))
+        load[top] = np.array(direction) * force / len(top)
+        data.append(simulate_experiment(truth, dt=dt, n_frames=frames, external_forces=load,
+                                        substeps=substeps, noise=noise, seed=seed))
+    return data, substeps
+
+
+# -- the prior's terms --------------------------------------------------------------------------
+@pytest.mark.parametrize("elements", [True, False], ids=["elements", "springs"])
+def test_prior_terms_have_exact_derivatives(elements):
+    model = initialize(RULES, block(), "liver", elements=elements).tied("none")
+    prior = FuzzyPrior(RULES, model, smoothness=0.7)
+    parameters = Parameterization(model)
+    terms = prior.terms(parameters)
+    assert len(terms.pairs) > 0 and terms.n_rows > parameters.size / 2
+    theta = parameters.initial() + np.random.default_rng(0).normal(0, 0.3, parameters.size)
+    jacobian = terms.jacobian(theta).toarray()
+    numeric = np.empty_like(jacobian)
+    for i in range(parameters.size):
+        step = np.zeros(parameters.size)
+        step[i] = 1e-6
+        numeric[:, i] = (terms.residuals(theta + step) - terms.residuals(theta - step)) / 2e-6
+    assert np.allclose(jacobian, numeric, atol=1e-7 * np.abs(jacobian).max())
+    assert np.allclose(terms.gradient(theta), numeric.T @ terms.residuals(theta), atol=1e-7)
+
+
+def test_prior_is_zero_at_the_description_and_grows_away_from_it():
+    """Each value row is (u - c) / s: zero at the centroid of the inferred set, one spread
+    per decade-spread away (the quantity in decades on log universes)."""
+    model = continuum(block())
+    prior = FuzzyPrior(RULES, model)
+    chosen = prior.sets[0]["youngs_modulus"]
+    parameters = Parameterization(model)
+    terms = prior.terms(parameters)
+    theta = parameters.initial()
+    block_e = parameters.blocks["log_youngs_modulus"].slice
+    theta[block_e] = chosen.centre * np.log(10)
+    row = int(np.flatnonzero(terms.index == block_e.start)[0])
+    assert abs(terms.residuals(theta)[row]) < 1e-12
+    theta[block_e] += chosen.spread * np.log(10)
+    assert terms.residuals(theta)[row] == pytest.approx(1.0)
+    # the set's centroid is the defuzzified value the rule base gives the tissue
+    assert 10 ** chosen.centre == pytest.approx(RULES.tissue("liver")["youngs_modulus"],
+                                                rel=0.01)
+    assert prior.label(0, "youngs_modulus") == "firm"
+
+
+def test_prior_refuses_what_it_cannot_use():
+    model = continuum(block(), tissue=None)
+    with pytest.raises(InputError, match="no tissue"):
+        FuzzyPrior(RULES, model)
+    with pytest.raises(InputError, match="positive weight"):
+        parse_prior("-1")
+    with pytest.raises(InputError, match="off, auto"):
+        parse_prior("strong")
+    assert parse_prior("2.5") == 2.5 and parse_prior("auto") == "auto"
+
+
+def test_noise_level_recovers_the_simulated_noise():
+    data, _ = load_cases(continuum(block()), noise=2e-5, frames=41)
+    assert noise_level(data) == pytest.approx(2e-5, rel=0.1)
+    clean, _ = load_cases(continuum(block()), noise=0.0, frames=41)
+    assert noise_level(clean) < 2e-6
+
+
+# -- regions found ------------------------------------------------------------------------------
+def test_regions_found_groups_neighbours_that_leave_the_description():
+    mesh = block((4, 4, 2))
+    centres = mesh.rest_positions[mesh.tetrahedra].mean(axis=1)
+    cluster = np.flatnonzero(np.all(np.abs(centres[:, :2] - 0.01) < 0.01, axis=1)
+                             & (centres[:, 2] < 0.01))          # one 2 × 2 × 1 cell corner
+    far = np.argmax(np.linalg.norm(centres - centres[cluster].mean(axis=0), axis=1))
+    modulus = np.full(mesh.n_tetrahedra, FIRM)
+    modulus[cluster] = STONY
+    modulus[far] = STONY                 # one element alone: not a region
+    model = continuum(mesh, modulus)
+    found = regions_found(model, FuzzyPrior(RULES, model))
+    assert len(found["regions"]) == 1
+    region = found["regions"][0]
+    assert sorted(region["elements"]) == sorted(cluster.tolist())
+    assert region["label"] == "hard" and region["described"] == "firm"
+    assert region["value"] == pytest.approx(STONY)
+    assert np.allclose(region["centroid"], centres[cluster].mean(axis=0), atol=1e-9)
+    assert set(region["nodes"]) == set(mesh.tetrahedra[cluster].ravel().tolist())
+    assert found["rest"]["object"]["youngs_modulus"]["label"] == "firm"
+    words = describe_regions(found)
+    assert f"a region of {len(cluster)} elements near (1.0, 1.0, 0.5) cm is hard" in words
+
+
+def test_regions_found_on_springs():
+    mesh = block((3, 3, 2))
+    model = initialize(RULES, mesh, "liver", elements=False)
+    middle = mesh.rest_positions[mesh.springs].mean(axis=1)
+    soft = np.flatnonzero(np.linalg.norm(middle - [0.015, 0.015, 0.02], axis=1) < 0.008)
+    stiffness = model.spring_stiffness.copy()
+    stiffness[soft] /= 4.0
+    found = regions_found(model.replace(spring_stiffness=stiffness), FuzzyPrior(RULES, model))
+    assert [r["label"] for r in found["regions"]] == ["soft"]
+    assert set(found["regions"][0]["springs"]) == set(soft.tolist())
+
+
+# -- fits ---------------------------------------------------------------------------------------
+def test_tied_fit_with_good_data_is_unchanged_by_the_prior():
+    truth = continuum(block(), 6000.0)
+    data, substeps = load_cases(truth, noise=5e-6, directions=((0, 0, -1.0), (1.0, 0, 0)))
+    start = continuum(block(), 4000.0)
+    plain = GradientLearner(substeps=substeps).fit(start, data)
+    prior = FuzzyPrior(RULES, start)
+    with_prior = GradientLearner(substeps=substeps, prior=prior).fit(start, data)
+    assert with_prior.prior_["how"] == "discrepancy principle"
+    assert with_prior.prior_["noise"] == pytest.approx(5e-6, rel=0.15)
+    found = with_prior.model_.element_youngs_modulus[0]
+    expected = plain.model_.element_youngs_modulus[0]
+    error = plain.std_errors_[plain.parameter_names_.index("youngs_modulus[all elements]")]
+    assert abs(np.log(found / expected)) < 2 * error
+    assert found == pytest.approx(6000.0, rel=0.02)
+
+
+def test_both_gradient_paths_minimise_the_same_objective():
+    """Levenberg–Marquardt (prior rows in the Jacobian) and L-BFGS (prior in the adjoint
+    gradient) reach the same optimum of data + a strong fixed prior."""
+    truth = continuum(block(), 6000.0)
+    data, substeps = load_cases(truth, noise=2e-5, directions=((0, 0, -1.0),))
+    start = continuum(block(), 4000.0)
+    fits = [GradientLearner(substeps=substeps, method=method, max_iterations=300,
+                            prior=FuzzyPrior(RULES, start, weight=1e4)).fit(start, data)
+            for method in ("lm", "lbfgs")]
+    values = [fit.model_.element_youngs_modulus[0] for fit in fits]
+    assert values[0] == pytest.approx(values[1], rel=2e-3)
+    # the strong prior pulls E from the data's 6 kPa towards the description's 5.1 kPa
+    assert 5100 < values[0] < 5950
+
+
+@pytest.mark.slow
+def test_per_element_fit_finds_a_stiffer_inclusion_in_words():
+    """Issue 14's acceptance: a 5× stiffer inclusion (under 10 % of the volume) in noisy data
+    of three load cases; the regions found overlap it by ≥ 70 %, read harder than the rest,
+    and nothing else is reported."""
+    mesh = block((3, 3, 2))
+    centres = mesh.rest_positions[mesh.tetrahedra].mean(axis=1)
+    inside = np.all((centres > [0.01, 0.01, 0.0]) & (centres < [0.02, 0.02, 0.01]), axis=1)
+    assert inside.mean() < 0.1
+    truth = continuum(mesh, np.where(inside, STONY, FIRM))
+    data, substeps = load_cases(truth, noise=1e-5, frames=21)
+    start = continuum(mesh).tied("none")
+    learner = GradientLearner(substeps=substeps, windows=(), max_iterations=40,
+                              prior=FuzzyPrior(RULES, start)).fit(start, data)
+    assert learner.prior_["reaches_noise"]
+    found = regions_found(learner.model_, learner.prior)
+    assert len(found["regions"]) == 1
+    region = found["regions"][0]
+    truly = set(np.flatnonzero(inside).tolist())
+    assert len(set(region["elements"]) & truly) >= 0.7 * len(truly)
+    assert region["label"] in ("hard", "very_hard")
+    assert found["rest"]["object"]["youngs_modulus"]["label"] == "firm"
+
+
+# -- the command --------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("prior")
+    truth = continuum(block(), 6000.0)
+    data, _ = load_cases(truth, noise=1e-5, directions=((0, 0, -1.0),), frames=15)
+    path = folder / "push.npz"
+    save_experiment(data[0], path)
+    return path
+
+
+def test_fit_uses_the_prior_with_tie_none_and_reports_regions(recording, tmp_path):
+    report = tmp_path / "fit.html"
+    run = cli("fit", str(recording), "--rules", "liver", "--tissue", "liver", "--tie", "none",
+              "--substeps", "2", "--cycles", "5", "--json", "--report", report)
+    assert run.returncode == 0, run.stderr
+    result = json.loads(run.stdout)
+    page = report.read_text()
+    assert "Where the tissue differs from its description" in page and "α =" in page
+    assert json.loads(report.with_suffix(".json").read_text())["prior"]["alpha"] > 0
+    assert result["prior"]["how"] == "discrepancy principle" and result["prior"]["alpha"] > 0
+    assert result["regions_found"] == [] or all(
+        {"elements", "nodes", "centroid", "quantity", "value", "label", "degree"}
+        <= set(entry) for entry in result["regions_found"])
+    assert "firm" in json.dumps(result["regions_rest"])
+
+
+def test_fit_prior_options(recording):
+    base = ("fit", str(recording), "--rules", "liver", "--tissue", "liver", "--substeps", "2",
+            "--cycles", "3", "--json")
+    run = cli(*base)                      # tied: off by default
+    assert run.returncode == 0 and json.loads(run.stdout)["prior"] is None
+    run = cli(*base, "--prior", "3")
+    assert run.returncode == 0 and json.loads(run.stdout)["prior"]["alpha"] == 3.0
+    for extra, message in ((("--prior", "banana"), "off, auto"),
+                           (("--method", "paper", "--prior", "auto"), "prior")):
+        run = cli(*base, *extra)
+        assert run.returncode == 2 and message in run.stderr
+    run = cli("fit", str(recording), "--prior", "auto", "--substeps", "2", "--json")
+    assert run.returncode == 2 and "rule base" in run.stderr
