@@ -2,7 +2,7 @@
 
 After a fit with the rule base as a prior (:mod:`.prior`), every element (or spring) whose
 fitted value carries another word than its region's description ("hard" in tissue described
-as "firm") is flagged; flagged neighbours with the same word (elements sharing a face, springs
+as "firm"), with a degree of at least ``MIN_DEGREE``, is flagged; flagged neighbours with the same word (elements sharing a face, springs
 sharing a node, within one region) form a region found. Each is reported with its elements or
 springs, nodes, centroid, size, median value, word and degree of membership, and the rest of
 the tissue with its own word: "a region of 24 elements near (2.0, 2.0, 1.5) cm is hard (0.93),
@@ -21,6 +21,8 @@ __all__ = ["regions_found", "describe_regions", "MIN_ITEMS"]
 
 #: Smallest region reported (elements or springs): one item alone is as likely noise.
 MIN_ITEMS = 2
+#: An item leaves the description when another word fits its value at least this well.
+MIN_DEGREE = 0.5
 
 _QUANTITIES = ("youngs_modulus", "viscosity", "poisson_ratio")
 
@@ -81,7 +83,7 @@ def regions_found(model, prior, *, min_items: int = MIN_ITEMS) -> dict:
             degrees = np.stack([variable.membership(t, value) for t in terms])
             best = np.argmax(degrees, axis=0)
             described = terms.index(prior.label(region, quantity))
-            flagged = members & (best != described)
+            flagged = members & (best != described) & (degrees.max(axis=0) >= MIN_DEGREE)
             calm = members & ~flagged
             if calm.any():
                 typical = float(np.median(value[calm]))
