@@ -179,8 +179,11 @@ class PriorTerms:
     centre, spread : (n_rows,) float
     pairs : (n_pairs, 2) int
         Rows joined by a smoothness term.
-    scale : float
-        ``√(w)`` per unit ``α`` (set by the learner from the noise).
+    smoothness : float
+        ``β``.
+    n_params : int
+
+    All terms are at unit weight; the learner multiplies them by ``√w``.
     """
 
     index: np.ndarray
@@ -197,7 +200,7 @@ class PriorTerms:
     def build(cls, prior: FuzzyPrior, parameters) -> PriorTerms:
         model = parameters.base
         rows = {key: [] for key in ("index", "offset", "logit", "log_scale", "centre",
-                                    "spread", "region", "item_group")}
+                                    "spread", "item_group")}
         for name, quantity in PRIOR_QUANTITIES.items():
             block = parameters.blocks.get(name)
             if block is None:
@@ -232,7 +235,6 @@ class PriorTerms:
                 rows["log_scale"].append(variable.scale == "log")
                 rows["centre"].append(chosen.centre)
                 rows["spread"].append(chosen.spread)
-                rows["region"].append(int(region[first[group]]))
                 rows["item_group"].append((name, int(group)))
         arrays = {key: np.asarray(value) for key, value in rows.items() if key != "item_group"}
         pairs = (_neighbour_pairs(model, parameters, rows["item_group"]) if prior.smoothness > 0
