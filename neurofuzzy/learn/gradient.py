@@ -18,7 +18,6 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import scipy.linalg
 from scipy.optimize import minimize
 
 from ..errors import InputError, NeurofuzzyError
@@ -26,10 +25,10 @@ from ..experiment import Experiment, check_experiments, rms_error
 from ..model import SpringMassModel
 from ..simulation import check_substeps, stability_limit
 from ..progress import Progress
-from ..noise import marker_noise, noise_level
 from ._base import Learner
 from ._lm import levenberg_marquardt
 from ._parameters import Parameterization
+from ._prior_weight import set_prior
 from ._sensitivity import Sensitivity
 from .identifiability import analyse, structurally_unidentifiable
 
@@ -43,11 +42,6 @@ MAX_JACOBIAN_ENTRIES = 3e7
 #: Default multiple-shooting window (frames) before the whole-trajectory stage.
 DEFAULT_WINDOW = 25
 
-
-#: Fits the discrepancy principle may spend choosing the prior's weight (L-BFGS).
-MAX_PRIOR_FITS = 5
-#: The prior's weight stays within this factor of the Bayesian one.
-MAX_PRIOR_ALPHA = 1e4
 
 #: Residuals (in spring lengths) beyond this mean the simulation diverged.
 DIVERGED = 1e6
@@ -206,7 +200,7 @@ class GradientLearner(Learner):
 
         self._prior_terms, self._prior_scale, self.prior_ = None, 0.0, None
         if self.prior is not None:
-            theta = self._set_prior(parameters, sensitivity, experiments, theta,
+            theta = set_prior(self, parameters, sensitivity, experiments, theta,
                                     initial_steps if auto and not discrete
                                     else (1 if auto else int(self.substeps)), fit, method,
                                     active)
@@ -262,144 +256,6 @@ class GradientLearner(Learner):
         return {**super().to_dict(), "extrapolated": self.extrapolated_,
                 "parameters": self.parameter_names_, **self.identifiability_.to_dict(),
                 "prior": self.prior_}
-
-    # -- the prior ---------------------------------------------------------------------------
-    def _set_prior(self, parameters, sensitivity, experiments, theta, substeps, fit, method,
-                   active):
-        """The prior's terms and weight ``w = α σ²``; with ``weight="auto"``, ``α`` by the
-        discrepancy principle (:meth:`_discrepancy`). Returns a start for the main fit (the
-        search's last fit, near the answer)."""
-        terms = self.prior.terms(parameters)
-        noise = noise_level(experiments)
-        # noise-free data: a prior at the noise level of 0.1 ‰ of the motion, which only
-        # settles what the data leave open
-        motion = max(float(np.nanmax(np.abs(np.nan_to_num(
-            e.observation.values - e.observation.values[:1])))) for e in experiments)
-        sigma = max(noise, 1e-4 * motion) / sensitivity.length_unit
-        self._prior_terms = terms
-        self.prior_ = {"noise": sigma * sensitivity.length_unit, "noise_estimated": noise,
-                       "rows": terms.n_rows, **self.prior.to_dict()}
-        if self.prior.weight != "auto":
-            self._prior_scale = np.sqrt(float(self.prior.weight)) * sigma
-            self.prior_.update(alpha=float(self.prior.weight), how="given", fits=0)
-            return theta
-        return self._discrepancy(parameters, sensitivity, experiments, theta, substeps, fit,
-                                 method, active, sigma)
-
-    def _discrepancy(self, parameters, sensitivity, experiments, theta, substeps, fit, method,
-                     active, sigma):
-        """The discrepancy principle: the largest ``α`` whose fit leaves a residual no larger
-        than noise would (``‖r‖² ≤ m σ² + 2 √(2m) σ²``, two standard deviations of χ²_m;
-        with a Jacobian also at most the unregularised residual plus ``n σ²``).
-
-        From the Bayesian weight ``α = 1``: with Levenberg–Marquardt, the Gauss–Newton
-        prediction of the residual at every ``α`` of a grid (one Jacobian, one small solve
-        per ``α``) chooses the weight, and one more fit takes it; with L-BFGS (no Jacobian),
-        fits at ``α`` ten times apart bracket it. Returns the parameters of the last fit."""
-        runs = [sensitivity.run(theta, e, substeps=substeps) for e in experiments]
-        m = sum(run.n_measured for run in runs)
-        bound = np.sqrt(1.0 + 2.0 * np.sqrt(2.0 / max(m, 1)))      # RMS / σ allowed
-        progress = Progress("prior weight (discrepancy principle)", MAX_PRIOR_FITS,
-                            self.progress)
-        tried, scale = {}, sigma            # α → (RMS / noise, parameters); w = α scale²
-
-        def misfit(log_alpha, start):
-            self._prior_scale = np.exp(0.5 * log_alpha) * scale
-            found = fit(start, substeps, ())
-            runs = [sensitivity.run(found, e, substeps=substeps) for e in experiments]
-            total = sum(float(np.sum(run.residuals**2)) for run in runs)
-            ratio = np.sqrt(total / m) / sigma if np.isfinite(total) else np.inf
-            tried[log_alpha] = (ratio, found)
-            progress.update(len(tried), f"α {np.exp(log_alpha):.3g}, RMS / noise {ratio:.3g}")
-            return runs
-
-        runs = misfit(0.0, theta)
-        # the noise again, from the fit's error: smooth model error leaves first differences
-        # that are mostly noise, a sharper estimate than the data's third differences
-        residual_noise = marker_noise(np.concatenate([run.residuals for run in runs], axis=1),
-                                      np.ones(1))
-        if 0 < residual_noise < sigma:
-            tried = {a: (v * sigma / residual_noise, t) for a, (v, t) in tried.items()}
-            sigma = residual_noise
-            self.prior_["noise"] = sigma * sensitivity.length_unit
-        theta = tried[0.0][1]
-        predicted = None
-        if method == "lm":
-            log_alpha, predicted, bound = self._predict_alpha(
-                sensitivity, experiments, theta, substeps, active, sigma, scale, m, bound)
-            if log_alpha != 0.0:
-                misfit(log_alpha, theta)
-        else:
-            step = np.log(10.0)
-            while len(tried) < MAX_PRIOR_FITS:
-                below = [a for a, (v, _) in tried.items() if v <= bound]
-                above = [a for a, (v, _) in tried.items() if v > bound]
-                if below and above and min(above) - max(below) <= step / 2:
-                    break
-                if below and above:
-                    log_alpha = 0.5 * (max(below) + min(above))
-                elif below:
-                    log_alpha = max(below) + step
-                else:
-                    log_alpha = min(above) - step
-                if abs(log_alpha) > np.log(MAX_PRIOR_ALPHA):
-                    break
-                misfit(log_alpha, tried[min(tried, key=lambda a: abs(a - log_alpha))][1])
-        # the largest weight within the noise, else the one closest to it
-        within = [a for a, (v, _) in tried.items() if v <= bound]
-        log_alpha = max(within) if within else min(tried, key=lambda a: tried[a][0])
-        self._prior_scale = np.exp(0.5 * log_alpha) * scale
-        self.prior_.update(alpha=float(np.exp(log_alpha) * (scale / sigma) ** 2),
-                           how="discrepancy principle",
-                           fits=len(tried), rms_over_noise=float(tried[log_alpha][0]),
-                           rms_over_noise_allowed=float(bound),
-                           reaches_noise=bool(within))
-        if predicted is not None:
-            self.prior_["rms_over_noise_predicted"] = predicted
-        return tried[log_alpha][1]
-
-    def _predict_alpha(self, sensitivity, experiments, theta, substeps, active, sigma, scale,
-                       m, bound) -> tuple[float, float, float]:
-        """Gauss–Newton prediction, around the fit ``theta`` at ``α = 1``, of the RMS residual
-        (in noise units) at every ``α`` of a grid; the largest ``α`` predicted within
-        the bound (else the grid's smallest), its prediction and the bound.
-
-        The bound is also at most the residual of the fit without a prior (predicted at
-        ``α = 0``) plus ``n σ²`` for ``n`` free parameters, what fitting them to noise takes
-        away: with few well-determined parameters the prior then moves them by no more than
-        their standard errors, whatever the small error of the noise estimate."""
-        starts = [(0,)] * len(experiments)
-        J = self._jacobian(sensitivity, experiments, theta, starts, substeps)[:, active]
-        runs = [sensitivity.run(theta, e, substeps=substeps) for e in experiments]
-        r = np.concatenate([run.residuals.ravel() for run in runs])
-        P = self._prior_terms.jacobian(theta)[:, active].toarray()
-        q = self._prior_terms.residuals(theta)
-        normal, gradient = J.T @ J, J.T @ r
-        prior_normal, prior_gradient = P.T @ P, P.T @ q
-        grid = np.log(10.0) * np.arange(np.log10(MAX_PRIOR_ALPHA), -3.01, -0.25)
-
-        def predict(w):
-            matrix = normal + w * prior_normal
-            matrix[np.diag_indices_from(matrix)] += 1e-12 * max(float(np.trace(matrix)), 1e-300)
-            try:
-                step = -scipy.linalg.solve(matrix, gradient + w * prior_gradient,
-                                           assume_a="pos", check_finite=False)
-            except (np.linalg.LinAlgError, ValueError):
-                return np.inf
-            return np.sqrt(float(np.sum((r + J @ step) ** 2)) / m) / sigma
-
-        unregularised = predict(0.0)
-        if np.isfinite(unregularised):
-            bound = min(bound, np.sqrt(unregularised**2 + J.shape[1] / m))
-        chosen, prediction = grid[-1], np.inf
-        for log_alpha in grid:                       # from the strongest prior down
-            predicted = predict(np.exp(log_alpha) * scale**2)
-            if not np.isfinite(predicted):
-                continue
-            chosen, prediction = log_alpha, predicted
-            if predicted <= bound:
-                break
-        return float(chosen), float(prediction), float(bound)
 
     # -- stages and solvers -----------------------------------------------------------------
     def _method(self, parameters, experiments) -> str:

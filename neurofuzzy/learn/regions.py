@@ -15,6 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..forces import tetrahedron_geometry
 from .prior import _elements_sharing_a_face, _spring_factor, _springs_sharing_a_node
 
 __all__ = ["regions_found", "describe_regions", "MIN_ITEMS"]
@@ -56,7 +57,8 @@ def regions_found(model, prior, *, min_items: int = MIN_ITEMS) -> dict:
         item_region = model.element_region
         a, b = _elements_sharing_a_face(model.mesh.tetrahedra)
         points = model.mesh.rest_positions[model.mesh.tetrahedra]
-        centres, weights = points.mean(axis=1), _volumes(points)
+        centres = points.mean(axis=1)
+        weights = tetrahedron_geometry(model.mesh).volume
         item_nodes = model.mesh.tetrahedra
     else:
         item_region = model.spring_region
@@ -135,8 +137,3 @@ def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm")
 def _word(rules, output, value) -> tuple[str, float]:
     label = rules.describe({output: value})[output]
     return label.term, float(label.degree)
-
-
-def _volumes(points: np.ndarray) -> np.ndarray:
-    edges = points[:, 1:] - points[:, :1]
-    return np.abs(np.linalg.det(edges)) / 6.0
