@@ -95,6 +95,13 @@ class Sensitivity:
         return self.backend != "numpy" and compiled_possible(self.parameters,
                                                              self.parameters.base)
 
+    @property
+    def compiled_gradient(self) -> bool:
+        """Does :meth:`gradient` run in the compiled kernels (springs, constant loads and a
+        node drag, nothing but the springs learned)?"""
+        return (self.compiled and not self.parameters.base.has_elements
+                and not self.parameters.effects)
+
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
     def _force(model, p, v, state) -> np.ndarray:
@@ -224,6 +231,8 @@ class Sensitivity:
         """``(½ Σ r², ∂/∂θ, run)`` by the discrete adjoint (one forward, one backward sweep)."""
         param = self.parameters
         model = param.model(theta)
+        if self.compiled_gradient:
+            return self._compiled_gradient(model, experiment, substeps, starts)
         weight = model.node_inverse_mass[:, None]
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
@@ -306,6 +315,54 @@ class Sensitivity:
                     d_v += e_v
                 lam_p = lam_p + d_p
                 lam_v = lam_vnew + d_v
+        return loss, grad, run
+
+    def _compiled_gradient(self, model, experiment, substeps, starts):
+        """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy._numba_adjoint`) for
+        models of springs whose only effects are constant loads and a node drag, none of
+        them learned."""
+        from .._numba_adjoint import pull_back, sweep
+
+        param = self.parameters
+        compiled = CompiledModel(param, model)
+        a, b, stiffness, damping, rest = compiled.springs[:5]
+        drag, _, _, constant = compiled.effects
+        n_frames, observation = experiment.n_frames, experiment.observation
+        frames = sorted(set(int(t) for t in starts) | {0})
+        start_index = np.full(n_frames, -1, np.intp)
+        start_index[frames] = np.arange(len(frames))
+        states = [self._window_state(experiment, t) for t in frames]
+        start_p = np.array([s[0] for s in states], dtype=float, order="C")
+        start_v = np.array([s[1] for s in states], dtype=float, order="C")
+        loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
+        h = experiment.dt / substeps
+        steps = (n_frames - 1) * substeps
+        positions = np.empty((n_frames, self.n_nodes, 3))
+        states_p = np.empty((steps, self.n_nodes, 3))
+        states_v = np.empty((steps, self.n_nodes, 3))
+        weight = np.ascontiguousarray(compiled.weight, dtype=float)
+        with np.errstate(over="ignore", invalid="ignore"):
+            sweep(a, b, stiffness, damping, rest, drag, weight, loads, h, n_frames,
+                  int(substeps), start_index, start_p, start_v, positions, states_p, states_v)
+            scale = 1.0 / self.length_unit
+            residuals = observation.residuals(positions) * scale
+        run = Run(positions=positions, residuals=residuals[1:],
+                  n_measured=3 * int(observation.seen[1:].sum()))
+        loss = 0.5 * float(np.sum(residuals[1:] ** 2))
+        grad = np.zeros(param.size)
+        if not np.isfinite(loss) or not param.learn_springs:
+            return (loss if np.isfinite(loss) else float("inf")), grad, run
+        # ∂L/∂p(t) = Hᵀ r(t) / length_unit, every frame at once
+        frame_adjoint = np.ascontiguousarray(np.moveaxis(observation.adjoint(
+            np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
+            self.n_nodes, n_frames, 3), 0, 1) * scale)
+        d_stiffness, d_damping = np.zeros(len(a)), np.zeros(len(a))
+        pull_back(a, b, stiffness, damping, rest, drag, weight, h, n_frames, int(substeps),
+                  start_index, states_p, states_v, frame_adjoint, d_stiffness, d_damping)
+        tie, n_ties = param.tied.tie, param.tied.n_ties
+        grad[param.blocks["log_stiffness"].slice] = np.bincount(tie, stiffness * d_stiffness,
+                                                                n_ties)
+        grad[param.blocks["log_damping"].slice] = np.bincount(tie, damping * d_damping, n_ties)
         return loss, grad, run
 
     @staticmethod

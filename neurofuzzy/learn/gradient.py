@@ -47,11 +47,12 @@ DEFAULT_WINDOW = 25
 DIVERGED = 1e6
 
 
-def _side_by_side(sensitivity, run, experiments, starts) -> list:
+def _side_by_side(sensitivity, run, experiments, starts, *, compiled=None) -> list:
     """``run(experiment, starts)`` for every experiment: in threads, one per core, when the
-    compiled kernel (which releases the GIL) does the work; one after the other otherwise."""
+    compiled kernel (which releases the GIL) does the work (``compiled``, by default that
+    of the forward passes); one after the other otherwise."""
     workers = min(len(experiments), os.cpu_count() or 1)
-    if workers < 2 or not sensitivity.compiled:
+    if workers < 2 or not (sensitivity.compiled if compiled is None else compiled):
         return [run(e, s) for e, s in zip(experiments, starts)]
     with ThreadPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(run, experiments, starts))
@@ -373,13 +374,12 @@ class GradientLearner(Learner):
         def objective(x):
             values = theta.copy()
             values[active] = x
-            loss, grad, runs = 0.0, np.zeros_like(theta), []
-            for experiment, s in zip(experiments, starts):
-                value, g, run = sensitivity.gradient(values, experiment, substeps=substeps,
-                                                     starts=s)
-                loss += value
-                grad += g
-                runs.append(run)
+            parts = _side_by_side(sensitivity, lambda e, s: sensitivity.gradient(
+                values, e, substeps=substeps, starts=s), experiments, starts,
+                compiled=sensitivity.compiled_gradient)
+            loss = sum(value for value, _, _ in parts)
+            grad = np.sum([g for _, g, _ in parts], axis=0)
+            runs = [run for _, _, run in parts]
             self._record(runs, sensitivity.length_unit)
             if self._prior_terms is not None:
                 loss += self._prior_scale**2 * self._prior_terms.cost(values)
