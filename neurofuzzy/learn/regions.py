@@ -1,10 +1,14 @@
 """Where the fitted tissue differs from its description: connected **regions found**.
 
-After a fit with the rule base as a prior (:mod:`.prior`), every element (or spring) whose
-fitted value carries another word than its region's description ("hard" in tissue described
-as "firm"), with a degree of at least ``MIN_DEGREE``, is flagged; flagged neighbours with the same word (elements sharing a face, springs
-sharing a node, within one region) form a region found. Each is reported with its elements or
-springs, nodes, centroid, size, median value, word and degree of membership, and the rest of
+After a fit with the rule base as a prior (:mod:`.prior`), the elements (or springs) whose
+fitted values another word fits better than their region's description ("hard" in tissue
+described as "firm") form connected groups with their neighbours that leave the description on
+the same side (harder or softer; elements sharing a face, springs sharing a node, within one
+region); a group with at least one item that its word fits with a degree of ``MIN_DEGREE`` or
+more is a region found (hysteresis, as in edge detection: a clear core, then its neighbours
+that lean the same way, so a region whose values straddle the border between two words is not
+cut in pieces). A region's word is that of its median value. Each is reported with its elements
+or springs, nodes, centroid, size, median value, word and degree of membership, and the rest of
 the tissue with its own word: "a region of 24 elements near (2.0, 2.0, 1.5) cm is hard (0.93),
 the rest firm".
 """
@@ -18,10 +22,12 @@ from scipy.sparse.csgraph import connected_components
 from ..forces import tetrahedron_geometry
 from .prior import _elements_sharing_a_face, _spring_factor, _springs_sharing_a_node
 
-__all__ = ["regions_found", "describe_regions", "MIN_ITEMS"]
+__all__ = ["regions_found", "describe_regions", "MIN_NODES"]
 
-#: Smallest region reported (elements or springs): one item alone is as likely noise.
-MIN_ITEMS = 2
+#: Smallest region reported, in nodes' worth of the mesh (its volume, or its springs, per
+#: node): one marker's noise moves the items around its node, so a smaller region is as
+#: likely noise as tissue.
+MIN_NODES = 2.0
 #: An item leaves the description when another word fits its value at least this well.
 MIN_DEGREE = 0.5
 
@@ -40,9 +46,17 @@ def item_values(model) -> tuple[str, dict[str, np.ndarray]]:
                        "viscosity": model.spring_damping / factor}
 
 
-def regions_found(model, prior, *, min_items: int = MIN_ITEMS) -> dict:
+def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
     """The regions of ``model`` (fitted with ``prior``) whose words differ from the
     description.
+
+    Parameters
+    ----------
+    model : SpringMassModel
+    prior : FuzzyPrior
+    min_nodes : float
+        Regions smaller than this many nodes' share of the mesh (volume for elements, springs
+        for springs) are left out.
 
     Returns
     -------
@@ -85,19 +99,24 @@ def regions_found(model, prior, *, min_items: int = MIN_ITEMS) -> dict:
             degrees = np.stack([variable.membership(t, value) for t in terms])
             best = np.argmax(degrees, axis=0)
             described = terms.index(prior.label(region, quantity))
-            flagged = members & (best != described) & (degrees.max(axis=0) >= MIN_DEGREE)
+            # hysteresis: items another word fits better than the description, on the same
+            # side of it, join a region when it holds one that its word fits with MIN_DEGREE
+            other = members & (best != described)
+            seed = other & (degrees.max(axis=0) >= MIN_DEGREE)
+            side = value > float(variable.to_physical(chosen.centre))
+            keep = other[a] & other[b] & (side[a] == side[b])
+            graph = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])),
+                                  shape=(len(value), len(value)))
+            _, component = connected_components(graph, directed=False)
+            flagged = other & np.isin(component, component[seed])
             calm = members & ~flagged
             if calm.any():
                 typical = float(np.median(value[calm]))
                 rest.setdefault(model.region_names[region], {})[quantity] = {
                     "value": typical, "label": _word(rules, chosen.output, typical)[0]}
-            keep = flagged[a] & flagged[b] & (best[a] == best[b])
-            graph = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])),
-                                  shape=(len(value), len(value)))
-            _, component = connected_components(graph, directed=False)
             for label in np.unique(component[flagged]):
                 items = np.flatnonzero(flagged & (component == label))
-                if len(items) < min_items:
+                if weights[items].sum() < min_nodes * weights.sum() / model.n_nodes:
                     continue
                 typical = float(np.median(value[items]))
                 word, degree = _word(rules, chosen.output, typical)
