@@ -22,11 +22,12 @@ MAX_PRIOR_ALPHA = 1e4
 
 
 def set_prior(learner, parameters, sensitivity, experiments, theta, substeps, fit, method,
-              active) -> np.ndarray:
+              active) -> tuple[np.ndarray, bool]:
     """The prior's terms and weight on ``learner``; with ``weight="auto"``, ``α`` by the
     discrepancy principle (:func:`_discrepancy`). ``fit(start, substeps, windows)`` is the
-    learner's fit at the current weight. Returns a start for the main fit (the search's
-    last fit, near the answer)."""
+    learner's fit at the current weight. Returns a start for the main fit and whether it is
+    already the fit at the chosen weight with ``substeps`` (the search's, whole
+    trajectories)."""
     prior = learner.prior
     terms = prior.terms(parameters)
     noise = noise_level(experiments)
@@ -41,9 +42,9 @@ def set_prior(learner, parameters, sensitivity, experiments, theta, substeps, fi
     if prior.weight != "auto":
         learner._prior_scale = np.sqrt(float(prior.weight)) * sigma
         learner.prior_.update(alpha=float(prior.weight), how="given", fits=0)
-        return theta
+        return theta, False
     return _discrepancy(learner, sensitivity, experiments, theta, substeps, fit, method,
-                        active, sigma)
+                        active, sigma), True
 
 
 def _discrepancy(learner, sensitivity, experiments, theta, substeps, fit, method, active,

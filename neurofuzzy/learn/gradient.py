@@ -195,16 +195,21 @@ class GradientLearner(Learner):
         active = np.setdiff1d(np.arange(parameters.size),
                               structurally_unidentifiable(parameters))
 
+        searched = (None, 0)    # the prior's search's fit at its chosen weight, substeps
+
         def fit(start, substeps, windows):
+            if start is searched[0] and substeps == searched[1]:
+                return start    # fitted already, warm-started: no second fit of the same
             return self._fit_stages(sensitivity, experiments, start, substeps, windows, method,
                                     lower, upper, active)
 
         self._prior_terms, self._prior_scale, self.prior_ = None, 0.0, None
         if self.prior is not None:
-            theta = set_prior(self, parameters, sensitivity, experiments, theta,
-                                    initial_steps if auto and not discrete
-                                    else (1 if auto else int(self.substeps)), fit, method,
-                                    active)
+            steps = initial_steps if auto and not discrete else (1 if auto
+                                                                 else int(self.substeps))
+            theta, fitted = set_prior(self, parameters, sensitivity, experiments, theta, steps,
+                                      fit, method, active)
+            searched = (theta, steps) if fitted else searched
 
         self.extrapolated_ = False
         best = (np.inf, theta, initial_steps)
