@@ -180,6 +180,14 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
         sections.append(("Which: candidate scores (first round)",
                          figure_html(figure, "candidate scores") + table))
 
+    if diagnosis.localisation is not None and diagnosis.localisation.learner is not None:
+        heading, text = _prior_section(plt, diagnosis.localisation.learner, {})
+        covered = ", ".join(f"{share:.0%}" for share in diagnosis.localisation.overlap)
+        sections.append((f"{heading}: the inclusion item by item",
+                         "<p>Every element (or spring) of the start model fitted with the rule "
+                         "base as a prior; share of the diagnosis's inclusion inside the "
+                         f"regions found: {covered}.</p>" + text))
+
     stages = ["fitted model"] + [f"+ {f.name}" for f in diagnosis.effects]
     values = [diagnosis.rms_before] + [f.rms_after for f in diagnosis.effects]
     figure, ax = plt.subplots(figsize=(7, 3.2))

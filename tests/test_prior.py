@@ -130,6 +130,23 @@ def test_regions_found_groups_neighbours_that_leave_the_description():
     assert found["rest"]["object"]["youngs_modulus"]["label"] == "firm"
     words = describe_regions(found)
     assert f"a region of {len(cluster)} elements near (1.0, 1.0, 0.5) cm is hard" in words
+    assert region["share"] == pytest.approx(len(cluster) / mesh.n_tetrahedra)
+
+
+def test_a_whole_tissue_unlike_its_description_is_said_so():
+    """Liver is described nearly incompressible; tissue at ν = 0.3 everywhere is one region
+    found, all of the object, and the words say so rather than naming a place."""
+    mesh = block((3, 3, 1))
+    model = SpringMassModel.continuum(mesh, youngs_modulus=FIRM, poisson_ratio=0.3,
+                                      viscosity=2.0, density=1050.0)
+    model = model.replace(region_tissues=("liver",))
+    found = regions_found(model, FuzzyPrior(RULES, model))
+    assert [(r["quantity"], r["label"], r["share"]) for r in found["regions"]] == [
+        ("poisson_ratio", "slightly_compressible", pytest.approx(1.0))]
+    words = describe_regions(found)
+    assert words.startswith(f"all of object ({mesh.n_tetrahedra} elements) is "
+                            "slightly_compressible")
+    assert "poisson" not in json.dumps(found["rest"]) and "firm" in words
 
 
 def test_regions_found_on_springs():
@@ -243,6 +260,31 @@ def test_per_element_fit_finds_an_inclusion_in_words(factor, words):
     assert ratio > 2 if factor > 1 else ratio < 1 / 2
 
 
+@pytest.mark.slow
+def test_diagnosis_locates_its_inclusion_element_by_element(tmp_path):
+    """The diagnosis finds a stiff inclusion as a block of elements; with the rule base as a
+    prior it also fits every element and the region found is the inclusion itself."""
+    from neurofuzzy.diagnosis import diagnose
+    from neurofuzzy.report import diagnosis_report
+
+    mesh = block((3, 3, 2))
+    centres = mesh.rest_positions[mesh.tetrahedra].mean(axis=1)
+    inside = np.all((centres > [0.01, 0.01, 0.01]) & (centres < 0.02), axis=1)
+    truth = continuum(mesh, np.where(inside, STONY, FIRM))
+    data, substeps = load_cases(truth, noise=1e-5, directions=((0, 0, -1.0), (1.0, 0, 0)))
+    start = continuum(mesh, 0.8 * FIRM)
+    result = diagnose(start, data, substeps=substeps, max_effects=1,
+                      prior=FuzzyPrior(RULES, start))
+    assert result.names == ["stiff_inclusion"]
+    located = result.localisation
+    assert [(r["label"], sorted(r["elements"])) for r in located.regions] == [
+        ("hard", np.flatnonzero(inside).tolist())]
+    assert located.overlap == [1.0]
+    assert json.loads(json.dumps(result.to_dict()))["localisation"]["regions_found"]
+    page = diagnosis_report(result, tmp_path / "diagnosis.html").read_text()
+    assert "the inclusion item by item" in page and "is hard" in page
+
+
 # -- the command --------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
@@ -283,3 +325,12 @@ def test_fit_prior_options(recording):
         assert run.returncode == 2 and message in run.stderr
     run = cli("fit", str(recording), "--prior", "auto", "--substeps", "2", "--json")
     assert run.returncode == 2 and "rule base" in run.stderr
+
+
+def test_diagnose_localise_needs_a_rule_base_and_says_when_there_is_nothing(recording):
+    run = cli("diagnose", str(recording), "--localise", "--substeps", "2")
+    assert run.returncode == 2 and "--localise" in run.stderr and "--rules" in run.stderr
+    run = cli("diagnose", str(recording), "--rules", "liver", "--tissue", "liver",
+              "--localise", "--substeps", "2", "--max-effects", "0")
+    assert run.returncode == 0, run.stderr
+    assert "nothing to locate" in run.stdout

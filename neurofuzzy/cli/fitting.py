@@ -101,7 +101,9 @@ def _fit(args, progress, substeps, out, report, export, outputs):
 
 def diagnose(args) -> int:
     from ..diagnosis import diagnose as run_diagnosis
+    from ..errors import InputError
     from ..io import save_model
+    from ..learn.run import make_prior
     from ..report import diagnosis_report
 
     progress = not args.quiet and not args.json
@@ -112,9 +114,15 @@ def diagnose(args) -> int:
         report = outputs.file(args.report, "--report", twins=(".json",))
         inputs, experiments, start = _start(args, progress)
         require_motion(experiments)
+        prior = None
+        if args.localise:
+            if start.rules is None:
+                raise InputError("needs a rule base to locate an inclusion with "
+                                 "(--rules R --tissue T)", key="--localise")
+            prior = make_prior(start, "auto")
         with explained("diagnosis", experiments, start.model, substeps):
             result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
-                                   substeps=substeps, progress=progress)
+                                   substeps=substeps, prior=prior, progress=progress)
         check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
                       result.rms_after, substeps)
         if out:
@@ -132,6 +140,12 @@ def diagnose(args) -> int:
                   f"{finding.runner_up}){_where(finding)}: {finding.parameters}")
         print(f"RMS error: {result.rms_before:.4g} -> {result.rms_after:.4g} "
               f"(marker noise {result.noise_rms:.3g})")
+        if result.localisation:
+            covered = ", ".join(f"{share:.0%}" for share in result.localisation.overlap)
+            print(f"item by item, with the rule base as a prior: {result.localisation.words} "
+                  f"(share of the inclusion in these regions: {covered})")
+        elif args.localise:
+            print("no inclusion found: nothing to locate item by item")
         written(args.out, args.report)
     return 0
 

@@ -22,10 +22,16 @@ Element models and markers embedded anywhere are diagnosed in trajectory space i
 (:mod:`.trajectory`): the evidence is the fitted model's free-run marker error, candidates are
 scored by the sensitivities of the error to their parameters (a linearised refit), and an
 inclusion is a region of elements with extra Young's modulus.
+
+With the rule base as a prior (``diagnose(..., prior=FuzzyPrior(rules, model))``), an
+inclusion found is also located item by item (:mod:`.localise`): every element or spring is
+fitted with the prior and the regions found say where the tissue differs from its description.
 """
 
+from .localise import Localisation, localise
 from .loop import Diagnosis, Finding, diagnose
 from .residuals import Residuals, residual_analysis
 from .scoring import Candidate
 
-__all__ = ["diagnose", "Diagnosis", "Finding", "Candidate", "Residuals", "residual_analysis"]
+__all__ = ["diagnose", "Diagnosis", "Finding", "Candidate", "Residuals", "residual_analysis",
+           "localise", "Localisation"]

@@ -15,6 +15,7 @@ from ..model import SpringMassModel
 from ..progress import note
 from ..serialization import json_safe
 from .candidates import Evidence, propose_candidates
+from .localise import INCLUSIONS, Localisation, localise
 from .scoring import Candidate, confidence
 from .trajectory import TrajectoryEvidence
 
@@ -87,6 +88,9 @@ class Diagnosis:
         effect's round).
     rounds : list of dict
         Per round: the residuals, ranked candidates, and the RMS before and after.
+    localisation : Localisation or None
+        With a prior and an inclusion found: the inclusion located element by element (or
+        spring by spring) by a fit with the rule base as a prior (:mod:`.localise`).
     """
 
     effects: list
@@ -96,6 +100,7 @@ class Diagnosis:
     noise_rms: float
     candidates: list
     rounds: list
+    localisation: Localisation | None = None
 
     @property
     def names(self) -> list[str]:
@@ -108,11 +113,12 @@ class Diagnosis:
             "rms_before": self.rms_before, "rms_after": self.rms_after,
             "noise_rms": self.noise_rms, "candidates": [c.to_dict() for c in self.candidates],
             "rounds": [{"candidates": [c.to_dict() for c in r["candidates"]], "rms": r["rms"],
-                        "winner": r["winner"]} for r in self.rounds]})
+                        "winner": r["winner"]} for r in self.rounds],
+            "localisation": self.localisation.to_dict() if self.localisation else None})
 
 
 def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
-             max_effects: int = 3, substeps: int | str = "auto",
+             max_effects: int = 3, substeps: int | str = "auto", prior=None,
              progress: bool = False) -> Diagnosis:
     """Find, name and add the effects the model lacks (see the module docstring).
 
@@ -127,6 +133,11 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         As in :class:`~neurofuzzy.learn.GradientLearner`; ``"auto"`` decides afresh at every
         fit whether the data follow our discrete network or continuous physics (a model that
         lacks an effect fits neither exactly).
+    prior : FuzzyPrior, optional
+        The rule base as a prior (:class:`~neurofuzzy.learn.prior.FuzzyPrior` of ``model``):
+        when an inclusion is found, every element (or spring) of ``model`` is fitted with it
+        and the regions found locate the inclusion item by item (``localisation``). Costs
+        one per-item fit with the prior's weight search.
     progress : bool
         Report each round on stderr.
     """
@@ -195,8 +206,17 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         say(f"diagnose: found {winner.name} (explains {winner.explained:.0%}); RMS "
             f"{rms:.3g} -> {refit.rms_error_:.3g}")
         current, rms, steps = refit.model_, refit.rms_error_, refit.substeps_
+    localisation = None
+    inclusions = [f for f in findings if f.name in INCLUSIONS]
+    if prior is not None and inclusions:
+        say("diagnose: locating the inclusion item by item (a fit of every "
+            f"{'element' if model.has_elements else 'spring'} with the rule base as a prior)")
+        localisation = localise(model, experiments, prior, findings=inclusions,
+                                substeps=substeps, progress=progress)
+        say(f"diagnose: {localisation.words}")
     return Diagnosis(effects=findings, model_=current, rms_before=rms_start, rms_after=rms,
-                     noise_rms=noise_rms, candidates=ranked, rounds=rounds)
+                     noise_rms=noise_rms, candidates=ranked, rounds=rounds,
+                     localisation=localisation)
 
 
 def where(model, effect) -> tuple[list[int], list[float] | None]:

@@ -63,8 +63,10 @@ def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
     dict
         ``{"regions": [{"elements" or "springs": [...], "nodes": [...], "centroid": [x, y, z],
         "size": n, "volume": m³ (elements), "quantity", "value", "label", "degree",
-        "described": the description's word}], "rest": {region: {quantity: {"value",
-        "label"}}}}`` (values in SI units, the centroid in metres), regions largest first.
+        "described": the description's word, "region": the model's region, "share": the
+        fraction of it (volume or springs) the region found covers}], "rest": {region:
+        {quantity: {"value", "label"}}}}`` (values in SI units, the centroid in metres),
+        regions largest first.
     """
     kind, values = item_values(model)
     if kind == "elements":
@@ -126,7 +128,8 @@ def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
                          "centroid": (w @ centres[items] / w.sum()).tolist(),
                          "size": int(len(items)), "quantity": quantity, "value": typical,
                          "label": word, "degree": degree,
-                         "described": terms[described], "region": model.region_names[region]}
+                         "described": terms[described], "region": model.region_names[region],
+                         "share": float(w.sum() / weights[members].sum())}
                 if kind == "elements":
                     entry["volume"] = float(w.sum())
                 found.append(entry)
@@ -141,8 +144,10 @@ def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm")
     for entry in result["regions"]:
         kind = "elements" if "elements" in entry else "springs"
         where = ", ".join(f"{c / unit:.1f}" for c in entry["centroid"])
-        parts.append(f"a region of {entry['size']} {kind} near ({where}) {unit_name} is "
-                     f"{entry['label']} ({entry['quantity'].replace('_', ' ')} "
+        what = (f"all of {entry['region']} ({entry['size']} {kind}) is"
+                if entry.get("share", 0.0) >= 1.0 - 1e-9 else
+                f"a region of {entry['size']} {kind} near ({where}) {unit_name} is")
+        parts.append(f"{what} {entry['label']} ({entry['quantity'].replace('_', ' ')} "
                      f"{entry['degree']:.2f}; described {entry['described']})")
     rest = "; ".join(f"{region}: " + ", ".join(f"{q.replace('_', ' ')} {v['label']}"
                                                for q, v in quantities.items())
