@@ -212,6 +212,10 @@ def data_file(tmp_path):
      "cohort.csv:2: tissue: 'fibrotic' is not a tissue of liver; did you mean "
      "'fibrotic_liver'?"),
     ("id,group,experiments\na,,a.npz\n", "cohort.csv:2: group: every specimen needs a group"),
+    ("id,group,experiments,prior\na,x,a.npz,banana\n",
+     "cohort.csv:2: prior: got 'banana'; expected off, auto or a positive weight"),
+    ("id,group,experiments,prior\na,x,a.npz,auto\n", "cohort.csv:2: prior: a prior needs a "
+                                                     "rule base"),
 ])
 def test_bad_manifests_exit_2_naming_the_file_and_line(tmp_path, data_file, text, message):
     path = tmp_path / "cohort.csv" if text is None else _manifest(tmp_path, text)
@@ -308,6 +312,32 @@ def test_a_specimen_asked_to_be_diagnosed_names_the_missing_effect(tmp_path):
     assert {"diagnosis.html", "diagnosis.json"} <= set(outcome["files"])
     [row] = table_rows([specimen], {"g1": {"status": "ok", "fit": outcome["fit"]}})
     assert row["effects"] == "gravity"
+
+
+def test_a_specimen_fitted_element_by_element_uses_the_prior_as_fit_does(tmp_path):
+    """tie: none with a rule base takes the prior by default (as ``neurofuzzy fit``), and
+    the specimen's summary says where the tissue differs from its description."""
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.io import save_experiment
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import SpringMassModel
+
+    mesh = from_tetra(*kuhn_block((2, 2, 1), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+                                      viscosity=2.0, density=1050.0)
+    top = np.flatnonzero(mesh.rest_positions[:, 2] > 0.01 - 1e-9)
+    load = np.zeros((mesh.n_nodes, 3))
+    load[top, 2] = -0.03 / len(top)
+    save_experiment(simulate_experiment(truth, dt=2e-3, n_frames=15, external_forces=load,
+                                        substeps=2, noise=1e-5, seed=0), tmp_path / "a.npz")
+    _manifest(tmp_path, "id,group,experiments,rules,tissue,tie,substeps,cycles,prior\n"
+                        "s1,g,a.npz,liver,liver,none,2,5,\ns2,g,a.npz,liver,liver,none,2,5,off\n")
+    first, second = (fit_specimen(s) for s in read_manifest(tmp_path / "cohort.csv"))
+    assert first["status"] == second["status"] == "ok", first.get("error")
+    assert first["fit"]["prior"]["how"] == "discrepancy principle"
+    assert "regions_found" in first["fit"] and "firm" in json.dumps(first["fit"]["regions_rest"])
+    assert second["fit"]["prior"] is None and "regions_found" not in second["fit"]
 
 
 def test_median_difference_is_seeded_and_moves_with_a_shift():

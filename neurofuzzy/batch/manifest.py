@@ -16,6 +16,8 @@ specimen takes unless it says otherwise). Both know the same columns (:data:`COL
 ``rules``       a rule base (YAML file or the name of a shipped one, ``liver``) …
 ``tissue``      … and its tissue (a start from the rules, or the words of the report)
 ``tie``         ``global``, ``groups`` or ``none``
+``prior``       the rule base as a prior: ``off``, ``auto`` or a weight (default as ``fit``:
+                ``auto`` with ``tie: none`` and a rule base)
 ``method``      ``gradient`` (default) or ``paper``
 ``cycles``      learning cycles / iterations per stage
 ``substeps``    integration steps per frame, or ``auto`` (default)
@@ -38,13 +40,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import InputError, closest_name
+from ..learn.prior import parse_prior
 from ..learn.run import METHODS
 
 __all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES"]
 
 #: every column a manifest may have
 COLUMNS = ("id", "group", "experiments", "markers", "forces", "units", "dt", "start", "rules",
-           "tissue", "tie", "method", "cycles", "substeps", "learn_masses", "diagnose")
+           "tissue", "tie", "prior", "method", "cycles", "substeps", "learn_masses",
+           "diagnose")
 #: file types a manifest may be
 MANIFEST_SUFFIXES = (".csv", ".yaml", ".yml")
 #: columns that hold lists of files
@@ -73,7 +77,8 @@ class Specimen:
         A rule base file (absolute path) or the name of a shipped one.
     tissue : str or None
     options : dict
-        ``tie``, ``method``, ``cycles``, ``substeps``, ``learn_masses``, ``diagnose``,
+        ``tie``, ``prior``, ``method``, ``cycles``, ``substeps``, ``learn_masses``,
+        ``diagnose``,
         ``units``, ``dt``: what was given, checked.
     source : str
         The manifest; ``line`` the row's line in it, for messages.
@@ -278,8 +283,14 @@ def _specimen(row: dict, manifest: Path, line: int) -> Specimen:
                       "theirs)", "tissue")
     if tissue is not None and rules is None:
         raise problem("a tissue needs a rule base (rules: liver, or a file)", "rules")
+    options = _options(text, problem)
+    if options.get("prior", "off") != "off":
+        if rules is None:
+            raise problem("a prior needs a rule base (rules: liver, or a file)", "prior")
+        if options.get("method") == "paper":
+            raise problem("the paper's learner has no prior; use method: gradient", "prior")
     return Specimen(id=identifier, group=group, start=start, rules=rules, tissue=tissue,
-                    options=_options(text, problem), source=source, line=line, **files)
+                    options=options, source=source, line=line, **files)
 
 
 def _options(text: dict, problem) -> dict:
@@ -290,6 +301,11 @@ def _options(text: dict, problem) -> dict:
         if text["tie"] not in ("global", "groups", "none"):
             raise problem(f"got {text['tie']!r}; expected global, groups or none", "tie")
         options["tie"] = text["tie"]
+    if text.get("prior"):
+        try:
+            options["prior"] = parse_prior(text["prior"])
+        except InputError as error:
+            raise problem(error.detail, "prior") from None
     if text.get("method"):
         if text["method"] not in METHODS:
             raise problem(f"got {text['method']!r}; expected {' or '.join(METHODS)}", "method")

@@ -69,7 +69,7 @@ def fit_specimen(specimen: Specimen) -> dict:
 def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..io import save_model
     from ..learn import start_model
-    from ..learn.run import fit_summary, make_learner
+    from ..learn.run import fit_summary, make_learner, make_prior
     from ..report import fit_report
     from ..serialization import json_safe
 
@@ -77,9 +77,11 @@ def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     experiments = load_specimen_experiments(specimen)
     start = start_model(experiments, model=specimen.start, rules=specimen.rules,
                         tissue=specimen.tissue, tie=options.get("tie"))
+    prior = make_prior(start, options.get("prior", "default"), tie=options.get("tie"),
+                       method=options.get("method", "gradient"))
     learner = make_learner(options.get("method", "gradient"), cycles=options.get("cycles"),
                            learn_masses=options.get("learn_masses", False),
-                           substeps=options.get("substeps", "auto"))
+                           substeps=options.get("substeps", "auto"), prior=prior)
     learner.fit(start.model, experiments)
     base = Path(specimen.source).parent
     inputs = [relative_path(path, base) for path in specimen.experiments or specimen.markers]
