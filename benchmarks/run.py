@@ -18,7 +18,8 @@ Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
 5. per-spring fit of a 10,000-spring mesh built with from_trimesh (target < 60 s), peak memory;
 6. per-spring identification against scipy's least_squares with finite differences, one and two
    load cases, and where the time goes; a per-region fit of 10,368 tetrahedra
-   (benchmarks/identification.py; full run only).
+   (benchmarks/identification.py; full run only);
+7. ``diagnose`` on 100 nodes (springs and tetrahedra), 400 frames (full run only).
 """
 
 from __future__ import annotations
@@ -288,6 +289,48 @@ def bench_large_fit(results, quick):
              f"error {error_before:.1%} -> {error_after:.1%}")]
 
 
+# -- 7. diagnosis of a model of about 100 nodes, 400 frames -----------------------------------
+def bench_diagnose(results):
+    """``diagnose`` on 100 nodes (427 springs, or 288 tetrahedra), 400 frames of noisy data:
+    nothing hidden, and hidden gravity (issue 13's target: under a minute)."""
+    from neurofuzzy.diagnosis import diagnose
+    from neurofuzzy.effects import Gravity
+    from neurofuzzy.learn.gradient import auto_substeps
+
+    springs = lattice((5, 5, 4), spacing=0.01).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    spring_truth = SpringMassModel(springs, node_mass=np.full(springs.n_nodes, 1e-3),
+                                   spring_stiffness=np.full(springs.n_springs, 50.0),
+                                   spring_damping=np.full(springs.n_springs, 0.05))
+    tetra = from_tetra(*kuhn_block((4, 4, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+
+    def continuum(modulus):
+        return SpringMassModel.continuum(tetra, youngs_modulus=modulus, poisson_ratio=0.3,
+                                         viscosity=2.0, density=1050.0)
+
+    cases = [(f"{springs.n_springs} springs", spring_truth,
+              spring_truth.replace(spring_stiffness=np.full(springs.n_springs, 35.0))
+              .tied("global"), 0.2, 4, 1e-6),
+             (f"{tetra.n_tetrahedra} tetrahedra", continuum(6000.0), continuum(4200.0), 0.05,
+              auto_substeps(continuum(6000.0), 1e-3), 5e-6)]
+    rows, table = [], {}
+    for label, truth, start, force, substeps, noise in cases:
+        top = np.flatnonzero(truth.mesh.rest_positions[:, 2]
+                             > truth.mesh.rest_positions[:, 2].max() - 1e-9)
+        load = np.zeros((truth.n_nodes, 3))
+        load[top, 2] = -force / len(top)
+        for hidden in ("nothing", "gravity"):
+            model = truth if hidden == "nothing" else truth.with_effects(
+                Gravity([0.0, 0.0, -9.81]))
+            data = simulate_experiment(model, dt=1e-3, n_frames=400, external_forces=load,
+                                       substeps=substeps, noise=noise, seed=0)
+            seconds, result = timed(lambda: diagnose(start, data))
+            table[f"{label}, {hidden}"] = {"seconds": seconds, "answer": result.names}
+            rows.append((f"diagnose, 100 nodes, {label}, 400 frames, {hidden} hidden",
+                         f"{seconds:.1f} s, answer {', '.join(result.names)}"))
+    results["diagnose_100_nodes"] = table
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller problems, under a minute")
@@ -304,6 +347,7 @@ def main(argv=None):
     if not args.quick:
         sections.append(lambda: bench_identification(results))
         sections.append(lambda: bench_large_elements(results))
+        sections.append(lambda: bench_diagnose(results))
     for section in sections:
         for row in section():
             rows.append(row)

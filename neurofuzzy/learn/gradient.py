@@ -199,7 +199,7 @@ class GradientLearner(Learner):
 
         def fit(start, substeps, windows):
             if start is searched[0] and substeps == searched[1]:
-                return start    # fitted already, warm-started: no second fit of the same
+                return start    # the search fitted this weight already: not twice
             return self._fit_stages(sensitivity, experiments, start, substeps, windows, method,
                                     lower, upper, active)
 
