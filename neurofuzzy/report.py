@@ -180,7 +180,7 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
         sections.append(("Which: candidate scores (first round)",
                          figure_html(figure, "candidate scores") + table))
 
-    if diagnosis.localisation is not None and diagnosis.localisation.learner is not None:
+    if diagnosis.localisation is not None:
         heading, text = _prior_section(plt, diagnosis.localisation.learner, {})
         covered = ", ".join(f"{share:.0%}" for share in diagnosis.localisation.overlap)
         sections.append((f"{heading}: the inclusion item by item",

@@ -33,24 +33,23 @@ class Localisation:
         The rest of the tissue, per region and quantity: median value and word.
     words : str
         Both in words (:func:`~neurofuzzy.learn.regions.describe_regions`).
+    learner : GradientLearner
+        The per-item fit with the prior (``model_``, ``prior``, ``prior_``).
     overlap : list of float
         Per inclusion the diagnosis found (in its order): the share of its elements (springs)
         that lie in a region found.
-    learner : GradientLearner
-        The per-item fit with the prior (``model_``, ``prior``, ``prior_``).
     """
 
     regions: list
     rest: dict
     words: str
+    learner: GradientLearner
     overlap: list = field(default_factory=list)
-    learner: GradientLearner | None = None
 
     def to_dict(self) -> dict:
         return {"regions_found": self.regions, "regions_rest": self.rest, "words": self.words,
-                "overlap": self.overlap,
-                "prior": self.learner.prior_ if self.learner is not None else None,
-                "rms_error": self.learner.rms_error_ if self.learner is not None else None}
+                "overlap": self.overlap, "prior": self.learner.prior_,
+                "rms_error": self.learner.rms_error_}
 
 
 def localise(model, experiments, prior, *, findings=(), substeps="auto",
@@ -76,11 +75,8 @@ def localise(model, experiments, prior, *, findings=(), substeps="auto",
     learner.fit(start, experiments)
     found = regions_found(learner.model_, prior)
     kind = "elements" if learner.model_.has_elements else "springs"
-    covered = {int(i) for entry in found["regions"] for i in entry[kind]}
-    overlap = []
-    for finding in findings:
-        items = getattr(finding, kind)
-        overlap.append(float(np.mean([int(i) in covered for i in items])) if len(items)
-                       else 0.0)
+    covered = [i for entry in found["regions"] for i in entry[kind]]
+    overlap = [float(np.isin(getattr(finding, kind), covered).mean())
+               if len(getattr(finding, kind)) else 0.0 for finding in findings]
     return Localisation(regions=found["regions"], rest=found["rest"],
                         words=describe_regions(found), overlap=overlap, learner=learner)

@@ -145,7 +145,7 @@ def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm")
         kind = "elements" if "elements" in entry else "springs"
         where = ", ".join(f"{c / unit:.1f}" for c in entry["centroid"])
         what = (f"all of {entry['region']} ({entry['size']} {kind}) is"
-                if entry.get("share", 0.0) >= 1.0 - 1e-9 else
+                if entry["share"] >= 1.0 - 1e-9 else
                 f"a region of {entry['size']} {kind} near ({where}) {unit_name} is")
         parts.append(f"{what} {entry['label']} ({entry['quantity'].replace('_', ' ')} "
                      f"{entry['degree']:.2f}; described {entry['described']})")
