@@ -13,81 +13,205 @@ reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_tem
   parameters ``log E``, ``logit 2ν`` and ``log η`` of the element's tie group; the volumetric
   ``π`` per element or from the node averages (two passes over the elements).
 
+Layout for speed: the tangents are ``(N, 3, P)``, parameters last, so the loop over the
+parameters of one spring reads and writes contiguous memory without a branch (it vectorises);
+an element's 3×3 matrices (F, Ḟ, S and their tangents) are tuples of nine scalars that stay
+in registers, as in the simulation kernel (:mod:`neurofuzzy._numba_kernels`).
+
 Imported only when numba is installed (module-level, ``cache=True``).
 """
 
 import numba
 import numpy as np
 
-from ._numba_kernels import _deformation, _scatter_piola, _spring
+from ._numba_kernels import _spring
 
 
+# -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
+@numba.njit(cache=True, nogil=True, inline="always")
+def _edges(x, n0, n1, n2, n3, B):
+    """``Dx B`` (``Dx`` columns: x1 - x0, x2 - x0, x3 - x0) of node values ``x`` (N, 3)."""
+    d1 = (x[n1, 0] - x[n0, 0], x[n2, 0] - x[n0, 0], x[n3, 0] - x[n0, 0])
+    d2 = (x[n1, 1] - x[n0, 1], x[n2, 1] - x[n0, 1], x[n3, 1] - x[n0, 1])
+    d3 = (x[n1, 2] - x[n0, 2], x[n2, 2] - x[n0, 2], x[n3, 2] - x[n0, 2])
+    return _mul(d1 + d2 + d3, (B[0, 0], B[0, 1], B[0, 2], B[1, 0], B[1, 1], B[1, 2],
+                                B[2, 0], B[2, 1], B[2, 2]))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _differences(x, n0, n1, n2, n3, q):
+    """``Dx`` of tangent ``q`` of ``x`` (N, 3, P), row-major."""
+    return (x[n1, 0, q] - x[n0, 0, q], x[n2, 0, q] - x[n0, 0, q], x[n3, 0, q] - x[n0, 0, q],
+            x[n1, 1, q] - x[n0, 1, q], x[n2, 1, q] - x[n0, 1, q], x[n3, 1, q] - x[n0, 1, q],
+            x[n1, 2, q] - x[n0, 2, q], x[n2, 2, q] - x[n0, 2, q], x[n3, 2, q] - x[n0, 2, q])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _mul(a, b):
+    """``a b``."""
+    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6], a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+            a[0] * b[2] + a[1] * b[5] + a[2] * b[8], a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+            a[3] * b[1] + a[4] * b[4] + a[5] * b[7], a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+            a[6] * b[0] + a[7] * b[3] + a[8] * b[6], a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+            a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sym_t_mul(a, b):
+    """``sym(aᵀ b)`` as its six entries ``(00, 11, 22, 01, 02, 12)``."""
+    c00 = a[0] * b[0] + a[3] * b[3] + a[6] * b[6]
+    c11 = a[1] * b[1] + a[4] * b[4] + a[7] * b[7]
+    c22 = a[2] * b[2] + a[5] * b[5] + a[8] * b[8]
+    c01 = 0.5 * (a[0] * b[1] + a[3] * b[4] + a[6] * b[7] + a[1] * b[0] + a[4] * b[3]
+                 + a[7] * b[6])
+    c02 = 0.5 * (a[0] * b[2] + a[3] * b[5] + a[6] * b[8] + a[2] * b[0] + a[5] * b[3]
+                 + a[8] * b[6])
+    c12 = 0.5 * (a[1] * b[2] + a[4] * b[5] + a[7] * b[8] + a[2] * b[1] + a[5] * b[4]
+                 + a[8] * b[7])
+    return c00, c11, c22, c01, c02, c12
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _full(s):
+    """The symmetric matrix of six entries ``(00, 11, 22, 01, 02, 12)``, row-major."""
+    return (s[0], s[3], s[4], s[3], s[1], s[5], s[4], s[5], s[2])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _dot(a, b):
+    """``a : b`` of two row-major 3×3 tuples."""
+    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4]
+            + a[5] * b[5] + a[6] * b[6] + a[7] * b[7] + a[8] * b[8])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sym_dot(a, b):
+    """``a : b`` of two symmetric matrices given by their six entries."""
+    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+            + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _scatter(out, P, B, scale, n0, n1, n2, n3, q):
+    """Node j + 1 gets column j of ``scale P Bᵀ``, node 0 minus their sum: into ``out``
+    (N, 3) when ``q < 0``, else into tangent ``q`` of ``out`` (N, 3, P)."""
+    for r in range(3):
+        P0, P1, P2 = P[3 * r], P[3 * r + 1], P[3 * r + 2]
+        f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
+        f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
+        f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
+        if q < 0:
+            out[n1, r] += f1
+            out[n2, r] += f2
+            out[n3, r] += f3
+            out[n0, r] -= f1 + f2 + f3
+        else:
+            out[n1, r, q] += f1
+            out[n2, r, q] += f2
+            out[n3, r, q] += f3
+            out[n0, r, q] -= f1 + f2 + f3
+
+
+# -- springs -----------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
-                     damping_column, force, d_force):
-    n_params = tp.shape[1]
+                     damping_column, force, d_force, work):
+    """Spring forces into ``force`` and their tangents into ``d_force`` (N, 3, P);
+    ``work`` (3, P) holds one spring's tangent force."""
+    n_params = tp.shape[2]
+    wx_, wy_, wz_ = work[0], work[1], work[2]
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]
         ux, uy, uz, length, closing, stretch, magnitude = _spring(
             p, v, ia, ib, stiffness[j], damping[j], rest[j], force)
+        if n_params == 0:
+            continue
+        s, c = stiffness[j], damping[j]
+        inverse = 1.0 / length
         wx = v[ib, 0] - v[ia, 0]
         wy = v[ib, 1] - v[ia, 1]
         wz = v[ib, 2] - v[ia, 2]
+        pax, pay, paz = tp[ia, 0], tp[ia, 1], tp[ia, 2]
+        pbx, pby, pbz = tp[ib, 0], tp[ib, 1], tp[ib, 2]
+        vax, vay, vaz = tv[ia, 0], tv[ia, 1], tv[ia, 2]
+        vbx, vby, vbz = tv[ib, 0], tv[ib, 1], tv[ib, 2]
         for q in range(n_params):
-            ddx = tp[ib, q, 0] - tp[ia, q, 0]
-            ddy = tp[ib, q, 1] - tp[ia, q, 1]
-            ddz = tp[ib, q, 2] - tp[ia, q, 2]
+            ddx = pbx[q] - pax[q]
+            ddy = pby[q] - pay[q]
+            ddz = pbz[q] - paz[q]
             dl = ux * ddx + uy * ddy + uz * ddz
-            dux = (ddx - ux * dl) / length
-            duy = (ddy - uy * dl) / length
-            duz = (ddz - uz * dl) / length
-            d_closing = ((tv[ib, q, 0] - tv[ia, q, 0]) * ux + (tv[ib, q, 1] - tv[ia, q, 1]) * uy
-                         + (tv[ib, q, 2] - tv[ia, q, 2]) * uz
-                         + wx * dux + wy * duy + wz * duz)
-            dm = stiffness[j] * dl + damping[j] * d_closing
-            if q == stiffness_column[j]:
-                dm += stiffness[j] * stretch
-            if q == damping_column[j]:
-                dm += damping[j] * closing
-            fx = dm * ux + magnitude * dux
-            fy = dm * uy + magnitude * duy
-            fz = dm * uz + magnitude * duz
-            d_force[ia, q, 0] += fx
-            d_force[ia, q, 1] += fy
-            d_force[ia, q, 2] += fz
-            d_force[ib, q, 0] -= fx
-            d_force[ib, q, 1] -= fy
-            d_force[ib, q, 2] -= fz
-
-
-@numba.njit(cache=True, nogil=True)
-def _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd):
-    """F, Ḟ and their tangents dF, dḞ (P, 3, 3) of one element."""
-    n_params = tp.shape[1]
-    _deformation(p, v, n0, n1, n2, n3, B, F, Fd)
-    for r in range(3):
+            dux = (ddx - ux * dl) * inverse
+            duy = (ddy - uy * dl) * inverse
+            duz = (ddz - uz * dl) * inverse
+            d_closing = ((vbx[q] - vax[q]) * ux + (vby[q] - vay[q]) * uy
+                         + (vbz[q] - vaz[q]) * uz + wx * dux + wy * duy + wz * duz)
+            dm = s * dl + c * d_closing
+            wx_[q] = dm * ux + magnitude * dux
+            wy_[q] = dm * uy + magnitude * duy
+            wz_[q] = dm * uz + magnitude * duz
+        # the spring's own constants (∂f/∂log s, ∂f/∂log c), outside the vectorised loop
+        for column, extra in ((stiffness_column[j], s * stretch),
+                              (damping_column[j], c * closing)):
+            if column >= 0:
+                wx_[column] += extra * ux
+                wy_[column] += extra * uy
+                wz_[column] += extra * uz
+        fax, fay, faz = d_force[ia, 0], d_force[ia, 1], d_force[ia, 2]
+        fbx, fby, fbz = d_force[ib, 0], d_force[ib, 1], d_force[ib, 2]
         for q in range(n_params):
-            d1 = tp[n1, q, r] - tp[n0, q, r]
-            d2 = tp[n2, q, r] - tp[n0, q, r]
-            d3 = tp[n3, q, r] - tp[n0, q, r]
-            w1 = tv[n1, q, r] - tv[n0, q, r]
-            w2 = tv[n2, q, r] - tv[n0, q, r]
-            w3 = tv[n3, q, r] - tv[n0, q, r]
-            for c in range(3):
-                dF[q, r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
-                dFd[q, r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+            fax[q] += wx_[q]
+            fay[q] += wy_[q]
+            faz[q] += wz_[q]
+            fbx[q] -= wx_[q]
+            fby[q] -= wy_[q]
+            fbz[q] -= wz_[q]
 
 
+# -- tetrahedral elements ----------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
-def _volumetric_tangent(F, Fd, dF, dFd, q):
-    """Tangent ``q`` of the volumetric strain ``θ = tr G`` and of its rate."""
-    d_theta = 0.0
-    d_theta_rate = 0.0
-    for r in range(3):
-        for c in range(3):
-            d_theta += F[r, c] * dF[q, r, c]
-            d_theta_rate += dF[q, r, c] * Fd[r, c] + F[r, c] * dFd[q, r, c]
-    return d_theta, d_theta_rate
+def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_lam,
+                    node_lam_rate, d_node_lam, d_node_lam_rate, node_strain, d_node_strain):
+    """Nodal volumetric form: ``node_strain[:, 0]`` the node pressures ``Λ θ̄ + H θ̄̇`` and
+    ``d_node_strain[:, q, 0]`` their tangents (the node averages of ``θ = tr G`` and ``θ̇``
+    and of their tangents first)."""
+    n_params = tp.shape[2]
+    node_strain[:] = 0.0
+    d_node_strain[:] = 0.0
+    for e in range(tets.shape[0]):
+        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+        B = inverse_rest[e]
+        F = _edges(p, n0, n1, n2, n3, B)
+        Fd = _edges(v, n0, n1, n2, n3, B)
+        theta = 0.5 * _dot(F, F) - 1.5                   # tr G = ½ (|F|² - 3)
+        theta_rate = _dot(F, Fd)
+        corner = 0.25 * volume[e]
+        for node in (n0, n1, n2, n3):
+            node_strain[node, 0] += corner * theta
+            node_strain[node, 1] += corner * theta_rate
+        if n_params == 0:
+            continue
+        # dθ = F : dF = Σ dDs ∘ (F Bᵀ), and dθ̇ = dF : Ḟ + F : dḞ likewise
+        Bt = (B[0, 0], B[1, 0], B[2, 0], B[0, 1], B[1, 1], B[2, 1], B[0, 2], B[1, 2], B[2, 2])
+        A = _mul(F, Bt)
+        Ad = _mul(Fd, Bt)
+        for q in range(n_params):
+            D = _differences(tp, n0, n1, n2, n3, q)
+            W = _differences(tv, n0, n1, n2, n3, q)
+            d_theta = corner * _dot(D, A)
+            d_theta_rate = corner * (_dot(D, Ad) + _dot(W, A))
+            for node in (n0, n1, n2, n3):
+                d_node_strain[node, q, 0] += d_theta
+                d_node_strain[node, q, 1] += d_theta_rate
+    for i in range(node_strain.shape[0]):
+        if node_volume[i] > 0.0:
+            theta = node_strain[i, 0] / node_volume[i]
+            theta_rate = node_strain[i, 1] / node_volume[i]
+            node_strain[i, 0] = node_lam[i] * theta + node_lam_rate[i] * theta_rate
+            for q in range(n_params):
+                d_node_strain[i, q, 0] = (
+                    (node_lam[i] * d_node_strain[i, q, 0]
+                     + node_lam_rate[i] * d_node_strain[i, q, 1]) / node_volume[i]
+                    + d_node_lam[i, q] * theta + d_node_lam_rate[i, q] * theta_rate)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -98,149 +222,97 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                       d_force):
     """Element forces and their tangents. ``S = shear G + shear_rate Ġ + π I
     + 2 κ (G:G) G`` (the last term: strain stiffening, ``kappa_column`` its parameter or -1);
-    the element's parameter columns (CSR ``element_ptr``/``element_column``) carry the
-    derivatives of its four constants, and with ``nodal`` those of the node averages
-    (``d_node_lam*``)."""
-    n_params = tp.shape[1]
-    F = np.empty((3, 3))
-    Fd = np.empty((3, 3))
-    G = np.empty((3, 3))
-    Gd = np.empty((3, 3))
-    S = np.empty((3, 3))
-    dF = np.empty((n_params, 3, 3))
-    dFd = np.empty((n_params, 3, 3))
-    dS = np.empty((n_params, 3, 3))
-    d_pressure = np.empty(n_params)
-    inner = np.empty(n_params)
-    n_elements = tets.shape[0]
-    if nodal:    # node averages of θ, θ̇ and their tangents → node pressures and tangents
-        node_strain[:] = 0.0
-        d_node_strain[:] = 0.0
-        for e in range(n_elements):
-            n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-            _gradients(p, v, tp, tv, n0, n1, n2, n3, inverse_rest[e], F, Fd, dF, dFd)
-            theta = -1.5
-            theta_rate = 0.0
-            for r in range(3):
-                for c in range(3):
-                    theta += 0.5 * F[r, c] * F[r, c]
-                    theta_rate += F[r, c] * Fd[r, c]
-            corner = 0.25 * volume[e]
-            for j in range(4):
-                node = tets[e, j]
-                node_strain[node, 0] += corner * theta
-                node_strain[node, 1] += corner * theta_rate
-            for q in range(n_params):
-                d_theta, d_theta_rate = _volumetric_tangent(F, Fd, dF, dFd, q)
-                for j in range(4):
-                    node = tets[e, j]
-                    d_node_strain[node, q, 0] += corner * d_theta
-                    d_node_strain[node, q, 1] += corner * d_theta_rate
-        for i in range(node_strain.shape[0]):
-            if node_volume[i] > 0.0:
-                theta = node_strain[i, 0] / node_volume[i]
-                theta_rate = node_strain[i, 1] / node_volume[i]
-                node_strain[i, 0] = node_lam[i] * theta + node_lam_rate[i] * theta_rate
-                for q in range(n_params):
-                    d_node_strain[i, q, 0] = (
-                        (node_lam[i] * d_node_strain[i, q, 0]
-                         + node_lam_rate[i] * d_node_strain[i, q, 1]) / node_volume[i]
-                        + d_node_lam[i, q] * theta + d_node_lam_rate[i, q] * theta_rate)
-    for e in range(n_elements):
+    the element's parameter columns (CSR ``element_ptr``/``element_column``, columns
+    ascending) carry the derivatives of its four constants, and with ``nodal`` those of the
+    node averages (``d_node_lam*``)."""
+    n_params = tp.shape[2]
+    if nodal:
+        _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_lam,
+                        node_lam_rate, d_node_lam, d_node_lam_rate, node_strain,
+                        d_node_strain)
+    for e in range(tets.shape[0]):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
-        _gradients(p, v, tp, tv, n0, n1, n2, n3, B, F, Fd, dF, dFd)
-        for i in range(3):
-            for k in range(i, 3):
-                g = 0.5 * (F[0, i] * F[0, k] + F[1, i] * F[1, k] + F[2, i] * F[2, k])
-                gd = 0.5 * (F[0, i] * Fd[0, k] + F[1, i] * Fd[1, k] + F[2, i] * Fd[2, k]
-                            + Fd[0, i] * F[0, k] + Fd[1, i] * F[1, k] + Fd[2, i] * F[2, k])
-                if i == k:
-                    g -= 0.5
-                G[i, k] = g
-                G[k, i] = g
-                Gd[i, k] = gd
-                Gd[k, i] = gd
-        theta = G[0, 0] + G[1, 1] + G[2, 2]
-        theta_rate = Gd[0, 0] + Gd[1, 1] + Gd[2, 2]
+        F = _edges(p, n0, n1, n2, n3, B)
+        Fd = _edges(v, n0, n1, n2, n3, B)
+        C = _sym_t_mul(F, F)                             # FᵀF, six entries
+        G = (0.5 * (C[0] - 1.0), 0.5 * (C[1] - 1.0), 0.5 * (C[2] - 1.0), 0.5 * C[3],
+             0.5 * C[4], 0.5 * C[5])
+        Gd = _sym_t_mul(F, Fd)                            # sym(FᵀḞ)
+        theta = G[0] + G[1] + G[2]
+        theta_rate = Gd[0] + Gd[1] + Gd[2]
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
                                + node_strain[n3, 0])
-            for q in range(n_params):
-                d_pressure[q] = 0.25 * (d_node_strain[n0, q, 0] + d_node_strain[n1, q, 0]
-                                        + d_node_strain[n2, q, 0] + d_node_strain[n3, q, 0])
         else:
             pressure = lam[e] * theta + lam_rate[e] * theta_rate
-            for q in range(n_params):
-                d_theta, d_theta_rate = _volumetric_tangent(F, Fd, dF, dFd, q)
-                d_pressure[q] = lam[e] * d_theta + lam_rate[e] * d_theta_rate
-        squared = 0.0
-        for i in range(3):
-            for k in range(3):
-                squared += G[i, k] * G[i, k]
-        stiffening = 2.0 * kappa * squared
-        for i in range(3):
-            for k in range(3):
-                S[i, k] = (shear[e] + stiffening) * G[i, k] + shear_rate[e] * Gd[i, k]
-            S[i, i] += pressure
+        squared = _sym_dot(G, G)
+        elastic = shear[e] + 2.0 * kappa * squared
+        viscous = shear_rate[e]
+        S = _full((elastic * G[0] + viscous * Gd[0] + pressure,
+                   elastic * G[1] + viscous * Gd[1] + pressure,
+                   elastic * G[2] + viscous * Gd[2] + pressure,
+                   elastic * G[3] + viscous * Gd[3], elastic * G[4] + viscous * Gd[4],
+                   elastic * G[5] + viscous * Gd[5]))
         scale = -volume[e]
-        _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3)
+        _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
         if n_params == 0:
             continue
-        # dS = shear dG + shear_rate dĠ + dπ I + 2κ (2 (G:dG) G + (G:G) dG): the state's
-        # part for every direction...
+        entry, stop = element_ptr[e], element_ptr[e + 1]
         for q in range(n_params):
-            inner[q] = 0.0
-            for i in range(3):
-                for k in range(i, 3):
-                    dg = 0.5 * (F[0, i] * dF[q, 0, k] + F[1, i] * dF[q, 1, k]
-                                + F[2, i] * dF[q, 2, k] + dF[q, 0, i] * F[0, k]
-                                + dF[q, 1, i] * F[1, k] + dF[q, 2, i] * F[2, k])
-                    dgd = 0.5 * (dF[q, 0, i] * Fd[0, k] + dF[q, 1, i] * Fd[1, k]
-                                 + dF[q, 2, i] * Fd[2, k] + Fd[0, i] * dF[q, 0, k]
-                                 + Fd[1, i] * dF[q, 1, k] + Fd[2, i] * dF[q, 2, k]
-                                 + F[0, i] * dFd[q, 0, k] + F[1, i] * dFd[q, 1, k]
-                                 + F[2, i] * dFd[q, 2, k] + dFd[q, 0, i] * F[0, k]
-                                 + dFd[q, 1, i] * F[1, k] + dFd[q, 2, i] * F[2, k])
-                    x = (shear[e] + stiffening) * dg + shear_rate[e] * dgd
-                    dS[q, i, k] = x
-                    dS[q, k, i] = x
-                    inner[q] += dg * G[i, k] * (1.0 if i == k else 2.0)
-                dS[q, i, i] += d_pressure[q]
-            if kappa != 0.0:
-                for i in range(3):
-                    for k in range(3):
-                        dS[q, i, k] += 4.0 * kappa * inner[q] * G[i, k]
-        if kappa_column >= 0:
-            for i in range(3):
-                for k in range(3):
-                    dS[kappa_column, i, k] += 2.0 * squared * G[i, k]
-        # ...then the element's own constants by the parameters they depend on
-        for entry in range(element_ptr[e], element_ptr[e + 1]):
-            q = element_column[entry]
-            extra = 0.0 if nodal else d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
-            for i in range(3):
-                for k in range(3):
-                    dS[q, i, k] += d_shear[entry] * G[i, k] + d_shear_rate[entry] * Gd[i, k]
-                dS[q, i, i] += extra
-        for q in range(n_params):
-            for r in range(3):   # dP = dF S + F dS
-                P0 = 0.0
-                P1 = 0.0
-                P2 = 0.0
-                for m in range(3):
-                    P0 += dF[q, r, m] * S[m, 0] + F[r, m] * dS[q, m, 0]
-                    P1 += dF[q, r, m] * S[m, 1] + F[r, m] * dS[q, m, 1]
-                    P2 += dF[q, r, m] * S[m, 2] + F[r, m] * dS[q, m, 2]
-                f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
-                f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
-                f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
-                d_force[n1, q, r] += f1
-                d_force[n2, q, r] += f2
-                d_force[n3, q, r] += f3
-                d_force[n0, q, r] -= f1 + f2 + f3
+            # the state's part: dS = elastic dG + viscous dĠ + dπ I + 4κ (G:dG) G
+            dF = _edges_of_tangent(tp, n0, n1, n2, n3, B, q)
+            dFd = _edges_of_tangent(tv, n0, n1, n2, n3, B, q)
+            dG = _sym_t_mul(F, dF)
+            dGa = _sym_t_mul(dF, Fd)
+            dGb = _sym_t_mul(F, dFd)
+            if nodal:
+                d_pressure = 0.25 * (d_node_strain[n0, q, 0] + d_node_strain[n1, q, 0]
+                                     + d_node_strain[n2, q, 0] + d_node_strain[n3, q, 0])
+            else:
+                d_pressure = (lam[e] * (dG[0] + dG[1] + dG[2])
+                              + lam_rate[e] * (dGa[0] + dGa[1] + dGa[2] + dGb[0] + dGb[1]
+                                               + dGb[2]))
+            g = 4.0 * kappa * _sym_dot(G, dG)
+            shear_part = 0.0       # the element's own constants, when q is one of them
+            rate_part = 0.0
+            while entry < stop and element_column[entry] == q:
+                shear_part += d_shear[entry]
+                rate_part += d_shear_rate[entry]
+                if not nodal:
+                    d_pressure += d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
+                entry += 1
+            if q == kappa_column:
+                shear_part += 2.0 * squared
+            dS = _full((elastic * dG[0] + viscous * (dGa[0] + dGb[0]) + (g + shear_part) * G[0]
+                        + rate_part * Gd[0] + d_pressure,
+                        elastic * dG[1] + viscous * (dGa[1] + dGb[1]) + (g + shear_part) * G[1]
+                        + rate_part * Gd[1] + d_pressure,
+                        elastic * dG[2] + viscous * (dGa[2] + dGb[2]) + (g + shear_part) * G[2]
+                        + rate_part * Gd[2] + d_pressure,
+                        elastic * dG[3] + viscous * (dGa[3] + dGb[3]) + (g + shear_part) * G[3]
+                        + rate_part * Gd[3],
+                        elastic * dG[4] + viscous * (dGa[4] + dGb[4]) + (g + shear_part) * G[4]
+                        + rate_part * Gd[4],
+                        elastic * dG[5] + viscous * (dGa[5] + dGb[5]) + (g + shear_part) * G[5]
+                        + rate_part * Gd[5]))
+            dFS = _mul(dF, S)                            # dP = dF S + F dS
+            FdS = _mul(F, dS)
+            dP = (dFS[0] + FdS[0], dFS[1] + FdS[1], dFS[2] + FdS[2], dFS[3] + FdS[3],
+                  dFS[4] + FdS[4], dFS[5] + FdS[5], dFS[6] + FdS[6], dFS[7] + FdS[7],
+                  dFS[8] + FdS[8])
+            _scatter(d_force, dP, B, scale, n0, n1, n2, n3, q)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _edges_of_tangent(x, n0, n1, n2, n3, B, q):
+    """``Dx B`` of tangent ``q`` of ``x`` (N, 3, P)."""
+    D = _differences(x, n0, n1, n2, n3, q)
+    return _mul(D, (B[0, 0], B[0, 1], B[0, 2], B[1, 0], B[1, 1], B[1, 2], B[2, 0], B[2, 1],
+                    B[2, 2]))
+
+
+# -- one experiment ----------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
             inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
@@ -254,7 +326,7 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
-    ``force_direction`` (N, P, 3) (gravity, unmodeled loads); inclusions of elements are in
+    ``force_direction`` (N, 3, P) (gravity, unmodeled loads); inclusions of elements are in
     the element constants and their CSR columns; strain stiffening of the elements is
     ``kappa`` (its column ``kappa_column``).
     """
@@ -262,9 +334,10 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     n_rows = rows_start.shape[0] - 1
     force = np.empty((n_nodes, 3))
     width = n_params if tangents else 0
-    tp = np.zeros((n_nodes, width, 3))
-    tv = np.zeros((n_nodes, width, 3))
-    d_force = np.empty((n_nodes, width, 3))
+    tp = np.zeros((n_nodes, 3, width))
+    tv = np.zeros((n_nodes, 3, width))
+    d_force = np.empty((n_nodes, 3, width))
+    work = np.empty((3, width))
     node_strain = np.zeros((n_nodes, 2))
     d_node_strain = np.zeros((n_nodes, width, 2))
     for t in range(n_frames):
@@ -282,12 +355,13 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             for i in range(n_nodes):
                 for k in range(3):
                     force[i, k] = load[i, k] - drag * v[i, k]
+                    out, direction, speed = d_force[i, k], force_direction[i, k], tv[i, k]
                     for q in range(width):
-                        d_force[i, q, k] = force_direction[i, q, k] - drag * tv[i, q, k]
+                        out[q] = direction[q] - drag * speed[q]
                     if 0 <= drag_column < width:
-                        d_force[i, drag_column, k] -= v[i, k]
+                        out[drag_column] -= v[i, k]
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
-                             damping_column, force, d_force)
+                             damping_column, force, d_force, work)
             if tets.shape[0]:
                 _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate,
                                   lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
@@ -299,20 +373,21 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                 for k in range(3):
                     v[i, k] += step * force[i, k]
                     p[i, k] += h * v[i, k]
+                    speed, place, change = tv[i, k], tp[i, k], d_force[i, k]
                     for q in range(width):
-                        tv[i, q, k] += step * d_force[i, q, k]
-                        tp[i, q, k] += h * tv[i, q, k]
+                        speed[q] += step * change[q]
+                        place[q] += h * speed[q]
         positions[t] = p
         if tangents:
             for row in range(n_rows):
-                for k in range(3):
-                    for q in range(width):
-                        jacobian[t - 1, row, k, q] = 0.0
+                out = jacobian[t - 1, row]
+                out[:] = 0.0
                 if not seen[t, row]:
                     continue
                 for entry in range(rows_start[row], rows_start[row + 1]):
                     node = rows_node[entry]
                     w = rows_weight[entry] * scale
                     for k in range(3):
+                        target, source = out[k], tp[node, k]
                         for q in range(width):
-                            jacobian[t - 1, row, k, q] += w * tp[node, q, k]
+                            target[q] += w * source[q]

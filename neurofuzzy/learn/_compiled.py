@@ -156,7 +156,9 @@ class CompiledModel:
                 if column is not None:
                     span = slice(column, column + len(effect.params))
                     direction[:, span] = effect.parameter_jacobian(model, None, None)
-        return drag, int(drag_column), direction, constant
+        # parameters last, as the kernel's tangents
+        return (drag, int(drag_column), np.ascontiguousarray(direction.transpose(0, 2, 1)),
+                constant)
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool):
         """``(positions, jacobian)`` of one experiment; ``states`` maps every window start
