@@ -115,9 +115,10 @@ def _scatter(out, P, B, scale, n0, n1, n2, n3, q):
 # -- springs -----------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
-                     damping_column, force, d_force, work):
-    """Spring forces into ``force`` and their tangents into ``d_force`` (N, 3, P);
-    ``work`` (3, P) holds one spring's tangent force."""
+                     damping_column, first, force, d_force, work):
+    """Spring forces into ``force`` and their tangents into ``d_force`` (N, 3, P), tangent
+    ``q`` that of parameter ``first + q``; ``work`` (3, P) holds one spring's tangent
+    force."""
     n_params = tp.shape[2]
     wx_, wy_, wz_ = work[0], work[1], work[2]
     for j in range(a.shape[0]):
@@ -150,9 +151,9 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
             wy_[q] = dm * uy + magnitude * duy
             wz_[q] = dm * uz + magnitude * duz
         # the spring's own constants (∂f/∂log s, ∂f/∂log c), outside the vectorised loop
-        for column, extra in ((stiffness_column[j], s * stretch),
-                              (damping_column[j], c * closing)):
-            if column >= 0:
+        for column, extra in ((stiffness_column[j] - first, s * stretch),
+                              (damping_column[j] - first, c * closing)):
+            if 0 <= column < n_params:
                 wx_[column] += extra * ux
                 wy_[column] += extra * uy
                 wz_[column] += extra * uz
@@ -170,7 +171,8 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
 # -- tetrahedral elements ----------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_lam,
-                    node_lam_rate, d_node_lam, d_node_lam_rate, node_strain, d_node_strain):
+                    node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
+                    d_node_strain):
     """Nodal volumetric form: ``node_strain[:, 0]`` the node pressures ``Λ θ̄ + H θ̄̇`` and
     ``d_node_strain[:, q, 0]`` their tangents (the node averages of ``θ = tr G`` and ``θ̇``
     and of their tangents first)."""
@@ -211,24 +213,25 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_
                 d_node_strain[i, q, 0] = (
                     (node_lam[i] * d_node_strain[i, q, 0]
                      + node_lam_rate[i] * d_node_strain[i, q, 1]) / node_volume[i]
-                    + d_node_lam[i, q] * theta + d_node_lam_rate[i, q] * theta_rate)
+                    + d_node_lam[i, first + q] * theta
+                    + d_node_lam_rate[i, first + q] * theta_rate)
 
 
 @numba.njit(cache=True, nogil=True)
 def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
                       element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                      d_node_lam_rate, kappa, kappa_column, node_strain, d_node_strain, force,
-                      d_force):
+                      d_node_lam_rate, kappa, kappa_column, first, node_strain, d_node_strain,
+                      force, d_force):
     """Element forces and their tangents. ``S = shear G + shear_rate Ġ + π I
     + 2 κ (G:G) G`` (the last term: strain stiffening, ``kappa_column`` its parameter or -1);
     the element's parameter columns (CSR ``element_ptr``/``element_column``, columns
     ascending) carry the derivatives of its four constants, and with ``nodal`` those of the
-    node averages (``d_node_lam*``)."""
+    node averages (``d_node_lam*``). Tangent ``q`` is that of parameter ``first + q``."""
     n_params = tp.shape[2]
     if nodal:
         _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_lam,
-                        node_lam_rate, d_node_lam, d_node_lam_rate, node_strain,
+                        node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
                         d_node_strain)
     for e in range(tets.shape[0]):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
@@ -259,6 +262,8 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
         if n_params == 0:
             continue
         entry, stop = element_ptr[e], element_ptr[e + 1]
+        while entry < stop and element_column[entry] < first:
+            entry += 1
         for q in range(n_params):
             # the state's part: dS = elastic dG + viscous dĠ + dπ I + 4κ (G:dG) G
             dF = _edges_of_tangent(tp, n0, n1, n2, n3, B, q)
@@ -276,13 +281,13 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
             g = 4.0 * kappa * _sym_dot(G, dG)
             shear_part = 0.0       # the element's own constants, when q is one of them
             rate_part = 0.0
-            while entry < stop and element_column[entry] == q:
+            while entry < stop and element_column[entry] == first + q:
                 shear_part += d_shear[entry]
                 rate_part += d_shear_rate[entry]
                 if not nodal:
                     d_pressure += d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
                 entry += 1
-            if q == kappa_column:
+            if first + q == kappa_column:
                 shear_part += 2.0 * squared
             dS = _full((elastic * dG[0] + viscous * (dGa[0] + dGb[0]) + (g + shear_part) * G[0]
                         + rate_part * Gd[0] + d_pressure,
@@ -319,21 +324,22 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             node_lam, node_lam_rate, element_ptr, element_column, d_shear, d_shear_rate, d_lam,
             d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column, drag, drag_column,
             force_direction,
-            weight, loads, h, n_frames, substeps, n_params, start_index, start_p, start_v,
+            weight, loads, h, n_frames, substeps, first, width, start_index, start_p, start_v,
             rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
-    """Positions (n_frames, N, 3) and, with ``tangents``, ``jacobian`` (n_frames - 1, rows,
-    3, P) = H tp / length_unit at every measured (frame, row), 0 elsewhere.
+    """Positions (n_frames, N, 3) and, with ``tangents``, columns ``first .. first + width
+    - 1`` of ``jacobian`` (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured
+    (frame, row), 0 elsewhere (``width`` 0 without tangents; threads given disjoint columns
+    of one array split an experiment's Jacobian).
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
-    ``force_direction`` (N, 3, P) (gravity, unmodeled loads); inclusions of elements are in
+    ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed); inclusions of elements are in
     the element constants and their CSR columns; strain stiffening of the elements is
     ``kappa`` (its column ``kappa_column``).
     """
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
     force = np.empty((n_nodes, 3))
-    width = n_params if tangents else 0
     tp = np.zeros((n_nodes, 3, width))
     tv = np.zeros((n_nodes, 3, width))
     d_force = np.empty((n_nodes, 3, width))
@@ -348,7 +354,7 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             tv[:] = 0.0
             positions[t] = p
             if t > 0 and tangents:
-                jacobian[t - 1] = 0.0
+                jacobian[t - 1, :, :, first:first + width] = 0.0
             continue
         load = loads[min(t - 1, loads.shape[0] - 1)]
         for _ in range(substeps):
@@ -358,16 +364,17 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                     out, direction, speed = d_force[i, k], force_direction[i, k], tv[i, k]
                     for q in range(width):
                         out[q] = direction[q] - drag * speed[q]
-                    if 0 <= drag_column < width:
-                        out[drag_column] -= v[i, k]
+                    if 0 <= drag_column - first < width:
+                        out[drag_column - first] -= v[i, k]
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
-                             damping_column, force, d_force, work)
+                             damping_column, first, force, d_force, work)
             if tets.shape[0]:
                 _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate,
                                   lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
                                   element_ptr, element_column, d_shear, d_shear_rate, d_lam,
                                   d_lam_rate, d_node_lam, d_node_lam_rate, kappa,
-                                  kappa_column, node_strain, d_node_strain, force, d_force)
+                                  kappa_column, first, node_strain, d_node_strain, force,
+                                  d_force)
             for i in range(n_nodes):
                 step = h * weight[i]
                 for k in range(3):
@@ -381,7 +388,10 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
         if tangents:
             for row in range(n_rows):
                 out = jacobian[t - 1, row]
-                out[:] = 0.0
+                for k in range(3):
+                    target = out[k]
+                    for q in range(width):
+                        target[first + q] = 0.0
                 if not seen[t, row]:
                     continue
                 for entry in range(rows_start[row], rows_start[row + 1]):
@@ -390,4 +400,4 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                     for k in range(3):
                         target, source = out[k], tp[node, k]
                         for q in range(width):
-                            target[q] += w * source[q]
+                            target[first + q] += w * source[q]

@@ -88,6 +88,25 @@ def test_learned_effects_of_element_models(volumetric):
     numpy_run, compiled_run = both(model, data, steps)
     assert_same(numpy_run, compiled_run)
     assert compiled_run.jacobian.shape[-1] == 3 + 3 + 3 + 1 + 1 + 1
+    assert_split_equal(model, data, steps)
+
+
+def assert_split_equal(model, data, steps, shift=0.01):
+    """Columns split over threads (uneven shares, the effects' and the element constants'
+    columns in different shares) give the Jacobian of one thread, bit for bit."""
+    parameters = Parameterization(model)
+    sensitivity = Sensitivity(parameters, 0.01, backend="numba")
+    theta = parameters.initial() + shift
+    whole = sensitivity.run(theta, data, substeps=steps, tangents=True)
+    for threads in (2, 5):
+        split = sensitivity.run(theta, data, substeps=steps, tangents=True, threads=threads)
+        assert np.array_equal(split.jacobian, whole.jacobian)
+        assert np.array_equal(split.positions, whole.positions)
+
+
+def test_split_columns_of_a_spring_model():
+    model = paper_cube_model(tie="none").with_effects(NodeDrag([0.02]))
+    assert_split_equal(model, paper_cube_experiment(paper_cube_model(tie="global")), 2)
 
 
 def test_models_the_kernel_does_not_know_take_the_numpy_path():

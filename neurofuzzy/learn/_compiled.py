@@ -160,11 +160,15 @@ class CompiledModel:
         return (drag, int(drag_column), np.ascontiguousarray(direction.transpose(0, 2, 1)),
                 constant)
 
-    def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool):
+    def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
+            columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None):
         """``(positions, jacobian)`` of one experiment; ``states`` maps every window start
-        frame to its ``(p, v)``."""
+        frame to its ``(p, v)``. With ``columns = (first, stop)`` only those columns of the
+        Jacobian, written into ``jacobian`` (the state is simulated whole either way)."""
         from .._numba_sensitivity import forward
 
+        first, stop = columns if columns is not None else (0, self.n_params)
+        width = stop - first if tangents else 0
         n_frames, n_nodes = experiment.n_frames, self.model.n_nodes
         start_index = np.full(n_frames, -1, np.intp)
         frames = sorted(states)
@@ -174,16 +178,18 @@ class CompiledModel:
         observation = experiment.observation
         operator = observation.operator.tocsr()
         positions = np.empty((n_frames, n_nodes, 3))
-        jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, self.n_params)) if tangents
-                    else np.zeros((0, 0, 3, 0)))
+        if jacobian is None:
+            jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, self.n_params))
+                        if tangents else np.zeros((0, 0, 3, 0)))
         drag, drag_column, direction, constant = self.effects
+        direction = np.ascontiguousarray(direction[:, :, first:first + width])
         # writable C-ordered copies: numba compiles one signature per array layout
         loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
         h = experiment.dt / substeps
         with np.errstate(over="ignore", invalid="ignore"):
             forward(start_p[0].copy(), start_v[0].copy(), *self.springs, *self.elements,
                     drag, drag_column, direction, self.weight, loads, h, n_frames,
-                    int(substeps), self.n_params, start_index, start_p, start_v,
+                    int(substeps), int(first), int(width), start_index, start_p, start_v,
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
                     operator.data.astype(float),
                     np.array(observation.seen, dtype=bool, order="C"), float(scale),

@@ -16,6 +16,7 @@ velocities from the backward difference of the measured positions.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,12 +150,15 @@ class Sensitivity:
 
     # -- forward passes -----------------------------------------------------------------------
     def run(self, theta: np.ndarray, experiment: Experiment, *, substeps: int = 1,
-            starts=(0,), tangents: bool = False) -> Run:
-        """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities."""
+            starts=(0,), tangents: bool = False, threads: int = 1) -> Run:
+        """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities
+        (in the compiled kernel split by columns over ``threads`` threads: each simulates the
+        state and carries its share of the tangents)."""
         param = self.parameters
         model = param.model(theta)
         if self.compiled:
-            return self._compiled_run(model, experiment, substeps, starts, tangents)
+            return self._compiled_run(model, experiment, substeps, starts, tangents,
+                                      threads if tangents else 1)
         if self.backend == "numba":
             raise InputError("the compiled path needs numba and a model of springs and "
                              "elements with fixed masses", key="backend")
@@ -213,12 +217,30 @@ class Sensitivity:
         return Run(positions=positions, residuals=residuals,
                    n_measured=3 * int(seen[1:].sum()), jacobian=jacobian)
 
-    def _compiled_run(self, model, experiment, substeps, starts, tangents) -> Run:
+    def _compiled_run(self, model, experiment, substeps, starts, tangents, threads) -> Run:
         states = {t: self._window_state(experiment, t) for t in set(int(t) for t in starts)
                   | {0}}
-        positions, jacobian = CompiledModel(self.parameters, model).run(
-            experiment, states, substeps=substeps, scale=1.0 / self.length_unit,
-            tangents=tangents)
+        compiled = CompiledModel(self.parameters, model)
+        # a thread's share of the columns costs one simulation more than the share itself:
+        # split only into shares of at least one column each
+        bounds = np.linspace(0, compiled.n_params, min(threads, compiled.n_params) + 1)
+        shares = [(int(a), int(b)) for a, b in zip(bounds[:-1].round(), bounds[1:].round())]
+
+        if len(shares) > 1:     # each thread writes its own columns of one array
+            jacobian = np.empty((experiment.n_frames - 1, experiment.observation.n_rows, 3,
+                                 compiled.n_params))
+
+            def share(columns):
+                return compiled.run(experiment, states, substeps=substeps,
+                                    scale=1.0 / self.length_unit, tangents=True,
+                                    columns=columns, jacobian=jacobian)
+
+            with ThreadPoolExecutor(max_workers=len(shares)) as pool:
+                positions = list(pool.map(share, shares))[0][0]
+        else:
+            positions, jacobian = compiled.run(experiment, states, substeps=substeps,
+                                               scale=1.0 / self.length_unit,
+                                               tangents=tangents)
         observation = experiment.observation
         with np.errstate(over="ignore", invalid="ignore"):
             residuals = observation.residuals(positions)[1:] / self.length_unit

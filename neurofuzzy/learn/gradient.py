@@ -41,6 +41,8 @@ AUTO_STEP_OMEGA = 0.15
 MAX_JACOBIAN_ENTRIES = 3e7
 #: Default multiple-shooting window (frames) before the whole-trajectory stage.
 DEFAULT_WINDOW = 25
+#: Relative tolerance on the cost of the stages before the last (windows, beginnings).
+STAGE_TOLERANCE = 1e-3
 
 
 #: Residuals (in spring lengths) beyond this mean the simulation diverged.
@@ -109,7 +111,8 @@ class GradientLearner(Learner):
     windows : sequence of int or None
         Window lengths (frames) of the multiple-shooting stages that come before the final
         stage on the whole trajectory; ``None`` means ``(25,)``, ``()`` none. Windows need every
-        free node observed; otherwise only the whole trajectory is used.
+        free node observed; otherwise the stages fit growing beginnings of the recording.
+        Stages before the last stop at a relative cost change of ``STAGE_TOLERANCE`` (0.1 %).
     method : {"auto", "lm", "lbfgs"}
         Levenberg–Marquardt on the normal equations of the full Jacobian (``"lm"``, :mod:`._lm`), L-BFGS-B with the adjoint
         gradient (``"lbfgs"``), or the first when the Jacobian fits in memory.
@@ -216,7 +219,7 @@ class GradientLearner(Learner):
         if discrete:
             substeps = 1 if auto else int(self.substeps)
             theta = fit(theta, substeps, self.windows)
-            best = (rms_error(parameters.model(theta), experiments, substeps=substeps), theta,
+            best = (self._rms(sensitivity, experiments, theta, substeps), theta,
                     substeps)
         exact = best[0] <= 1e-9 * sensitivity.length_unit     # the discrete model fits exactly
         if auto and not exact:
@@ -226,10 +229,10 @@ class GradientLearner(Learner):
             theta_k = fit(theta, k, () if discrete else self.windows)
             theta_2k = fit(theta_k, 2 * k, ())
             if not discrete:      # nothing fitted at one step per frame to fall back on
-                best = (rms_error(parameters.model(theta_2k), experiments, substeps=2 * k),
+                best = (self._rms(sensitivity, experiments, theta_2k, 2 * k),
                         theta_2k, 2 * k)
             theta_inf = np.clip(2 * theta_2k - theta_k, lower, upper)
-            rms_inf = rms_error(parameters.model(theta_inf), experiments, substeps=2 * k)
+            rms_inf = self._rms(sensitivity, experiments, theta_inf, 2 * k)
             if rms_inf < best[0]:
                 best = (rms_inf, theta_inf, 2 * k)
                 self.extrapolated_ = True
@@ -238,10 +241,12 @@ class GradientLearner(Learner):
         self.parameter_names_ = parameters.names()
 
         jacobian = None
-        if method == "lm":
-            jacobian = self._jacobian(sensitivity, experiments, theta,
-                                      [(0,)] * len(experiments), self.substeps_)
-        runs = [sensitivity.run(theta, e, substeps=self.substeps_) for e in experiments]
+        if method == "lm":     # the Jacobian's pass gives the residuals too
+            jacobian, runs = self._jacobian(sensitivity, experiments, theta,
+                                            [(0,)] * len(experiments), self.substeps_,
+                                            with_runs=True)
+        else:
+            runs = [sensitivity.run(theta, e, substeps=self.substeps_) for e in experiments]
         residuals = np.concatenate([run.residuals.ravel() for run in runs])
         if jacobian is not None and self._prior_terms is not None:
             # the posterior: the prior's rows count as information too
@@ -300,7 +305,11 @@ class GradientLearner(Learner):
                 data = [e.first_frames(int(window)) for e in experiments]
                 starts = [(0,)] * len(experiments)
                 what = f"first {window} frames"
-            theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active)
+            # a stage before the last only has to bring the next into its basin
+            tolerance = (self.tolerance if window == longest
+                         else max(self.tolerance, STAGE_TOLERANCE))
+            theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active,
+                           tolerance)
             progress.update(stage + 1, f"{what}, RMS {self._trace[-1][1]:.3g}")
         return theta
 
@@ -340,16 +349,40 @@ class GradientLearner(Learner):
             return np.full_like(residuals, DIVERGED)   # a huge cost the solver rejects
         return residuals
 
-    def _jacobian(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:
-        blocks = [run.jacobian.reshape(-1, theta.size) for run in _side_by_side(
-            sensitivity, lambda e, s: sensitivity.run(theta, e, substeps=substeps, starts=s,
-                                                      tangents=True), experiments, starts)]
+    def _rms(self, sensitivity, experiments, theta, substeps) -> float:
+        """:func:`rms_error` of ``theta``; by the compiled forward pass when there is one."""
+        if not sensitivity.compiled:
+            return rms_error(sensitivity.parameters.model(theta), experiments,
+                             substeps=substeps)
+        runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
+            theta, e, substeps=substeps, starts=s), experiments, [(0,)] * len(experiments))
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = sum(float(np.sum(run.residuals**2)) for run in runs)
+        rows = sum(run.n_measured for run in runs) // 3      # measured positions
+        value = np.sqrt(total / max(rows, 1)) * sensitivity.length_unit
+        return float(value) if np.isfinite(value) else float("inf")
+
+    def _jacobian(self, sensitivity, experiments, theta, starts, substeps, *,
+                  with_runs: bool = False, columns=None):
+        """The Jacobian of the residuals, only ``columns`` when given (and with
+        ``with_runs`` the runs that made it)."""
+        # fewer experiments than cores: each splits its columns over its share of the cores
+        threads = max(1, (os.cpu_count() or 1) // len(experiments))
+        runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
+            theta, e, substeps=substeps, starts=s, tangents=True, threads=threads),
+            experiments, starts)
         self.n_cycles_ += 1
-        jacobian = np.concatenate(blocks)
-        return np.where(np.abs(jacobian) < DIVERGED**2, jacobian, 0.0)
+        blocks = [run.jacobian.reshape(-1, theta.size) for run in runs]
+        if columns is not None and len(columns) < theta.size:
+            blocks = [block[:, columns] for block in blocks]
+        jacobian = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+        # (min and max: two passes over a large array, no temporary copies)
+        if jacobian.size and not -DIVERGED**2 < jacobian.min() <= jacobian.max() < DIVERGED**2:
+            jacobian = np.where(np.abs(jacobian) < DIVERGED**2, jacobian, 0.0)
+        return (jacobian, runs) if with_runs else jacobian
 
     def _solve_lm(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
-                  active):
+                  active, tolerance):
         def full(x):
             values = theta.copy()
             values[active] = x
@@ -364,18 +397,19 @@ class GradientLearner(Learner):
             return np.concatenate([data, scale * terms.residuals(full(x))])
 
         def jacobian(x):
-            data = self._jacobian(sensitivity, experiments, full(x), starts, substeps)
+            data = self._jacobian(sensitivity, experiments, full(x), starts, substeps,
+                                  columns=active)
             if terms is not None:
-                data = np.vstack([data, scale * terms.jacobian(full(x)).toarray()])
-            return data[:, active]
+                data = np.vstack([data, scale * terms.jacobian(full(x)).toarray()[:, active]])
+            return data
 
         result = levenberg_marquardt(residuals, jacobian,
             theta[active], lower[active], upper[active],
-            max_evaluations=int(self.max_iterations), tolerance=self.tolerance)
+            max_evaluations=int(self.max_iterations), tolerance=tolerance)
         return full(result.x)
 
     def _solve_lbfgs(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
-                     active):
+                     active, tolerance):
         def objective(x):
             values = theta.copy()
             values[active] = x
@@ -396,7 +430,7 @@ class GradientLearner(Learner):
         bounds = list(zip(np.where(np.isfinite(lower), lower, None)[active],
                           np.where(np.isfinite(upper), upper, None)[active]))
         result = minimize(objective, theta[active], jac=True, method="L-BFGS-B", bounds=bounds,
-                          options={"maxiter": int(self.max_iterations), "ftol": self.tolerance,
+                          options={"maxiter": int(self.max_iterations), "ftol": tolerance,
                                    "gtol": 1e-12, "maxcor": 30})
         if not np.all(np.isfinite(result.x)):
             raise NeurofuzzyError("the gradient fit diverged; start from plausible parameters")
