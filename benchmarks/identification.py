@@ -8,7 +8,8 @@ plain numpy simulator, at the finer of our two substep levels, from the same sta
 same run. Also where our time goes: simulations (residuals), sensitivities (Jacobians) and
 the solver's linear algebra, from a profile of the fit.
 
-Also one region of 10,368 tetrahedra fitted for E, ν and η (``bench_large_elements``).
+Also one region of 10,368 tetrahedra fitted for E, ν and η, and one adjoint gradient of
+every element's E, ν and η of that mesh, compiled and numpy (``bench_large_elements``).
 
 Run on its own:  python benchmarks/identification.py [--skip-fd]
 """
@@ -125,6 +126,7 @@ def bench_large_elements(results):
     from a start 33 % off (target of the speed issue: under 10 s)."""
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.learn import Parameterization, Sensitivity
     from neurofuzzy.mesh import from_tetra
     from neurofuzzy.model import SpringMassModel
 
@@ -152,9 +154,29 @@ def bench_large_elements(results):
         "tetrahedra": mesh.n_tetrahedra, "nodes": mesh.n_nodes, "seconds": seconds,
         "simulations": learner.n_cycles_, "substeps": learner.substeps_,
         "youngs_modulus": found[0], "poisson_ratio": found[1], "viscosity": found[2]}
-    return [(f"per-region fit, {mesh.n_tetrahedra} tetrahedra (E, ν, η)",
+    rows = [(f"per-region fit, {mesh.n_tetrahedra} tetrahedra (E, ν, η)",
              f"{seconds:.0f} s, {learner.n_cycles_} simulations; E {found[0] / 6000 - 1:+.2%}, "
              f"ν {found[1]:.4f} (0.45), η {found[2] / 2 - 1:+.1%} (target 10 s)")]
+    # per element: one adjoint gradient of every element's E, ν and η, numpy and compiled
+    parameters = Parameterization(block(4000.0, 0.4, 3.0).tied("none"))
+    theta = parameters.initial()
+    times, values = {}, {}
+    for backend in ("numba", "numpy"):
+        sensitivity = Sensitivity(parameters, 0.0025, backend=backend)
+        if backend == "numba":                     # loaded from numba's cache once
+            sensitivity.gradient(theta, data, substeps=substeps)
+        began = time.perf_counter()
+        values[backend] = sensitivity.gradient(theta, data, substeps=substeps)[1]
+        times[backend] = time.perf_counter() - began
+    difference = float(np.abs(values["numba"] - values["numpy"]).max()
+                       / np.abs(values["numpy"]).max())
+    results["large_elements_gradient"] = {"parameters": parameters.size, **times,
+                                          "largest_relative_difference": difference}
+    rows.append((f"adjoint gradient, {parameters.size} element parameters",
+                 f"compiled {times['numba']:.1f} s, numpy {times['numpy']:.1f} s "
+                 f"({times['numpy'] / times['numba']:.0f}x; largest difference "
+                 f"{difference:.1e} of the largest entry)"))
+    return rows
 
 
 if __name__ == "__main__":

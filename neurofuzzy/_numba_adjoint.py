@@ -1,13 +1,17 @@
 """Compiled discrete adjoint (numba) of :meth:`neurofuzzy.learn.Sensitivity.gradient` for
-spring models: two calls per experiment, no Python per time step.
+models of springs and tetrahedral elements: two calls per experiment, no Python per time step.
 
 :func:`sweep` runs semi-implicit Euler over the frames and keeps the state at the start of
 every substep; :func:`pull_back` runs the adjoint backwards over those states and sums, per
-spring, ``λ · ∂F/∂s_j`` and ``λ · ∂F/∂c_j`` (the caller multiplies by the constants and sums
-per tie group: the gradient by ``log s`` and ``log c``). The arithmetic is that of the numpy
-reference path (:meth:`neurofuzzy.forces.SpringForce.vjp`, :func:`~neurofuzzy.forces.springs.
-central_vjp`; tested equal): springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, a node drag
-``-drag v`` and constant loads.
+spring, ``λ · ∂F/∂s_j`` and ``λ · ∂F/∂c_j``, and per element ``λ · ∂F`` by its four
+constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and ``λβ``; for the nodal volumetric form
+by the node averages of the last two). The caller turns them into the gradient by the
+parameters (``log s``, ``log c`` per tie group; for elements the same derivatives of the
+constants as the forward kernel). The arithmetic is that of the numpy reference path
+(:meth:`neurofuzzy.forces.SpringForce.vjp`, :func:`~neurofuzzy.forces.springs.central_vjp`,
+:meth:`neurofuzzy.forces.TetrahedronForce.state_vjp` and ``parameter_vjp``; tested equal):
+springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, elements ``S = shear G + shear_rate Ġ + π
+I``, a node drag ``-drag v`` and constant loads.
 
 Imported only when numba is installed (module-level, ``cache=True``).
 """
@@ -16,11 +20,169 @@ import numba
 import numpy as np
 
 from ._numba_kernels import _spring
+from ._numba_sensitivity import (_edges, _element_tangents, _full, _mul, _sym_dot,
+                                 _sym_t_mul)
 
 
 @numba.njit(cache=True, nogil=True)
-def sweep(a, b, stiffness, damping, rest, drag, weight, loads, h, n_frames, substeps,
-          start_index, start_p, start_v, positions, states_p, states_v):
+def _element_force(p, v, elements, node_strain, force):
+    """Element forces into ``force`` (the forward kernel's, without tangents)."""
+    (tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+     node_lam, node_lam_rate) = elements
+    n_nodes = p.shape[0]
+    none = np.zeros((n_nodes, 3, 0))
+    empty = np.zeros(0)
+    _element_tangents(p, v, none, none, tets, inverse_rest, volume, shear, shear_rate, lam,
+                      lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                      np.zeros(tets.shape[0] + 1, np.intp), np.zeros(0, np.intp), empty,
+                      empty, empty, empty, np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0)),
+                      0.0, -1, 0, node_strain, np.zeros((n_nodes, 0, 2)), force, none)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _pull_columns(out, L, B, n0, n1, n2, n3):
+    """The adjoint of ``F = Ds B``: ``L Bᵀ``, column j to node j + 1, minus their sum to
+    node 0, added to ``out`` (N, 3)."""
+    for r in range(3):
+        c1 = L[3 * r] * B[0, 0] + L[3 * r + 1] * B[0, 1] + L[3 * r + 2] * B[0, 2]
+        c2 = L[3 * r] * B[1, 0] + L[3 * r + 1] * B[1, 1] + L[3 * r + 2] * B[1, 2]
+        c3 = L[3 * r] * B[2, 0] + L[3 * r + 1] * B[2, 1] + L[3 * r + 2] * B[2, 2]
+        out[n1, r] += c1
+        out[n2, r] += c2
+        out[n3, r] += c3
+        out[n0, r] -= c1 + c2 + c3
+
+
+@numba.njit(cache=True, nogil=True)
+def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_lam,
+                 g_lam_rate, node_strain, node_adjoint):
+    """``λ · ∂F/∂p`` into ``d_p``, ``λ · ∂F/∂v`` into ``d_v`` and ``λ · ∂F`` by every
+    element's constants into ``g_*`` (per element; with the nodal form ``g_lam`` and
+    ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the cotangent ``λ = lam_force``."""
+    (tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+     node_lam, node_lam_rate) = elements
+    if nodal:                      # the node averages θ̄, θ̄̇ and the node pressures
+        node_strain[:] = 0.0
+        for e in range(tets.shape[0]):
+            n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+            F = _edges(p, n0, n1, n2, n3, inverse_rest[e])
+            Fd = _edges(v, n0, n1, n2, n3, inverse_rest[e])
+            corner = 0.25 * volume[e]
+            theta = corner * (0.5 * (F[0] * F[0] + F[1] * F[1] + F[2] * F[2] + F[3] * F[3]
+                                     + F[4] * F[4] + F[5] * F[5] + F[6] * F[6] + F[7] * F[7]
+                                     + F[8] * F[8]) - 1.5)
+            rate = corner * (F[0] * Fd[0] + F[1] * Fd[1] + F[2] * Fd[2] + F[3] * Fd[3]
+                             + F[4] * Fd[4] + F[5] * Fd[5] + F[6] * Fd[6] + F[7] * Fd[7]
+                             + F[8] * Fd[8])
+            for node in (n0, n1, n2, n3):
+                node_strain[node, 0] += theta
+                node_strain[node, 1] += rate
+        for i in range(node_strain.shape[0]):
+            if node_volume[i] > 0.0:
+                node_strain[i, 0] /= node_volume[i]
+                node_strain[i, 1] /= node_volume[i]
+            node_adjoint[i] = 0.0
+    for e in range(tets.shape[0]):
+        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+        B = inverse_rest[e]
+        F = _edges(p, n0, n1, n2, n3, B)
+        Fd = _edges(v, n0, n1, n2, n3, B)
+        C = _sym_t_mul(F, F)
+        G = (0.5 * (C[0] - 1.0), 0.5 * (C[1] - 1.0), 0.5 * (C[2] - 1.0), 0.5 * C[3],
+             0.5 * C[4], 0.5 * C[5])
+        Gd = _sym_t_mul(F, Fd)
+        theta = G[0] + G[1] + G[2]
+        theta_rate = Gd[0] + Gd[1] + Gd[2]
+        if nodal:
+            pressure = 0.0
+            for node in (n0, n1, n2, n3):
+                pressure += 0.25 * (node_lam[node] * node_strain[node, 0]
+                                    + node_lam_rate[node] * node_strain[node, 1])
+        else:
+            pressure = lam[e] * theta + lam_rate[e] * theta_rate
+        S = _full((shear[e] * G[0] + shear_rate[e] * Gd[0] + pressure,
+                   shear[e] * G[1] + shear_rate[e] * Gd[1] + pressure,
+                   shear[e] * G[2] + shear_rate[e] * Gd[2] + pressure,
+                   shear[e] * G[3] + shear_rate[e] * Gd[3], shear[e] * G[4] + shear_rate[e] * Gd[4],
+                   shear[e] * G[5] + shear_rate[e] * Gd[5]))
+        # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
+        scale = -volume[e]
+        Lc = (lam_force[n1, 0] - lam_force[n0, 0], lam_force[n2, 0] - lam_force[n0, 0],
+              lam_force[n3, 0] - lam_force[n0, 0], lam_force[n1, 1] - lam_force[n0, 1],
+              lam_force[n2, 1] - lam_force[n0, 1], lam_force[n3, 1] - lam_force[n0, 1],
+              lam_force[n1, 2] - lam_force[n0, 2], lam_force[n2, 2] - lam_force[n0, 2],
+              lam_force[n3, 2] - lam_force[n0, 2])
+        LB = _mul(Lc, (B[0, 0], B[0, 1], B[0, 2], B[1, 0], B[1, 1], B[1, 2], B[2, 0], B[2, 1],
+                       B[2, 2]))
+        LP = (scale * LB[0], scale * LB[1], scale * LB[2], scale * LB[3], scale * LB[4],
+              scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
+        LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
+        g_shear[e] += _sym_dot(G, LS)
+        g_shear_rate[e] += _sym_dot(Gd, LS)
+        l_pressure = LS[0] + LS[1] + LS[2]
+        if nodal:
+            l_theta = 0.0
+            l_theta_rate = 0.0
+            for node in (n0, n1, n2, n3):
+                node_adjoint[node] += 0.25 * l_pressure
+        else:
+            l_theta = lam[e] * l_pressure
+            l_theta_rate = lam_rate[e] * l_pressure
+            g_lam[e] += l_pressure * theta
+            g_lam_rate[e] += l_pressure * theta_rate
+        LG = _full((shear[e] * LS[0] + l_theta, shear[e] * LS[1] + l_theta,
+                    shear[e] * LS[2] + l_theta, shear[e] * LS[3], shear[e] * LS[4],
+                    shear[e] * LS[5]))
+        LGd = _full((shear_rate[e] * LS[0] + l_theta_rate, shear_rate[e] * LS[1] + l_theta_rate,
+                     shear_rate[e] * LS[2] + l_theta_rate, shear_rate[e] * LS[3],
+                     shear_rate[e] * LS[4], shear_rate[e] * LS[5]))
+        # L_F = L_P S + F L_G + Ḟ L_Ġ, L_Ḟ = F L_Ġ
+        LPS = _mul(LP, S)
+        FLG = _mul(F, LG)
+        FdLGd = _mul(Fd, LGd)
+        LF = (LPS[0] + FLG[0] + FdLGd[0], LPS[1] + FLG[1] + FdLGd[1],
+              LPS[2] + FLG[2] + FdLGd[2], LPS[3] + FLG[3] + FdLGd[3],
+              LPS[4] + FLG[4] + FdLGd[4], LPS[5] + FLG[5] + FdLGd[5],
+              LPS[6] + FLG[6] + FdLGd[6], LPS[7] + FLG[7] + FdLGd[7],
+              LPS[8] + FLG[8] + FdLGd[8])
+        _pull_columns(d_p, LF, B, n0, n1, n2, n3)
+        _pull_columns(d_v, _mul(F, LGd), B, n0, n1, n2, n3)
+    if not nodal:
+        return
+    # π_e = ¼ Σ_a (Λ_a θ̄_a + H_a θ̄̇_a), θ̄_a = Σ_e (V_e/4) θ_e / V_a: the node pressures'
+    # cotangents to Λ, H and back to every element's θ and θ̇
+    for i in range(node_strain.shape[0]):
+        g_lam[i] += node_adjoint[i] * node_strain[i, 0]
+        g_lam_rate[i] += node_adjoint[i] * node_strain[i, 1]
+    for e in range(tets.shape[0]):
+        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+        B = inverse_rest[e]
+        corner = 0.25 * volume[e]
+        l_theta = 0.0
+        l_theta_rate = 0.0
+        for node in (n0, n1, n2, n3):
+            if node_volume[node] > 0.0:
+                share = corner / node_volume[node] * node_adjoint[node]
+                l_theta += share * node_lam[node]
+                l_theta_rate += share * node_lam_rate[node]
+        F = _edges(p, n0, n1, n2, n3, B)
+        Fd = _edges(v, n0, n1, n2, n3, B)
+        # θ = ½ |F|² - 3/2, θ̇ = F : Ḟ
+        LF = (l_theta * F[0] + l_theta_rate * Fd[0], l_theta * F[1] + l_theta_rate * Fd[1],
+              l_theta * F[2] + l_theta_rate * Fd[2], l_theta * F[3] + l_theta_rate * Fd[3],
+              l_theta * F[4] + l_theta_rate * Fd[4], l_theta * F[5] + l_theta_rate * Fd[5],
+              l_theta * F[6] + l_theta_rate * Fd[6], l_theta * F[7] + l_theta_rate * Fd[7],
+              l_theta * F[8] + l_theta_rate * Fd[8])
+        LFd = (l_theta_rate * F[0], l_theta_rate * F[1], l_theta_rate * F[2],
+               l_theta_rate * F[3], l_theta_rate * F[4], l_theta_rate * F[5],
+               l_theta_rate * F[6], l_theta_rate * F[7], l_theta_rate * F[8])
+        _pull_columns(d_p, LF, B, n0, n1, n2, n3)
+        _pull_columns(d_v, LFd, B, n0, n1, n2, n3)
+
+
+@numba.njit(cache=True, nogil=True)
+def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_frames,
+          substeps, start_index, start_p, start_v, positions, states_p, states_v):
     """Positions (n_frames, N, 3) and the state at the start of every substep
     (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
     substeps of a window's first frame are left unset)."""
@@ -28,6 +190,8 @@ def sweep(a, b, stiffness, damping, rest, drag, weight, loads, h, n_frames, subs
     p = start_p[0].copy()
     v = start_v[0].copy()
     force = np.empty((n_nodes, 3))
+    node_strain = np.zeros((n_nodes, 2))
+    has_elements = elements[0].shape[0] > 0
     step = 0
     for t in range(n_frames):
         if start_index[t] >= 0:
@@ -47,6 +211,8 @@ def sweep(a, b, stiffness, damping, rest, drag, weight, loads, h, n_frames, subs
                     force[i, k] = load[i, k] - drag * v[i, k]
             for j in range(a.shape[0]):
                 _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
+            if has_elements:
+                _element_force(p, v, elements, node_strain, force)
             for i in range(n_nodes):
                 w = h * weight[i]
                 for k in range(3):
@@ -56,12 +222,18 @@ def sweep(a, b, stiffness, damping, rest, drag, weight, loads, h, n_frames, subs
 
 
 @numba.njit(cache=True, nogil=True)
-def pull_back(a, b, stiffness, damping, rest, drag, weight, h, n_frames, substeps,
-              start_index, states_p, states_v, frame_adjoint, d_stiffness, d_damping):
+def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frames, substeps,
+              start_index, states_p, states_v, frame_adjoint, d_stiffness, d_damping,
+              d_elements):
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
     ``Σ λ_F · ∂F/∂s_j`` to ``d_stiffness[j]`` and ``Σ λ_F · ∂F/∂c_j`` to ``d_damping[j]``
-    over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force)."""
+    over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
+    of the element constants to ``d_elements`` (see :func:`_element_vjp`)."""
     n_nodes = frame_adjoint.shape[1]
+    g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
+    has_elements = elements[0].shape[0] > 0
+    node_strain = np.zeros((n_nodes, 2))
+    node_adjoint = np.zeros(n_nodes)
     lam_p = np.zeros((n_nodes, 3))
     lam_v = np.zeros((n_nodes, 3))
     lam_force = np.empty((n_nodes, 3))
@@ -133,6 +305,9 @@ def pull_back(a, b, stiffness, damping, rest, drag, weight, h, n_frames, substep
                 d_v[ib, 0] += cv * ux
                 d_v[ib, 1] += cv * uy
                 d_v[ib, 2] += cv * uz
+            if has_elements:
+                _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate,
+                             g_lam, g_lam_rate, node_strain, node_adjoint)
             for i in range(n_nodes):
                 for k in range(3):
                     lam_p[i, k] += d_p[i, k]

@@ -147,3 +147,45 @@ def test_compiled_adjoint_of_springs_with_drag_and_gaps(starts):
     assert scale > 0
     assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * scale
     assert np.allclose(compiled[2].residuals, numpy_path[2].residuals, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric):
+    """The compiled adjoint of element models gives the numpy adjoint's cost and gradient:
+    per-element E, ν and η in tie groups, an inclusion of elements (not learned), a node
+    drag, seen through embedded markers with a gap."""
+    mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    rng = np.random.default_rng(3)
+    model = SpringMassModel.continuum(
+        mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra),
+        poisson_ratio=rng.uniform(0.3, 0.45, mesh.n_tetrahedra), viscosity=2.0,
+        density=1000.0, volumetric=volumetric).replace(
+        element_tie=rng.integers(0, 4, mesh.n_tetrahedra)).with_effects(
+        StiffInclusion([3000.0], elements=[3, 4, 10, 11], poisson_ratio=0.4),
+        NodeDrag([0.05]))
+    load = np.zeros((mesh.n_nodes, 3))
+    load[-1] = (0.0, 0.01, -0.05)
+    steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
+    nodes = simulate_experiment(model, dt=1e-3, n_frames=25, external_forces=load,
+                                substeps=steps)
+    points = rng.uniform((0.002, 0.002, 0.005), (0.028, 0.028, 0.02), (12, 3))
+    corners, weights, _ = embed_points(mesh, points)
+    seen = np.einsum("mk,tmkj->tmj", weights, nodes.positions[:, corners])
+    seen[5:8, 3] = np.nan
+    positions = np.full_like(nodes.positions, np.nan)
+    positions[0] = mesh.rest_positions
+    markers = Experiment(mesh=mesh, dt=1e-3, positions=positions, external_forces=load,
+                         node_mass=model.node_mass, observed=np.zeros(mesh.n_nodes, bool),
+                         markers=EmbeddedMarkers(corners, weights, seen))
+    parameters = Parameterization(model, learn_effects=False)
+    theta = parameters.initial() + rng.normal(0.0, 0.05, parameters.size)
+    sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
+                     for backend in ("numpy", "numba")]
+    assert sensitivities[1].compiled_gradient and not sensitivities[0].compiled_gradient
+    for data, starts in ((markers, (0,)), (nodes, (0, 10, 20))):
+        numpy_path, compiled = (s.gradient(theta, data, substeps=steps, starts=starts)
+                                for s in sensitivities)
+        assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-12)
+        scale = np.abs(numpy_path[1]).max()
+        assert scale > 0
+        assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * scale

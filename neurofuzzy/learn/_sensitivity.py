@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..effects import NonlinearStiffening
 from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence
@@ -98,10 +99,12 @@ class Sensitivity:
 
     @property
     def compiled_gradient(self) -> bool:
-        """Does :meth:`gradient` run in the compiled kernels (springs, constant loads and a
-        node drag, nothing but the springs learned)?"""
-        return (self.compiled and not self.parameters.base.has_elements
-                and not self.parameters.effects)
+        """Does :meth:`gradient` run in the compiled kernels (springs, elements, their
+        inclusions, constant loads and a node drag; no effect learned, no strain
+        stiffening)?"""
+        return (self.compiled and not self.parameters.effects
+                and not any(isinstance(effect, NonlinearStiffening)
+                            for effect in self.parameters.base.effects))
 
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
@@ -341,14 +344,15 @@ class Sensitivity:
 
     def _compiled_gradient(self, model, experiment, substeps, starts):
         """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy._numba_adjoint`) for
-        models of springs whose only effects are constant loads and a node drag, none of
-        them learned."""
+        models of springs and elements whose only effects are constant loads, a node drag
+        and inclusions of elements, none of them learned."""
         from .._numba_adjoint import pull_back, sweep
 
         param = self.parameters
         compiled = CompiledModel(param, model)
         a, b, stiffness, damping, rest = compiled.springs[:5]
         drag, _, _, constant = compiled.effects
+        elements = compiled.elements[:11]       # the elements and their constants
         n_frames, observation = experiment.n_frames, experiment.observation
         frames = sorted(set(int(t) for t in starts) | {0})
         start_index = np.full(n_frames, -1, np.intp)
@@ -364,7 +368,7 @@ class Sensitivity:
         states_v = np.empty((steps, self.n_nodes, 3))
         weight = np.ascontiguousarray(compiled.weight, dtype=float)
         with np.errstate(over="ignore", invalid="ignore"):
-            sweep(a, b, stiffness, damping, rest, drag, weight, loads, h, n_frames,
+            sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_frames,
                   int(substeps), start_index, start_p, start_v, positions, states_p, states_v)
             scale = 1.0 / self.length_unit
             residuals = observation.residuals(positions) * scale
@@ -372,19 +376,38 @@ class Sensitivity:
                   n_measured=3 * int(observation.seen[1:].sum()))
         loss = 0.5 * float(np.sum(residuals[1:] ** 2))
         grad = np.zeros(param.size)
-        if not np.isfinite(loss) or not param.learn_springs:
-            return (loss if np.isfinite(loss) else float("inf")), grad, run
+        if not np.isfinite(loss):
+            return float("inf"), grad, run
         # ∂L/∂p(t) = Hᵀ r(t) / length_unit, every frame at once
         frame_adjoint = np.ascontiguousarray(np.moveaxis(observation.adjoint(
             np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
             self.n_nodes, n_frames, 3), 0, 1) * scale)
         d_stiffness, d_damping = np.zeros(len(a)), np.zeros(len(a))
-        pull_back(a, b, stiffness, damping, rest, drag, weight, h, n_frames, int(substeps),
-                  start_index, states_p, states_v, frame_adjoint, d_stiffness, d_damping)
-        tie, n_ties = param.tied.tie, param.tied.n_ties
-        grad[param.blocks["log_stiffness"].slice] = np.bincount(tie, stiffness * d_stiffness,
-                                                                n_ties)
-        grad[param.blocks["log_damping"].slice] = np.bincount(tie, damping * d_damping, n_ties)
+        n_elements, nodal = len(elements[0]), elements[7]
+        per_volumetric = self.n_nodes if nodal else n_elements   # λ, λβ: per node or element
+        d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
+                      np.zeros(per_volumetric))
+        pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frames,
+                  int(substeps), start_index, states_p, states_v, frame_adjoint, d_stiffness,
+                  d_damping, d_elements)
+        if param.learn_springs:
+            tie, n_ties = param.tied.tie, param.tied.n_ties
+            grad[param.blocks["log_stiffness"].slice] = np.bincount(
+                tie, stiffness * d_stiffness, n_ties)
+            grad[param.blocks["log_damping"].slice] = np.bincount(
+                tie, damping * d_damping, n_ties)
+        if n_elements:
+            # the constants' derivatives by the parameters, as in the forward kernel
+            (pointer, column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
+             d_node_lam_rate) = compiled.elements[11:19]
+            element = np.repeat(np.arange(n_elements), np.diff(pointer))
+            g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
+            weights = d_shear * g_shear[element] + d_shear_rate * g_shear_rate[element]
+            if nodal:
+                grad += d_node_lam.T @ g_lam + d_node_lam_rate.T @ g_lam_rate
+            else:
+                weights = weights + d_lam * g_lam[element] + d_lam_rate * g_lam_rate[element]
+            grad += np.bincount(column, weights, param.size)
         return loss, grad, run
 
     @staticmethod
