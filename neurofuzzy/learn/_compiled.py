@@ -144,7 +144,9 @@ class CompiledModel:
     def _effects(model, n_params, columns):
         """``(drag, drag_column, force_direction, constant_force)``."""
         drag, drag_column = 0.0, -1
-        direction = np.zeros((model.n_nodes, n_params, 3))
+        # parameters last, as the kernel's tangents; np.zeros maps its pages lazily, so the
+        # (N, 3, P) array of a model with thousands of parameters costs no memory until used
+        direction = np.zeros((model.n_nodes, 3, n_params))
         constant = np.zeros((model.n_nodes, 3))
         for i, effect in enumerate(model.effects):
             column = columns.get(i)
@@ -155,10 +157,9 @@ class CompiledModel:
                 constant += effect.force(model, model.mesh.rest_positions, None)
                 if column is not None:
                     span = slice(column, column + len(effect.params))
-                    direction[:, span] = effect.parameter_jacobian(model, None, None)
-        # parameters last, as the kernel's tangents
-        return (drag, int(drag_column), np.ascontiguousarray(direction.transpose(0, 2, 1)),
-                constant)
+                    direction[:, :, span] = effect.parameter_jacobian(
+                        model, None, None).transpose(0, 2, 1)
+        return drag, int(drag_column), direction, constant
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
             columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None):

@@ -176,17 +176,23 @@ class Parameterization:
     def tie_labels(self) -> list[str]:
         """Label of every tie group: a spring-group name, "all springs" or "spring j"."""
         model = self.base
-        tie, groups = self.tied.tie, model.mesh.spring_group
+        tie, groups, n_ties = self.tied.tie, model.mesh.spring_group, self.tied.n_ties
+        counts = np.bincount(tie, minlength=n_ties)
+        first = np.zeros(n_ties, dtype=int)                     # each tie group's first spring
+        present, index = np.unique(tie, return_index=True)
+        first[present] = index
+        group = groups[first] if len(groups) else np.zeros(n_ties, dtype=int)
+        # one spring group, and all of it
+        mixed = np.bincount(tie, groups != group[tie], minlength=n_ties) > 0
+        whole = np.bincount(groups, minlength=group.max(initial=0) + 1)[group] == counts
         labels = []
-        for k in range(self.tied.n_ties):
-            members = np.flatnonzero(tie == k)
-            if len(members) == 1 and model.n_ties == model.n_springs:
-                labels.append(f"spring {members[0]}")
-            elif len(members) == model.n_springs:
+        for k in range(n_ties):
+            if counts[k] == 1 and model.n_ties == model.n_springs:
+                labels.append(f"spring {first[k]}")
+            elif counts[k] == model.n_springs:
                 labels.append("all springs")
-            elif len(np.unique(groups[members])) == 1 and np.sum(
-                    groups == groups[members[0]]) == len(members):
-                labels.append(model.mesh.group_names[groups[members[0]]])
+            elif counts[k] and not mixed[k] and whole[k]:
+                labels.append(model.mesh.group_names[group[k]])
             else:
                 labels.append(f"tie group {k}")
         return labels

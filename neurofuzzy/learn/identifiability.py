@@ -107,10 +107,13 @@ def analyse(parameters, theta: np.ndarray, jacobian: np.ndarray | None,
 def structurally_unidentifiable(parameters) -> list[int]:
     """Indices of spring parameters whose springs all have both end nodes fixed."""
     mesh = parameters.base.mesh
-    free = mesh.free
-    return [index for index in range(parameters.size)
-            if (springs := parameters.springs_of(index)).size
-            and not np.any(free[mesh.springs[springs]])]
+    tie, n_ties = parameters.tied.tie, parameters.tied.n_ties
+    moving = mesh.free[mesh.springs].any(axis=1)
+    still = ((np.bincount(tie, minlength=n_ties) > 0)
+             & (np.bincount(tie, moving, minlength=n_ties) == 0))      # groups that never move
+    return sorted(block.start + int(k) for name in ("log_stiffness", "log_damping")
+                  if (block := parameters.blocks.get(name)) is not None
+                  for k in np.flatnonzero(still))
 
 
 def _structural(parameters, names) -> list[dict]:
