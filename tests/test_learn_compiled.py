@@ -189,3 +189,20 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric):
         scale = np.abs(numpy_path[1]).max()
         assert scale > 0
         assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * scale
+
+
+def test_the_kernels_use_no_more_threads_than_numba_is_allowed(monkeypatch):
+    """fit-many's workers set NUMBA_NUM_THREADS=1: load cases and Jacobian columns then run
+    on one thread; without it every core is used, and nonsense falls back to the cores."""
+    import os
+
+    from neurofuzzy.learn.gradient import cores
+
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
+    assert cores() == 1
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "64")
+    assert cores() == (os.cpu_count() or 1)
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "many")
+    assert cores() == (os.cpu_count() or 1)
+    monkeypatch.delenv("NUMBA_NUM_THREADS")
+    assert cores() == (os.cpu_count() or 1)

@@ -49,11 +49,23 @@ STAGE_TOLERANCE = 1e-3
 DIVERGED = 1e6
 
 
+def cores() -> int:
+    """Threads the compiled kernels may use: the machine's cores, or fewer when
+    ``NUMBA_NUM_THREADS`` says so (fit-many's local workers set it to 1, so that ``n``
+    workers use ``n`` cores and no more)."""
+    available = os.cpu_count() or 1
+    try:
+        limit = int(os.environ.get("NUMBA_NUM_THREADS", available))
+    except ValueError:
+        return available
+    return max(1, min(available, limit))
+
+
 def _side_by_side(sensitivity, run, experiments, starts, *, compiled=None) -> list:
-    """``run(experiment, starts)`` for every experiment: in threads, one per core, when the
-    compiled kernel (which releases the GIL) does the work (``compiled``, by default that
-    of the forward passes); one after the other otherwise."""
-    workers = min(len(experiments), os.cpu_count() or 1)
+    """``run(experiment, starts)`` for every experiment: in threads, one per core
+    (:func:`cores`), when the compiled kernel (which releases the GIL) does the work
+    (``compiled``, by default that of the forward passes); one after the other otherwise."""
+    workers = min(len(experiments), cores())
     if workers < 2 or not (sensitivity.compiled if compiled is None else compiled):
         return [run(e, s) for e, s in zip(experiments, starts)]
     with ThreadPoolExecutor(max_workers=workers) as pool:
@@ -367,7 +379,7 @@ class GradientLearner(Learner):
         """The Jacobian of the residuals, only ``columns`` when given (and with
         ``with_runs`` the runs that made it)."""
         # fewer experiments than cores: each splits its columns over its share of the cores
-        threads = max(1, (os.cpu_count() or 1) // len(experiments))
+        threads = max(1, cores() // len(experiments))
         runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
             theta, e, substeps=substeps, starts=s, tangents=True, threads=threads),
             experiments, starts)
