@@ -120,7 +120,7 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
     ``q`` that of parameter ``first + q``; ``work`` (3, P) holds one spring's tangent
     force."""
     n_params = tp.shape[2]
-    wx_, wy_, wz_ = work[0], work[1], work[2]
+    tx, ty, tz = work[0], work[1], work[2]     # the spring's tangent force
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]
         ux, uy, uz, length, closing, stretch, magnitude = _spring(
@@ -147,25 +147,25 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
             d_closing = ((vbx[q] - vax[q]) * ux + (vby[q] - vay[q]) * uy
                          + (vbz[q] - vaz[q]) * uz + wx * dux + wy * duy + wz * duz)
             dm = s * dl + c * d_closing
-            wx_[q] = dm * ux + magnitude * dux
-            wy_[q] = dm * uy + magnitude * duy
-            wz_[q] = dm * uz + magnitude * duz
+            tx[q] = dm * ux + magnitude * dux
+            ty[q] = dm * uy + magnitude * duy
+            tz[q] = dm * uz + magnitude * duz
         # the spring's own constants (∂f/∂log s, ∂f/∂log c), outside the vectorised loop
         for column, extra in ((stiffness_column[j] - first, s * stretch),
                               (damping_column[j] - first, c * closing)):
             if 0 <= column < n_params:
-                wx_[column] += extra * ux
-                wy_[column] += extra * uy
-                wz_[column] += extra * uz
+                tx[column] += extra * ux
+                ty[column] += extra * uy
+                tz[column] += extra * uz
         fax, fay, faz = d_force[ia, 0], d_force[ia, 1], d_force[ia, 2]
         fbx, fby, fbz = d_force[ib, 0], d_force[ib, 1], d_force[ib, 2]
         for q in range(n_params):
-            fax[q] += wx_[q]
-            fay[q] += wy_[q]
-            faz[q] += wz_[q]
-            fbx[q] -= wx_[q]
-            fby[q] -= wy_[q]
-            fbz[q] -= wz_[q]
+            fax[q] += tx[q]
+            fay[q] += ty[q]
+            faz[q] += tz[q]
+            fbx[q] -= tx[q]
+            fby[q] -= ty[q]
+            fbz[q] -= tz[q]
 
 
 # -- tetrahedral elements ----------------------------------------------------------------------
