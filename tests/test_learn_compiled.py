@@ -196,7 +196,7 @@ def test_the_kernels_use_no_more_threads_than_numba_is_allowed(monkeypatch):
     on one thread; without it every core is used, and nonsense falls back to the cores."""
     import os
 
-    from neurofuzzy.learn.gradient import cores
+    from neurofuzzy.learn._passes import cores
 
     monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
     assert cores() == 1

@@ -12,10 +12,8 @@ minimises the free-running error that :func:`rms_error` reports.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy.optimize import minimize
@@ -26,6 +24,7 @@ from ..model import SpringMassModel
 from ..simulation import check_substeps, stability_limit
 from ..progress import Progress
 from ._base import Learner
+from . import _passes as passes
 from ._lm import levenberg_marquardt
 from ._parameters import Parameterization
 from ._prior_weight import set_prior
@@ -44,32 +43,6 @@ DEFAULT_WINDOW = 25
 #: Relative tolerance on the cost of the stages before the last (windows, beginnings).
 STAGE_TOLERANCE = 1e-3
 
-
-#: Residuals (in spring lengths) beyond this mean the simulation diverged.
-DIVERGED = 1e6
-
-
-def cores() -> int:
-    """Threads the compiled kernels may use: the machine's cores, or fewer when
-    ``NUMBA_NUM_THREADS`` says so (fit-many's local workers set it to 1, so that ``n``
-    workers use ``n`` cores and no more)."""
-    available = os.cpu_count() or 1
-    try:
-        limit = int(os.environ.get("NUMBA_NUM_THREADS", available))
-    except ValueError:
-        return available
-    return max(1, min(available, limit))
-
-
-def _side_by_side(sensitivity, run, experiments, starts, *, compiled=None) -> list:
-    """``run(experiment, starts)`` for every experiment: in threads, one per core
-    (:func:`cores`), when the compiled kernel (which releases the GIL) does the work
-    (``compiled``, by default that of the forward passes); one after the other otherwise."""
-    workers = min(len(experiments), cores())
-    if workers < 2 or not (sensitivity.compiled if compiled is None else compiled):
-        return [run(e, s) for e, s in zip(experiments, starts)]
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(run, experiments, starts))
 
 
 def _stable_start(model: SpringMassModel, h: float) -> SpringMassModel:
@@ -231,7 +204,7 @@ class GradientLearner(Learner):
         if discrete:
             substeps = 1 if auto else int(self.substeps)
             theta = fit(theta, substeps, self.windows)
-            best = (self._rms(sensitivity, experiments, theta, substeps), theta,
+            best = (passes.rms(sensitivity, experiments, theta, substeps), theta,
                     substeps)
         exact = best[0] <= 1e-9 * sensitivity.length_unit     # the discrete model fits exactly
         if auto and not exact:
@@ -241,10 +214,10 @@ class GradientLearner(Learner):
             theta_k = fit(theta, k, () if discrete else self.windows)
             theta_2k = fit(theta_k, 2 * k, ())
             if not discrete:      # nothing fitted at one step per frame to fall back on
-                best = (self._rms(sensitivity, experiments, theta_2k, 2 * k),
+                best = (passes.rms(sensitivity, experiments, theta_2k, 2 * k),
                         theta_2k, 2 * k)
             theta_inf = np.clip(2 * theta_2k - theta_k, lower, upper)
-            rms_inf = self._rms(sensitivity, experiments, theta_inf, 2 * k)
+            rms_inf = passes.rms(sensitivity, experiments, theta_inf, 2 * k)
             if rms_inf < best[0]:
                 best = (rms_inf, theta_inf, 2 * k)
                 self.extrapolated_ = True
@@ -353,44 +326,20 @@ class GradientLearner(Learner):
         self.n_cycles_ += 1
 
     def _residuals(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:
-        runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
+        runs = passes.side_by_side(sensitivity, lambda e, s: sensitivity.run(
             theta, e, substeps=substeps, starts=s), experiments, starts)
         self._record(runs, sensitivity.length_unit)
         residuals = np.concatenate([run.residuals.ravel() for run in runs])
-        if not np.all(np.abs(residuals) < DIVERGED):
-            return np.full_like(residuals, DIVERGED)   # a huge cost the solver rejects
+        if not np.all(np.abs(residuals) < passes.DIVERGED):
+            return np.full_like(residuals, passes.DIVERGED)   # a huge cost the solver rejects
         return residuals
-
-    def _rms(self, sensitivity, experiments, theta, substeps) -> float:
-        """:func:`rms_error` of ``theta``; by the compiled forward pass when there is one."""
-        if not sensitivity.compiled:
-            return rms_error(sensitivity.parameters.model(theta), experiments,
-                             substeps=substeps)
-        runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
-            theta, e, substeps=substeps, starts=s), experiments, [(0,)] * len(experiments))
-        with np.errstate(over="ignore", invalid="ignore"):
-            total = sum(float(np.sum(run.residuals**2)) for run in runs)
-        rows = sum(run.n_measured for run in runs) // 3      # measured positions
-        value = np.sqrt(total / max(rows, 1)) * sensitivity.length_unit
-        return float(value) if np.isfinite(value) else float("inf")
 
     def _jacobian(self, sensitivity, experiments, theta, starts, substeps, *,
                   with_runs: bool = False, columns=None):
-        """The Jacobian of the residuals, only ``columns`` when given (and with
-        ``with_runs`` the runs that made it)."""
-        # fewer experiments than cores: each splits its columns over its share of the cores
-        threads = max(1, cores() // len(experiments))
-        runs = _side_by_side(sensitivity, lambda e, s: sensitivity.run(
-            theta, e, substeps=substeps, starts=s, tangents=True, threads=threads),
-            experiments, starts)
+        """:func:`._passes.jacobian`, counted as one simulation of the data."""
         self.n_cycles_ += 1
-        blocks = [run.jacobian.reshape(-1, theta.size) for run in runs]
-        if columns is not None and len(columns) < theta.size:
-            blocks = [block[:, columns] for block in blocks]
-        jacobian = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
-        # (min and max: two passes over a large array, no temporary copies)
-        if jacobian.size and not -DIVERGED**2 < jacobian.min() <= jacobian.max() < DIVERGED**2:
-            jacobian = np.where(np.abs(jacobian) < DIVERGED**2, jacobian, 0.0)
+        jacobian, runs = passes.jacobian(sensitivity, experiments, theta, starts, substeps,
+                                         columns=columns)
         return (jacobian, runs) if with_runs else jacobian
 
     def _solve_lm(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
@@ -425,7 +374,7 @@ class GradientLearner(Learner):
         def objective(x):
             values = theta.copy()
             values[active] = x
-            parts = _side_by_side(sensitivity, lambda e, s: sensitivity.gradient(
+            parts = passes.side_by_side(sensitivity, lambda e, s: sensitivity.gradient(
                 values, e, substeps=substeps, starts=s), experiments, starts,
                 compiled=sensitivity.compiled_gradient)
             loss = sum(value for value, _, _ in parts)

@@ -1,0 +1,72 @@
+"""Passes of the gradient learner over all its experiments: residuals, RMS error and the
+Jacobian, one experiment per thread when the compiled kernels do the work (they release the
+GIL), and with fewer experiments than cores one experiment's Jacobian columns split over the
+cores (:meth:`~neurofuzzy.learn.Sensitivity.run` with ``threads``)."""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from ..experiment import rms_error
+
+#: Residuals (in spring lengths) beyond this mean the simulation diverged.
+DIVERGED = 1e6
+
+
+def cores() -> int:
+    """Threads the compiled kernels may use: the machine's cores, or fewer when
+    ``NUMBA_NUM_THREADS`` says so (fit-many's local workers set it to 1, so that ``n``
+    workers use ``n`` cores and no more)."""
+    available = os.cpu_count() or 1
+    try:
+        limit = int(os.environ.get("NUMBA_NUM_THREADS", available))
+    except ValueError:
+        return available
+    return max(1, min(available, limit))
+
+
+def side_by_side(sensitivity, run, experiments, starts, *, compiled=None) -> list:
+    """``run(experiment, starts)`` for every experiment: in threads, one per core
+    (:func:`cores`), when the compiled kernel (which releases the GIL) does the work
+    (``compiled``, by default that of the forward passes); one after the other otherwise."""
+    workers = min(len(experiments), cores())
+    if workers < 2 or not (sensitivity.compiled if compiled is None else compiled):
+        return [run(e, s) for e, s in zip(experiments, starts)]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(run, experiments, starts))
+
+
+def rms(sensitivity, experiments, theta, substeps) -> float:
+    """:func:`~neurofuzzy.experiment.rms_error` of ``theta``; by the compiled forward pass
+    when there is one."""
+    if not sensitivity.compiled:
+        return rms_error(sensitivity.parameters.model(theta), experiments, substeps=substeps)
+    runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
+        theta, e, substeps=substeps, starts=s), experiments, [(0,)] * len(experiments))
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = sum(float(np.sum(run.residuals**2)) for run in runs)
+    rows = sum(run.n_measured for run in runs) // 3      # measured positions
+    value = np.sqrt(total / max(rows, 1)) * sensitivity.length_unit
+    return float(value) if np.isfinite(value) else float("inf")
+
+
+def jacobian(sensitivity, experiments, theta, starts, substeps, *, columns=None):
+    """``(J, runs)``: the Jacobian of the residuals of all experiments (only ``columns``
+    when given; entries of a diverged simulation set to 0) and the runs that made it (their
+    residuals are those at ``theta``)."""
+    # fewer experiments than cores: each splits its columns over its share of the cores
+    threads = max(1, cores() // len(experiments))
+    runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
+        theta, e, substeps=substeps, starts=s, tangents=True, threads=threads),
+        experiments, starts)
+    blocks = [run.jacobian.reshape(-1, theta.size) for run in runs]
+    if columns is not None and len(columns) < theta.size:
+        blocks = [block[:, columns] for block in blocks]
+    J = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+    # (min and max: two passes over a large array, no temporary copies)
+    if J.size and not -DIVERGED**2 < J.min() <= J.max() < DIVERGED**2:
+        J = np.where(np.abs(J) < DIVERGED**2, J, 0.0)
+    return J, runs
