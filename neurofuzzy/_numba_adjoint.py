@@ -25,18 +25,24 @@ from ._numba_sensitivity import (_edges, _element_tangents, _full, _mul, _sym_do
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_force(p, v, elements, node_strain, force):
-    """Element forces into ``force`` (the forward kernel's, without tangents)."""
+def _no_tangents(n_nodes):
+    """Empty tangent and parameter arrays for :func:`_element_force` (made once per sweep;
+    with no tangents the kernel reads none of them)."""
+    return (np.zeros((n_nodes, 3, 0)), np.zeros(1, np.intp), np.zeros(0, np.intp),
+            np.zeros(0), np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0, 2)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _element_force(p, v, elements, blank, node_strain, force):
+    """Element forces into ``force`` (the forward kernel's, without tangents; ``blank`` from
+    :func:`_no_tangents`)."""
     (tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
      node_lam, node_lam_rate) = elements
-    n_nodes = p.shape[0]
-    none = np.zeros((n_nodes, 3, 0))
-    empty = np.zeros(0)
+    none, pointer, columns, empty, per_node, node_pairs = blank
     _element_tangents(p, v, none, none, tets, inverse_rest, volume, shear, shear_rate, lam,
-                      lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                      np.zeros(tets.shape[0] + 1, np.intp), np.zeros(0, np.intp), empty,
-                      empty, empty, empty, np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0)),
-                      0.0, -1, 0, node_strain, np.zeros((n_nodes, 0, 2)), force, none)
+                      lam_rate, nodal, node_volume, node_lam, node_lam_rate, pointer, columns,
+                      empty, empty, empty, empty, per_node, per_node, 0.0, -1, 0, node_strain,
+                      node_pairs, force, none)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -192,6 +198,7 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
     force = np.empty((n_nodes, 3))
     node_strain = np.zeros((n_nodes, 2))
     has_elements = elements[0].shape[0] > 0
+    blank = _no_tangents(n_nodes)
     step = 0
     for t in range(n_frames):
         if start_index[t] >= 0:
@@ -212,7 +219,7 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
             for j in range(a.shape[0]):
                 _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
             if has_elements:
-                _element_force(p, v, elements, node_strain, force)
+                _element_force(p, v, elements, blank, node_strain, force)
             for i in range(n_nodes):
                 w = h * weight[i]
                 for k in range(3):
