@@ -162,6 +162,8 @@ def loads(raw: bytes | str, source: str = "<yaml>") -> object:
     except yaml.MarkedYAMLError as error:
         mark = error.problem_mark or error.context_mark
         problem = error.problem or error.context or "cannot parse"
+        if "nesting depth" in problem:              # libyaml's own limit (PyYAML >= 6.0.3)
+            problem = f"nested more than {MAX_DEPTH} levels deep; neurofuzzy files are flat"
         raise InputError(f"malformed YAML: {problem}", source=source,
                          line=mark.line + 1 if mark else None) from None
     except yaml.YAMLError as error:
