@@ -17,7 +17,7 @@ from .safe_yaml import kind_of
 from .serialization import atomic_write
 
 __all__ = ["load_model", "save_model", "model_to_dict", "model_from_dict", "check_model_dict",
-           "MODEL_KEYS"]
+           "load_fit_record", "MODEL_KEYS"]
 
 MODEL_FORMAT = "neurofuzzy-model/1"
 #: largest model file read (a 24,000-tetrahedron model is 4 MB and loads in 2 s)
@@ -66,7 +66,8 @@ def model_to_dict(model: SpringMassModel) -> dict:
 
 #: the keys of a model file, per section: (required, optional)
 MODEL_KEYS = {
-    None: (("format", "nodes", "springs"), ("effects", "regions", "tetrahedra", "elements")),
+    None: (("format", "nodes", "springs"), ("effects", "regions", "tetrahedra", "elements",
+                                            "fit")),
     "nodes": (("rest_positions", "mass"), ("fixed", "region")),
     "springs": (("nodes", "stiffness", "damping"),
                 ("group", "group_names", "rest_length", "tie", "region")),
@@ -125,6 +126,12 @@ def check_model_dict(data, source: str = "<model>") -> None:
                                  key=section, line=_line_of(data, section))
         for key, value in where.items():
             if section is None and (key in MODEL_KEYS or key == "format"):
+                continue
+            if section is None and key == "fit":
+                if not isinstance(value, dict):
+                    raise InputError(f"expected a mapping (the fit's record), got "
+                                     f"{kind_of(value)}", source=source, key="fit",
+                                     line=_line_of(where, key))
                 continue
             if (section, key) in _MODEL_SCALAR_KEYS:
                 if not isinstance(value, str):
@@ -206,11 +213,19 @@ def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> d
             "node_region": np.asarray(nodes.get("region", np.zeros(0, int)))}
 
 
-def save_model(model: SpringMassModel, path: str | os.PathLike) -> Path:
-    """Write ``model`` as YAML (atomically); :func:`load_model` reads it back exactly."""
+def save_model(model: SpringMassModel, path: str | os.PathLike, *,
+               fit: dict | None = None) -> Path:
+    """Write ``model`` as YAML (atomically); :func:`load_model` reads it back exactly.
+
+    ``fit`` is the record of the fit that made the model (a JSON-ready mapping: the toolkit
+    version, the lack of fit and its verdict, …), kept as the file's ``fit:`` section and read
+    back by :func:`load_fit_record`; the model itself does not depend on it.
+    """
     path = Path(path)
-    text = yaml.safe_dump(model_to_dict(model), sort_keys=False, default_flow_style=None,
-                          width=100)
+    data = model_to_dict(model)
+    if fit is not None:
+        data["fit"] = dict(fit)
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
     with atomic_write(path, "w") as handle:
         handle.write("# neurofuzzy spring-mass model; load with neurofuzzy.io.load_model\n")
         handle.write(text)
@@ -229,3 +244,21 @@ def load_model(path: str | os.PathLike) -> SpringMassModel:
     """
     return model_from_dict(safe_yaml.load(path, max_bytes=MAX_MODEL_FILE_BYTES,
                                           kind="model file"), str(path))
+
+
+def load_fit_record(path: str | os.PathLike) -> dict | None:
+    """The ``fit:`` section of a model file written by ``neurofuzzy fit --out`` (the toolkit
+    version, the lack of fit and its verdict, …), or None when the file has none."""
+    data = safe_yaml.load(path, max_bytes=MAX_MODEL_FILE_BYTES, kind="model file")
+    check_model_dict(data, str(path))
+    record = data.get("fit")
+    return None if record is None else _plain(record)
+
+
+def _plain(value):
+    """A mapping read by :mod:`neurofuzzy.safe_yaml` as plain dicts and lists."""
+    if isinstance(value, dict):
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_plain(item) for item in value]
+    return value

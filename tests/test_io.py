@@ -42,6 +42,21 @@ def test_model_yaml_round_trip_is_exact(tmp_path, rng, cube_model):
     assert loaded.mesh.group_names == model.mesh.group_names
 
 
+
+def test_a_model_file_keeps_the_record_of_its_fit(tmp_path, cube_model):
+    from neurofuzzy.model_files import load_fit_record
+
+    record = {"neurofuzzy_version": "0.1.0",
+              "lack_of_fit": {"rms": 2.5e-5, "noise": 1.2e-5, "ratio": 2.08,
+                              "verdict": "residual 2.1x the noise"}}
+    path = save_model(cube_model, tmp_path / "m.yaml", fit=record)
+    assert load_fit_record(path) == record
+    assert np.array_equal(load_model(path).spring_stiffness, cube_model.spring_stiffness)
+    assert load_fit_record(save_model(cube_model, tmp_path / "plain.yaml")) is None
+    (tmp_path / "bad.yaml").write_text(path.read_text().replace("fit:\n", "fit: 3\nx:\n"))
+    with pytest.raises(InputError, match=r"bad\.yaml.*fit"):
+        load_model(tmp_path / "bad.yaml")
+
 @pytest.mark.parametrize("change, message", [
     (lambda a: a.pop("positions"), r"cube\.npz: positions: required key is missing"),
     (lambda a: a.update(positions=np.zeros((5, 27, 2))),
