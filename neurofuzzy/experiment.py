@@ -17,7 +17,7 @@ from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
 from .mesh.core import check_coordinates
 from .model import SpringMassModel
-from .observation import EmbeddedMarkers, Observation
+from .observation import EmbeddedMarkers, Observation, remove_offsets
 from .simulation import simulate
 
 __all__ = ["Experiment", "simulate_experiment", "check_experiments", "simulate_like",
@@ -319,27 +319,44 @@ def simulate_like(model: SpringMassModel, experiment: Experiment,
 
 
 def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
-              substeps: int = 1) -> float:
-    """Root-mean-square distance between free simulation and measurement.
+              substeps: int = 1, offsets: bool = False) -> float:
+    """Root-mean-square distance between free simulation and measurement, per marker.
 
     Over all experiments, frames 1 onwards, and what is measured (observed nodes that are not
-    fixed, or embedded markers; not in a gap): ``sqrt(mean |p_sim - p_measured|²)``,
-    simulating with ``substeps`` steps per frame. Infinite when the simulation diverges.
+    fixed, or embedded markers; not in a gap): ``sqrt(mean |p_sim - p_measured|²)`` (metres;
+    the mean is over measured marker positions, each a 3-D distance, so it is √3 times the
+    RMS per coordinate), simulating with ``substeps`` steps per frame. With ``offsets`` every
+    marker's constant offset is fitted first (:func:`~neurofuzzy.observation.remove_offsets`).
+    Infinite when the simulation diverges.
     """
     experiments = check_experiments(model, experiments)
-    total, count = 0.0, 0
+    errors = model_errors(model, experiments, substeps=substeps, offsets=offsets)
+    if errors is None:
+        return float("inf")
+    total = sum(float(np.sum(diff * diff)) for diff in errors)
+    count = sum(int(e.observation.seen[1:].sum()) for e in experiments)
+    value = np.sqrt(total / max(count, 1))
+    return float(value) if np.isfinite(value) else float("inf")
+
+
+def model_errors(model: SpringMassModel, experiments: Sequence[Experiment], *,
+                 substeps: int = 1, offsets: bool = False) -> list[np.ndarray] | None:
+    """Per experiment, (n_frames - 1, n_rows, 3) simulated minus measured (m) at frames 1
+    onwards for every measured row (zero where not measured), as :func:`rms_error` counts
+    them; None when a simulation is unstable."""
+    errors = []
     for experiment in experiments:
         try:
             with np.errstate(all="ignore"):
                 simulated = simulate_like(model, experiment, substeps)
         except UnstableTimeStepError:
-            return float("inf")
+            return None
         observation = experiment.observation
         diff = observation.residuals(simulated)[1:]
-        total += float(np.sum(diff * diff))
-        count += int(observation.seen[1:].sum())
-    value = np.sqrt(total / max(count, 1))
-    return float(value) if np.isfinite(value) else float("inf")
+        if offsets:
+            diff = remove_offsets(diff, observation.seen[1:])
+        errors.append(diff)
+    return errors
 
 
 def _require_motion(mesh: Mesh, observed: np.ndarray, markers, source: str) -> None:

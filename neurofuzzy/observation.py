@@ -23,7 +23,7 @@ import scipy.sparse as sp
 
 from .errors import InputError
 
-__all__ = ["EmbeddedMarkers", "Observation", "embed_points"]
+__all__ = ["EmbeddedMarkers", "Observation", "embed_points", "remove_offsets"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,6 +127,43 @@ class Observation:
     def adjoint(self, rows: np.ndarray) -> np.ndarray:
         """``Hᵀ`` applied to (n_rows, 3) → (n_nodes, 3)."""
         return np.asarray(self.operator.T @ rows)
+
+
+def remove_offsets(residuals: np.ndarray, seen: np.ndarray,
+                   jacobian: np.ndarray | None = None) -> np.ndarray:
+    """Residuals with every row's best constant offset taken out: the markers' rest positions
+    as nuisance parameters (variable projection).
+
+    A marker's rest position in the model comes from the recording (one noisy frame when the
+    load starts at once, a point off the surface …); its error is a constant offset in every
+    frame. The offset that fits best is the mean residual of the row over its measured frames,
+    whatever the model's parameters, so fitting it is the projection ``P r`` (``P`` removes
+    the mean of each row and coordinate over its measured frames); ``P`` does not depend on
+    the parameters, so the Jacobian of the projected residuals is ``P J``, and the adjoint's
+    seed ``P r`` gives the gradient of ``½ |P r|²``.
+
+    Parameters
+    ----------
+    residuals : (n_frames, n_rows, 3) float
+        Simulated minus measured, zero where not measured.
+    seen : (n_frames, n_rows) bool
+        Which entries are measured.
+    jacobian : (n_frames, n_rows, 3, n_params) float, optional
+        Projected in place (entries not measured set to zero).
+
+    Returns
+    -------
+    (n_frames, n_rows, 3) float
+        The projected residuals (zero where not measured).
+    """
+    count = np.maximum(seen.sum(axis=0), 1)[:, None]                  # (rows, 1)
+    offset = np.where(seen[..., None], residuals, 0.0).sum(axis=0) / count
+    if jacobian is not None:
+        jacobian *= seen[:, :, None, None]
+        mean = jacobian.sum(axis=0) / count[:, :, None]               # (rows, 3, n_params)
+        for frame, measured in zip(jacobian, seen):                   # no full-size temporary
+            frame -= mean * measured[:, None, None]
+    return np.where(seen[..., None], residuals - offset[None], 0.0)
 
 
 def embed_points(mesh, points: np.ndarray, *, tetrahedra: np.ndarray | None = None):

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
 from .outcome import check_outcome, explained, require_motion
+from ..learn.lack_of_fit import length_text
 
 __all__ = ["fit", "diagnose"]
 
@@ -54,8 +55,10 @@ def fit(args) -> int:
         print_json(result)
     else:
         print(learner.model_.summary())
-        print(f"RMS error: {result['rms_error_initial']:.4g} -> {result['rms_error']:.4g} "
-              f"({result['cycles']} cycles, {result['seconds']:.1f} s)")
+        print(f"RMS error per marker: {length_text(result['rms_error_initial'])} -> "
+              f"{length_text(result['rms_error'])} ({result['cycles']} cycles, "
+              f"{result['seconds']:.1f} s)")
+        print(f"lack of fit: {learner.lack_of_fit_.verdict}")
         if result.get("prior"):
             print(f"prior: weight {result['prior']['alpha']:.3g} ({result['prior']['how']}); "
                   f"{result['regions_found_words']}")
@@ -66,7 +69,7 @@ def fit(args) -> int:
 def _fit(args, progress, substeps, out, report, export, outputs):
     """Fit, refuse a failed fit, write the staged outputs."""
     from ..io import save_model
-    from ..learn.run import make_learner, make_prior
+    from ..learn.run import fit_record, make_learner, make_prior
 
     inputs, experiments, start = _start(args, progress)
     require_motion(experiments)
@@ -80,7 +83,7 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,
                   learner.rms_error_, learner.substeps_)
     if out:
-        save_model(learner.model_, out)
+        save_model(learner.model_, out, fit=fit_record(learner, inputs))
     files = {"fitted model": args.out} if args.out else {}
     exported = {}
     if export:
@@ -138,8 +141,8 @@ def diagnose(args) -> int:
         for finding in result.effects:
             print(f"  {finding.name} (confidence {finding.confidence:.2f}, runner-up "
                   f"{finding.runner_up}){_where(finding)}: {finding.parameters}")
-        print(f"RMS error: {result.rms_before:.4g} -> {result.rms_after:.4g} "
-              f"(marker noise {result.noise_rms:.3g})")
+        print(f"RMS error per marker: {length_text(result.rms_before)} -> "
+              f"{length_text(result.rms_after)} (marker noise {length_text(result.noise_rms)})")
         if result.localisation:
             covered = ", ".join(f"{share:.0%}" for share in result.localisation.overlap)
             print(f"item by item, with the rule base as a prior: {result.localisation.words} "

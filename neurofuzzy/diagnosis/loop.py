@@ -11,6 +11,7 @@ from ..effects import SoftInclusion, StiffInclusion
 from ..experiment import Experiment, check_experiments
 from ..forces import tetrahedron_geometry
 from ..learn import GradientLearner
+from ..learn.lack_of_fit import length_text
 from ..model import SpringMassModel
 from ..progress import note
 from ..serialization import json_safe
@@ -153,7 +154,7 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
     fitted = GradientLearner(substeps=substeps).fit(model, experiments)
     current, rms, steps = fitted.model_, fitted.rms_error_, fitted.substeps_
     rms_start = rms
-    say(f"diagnose: fitted the model as it is, RMS {rms:.3g}")
+    say(f"diagnose: fitted the model as it is, RMS {length_text(rms)} per marker")
     findings, rounds = [], []
     ranked: list[Candidate] = []
     noise_rms = 0.0
@@ -203,8 +204,8 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
             rms_after=refit.rms_error_, gap_before=gap_before, gap_after=gap_after,
             runner_up=others[0].name if others else "none", candidates=ranked,
             elements=winner.elements, centroid=centroid))
-        say(f"diagnose: found {winner.name} (explains {winner.explained:.0%}); RMS "
-            f"{rms:.3g} -> {refit.rms_error_:.3g}")
+        say(f"diagnose: found {winner.name} (explains {winner.explained:.0%}); RMS per marker "
+            f"{length_text(rms)} -> {length_text(refit.rms_error_)}")
         current, rms, steps = refit.model_, refit.rms_error_, refit.substeps_
     localisation = None
     inclusions = [f for f in findings if f.name in INCLUSIONS]

@@ -52,7 +52,11 @@ class Learner:
         The paper's error ``E`` (eq. 2.2: ``½ Σ |p - o|²`` over frames and measured nodes,
         lengths in mean rest spring lengths) after every cycle.
     rms_error_initial_, rms_error_ : float
-        :func:`~neurofuzzy.experiment.rms_error` (metres) of the start and the fitted model.
+        :func:`~neurofuzzy.experiment.rms_error` (metres, per marker) of the start and the
+        fitted model.
+    lack_of_fit_ : LackOfFit
+        The fitted model's RMS error against the marker noise, with a verdict in words
+        (:mod:`neurofuzzy.learn.lack_of_fit`).
     n_cycles_ : int
         Complete passes over the training data (simulations) the fit used.
     substeps_ : int
@@ -116,6 +120,7 @@ class Learner:
             "substeps": self.substeps_,
             "seconds": self.seconds_,
             "history": self.history_.tolist(),
+            "lack_of_fit": self.lack_of_fit_.to_dict(),
         }
 
 

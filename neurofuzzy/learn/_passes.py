@@ -43,7 +43,8 @@ def rms(sensitivity, experiments, theta, substeps) -> float:
     """:func:`~neurofuzzy.experiment.rms_error` of ``theta``; by the compiled forward pass
     when there is one."""
     if not sensitivity.compiled:
-        return rms_error(sensitivity.parameters.model(theta), experiments, substeps=substeps)
+        return rms_error(sensitivity.parameters.model(theta), experiments, substeps=substeps,
+                         offsets=sensitivity.offsets)
     runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
         theta, e, substeps=substeps, starts=s), experiments, [(0,)] * len(experiments))
     with np.errstate(over="ignore", invalid="ignore"):

@@ -25,6 +25,7 @@ from ..effects import NonlinearStiffening
 from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence
+from ..observation import remove_offsets
 from ._compiled import CompiledModel, compiled_possible
 from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
 
@@ -71,15 +72,20 @@ class Sensitivity:
         Forward passes in the compiled kernel (:mod:`neurofuzzy._numba_sensitivity`, one call
         per experiment) or the numpy reference path; ``"auto"`` compiles when numba is
         installed and the model has only springs and elements with fixed masses.
+    offsets : bool
+        Fit every measured row's constant offset (the markers' rest positions as nuisance
+        parameters, :func:`~neurofuzzy.observation.remove_offsets`): residuals, Jacobians and
+        gradients are those of the projected residuals.
     """
 
     def __init__(self, parameters: Parameterization, length_unit: float, *,
-                 backend: str = "auto"):
+                 backend: str = "auto", offsets: bool = False):
         if backend not in ("auto", "numpy", "numba"):
             raise InputError(f"got {backend!r}; expected 'auto', 'numpy' or 'numba'",
                              key="backend")
         self.parameters = parameters
         self.backend = backend
+        self.offsets = bool(offsets)
         model = parameters.base
         self.length_unit = float(length_unit)
         self.n_nodes = model.n_nodes
@@ -216,9 +222,17 @@ class Sensitivity:
                         jacobian[t - 1] = (observation.apply(tp).transpose(0, 2, 1)
                                            / self.length_unit * seen[t][:, None, None])
                 positions[t] = p
-            residuals = observation.residuals(positions)[1:] / self.length_unit
+            residuals = self._projected(observation.residuals(positions)[1:]
+                                        / self.length_unit, seen[1:], jacobian)
         return Run(positions=positions, residuals=residuals,
                    n_measured=3 * int(seen[1:].sum()), jacobian=jacobian)
+
+    def _projected(self, residuals, seen, jacobian=None) -> np.ndarray:
+        """``residuals`` (frames 1..) with the rows' offsets removed when they are fitted
+        (and ``jacobian`` projected in place)."""
+        if not self.offsets:
+            return residuals
+        return remove_offsets(residuals, seen, jacobian)
 
     def _compiled_run(self, model, experiment, substeps, starts, tangents, threads) -> Run:
         states = {t: self._window_state(experiment, t) for t in set(int(t) for t in starts)
@@ -246,7 +260,8 @@ class Sensitivity:
                                                tangents=tangents)
         observation = experiment.observation
         with np.errstate(over="ignore", invalid="ignore"):
-            residuals = observation.residuals(positions)[1:] / self.length_unit
+            residuals = self._projected(observation.residuals(positions)[1:]
+                                        / self.length_unit, observation.seen[1:], jacobian)
         return Run(positions=positions, residuals=residuals,
                    n_measured=3 * int(observation.seen[1:].sum()), jacobian=jacobian)
 
@@ -284,7 +299,7 @@ class Sensitivity:
                 positions[t] = p
         scale = 1.0 / self.length_unit
         with np.errstate(over="ignore", invalid="ignore"):
-            residuals = observation.residuals(positions) * scale
+            residuals = self._frame_residuals(observation, positions)
         run = Run(positions=positions, residuals=residuals[1:],
                   n_measured=3 * int(observation.seen[1:].sum()))
         loss = 0.5 * float(np.sum(residuals[1:] ** 2))
@@ -371,7 +386,7 @@ class Sensitivity:
             sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_frames,
                   int(substeps), start_index, start_p, start_v, positions, states_p, states_v)
             scale = 1.0 / self.length_unit
-            residuals = observation.residuals(positions) * scale
+            residuals = self._frame_residuals(observation, positions)
         run = Run(positions=positions, residuals=residuals[1:],
                   n_measured=3 * int(observation.seen[1:].sum()))
         loss = 0.5 * float(np.sum(residuals[1:] ** 2))
@@ -409,6 +424,13 @@ class Sensitivity:
                 weights = weights + d_lam * g_lam[element] + d_lam_rate * g_lam_rate[element]
             grad += np.bincount(column, weights, param.size)
         return loss, grad, run
+
+    def _frame_residuals(self, observation, positions) -> np.ndarray:
+        """(n_frames, n_rows, 3) residuals in length units, frame 0 included (zero), the
+        later frames projected when offsets are fitted (the adjoint's seed)."""
+        residuals = observation.residuals(positions) / self.length_unit
+        residuals[1:] = self._projected(residuals[1:], observation.seen[1:])
+        return residuals
 
     @staticmethod
     def _per_unit_mass(model, p, v):

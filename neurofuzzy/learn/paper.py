@@ -36,6 +36,7 @@ from ..model import SpringMassModel
 from ..forces import SPRINGS, incidence
 from ..progress import Progress
 from ._base import Learner, TiedSprings
+from .lack_of_fit import model_lack_of_fit
 
 __all__ = ["PaperLearner"]
 
@@ -130,7 +131,8 @@ class PaperLearner(Learner):
         self.history_ = np.array(history)
         self.substeps_ = 1
         self.n_cycles_ = len(history)
-        self.rms_error_ = rms_error(self.model_, experiments)
+        self.lack_of_fit_ = model_lack_of_fit(self.model_, experiments)
+        self.rms_error_ = self.lack_of_fit_.rms
         self.seconds_ = time.perf_counter() - started
         return self
 

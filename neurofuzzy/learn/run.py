@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 from ._base import Learner
 
-__all__ = ["METHODS", "make_learner", "make_prior", "fit_summary"]
+__all__ = ["METHODS", "make_learner", "make_prior", "fit_summary", "fit_record"]
 
 #: the learners ``method`` may name
 METHODS = ("gradient", "paper")
@@ -123,3 +123,14 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
         result.update(regions_found=found["regions"], regions_rest=found["rest"],
                       regions_found_words=describe_regions(found))
     return result
+
+
+def fit_record(learner: Learner, experiments: Sequence[str]) -> dict:
+    """What a fitted model file keeps of its fit (its ``fit:`` section,
+    :func:`~neurofuzzy.model_files.save_model`): the toolkit version, the experiments, the RMS
+    error and the lack of fit with its verdict."""
+    from .. import __version__
+
+    return {"neurofuzzy_version": __version__, "learner": type(learner).__name__,
+            "experiments": [str(p) for p in experiments],
+            "lack_of_fit": learner.lack_of_fit_.to_dict()}
