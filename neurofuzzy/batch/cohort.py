@@ -226,7 +226,7 @@ def _comparison_html(summary, several: bool, table_html) -> str:
 
 
 def _distribution_figure(summary, seed: int):
-    from ..report import _pyplot
+    from ..report import pyplot as _pyplot
 
     plt = _pyplot()
     panels = list(dict.fromkeys((d["region"], d["quantity"]) for d in summary["distributions"]))

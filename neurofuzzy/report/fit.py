@@ -1,208 +1,20 @@
-"""Self-contained HTML reports (plots embedded as PNG) with a JSON twin.
-
-:func:`write_report` writes ``report.html`` and ``report.json`` atomically; the builders
-(:func:`diagnosis_report`, and :func:`fit_report` in :mod:`neurofuzzy.rules_report`) turn results
-into sections. matplotlib is imported only inside the functions that plot.
-"""
+"""The fit report: the expert's words before and after, the error curve, the learned
+parameters, what the data determine, and where the tissue differs from its description."""
 
 from __future__ import annotations
 
-import base64
 import html
-import io
-import json
 import os
 from pathlib import Path
 
 import numpy as np
 
-from .serialization import json_safe
-from .serialization import atomic_write
+from .html import figure_html, pyplot, table_html, write_report
+from .lack_of_fit import lack_of_fit_section
 
-__all__ = ["write_report", "figure_html", "table_html", "fit_report", "diagnosis_report"]
-
-_STYLE = """
-body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
-h1 { font-size: 1.6em; } h2 { font-size: 1.25em; margin-top: 1.6em; border-bottom: 1px solid #ddd; }
-table { border-collapse: collapse; margin: 0.8em 0; } td, th { padding: 4px 10px; border: 1px solid #ddd; }
-th { background: #f4f4f4; text-align: left; } .changed { background: #fff3c4; font-weight: 600; }
-.note { color: #555; font-size: 0.92em; } img { max-width: 100%; }
-"""
+__all__ = ["fit_report", "identifiability_html", "prior_section"]
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def figure_html(figure, alt: str) -> str:
-    """Embed a matplotlib figure as a PNG data URI and close it."""
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
-    _pyplot().close(figure)
-    encoded = base64.b64encode(buffer.getvalue()).decode("ascii")
-    return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{encoded}">'
-
-
-def table_html(header: list[str], rows: list[list], highlight: list[bool] | None = None) -> str:
-    """An HTML table; rows flagged in ``highlight`` are marked as changed. Cells are text,
-    except values with an ``__html__`` method, whose markup is used as it is."""
-    out = ["<table><tr>" + "".join(f"<th>{html.escape(str(h))}</th>" for h in header) + "</tr>"]
-    for index, row in enumerate(rows):
-        css = ' class="changed"' if highlight and highlight[index] else ""
-        out.append(f"<tr{css}>" + "".join(f"<td>{_cell(c)}</td>" for c in row) + "</tr>")
-    return "".join(out) + "</table>"
-
-
-def _cell(value) -> str:
-    """A cell's HTML: escaped text, or the markup of a value that has ``__html__`` (a link)."""
-    return value.__html__() if hasattr(value, "__html__") else html.escape(_fmt(value))
-
-
-def _fmt(value) -> str:
-    if isinstance(value, (float, np.floating)):
-        return f"{value:.4g}"
-    return str(value)
-
-
-#: the key of a report's JSON twin that says neurofuzzy wrote it (the command line replaces
-#: an existing twin only if it has it)
-REPORT_MARKER = "generator"
-
-
-def write_report(path, title: str, sections: list[tuple[str, str]], data: dict) -> Path:
-    """Write ``path`` (HTML) and its JSON twin (same name, ``.json``) atomically."""
-    path = Path(path)
-    data = {REPORT_MARKER: f"neurofuzzy report: {title}", **data}
-    body = "".join(f"<h2>{html.escape(heading)}</h2>{content}" for heading, content in sections)
-    page = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
-            f"</title><style>{_STYLE}</style></head><body><h1>{html.escape(title)}</h1>"
-            f"{body}</body></html>")
-    twin = path.with_suffix(".json")
-    with atomic_write(twin, "w") as handle:
-        json.dump(json_safe(data), handle, indent=2)
-    with atomic_write(path, "w") as handle:
-        handle.write(page)
-    return path
-
-
-# -- diagnosis --------------------------------------------------------------------------------
-def _object_plot(ax, model, node_values, highlight_springs=(), highlight_nodes=(), label=""):
-    """The object in 3-D: springs as lines, nodes coloured by ``node_values``."""
-    positions = model.mesh.rest_positions
-    for j, (a, b) in enumerate(model.mesh.springs):
-        special = j in highlight_springs
-        ax.plot(*positions[[a, b]].T, color="crimson" if special else "0.75",
-                linewidth=2.2 if special else 0.6, zorder=2 if special else 1)
-    scatter = ax.scatter(*positions.T, c=node_values, cmap="viridis", s=60, depthshade=False)
-    for node in highlight_nodes:
-        ax.scatter(*positions[node], s=220, facecolors="none", edgecolors="crimson",
-                   linewidths=2)
-    ax.set_title(label)
-    ax.set_xticks([])
-    ax.set_yticks([])
-    ax.set_zticks([])
-    return scatter
-
-
-def _where(finding) -> str:
-    """Where a located effect acts (the report's summary table)."""
-    parts = [f"{key} {values}" if len(values) <= 12 else f"{len(values)} {key}"
-             for key in ("springs", "elements", "nodes") if (values := getattr(finding, key))]
-    if finding.centroid is not None:
-        parts.append("centroid (" + ", ".join(f"{1e3 * c:.1f}" for c in finding.centroid)
-                     + ") mm")
-    return "; ".join(parts)
-
-
-def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") -> Path:
-    """HTML + JSON report of a :class:`~neurofuzzy.diagnosis.Diagnosis`."""
-    plt = _pyplot()
-    model = diagnosis.model_
-    sections = []
-    names = ", ".join(diagnosis.names)
-    rows = [[f.name, f"{f.confidence:.3f}", f.runner_up,
-             "; ".join(f"{k} = {v:.4g}" for k, v in f.parameters.items()), _where(f),
-             f.rms_before, f.rms_after] for f in diagnosis.effects]
-    summary = (f"<p>Answer: <b>{html.escape(names)}</b>. RMS error of the fitted model "
-               f"{diagnosis.rms_before:.4g} → {diagnosis.rms_after:.4g} (marker noise alone: "
-               f"{diagnosis.noise_rms:.3g}).</p>")
-    if rows:
-        summary += table_html(["effect", "confidence", "runner-up", "parameters", "where",
-                               "RMS before", "RMS after"], rows)
-    sections.append(("Summary", summary))
-
-    first = diagnosis.rounds[0]["residuals"]
-    forces = first.kind == "force"
-    figure = plt.figure(figsize=(11, 4.6))
-    ax = figure.add_subplot(1, 2, 1, projection="3d")
-    springs = set(j for f in diagnosis.effects for j in f.springs)
-    nodes = [n for f in diagnosis.effects for n in f.nodes]
-    scatter = _object_plot(ax, model, first.per_node if forces else first.per_node * 1e6,
-                           springs, nodes, "one-step residual force per node (N)" if forces
-                           else "marker error per node (µm)")
-    figure.colorbar(scatter, ax=ax, shrink=0.7)
-    ax = figure.add_subplot(1, 2, 2, projection="3d")
-    scatter = _object_plot(ax, model, first.per_node_error * 1e3, springs, nodes,
-                           "trajectory error per node (mm)")
-    figure.colorbar(scatter, ax=ax, shrink=0.7)
-    sections.append(("Where: residual on the object (before any effect was added)",
-                     figure_html(figure, "residual per node") +
-                     "<p class='note'>Red: springs and nodes of the effects found.</p>"))
-
-    figure, ax = plt.subplots(figsize=(9, 3.4))
-    for index, round_info in enumerate(diagnosis.rounds):
-        ax.semilogy(np.maximum(round_info["residuals"].per_frame, 1e-30),
-                    label=f"round {index + 1}" + (f" (then added {round_info['winner']})"
-                                                  if round_info["winner"] != "none" else ""))
-        ax.axhline(round_info["residuals"].noise_floor, color="0.5", linestyle=":",
-                   linewidth=0.8)
-    ax.set_xlabel("frame")
-    ax.set_ylabel("RMS residual force (N)" if forces else "RMS marker error (m)")
-    ax.legend()
-    sections.append(("When: residual over time", figure_html(figure, "residual over time") +
-                     "<p class='note'>Dotted: the noise floor.</p>"))
-
-    candidates = diagnosis.rounds[0]["candidates"]
-    if candidates:
-        figure, ax = plt.subplots(figsize=(9, 3.4))
-        labels = [c.name + (f" @{c.nodes[0]}" if c.nodes else "") for c in candidates]
-        scores = [max(c.score, 1e-3) for c in candidates]
-        ax.barh(labels[::-1], scores[::-1], color="steelblue")
-        ax.set_xscale("log")
-        ax.set_xlabel("ΔBIC against the model alone (higher: better explanation)")
-        table = table_html(["candidate", "ΔBIC", "explained"],
-                           [[l, c.score, f"{c.explained:.0%}"] for l, c in zip(labels, candidates)])
-        sections.append(("Which: candidate scores (first round)",
-                         figure_html(figure, "candidate scores") + table))
-
-    if diagnosis.localisation is not None:
-        heading, text = _prior_section(plt, diagnosis.localisation.learner, {})
-        covered = ", ".join(f"{share:.0%}" for share in diagnosis.localisation.overlap)
-        sections.append((f"{heading}: the inclusion item by item",
-                         "<p>Every element (or spring) of the start model fitted with the rule "
-                         "base as a prior; share of the diagnosis's inclusion inside the "
-                         f"regions found: {covered}.</p>" + text))
-
-    stages = ["fitted model"] + [f"+ {f.name}" for f in diagnosis.effects]
-    values = [diagnosis.rms_before] + [f.rms_after for f in diagnosis.effects]
-    figure, ax = plt.subplots(figsize=(7, 3.2))
-    ax.bar(stages, np.maximum(values, 1e-30), color="darkorange")
-    ax.set_yscale("log")
-    ax.axhline(max(diagnosis.noise_rms, 1e-30), color="0.4", linestyle=":", label="marker noise")
-    ax.set_ylabel("RMS trajectory error")
-    ax.legend()
-    sections.append(("The gap before and after each added effect",
-                     figure_html(figure, "error before and after")))
-    sections.append(("Model equations", "<pre>" + html.escape(model.summary()) + "</pre>"))
-    return write_report(path, title, sections, diagnosis.to_dict())
-
-
-# -- fits: before and after, identifiability, words ---------------------------------------------
 def identifiability_html(learner) -> tuple[str, list]:
     """Standard errors and unidentifiable parameters in words, with a suggested load case."""
     identifiability = getattr(learner, "identifiability_", None)
@@ -235,6 +47,14 @@ def identifiability_html(learner) -> tuple[str, list]:
         text += f"<p>What the data cannot determine:</p><ul>{items}</ul>"
     else:
         text += "<p>Every parameter is determined by the data.</p>"
+    lack_of_fit = getattr(learner, "lack_of_fit_", None)
+    if lack_of_fit is not None and not lack_of_fit.explained:
+        text += ("<p><b>But the model does not explain the data to the noise</b> ("
+                 f"{html.escape(lack_of_fit.short)}): the values are what such a model sees, "
+                 "biased by what it misses, and even these standard errors (the larger of the "
+                 "plain and the cluster-robust estimate) understate how far they may be from "
+                 "the tissue's. Run <code>neurofuzzy diagnose</code> to find what is "
+                 "missing.</p>")
     return text, suggestions
 
 
@@ -250,7 +70,7 @@ def fit_report(start, learner, path, *, title: str | None = None,
     a suggested extra load case). ``files`` (label → path) are linked, relative to the report
     (e.g. the fitted model and the ParaView files of :func:`neurofuzzy.export.export_paraview`).
     """
-    plt = _pyplot()
+    plt = pyplot()
     sections, data = [], {}
     if start.rules is not None:
         regions = []
@@ -269,10 +89,14 @@ def fit_report(start, learner, path, *, title: str | None = None,
     sections.append(("Error per cycle", figure_html(figure, "error curve") +
                      f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
                      f" in {learner.n_cycles_} cycles.</p>"))
+    lack_of_fit = getattr(learner, "lack_of_fit_", None)
+    if lack_of_fit is not None:
+        sections.append(lack_of_fit_section(plt, lack_of_fit))
+        data["lack_of_fit"] = lack_of_fit.to_dict()
     sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
                      "</pre>"))
     if getattr(learner, "prior", None) is not None:
-        sections.append(_prior_section(plt, learner, data))
+        sections.append(prior_section(plt, learner, data))
     text, suggestions = identifiability_html(learner)
     sections.append(("What the data determine", text))
     data.update({"rms_error_initial": learner.rms_error_initial_,
@@ -296,11 +120,11 @@ def fit_report(start, learner, path, *, title: str | None = None,
                         sections, data)
 
 
-def _prior_section(plt, learner, data) -> tuple[str, str]:
+def prior_section(plt, learner, data) -> tuple[str, str]:
     """The regions found after a fit with the rule base as a prior: in words, and on the
     object (every element or spring coloured by its Young's modulus against the
     description, the regions found ringed)."""
-    from .learn.regions import describe_regions, item_values, regions_found
+    from ..learn.regions import describe_regions, item_values, regions_found
 
     found = regions_found(learner.model_, learner.prior)
     data.update(prior=learner.prior_, regions_found=found["regions"])
@@ -344,9 +168,9 @@ def _relative(target, folder: Path) -> str:
 
 def _words_sections(rules, region, tissue, start, fitted):
     """Sections and JSON of one region: words, start and learned values, labels, plots."""
-    from .rules import material_values
+    from ..rules import material_values
 
-    plt = _pyplot()
+    plt = pyplot()
     springs, nodes = start.region_springs(region), start.region_nodes(region)
     elements = start.region_elements(region)
     before = material_values(rules, start, springs, nodes, elements)
