@@ -20,7 +20,7 @@ import numpy as np
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.learn import GradientLearner
-from neurofuzzy.learn.gradient import auto_substeps
+from neurofuzzy.learn import auto_substeps
 from neurofuzzy.learn.prior import FuzzyPrior
 from neurofuzzy.learn.regions import regions_found
 from neurofuzzy.mesh import from_tetra

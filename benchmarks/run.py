@@ -329,7 +329,7 @@ def bench_diagnose(results):
     nothing hidden, and hidden gravity (issue 13's target: under a minute)."""
     from neurofuzzy.diagnosis import diagnose
     from neurofuzzy.effects import Gravity
-    from neurofuzzy.learn.gradient import auto_substeps
+    from neurofuzzy.learn import auto_substeps
 
     springs = lattice((5, 5, 4), spacing=0.01).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     spring_truth = SpringMassModel(springs, node_mass=np.full(springs.n_nodes, 1e-3),

@@ -170,6 +170,15 @@ class Experiment:
             return np.zeros((self.n_frames, self.n_nodes, 3))
         return np.broadcast_to(self.external_forces, (self.n_frames, self.n_nodes, 3))
 
+    @property
+    def load_onset(self) -> int:
+        """The first frame whose external load is not zero (0 without a load): the frames
+        before it are at rest."""
+        if self.external_forces is None or np.ndim(self.external_forces) < 3:
+            return 0
+        loaded = np.flatnonzero(np.abs(self.external_forces).max(axis=(1, 2)) > 0)
+        return int(loaded[0]) if loaded.size else 0
+
     def initial_positions(self) -> np.ndarray:
         """(n_nodes, 3) start state: frame 0, with rest positions for unobserved nodes."""
         start = np.array(self.mesh.rest_positions, dtype=float)

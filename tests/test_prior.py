@@ -11,7 +11,7 @@ from neurofuzzy.errors import InputError
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.learn import GradientLearner, Parameterization
-from neurofuzzy.learn.gradient import auto_substeps
+from neurofuzzy.learn import auto_substeps
 from neurofuzzy.learn.prior import FuzzyPrior, parse_prior
 from neurofuzzy.noise import noise_level
 from neurofuzzy.learn.regions import describe_regions, regions_found

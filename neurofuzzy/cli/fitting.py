@@ -59,6 +59,8 @@ def fit(args) -> int:
               f"{length_text(result['rms_error'])} ({result['cycles']} cycles, "
               f"{result['seconds']:.1f} s)")
         print(f"lack of fit: {learner.lack_of_fit_.verdict}")
+        for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
+            print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
         if result.get("prior"):
             print(f"prior: weight {result['prior']['alpha']:.3g} ({result['prior']['how']}); "
                   f"{result['regions_found_words']}")
@@ -68,16 +70,21 @@ def fit(args) -> int:
 
 def _fit(args, progress, substeps, out, report, export, outputs):
     """Fit, refuse a failed fit, write the staged outputs."""
+    from ..errors import InputError
     from ..io import save_model
     from ..learn.run import fit_record, make_learner, make_prior
 
     inputs, experiments, start = _start(args, progress)
     require_motion(experiments)
+    if args.mesh_check and not start.model.has_elements:
+        raise InputError("refines tetrahedral elements; this fit's model is a spring network "
+                         "(give a model or experiment with tetrahedra, or --elements tetra)",
+                         key="--mesh-check")
     prior = make_prior(start, args.prior, tie=args.tie, method=args.method)
     learner = make_learner(args.method, cycles=args.cycles, learn_masses=args.learn_masses,
                            substeps=substeps, learning_rate=args.learning_rate,
                            mass_learning_rate=args.mass_learning_rate, prior=prior,
-                           progress=progress)
+                           mesh_check=args.mesh_check, progress=progress)
     with explained("fit", experiments, start.model, substeps):
         learner.fit(start.model, experiments)
     check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,
@@ -125,7 +132,8 @@ def diagnose(args) -> int:
             prior = make_prior(start, "auto")
         with explained("diagnosis", experiments, start.model, substeps):
             result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
-                                   substeps=substeps, prior=prior, progress=progress)
+                                   substeps=substeps, prior=prior,
+                                   mesh_check=not args.no_mesh_check, progress=progress)
         check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
                       result.rms_after, substeps)
         if out:
@@ -143,6 +151,7 @@ def diagnose(args) -> int:
                   f"{finding.runner_up}){_where(finding)}: {finding.parameters}")
         print(f"RMS error per marker: {length_text(result.rms_before)} -> "
               f"{length_text(result.rms_after)} (marker noise {length_text(result.noise_rms)})")
+        print(f"verdict: {result.verdict}")
         if result.localisation:
             covered = ", ".join(f"{share:.0%}" for share in result.localisation.overlap)
             print(f"item by item, with the rule base as a prior: {result.localisation.words} "

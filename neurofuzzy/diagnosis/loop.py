@@ -31,7 +31,7 @@ MIN_EVIDENCE = 10.0
 MIN_SHRINK = 1.5
 #: Candidates refitted per round, best-scored first, until one passes the refit test: with
 #: noisy accelerations the one-step scores can rank a wrong local effect above the global one.
-MAX_REFITS = 3
+MAX_REFITS = 5
 
 
 @dataclass
@@ -92,6 +92,12 @@ class Diagnosis:
     localisation : Localisation or None
         With a prior and an inclusion found: the inclusion located element by element (or
         spring by spring) by a fit with the rule base as a prior (:mod:`.localise`).
+    lack_of_fit : LackOfFit or None
+        The final model's RMS error against the marker noise, with its verdict.
+    mesh : dict or None
+        When the final model still misses the data: the same model refitted on its mesh
+        refined once (``nodes``, ``elements``, ``rms``, ``ratio`` to the noise and the share of
+        the misfit above the noise it ``explains``).
     """
 
     effects: list
@@ -102,17 +108,50 @@ class Diagnosis:
     candidates: list
     rounds: list
     localisation: Localisation | None = None
+    lack_of_fit: object = None
+    mesh: dict | None = None
+
+    @property
+    def unexplained(self) -> bool:
+        """Does the final model stay above the noise (:data:`EXPLAINED` times)?"""
+        return self.lack_of_fit is not None and not self.lack_of_fit.explained
 
     @property
     def names(self) -> list[str]:
-        return [finding.name for finding in self.effects] or ["none"]
+        """The effects found, or ``["none"]`` when the model explains the data to the noise
+        as it is, or ``["unexplained"]`` when it does not and nothing in the catalogue
+        helps."""
+        found = [finding.name for finding in self.effects]
+        return found or (["unexplained"] if self.unexplained else ["none"])
+
+    @property
+    def verdict(self) -> str:
+        """The answer in words, with the lack of fit of the final model."""
+        if self.lack_of_fit is None:
+            return ", ".join(self.names)
+        found = ", ".join(f.name for f in self.effects)
+        if not self.unexplained:
+            head = (f"found {found}; " if found else "nothing missing: ")
+            return head + self.lack_of_fit.verdict
+        text = (f"found {found}, but the misfit is not all explained: " if found else
+                "unexplained misfit: nothing in the catalogue explains it; ")
+        text += self.lack_of_fit.verdict.replace("; run `neurofuzzy diagnose`", "")
+        if self.mesh is not None:
+            text += (f". Refined once ({self.mesh['elements']} elements), the same model "
+                     f"reaches {self.mesh['ratio']:.2f}x the noise: the mesh explains "
+                     f"{self.mesh['explains']:.0%} of the misfit"
+                     + (" (a finer mesh is what the model needs)"
+                        if self.mesh["explains"] >= 0.5 else ""))
+        return text
 
     def to_dict(self) -> dict:
         """JSON-ready summary (non-finite numbers become None)."""
         return json_safe({
             "effects": [f.to_dict() for f in self.effects], "answer": self.names,
             "rms_before": self.rms_before, "rms_after": self.rms_after,
-            "noise_rms": self.noise_rms, "candidates": [c.to_dict() for c in self.candidates],
+            "noise_rms": self.noise_rms, "verdict": self.verdict,
+            "lack_of_fit": self.lack_of_fit.to_dict() if self.lack_of_fit else None,
+            "mesh": self.mesh, "candidates": [c.to_dict() for c in self.candidates],
             "rounds": [{"candidates": [c.to_dict() for c in r["candidates"]], "rms": r["rms"],
                         "winner": r["winner"]} for r in self.rounds],
             "localisation": self.localisation.to_dict() if self.localisation else None})
@@ -120,7 +159,7 @@ class Diagnosis:
 
 def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
              max_effects: int = 3, substeps: int | str = "auto", prior=None,
-             progress: bool = False) -> Diagnosis:
+             mesh_check: bool = True, progress: bool = False) -> Diagnosis:
     """Find, name and add the effects the model lacks (see the module docstring).
 
     Parameters
@@ -139,6 +178,10 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         when an inclusion is found, every element (or spring) of ``model`` is fitted with it
         and the regions found locate the inclusion item by item (``localisation``). Costs
         one per-item fit with the prior's weight search.
+    mesh_check : bool
+        When the final element model still misses the data, refit it on its mesh refined
+        once to say how much of the misfit is the mesh's (``mesh``; a fit of about 16 times
+        the work).
     progress : bool
         Report each round on stderr.
     """
@@ -153,45 +196,45 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
 
     fitted = GradientLearner(substeps=substeps).fit(model, experiments)
     current, rms, steps = fitted.model_, fitted.rms_error_, fitted.substeps_
-    rms_start = rms
-    say(f"diagnose: fitted the model as it is, RMS {length_text(rms)} per marker")
+    rms_start, verdict = rms, fitted.lack_of_fit_
+    say(f"diagnose: fitted the model as it is, {verdict.short}")
     findings, rounds = [], []
     ranked: list[Candidate] = []
-    noise_rms = 0.0
     for _ in range(max_effects):
-        evidence = (TrajectoryEvidence if in_trajectory_space else Evidence).of(
-            current, experiments, steps)
-        noise_rms = evidence.noise_rms
+        noise_rms = verdict.noise
+        evidence = (TrajectoryEvidence.of(current, experiments, steps,
+                                          verdict.noise_per_coordinate)
+                    if in_trajectory_space else Evidence.of(current, experiments, steps))
         candidates = propose_candidates(current, evidence)
         say(f"diagnose: scoring {len(candidates)} candidates "
             f"({', '.join(sorted({c.name for c in candidates}))})")
         ranked = evidence.score(candidates)
-        winner = ranked[0] if ranked else None
         round_info = {"residuals": evidence.residuals(), "candidates": ranked, "rms": rms,
                       "winner": "none"}
         rounds.append(round_info)
-        if (winner is None or winner.score < MIN_EVIDENCE
-                or winner.explained < evidence.min_explained):
-            say(f"diagnose: none (best {winner.name if winner else '-'}: explains "
-                f"{winner.explained if winner else 0:.0%}, ΔBIC {winner.score if winner else 0:.3g})")
-            break
-        if not significant(rms, noise_rms, evidence.size):
-            say(f"diagnose: the error ({rms:.3g}) is what marker noise ({noise_rms:.3g}) "
-                "explains; answering none")
+        tried = _to_refit(ranked, evidence, verdict, rms, say)
+        if not tried:
             break
         gap_before = gap(rms, noise_rms)
-        for rank, winner in enumerate(c for c in ranked[:MAX_REFITS]
-                                      if c.score >= MIN_EVIDENCE
-                                      and c.explained >= evidence.min_explained):
-            refit = _refit(winner, current, evidence, experiments, substeps,
+        refits = []
+        for rank, candidate in enumerate(tried):
+            refit = _refit(candidate, current, evidence, experiments, substeps,
                            staged=not in_trajectory_space)
+            if not refit.lack_of_fit_.explained:
+                # the fitted model may have bent its own values to make up for what it
+                # lacks (softened the whole block for hidden gravity), far from where the
+                # effect's fit starts well: once more from the start model's values
+                again = _refit(candidate, model.with_effects(*current.effects), evidence,
+                               experiments, substeps, staged=not in_trajectory_space)
+                refit = min(refit, again, key=lambda fitted: fitted.rms_error_)
             gap_after = gap(refit.rms_error_, noise_rms)
-            if gap_after * MIN_SHRINK <= gap_before:
-                break
-            say(f"diagnose: {winner.name} (ranked {rank + 1}) shrinks the gap only "
-                f"{gap_before / max(gap_after, 1e-300):.2g}x when refitted")
-        else:
-            say("diagnose: no candidate shrinks the gap when refitted; answering none")
+            say(f"diagnose: {candidate.name} (ranked {rank + 1}), refitted: " +
+                (f"shrinks the gap {gap_before / gap_after:.2g}x" if gap_after > 0 else
+                 "down to the noise"))
+            refits.append((gap_after, rank, candidate, refit))
+        gap_after, _, winner, refit = min(refits, key=lambda entry: entry[:2])
+        if gap_after * MIN_SHRINK > gap_before:
+            say("diagnose: no candidate shrinks the gap enough when refitted")
             break
         round_info["winner"] = winner.name
         added = refit.model_.effects[-1]
@@ -204,9 +247,15 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
             rms_after=refit.rms_error_, gap_before=gap_before, gap_after=gap_after,
             runner_up=others[0].name if others else "none", candidates=ranked,
             elements=winner.elements, centroid=centroid))
-        say(f"diagnose: found {winner.name} (explains {winner.explained:.0%}); RMS per marker "
-            f"{length_text(rms)} -> {length_text(refit.rms_error_)}")
+        say(f"diagnose: found {winner.name}; RMS per marker {length_text(rms)} -> "
+            f"{length_text(refit.rms_error_)}")
         current, rms, steps = refit.model_, refit.rms_error_, refit.substeps_
+        verdict = refit.lack_of_fit_
+    mesh = None
+    if not verdict.explained and model.has_elements and mesh_check:
+        say("diagnose: the misfit is above the noise; refitting on the mesh refined once to "
+            "see how much of it is the mesh's")
+        mesh = _mesh_share(current, experiments, substeps, verdict)
     localisation = None
     inclusions = [f for f in findings if f.name in INCLUSIONS]
     if prior is not None and inclusions:
@@ -216,8 +265,49 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
                                 substeps=substeps, progress=progress)
         say(f"diagnose: {localisation.words}")
     return Diagnosis(effects=findings, model_=current, rms_before=rms_start, rms_after=rms,
-                     noise_rms=noise_rms, candidates=ranked, rounds=rounds,
-                     localisation=localisation)
+                     noise_rms=verdict.noise, candidates=ranked, rounds=rounds,
+                     localisation=localisation, lack_of_fit=verdict, mesh=mesh)
+
+
+def _to_refit(ranked, evidence, verdict, rms, say) -> list:
+    """The candidates worth a refit, best scored first: while the model explains the data
+    to the noise, only one that explains a good share of the residual, significantly; while
+    it does not, the best of every kind with strong evidence, however little it explains
+    linearly (a linearised step from a model far off underestimates what a refit does)."""
+    strong = [c for c in ranked if c.score >= MIN_EVIDENCE]
+    if verdict.explained:
+        strong = [c for c in strong if c.explained >= evidence.min_explained]
+        if not strong or not significant(rms, verdict.noise, evidence.size):
+            best = ranked[0] if ranked else None
+            say(f"diagnose: none ({verdict.short}; best candidate "
+                f"{best.name if best else '-'}: explains "
+                f"{best.explained if best else 0:.0%})")
+            return []
+        return strong[:MAX_REFITS]
+    kinds, tried = set(), []
+    for candidate in strong:
+        if candidate.name not in kinds:
+            kinds.add(candidate.name)
+            tried.append(candidate)
+    return tried[:MAX_REFITS]
+
+
+def _mesh_share(model, experiments, substeps, verdict) -> dict | None:
+    """How much of a misfit the mesh explains: the model refitted on its mesh refined once."""
+    from ..errors import InputError
+    from ..learn.mesh_check import refine_experiment, refine_model
+
+    try:
+        fine, refinement = refine_model(model)
+    except InputError:
+        return None
+    refit = GradientLearner(substeps=substeps).fit(
+        fine, [refine_experiment(e, fine.mesh, refinement) for e in experiments])
+    ratio = refit.lack_of_fit_.ratio
+    excess = max(verdict.ratio**2 - 1.0, 1e-300)
+    return {"nodes": fine.n_nodes, "elements": fine.mesh.n_tetrahedra,
+            "rms": refit.rms_error_, "ratio": ratio,
+            "explains": float(np.clip(1.0 - max(ratio**2 - 1.0, 0.0) / excess, 0.0, 1.0))}
 
 
 def where(model, effect) -> tuple[list[int], list[float] | None]:

@@ -15,7 +15,8 @@ end in ``_`` (``model_``, ``history_``, ``rms_error_`` …).
 from ._base import Learner
 from ._parameters import Parameterization, element_directions
 from ._sensitivity import Run, Sensitivity
-from .gradient import GradientLearner, auto_substeps
+from .gradient import GradientLearner
+from .steps import auto_substeps
 from .identifiability import Identifiability
 from .paper import PaperLearner
 from .start import StartModel, estimate_start, start_model

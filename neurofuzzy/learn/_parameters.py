@@ -156,6 +156,20 @@ class Parameterization:
                 "element_viscosity": np.exp(
                     theta[self.blocks["log_viscosity"].slice])[tie] * self.viscosity_ratio}
 
+    def physical(self, theta: np.ndarray) -> np.ndarray:
+        """(n_params,) every parameter in its own units: ``exp`` of the log blocks (a tie
+        group's shared stiffness, viscosity, modulus or mass), Poisson's ratio from its logit,
+        effect parameters as they are."""
+        theta = np.asarray(theta, float)
+        values = theta.copy()
+        with np.errstate(over="ignore"):
+            for block in self.blocks.values():
+                if block.name.startswith("log_"):
+                    values[block.slice] = np.exp(theta[block.slice])
+                elif block.name == "logit_poisson_ratio":
+                    values[block.slice] = 0.5 / (1.0 + np.exp(-theta[block.slice]))
+        return values
+
     def names(self) -> list[str]:
         """A readable name for every parameter ("stiffness[edge]", "mass[node 4]" …)."""
         names = []

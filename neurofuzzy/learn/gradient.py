@@ -29,14 +29,13 @@ from ._lm import levenberg_marquardt
 from ._parameters import Parameterization
 from ._prior_weight import set_prior
 from ._sensitivity import Sensitivity
-from .identifiability import analyse, structurally_unidentifiable
-from .lack_of_fit import lack_of_fit, length_text
+from .identifiability import structurally_unidentifiable
+from .lack_of_fit import length_text
+from .steps import auto_substeps, fits_offsets, stable_start
+from .uncertainty import assess, intervals_dict
 
 __all__ = ["GradientLearner", "auto_substeps", "fits_offsets"]
 
-#: Largest ``h·ω_max`` that :func:`auto_substeps` accepts: semi-implicit Euler shifts a mode's
-#: frequency by about ``(hω)²/24`` and its damping by about ``hγ/2``.
-AUTO_STEP_OMEGA = 0.15
 #: Jacobians with more entries than this switch ``method="auto"`` to L-BFGS with the adjoint.
 MAX_JACOBIAN_ENTRIES = 3e7
 #: Default multiple-shooting window (frames) before the whole-trajectory stage.
@@ -44,48 +43,6 @@ DEFAULT_WINDOW = 25
 #: Relative tolerance on the cost of the stages before the last (windows, beginnings).
 STAGE_TOLERANCE = 1e-3
 
-
-
-def _stable_start(model: SpringMassModel, h: float) -> SpringMassModel:
-    """Scale all spring constants down until steps of ``h`` are stable (a start that blows up
-    gives the optimiser nothing to work with); unchanged when already stable."""
-    limit = stability_limit(model)
-    if h <= limit.max_step:
-        return model
-    # h² ω² + 2 h γ scales linearly in a common factor of stiffness and viscosity
-    factor = 0.8 * (limit.max_step / h) ** 2
-    changes = {"spring_stiffness": model.spring_stiffness * factor,
-               "spring_damping": model.spring_damping * factor}
-    if model.has_elements:
-        changes.update(element_youngs_modulus=model.element_youngs_modulus * factor,
-                       element_viscosity=model.element_viscosity * factor)
-    return model.replace(**changes)
-
-
-def fits_offsets(option: bool | str, experiments: Sequence[Experiment]) -> bool:
-    """Whether markers' rest offsets are fitted (``GradientLearner(offsets=...)``)."""
-    if option == "auto":
-        return any(e.markers is not None for e in experiments)
-    if isinstance(option, (bool, np.bool_)):
-        return bool(option)
-    raise InputError(f"got {option!r}; expected True, False or 'auto'", key="offsets")
-
-
-def auto_substeps(model: SpringMassModel, dt: float) -> int:
-    """Substeps per frame so that ``h·ω_max <= AUTO_STEP_OMEGA`` and the step is stable.
-
-    Element models take twice the stability bound instead: a mesh's stiffest modes are
-    discretisation artefacts (``ω_max`` grows as the mesh is refined) far above the motion a
-    recording resolves, and the Richardson extrapolation the learner applies removes the
-    first-order bias of the modes that are seen (on scikit-fem continuum data: E, ν and η
-    within 1 % at this step, README).
-    """
-    limit = stability_limit(model)
-    by_stability = dt / limit.max_step
-    if model.has_elements:
-        return max(1, int(np.ceil(2.0 * by_stability)))
-    by_accuracy = limit.omega_max * dt / AUTO_STEP_OMEGA
-    return max(1, int(np.ceil(max(by_accuracy, by_stability))))
 
 
 class GradientLearner(Learner):
@@ -120,6 +77,10 @@ class GradientLearner(Learner):
     prior : FuzzyPrior, optional
         The rule base's description of every region as a penalty on the material parameters
         (:mod:`.prior`); its weight fixed or chosen by the discrepancy principle.
+    mesh_check : bool
+        After the fit, refit on the mesh refined once and widen the intervals by how far the
+        values move (:mod:`.mesh_check`; element models; costs a fit of about 16 times the
+        work).
     offsets : bool or "auto"
         Fit every marker's rest position along with the parameters (a constant offset per
         marker and coordinate, eliminated exactly: :func:`~neurofuzzy.observation.remove_offsets`),
@@ -142,7 +103,17 @@ class GradientLearner(Learner):
         True when the returned parameters are the continuous-physics extrapolation.
     parameter_names_ : list of str
     std_errors_ : (n_params,) float
-        Standard errors of the parameters; relative for stiffness, viscosity and mass.
+        Standard errors of the parameters; relative for stiffness, viscosity and mass: the
+        larger of the Gauss–Newton and the cluster-robust estimate (:mod:`.identifiability`).
+    lack_of_fit_ : LackOfFit
+        The RMS error against the marker noise and the verdict (:mod:`.lack_of_fit`).
+    intervals_ : dict
+        ``{name: (low, high)}`` 95 % intervals in the parameters' own units
+        (:mod:`.uncertainty`), widened by the mesh check when it ran.
+    mesh_check_ : MeshCheck or None
+        With ``mesh_check``: how far the values move on the mesh refined once.
+    offsets_ : bool
+        Whether the markers' rest positions were fitted.
     identifiability_ : Identifiability
         Standard errors and the parameter combinations the data do not determine.
     prior_ : dict or None
@@ -156,7 +127,7 @@ class GradientLearner(Learner):
                  substeps: int | str = 1, windows: Sequence[int] | None = None,
                  method: str = "auto", max_iterations: int = 100, tolerance: float = 1e-10,
                  bounds: float = 1e3, prior=None, offsets: bool | str = "auto",
-                 progress: bool = False):
+                 mesh_check: bool = False, progress: bool = False):
         self.learn_masses = learn_masses
         self.learn_effects = learn_effects
         self.substeps = substeps
@@ -167,6 +138,7 @@ class GradientLearner(Learner):
         self.bounds = bounds
         self.prior = prior
         self.offsets = offsets
+        self.mesh_check = mesh_check
         self.progress = progress
 
     def fit(self, model: SpringMassModel,
@@ -178,6 +150,9 @@ class GradientLearner(Learner):
                              key="method")
         auto = check_substeps(self.substeps) == "auto"
         offsets = self.offsets_ = fits_offsets(self.offsets, experiments)
+        if self.mesh_check and not model.has_elements:
+            raise InputError("the mesh check refines tetrahedral elements; a spring network's "
+                             "constants belong to its mesh", key="mesh_check")
         started = time.perf_counter()
         # the start's error as the fit would simulate it (one step per frame can be unstable
         # for a start that continuous physics fits with substeps)
@@ -190,7 +165,7 @@ class GradientLearner(Learner):
                                    for e in experiments)
         self.n_cycles_ = 0
         self._trace = []        # (E, RMS) best so far after every simulation of the data
-        model = _stable_start(model, min(e.dt for e in experiments)
+        model = stable_start(model, min(e.dt for e in experiments)
                               / (1 if auto and discrete else initial_steps))
         parameters = Parameterization(model, learn_masses=self.learn_masses,
                                       learn_effects=self.learn_effects)
@@ -245,7 +220,7 @@ class GradientLearner(Learner):
             if not discrete and self._stable(parameters, best[1], experiments):
                 # a start unstable at one step per frame may end stable there: data of the
                 # paper's network (one step per frame) are fitted exactly only at that step
-                theta_1 = fit(best[1], 1, ())
+                theta_1 = fit(best[1], 1, self.windows)
                 rms_1 = passes.rms(sensitivity, experiments, theta_1, 1)
                 if rms_1 < best[0]:
                     best = (rms_1, theta_1, 1)
@@ -254,28 +229,7 @@ class GradientLearner(Learner):
         self.model_ = parameters.model(theta)
         self.parameter_names_ = parameters.names()
 
-        jacobian = None
-        if method == "lm":     # the Jacobian's pass gives the residuals too
-            jacobian, runs = self._jacobian(sensitivity, experiments, theta,
-                                            [(0,)] * len(experiments), self.substeps_,
-                                            with_runs=True)
-        else:
-            runs = [sensitivity.run(theta, e, substeps=self.substeps_) for e in experiments]
-        residuals = np.concatenate([run.residuals.ravel() for run in runs])
-        self.lack_of_fit_ = lack_of_fit(experiments, [run.residuals * sensitivity.length_unit
-                                                      for run in runs])
-        if jacobian is not None and self._prior_terms is not None:
-            # the posterior: the prior's rows count as information too
-            jacobian = np.vstack([jacobian, self._prior_scale
-                                  * self._prior_terms.jacobian(theta).toarray()])
-            residuals = np.concatenate([residuals, np.zeros(self._prior_terms.n_rows)])
-        shapes = [run.residuals.shape[:2] for run in runs]
-        self.identifiability_ = analyse(parameters, theta, jacobian, residuals,
-                                        n_measured=sum(run.n_measured for run in runs),
-                                        shapes=shapes,
-                                        n_nuisance=3 * sum(rows for _, rows in shapes)
-                                        if offsets else 0)
-        self.std_errors_ = self.identifiability_.std_errors
+        assess(self, sensitivity, parameters, experiments, theta, method)
         self.history_ = np.array([energy for energy, _ in self._trace])
         self.seconds_ = time.perf_counter() - started
         return self
@@ -284,9 +238,9 @@ class GradientLearner(Learner):
         """JSON-ready summary: the common one plus the parameter names, whether the result
         is the continuous-physics extrapolation, standard errors and what the data cannot
         determine."""
-        return {**super().to_dict(), "offsets": self.offsets_, "extrapolated": self.extrapolated_,
-                "parameters": self.parameter_names_, **self.identifiability_.to_dict(),
-                "prior": self.prior_}
+        return {**super().to_dict(), "offsets": self.offsets_,
+                "extrapolated": self.extrapolated_, "parameters": self.parameter_names_,
+                **self.identifiability_.to_dict(), **intervals_dict(self), "prior": self.prior_}
 
     @staticmethod
     def _stable(parameters, theta, experiments) -> bool:
@@ -307,18 +261,20 @@ class GradientLearner(Learner):
 
         With every free node measured throughout: multiple shooting, windows restarted from
         the measured states. Otherwise (unobserved nodes, gaps) there is no measured state to
-        restart from: the stages fit growing beginnings of the recording instead (``window``,
-        doubled until the whole), so a far-off start locks on to the early motion before the
-        later oscillations can trap it in a local minimum.
+        restart from: the stages fit growing beginnings of the recording instead (``window``
+        frames after the load starts, doubled until the whole), so a far-off start locks on
+        to the early motion before the later oscillations can trap it in a local minimum
+        (frames at rest before the load say nothing about the parameters).
         """
         windows = [DEFAULT_WINDOW] if windows is None else list(windows)
         longest = max(e.n_frames for e in experiments)
         shooting = all(e.complete for e in experiments)
         if not shooting and windows:
+            moving = max(e.n_frames - e.load_onset for e in experiments)
             lengths = [min(windows)]
-            while 2 * lengths[-1] < longest:
+            while 2 * lengths[-1] < moving:
                 lengths.append(2 * lengths[-1])
-            windows = lengths
+            windows = [w for w in lengths if w < moving]
         stages = [w for w in windows if w < longest] + [longest]
         solver = self._solve_lm if method == "lm" else self._solve_lbfgs
         progress = Progress(f"gradient fit, {substeps} substep(s)", len(stages), self.progress)
@@ -328,9 +284,9 @@ class GradientLearner(Learner):
                 starts = [tuple(range(0, e.n_frames, int(window))) for e in experiments]
                 what = f"window {window} frames"
             else:
-                data = [e.first_frames(int(window)) for e in experiments]
+                data = [e.first_frames(e.load_onset + int(window)) for e in experiments]
                 starts = [(0,)] * len(experiments)
-                what = f"first {window} frames"
+                what = f"first {window} frames of motion"
             # a stage before the last only has to bring the next into its basin
             tolerance = (self.tolerance if window == longest
                          else max(self.tolerance, STAGE_TOLERANCE))
@@ -357,12 +313,13 @@ class GradientLearner(Learner):
         return lower, upper
 
     def _record(self, runs, length_unit: float) -> None:
-        """One more simulation of the data: count it and keep the best ``E`` and RMS so far
-        (over the measured values; gaps hold zero residuals and do not count)."""
+        """One more simulation of the data: count it and keep the best ``E`` and RMS error so
+        far (per marker, over the measured values; gaps hold zero residuals and do not
+        count)."""
         count = sum(run.n_measured for run in runs)
         with np.errstate(over="ignore", invalid="ignore"):
             total = sum(float(np.sum(run.residuals**2)) for run in runs)
-            rms = float(np.sqrt(total / count)) * length_unit if count else 0.0
+            rms = float(np.sqrt(3.0 * total / count)) * length_unit if count else 0.0
         entry = (0.5 * total, rms) if np.isfinite(total) else (float("inf"), float("inf"))
         self._trace.append(min(self._trace[-1], entry) if self._trace else entry)
         self.n_cycles_ += 1

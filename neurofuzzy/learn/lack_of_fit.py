@@ -153,15 +153,16 @@ def lack_of_fit(experiments: Sequence, errors: Sequence[np.ndarray]) -> LackOfFi
     exact = rms <= EXACT * max(motion, 1e-300)
     if noise > 0:
         ratio = rms / noise
-    else:
+        explained = ratio <= EXPLAINED
+    else:      # noise-free data: explained to what no tracking could resolve
         ratio = 0.0 if exact else float("inf")
-    explained = bool(exact or ratio <= EXPLAINED)
+        explained = rms <= NOISE_FLOOR * motion
     where = when = None
     if not explained:
         where, when = _where(per_marker, positions, noise), _when(per_frame, times, noise)
     verdict = _verdict(rms, noise, ratio, explained, exact, where, when)
     return LackOfFit(rms=rms, noise=noise, noise_per_coordinate=float(sigma), noise_how=how,
-                     ratio=float(ratio), explained=explained, verdict=verdict, where=where,
+                     ratio=float(ratio), explained=bool(explained), verdict=verdict, where=where,
                      when=when, per_marker=per_marker, per_frame=per_frame,
                      marker_positions=positions, times=times)
 
@@ -243,6 +244,9 @@ def _when(per_frame, times, noise) -> dict | None:
 def _verdict(rms, noise, ratio, explained, exact, where, when) -> str:
     if exact:
         return f"explained exactly (RMS {length_text(rms)} per marker: noise-free data)"
+    if noise == 0 and explained:
+        return (f"explained to {NOISE_FLOOR:.0e} of the motion (RMS {length_text(rms)} per "
+                "marker; noise-free data)")
     if noise == 0:
         return (f"the data carry no measurable noise, and the model misses them by "
                 f"{length_text(rms)} per marker: this model class misses something; the "

@@ -20,7 +20,7 @@ METHODS = ("gradient", "paper")
 def make_learner(method: str = "gradient", *, cycles: int | None = None,
                  learn_masses: bool = False, substeps: int | str = "auto",
                  learning_rate: float = 0.1, mass_learning_rate: float = 0.1, prior=None,
-                 progress: bool = False) -> Learner:
+                 mesh_check: bool = False, progress: bool = False) -> Learner:
     """The learner of ``neurofuzzy fit --method METHOD`` with its options (unfitted).
 
     Parameters
@@ -37,6 +37,9 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         Paper method only: η for springs and η_m for masses.
     prior : FuzzyPrior, optional
         Gradient method only: the rule base as a prior (:func:`make_prior`).
+    mesh_check : bool
+        Gradient method only: refit on the mesh refined once and widen the intervals
+        (:mod:`.mesh_check`).
     progress : bool
         Report progress on stderr.
 
@@ -59,12 +62,17 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         if prior is not None:
             raise InputError("the paper's learner takes no prior; use the gradient method or "
                              "--prior off", key="prior")
+        if mesh_check:
+            raise InputError("the paper's learner fits spring networks, whose constants "
+                             "belong to their mesh: the mesh check needs elements and the "
+                             "gradient method", key="mesh_check")
         return PaperLearner(learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
                             cycles=cycles or 100, learn_masses=learn_masses, progress=progress)
     from .gradient import GradientLearner
 
     return GradientLearner(learn_masses=learn_masses, substeps=substeps,
-                           max_iterations=cycles or 100, prior=prior, progress=progress)
+                           max_iterations=cycles or 100, prior=prior, mesh_check=mesh_check,
+                           progress=progress)
 
 
 def make_prior(start, prior="default", *, tie: str | None = None, method: str = "gradient"):

@@ -10,6 +10,7 @@ import numpy as np
 
 from .fit import prior_section
 from .html import figure_html, pyplot, table_html, write_report
+from .lack_of_fit import lack_of_fit_section
 
 __all__ = ["diagnosis_report"]
 
@@ -51,13 +52,17 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
     rows = [[f.name, f"{f.confidence:.3f}", f.runner_up,
              "; ".join(f"{k} = {v:.4g}" for k, v in f.parameters.items()), _where(f),
              f.rms_before, f.rms_after] for f in diagnosis.effects]
-    summary = (f"<p>Answer: <b>{html.escape(names)}</b>. RMS error of the fitted model "
-               f"{diagnosis.rms_before:.4g} → {diagnosis.rms_after:.4g} (marker noise alone: "
-               f"{diagnosis.noise_rms:.3g}).</p>")
+    summary = (f"<p>Answer: <b>{html.escape(names)}</b>: {html.escape(diagnosis.verdict)}."
+               f"</p><p>RMS error per marker of the fitted model {diagnosis.rms_before * 1e6:.4g}"
+               f" µm → {diagnosis.rms_after * 1e6:.4g} µm (marker noise alone: "
+               f"{diagnosis.noise_rms * 1e6:.3g} µm).</p>")
     if rows:
         summary += table_html(["effect", "confidence", "runner-up", "parameters", "where",
                                "RMS before", "RMS after"], rows)
     sections.append(("Summary", summary))
+    if diagnosis.lack_of_fit is not None:
+        sections.append(lack_of_fit_section(plt, diagnosis.lack_of_fit,
+                                            what="the final model"))
 
     first = diagnosis.rounds[0]["residuals"]
     forces = first.kind == "force"

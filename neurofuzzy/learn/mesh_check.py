@@ -1,0 +1,163 @@
+"""How much a fit's values depend on the mesh: refit on the mesh refined once.
+
+Real tissue is a continuum; a model's mesh is one of many that could describe it, and linear
+tetrahedra are stiffer than the continuum by an amount that shrinks with their size. A fit
+absorbs that discretisation error into its parameters (a coarse mesh reads the tissue as
+stiffer, or more viscous, than it is), and no amount of data averages it away: the standard
+errors cannot see it. :func:`mesh_check` refits the fitted model on its mesh refined once
+(every tetrahedron split into eight, :func:`~neurofuzzy.mesh.refine`), each element's
+children sharing its parameters, its markers re-embedded at the same points, its loads on the
+same nodes and its masses lumped again from the same densities, and reports how far every
+parameter moves. With elements of order ``p`` the error falls by ``2^p`` per refinement, so
+the move is a fair estimate of the error that remains on the coarse mesh; the learner adds it
+to the standard errors (in quadrature) to form its intervals.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import InputError
+from ..forces import tetrahedron_geometry
+from ..mesh.refine import refine
+from ..observation import embed_points
+
+__all__ = ["MeshCheck", "mesh_check", "refine_model", "refine_experiment"]
+
+
+@dataclass
+class MeshCheck:
+    """The result of :func:`mesh_check`.
+
+    Attributes
+    ----------
+    names : list of str
+        The parameters, as the learner names them.
+    theta, theta_refined : (n_params,) float
+        The parameter vectors (log, logit or raw, as the learner's) on the two meshes.
+    change : (n_params,) float
+        ``|theta_refined - theta|``: relative change for log parameters.
+    nodes, elements : (int, int)
+        Sizes of the mesh and of the refined one.
+    rms_refined : float
+        RMS error per marker of the refined fit (m).
+    seconds : float
+    """
+
+    names: list
+    theta: np.ndarray
+    theta_refined: np.ndarray
+    change: np.ndarray
+    nodes: tuple
+    elements: tuple
+    rms_refined: float
+    seconds: float
+    values: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        from ..serialization import json_safe
+
+        return json_safe({"refined_nodes": self.nodes[1], "refined_elements": self.elements[1],
+                          "change": dict(zip(self.names, self.change)),
+                          "values": self.values, "rms_refined": self.rms_refined,
+                          "seconds": self.seconds,
+                          "how": "refit on the mesh refined once (each tetrahedron in eight)"})
+
+
+def refine_model(model):
+    """``(refined model, refinement)``: ``model`` on its mesh refined once, every child
+    element with its parent's E, ν, η, region and tie group, masses lumped again from the
+    densities the old lumping implies."""
+    if not model.has_elements:
+        raise InputError("the mesh check refines tetrahedral elements; a spring network's "
+                         "constants belong to its mesh and do not carry over", key="mesh_check")
+    refinement = refine(model.mesh)
+    parent = refinement.parent
+    coarse = tetrahedron_geometry(model.mesh)
+    fine = tetrahedron_geometry(refinement.mesh)
+    # every node's mass shared among its elements by volume: the elements' densities
+    around = np.bincount(coarse.nodes.ravel(), np.repeat(coarse.volume, 4), model.n_nodes)
+    share = model.node_mass[coarse.nodes] * (coarse.volume[:, None] / around[coarse.nodes])
+    density = share.sum(axis=1) / coarse.volume
+    mass = np.bincount(fine.nodes.ravel(), np.repeat(density[parent] * fine.volume / 4, 4),
+                       refinement.mesh.n_nodes)
+    node_region = np.concatenate([model.node_region,
+                                  model.node_region[refinement.edge_nodes[:, 0]]])
+    effects = tuple(_refined_effect(effect, parent) for effect in model.effects)
+    fine_model = type(model)(
+        refinement.mesh, node_mass=mass, spring_stiffness=0.0, spring_damping=0.0,
+        effects=effects, region_names=model.region_names, region_tissues=model.region_tissues,
+        node_region=node_region, spring_region=np.zeros(refinement.mesh.n_springs, np.intp),
+        element_youngs_modulus=model.element_youngs_modulus[parent],
+        element_poisson_ratio=model.element_poisson_ratio[parent],
+        element_viscosity=model.element_viscosity[parent],
+        element_tie=model.element_tie[parent], element_region=model.element_region[parent],
+        element_volumetric=model.element_volumetric)
+    return fine_model, refinement
+
+
+def _refined_effect(effect, parent):
+    if "springs" in effect.options and len(effect.springs):
+        raise InputError(f"the mesh check cannot refine the effect {effect.name} on springs",
+                         key="mesh_check")
+    if "elements" not in effect.options:
+        return effect
+    children = np.flatnonzero(np.isin(parent, effect.elements))
+    return type(effect)(effect.params, **{**effect.options, "elements": children.tolist()})
+
+
+def refine_experiment(experiment, refined_mesh, refinement):
+    """``experiment`` on the refined mesh: loads and tracked nodes on the same (old) nodes,
+    markers re-embedded at the same points at rest."""
+    n_new = refined_mesh.n_nodes - experiment.n_nodes
+    forces = experiment.external_forces
+    if forces is not None:
+        forces = np.concatenate([forces, np.zeros(forces.shape[:-2] + (n_new, 3))], axis=-2)
+    positions = np.concatenate([experiment.positions,
+                                np.full((experiment.n_frames, n_new, 3), np.nan)], axis=1)
+    observed = np.concatenate([experiment.observed, np.zeros(n_new, bool)])
+    node_mass = None
+    markers = experiment.markers
+    if markers is not None:
+        points = np.einsum("mk,mkj->mj", markers.weights,
+                           experiment.mesh.rest_positions[markers.nodes])
+        nodes, weights, _ = embed_points(refined_mesh, points)
+        markers = replace(markers, nodes=nodes, weights=weights)
+    return replace(experiment, mesh=refined_mesh, positions=positions, external_forces=forces,
+                   observed=observed, node_mass=node_mass, markers=markers)
+
+
+def mesh_check(learner, experiments: Sequence, parameters, theta: np.ndarray) -> MeshCheck:
+    """Refit ``learner.model_`` (fitted on ``experiments``; its parameters ``theta`` of
+    ``parameters``) on its mesh refined once, with the learner's options, from its fitted
+    values; how far every parameter moves."""
+    from .gradient import GradientLearner
+    from ._parameters import Parameterization
+
+    if parameters.learn_masses:
+        raise InputError("the mesh check keeps the densities, not learned node masses; fit "
+                         "without learning masses", key="mesh_check")
+    started = time.perf_counter()
+    model = learner.model_
+    fine_model, refinement = refine_model(model)
+    fine_experiments = [refine_experiment(e, fine_model.mesh, refinement) for e in experiments]
+    options = {**learner.get_params(), "mesh_check": False, "prior": None, "progress": False}
+    refit = GradientLearner(**options).fit(fine_model, fine_experiments)
+    theta_refined = Parameterization(refit.model_, learn_effects=parameters.effects != []
+                                     ).initial()
+    values = {}
+    for key, label in (("element_youngs_modulus", "youngs_modulus"),
+                       ("element_poisson_ratio", "poisson_ratio"),
+                       ("element_viscosity", "viscosity")):
+        values[label] = {"mesh": float(np.median(getattr(model, key))),
+                         "refined": float(np.median(getattr(refit.model_, key)))}
+    return MeshCheck(names=parameters.names(), theta=theta, theta_refined=theta_refined,
+                     change=np.abs(theta_refined - theta),
+                     nodes=(model.n_nodes, fine_model.n_nodes),
+                     elements=(model.mesh.n_tetrahedra, fine_model.mesh.n_tetrahedra),
+                     rms_refined=refit.rms_error_, seconds=time.perf_counter() - started,
+                     values=values)

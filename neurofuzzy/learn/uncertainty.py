@@ -1,0 +1,83 @@
+"""What a gradient fit can say about its result: the lack of fit, the standard errors, what the
+data cannot determine, the mesh check and 95 % intervals.
+
+The interval of a parameter combines, in quadrature, its standard error (the larger of the
+Gauss–Newton and the two-way cluster-robust estimate, :mod:`.identifiability`, which widens
+with residuals correlated along a marker's track or across a frame, as a model that misses
+something leaves them) and, after a mesh check (:mod:`.mesh_check`), how far the parameter
+moves when the mesh is refined once (the discretisation error no standard error can see).
+Log parameters give intervals that are relative (a factor either way), Poisson's ratio's
+logit keeps them inside (0, 0.5).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..serialization import json_safe
+from .identifiability import analyse
+from .lack_of_fit import lack_of_fit
+
+__all__ = ["assess", "intervals", "Z95"]
+
+#: The normal quantile of a two-sided 95 % interval.
+Z95 = 1.959964
+
+
+def assess(learner, sensitivity, parameters, experiments, theta, method) -> None:
+    """Set the learner's ``lack_of_fit_``, ``identifiability_``, ``std_errors_``,
+    ``mesh_check_`` and ``intervals_`` at its result ``theta``."""
+    jacobian = None
+    if method == "lm":     # the Jacobian's pass gives the residuals too
+        jacobian, runs = learner._jacobian(sensitivity, experiments, theta,
+                                           [(0,)] * len(experiments), learner.substeps_,
+                                           with_runs=True)
+    else:
+        runs = [sensitivity.run(theta, e, substeps=learner.substeps_) for e in experiments]
+    residuals = np.concatenate([run.residuals.ravel() for run in runs])
+    learner.lack_of_fit_ = lack_of_fit(experiments, [run.residuals * sensitivity.length_unit
+                                                     for run in runs])
+    if jacobian is not None and learner._prior_terms is not None:
+        # the posterior: the prior's rows count as information too
+        jacobian = np.vstack([jacobian, learner._prior_scale
+                              * learner._prior_terms.jacobian(theta).toarray()])
+        residuals = np.concatenate([residuals, np.zeros(learner._prior_terms.n_rows)])
+    shapes = [run.residuals.shape[:2] for run in runs]
+    learner.identifiability_ = analyse(
+        parameters, theta, jacobian, residuals,
+        n_measured=sum(run.n_measured for run in runs), shapes=shapes,
+        n_nuisance=3 * sum(rows for _, rows in shapes) if sensitivity.offsets else 0)
+    learner.std_errors_ = learner.identifiability_.std_errors
+    learner.mesh_check_ = None
+    spread = learner.std_errors_
+    if learner.mesh_check:
+        from .mesh_check import mesh_check
+
+        learner.mesh_check_ = check = mesh_check(learner, experiments, parameters, theta)
+        spread = np.sqrt(spread**2 + check.change**2)
+    learner.intervals_ = intervals(parameters, theta, spread)
+
+
+def intervals(parameters, theta: np.ndarray, spread: np.ndarray) -> dict:
+    """``{name: (low, high)}``: 95 % intervals of every parameter in its own units (a tie
+    group's shared value), from ``theta ± Z95 · spread`` in the learner's parameters; (NaN,
+    NaN) where the spread is unknown, (0 or -inf, inf) where the data do not determine it."""
+    names = parameters.names()
+    low = parameters.physical(theta - Z95 * spread)
+    high = parameters.physical(theta + Z95 * spread)
+    unknown = ~np.isfinite(spread) & ~np.isinf(spread)
+    low[unknown] = high[unknown] = np.nan
+    return {name: (float(a), float(b)) for name, a, b in zip(names, low, high)}
+
+
+def intervals_dict(learner) -> dict:
+    """The JSON of a fit's intervals and mesh check."""
+    check = getattr(learner, "mesh_check_", None)
+    return json_safe({
+        "intervals": {name: list(bounds) for name, bounds in learner.intervals_.items()},
+        "intervals_how": ("95 %: the standard error (the larger of the plain and the "
+                          "cluster-robust estimate)" + (" and the change on the refined mesh, "
+                                                        "in quadrature" if check else "")
+                          + "; relative (a factor either way) for moduli, viscosities, "
+                          "stiffness, damping and masses"),
+        "mesh_check": check.to_dict() if check else None})

@@ -1,0 +1,162 @@
+"""Recordings of a probed soft block made by code nobody here wrote, to validate against.
+
+The block of the README's continuum examples: 4 × 4 × 3 cm, bottom held, pushed on the top
+centre by a probe through a 1 cm contact patch; markers on the top (off the patch) and two
+sides on a 5 mm grid, recorded at 1 kHz with white noise. The motion comes from scikit-fem's
+quadratic tetrahedra (:class:`~neurofuzzy.continuum_reference.ContinuumSolver`: Kuhn cells of
+``cell`` metres, consistent mass, Newmark), optionally with a stiffer (or softer) sphere
+inside and with gravity nobody declared. :func:`block_model` and :func:`block_experiment`
+then build what a user of the toolkit would: a model meshed from the block's surface (voxels
+of any pitch, or TetGen; never the reference's own mesh) and the imported recording.
+
+Needs scikit-fem (``pip install '.[validation]'``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["BLOCK", "Inclusion", "Recording", "probed_block", "marker_points", "block_model",
+           "block_experiment"]
+
+#: The block and its probe (SI units).
+BLOCK = {"size": (0.04, 0.04, 0.03), "probe": (0.02, 0.02, 0.03), "force": 0.05,
+         "radius": 0.01, "dt": 1e-3, "youngs_modulus": 6000.0, "viscosity": 2.0,
+         "density": 1050.0}
+
+
+@dataclass(frozen=True)
+class Inclusion:
+    """A sphere of other stiffness: centre (m), radius (m), ``contrast`` × the block's E."""
+
+    centre: tuple = (0.014, 0.02, 0.017)
+    radius: float = 0.0095
+    contrast: float = 5.0
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(np.asarray(points) - np.asarray(self.centre), axis=-1) <= self.radius
+
+    @property
+    def volume_share(self) -> float:
+        """The sphere's share of the block's volume (it lies wholly inside)."""
+        return float(4 / 3 * np.pi * self.radius**3 / np.prod(BLOCK["size"]))
+
+
+@dataclass
+class Recording:
+    """A marker recording of the probed block and what made it.
+
+    Attributes
+    ----------
+    markers : MarkerData
+        Positions (m) with noise, at the frame times.
+    rest_points : (n_markers, 3) float
+        Where the markers are at rest (m), without noise.
+    touch : int
+        The frame from which the probe pushes (frames before it are at rest).
+    truth : dict
+        E, ν, η, density, the inclusion, gravity and the noise per coordinate.
+    """
+
+    markers: object
+    rest_points: np.ndarray
+    touch: int
+    truth: dict = field(default_factory=dict)
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.markers.times)
+
+
+def marker_points() -> np.ndarray:
+    """(148, 3): a 5 mm grid on the top (off the probe's patch) and on the sides x = 0 and
+    y = 0."""
+    (sx, _, sz), (px, py, _) = BLOCK["size"], BLOCK["probe"]
+    grid = np.arange(0.0025, sx, 0.005)
+    heights = np.arange(0.0025, sz, 0.005)
+    top = [(x, y, sz) for x in grid for y in grid if np.hypot(x - px, y - py) > BLOCK["radius"]]
+    sides = ([(x, 0.0, z) for x in grid for z in heights]
+             + [(0.0, y, z) for y in grid for z in heights])
+    return np.array(top + sides)
+
+
+def probed_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = None,
+                 gravity: bool = False, noise: float = 20e-6, rest_frames: int = 30,
+                 frames: int = 101, seed: int = 0, cell: float = 0.005) -> Recording:
+    """The block's markers, recorded for ``rest_frames`` frames at rest and then ``frames``
+    frames while the probe pushes (from its first touch). With ``gravity`` the block is let go
+    under its weight as the probe touches; with an ``inclusion`` the sphere is stiffer."""
+    from .continuum_reference import ContinuumSolver
+    from .datasets import kuhn_block
+    from .markers import MarkerData
+
+    size = np.array(BLOCK["size"])
+    cells = np.round(size / cell).astype(int)
+    if np.any(np.abs(cells * cell - size) > 1e-9):
+        raise InputError(f"the cell {cell} does not divide the block {tuple(size)}", key="cell")
+    modulus = BLOCK["youngs_modulus"]
+
+    def youngs_modulus(centroids):
+        if inclusion is None:
+            return np.full(len(centroids), modulus)
+        return np.where(inclusion.inside(centroids), inclusion.contrast * modulus, modulus)
+
+    solver = ContinuumSolver(*kuhn_block(tuple(cells), cell), youngs_modulus=youngs_modulus,
+                             poisson_ratio=poisson_ratio, viscosity=BLOCK["viscosity"],
+                             density=BLOCK["density"], fixed=lambda x: x[2] < 1e-9)
+    load = solver.probe_load(BLOCK["probe"], BLOCK["radius"], (0.0, 0.0, -BLOCK["force"]))
+    if gravity:
+        load = load + solver.gravity_load((0.0, 0.0, -9.81))
+    n_frames = rest_frames + frames
+    loads = np.zeros((n_frames, len(load)))
+    loads[rest_frames:] = load
+    points = marker_points()
+    moved = solver.at(solver.dynamic(loads, dt=BLOCK["dt"], n_frames=n_frames), points)
+    rng = np.random.default_rng(seed)
+    positions = points[None] + moved + rng.normal(0.0, noise, moved.shape)
+    markers = MarkerData(names=tuple(f"M{i}" for i in range(len(points))),
+                         times=np.arange(n_frames) * BLOCK["dt"], positions=positions,
+                         source=f"<scikit-fem block, nu {poisson_ratio}, seed {seed}>")
+    truth = {"youngs_modulus": modulus, "poisson_ratio": poisson_ratio,
+             "viscosity": BLOCK["viscosity"], "density": BLOCK["density"], "noise": noise,
+             "inclusion": inclusion, "gravity": gravity}
+    return Recording(markers, points, rest_frames, truth)
+
+
+def block_model(*, pitch: float | None = None, tetgen: bool = False,
+                max_edge: float | None = None, rules: str = "liver", tissue: str = "liver"):
+    """The start model a user builds for the block: ``neurofuzzy mesh block.stl --fix-bottom
+    --rules RULES --tissue TISSUE`` with voxels of ``pitch`` (default 4 mm cells) or TetGen
+    (``max_edge``), elements from the rule base's tissue."""
+    import trimesh
+
+    from .mesh import from_surface_tetra, from_trimesh, lattice_to_tetra
+    from .rules import initialize, resolve
+
+    surface = trimesh.creation.box(extents=BLOCK["size"])
+    surface.apply_translation(np.array(BLOCK["size"]) / 2)
+    if tetgen:
+        mesh = from_surface_tetra(surface, max_edge=max_edge)
+    else:
+        mesh = lattice_to_tetra(from_trimesh(surface, pitch or 0.004), bounds=surface.bounds)
+    z = mesh.rest_positions[:, 2]
+    mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
+    return initialize(resolve(rules), mesh, tissue, elements=True)
+
+
+def block_experiment(recording: Recording, mesh):
+    """The recording imported on ``mesh`` (``neurofuzzy import markers.csv --forces
+    probe.csv``): markers embedded at their rest positions (the mean of the frames at rest),
+    the probe's force spread over its contact patch from the frame it touches."""
+    from .markers import markers_to_experiment
+    from .mesh import patch_loads
+
+    load = patch_loads(mesh, BLOCK["probe"], BLOCK["radius"], (0.0, 0.0, -BLOCK["force"]))
+    forces = np.zeros((recording.n_frames, mesh.n_nodes, 3))
+    forces[recording.touch:] = load
+    return markers_to_experiment(recording.markers, mesh, forces=forces,
+                                 source=recording.markers.source).experiment
