@@ -60,7 +60,7 @@ export class BlockView {
     if (this.data) {
       const n = this.data.time.length;
       const period = this.data.time[n - 1] * 1000 * SLOW + 700;
-      const elapsed = (now - this.started) % period;
+      const elapsed = Math.max(0, now - this.started) % period;    // a frame may start before show()
       this.frame = Math.min(n - 1, Math.floor(elapsed / (this.data.time[1] * 1000 * SLOW)));
       this.drawScene();
       this.drawCurve();
