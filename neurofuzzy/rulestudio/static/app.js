@@ -5,6 +5,7 @@ import { renderVariables, renderRules, renderTissues, renderYaml } from "./edito
 import { BlockView } from "./block.js";
 
 const $ = (id) => document.getElementById(id);
+const SYMBOLS = { youngs_modulus: "E", poisson_ratio: "ν", viscosity: "η", density: "ρ", stiffness: "k", damping: "c", node_mass: "m" };
 let state = null;
 let tissue = null;             // the tissue view of the selected tissue
 let tissueFresh = false;       // tissue was computed from the current text
@@ -171,7 +172,8 @@ function renderFit() {
       const unit = variable ? variable.unit : "";
       const changed = row.before && row.after && row.before !== row.after;
       rows.push(el("tr", { "data-label": entry.label, "data-output": row.output }, [
-        el("td", { text: entry.label + (entry.group ? ` [${entry.group}]` : "") }), el("td", { text: row.output }),
+        el("td", { text: entry.label + (entry.group ? ` [${entry.group}]` : "") }),
+        el("td", { text: SYMBOLS[row.quantity] || row.output, title: row.output }),
         el("td", { text: row.start === null ? "–" : `${quantityText(row.start, unit)} ${row.before}` }),
         el("td", { class: changed ? "changed" : "", text: `${quantityText(row.learned, unit)} ${row.after ?? "(outside the universe)"}` }),
         el("td", { class: "note", text: row.recorded && row.recorded !== row.after ? `recorded: ${row.recorded}` : "" }),
@@ -179,7 +181,7 @@ function renderFit() {
     }
   }
   $("fit").replaceChildren(el("div", { class: "note", text: `${fit.source}: ${fit.entries.length} fitted region${fit.entries.length > 1 ? "s" : ""}` }),
-    el("table", { class: "fit" }, [el("tr", {}, ["", "output", "start: words before", "learned: words after", ""].map((h) => el("th", { text: h }))), ...rows]));
+    el("table", { class: "fit" }, [el("colgroup", {}, ["label", "symbol", "", "", "note"].map((c) => el("col", { class: c }))), el("tr", {}, ["", "", "start: words before", "learned: words after", ""].map((h) => el("th", { text: h }))), ...rows]));
 }
 
 function render() {

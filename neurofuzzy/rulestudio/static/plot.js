@@ -1,9 +1,9 @@
 // A linguistic variable's membership functions as an SVG plot whose points can be dragged.
-import { svg, quantityText } from "./dom.js";
+import { svg, unitText } from "./dom.js";
 import { evaluate, handles, dragged, toInternal, toPhysical } from "./membership.js";
 
 export const COLORS = ["#2f6fdf", "#d9480f", "#2b8a3e", "#ae3ec9", "#c92a2a", "#0b7285", "#e67700", "#5f3dc4"];
-const W = 560, H = 170, L = 34, R = 12, T = 16, B = 24;
+const W = 560, H = 170, L = 42, R = 12, T = 16, B = 24;
 const SAMPLES = 241;
 
 function ticks(universe) {
@@ -22,8 +22,13 @@ function ticks(universe) {
 }
 
 function tickText(x, unit) {
-  if (unit === "Pa" || unit === "Pa s") return quantityText(x, "").replace(/\.00?$/, "") + (x >= 1000 ? "" : "");
-  return Math.abs(x) >= 1000 ? `${x / 1000}k` : String(x);
+  if (unit === "Pa" || unit === "Pa s") {
+    const shown = unitText(unit);
+    if (x >= 1e6) return `${Number((x / 1e6).toPrecision(3))} M${shown}`;
+    if (x >= 1e3) return `${Number((x / 1e3).toPrecision(3))} k${shown}`;
+    return `${Number(x.toPrecision(3))} ${shown}`;
+  }
+  return Math.abs(x) >= 10000 ? `${x / 1000}k` : String(x);
 }
 
 // variable: as in the state; options: {onDrag(term, params, final), value, aggregate, fits}
@@ -44,13 +49,15 @@ export function membershipPlot(variable, options = {}) {
     const parts = [];
     parts.push(svg("line", { class: "axis", x1: L, x2: W - R, y1: yOf(0), y2: yOf(0) }));
     parts.push(svg("line", { class: "axis", x1: L, x2: L, y1: yOf(0), y2: yOf(1) }));
-    for (const mu of [0, 0.5, 1]) parts.push(svg("text", { x: L - 4, y: yOf(mu) + 3, "text-anchor": "end", text: mu }));
+    for (const mu of [0, 0.5, 1]) parts.push(svg("text", { x: L - 9, y: yOf(mu) + 3, "text-anchor": "end", text: mu }));
     for (const x of ticks(universe)) {
       const px = xOf(toInternal(x, universe.scale));
       parts.push(svg("line", { class: "axis", x1: px, x2: px, y1: yOf(0), y2: yOf(0) + 4 }));
       parts.push(svg("text", { x: px, y: H - 6, "text-anchor": "middle", text: tickText(x, variable.unit) }));
     }
-    if (variable.unit) parts.push(svg("text", { x: W - R, y: T - 4, "text-anchor": "end", text: variable.unit }));
+    if (variable.unit && variable.unit !== "Pa" && variable.unit !== "Pa s") {
+      parts.push(svg("text", { x: 2, y: H - 6, text: unitText(variable.unit) }));
+    }
     if (options.aggregate) {
       const a = options.aggregate;
       const n = a.values.length;
