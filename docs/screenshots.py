@@ -3,8 +3,9 @@
 Run from the repository: ``python docs/screenshots.py``. It needs the test extra
 (``pip install '.[test]'``) and Debian's chromium (/usr/bin/chromium). It copies liver.yaml
 and soft_tissue.yaml into a temporary folder, fits three small specimens made by our own
-simulator (tetrahedral elements on a 3 x 3 x 3 lattice: fibrotic liver, healthy liver and a tumour, each fitted
-from the rule base's 'liver') to have real fit results, and photographs the main views.
+simulator (tetrahedral elements on a 3 x 3 x 3 lattice of healthy liver, fibrotic liver and a
+tumour, each fitted from the rule base's 'liver') to have real fit results, and photographs
+the main views.
 """
 
 from __future__ import annotations

@@ -244,3 +244,32 @@ def test_every_shipped_file_survives_parse_and_unchanged_save(tmp_path):
         assert YamlText(text).text == text
         document = RuleDocument(tmp_path / source.name)
         assert document.check().problems == [] and not document.dirty
+
+
+@pytest.mark.parametrize("section", ["rules:\n", "rules: []\n", "rules: ~\n", ""])
+def test_a_first_rule_goes_into_an_empty_or_missing_section(tmp_path, section):
+    shutil.copy(RULES / "soft_tissue.yaml", tmp_path / "soft_tissue.yaml")
+    path = tmp_path / "mine.yaml"
+    path.write_text("extends: soft_tissue.yaml  # the shared words\nname: mine\n" + section +
+                    "tissues:\n  jelly: {consistency: very soft}\n")
+    document = RuleDocument(path)
+    document.apply({"op": "add_rule", "text": "if consistency is very soft then "
+                    "youngs_modulus is very_soft"})
+    rules = document.check().rules
+    assert rules.rules[-1].text.startswith("if consistency is very soft")
+    assert document.text.startswith("extends: soft_tissue.yaml  # the shared words\n")
+
+
+def test_a_second_inherited_variable_joins_the_first_in_the_file(liver):
+    document = RuleDocument(liver)
+    for variable, term, params in (("youngs_modulus", "firm", [1500, 4000, 15000]),
+                                   ("viscosity", "medium", [0.4, 3, 8])):
+        document.apply({"op": "set_term", "role": "output", "variable": variable,
+                        "term": term, "kind": "trimf", "params": params})
+    document.apply({"op": "set_term", "role": "input", "variable": "consistency",
+                    "term": "firm", "kind": "gaussmf", "params": [4.5, 1.2]})
+    rules = document.check().rules
+    assert document.text.count("outputs:") == 1 and document.text.count("inputs:") == 1
+    assert rules.outputs["viscosity"].terms["medium"].params == [0.4, 3, 8]
+    assert rules.inputs["consistency"].terms["firm"].kind == "gaussmf"
+    assert document.text.startswith((RULES / "liver.yaml").read_text())

@@ -17,7 +17,7 @@ import inspect
 import re
 
 from ..errors import InputError
-from .yamltext import Node, YamlText, flow
+from .yamltext import YamlText, flow
 
 __all__ = ["EditError", "apply_edit", "OPERATIONS", "parse_sentence", "NAME"]
 
@@ -234,12 +234,12 @@ def add_rule(doc, parents, *, text, weight=None):
             ("  - " if i == 0 else "    ") + f"{k}: {flow(v)}\n"
             for i, (k, v) in enumerate(item.items())))
     key, node = found
-    if node.kind != "sequence" or not node.items:
-        return doc.replace(node, flow([item])) if node.kind == "sequence" else (
-            doc._splice(key.end, node.end, ":\n" + "".join(
-                (" " * key.column + ("  - " if i == 0 else "    ")) + f"{k}: {flow(v)}\n"
-                for i, (k, v) in enumerate(item.items())).rstrip("\n")))
-    return doc.insert_item(node, item)
+    if node.kind == "sequence" and node.items:
+        return doc.insert_item(node, item)
+    if node.kind == "sequence":                       # rules: []
+        return doc.replace(node, flow([item]))
+    return doc.fill_null(key, node, "".join(("- " if i == 0 else "  ") + f"{k}: {flow(v)}\n"
+                                            for i, (k, v) in enumerate(item.items())))
 
 
 def delete_rule(doc, parents, *, index):

@@ -284,9 +284,7 @@ class YamlText:
         if mapping.kind == "scalar":               # key: (nothing) -> key:\n  entry
             if parent_key is None or not mapping.is_null:
                 raise InputError("expected a mapping here")
-            indent = " " * (parent_key.column + 2)
-            return self._splice(parent_key.end, max(mapping.end, parent_key.end + 1),
-                                ":\n" + _indented(entry, indent).rstrip("\n"))
+            return self.fill_null(parent_key, mapping, entry)
         if mapping.flow:
             if block is not None:
                 entry = f"{flow(key)}: {flow(value)}"
@@ -299,6 +297,17 @@ class YamlText:
         at = self._line_end(mapping.end - 1)
         prefix = "" if self.text[:at].endswith("\n") else "\n"
         return self._splice(at, at, prefix + _indented(entry, indent))
+
+    def fill_null(self, key: Node, value: Node, block: str) -> YamlText:
+        """An empty value (``key:`` with nothing after it) given the lines of ``block``,
+        indented two columns more than ``key``."""
+        if not value.is_null or value.end > value.start and self.text[
+                value.start:value.end].strip() not in ("", "~", "null", "Null", "NULL"):
+            raise InputError("expected an empty value here", line=value.line)
+        colon = self.text.index(":", key.end)
+        end = max(value.end, colon + 1)
+        return self._splice(key.end, end, ":\n" + _indented(block, " " * (key.column + 2))
+                            .rstrip("\n"))
 
     def insert_item(self, sequence: Node, item) -> YamlText:
         """``item`` (a dict is written as a block mapping, others in flow style) appended to
