@@ -74,6 +74,14 @@ def until(condition, timeout=15.0):
         time.sleep(0.05)
 
 
+def settled(page):
+    """Wait until the page has no edit, tissue or block request under way (twice, so that
+    a request started by the last response is waited for too)."""
+    for _ in range(2):
+        until(lambda: attribute(page, "body", "data-busy") == "0")
+        time.sleep(0.1)
+
+
 def attribute(page, selector, name):
     element = page.query_selector(selector)
     return element.get_attribute(name) if element else None
@@ -90,6 +98,7 @@ def test_edit_a_breakpoint_see_the_tissue_fix_an_error_and_save(browser, studio)
     # the liver as the shipped words make it, and its block
     page.wait_for_selector('tr.value[data-quantity="youngs_modulus"]')
     until(lambda: attribute(page, "#block", "data-tissue") == "liver")
+    settled(page)
     start_modulus, start_depth = modulus(page), depth(page)
     assert 3000 < start_modulus < 8000 and start_depth > 0
     assert page.inner_text('tr.value[data-quantity="youngs_modulus"]').count("kPa") == 1
@@ -108,6 +117,7 @@ def test_edit_a_breakpoint_see_the_tissue_fix_an_error_and_save(browser, studio)
     page.mouse.up()
     until(lambda: modulus(page) < 0.93 * start_modulus)
     until(lambda: depth(page) > 1.04 * start_depth)
+    settled(page)
     dragged_modulus = modulus(page)
     peak = float(page.input_value('input.param[data-var="youngs_modulus"][data-term="firm"]'
                                   '[data-param="1"]'))
@@ -129,6 +139,7 @@ def test_edit_a_breakpoint_see_the_tissue_fix_an_error_and_save(browser, studio)
     words.fill("firm")
     until(lambda: attribute(page, "#status", "data-problems") == "0")
     assert page.is_hidden("#problems")
+    settled(page)
     page.click("#save")
     until(lambda: page.inner_text("#status").startswith("saved liver.yaml"))
     saved = (folder / "liver.yaml").read_text()

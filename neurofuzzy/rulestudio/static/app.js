@@ -17,7 +17,13 @@ const errors = new Map();      // edit key -> message of an edit the server coul
 const pending = new Map();     // merge key -> edit waiting to be sent
 let sending = false;
 let serial = 0;
+let loading = 0;               // tissue and block requests under way
 const block = new BlockView($("block"));
+
+// whether the page still waits for the server (data-busy on <body>, for tests and scripts)
+function markBusy() {
+  document.body.dataset.busy = sending || pending.size || loading ? "1" : "0";
+}
 
 function errorOf(key) {
   const text = key && errors.get(key);
@@ -29,6 +35,7 @@ function edit(operation, mergeKey, errorKey) {
   const key = mergeKey || `once:${++serial}`;
   pending.delete(key);
   pending.set(key, { operation, errorKey: errorKey || mergeKey });
+  markBusy();
   pump();
 }
 
@@ -49,6 +56,7 @@ async function pump() {
     render();
   } finally {
     sending = false;
+    markBusy();
     if (pending.size) pump();
   }
 }
@@ -63,6 +71,17 @@ function update(view) {
 // -- the tissue, its values and its block ---------------------------------------------------
 let tissueRequest = 0;
 async function refreshTissue() {
+  loading++;
+  markBusy();
+  try {
+    await loadTissue();
+  } finally {
+    loading--;
+    markBusy();
+  }
+}
+
+async function loadTissue() {
   if (!state || !state.file) return;
   const names = state.tissues.map((t) => t.name);
   if (!names.includes(tissueName)) tissueName = names[0] || null;
