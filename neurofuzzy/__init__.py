@@ -23,6 +23,7 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
   :func:`cohort_report`
 - output: :func:`fit_report`, :func:`diagnosis_report`, :func:`export_paraview`
+- the rule studio in the browser: :func:`studio` (``pip install 'neurofuzzy[studio]'``)
 - errors: :class:`NeurofuzzyError`, :class:`InputError`, :class:`UnstableTimeStepError`
 
 No exported name is also the name of a submodule (the modules are ``simulation``,
@@ -61,6 +62,7 @@ _EXPORTS = {
     "fit_many": "batch", "Cohort": "batch", "read_manifest": "batch", "cohort_report": "batch",
     "fit_report": "report", "diagnosis_report": "report",
     "export_paraview": "export",
+    "studio": "rulestudio",
 }
 # names whose object has another name in its module
 _ALIASES = {"shipped_rules": "shipped"}
@@ -102,6 +104,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .report import diagnosis_report, fit_report  # noqa: F401
     from .rules import initialize, load_rules, material_values, materials  # noqa: F401
     from .rules import shipped as shipped_rules  # noqa: F401
+    from .rulestudio import studio  # noqa: F401
     from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
 
 __version__ = "0.1.0"

@@ -47,3 +47,19 @@ def test_membership_functions_and_hedges_stay_in_unit_interval(rng):
             assert hedged.min() >= 0 and hedged.max() <= 1
         assert np.all(apply_hedges(mu, ["very"]) <= mu + 1e-15)
         assert np.all(apply_hedges(mu, ["somewhat"]) >= mu - 1e-15)
+
+
+def test_rule_strengths_are_what_aggregation_clips_at():
+    rules = load_rules(RULES / "liver.yaml")
+    strengths = rules.rule_strengths([rules.tissues["liver"], {"consistency": "soft"}])
+    assert strengths.shape == (len(rules.rules), 2)
+    assert np.all((strengths >= 0) & (strengths <= 1))
+    firm = next(i for i, r in enumerate(rules.rules) if r.text == "if consistency is firm then "
+                "youngs_modulus is firm")
+    assert strengths[firm, 0] == pytest.approx(1.0)
+    assert strengths[firm, 1] < strengths[0, 1] == pytest.approx(1.0)     # rule 0: soft
+    # the aggregated set of the output never rises above the strongest rule concluding on it
+    aggregated = rules.tissue_sets("liver")["youngs_modulus"]
+    on_modulus = [i for i, r in enumerate(rules.rules)
+                  if any(c.variable == "youngs_modulus" for c in r.consequents)]
+    assert aggregated.max() <= strengths[on_modulus, 0].max() + 1e-12

@@ -119,3 +119,19 @@ def test_all_problems_are_reported_at_once(tmp_path):
     assert len(lines) >= 3
     assert any(":7:" in l for l in lines) and any(":16:" in l for l in lines) \
         and any(":21:" in l for l in lines)
+
+
+def test_unsaved_text_is_read_in_place_of_the_file(tmp_path):
+    """load_rules(path, text=...) checks an editor's text as if written to path: its lines,
+    its name in messages, extends: from path's folder; the file on disk is not read."""
+    (tmp_path / "soft_tissue.yaml").write_text((RULES / "soft_tissue.yaml").read_text())
+    path = tmp_path / "liver.yaml"
+    path.write_text("not: a rule base\n")
+    text = (RULES / "liver.yaml").read_text()
+    assert set(load_rules(path, text=text).tissues) == {"liver", "fibrotic_liver", "tumour"}
+    broken = text.replace("consistency: hard", "consistency: hrad")
+    with pytest.raises(RuleBaseError) as error:
+        load_rules(path, text=broken)
+    (problem,) = error.value.problems
+    assert problem.source == str(path) and problem.line == 6
+    assert "did you mean 'hard'" in str(problem)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import batch, data, fitting, misc
+from . import batch, data, fitting, misc, studio
 from .common import usage
 
 __all__ = ["build_parser"]
@@ -154,6 +154,26 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("--json", action="store_true")
     show.set_defaults(run=misc.rules_show)
     rules.set_defaults(run=lambda args: usage(rules))
+
+    studio_command = commands.add_parser(
+        "studio", help="edit a rule base in the browser and see it as tissue",
+        description="The rule studio: a local web page to edit a rule base's membership "
+                    "functions, terms, rules and tissues, see a tissue's inferred values, "
+                    "words and fired rules, poke a block of it, compare fit results, and save "
+                    "the file back with its comments (needs pip install "
+                    "'neurofuzzy[studio]').")
+    studio_command.add_argument("rules", nargs="?", metavar="RULES.yaml",
+                                help="rule file to open (or a shipped name: liver, brain, "
+                                     "…); default: choose among the current folder's")
+    studio_command.add_argument("--host", default=None,
+                                help="address to listen on (default 127.0.0.1, localhost "
+                                     "only); when given, every request needs the token in "
+                                     "the printed URL")
+    studio_command.add_argument("--port", type=int, default=0,
+                                help="port (default: any free one)")
+    studio_command.add_argument("--no-browser", action="store_true",
+                                help="do not open a browser; print the URL")
+    studio_command.set_defaults(run=studio.studio)
 
     simulate = commands.add_parser(
         "simulate", help="simulate a model under a load and write an experiment file",

@@ -6,7 +6,7 @@ from __future__ import annotations
 from .. import safe_yaml
 from ..safe_yaml import Mapping, Sequence
 
-__all__ = ["Mapping", "Sequence", "load", "MAX_RULE_FILE_BYTES"]
+__all__ = ["Mapping", "Sequence", "load", "loads", "MAX_RULE_FILE_BYTES"]
 
 #: largest rule file read (the shipped ones are a few kB)
 MAX_RULE_FILE_BYTES = 2**20
@@ -15,3 +15,14 @@ MAX_RULE_FILE_BYTES = 2**20
 def load(path) -> object:
     """Parse a rule file; bad YAML raises ``InputError`` with the file and line."""
     return safe_yaml.load(path, max_bytes=MAX_RULE_FILE_BYTES, kind="rule file")
+
+
+def loads(text: str, source: str) -> object:
+    """Parse the text of a rule file (not yet written to ``source``), with
+    :func:`load`'s size limit and messages."""
+    if len(text.encode("utf-8")) > MAX_RULE_FILE_BYTES:
+        from ..errors import InputError
+
+        raise InputError(f"is larger than {MAX_RULE_FILE_BYTES // 2**20} MB; a rule file is "
+                         "a few kB", source=source)
+    return safe_yaml.loads(text, source)

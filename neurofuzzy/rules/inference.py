@@ -9,7 +9,7 @@ from ..errors import InputError, closest_name
 from .membership import apply_hedges
 from .terms import GRID_POINTS, Phrase, Variable, parse_phrase
 
-__all__ = ["infer", "aggregate", "tissue_values", "tissue_sets"]
+__all__ = ["infer", "aggregate", "rule_strengths", "tissue_values", "tissue_sets"]
 
 
 def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
@@ -36,18 +36,7 @@ def aggregate(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
     (n_descriptions, GRID_POINTS) maximum of every rule's consequent clipped at the rule's
     strength, on the output's grid (internal coordinates, :attr:`Variable.grid`)."""
     n = len(descriptions)
-    sets = {}
-    for name, variable in rules.inputs.items():
-        phrases = [_phrase(rules, d.get(name), variable) for d in descriptions]
-        sets[name] = _input_sets(variable, phrases)          # (n, G) or None
-    strengths = []
-    for rule in rules.rules:
-        groups = []
-        for group in rule.antecedent:
-            degrees = [_possibility(sets[c.variable], rules.inputs[c.variable], c.phrase, n)
-                       for c in group]
-            groups.append(_combine(degrees, rules.and_method))
-        strengths.append(_combine(groups, rules.or_method, is_or=True) * rule.weight)
+    strengths = rule_strengths(rules, descriptions)
     results = {}
     for name, variable in rules.outputs.items():
         aggregated = np.zeros((n, GRID_POINTS))
@@ -61,6 +50,37 @@ def aggregate(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
                                         np.minimum(strength[:, None], shape[None, :]))
         results[name] = aggregated
     return results
+
+def rule_strengths(rules, descriptions: list[dict]) -> np.ndarray:
+    """How strongly every rule fires for every description.
+
+    Parameters
+    ----------
+    descriptions : list of dict
+        As :func:`infer`.
+
+    Returns
+    -------
+    (n_rules, n_descriptions) float
+        Each rule's firing strength in [0, 1], its weight included, in the order of
+        ``rules.rules``: its clauses' degrees (:func:`_possibility`) combined by the rule
+        base's ``and`` within a group and ``or`` between groups.
+    """
+    n = len(descriptions)
+    sets = {}
+    for name, variable in rules.inputs.items():
+        phrases = [_phrase(rules, d.get(name), variable) for d in descriptions]
+        sets[name] = _input_sets(variable, phrases)          # (n, G) or None
+    strengths = np.zeros((len(rules.rules), n))
+    for index, rule in enumerate(rules.rules):
+        groups = []
+        for group in rule.antecedent:
+            degrees = [_possibility(sets[c.variable], rules.inputs[c.variable], c.phrase, n)
+                       for c in group]
+            groups.append(_combine(degrees, rules.and_method))
+        strengths[index] = _combine(groups, rules.or_method, is_or=True) * rule.weight
+    return strengths
+
 
 def _phrase(rules, value, variable: Variable) -> Phrase | None:
     if value is None or isinstance(value, Phrase):

@@ -49,15 +49,24 @@ from .terms import (DEFUZZIFICATION, QUANTITIES, TOP_KEYS, VARIABLE_KEYS, Clause
 __all__ = ["load_rules"]
 
 
-def load_rules(path) -> RuleBase:
+def load_rules(path, *, text: str | None = None) -> RuleBase:
     """Read, validate and build a rule base; all problems are reported together.
+
+    Parameters
+    ----------
+    path : str or path
+        The rule file.
+    text : str, optional
+        The file's content as it would be written to ``path`` (an editor's unsaved text):
+        read instead of the file, with ``path`` naming it in messages and anchoring
+        ``extends:`` (the files it extends are read from disk).
 
     Raises
     ------
     RuleBaseError
         With one ``FILE:LINE: message`` per problem.
     """
-    return _Builder().build(Path(path))
+    return _Builder().build(Path(path), text=text)
 
 
 class _Builder:
@@ -68,8 +77,8 @@ class _Builder:
     def problem(self, source, line, message):
         self.problems.append(InputError(message, source=str(source), line=line))
 
-    def build(self, path: Path, seen=()) -> RuleBase:
-        data = _yaml.load(path)
+    def build(self, path: Path, seen=(), text: str | None = None) -> RuleBase:
+        data = _yaml.load(path) if text is None else _yaml.loads(text, str(path))
         source = str(path)
         if not isinstance(data, dict):
             raise RuleBaseError([InputError("a rule base is a mapping (name:, inputs:, …)",

@@ -36,6 +36,11 @@ class RuleBase:
         """Output values for many descriptions at once (:func:`.inference.infer`)."""
         return inference.infer(self, descriptions)
 
+    def rule_strengths(self, descriptions: list[dict]) -> np.ndarray:
+        """(n_rules, n_descriptions) how strongly every rule fires for every description
+        (:func:`.inference.rule_strengths`)."""
+        return inference.rule_strengths(self, descriptions)
+
     def tissue(self, name: str) -> dict[str, float]:
         """Inferred output values (physical units) of a tissue of the rule base."""
         return inference.tissue_values(self, name)
