@@ -73,7 +73,7 @@ def localise(model, experiments, prior, *, findings=(), substeps="auto",
     start = model.replace(effects=()).tied("none")
     learner = GradientLearner(substeps=substeps, prior=prior, progress=progress)
     learner.fit(start, experiments)
-    found = regions_found(learner.model_, prior)
+    found = learner.regions_ or regions_found(learner.model_, prior)
     kind = "elements" if learner.model_.has_elements else "springs"
     covered = [i for entry in found["regions"] for i in entry[kind]]
     overlap = [float(np.isin(getattr(finding, kind), covered).mean())

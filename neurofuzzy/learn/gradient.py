@@ -22,7 +22,7 @@ from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, rms_error
 from ..model import SpringMassModel
 from ..simulation import check_substeps, stability_limit
-from ..progress import Progress
+from ..progress import Progress, note
 from ._base import Learner
 from . import _passes as passes
 from ._lm import levenberg_marquardt
@@ -32,6 +32,8 @@ from ._sensitivity import Sensitivity
 from .identifiability import structurally_unidentifiable
 from .lack_of_fit import length_text
 from .steps import auto_substeps, fits_offsets, stable_start
+from .region_test import homogeneous_fit, supported_regions
+from .regions import regions_found
 from .uncertainty import assess, intervals_dict
 
 __all__ = ["GradientLearner", "auto_substeps", "fits_offsets"]
@@ -116,6 +118,12 @@ class GradientLearner(Learner):
         Whether the markers' rest positions were fitted.
     identifiability_ : Identifiability
         Standard errors and the parameter combinations the data do not determine.
+    homogeneous_ : GradientLearner or None
+        With a prior: the homogeneous model (one value per region) fitted first, against
+        which every region found is tested (:mod:`.region_test`).
+    regions_ : dict or None
+        With a prior: the regions found that the data support (:mod:`.region_test`;
+        ``"regions"``, ``"rejected"``, ``"rest"``).
     prior_ : dict or None
         With a prior: its weight ``alpha`` (``w = α σ²``), the noise level ``noise`` (metres)
         it was measured against, how it was chosen, the fits the choice took and the sets.
@@ -188,9 +196,11 @@ class GradientLearner(Learner):
                                     lower, upper, active)
 
         self._prior_terms, self._prior_scale, self.prior_ = None, 0.0, None
+        self.homogeneous_ = self.regions_ = None
         if self.prior is not None:
             steps = initial_steps if auto and not discrete else (1 if auto
                                                                  else int(self.substeps))
+            self.homogeneous_ = homogeneous_fit(self, model, experiments)
             theta, fitted = set_prior(self, parameters, sensitivity, experiments, theta, steps,
                                       fit, method, active)
             searched = (theta, steps) if fitted else searched
@@ -230,6 +240,11 @@ class GradientLearner(Learner):
         self.parameter_names_ = parameters.names()
 
         assess(self, sensitivity, parameters, experiments, theta, method)
+        if self.prior is not None:
+            self.regions_ = supported_regions(
+                regions_found(self.model_, self.prior), self.homogeneous_, experiments,
+                progress=(lambda line: note(True, f"regions found: {line}"))
+                if self.progress else None)
         self.history_ = np.array([energy for energy, _ in self._trace])
         self.seconds_ = time.perf_counter() - started
         return self

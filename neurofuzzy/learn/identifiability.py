@@ -84,8 +84,9 @@ def analyse(parameters, theta: np.ndarray, jacobian: np.ndarray | None,
     found: list[dict] = []
     structural = _structural(parameters, names)
     found += structural
-    if jacobian is None:
-        return Identifiability(np.full(n_params, np.nan), found, names)
+    if jacobian is None or not (np.all(np.isfinite(residuals))
+                                and np.all(np.isfinite(jacobian))):
+        return Identifiability(np.full(n_params, np.nan), found, names)   # or diverged
 
     n_res = jacobian.shape[0] if n_measured is None else n_measured
     dof = max(n_res - n_params - n_nuisance, 1)

@@ -152,10 +152,14 @@ def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm")
     rest = "; ".join(f"{region}: " + ", ".join(f"{q.replace('_', ' ')} {v['label']}"
                                                for q, v in quantities.items())
                      for region, quantities in result["rest"].items())
+    rejected = [entry for entry in result.get("rejected", [])
+                if entry.get("evidence", {}).get("tested")]
+    dropped = (f" ({len(rejected)} candidate region(s) explained the data no better than "
+               "the homogeneous model: model error, not tissue)" if rejected else "")
     if not parts:
-        return f"no region differs from the description ({rest})" if rest else \
-            "no region differs from the description"
-    return "; ".join(parts) + (f"; the rest: {rest}" if rest else "")
+        return (f"no region differs from the description ({rest}){dropped}" if rest else
+                f"no region differs from the description{dropped}")
+    return "; ".join(parts) + (f"; the rest: {rest}" if rest else "") + dropped
 
 
 def _word(rules, output, value) -> tuple[str, float]:

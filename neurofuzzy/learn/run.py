@@ -127,8 +127,9 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     if getattr(learner, "prior", None) is not None:
         from .regions import describe_regions, regions_found
 
-        found = regions_found(learner.model_, learner.prior)
+        found = learner.regions_ or regions_found(learner.model_, learner.prior)
         result.update(regions_found=found["regions"], regions_rest=found["rest"],
+                      regions_rejected=found.get("rejected", []),
                       regions_found_words=describe_regions(found))
     return result
 

@@ -126,7 +126,7 @@ def prior_section(plt, learner, data) -> tuple[str, str]:
     description, the regions found ringed)."""
     from ..learn.regions import describe_regions, item_values, regions_found
 
-    found = regions_found(learner.model_, learner.prior)
+    found = getattr(learner, "regions_", None) or regions_found(learner.model_, learner.prior)
     data.update(prior=learner.prior_, regions_found=found["regions"])
     model, prior = learner.model_, learner.prior
     kind, values = item_values(model)

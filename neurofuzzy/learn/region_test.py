@@ -1,0 +1,119 @@
+"""Regions the data support: a region found is kept only if it explains the data better than
+the homogeneous model does, by more than model error can.
+
+A fit of every element (or spring) with the rule base as a prior (:mod:`.prior`) bends its
+values wherever that lowers the misfit. When the homogeneous model (one E, ν and η per region)
+stays above the marker noise because of what it misses (a coarse mesh, another
+discretisation, an effect), the items bend to absorb that error too, and :func:`regions_found`
+turns the bends into "regions" with words (seven of them, on scikit-fem data of a homogeneous
+block fitted on 1 cm voxels). So every region found is tested (:func:`supported_regions`): the
+homogeneous model of every region (fitted first, :func:`homogeneous_fit`) with the region's
+items as one more tie group (its own E, ν and η, or stiffness and viscosity) is refitted, and
+the region is kept only when that shrinks the misfit above the noise at least ``MIN_SHRINK``
+times (the diagnosis's rule for adding an effect) and its likelihood ratio against the
+homogeneous model beats the Bayesian information criterion with the homogeneous model's own
+residual as the noise (the honest level: model error and marker noise together). A smaller
+gain is what any extra freedom buys against model error.
+
+The prior's weight stays with the discrepancy principle against the marker noise: it is a
+search for candidates, and the test decides. (Asking the item-by-item fit to explain the data
+no better than the homogeneous model does, the other way to keep model error out, made the
+prior so strong on the same data with a 5× stiffer sphere in it that the sphere was no longer
+seen; with the test, the sphere is the one region kept, 3.2 mm from its true centre, and the
+five others are rejected.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .lack_of_fit import length_text
+
+__all__ = ["homogeneous_start", "homogeneous_fit", "supported_regions", "MIN_SHRINK",
+           "MAX_TESTED"]
+
+#: A region must shrink the misfit above the noise at least this many times.
+MIN_SHRINK = 1.5
+#: Regions tested, largest first (a refit of a few parameters each).
+MAX_TESTED = 10
+
+
+def homogeneous_start(model):
+    """``model`` with one tie group per region (elements) or per spring group and region
+    (springs), every group at the median of its items' values."""
+    if model.has_elements and not np.any(model.spring_stiffness):
+        region = model.element_region
+        values = {}
+        for key in ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity"):
+            per_item = getattr(model, key).copy()
+            for r in np.unique(region):
+                per_item[region == r] = np.median(per_item[region == r])
+            values[key] = per_item
+        return model.replace(element_tie=region, **values)
+    tied = model.tied("groups")
+    values = {}
+    for key in ("spring_stiffness", "spring_damping"):
+        per_item = getattr(model, key).copy()
+        for group in np.unique(tied.spring_tie):
+            members = tied.spring_tie == group
+            per_item[members] = np.median(per_item[members])
+        values[key] = per_item
+    return tied.replace(**values)
+
+
+def homogeneous_fit(learner, model, experiments):
+    """The homogeneous model of ``model`` (:func:`homogeneous_start`) fitted with
+    ``learner``'s options (no prior, no mesh check)."""
+    from .gradient import GradientLearner
+
+    options = {**learner.get_params(), "prior": None, "mesh_check": False, "progress": False}
+    return GradientLearner(**options).fit(homogeneous_start(model), experiments)
+
+
+def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -> dict:
+    """``found`` (:func:`~.regions.regions_found`) with every region tested against the
+    ``homogeneous`` fit (module docstring): the kept ones stay in ``"regions"``, the others
+    move to ``"rejected"``; each carries ``"evidence"``: the RMS error per marker (m) without
+    and with it, the shrink of the misfit above the noise and the BIC gain."""
+    from .gradient import GradientLearner
+
+    base = homogeneous.model_
+    noise = homogeneous.lack_of_fit_.noise
+    rms0 = homogeneous.rms_error_
+    gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
+    count = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
+    options = {**homogeneous.get_params(), "progress": False}
+    kept, rejected = [], []
+    for index, region in enumerate(found["regions"]):
+        if index >= MAX_TESTED:
+            region["evidence"] = {"tested": False}
+            rejected.append(region)
+            continue
+        items = np.asarray(region.get("elements", region.get("springs")), dtype=int)
+        if "elements" in region:
+            tie = base.element_tie.copy()
+            tie[items] = tie.max() + 1
+            model = base.replace(element_tie=tie)
+            extra = 3
+        else:
+            tie = base.spring_tie.copy()
+            tie[items] = tie.max() + 1
+            model = base.replace(spring_tie=tie)
+            extra = 2
+        refit = GradientLearner(**options).fit(model, experiments)
+        rms1 = refit.rms_error_
+        gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))
+        shrink = gap0 / gap1 if gap1 > 0 else np.inf
+        # likelihood ratio with the homogeneous model's residual as the variance
+        bic = count * np.log(max(rms0, 1e-300) ** 2 / max(rms1, 1e-300) ** 2) \
+            - extra * np.log(count)
+        keep = bool(shrink >= MIN_SHRINK and bic > 0)
+        region["evidence"] = {"tested": True, "rms_without": rms0, "rms_with": rms1,
+                              "gap_shrink": shrink, "bic_gain": float(bic), "kept": keep}
+        if progress is not None:
+            progress(f"region {index + 1} ({region['label']} {region['quantity']}, "
+                     f"{region['size']} items): RMS {length_text(rms0)} -> "
+                     f"{length_text(rms1)} per marker, the misfit above the noise shrinks "
+                     f"{shrink:.2g}x: {'kept' if keep else 'model error, not tissue'}")
+        (kept if keep else rejected).append(region)
+    return {**found, "regions": kept, "rejected": rejected}
