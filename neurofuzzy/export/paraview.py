@@ -61,7 +61,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import InputError, closest_name
+from ..errors import InputError, closest_name
 
 __all__ = ["FORMATS", "export_paraview"]
 
@@ -221,7 +221,7 @@ def _frames(model, experiment, simulated, dt, substeps) -> _Frames:
     """Check the inputs against each other and return the simulated frames."""
     n_nodes = model.n_nodes
     if experiment is not None:
-        from .experiment import check_experiments
+        from ..experiment import check_experiments
 
         check_experiments(model, experiment)
     trajectory_dt = None
@@ -244,7 +244,7 @@ def _frames(model, experiment, simulated, dt, substeps) -> _Frames:
     if simulated is None:
         if experiment is None:
             return _Frames(np.array(model.mesh.rest_positions, dtype=float)[None], frame_dt or 1.0)
-        from .experiment import simulate_like
+        from ..experiment import simulate_like
 
         return _Frames(simulate_like(model, experiment, substeps), frame_dt)
 
