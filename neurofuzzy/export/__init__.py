@@ -7,6 +7,10 @@ target     file                     what it holds
 ========== ======================== ===============================================================
 ``mujoco`` MJCF ``.xml``            node bodies, one flex per region and material, spring tendons
                                     (:mod:`.mujoco`; run by MuJoCo in the tests)
+``sofa``   SofaPython3 scene ``.py`` ``createScene(root)``: topology, mass, fixed nodes,
+                                    tetrahedral FEM and springs, the load (:mod:`.sofa`)
+``febio``  FEBio ``.feb`` (4.0)     nodes, a part and a material per region, fixed nodes, nodal
+                                    loads with load curves (:mod:`.febio`)
 ``vtu``    ParaView folder          VTU series + PVD and XDMF of the simulated and measured
                                     motion (:mod:`.paraview`, :func:`export_paraview`)
 ========== ======================== ===============================================================
@@ -30,11 +34,11 @@ from pathlib import Path
 __all__ = ["export", "export_paraview", "TARGETS", "FORMATS", "Exported"]
 
 #: Where :func:`export` writes to, and the file suffix each target expects.
-TARGETS: dict[str, str] = {"mujoco": ".xml", "vtu": ""}
+TARGETS: dict[str, str] = {"mujoco": ".xml", "sofa": ".py", "febio": ".feb", "vtu": ""}
 #: The ParaView forms (``to="vtu"``).
 FORMATS: tuple[str, ...] = ("vtu", "xdmf")
 #: The module and function that write each simulator's file.
-_WRITERS = {"mujoco": ("mujoco", "mjcf")}
+_WRITERS = {"mujoco": ("mujoco", "mjcf"), "sofa": ("sofa", "scene"), "febio": ("febio", "feb")}
 
 
 def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
@@ -47,7 +51,7 @@ def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
     model : SpringMassModel or path
         The model, or a model file (YAML); a file's ``fit:`` record is read when ``fit`` is
         not given.
-    to : {"mujoco", "vtu"}
+    to : {"mujoco", "sofa", "febio", "vtu"}
         The target (see the module docstring).
     path : path
         The file to write (``.xml``, ``.py``, ``.feb``); for ``"vtu"`` a folder. Written
