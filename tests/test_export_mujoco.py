@@ -107,7 +107,7 @@ def test_the_nodal_form_differs_by_what_the_header_states():
     free = model.mesh.free
     theirs = simulate_mujoco(text, data)
     measured = rms(theirs, nf.simulate_like(model, data, steps), free)
-    assert measured == pytest.approx(stated, rel=2e-3)          # the header's 3 digits
+    assert measured == pytest.approx(stated, rel=5e-3)          # the header's 3 digits
     element = nf.simulate_like(model.replace(element_volumetric="element"), data, steps)
     assert rms(theirs, element, free) < ELEMENT_TOLERANCE
     assert measured > 10 * ELEMENT_TOLERANCE                     # a real difference at ν 0.45

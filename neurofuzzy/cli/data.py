@@ -233,7 +233,7 @@ def _export_paraview(args) -> int:
     every = 1 if args.every is None else args.every
     stem = args.stem or "neurofuzzy"
     at_least(every, 1, "--every")
-    substeps = _substeps(args.substeps or "1")
+    substeps = _substeps(args.substeps or "auto")
     outputs = Outputs([Path(p) for p in (args.model, args.experiment) if p])
     folder = outputs.folder(args.out, "--out", owns=vtu_series(stem))
     with outputs, naming(args.model):

@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the file to write (.xml, .py, .feb), or for vtu a folder")
     export.add_argument("--substeps", default=None,
                         help="steps per frame of the experiment: a number or 'auto' (the "
-                             "default for the simulators: the fewest stable ones; vtu: 1)")
+                             "default: the fewest stable ones)")
     export.add_argument("--max-materials", type=int, default=256, metavar="N",
                         help="most distinct element materials (MuJoCo flexes, FEBio parts) "
                              "before elements are binned (default 256)")

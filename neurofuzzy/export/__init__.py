@@ -105,8 +105,8 @@ def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
     if to == "vtu":
         from .paraview import export_paraview as write_folder
 
-        files = write_folder(path, model, experiment, every=every, substeps=1 if substeps == "auto"
-                             else substeps, stem=stem, formats=formats)
+        files = write_folder(path, model, experiment, every=every, substeps=substeps, stem=stem,
+                             formats=formats)
         written = tuple(p for value in files.values()
                         for p in (value if isinstance(value, list) else [value]))
         main = files.get("pvd") or files.get("xdmf")

@@ -70,7 +70,7 @@ FORMATS: tuple[str, ...] = ("vtu", "xdmf")
 
 
 def export_paraview(directory: str | os.PathLike, model, experiment=None, *, simulated=None,
-                    dt: float | None = None, every: int = 1, substeps: int = 1,
+                    dt: float | None = None, every: int = 1, substeps: int | str = 1,
                     stem: str = "neurofuzzy",
                     formats: Sequence[str] = FORMATS) -> dict[str, Path | list[Path]]:
     """Write a model and its trajectories as ParaView time series (VTU + PVD, XDMF).
@@ -96,8 +96,9 @@ def export_paraview(directory: str | os.PathLike, model, experiment=None, *, sim
     every : int
         Keep every ``every``-th frame (0, every, 2·every, …); the file names and times keep the
         original frame numbers.
-    substeps : int
-        Integration steps per frame for the default simulation.
+    substeps : int or "auto"
+        Integration steps per frame for the default simulation (``"auto"``: the fewest
+        stable ones).
     stem : str
         Base name of the files (a plain file name, no directory).
     formats : sequence of {"vtu", "xdmf"}
