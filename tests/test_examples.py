@@ -168,7 +168,8 @@ def test_the_pipeline_recovers_the_continuum_through_mesh_import_fit(tmp_path):
                               capture_output=True, text=True, cwd=tmp_path, timeout=300)
         assert done.returncode == 0, done.stderr
     assert "lack of fit: explained to the noise" in (tmp_path / "fitted.feb").read_text()
-    model, data = nf.load_model(tmp_path / "fitted.yaml"), nf.load_experiment(tmp_path / "trial.npz")
+    model = nf.load_model(tmp_path / "fitted.yaml")
+    data = nf.load_experiment(tmp_path / "trial.npz")
     text = (tmp_path / "fitted.xml").read_text()
     steps = round(data.dt / float(re.search(r'timestep="([^"]+)"', text).group(1)))
     theirs = simulate_mujoco(tmp_path / "fitted.xml", data)

@@ -349,6 +349,7 @@ def check_febio_materials(root, model):
 
 # -- the command line -----------------------------------------------------------------------
 def test_export_on_the_command_line_carries_the_fit_record(tmp_path, capsys):
+    """All four targets from a model file with a fit record, and one without."""
     model = two_regions()
     data = pressed(model)
     nf.save_experiment(data, tmp_path / "probe.npz")
@@ -367,8 +368,18 @@ def test_export_on_the_command_line_carries_the_fit_record(tmp_path, capsys):
         assert "residual 1.5x the noise: this model class misses something" in text
         assert "region tumour:" in text and "Young's modulus E = 24000 Pa" in text
         assert f"neurofuzzy {nf.__version__}" in text
+    assert main(["export", str(tmp_path / "fitted.yaml"), str(tmp_path / "probe.npz"),
+                 "--out", str(tmp_path / "pv"), "--every", "10"]) == 0      # --to vtu
+    capsys.readouterr()
+    for name in ("neurofuzzy.pvd", "neurofuzzy.xdmf"):
+        assert "residual 1.5x the noise" in (tmp_path / "pv" / name).read_text()
+    import meshio
+
+    with meshio.xdmf.TimeSeriesReader(tmp_path / "pv" / "neurofuzzy.xdmf") as reader:
+        points, _ = reader.read_points_cells()
+        assert reader.num_steps == 3 and np.allclose(points, model.mesh.rest_positions)
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "fitted.yaml", "probe.npz", "tissue.feb", "tissue.py", "tissue.xml"]
+        "fitted.yaml", "probe.npz", "pv", "tissue.feb", "tissue.py", "tissue.xml"]
     nf.save_model(model, tmp_path / "plain.yaml")
     assert main(["export", str(tmp_path / "plain.yaml"), "--to", "febio",
                  "--out", str(tmp_path / "plain.feb")]) == 0

@@ -227,8 +227,9 @@ def export(args) -> int:
 
 
 def _export_paraview(args) -> int:
-    from ..export import export_paraview
+    from ..export import export as write
     from ..io import load_experiment, load_model
+    from ..model_files import load_fit_record
 
     every = 1 if args.every is None else args.every
     stem = args.stem or "neurofuzzy"
@@ -239,13 +240,12 @@ def _export_paraview(args) -> int:
     with outputs, naming(args.model):
         model = load_model(args.model)
         experiment = load_experiment(args.experiment) if args.experiment else None
-        files = export_paraview(folder, model, experiment, every=every,
-                                substeps=substeps, stem=stem,
-                                formats=args.formats or ["vtu", "xdmf"])
-        files = {kind: outputs.target_of(path) if isinstance(path, Path) else path
-                 for kind, path in files.items()}
-    frames = len(files.get("vtu", [])) or 1
-    written(files.get("pvd"), files.get("xdmf"))
+        result = write(model, to="vtu", path=folder, experiment=experiment,
+                       fit=load_fit_record(args.model), substeps=substeps, every=every,
+                       stem=stem, formats=args.formats or ["vtu", "xdmf"])
+        files = [outputs.target_of(path) for path in result.files]
+    frames = sum(1 for path in files if path.suffix == ".vtu") or 1
+    written(*[path for path in files if path.suffix in (".pvd", ".xdmf")])
     print(f"{frames} frames; open the .pvd in ParaView to play the simulation")
     return 0
 

@@ -103,10 +103,13 @@ def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
             fit = load_fit_record(source)
         model = load_model(source)
     if to == "vtu":
+        from .metadata import header_lines
         from .paraview import export_paraview as write_folder
 
+        comment = "\n".join(header_lines(model, target="vtu", fit=fit, notes=(),
+                                         experiment=experiment))
         files = write_folder(path, model, experiment, every=every, substeps=substeps, stem=stem,
-                             formats=formats)
+                             formats=formats, comment=comment)
         written = tuple(p for value in files.values()
                         for p in (value if isinstance(value, list) else [value]))
         main = files.get("pvd") or files.get("xdmf")

@@ -13,8 +13,8 @@ reads the model and the load back from them:
 - ``Mesh``: ``Nodes``, one ``Elements type="tet4"`` part per region and material, a
   ``NodeSet`` of the fixed nodes and one per loaded node, ``DiscreteSet`` of springs;
 - ``Material`` per part: ``isotropic elastic`` (``E``, ``v``, ``density``), which is
-  St. Venant–Kirchhoff (σ = J⁻¹ F (λ tr E I + 2μ E) Fᵀ, ``FEIsotropicElastic::Stress``) as our
-  element; with viscosity a ``solid mixture`` of it and a ``Newtonian viscous solid`` of
+  St. Venant–Kirchhoff (σ = J⁻¹ F (λ tr E I + 2μ E) Fᵀ, ``FEIsotropicElastic::Stress``) as
+  our element; with viscosity a ``solid mixture`` of it and a ``Newtonian viscous solid`` of
   shear viscosity ``mu`` = βμ and bulk viscosity ``kappa`` = βK (β = η/E, K the bulk
   modulus), our Kelvin–Voigt stress at small strain (FEBio's viscous stress is Cauchy in the
   rate of deformation, ours second Piola–Kirchhoff in the Green strain rate);

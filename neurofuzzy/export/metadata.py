@@ -118,19 +118,21 @@ def volumetric_note(model, target: str, experiment=None, steps: int | None = Non
     if experiment is None:
         return text + "; pass an experiment to measure the difference"
     from ..experiment import simulate_like
+    from ..simulation import required_substeps
 
+    # the target's steps, unless the nodal form needs more to be stable
+    steps = max(steps or 1, required_substeps(model, experiment.dt))
     with np.errstate(all="ignore"):
-        nodal = simulate_like(model, experiment, steps or 1)
-        element = simulate_like(model.replace(element_volumetric="element"), experiment,
-                                steps or 1)
+        nodal = simulate_like(model, experiment, steps)
+        element = simulate_like(model.replace(element_volumetric="element"), experiment, steps)
     free = model.mesh.free
     rest = nodal[0, free]
     difference = np.sqrt(np.mean(np.sum((nodal[:, free] - element[:, free]) ** 2, axis=-1)))
     peak = np.max(np.linalg.norm(nodal[:, free] - rest, axis=-1))
     share = f" ({100 * difference / peak:.2g} % of the peak motion {peak:.3g} m)" if peak else ""
     return (text + f"; on {experiment.source} the two forms differ by {difference:.3g} m RMS "
-            f"per node{share}, measured with neurofuzzy's own stepper at {steps or 1} step(s) "
-            "per frame")
+            f"per node{share}, measured with neurofuzzy's own stepper at {steps} step(s) per "
+            "frame")
 
 
 def metadata(model, *, target: str, fit: dict | None, notes, experiment=None,

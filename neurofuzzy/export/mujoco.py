@@ -109,7 +109,8 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
                                      experiment=experiment, time_step=h, steps=steps))
     out = [f"<mujoco model={quoteattr(name)}>",
            "<!--\n" + comment.replace("--", "- -") + "\n-->",
-           f'  <option timestep="{h!r}" integrator="Euler" gravity="{_numbers(prepared.gravity)}"/>',
+           f'  <option timestep="{h!r}" integrator="Euler" '
+           f'gravity="{_numbers(prepared.gravity)}"/>',
            "  <custom>",
            f"    <text name=\"neurofuzzy\" data={quoteattr(json.dumps(block))}/>",
            "  </custom>",
@@ -137,9 +138,11 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         out.append("  <tendon>")
         for j in springs:
             a, b = mesh.springs[j]
-            out.append(f'    <spatial name="spring{j}" stiffness="{float(runs.spring_stiffness[j])!r}"'
-                       f' damping="{float(runs.spring_damping[j])!r}" springlength='
-                       f'"{float(runs.spring_rest_length[j])!r}" width="{width!r}">'
+            stiffness, damping, rest = (float(runs.spring_stiffness[j]),
+                                        float(runs.spring_damping[j]),
+                                        float(runs.spring_rest_length[j]))
+            out.append(f'    <spatial name="spring{j}" stiffness="{stiffness!r}" '
+                       f'damping="{damping!r}" springlength="{rest!r}" width="{width!r}">'
                        f'<site site="node{a}"/><site site="node{b}"/></spatial>')
         out.append("  </tendon>")
     out.append("</mujoco>")

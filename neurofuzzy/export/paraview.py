@@ -72,7 +72,8 @@ FORMATS: tuple[str, ...] = ("vtu", "xdmf")
 def export_paraview(directory: str | os.PathLike, model, experiment=None, *, simulated=None,
                     dt: float | None = None, every: int = 1, substeps: int | str = 1,
                     stem: str = "neurofuzzy",
-                    formats: Sequence[str] = FORMATS) -> dict[str, Path | list[Path]]:
+                    formats: Sequence[str] = FORMATS,
+                    comment: str | None = None) -> dict[str, Path | list[Path]]:
     """Write a model and its trajectories as ParaView time series (VTU + PVD, XDMF).
 
     Parameters
@@ -103,6 +104,9 @@ def export_paraview(directory: str | os.PathLike, model, experiment=None, *, sim
         Base name of the files (a plain file name, no directory).
     formats : sequence of {"vtu", "xdmf"}
         Which forms to write.
+    comment : str, optional
+        Text put as an XML comment at the top of the ``.pvd`` and ``.xdmf`` (the fitted
+        values and the lack of fit, as :func:`neurofuzzy.export.export` writes them).
 
     Returns
     -------
@@ -161,9 +165,9 @@ def export_paraview(directory: str | os.PathLike, model, experiment=None, *, sim
         if "vtu" in formats:
             for k, name in enumerate(vtu_names):
                 _write_vtu(meshio, staging / name, series, k)
-            _write_pvd(staging / f"{stem}.pvd", vtu_names, series["times"])
+            _write_pvd(staging / f"{stem}.pvd", vtu_names, series["times"], comment)
         if "xdmf" in formats:
-            _write_xdmf(meshio, staging / f"{stem}.xdmf", series)
+            _write_xdmf(meshio, staging / f"{stem}.xdmf", series, comment)
         # frames first, the files that point at them last
         for name in targets:
             os.replace(staging / name, directory / name)
@@ -356,22 +360,33 @@ def _write_vtu(meshio, path: Path, series: dict, k: int) -> None:
     meshio.write(path, mesh, file_format="vtu")
 
 
-def _write_pvd(path: Path, files: Sequence[str], times: np.ndarray) -> None:
+def _xml_comment(comment: str | None) -> str:
+    """``comment`` as an XML comment line block (``--`` is not allowed inside one)."""
+    return "" if not comment else "<!--\n" + comment.replace("--", "- -") + "\n-->\n"
+
+
+def _write_pvd(path: Path, files: Sequence[str], times: np.ndarray,
+               comment: str | None = None) -> None:
     rows = "".join(f'    <DataSet timestep="{float(t)!r}" group="" part="0" '
                    f'file={quoteattr(name)}/>\n' for name, t in zip(files, times))
-    text = ('<?xml version="1.0"?>\n'
-            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+    text = ('<?xml version="1.0"?>\n' + _xml_comment(comment)
+            + '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
             "  <Collection>\n" + rows + "  </Collection>\n</VTKFile>\n")
     path.write_text(text, encoding="utf-8")
 
 
-def _write_xdmf(meshio, path: Path, series: dict) -> None:
+def _write_xdmf(meshio, path: Path, series: dict, comment: str | None = None) -> None:
     with meshio.xdmf.TimeSeriesWriter(path, data_format="XML") as writer:
         writer.write_points_cells(series["rest"], [("line", series["springs"])])
         for k, t in enumerate(series["times"]):
             writer.write_data(float(t), point_data=_point_data(series, k),
                               cell_data={name: [values]
                                          for name, values in _spring_data(series, k).items()})
+    if comment:
+        text = path.read_text(encoding="utf-8")
+        end = text.index("?>") + 2 if text.startswith("<?xml") else 0
+        path.write_text(text[:end] + "\n" + _xml_comment(comment) + text[end:].lstrip("\n"),
+                        encoding="utf-8")
 
 
 def _remove_stale_frames(directory: Path, stem: str, keep: set[str]) -> None:
