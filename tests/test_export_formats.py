@@ -201,6 +201,9 @@ def test_the_sofa_scene_uses_sofa_components_as_sofa_defines_them(tmp_path, monk
         assert np.array_equal(fem["youngModulus"], model.element_youngs_modulus)
         assert np.array_equal(fem["poissonRatio"], model.element_poisson_ratio)
         assert any("merged into their volume-weighted mean" in n for n in exported.notes)
+        scene = runpy.run_path(str(exported.path))
+        assert scene["REGION_NAMES"] == ["liver", "tumour"]
+        assert scene["ELEMENT_REGION"] == model.element_region.tolist()
     else:
         rows = np.array(made["SpringForceField"].fields["spring"].split(), float).reshape(-1, 5)
         assert np.array_equal(rows[:, :2].astype(int), model.mesh.springs)

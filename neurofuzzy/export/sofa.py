@@ -97,6 +97,9 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         notes.append("SOFA's TetrahedronFEMForceField is corotational linear elasticity "
                      "(method 'large'): equal to our St. Venant-Kirchhoff element at small "
                      "strain, not at large strain")
+        if beta > 0 and np.any(runs.spring_stiffness > 0):
+            notes.append("the solver's Rayleigh damping also damps the springs (beta times "
+                         "their stiffness), which neurofuzzy does not")
     springs = np.flatnonzero((runs.spring_stiffness > 0) | (runs.spring_damping > 0))
     load_nodes, load = _load(prepared, experiment)
 
@@ -130,7 +133,10 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         lines += [f"TETRAHEDRA = {_array(mesh.tetrahedra, False)}",
                   f"YOUNGS_MODULUS = {_uniform_or_list(runs.element_youngs_modulus)}   # Pa",
                   f"POISSON_RATIO = {_uniform_or_list(runs.element_poisson_ratio)}",
-                  f"RAYLEIGH_STIFFNESS = {beta!r}   # s, eta / E"]
+                  f"RAYLEIGH_STIFFNESS = {beta!r}   # s, eta / E",
+                  f"REGION_NAMES = {json.dumps(list(runs.region_names))}",
+                  f"ELEMENT_REGION = {_array(runs.element_region, False)}   # index into "
+                  "REGION_NAMES (information: SOFA takes E and nu per element)"]
     else:
         lines += [f"EDGES = {_array(mesh.springs, False)}", "RAYLEIGH_STIFFNESS = 0.0"]
     lines += [f'SPRINGS = "{spring_text}"   # i j stiffness (N/m) damping (N s/m) rest length (m)',
