@@ -35,7 +35,8 @@ __all__ = ["export", "export_paraview", "TARGETS", "FORMATS", "Exported"]
 
 #: Where :func:`export` writes to, and the file suffix each target expects.
 TARGETS: dict[str, str] = {"mujoco": ".xml", "sofa": ".py", "febio": ".feb", "vtu": ""}
-#: The ParaView forms (``to="vtu"``).
+#: The ParaView forms (``to="vtu"``; the same as ``paraview.FORMATS``, kept here so that this
+#: package imports nothing heavy).
 FORMATS: tuple[str, ...] = ("vtu", "xdmf")
 #: The module and function that write each simulator's file.
 _WRITERS = {"mujoco": ("mujoco", "mjcf"), "sofa": ("sofa", "scene"), "febio": ("febio", "feb")}
