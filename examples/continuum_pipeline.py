@@ -15,13 +15,14 @@ Then, with the command line only:
 
     neurofuzzy mesh block.stl [--tetra] --fix-bottom --rules liver --tissue liver --out m.yaml
     neurofuzzy import markers.csv --topology m.yaml --forces probe.csv --out trial.npz
-    neurofuzzy fit trial.npz --rules liver --tissue liver --json
+    neurofuzzy fit trial.npz --rules liver --tissue liver --out fitted.yaml --json
 
 on the default voxel mesh (4 mm cells split into tetrahedra), a coarse 1 cm one, and, when
 TetGen is installed, TetGen's default mesh; then the paper's spring network
 (``--elements springs``) on the same voxel and TetGen meshes, whose E, nu and eta are those its
 spring constants stand for (nu locked at 1/4). The table gives what each recovers and the
-words.
+words. The last fitted model stays in OUT_DIR/fitted.yaml (with the record of its fit), ready
+for ``neurofuzzy export fitted.yaml trial.npz --to mujoco|sofa|febio|vtu``.
 
 Run:  python examples/continuum_pipeline.py [OUT_DIR] [--quick]   (needs scikit-fem;
 --quick: nu = 0.45 only, the default voxel mesh only, a shorter recording)
@@ -120,7 +121,7 @@ def pipeline(out: Path, mesh_options: list[str]) -> tuple[dict, str]:
         "--out", "trial.npz")
     springs = ["--elements", "springs"] if "springs" in mesh_options else []
     fitted = json.loads(run("fit", "trial.npz", "--rules", "liver", "--tissue", "liver",
-                            *springs, "--json", "--quiet"))
+                            *springs, "--out", "fitted.yaml", "--json", "--quiet"))
     return fitted, summary
 
 

@@ -22,12 +22,16 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - diagnosis: :func:`diagnose` (:class:`Diagnosis`)
 - many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
   :func:`cohort_report`
-- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`export_paraview`
+- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`export` (MuJoCo, SOFA, FEBio,
+  ParaView), :func:`export_paraview`
 - the rule studio in the browser: :func:`studio` (``pip install 'neurofuzzy[studio]'``)
 - errors: :class:`NeurofuzzyError`, :class:`InputError`, :class:`UnstableTimeStepError`
 
 No exported name is also the name of a submodule (the modules are ``simulation``,
-``diagnosis``, …), so ``nf.simulate`` is the function whatever was imported before.
+``diagnosis``, …), so ``nf.simulate`` is the function whatever was imported before. The one
+exception, ``export`` (the function, and the package ``neurofuzzy.export`` of the exporters),
+is bound at import: the package is imported with ``neurofuzzy`` (it is light) and the name
+set to the function, so no later import of the package replaces it.
 """
 
 from importlib import import_module
@@ -61,7 +65,7 @@ _EXPORTS = {
     "diagnose": "diagnosis", "Diagnosis": "diagnosis",
     "fit_many": "batch", "Cohort": "batch", "read_manifest": "batch", "cohort_report": "batch",
     "fit_report": "report", "diagnosis_report": "report",
-    "export_paraview": "export",
+    "export_paraview": "export", "export": "export",
     "studio": "rulestudio",
 }
 # names whose object has another name in its module
@@ -89,7 +93,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .errors import InputError, NeurofuzzyError, UnstableTimeStepError  # noqa: F401
     from .experiment import (Experiment, check_experiments, rms_error,  # noqa: F401
                              simulate_experiment, simulate_like)
-    from .export import export_paraview  # noqa: F401
+    from .export import export, export_paraview  # noqa: F401
     from .forces import SPRINGS, TETRAHEDRA, ForceTerm, SpringForce, TetrahedronForce  # noqa: F401
     from .io import load_experiment, load_model, save_experiment, save_model  # noqa: F401
     from .learn import (GradientLearner, PaperLearner, StartModel,  # noqa: F401
@@ -108,5 +112,8 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
 
 __version__ = "0.1.0"
+
+# the function, set over the package of the same name (see the module docstring)
+from .export import export  # noqa: E402
 
 __all__ = sorted(_EXPORTS)

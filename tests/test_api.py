@@ -16,9 +16,12 @@ def test_exported_names_survive_any_import_order():
     ``neurofuzzy.experiment`` imported the module ``neurofuzzy.simulate`` over the function)."""
     code = ("import neurofuzzy.experiment, neurofuzzy.simulation, neurofuzzy.diagnosis\n"
             "import neurofuzzy.cli.parser, neurofuzzy.learn, neurofuzzy.report\n"
+            "import neurofuzzy.export.mujoco, neurofuzzy.export.paraview\n"
+            "from neurofuzzy.export import export_paraview\n"
             "import neurofuzzy as nf\nimport types\n"
             "bad = [n for n in nf.__all__ if isinstance(getattr(nf, n), types.ModuleType)]\n"
             "assert not bad, bad\nassert callable(nf.simulate) and callable(nf.diagnose)\n"
+            "assert nf.export.__module__ == 'neurofuzzy.export'\n"
             "print(nf.simulate.__module__)")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr

@@ -355,14 +355,17 @@ def test_the_twin_of_an_earlier_report_is_replaced(tmp_path, capsys, files):
 
 
 def test_outputs_are_published_together_or_not_at_all(tmp_path, capsys, files, monkeypatch):
-    import neurofuzzy.export
+    import importlib
+
+    # the package (``neurofuzzy.export`` as an attribute is the function nf.export)
+    exporters = importlib.import_module("neurofuzzy.export")
 
     def broken(*args, **kwargs):
         from neurofuzzy.errors import InputError
 
         raise InputError("disk full (simulated)", source="paraview")
 
-    monkeypatch.setattr(neurofuzzy.export, "export_paraview", broken)
+    monkeypatch.setattr(exporters, "export_paraview", broken)
     refused(capsys, ["fit", files["npz"], "--tie", "global", "--out", tmp_path / "a" / "f.yaml",
                      "--report", tmp_path / "b" / "r.html", "--export", tmp_path / "pv",
                      "--quiet"], names="disk full", folder=tmp_path)

@@ -1,4 +1,5 @@
-"""Commands that move data: ``simulate``, ``mesh``, ``import``, ``export``."""
+"""Commands that move data: ``simulate``, ``mesh``, ``import``, ``export`` (to MuJoCo, SOFA,
+FEBio and ParaView)."""
 
 from __future__ import annotations
 
@@ -192,22 +193,59 @@ def import_markers(args) -> int:
 
 
 def export(args) -> int:
-    from ..export import export_paraview
+    if args.to == "vtu":
+        return _export_paraview(args)
+    from ..export import TARGETS, export as write
     from ..io import load_experiment, load_model
+    from ..model_files import load_fit_record
 
-    at_least(args.every, 1, "--every")
-    substeps = _substeps(args.substeps)
+    for option, value in (("--stem", args.stem), ("--every", args.every),
+                          ("--formats", args.formats)):
+        if value is not None:
+            raise InputError(f"applies to --to vtu only, not --to {args.to}", key=option)
+    at_least(args.max_materials, 1, "--max-materials")
+    substeps = _substeps(args.substeps or "auto")
+    suffix = TARGETS[args.to]
+    if Path(args.out).suffix.lower() != suffix:
+        raise InputError(f"expected a {suffix} file for --to {args.to}", source=str(args.out),
+                         key="--out")
     outputs = Outputs([Path(p) for p in (args.model, args.experiment) if p])
-    folder = outputs.folder(args.out, "--out", owns=vtu_series(args.stem))
+    out = outputs.file(args.out, "--out")
+    with outputs, naming(args.model):
+        model = load_model(args.model)
+        fit = load_fit_record(args.model)
+        experiment = load_experiment(args.experiment) if args.experiment else None
+        result = write(model, to=args.to, path=out, experiment=experiment, fit=fit,
+                       substeps=substeps, max_materials=args.max_materials)
+    for note in result.notes:
+        print(f"note: {note}")
+    if fit is None:
+        print(f"note: {args.model} holds no fit record: the file says 'lack of fit: not "
+              "recorded' (models written by 'neurofuzzy fit --out' have one)")
+    written(args.out)
+    return 0
+
+
+def _export_paraview(args) -> int:
+    from ..export import export as write
+    from ..io import load_experiment, load_model
+    from ..model_files import load_fit_record
+
+    every = 1 if args.every is None else args.every
+    stem = args.stem or "neurofuzzy"
+    at_least(every, 1, "--every")
+    substeps = _substeps(args.substeps or "auto")
+    outputs = Outputs([Path(p) for p in (args.model, args.experiment) if p])
+    folder = outputs.folder(args.out, "--out", owns=vtu_series(stem))
     with outputs, naming(args.model):
         model = load_model(args.model)
         experiment = load_experiment(args.experiment) if args.experiment else None
-        files = export_paraview(folder, model, experiment, every=args.every,
-                                substeps=substeps, stem=args.stem, formats=args.formats)
-        files = {kind: outputs.target_of(path) if isinstance(path, Path) else path
-                 for kind, path in files.items()}
-    frames = len(files.get("vtu", [])) or 1
-    written(files.get("pvd"), files.get("xdmf"))
+        result = write(model, to="vtu", path=folder, experiment=experiment,
+                       fit=load_fit_record(args.model), substeps=substeps, every=every,
+                       stem=stem, formats=args.formats or ["vtu", "xdmf"])
+        files = [outputs.target_of(path) for path in result.files]
+    frames = sum(1 for path in files if path.suffix == ".vtu") or 1
+    written(*[path for path in files if path.suffix in (".pvd", ".xdmf")])
     print(f"{frames} frames; open the .pvd in ParaView to play the simulation")
     return 0
 

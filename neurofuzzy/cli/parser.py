@@ -74,19 +74,35 @@ def build_parser() -> argparse.ArgumentParser:
     fit.set_defaults(run=fitting.fit)
 
     export = commands.add_parser(
-        "export", help="model and trajectories -> ParaView files (VTU/PVD, XDMF)",
-        description="Simulate a model (YAML) under an experiment's load and write simulated "
-                    "and measured trajectories, errors, strains and spring parameters as a "
-                    "VTU time series (open the .pvd) and an XDMF file, through meshio.")
+        "export", help="model -> MuJoCo, SOFA, FEBio or ParaView files",
+        description="Write a model (YAML) for a simulator: --to mujoco (MJCF .xml: node "
+                    "bodies, a flex per region and material, spring tendons), sofa "
+                    "(SofaPython3 scene .py), febio (.feb, format 4.0) or vtu (the default: "
+                    "simulated and measured trajectories, errors, strains and spring "
+                    "parameters as a VTU time series and an XDMF file for ParaView). Every "
+                    "file carries the fitted values, their units, the lack of fit recorded by "
+                    "'fit --out' and what the target could not express. An experiment sets "
+                    "the time step and the load (SOFA, FEBio) and measures what the "
+                    "simulators' textbook tetrahedron changes for the nodal volumetric form.")
     export.add_argument("model", metavar="MODEL.yaml")
     export.add_argument("experiment", nargs="?", metavar="EXPERIMENT.npz",
-                        help="measured trajectories and load (default: the model at rest)")
-    export.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    export.add_argument("--stem", default="neurofuzzy", help="file name stem")
-    export.add_argument("--every", type=int, default=1, help="keep every k-th frame")
-    export.add_argument("--formats", nargs="+", default=["vtu", "xdmf"],
-                        choices=("vtu", "xdmf"))
-    export.add_argument("--substeps", default="1", help="steps per frame of the simulation")
+                        help="measured trajectories and load (default: none; vtu shows the "
+                             "model at rest)")
+    export.add_argument("--to", choices=("vtu", "mujoco", "sofa", "febio"), default="vtu",
+                        help="the target (default vtu)")
+    export.add_argument("--out", required=True, metavar="PATH",
+                        help="the file to write (.xml, .py, .feb), or for vtu a folder")
+    export.add_argument("--substeps", default=None,
+                        help="steps per frame of the experiment: a number or 'auto' (the "
+                             "default: the fewest stable ones)")
+    export.add_argument("--max-materials", type=int, default=256, metavar="N",
+                        help="most distinct element materials (MuJoCo flexes, FEBio parts) "
+                             "before elements are binned (default 256)")
+    export.add_argument("--stem", default=None, help="vtu: file name stem (default neurofuzzy)")
+    export.add_argument("--every", type=int, default=None,
+                        help="vtu: keep every k-th frame (default 1)")
+    export.add_argument("--formats", nargs="+", default=None, choices=("vtu", "xdmf"),
+                        help="vtu: which ParaView forms (default both)")
     export.set_defaults(run=data.export)
 
     diagnose = commands.add_parser(

@@ -61,7 +61,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import InputError, closest_name
+from ..errors import InputError, closest_name
 
 __all__ = ["FORMATS", "export_paraview"]
 
@@ -70,9 +70,10 @@ FORMATS: tuple[str, ...] = ("vtu", "xdmf")
 
 
 def export_paraview(directory: str | os.PathLike, model, experiment=None, *, simulated=None,
-                    dt: float | None = None, every: int = 1, substeps: int = 1,
+                    dt: float | None = None, every: int = 1, substeps: int | str = 1,
                     stem: str = "neurofuzzy",
-                    formats: Sequence[str] = FORMATS) -> dict[str, Path | list[Path]]:
+                    formats: Sequence[str] = FORMATS,
+                    comment: str | None = None) -> dict[str, Path | list[Path]]:
     """Write a model and its trajectories as ParaView time series (VTU + PVD, XDMF).
 
     Parameters
@@ -96,12 +97,16 @@ def export_paraview(directory: str | os.PathLike, model, experiment=None, *, sim
     every : int
         Keep every ``every``-th frame (0, every, 2·every, …); the file names and times keep the
         original frame numbers.
-    substeps : int
-        Integration steps per frame for the default simulation.
+    substeps : int or "auto"
+        Integration steps per frame for the default simulation (``"auto"``: the fewest
+        stable ones).
     stem : str
         Base name of the files (a plain file name, no directory).
     formats : sequence of {"vtu", "xdmf"}
         Which forms to write.
+    comment : str, optional
+        Text put as an XML comment at the top of the ``.pvd`` and ``.xdmf`` (the fitted
+        values and the lack of fit, as :func:`neurofuzzy.export.export` writes them).
 
     Returns
     -------
@@ -160,9 +165,9 @@ def export_paraview(directory: str | os.PathLike, model, experiment=None, *, sim
         if "vtu" in formats:
             for k, name in enumerate(vtu_names):
                 _write_vtu(meshio, staging / name, series, k)
-            _write_pvd(staging / f"{stem}.pvd", vtu_names, series["times"])
+            _write_pvd(staging / f"{stem}.pvd", vtu_names, series["times"], comment)
         if "xdmf" in formats:
-            _write_xdmf(meshio, staging / f"{stem}.xdmf", series)
+            _write_xdmf(meshio, staging / f"{stem}.xdmf", series, comment)
         # frames first, the files that point at them last
         for name in targets:
             os.replace(staging / name, directory / name)
@@ -221,7 +226,7 @@ def _frames(model, experiment, simulated, dt, substeps) -> _Frames:
     """Check the inputs against each other and return the simulated frames."""
     n_nodes = model.n_nodes
     if experiment is not None:
-        from .experiment import check_experiments
+        from ..experiment import check_experiments
 
         check_experiments(model, experiment)
     trajectory_dt = None
@@ -244,7 +249,7 @@ def _frames(model, experiment, simulated, dt, substeps) -> _Frames:
     if simulated is None:
         if experiment is None:
             return _Frames(np.array(model.mesh.rest_positions, dtype=float)[None], frame_dt or 1.0)
-        from .experiment import simulate_like
+        from ..experiment import simulate_like
 
         return _Frames(simulate_like(model, experiment, substeps), frame_dt)
 
@@ -355,22 +360,33 @@ def _write_vtu(meshio, path: Path, series: dict, k: int) -> None:
     meshio.write(path, mesh, file_format="vtu")
 
 
-def _write_pvd(path: Path, files: Sequence[str], times: np.ndarray) -> None:
+def _xml_comment(comment: str | None) -> str:
+    """``comment`` as an XML comment line block (``--`` is not allowed inside one)."""
+    return "" if not comment else "<!--\n" + comment.replace("--", "- -") + "\n-->\n"
+
+
+def _write_pvd(path: Path, files: Sequence[str], times: np.ndarray,
+               comment: str | None = None) -> None:
     rows = "".join(f'    <DataSet timestep="{float(t)!r}" group="" part="0" '
                    f'file={quoteattr(name)}/>\n' for name, t in zip(files, times))
-    text = ('<?xml version="1.0"?>\n'
-            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+    text = ('<?xml version="1.0"?>\n' + _xml_comment(comment)
+            + '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
             "  <Collection>\n" + rows + "  </Collection>\n</VTKFile>\n")
     path.write_text(text, encoding="utf-8")
 
 
-def _write_xdmf(meshio, path: Path, series: dict) -> None:
+def _write_xdmf(meshio, path: Path, series: dict, comment: str | None = None) -> None:
     with meshio.xdmf.TimeSeriesWriter(path, data_format="XML") as writer:
         writer.write_points_cells(series["rest"], [("line", series["springs"])])
         for k, t in enumerate(series["times"]):
             writer.write_data(float(t), point_data=_point_data(series, k),
                               cell_data={name: [values]
                                          for name, values in _spring_data(series, k).items()})
+    if comment:
+        text = path.read_text(encoding="utf-8")
+        end = text.index("?>") + 2 if text.startswith("<?xml") else 0
+        path.write_text(text[:end] + "\n" + _xml_comment(comment) + text[end:].lstrip("\n"),
+                        encoding="utf-8")
 
 
 def _remove_stale_frames(directory: Path, stem: str, keep: set[str]) -> None:
