@@ -89,15 +89,20 @@ def _fit(args, progress, substeps, out, report, export, outputs):
         learner.fit(start.model, experiments)
     check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,
                   learner.rms_error_, learner.substeps_)
+    record = fit_record(learner, inputs)
     if out:
-        save_model(learner.model_, out, fit=fit_record(learner, inputs))
+        save_model(learner.model_, out, fit=record)
     files = {"fitted model": args.out} if args.out else {}
     exported = {}
     if export:
         from ..export import export_paraview
+        from ..export.metadata import header_lines
 
+        comment = "\n".join(header_lines(learner.model_, target="vtu", fit=record, notes=(),
+                                         experiment=experiments[0]))
         exported = export_paraview(export, learner.model_, experiments[0],
-                                   substeps=learner.substeps_, stem=Path(inputs[0]).stem)
+                                   substeps=learner.substeps_, stem=Path(inputs[0]).stem,
+                                   comment=comment)
         exported = {kind: outputs.target_of(path) if isinstance(path, (str, Path)) else path
                     for kind, path in exported.items()}
         files.update({f"ParaView {kind}": path for kind, path in exported.items()
