@@ -9,7 +9,14 @@ inside and with gravity nobody declared. :func:`block_model` and :func:`block_ex
 then build what a user of the toolkit would: a model meshed from the block's surface (voxels
 of any pitch, or TetGen; never the reference's own mesh) and the imported recording.
 
-Needs scikit-fem (``pip install '.[validation]'``).
+:func:`mujoco_block` makes the same recording with MuJoCo instead (``pip install mujoco``):
+the block as a MuJoCo flex of linear St. Venant–Kirchhoff tetrahedra with stiffness-
+proportional damping (another code's elements, integrator and damping form), on a mesh of
+``cell`` metres split its own way (five tetrahedra per cube, alternating, where our voxels take
+six around a diagonal), with the probe's patch load, an inclusion as a second flex and gravity
+as MuJoCo's own.
+
+Needs scikit-fem (``pip install '.[validation]'``), and mujoco for :func:`mujoco_block`.
 """
 
 from __future__ import annotations
@@ -20,8 +27,8 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["BLOCK", "Inclusion", "Recording", "probed_block", "marker_points", "block_model",
-           "block_experiment"]
+__all__ = ["BLOCK", "Inclusion", "Recording", "probed_block", "mujoco_block", "marker_points",
+           "block_model", "block_experiment", "five_tetrahedra_block"]
 
 #: The block and its probe (SI units).
 BLOCK = {"size": (0.04, 0.04, 0.03), "probe": (0.02, 0.02, 0.03), "force": 0.05,
@@ -160,3 +167,81 @@ def block_experiment(recording: Recording, mesh):
     forces[recording.touch:] = load
     return markers_to_experiment(recording.markers, mesh, forces=forces,
                                  source=recording.markers.source).experiment
+
+
+def five_tetrahedra_block(cell: float):
+    """``(points, tetrahedra)`` of the block in cubes of ``cell`` metres, each split into five
+    tetrahedra (a central one and four corners), mirrored from cube to cube so that faces
+    match: another split than our voxels' six Kuhn tetrahedra."""
+    size = np.array(BLOCK["size"])
+    cells = np.round(size / cell).astype(int)
+    shape = tuple(int(n) + 1 for n in cells)
+    points = np.argwhere(np.ones(shape, bool)).astype(float) * cell
+    index = np.arange(np.prod(shape)).reshape(shape)
+    even = [[0, 3, 5, 6], [0, 1, 3, 5], [0, 2, 3, 6], [0, 4, 5, 6], [3, 5, 6, 7]]
+    odd = [[1, 2, 4, 7], [0, 1, 2, 4], [1, 2, 3, 7], [1, 4, 5, 7], [2, 4, 6, 7]]
+    tetrahedra = []
+    for i, j, k in np.ndindex(*cells):
+        corners = [index[i + a, j + b, k + c] for a in (0, 1) for b in (0, 1) for c in (0, 1)]
+        for tet in (even if (i + j + k) % 2 == 0 else odd):
+            tetrahedra.append([corners[v] for v in tet])
+    return points, np.array(tetrahedra)
+
+
+def mujoco_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = None,
+                 gravity: bool = False, noise: float = 20e-6, rest_frames: int = 30,
+                 frames: int = 101, seed: int = 0, cell: float = 0.0025) -> Recording:
+    """:func:`probed_block`'s recording made by MuJoCo (module docstring) on cubes of
+    ``cell`` metres split in five."""
+    from .experiment import Experiment
+    from .export.mujoco import mjcf, simulate_mujoco
+    from .markers import MarkerData
+    from .mesh import from_tetra, patch_loads
+    from .model import SpringMassModel
+    from .observation import embed_points
+
+    points, tetrahedra = five_tetrahedra_block(cell)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    centroids = points[tetrahedra].mean(axis=1)
+    modulus = np.full(len(tetrahedra), BLOCK["youngs_modulus"])
+    region = np.zeros(len(tetrahedra), np.intp)
+    if inclusion is not None:
+        inside = inclusion.inside(centroids)
+        modulus[inside] *= inclusion.contrast
+        region[inside] = 1
+    truth_model = SpringMassModel.continuum(mesh, youngs_modulus=modulus,
+                                            poisson_ratio=poisson_ratio,
+                                            viscosity=BLOCK["viscosity"] * modulus
+                                            / BLOCK["youngs_modulus"],
+                                            density=BLOCK["density"], volumetric="element")
+    if inclusion is not None:
+        truth_model = truth_model.replace(region_names=("block", "inclusion"),
+                                          region_tissues=(None, None), element_region=region,
+                                          node_region=np.zeros(mesh.n_nodes, np.intp),
+                                          spring_region=np.zeros(mesh.n_springs, np.intp))
+    if gravity:
+        from .effects import Gravity
+
+        truth_model = truth_model.with_effects(Gravity((0.0, 0.0, -9.81)))
+    n_frames = rest_frames + frames
+    forces = np.zeros((n_frames, mesh.n_nodes, 3))
+    forces[rest_frames:] = patch_loads(mesh, BLOCK["probe"], BLOCK["radius"],
+                                       (0.0, 0.0, -BLOCK["force"]))
+    if gravity:                          # let go as the probe touches, as probed_block does
+        forces[:rest_frames] = -truth_model.node_mass[:, None] * np.array([0, 0, -9.81])
+    experiment = Experiment(mesh=mesh, dt=BLOCK["dt"],
+                            positions=np.repeat(mesh.rest_positions[None], n_frames, axis=0),
+                            external_forces=forces)
+    moved = simulate_mujoco(mjcf(truth_model, experiment=experiment)[0], experiment)
+    rest_points = marker_points()
+    nodes, weights, _ = embed_points(mesh, rest_points)
+    at_markers = np.einsum("mk,tmkj->tmj", weights, moved[:, nodes])
+    rng = np.random.default_rng(seed)
+    markers = MarkerData(names=tuple(f"M{i}" for i in range(len(rest_points))),
+                         times=np.arange(n_frames) * BLOCK["dt"],
+                         positions=at_markers + rng.normal(0.0, noise, at_markers.shape),
+                         source=f"<MuJoCo block, nu {poisson_ratio}, seed {seed}>")
+    truth = {"youngs_modulus": BLOCK["youngs_modulus"], "poisson_ratio": poisson_ratio,
+             "viscosity": BLOCK["viscosity"], "density": BLOCK["density"], "noise": noise,
+             "inclusion": inclusion, "gravity": gravity, "solver": "mujoco"}
+    return Recording(markers, rest_points, rest_frames, truth)

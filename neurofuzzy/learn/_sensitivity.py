@@ -27,6 +27,7 @@ from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence
 from ..observation import remove_offsets
 from ._compiled import CompiledModel, compiled_possible
+from ._compiled_gradient import compiled_gradient
 from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
 
 __all__ = ["Sensitivity", "Run"]
@@ -272,7 +273,7 @@ class Sensitivity:
         param = self.parameters
         model = param.model(theta)
         if self.compiled_gradient:
-            return self._compiled_gradient(model, experiment, substeps, starts)
+            return compiled_gradient(self, model, experiment, substeps, starts)
         weight = model.node_inverse_mass[:, None]
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
@@ -355,74 +356,6 @@ class Sensitivity:
                     d_v += e_v
                 lam_p = lam_p + d_p
                 lam_v = lam_vnew + d_v
-        return loss, grad, run
-
-    def _compiled_gradient(self, model, experiment, substeps, starts):
-        """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy._numba_adjoint`) for
-        models of springs and elements whose only effects are constant loads, a node drag
-        and inclusions of elements, none of them learned."""
-        from .._numba_adjoint import pull_back, sweep
-
-        param = self.parameters
-        compiled = CompiledModel(param, model)
-        a, b, stiffness, damping, rest = compiled.springs[:5]
-        drag, _, _, constant = compiled.effects
-        elements = compiled.elements[:11]       # the elements and their constants
-        n_frames, observation = experiment.n_frames, experiment.observation
-        frames = sorted(set(int(t) for t in starts) | {0})
-        start_index = np.full(n_frames, -1, np.intp)
-        start_index[frames] = np.arange(len(frames))
-        states = [self._window_state(experiment, t) for t in frames]
-        start_p = np.array([s[0] for s in states], dtype=float, order="C")
-        start_v = np.array([s[1] for s in states], dtype=float, order="C")
-        loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
-        h = experiment.dt / substeps
-        steps = (n_frames - 1) * substeps
-        positions = np.empty((n_frames, self.n_nodes, 3))
-        states_p = np.empty((steps, self.n_nodes, 3))
-        states_v = np.empty((steps, self.n_nodes, 3))
-        weight = np.ascontiguousarray(compiled.weight, dtype=float)
-        with np.errstate(over="ignore", invalid="ignore"):
-            sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_frames,
-                  int(substeps), start_index, start_p, start_v, positions, states_p, states_v)
-            scale = 1.0 / self.length_unit
-            residuals = self._frame_residuals(observation, positions)
-        run = Run(positions=positions, residuals=residuals[1:],
-                  n_measured=3 * int(observation.seen[1:].sum()))
-        loss = 0.5 * float(np.sum(residuals[1:] ** 2))
-        grad = np.zeros(param.size)
-        if not np.isfinite(loss):
-            return float("inf"), grad, run
-        # ∂L/∂p(t) = Hᵀ r(t) / length_unit, every frame at once
-        frame_adjoint = np.ascontiguousarray(np.moveaxis(observation.adjoint(
-            np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
-            self.n_nodes, n_frames, 3), 0, 1) * scale)
-        d_stiffness, d_damping = np.zeros(len(a)), np.zeros(len(a))
-        n_elements, nodal = len(elements[0]), elements[7]
-        per_volumetric = self.n_nodes if nodal else n_elements   # λ, λβ: per node or element
-        d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
-                      np.zeros(per_volumetric))
-        pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frames,
-                  int(substeps), start_index, states_p, states_v, frame_adjoint, d_stiffness,
-                  d_damping, d_elements)
-        if param.learn_springs:
-            tie, n_ties = param.tied.tie, param.tied.n_ties
-            grad[param.blocks["log_stiffness"].slice] = np.bincount(
-                tie, stiffness * d_stiffness, n_ties)
-            grad[param.blocks["log_damping"].slice] = np.bincount(
-                tie, damping * d_damping, n_ties)
-        if n_elements:
-            # the constants' derivatives by the parameters, as in the forward kernel
-            (pointer, column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-             d_node_lam_rate) = compiled.elements[11:19]
-            element = np.repeat(np.arange(n_elements), np.diff(pointer))
-            g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
-            weights = d_shear * g_shear[element] + d_shear_rate * g_shear_rate[element]
-            if nodal:
-                grad += d_node_lam.T @ g_lam + d_node_lam_rate.T @ g_lam_rate
-            else:
-                weights = weights + d_lam * g_lam[element] + d_lam_rate * g_lam_rate[element]
-            grad += np.bincount(column, weights, param.size)
         return loss, grad, run
 
     def _frame_residuals(self, observation, positions) -> np.ndarray:

@@ -21,7 +21,7 @@ from scipy.optimize import minimize
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, rms_error
 from ..model import SpringMassModel
-from ..simulation import check_substeps, stability_limit
+from ..simulation import check_substeps
 from ..progress import Progress, note
 from ._base import Learner
 from . import _passes as passes
@@ -31,7 +31,8 @@ from ._prior_weight import set_prior
 from ._sensitivity import Sensitivity
 from .identifiability import structurally_unidentifiable
 from .lack_of_fit import length_text
-from .steps import auto_substeps, fits_offsets, stable_start
+from .steps import (auto_substeps, fits_offsets, parameter_bounds, stable_at_one_step,
+                    stable_start)
 from .region_test import homogeneous_fit, supported_regions
 from .regions import regions_found
 from .uncertainty import assess, intervals_dict
@@ -169,8 +170,7 @@ class GradientLearner(Learner):
         self.rms_error_initial_ = rms_error(model, experiments, substeps=initial_steps,
                                             offsets=offsets)
         # one step per frame (the paper's network) is tried only where it is stable
-        discrete = not auto or all(e.dt <= stability_limit(model).max_step
-                                   for e in experiments)
+        discrete = not auto or stable_at_one_step(model, experiments)
         self.n_cycles_ = 0
         self._trace = []        # (E, RMS) best so far after every simulation of the data
         model = stable_start(model, min(e.dt for e in experiments)
@@ -181,7 +181,7 @@ class GradientLearner(Learner):
                                   offsets=offsets)
         method = self._method(parameters, experiments)
         theta = parameters.initial()
-        lower, upper = self._bounds(parameters, theta)
+        lower, upper = parameter_bounds(parameters, theta, self.bounds)
         # Parameters that cannot influence any observed node (springs between fixed nodes)
         # keep their start values; the solvers see only the others.
         active = np.setdiff1d(np.arange(parameters.size),
@@ -227,7 +227,7 @@ class GradientLearner(Learner):
             if rms_inf < best[0]:
                 best = (rms_inf, theta_inf, 2 * k)
                 self.extrapolated_ = True
-            if not discrete and self._stable(parameters, best[1], experiments):
+            if not discrete and stable_at_one_step(parameters.model(best[1]), experiments):
                 # a start unstable at one step per frame may end stable there: data of the
                 # paper's network (one step per frame) are fitted exactly only at that step
                 theta_1 = fit(best[1], 1, self.windows)
@@ -256,12 +256,6 @@ class GradientLearner(Learner):
         return {**super().to_dict(), "offsets": self.offsets_,
                 "extrapolated": self.extrapolated_, "parameters": self.parameter_names_,
                 **self.identifiability_.to_dict(), **intervals_dict(self), "prior": self.prior_}
-
-    @staticmethod
-    def _stable(parameters, theta, experiments) -> bool:
-        """Is one step per frame stable for the model of ``theta`` on every experiment?"""
-        limit = stability_limit(parameters.model(theta)).max_step
-        return all(e.dt <= limit for e in experiments)
 
     # -- stages and solvers -----------------------------------------------------------------
     def _method(self, parameters, experiments) -> str:
@@ -310,22 +304,6 @@ class GradientLearner(Learner):
             progress.update(stage + 1, f"{what}, RMS {length_text(self._trace[-1][1])} "
                             "per marker")
         return theta
-
-    def _bounds(self, parameters: Parameterization, theta: np.ndarray):
-        lower = np.full_like(theta, -np.inf)
-        upper = np.full_like(theta, np.inf)
-        span = np.log(self.bounds)
-        if "logit_poisson_ratio" in parameters.blocks:
-            # Poisson's ratio between 0.001 and 0.4999 (θ = logit 2ν)
-            block = parameters.blocks["logit_poisson_ratio"].slice
-            lower[block], upper[block] = np.log(0.002 / 0.998), np.log(0.9998 / 0.0002)
-        for name in ("log_stiffness", "log_damping", "log_mass", "log_youngs_modulus",
-                     "log_viscosity"):
-            if name in parameters.blocks:
-                block = parameters.blocks[name].slice
-                lower[block] = theta[block] - span
-                upper[block] = theta[block] + span
-        return lower, upper
 
     def _record(self, runs, length_unit: float) -> None:
         """One more simulation of the data: count it and keep the best ``E`` and RMS error so

@@ -12,7 +12,8 @@ from ..experiment import Experiment
 from ..model import SpringMassModel
 from ..simulation import stability_limit
 
-__all__ = ["auto_substeps", "stable_start", "fits_offsets", "AUTO_STEP_OMEGA"]
+__all__ = ["auto_substeps", "stable_start", "stable_at_one_step", "fits_offsets",
+           "parameter_bounds", "AUTO_STEP_OMEGA"]
 
 #: Largest ``h·ω_max`` that :func:`auto_substeps` accepts: semi-implicit Euler shifts a mode's
 #: frequency by about ``(hω)²/24`` and its damping by about ``hγ/2``.
@@ -58,3 +59,29 @@ def auto_substeps(model: SpringMassModel, dt: float) -> int:
         return max(1, int(np.ceil(2.0 * by_stability)))
     by_accuracy = limit.omega_max * dt / AUTO_STEP_OMEGA
     return max(1, int(np.ceil(max(by_accuracy, by_stability))))
+
+
+def stable_at_one_step(model: SpringMassModel, experiments: Sequence[Experiment]) -> bool:
+    """Is one step per frame (the paper's network) stable for ``model`` on every
+    experiment?"""
+    limit = stability_limit(model).max_step
+    return all(e.dt <= limit for e in experiments)
+
+
+def parameter_bounds(parameters, theta: np.ndarray, factor: float):
+    """``(lower, upper)`` of the learner's parameters: stiffness, viscosity, modulus and mass
+    within ``factor`` of their start ``theta``; Poisson's ratio between 0.001 and 0.4999."""
+    lower = np.full_like(theta, -np.inf)
+    upper = np.full_like(theta, np.inf)
+    span = np.log(factor)
+    if "logit_poisson_ratio" in parameters.blocks:
+        # Poisson's ratio between 0.001 and 0.4999 (θ = logit 2ν)
+        block = parameters.blocks["logit_poisson_ratio"].slice
+        lower[block], upper[block] = np.log(0.002 / 0.998), np.log(0.9998 / 0.0002)
+    for name in ("log_stiffness", "log_damping", "log_mass", "log_youngs_modulus",
+                 "log_viscosity"):
+        if name in parameters.blocks:
+            block = parameters.blocks[name].slice
+            lower[block] = theta[block] - span
+            upper[block] = theta[block] + span
+    return lower, upper
