@@ -24,14 +24,15 @@ TRUTH = {"youngs_modulus[all elements]": BLOCK["youngs_modulus"],
 @pytest.fixture(scope="module")
 def plain():
     start = block_model(pitch=PITCH)
-    return start, block_experiment(probed_block(noise=5e-6, seed=3), start.mesh)
+    return start, block_experiment(probed_block(noise=5e-6, seed=3, rest_frames=20, frames=70),
+                                   start.mesh)
 
 
 @pytest.fixture(scope="module")
 def inclusion():
     start = block_model(pitch=PITCH)
-    return start, block_experiment(probed_block(noise=5e-6, seed=4, inclusion=Inclusion()),
-                                   start.mesh)
+    return start, block_experiment(probed_block(noise=5e-6, seed=4, inclusion=Inclusion(),
+                                                rest_frames=20, frames=70), start.mesh)
 
 
 @pytest.mark.slow

@@ -4,7 +4,9 @@ Columns (:data:`COLUMNS`): the specimen's ``id``, ``group`` and ``status`` (``ok
 ``failed`` or ``waiting``), the ``region`` and its ``tissue``, the learned materials
 (:data:`QUANTITIES`: ``youngs_modulus`` Pa, ``poisson_ratio``, ``viscosity`` Pa·s,
 ``density`` kg/m³) with the rule base's word for each (``youngs_modulus_word`` …), the fit
-quality (``rms_error`` m, ``noise_rms`` m, ``noise_ratio``), the ``effects`` a diagnosis
+quality (``rms_error`` m per marker, ``noise_rms`` m, ``noise_ratio`` and whether the fit
+``explained`` the data to the noise, :mod:`neurofuzzy.learn.lack_of_fit`), the ``effects`` a
+diagnosis
 found, ``seconds``, the specimen's ``report`` (relative to the output folder) and ``error``.
 """
 
@@ -23,7 +25,7 @@ __all__ = ["QUANTITIES", "COLUMNS", "TABLE_NAME", "table_rows", "write_table"]
 QUANTITIES = ("youngs_modulus", "poisson_ratio", "viscosity", "density")
 COLUMNS = ("id", "group", "status", "region", "tissue", *QUANTITIES,
            *(f"{q}_word" for q in QUANTITIES), "rms_error", "noise_rms", "noise_ratio",
-           "effects", "seconds", "report", "error")
+           "explained", "effects", "seconds", "report", "error")
 TABLE_NAME = "results.csv"
 
 
@@ -51,6 +53,7 @@ def table_rows(specimens, records: dict) -> list[dict]:
         common = {**base, "rms_error": quality.get("rms_error", fit.get("rms_error")),
                   "noise_rms": quality.get("noise_rms"),
                   "noise_ratio": quality.get("noise_ratio"),
+                  "explained": quality.get("explained"),
                   "effects": " ".join(fit["diagnosis"]["effects"]) if "diagnosis" in fit
                   else None,
                   "seconds": record.get("seconds"), "report": f"{specimen.id}/report.html"}

@@ -17,7 +17,6 @@ import time
 import traceback
 from pathlib import Path
 
-import numpy as np
 
 from ..errors import NeurofuzzyError
 from .manifest import Specimen, relative_path
@@ -89,7 +88,7 @@ def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
                       tie=options.get("tie") or ("model" if specimen.start else "groups"),
                       experiments=inputs)
     fit["quality"] = fit_quality(learner.model_, experiments, learner.substeps_,
-                                 rms=learner.rms_error_)
+                                 lack_of_fit=learner.lack_of_fit_)
     with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
         folder = Path(folder)
         save_model(learner.model_, folder / "fitted.yaml")
@@ -135,13 +134,9 @@ def load_specimen_experiments(specimen: Specimen) -> list:
             for path, force in zip(specimen.markers, forces)]
 
 
-def fit_quality(model, experiments, substeps: int = 1, *, rms: float | None = None) -> dict:
-    """How well ``model`` explains ``experiments``, against the markers' own noise.
-
-    The marker noise is estimated from the fitted model's trajectory error: a model's error
-    is smooth in time, white noise is not, so the first differences of the error give the
-    noise's standard deviation σ (:func:`~neurofuzzy.diagnosis.residuals.marker_noise`,
-    median-based, 0 for noise-free data).
+def fit_quality(model, experiments, substeps: int = 1, *, lack_of_fit=None) -> dict:
+    """How well ``model`` explains ``experiments``, against the markers' own noise: the lack
+    of fit of every fit (:mod:`neurofuzzy.learn.lack_of_fit`) in the table's columns.
 
     Parameters
     ----------
@@ -150,36 +145,21 @@ def fit_quality(model, experiments, substeps: int = 1, *, rms: float | None = No
     experiments : sequence of Experiment
     substeps : int
         Integration steps per frame with which ``model`` reproduces the data.
-    rms : float, optional
-        The RMS error if known (:func:`~neurofuzzy.experiment.rms_error` otherwise).
+    lack_of_fit : LackOfFit, optional
+        The fit's own (computed otherwise).
 
     Returns
     -------
     dict
-        ``rms_error`` (m), ``noise_rms`` (m: ``σ√3``, what noise alone adds to a marker's
-        3-D RMS error) and ``noise_ratio`` (``rms_error / noise_rms``: 1 means the fit
-        explains everything but the noise; None for noise-free data).
+        ``rms_error`` (m, per marker), ``noise_rms`` (m: ``σ√3``, what noise alone adds to a
+        marker's 3-D RMS error), ``noise_ratio`` (``rms_error / noise_rms``: 1 means the fit
+        explains everything but the noise; None for noise-free data), ``explained`` and
+        ``verdict``.
     """
-    from ..noise import marker_noise
-    from ..experiment import rms_error, simulate_like
+    from ..learn.lack_of_fit import model_lack_of_fit
 
-    if rms is None:
-        rms = rms_error(model, experiments, substeps=substeps)
-    variance, count = 0.0, 0
-    for experiment in experiments:
-        observation = experiment.observation
-        always = observation.seen[1:].all(axis=0)       # rows without gaps
-        if not always.any():
-            continue
-        with np.errstate(all="ignore"):
-            simulated = simulate_like(model, experiment, substeps)
-        error = observation.residuals(simulated)[1:, always]
-        if not np.all(np.isfinite(error)):
-            return {"rms_error": rms, "noise_rms": None, "noise_ratio": None}
-        motion = observation.values[1:, always] - observation.values[:1, always]
-        sigma = marker_noise(error, motion)
-        variance += sigma**2 * error.size
-        count += error.size
-    noise_rms = float(np.sqrt(3 * variance / count)) if count else 0.0
-    ratio = rms / noise_rms if noise_rms > 0 and np.isfinite(rms) else None
-    return {"rms_error": rms, "noise_rms": noise_rms, "noise_ratio": ratio}
+    if lack_of_fit is None:
+        lack_of_fit = model_lack_of_fit(model, experiments, substeps=substeps)
+    ratio = lack_of_fit.ratio if lack_of_fit.noise > 0 else None
+    return {"rms_error": lack_of_fit.rms, "noise_rms": lack_of_fit.noise, "noise_ratio": ratio,
+            "explained": lack_of_fit.explained, "verdict": lack_of_fit.verdict}

@@ -3,6 +3,7 @@ a report and JSON out. The start policy is the library's :func:`~neurofuzzy.lear
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
@@ -51,6 +52,8 @@ def fit(args) -> int:
     result = fit_summary(learner, start, method=args.method,
                          tie=args.tie or ("model" if args.start else "groups"),
                          experiments=inputs)
+    if not learner.lack_of_fit_.explained and not args.quiet:
+        print(f"neurofuzzy: warning: {learner.lack_of_fit_.verdict}", file=sys.stderr)
     if args.json:
         print_json(result)
     else:

@@ -6,14 +6,14 @@ values wherever that lowers the misfit. When the homogeneous model (one E, ν an
 stays above the marker noise because of what it misses (a coarse mesh, another
 discretisation, an effect), the items bend to absorb that error too, and :func:`regions_found`
 turns the bends into "regions" with words (seven of them, on scikit-fem data of a homogeneous
-block fitted on 1 cm voxels). So every region found is tested (:func:`supported_regions`): the
-homogeneous model of every region (fitted first, :func:`homogeneous_fit`) with the region's
-items as one more tie group (its own E, ν and η, or stiffness and viscosity) is refitted, and
-the region is kept only when that shrinks the misfit above the noise at least ``MIN_SHRINK``
-times (the diagnosis's rule for adding an effect) and its likelihood ratio against the
-homogeneous model beats the Bayesian information criterion with the homogeneous model's own
-residual as the noise (the honest level: model error and marker noise together). A smaller
-gain is what any extra freedom buys against model error.
+block fitted on 1 cm voxels). So every region found is tested (:func:`supported_regions`),
+largest first: the homogeneous model of every region (fitted first, :func:`homogeneous_fit`),
+with the regions kept so far and the region's items as one more tie group (its own E, ν and
+η, or stiffness and viscosity), is refitted, and the region is kept only when that shrinks
+the misfit above the noise at least ``MIN_SHRINK`` times (the diagnosis's rule for adding an
+effect) and its likelihood ratio beats the Bayesian information criterion with the residual
+of the model without it as the noise (the honest level: model error and marker noise
+together). A smaller gain is what any extra freedom buys against model error.
 
 The prior's weight stays with the discrepancy principle against the marker noise: it is a
 search for candidates, and the test decides. (Asking the item-by-item fit to explain the data
@@ -71,16 +71,16 @@ def homogeneous_fit(learner, model, experiments):
 
 
 def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -> dict:
-    """``found`` (:func:`~.regions.regions_found`) with every region tested against the
-    ``homogeneous`` fit (module docstring): the kept ones stay in ``"regions"``, the others
-    move to ``"rejected"``; each carries ``"evidence"``: the RMS error per marker (m) without
-    and with it, the shrink of the misfit above the noise and the BIC gain."""
+    """``found`` (:func:`~.regions.regions_found`) with every region tested (module
+    docstring), largest first, each against the homogeneous fit with the regions kept so far
+    (so two regions that describe one inclusion, say a harder E and a lower η over the same
+    elements, do not both pass): the kept ones stay in ``"regions"``, the others move to
+    ``"rejected"``; each carries ``"evidence"``: the RMS error per marker (m) without and
+    with it, the shrink of the misfit above the noise and the BIC gain."""
     from .gradient import GradientLearner
 
-    base = homogeneous.model_
+    current = homogeneous
     noise = homogeneous.lack_of_fit_.noise
-    rms0 = homogeneous.rms_error_
-    gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
     count = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
     options = {**homogeneous.get_params(), "progress": False}
     kept, rejected = [], []
@@ -89,22 +89,22 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
             region["evidence"] = {"tested": False}
             rejected.append(region)
             continue
+        base = current.model_
         items = np.asarray(region.get("elements", region.get("springs")), dtype=int)
         if "elements" in region:
             tie = base.element_tie.copy()
             tie[items] = tie.max() + 1
-            model = base.replace(element_tie=tie)
-            extra = 3
+            model, extra = base.replace(element_tie=tie), 3
         else:
             tie = base.spring_tie.copy()
             tie[items] = tie.max() + 1
-            model = base.replace(spring_tie=tie)
-            extra = 2
+            model, extra = base.replace(spring_tie=tie), 2
         refit = GradientLearner(**options).fit(model, experiments)
-        rms1 = refit.rms_error_
+        rms0, rms1 = current.rms_error_, refit.rms_error_
+        gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
         gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))
         shrink = gap0 / gap1 if gap1 > 0 else np.inf
-        # likelihood ratio with the homogeneous model's residual as the variance
+        # likelihood ratio with the residual of the model without it as the variance
         bic = count * np.log(max(rms0, 1e-300) ** 2 / max(rms1, 1e-300) ** 2) \
             - extra * np.log(count)
         keep = bool(shrink >= MIN_SHRINK and bic > 0)
@@ -115,5 +115,9 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
                      f"{region['size']} items): RMS {length_text(rms0)} -> "
                      f"{length_text(rms1)} per marker, the misfit above the noise shrinks "
                      f"{shrink:.2g}x: {'kept' if keep else 'model error, not tissue'}")
-        (kept if keep else rejected).append(region)
+        if keep:
+            kept.append(region)
+            current = refit
+        else:
+            rejected.append(region)
     return {**found, "regions": kept, "rejected": rejected}
