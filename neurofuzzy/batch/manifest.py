@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 from dataclasses import dataclass, field
@@ -43,7 +44,8 @@ from ..errors import InputError, closest_name
 from ..learn.prior import parse_prior
 from ..learn.run import METHODS
 
-__all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES"]
+__all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES",
+           "FOLDER_FILES", "BOOKS_NAME"]
 
 #: every column a manifest may have
 COLUMNS = ("id", "group", "experiments", "markers", "forces", "units", "dt", "start", "rules",
@@ -57,6 +59,11 @@ _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 _TRUE, _FALSE = ("true", "yes", "1"), ("false", "no", "0", "")
 #: part of every fingerprint: a change in what a specimen's task computes invalidates results
 _TASK_VERSION = "fit-many/1"
+#: the record of the manifest a results folder was made from (what ``--resume`` checks)
+BOOKS_NAME = "fit-many.json"
+#: the files fit-many keeps at the top of its results folder: no specimen's folder may take
+#: their names (compared without letter case, as macOS and Windows file systems do)
+FOLDER_FILES = ("results.csv", "results.parquet", BOOKS_NAME)
 
 
 @dataclass(frozen=True)
@@ -160,18 +167,29 @@ def read_manifest(path: str | os.PathLike) -> list[Specimen]:
     rows = _csv_rows(path) if suffix == ".csv" else _yaml_rows(path)
     if not rows:
         raise InputError("lists no specimens", source=source)
-    specimens, problems, seen = [], [], {}
+    specimens, problems, seen, folded = [], [], {}, {}
     for line, row in rows:
         try:
             specimen = _specimen(row, path, line)
             if specimen.id in seen:
                 raise specimen.error(f"{specimen.id!r} is also the id of line {seen[specimen.id]}"
                                      "; ids name the result folders and must be unique", "id")
+            if specimen.id.lower() in folded:
+                other, at = folded[specimen.id.lower()]
+                raise specimen.error(f"{specimen.id!r} and {other!r} (line {at}) differ only in "
+                                     "letter case: on macOS and Windows they name one folder; "
+                                     "make the ids differ", "id")
+            if specimen.id.lower() in FOLDER_FILES:
+                raise specimen.error(f"{specimen.id!r} is the name of a file fit-many keeps in "
+                                     f"the results folder ({', '.join(FOLDER_FILES)}); choose "
+                                     "another id", "id")
             seen[specimen.id] = line
+            folded[specimen.id.lower()] = (specimen.id, line)
             specimens.append(specimen)
         except InputError as problem:
             problems.append(problem)
     problems += _check_tissues(specimens)
+    problems += _check_marker_units(specimens)
     if problems:
         more = "" if len(problems) == 1 else (
             f" (and {len(problems) - 1} more: " + "; ".join(
@@ -316,8 +334,9 @@ def _options(text: dict, problem) -> dict:
                 value = kind(text[key])
             except ValueError:
                 value = None
-            if value is None or not value > 0:
-                raise problem(f"got {text[key]!r}; expected a positive number", key)
+            if value is None or not (math.isfinite(value) and value > 0):
+                raise problem(f"got {text[key]!r}; expected a positive number"
+                              + (" of seconds" if key == "dt" else ""), key)
             options[key] = value
     if text.get("substeps"):
         try:
@@ -401,6 +420,26 @@ def _check_tissues(specimens: list[Specimen]) -> list[InputError]:
                 f"{specimen.tissue!r} is not a tissue of {rules.name}"
                 + (f"; did you mean {hint!r}?" if hint else
                    f"; it has {', '.join(rules.tissues)}"), "tissue"))
+    return problems
+
+
+def _check_marker_units(specimens: list[Specimen]) -> list[InputError]:
+    """A row's ``units`` must agree with the unit its marker CSVs state (a unit given twice,
+    differently, is refused here, not half-way through the batch)."""
+    from ..markers.units import LENGTH_UNITS, header_statements, unit_factor
+
+    problems = []
+    for specimen in specimens:
+        units = specimen.options.get("units")
+        for path in specimen.markers if units else ():
+            if path.suffix.lower() != ".csv":
+                continue
+            try:
+                unit_factor(LENGTH_UNITS, what="length", stated=header_statements(path),
+                            keys=("units", "length units"), source=str(path), given=units,
+                            given_as="the manifest's units")
+            except InputError as error:
+                problems.append(specimen.error(f"markers {path.name}: {error}", "units"))
     return problems
 
 
