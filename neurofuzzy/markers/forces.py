@@ -22,8 +22,10 @@ __all__ = ["read_forces", "write_node_forces", "force_file_form", "FORCE_STATEME
 
 #: the unit statements a force file may make
 FORCE_STATEMENTS = ("force units", "length units", "time units", "units")
-#: a share of a force on fixed nodes above this is worth a warning
+#: a share of a force on fixed nodes above this is worth a warning…
 FIXED_SHARE_NOTED = 0.01
+#: …and above this the force is lost: refused
+FIXED_SHARE_REFUSED = 0.99
 
 _COLUMNS = [("time",), ("node", "x"), ("fx",), ("fy",), ("fz",)]
 
@@ -317,15 +319,17 @@ def _check_fixed(entries, mesh, source, stated) -> None:
         if not np.any(entry.value):
             continue
         share = float(np.sum(entry.weight[fixed[entry.nodes]]))
-        if share > 1 - 1e-9:
+        if share >= FIXED_SHARE_REFUSED:
             nodes = entry.nodes[fixed[entry.nodes]].tolist()
             if entry.point is None:
                 raise InputError(f"node {nodes[0]} is fixed: a force there never acts; check "
                                  "the node numbers (or give the forces at points)",
                                  source=source, line=entry.line)
             raise InputError(f"the point ({', '.join(f'{c:g}' for c in entry.point)}) lies "
-                             f"on fixed nodes only ({', '.join(map(str, nodes[:6]))}), where "
-                             "a force never acts; check the coordinates and their unit "
+                             f"on fixed nodes only ({', '.join(map(str, nodes[:6]))}"
+                             + ("" if share > 1 - 1e-9 else f": {share:.1%} of its force")
+                             + "), where a force never acts; check the coordinates and their "
+                             "unit "
                              f"('# length units: {stated.get('length units', '?')}')"
                              + _unit_hint(entry.point, mesh, fixed,
                                           stated.get("length units", "")), source=source,
