@@ -19,7 +19,7 @@ from .errors import InputError, PlausibilityWarning
 __all__ = ["BODY_EXTENT", "USUAL_BODY_EXTENT", "FRAME_STEPS", "MARKER_SPREAD", "extent",
            "check_body_size", "scale_hint", "check_frame_period", "check_marker_spread",
            "check_same_body", "check_resampling", "check_recording", "check_fit_inputs",
-           "warn"]
+           "check_length_option", "warn"]
 
 #: (smallest, largest) extent in metres of a body of tissue a model can be made of: below a
 #: tenth of a millimetre there is no tissue sample to track; above 3 m nothing is one organ or
@@ -292,3 +292,19 @@ def check_fit_inputs(experiments, model, *, substeps="auto",
                            duration=experiment.dt * (experiment.n_frames - 1), key="dt",
                            fix="import the recording again with its times in seconds "
                                "('# time units: ms')")
+
+
+def check_length_option(value: float | None, body: float, option: str, what: str, *,
+                        refused: float = 1.0, warned: float | None = None) -> None:
+    """A length given as an option (metres) against the body's extent ``body``: refused
+    above ``refused`` times it ("a marker noise of 0.5 m on a body 4 cm across": the value
+    is not in metres), warned about above ``warned`` times it."""
+    if value is None or not body > 0 or not math.isfinite(value):
+        return
+    if value > refused * body:
+        raise InputError(f"got {value:g} m: {what} of {value:.3g} m on a body {body:.3g} m "
+                         f"across cannot be right; it is in metres (e.g. {value * 1e-3:g} for "
+                         f"{value:g} mm)", key=option)
+    if warned is not None and value > warned * body:
+        warn(f"{option} {value:g} m: {what} is {100 * value / body:.0f} % of the body "
+             f"({body:.3g} m across); is it in metres?")

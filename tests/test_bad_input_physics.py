@@ -202,8 +202,8 @@ def test_recordings_and_loads_that_cannot_be_right_are_refused(block, tmp_path, 
                                    ["probe.csv:4:", "lies on fixed nodes only", "with "
                                     "'# length units: m' it would touch the surface"]),
         "radius and node forces": (node_file, ["probe.csv", "--probe-radius", "names nodes"]),
-        "radius beyond the body": (PROBE, ["probe.csv", "contact radius of 0.5 m "
-                                           "(--probe-radius) is larger than the body"]),
+        "radius beyond the body": (PROBE, ["--probe-radius", "a probe's contact radius of "
+                                           "0.5 m on a body 0.04 m across cannot be right"]),
         "radius twice": (PROBE.replace("fz\n", "fz,radius\n").replace("0\n", "0,5\n")
                          .replace("-0.05\n", "-0.05,5\n"), ["probe.csv", "radius column",
                                                             "give it once"]),
@@ -390,3 +390,34 @@ def test_an_element_model_file_beyond_physics_names_line_element_and_tissue(bloc
             names=[f"bad.yaml:{line}: elements.poisson_ratio: element 3 (region 'liver', "
                    "tissue 'liver') has Poisson's ratio 0.5; it must lie in (0, 0.5)"],
             folder=tmp_path)
+
+
+@pytest.mark.parametrize("args, names", [
+    (["simulate", "MODEL", "--noise", "0.5", "--frames", "3"],
+     ["--noise", "a marker noise of 0.5 m on a body 0.04 m across cannot be right"]),
+    (["import", "MARKERS", "--topology", "MODEL", "--max-distance", "5"],
+     ["--max-distance", "5 m on a body 0.04 m across"]),
+    (["mesh", "STL", "--rules", "liver", "--tissue", "liver", "--fix-below", "0.5"],
+     ["--fix-below", "at or above the top of the mesh"]),
+])
+def test_lengths_given_as_options_are_checked_against_the_body(block, tmp_path, capsys, args,
+                                                               names):
+    args = [{"MODEL": block["model"], "MARKERS": block["markers"],
+             "STL": block["folder"] / "block.stl"}.get(a, a) for a in args]
+    refused(capsys, [*args, "--out", tmp_path / "out.x"], names=names, folder=tmp_path)
+
+
+def test_markers_in_one_corner_of_a_mesh_in_another_unit_are_refused(block, tmp_path, capsys):
+    """A mesh 60 times too large (2.4 m: possible, so only warned about) holds the markers of
+    the real 4 cm block in one corner: the import is refused, naming both scales."""
+    from dataclasses import replace
+
+    from neurofuzzy.io import load_model, save_model
+
+    model = load_model(block["model"])
+    big = save_model(model.replace(mesh=replace(model.mesh, rest_positions=60
+                                                * model.mesh.rest_positions),
+                                   spring_rest_length=None), tmp_path / "big.yaml")
+    refused(capsys, ["import", block["markers"], "--topology", big, "--out", tmp_path / "t.npz"],
+            names=["markers.csv", "the markers span", "of the mesh", "big.yaml",
+                   "sit in one corner of it"], folder=tmp_path)

@@ -19,6 +19,7 @@ def simulate(args) -> int:
     from ..datasets import CUBE, paper_cube_model, top_centre_node
     from ..experiment import simulate_experiment
     from ..io import load_model, save_experiment
+    from ..plausibility import check_length_option, extent
 
     positive(args.dt, "--dt")
     at_least(args.frames, 2, "--frames")
@@ -28,6 +29,8 @@ def simulate(args) -> int:
     outputs = Outputs([Path(args.model)])
     out = outputs.file(args.out, "--out")
     model = paper_cube_model() if args.model == "cube" else load_model(args.model)
+    check_length_option(args.noise, extent(model.mesh.rest_positions), "--noise",
+                        "a marker noise", refused=0.25, warned=0.02)
     loads = np.zeros((model.n_nodes, 3))
     if args.force:
         for node, *force in args.force:
@@ -188,7 +191,7 @@ def _resolution(args, bounds) -> str:
 def import_markers(args) -> int:
     from ..io import load_experiment, load_model, save_experiment
     from ..markers import markers_to_experiment, read_marker_map, read_markers
-    from ..plausibility import check_body_size, check_recording
+    from ..plausibility import check_body_size, check_length_option, check_recording
 
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
     positive(args.dt, "--dt")
@@ -208,7 +211,11 @@ def import_markers(args) -> int:
     else:
         raise InputError("expected a model (.yaml) or an experiment file (.npz)",
                          source=str(topology), key="--topology")
-    check_body_size(mesh.rest_positions, source=str(topology), what="its mesh", option="")
+    body = check_body_size(mesh.rest_positions, source=str(topology), what="its mesh",
+                           option="")
+    check_length_option(args.max_distance, body, "--max-distance",
+                        "a marker's distance from the mesh")
+    check_length_option(args.probe_radius, body, "--probe-radius", "a probe's contact radius")
     if args.forces:
         _check_force_options(args)
     markers = read_markers(args.markers, units=args.units)

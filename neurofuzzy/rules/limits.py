@@ -23,7 +23,8 @@ from ..errors import InputError, closest_name
 from .membership import MEMBERSHIP_FUNCTIONS, apply_hedges
 
 __all__ = ["QuantityLimit", "QUANTITY_LIMITS", "universe_problems", "term_problem",
-           "defuzzification_problems", "check_inferred", "words_of", "unknown_tissue"]
+           "defuzzification_problems", "shared_quantities", "check_inferred", "tissue_problems",
+           "words_of", "unknown_tissue"]
 
 
 @dataclass(frozen=True)
@@ -190,6 +191,48 @@ def defuzzification_problems(rules_outputs: dict, rules: list, method: str) -> l
                         f"reaches the universe's bound {bound:g}); {limit.words} must lie "
                         f"{_range(limit)}: use defuzzification centroid or bisector, or "
                         "end the term before the bound")))
+    return problems
+
+
+def shared_quantities(outputs: dict, source: str) -> list[tuple[int, str, list[str]]]:
+    """``(line, message, names)`` for each quantity two outputs stand for (which one sets it
+    would be arbitrary), reported at the output the file ``source`` defines."""
+    by_quantity: dict[str, list] = {}
+    for variable in outputs.values():
+        if variable.quantity is not None:
+            by_quantity.setdefault(variable.quantity, []).append(variable)
+    problems = []
+    for quantity, variables in by_quantity.items():
+        if len(variables) < 2:
+            continue
+        mine = [v for v in variables if v.source == source] or variables
+        first = [v for v in variables if v is not mine[-1]][0]
+        where = (f"line {first.line}" if first.source == source
+                 else f"{first.source}:{first.line}")
+        hint = (f" (name it {first.name!r} to replace the one of {first.source})"
+                if first.source != source else "")
+        problems.append((mine[-1].line, f"outputs {first.name!r} ({where}) and "
+                         f"{mine[-1].name!r} both stand for {quantity} ({words_of(quantity)}): "
+                         f"which one sets it would be arbitrary; keep one{hint}",
+                         [v.name for v in variables]))
+    return problems
+
+
+def tissue_problems(rules) -> list[InputError]:
+    """One problem for every tissue whose inferred values its quantities exclude (at the
+    tissue's FILE:LINE); tissues no rule fires for are left to their use."""
+    names = list(rules.tissues)
+    if not names:
+        return []
+    values = rules.infer([rules.tissues[name] for name in names])
+    problems = []
+    for index, name in enumerate(names):
+        try:
+            check_inferred(rules, name, {output: float(column[index])
+                                         for output, column in values.items()
+                                         if np.isfinite(column[index])})
+        except InputError as problem:
+            problems.append(problem)
     return problems
 
 

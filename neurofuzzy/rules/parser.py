@@ -41,8 +41,8 @@ import numpy as np
 from ..errors import InputError, RuleFileDeprecationWarning, closest_name
 from ..safe_yaml import kind_of
 from . import _yaml
-from .limits import (check_inferred, defuzzification_problems, term_problem,
-                     universe_problems, words_of)
+from .limits import (defuzzification_problems, shared_quantities, term_problem,
+                     tissue_problems, universe_problems)
 from .membership import HEDGES, MEMBERSHIP_FUNCTIONS, check_parameters, evaluate
 from .rulebase import RuleBase
 from .terms import (DEFUZZIFICATION, QUANTITIES, TOP_KEYS, VARIABLE_KEYS, Clause, Phrase, Rule,
@@ -134,7 +134,7 @@ class _Builder:
                     store[variable.name] = variable
                 else:
                     self.broken.add((role, str(name)))
-        self.one_per_quantity(source, outputs, data.get("outputs"))
+        self.one_per_quantity(source, outputs)
         broken_base = "extends" in data and base is None    # already reported; the rest
         if not inputs and not broken_base and not self.any_broken("input"):  # would follow
             self.problem(source, data.line, "no input variables ('inputs:')")
@@ -186,43 +186,16 @@ class _Builder:
     def any_broken(self, role: str) -> bool:
         return any(r == role for r, _ in self.broken)
 
-    def one_per_quantity(self, source, outputs, section) -> None:
-        """Refuse two outputs that stand for one quantity (which one sets it would be
-        arbitrary); reported at the output this file defines."""
-        by_quantity: dict[str, list] = {}
-        for variable in outputs.values():
-            if variable.quantity is not None:
-                by_quantity.setdefault(variable.quantity, []).append(variable)
-        for quantity, variables in by_quantity.items():
-            if len(variables) < 2:
-                continue
-            mine = [v for v in variables if v.source == source] or variables
-            first = [v for v in variables if v is not mine[-1]][0]
-            where = (f"line {first.line}" if first.source == source
-                     else f"{first.source}:{first.line}")
-            hint = (f" (name it {first.name!r} to replace the one of {first.source})"
-                    if first.source != source else "")
-            self.problem(source, mine[-1].line, f"outputs {first.name!r} ({where}) and "
-                         f"{mine[-1].name!r} both stand for {quantity} "
-                         f"({words_of(quantity)}): which one sets it would be arbitrary; "
-                         f"keep one{hint}")
-            for variable in variables:
-                self.broken.add(("output", variable.name))
+    def one_per_quantity(self, source, outputs) -> None:
+        """Two outputs that stand for one quantity are refused (:func:`.limits.shared_quantities`);
+        neither is reported again where it is used."""
+        for line, message, names in shared_quantities(outputs, source):
+            self.problem(source, line, message)
+            self.broken.update(("output", name) for name in names)
 
     def check_tissue_values(self, rule_base) -> None:
-        """Every tissue's inferred values must be physically possible (one problem per
-        tissue, at its line)."""
-        names = list(rule_base.tissues)
-        if not names:
-            return
-        values = rule_base.infer([rule_base.tissues[name] for name in names])
-        for index, name in enumerate(names):
-            try:
-                check_inferred(rule_base, name, {output: float(column[index])
-                                                 for output, column in values.items()
-                                                 if np.isfinite(column[index])})
-            except InputError as problem:
-                self.problems.append(problem)
+        """Every tissue's inferred values must be physically possible."""
+        self.problems += tissue_problems(rule_base)
 
     def variable(self, source, role, name, spec, line, siblings=None):
         if not isinstance(spec, dict):
