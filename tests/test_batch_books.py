@@ -44,6 +44,7 @@ def _manifest(folder, rows, name="cohort.csv", header="id,group,experiments,tie"
     (["cohort.html,x,a.npz,global"], "out/cohort.html",
      "cohort.csv:2: id: 'cohort.html' is the name of the cohort report"),
     (["s1,x,a.npz,global"], "out/fit-many.html", "would replace the batch's own fit-many.json"),
+    (["s1,x,a.npz,global"], "out/s1/report.html", "is a file fit-many writes itself"),
     (["s1,x,a.npz,global,inf"], None, "cohort.csv:2: dt: got 'inf'; expected a positive "
                                       "number of seconds"),
 ])

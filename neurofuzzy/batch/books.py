@@ -84,6 +84,11 @@ def check_folder(out: Path, report: Path | None, manifest, specimens, resume: bo
         _same_cohort(out, manifest, specimens)
     if report is not None:
         _check_report(out, report, manifest, specimens, inputs)
+        for path in (report, report.with_suffix(".json")):
+            if path.resolve() in {output.resolve() for output in outputs}:
+                raise InputError("is a file fit-many writes itself (a specimen's or the "
+                                 "folder's); name the cohort report elsewhere",
+                                 key="--report", source=str(path))
 
 
 def _same_cohort(out: Path, manifest: Path, specimens) -> None:
