@@ -79,7 +79,7 @@ def mesh(args) -> int:
     rule_base = load_rule_base(args.rules)
     for option, tissue in [("--tissue", args.tissue)] + [
             (f"--region {region}={tissue}", tissue) for region, tissue in tissue_of.items()]:
-        if tissue and tissue not in rule_base.tissues:
+        if tissue:
             require_tissue(rule_base, tissue, option)
     read = read_mesh(source, pitch=args.pitch, max_edge=args.max_edge, method=method)
     mesh = read.mesh

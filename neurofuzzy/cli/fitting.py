@@ -16,7 +16,6 @@ def _start(args, progress: bool):
     """The experiments named on the command line and the start of their fit."""
     from ..io import load_experiment
     from ..learn import start_model
-
     from ..plausibility import check_fit_inputs
     from .common import rule_base_for
 

@@ -300,8 +300,8 @@ def _check_times(entries, times, period, source) -> None:
     if not late:
         return
     first = min(late, key=lambda entry: entry.time)
-    said = (f"the force of line {first.line} starts at {first.time:.4g} s, after the "
-            f"recording ends (its last frame is at {times[-1]:.4g} s)")
+    said = (f"this force starts at {first.time:.4g} s, after the recording ends (its last "
+            f"frame is at {times[-1]:.4g} s)")
     if len(late) == len(loads):
         raise InputError(f"{said}, and so does every other: no load would act. Were the "
                          "times written in milliseconds? Times are in seconds; state "
