@@ -37,7 +37,7 @@ import trimesh
 from neurofuzzy.export import export_paraview
 from neurofuzzy.io import save_experiment, save_model
 from neurofuzzy.learn import GradientLearner, start_model
-from neurofuzzy.markers import markers_to_experiment, read_markers
+from neurofuzzy.markers import markers_to_experiment, read_markers, write_node_forces
 from neurofuzzy.mesh import read_mesh, surface_nodes
 from neurofuzzy.reference import reference_simulate
 from neurofuzzy.report import fit_report
@@ -71,14 +71,16 @@ def write_markers(path, positions, nodes, rng):
     Path(path).write_text("# units: mm\ntime,marker,x,y,z\n" + "\n".join(rows) + "\n")
 
 
-def write_forces(path, probe, n_frames):
-    """The probe's force log: one row per node while the force ramps up, then it holds."""
+def write_forces(path, probe, n_frames, mesh):
+    """The probe's force log: one row per node while the force ramps up, then it holds. The
+    file names the mesh its node numbers belong to (a '# mesh:' line), so that it is refused
+    on another one."""
     ramp_frames = int(round(RAMP / CAPTURE_STEP))
     rows = []
     for t in range(min(ramp_frames, n_frames) + 1):
         fz = -PROBE_FORCE / len(probe) * min(t / ramp_frames, 1.0)
-        rows += [f"{t * CAPTURE_STEP:.4f},{node},0,0,{fz:.6g}" for node in probe]
-    Path(path).write_text("time,node,fx,fy,fz\n" + "\n".join(rows) + "\n")
+        rows += [(t * CAPTURE_STEP, node, 0.0, 0.0, fz) for node in probe]
+    write_node_forces(path, rows, mesh)
 
 
 def main(argv):
@@ -111,7 +113,7 @@ def main(argv):
     top = np.flatnonzero(surface & (mesh.rest_positions[:, 2] > z.max() - 0.6 * size))
     centre = mesh.rest_positions[top, :2].mean(axis=0)
     probe = top[np.argsort(np.linalg.norm(mesh.rest_positions[top, :2] - centre, axis=1))[:5]]
-    write_forces(out / "forces.csv", probe, n_frames)
+    write_forces(out / "forces.csv", probe, n_frames, mesh)
     ramp = np.clip(np.arange(n_frames) * CAPTURE_STEP / RAMP, 0.0, 1.0)
     loads = np.zeros((n_frames, mesh.n_nodes, 3))
     loads[:, probe, 2] = -PROBE_FORCE / len(probe) * ramp[:, None]

@@ -81,7 +81,7 @@ def main(argv):
     top = np.flatnonzero(surface & (z > z.max() - 0.6 * size))
     distance = np.linalg.norm(mesh.rest_positions[top, :2] - tumour_centre[:2], axis=1)
     probe = top[np.argsort(distance)[:3]]
-    write_forces(out / "forces.csv", probe, n_frames)
+    write_forces(out / "forces.csv", probe, n_frames, mesh)
     ramp = np.clip(np.arange(n_frames) * CAPTURE_STEP / RAMP, 0.0, 1.0)
     loads = np.zeros((n_frames, mesh.n_nodes, 3))
     loads[:, probe, 2] = -PROBE_FORCE / len(probe) * ramp[:, None]

@@ -14,7 +14,7 @@ __all__ = [
     "NeurofuzzyError",
     "InputError",
     "UnstableTimeStepError",
-    "closest_name", "RuleFileDeprecationWarning"]
+    "closest_name", "RuleFileDeprecationWarning", "PlausibilityWarning"]
 
 
 class NeurofuzzyError(ValueError):
@@ -62,3 +62,10 @@ def closest_name(name: str, known: Iterable[str]) -> str | None:
 class RuleFileDeprecationWarning(FutureWarning):
     """A rule file uses a form that still loads but will not forever (the message names
     FILE:LINE and what to change). A FutureWarning, so it is shown by default."""
+
+
+class PlausibilityWarning(UserWarning):
+    """A value that is physically possible but unusual (a 1.5 m organ, frames 60 stable
+    steps apart, a tenth of a probe's force on fixed nodes): the message names the file or
+    option, what is unusual and what it usually means. The command line prints it on stderr
+    as ``neurofuzzy: warning: …`` once the command has succeeded."""

@@ -281,29 +281,32 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
 
 
 def check_experiments(model: SpringMassModel,
-                      experiments: Experiment | Sequence[Experiment]) -> list[Experiment]:
-    """Return ``experiments`` as a list after checking they describe ``model``'s object."""
+                      experiments: Experiment | Sequence[Experiment], *,
+                      model_source: str | None = None) -> list[Experiment]:
+    """Return ``experiments`` as a list after checking they describe ``model``'s object
+    (``model_source``: the model's file, named in the messages)."""
     if isinstance(experiments, Experiment):
         experiments = [experiments]
     experiments = list(experiments)
     if not experiments:
         raise InputError("no experiments given", key="experiments")
+    the_model = f"the model {model_source}" if model_source else "the model"
     for experiment in experiments:
         mesh = experiment.mesh
         if mesh.n_nodes != model.n_nodes:
-            raise InputError(f"has {mesh.n_nodes} nodes; the model has {model.n_nodes}",
+            raise InputError(f"has {mesh.n_nodes} nodes; {the_model} has {model.n_nodes}",
                              source=experiment.source, key="rest_positions")
         if mesh.n_springs != model.n_springs or not np.array_equal(mesh.springs,
                                                                    model.mesh.springs):
-            raise InputError(f"its {mesh.n_springs} springs differ from the model's "
-                             f"{model.n_springs}; all experiments must share one topology",
-                             source=experiment.source, key="springs")
+            raise InputError(f"its {mesh.n_springs} springs differ from the "
+                             f"{model.n_springs} of {the_model}; all experiments must share "
+                             "one topology", source=experiment.source, key="springs")
         if not np.array_equal(mesh.fixed, model.mesh.fixed):
-            raise InputError("its fixed nodes differ from the model's", source=experiment.source,
-                             key="fixed")
+            raise InputError(f"its fixed nodes differ from those of {the_model}",
+                             source=experiment.source, key="fixed")
         if model.has_elements and mesh.tetrahedra is not None and not np.array_equal(
                 mesh.tetrahedra, model.mesh.tetrahedra):
-            raise InputError("its tetrahedra differ from the model's elements",
+            raise InputError(f"its tetrahedra differ from the elements of {the_model}",
                              source=experiment.source, key="tetrahedra")
     return experiments
 

@@ -327,14 +327,30 @@ class SpringMassModel:
             raise InputError(f"got {self.element_volumetric!r}; expected one of "
                              f"{list(VOLUMETRIC)}" + (f" (did you mean {hint!r}?)" if hint
                                                       else ""), key="element_volumetric")
-        if np.any(out["element_youngs_modulus"] <= 0):
-            raise InputError("must be positive (Pa)", key="element_youngs_modulus")
         nu = out["element_poisson_ratio"]
-        if np.any((nu <= 0) | (nu >= 0.5)):
-            raise InputError("must lie in (0, 0.5)", key="element_poisson_ratio")
-        if np.any(out["element_viscosity"] < 0):
-            raise InputError("must not be negative (Pa s)", key="element_viscosity")
+        for key, bad, rule in (
+                ("element_youngs_modulus", out["element_youngs_modulus"] <= 0,
+                 "Young's modulus {:g} Pa; it must be positive (Pa)"),
+                ("element_poisson_ratio", (nu <= 0) | (nu >= 0.5),
+                 "Poisson's ratio {:g}; it must lie in (0, 0.5), strictly: 0.5 is a "
+                 "perfectly incompressible solid, which elements cannot represent"),
+                ("element_viscosity", out["element_viscosity"] < 0,
+                 "viscosity {:g} Pa s; it must not be negative (Pa s)")):
+            if np.any(bad):
+                first = int(np.flatnonzero(bad)[0])
+                more = f" ({int(bad.sum())} elements in all)" if bad.sum() > 1 else ""
+                raise InputError(f"element {first}{self._where(out['element_region'][first])}"
+                                 " has " + rule.format(out[key][first]) + more, key=key)
         return out
+
+    def _where(self, region: int) -> str:
+        """" (region 'tumour', tissue 'tumour')" for messages; "" for a one-region model."""
+        names = tuple(str(name) for name in self.region_names)
+        tissues = tuple(self.region_tissues or (None,) * len(names))
+        if len(names) == 1 and tissues[0] is None:
+            return ""
+        tissue = tissues[region] if region < len(tissues) else None
+        return f" (region {names[region]!r}" + (f", tissue {tissue!r})" if tissue else ")")
 
     @property
     def has_elements(self) -> bool:

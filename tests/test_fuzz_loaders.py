@@ -10,12 +10,12 @@ import zipfile
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from neurofuzzy.errors import NeurofuzzyError
 from neurofuzzy.io import load_experiment, load_model, save_experiment, save_model
-from neurofuzzy.markers import read_markers
+from neurofuzzy.markers import read_forces, read_markers
 from neurofuzzy.mesh import read_mesh
 from neurofuzzy.rules import load_rules, shipped
 
@@ -212,3 +212,173 @@ def test_mutated_mesh_files_load_or_raise_our_error(tmp_path, mesh_files, data):
     pitch = 0.005 if suffix in (".stl", ".obj") else None
     mutated_loads_or_refuses(lambda path: read_mesh(path, pitch=pitch),
                              tmp_path / f"mesh{suffix}", mesh_files[suffix], data)
+
+
+# -- the surfaces of issue 28: point forces, element models, manifests, ν outputs ------------------
+@pytest.fixture(scope="module")
+def cube_mesh(cube_model):
+    return cube_model.mesh
+
+
+POINT_FORCES = (b"# length units: mm\n# force units: N\ntime,probe,x,y,z,fx,fy,fz,radius\n"
+                b"0,a,20,10,10,0,0,0,0\n0.001,a,20,10,10,0,0,-0.2,4\n"
+                b"0.002,b,10,10,20,0.1,0,0,0\n")
+
+
+@FAST
+@given(content=mutations(POINT_FORCES))
+def test_mutated_point_force_csv_loads_or_raises_our_error(tmp_path, cube_mesh, content):
+    path = tmp_path / "forces.csv"
+    path.write_bytes(content)
+    loads_or_refuses(lambda p: read_forces(p, mesh=cube_mesh, times=np.arange(6) * 5e-4), path)
+
+
+@settings(FAST, max_examples=80)
+@given(point=st.tuples(*[st.floats(0, 20, allow_nan=False)] * 3),
+       force=st.tuples(*[st.floats(-1, 1, allow_nan=False)] * 3),
+       unit=st.sampled_from(["mm", "mm", "mm", "cm", "m"]),
+       newtons=st.sampled_from(["N", "mN", "kN"]),
+       radius=st.one_of(st.none(), st.floats(0, 15, allow_nan=False)),
+       start=st.floats(0, 0.01, allow_nan=False))
+def test_a_point_force_is_refused_or_arrives_whole_on_free_nodes(tmp_path, cube_mesh, point,
+                                                                 force, unit, newtons, radius,
+                                                                 start):
+    """Property: a probe's force either is refused naming the file, or every frame after it
+    starts carries exactly the stated force (converted to N), none of it on fixed nodes only,
+    and nothing before."""
+    path = tmp_path / "probe.csv"
+    column = "" if radius is None else ",radius"
+    path.write_text(f"# length units: {unit}\n# force units: {newtons}\n"
+                    f"time,x,y,z,fx,fy,fz{column}\n{start!r},{point[0]!r},{point[1]!r},"
+                    f"{point[2]!r},{force[0]!r},{force[1]!r},{force[2]!r}"
+                    + ("" if radius is None else f",{radius!r}") + "\n")
+    times = np.arange(6) * 5e-4
+    try:
+        forces = read_forces(path, mesh=cube_mesh, times=times)
+    except NeurofuzzyError as error:
+        assert str(path) in str(error), str(error)
+        event("refused")
+        return
+    event("loaded")
+    total = np.array(force) * {"N": 1.0, "mN": 1e-3, "kN": 1e3}[newtons]
+    acting = times >= start - 1e-6 * 5e-4
+    assert np.allclose(forces.sum(axis=1)[acting], total, atol=1e-12 * max(1, abs(total).max()))
+    assert np.all(forces[~acting] == 0)
+    free = np.ones(cube_mesh.n_nodes, bool)
+    free[cube_mesh.fixed] = False
+    if np.any(total) and acting.any():
+        assert np.abs(forces[acting][:, free]).sum() > 0
+
+
+@pytest.fixture(scope="module")
+def element_model_text(tmp_path_factory):
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import SpringMassModel
+
+    points, tetrahedra = kuhn_block((2, 1, 1), 0.01)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = SpringMassModel.continuum(mesh, youngs_modulus=np.linspace(4e3, 6e3, 12),
+                                      poisson_ratio=0.45, viscosity=2.0, density=1050.0)
+    return save_model(model, tmp_path_factory.mktemp("elements") / "m.yaml").read_bytes()
+
+
+@FAST
+@given(data=st.data())
+def test_mutated_element_model_files_load_within_physics_or_raise_our_error(
+        tmp_path, element_model_text, data):
+    path = tmp_path / "model.yaml"
+    path.write_bytes(data.draw(mutations(element_model_text)))
+    try:
+        model = load_model(path)
+    except NeurofuzzyError as error:
+        assert str(path) in str(error), str(error)
+        return
+    if model.has_elements:                          # what loads is physically possible
+        assert np.all((model.element_poisson_ratio > 0) & (model.element_poisson_ratio < 0.5))
+        assert np.all(model.element_youngs_modulus > 0) and np.all(model.element_viscosity >= 0)
+    assert np.all(model.node_mass > 0)
+
+
+@pytest.fixture(scope="module")
+def manifest_folder(tmp_path_factory, cube_experiment):
+    folder = tmp_path_factory.mktemp("manifest")
+    save_experiment(cube_experiment.first_frames(12), folder / "a.npz")
+    return folder
+
+
+MANIFEST = (b"# a cohort\nid,group,experiments,rules,tissue,tie,prior,method,cycles,substeps,dt\n"
+            b"s1,healthy,a.npz,liver,liver,global,off,gradient,5,auto,\n"
+            b"s2,fibrotic,a.npz;a.npz,liver,fibrotic_liver,groups,,paper,3,1,\n")
+
+
+@FAST
+@given(content=mutations(MANIFEST))
+def test_mutated_manifests_load_or_raise_our_error(manifest_folder, content):
+    from neurofuzzy.batch import read_manifest
+
+    path = manifest_folder / "cohort.csv"
+    path.write_bytes(content)
+    try:
+        specimens = read_manifest(path)
+    except NeurofuzzyError as error:
+        assert str(path) in str(error), str(error)
+        return
+    ids = [s.id.lower() for s in specimens]
+    assert len(set(ids)) == len(ids) and not {"results.csv", "fit-many.json"} & set(ids)
+    for specimen in specimens:
+        dt = specimen.options.get("dt")
+        assert dt is None or (np.isfinite(dt) and dt > 0)
+
+
+NU_RULES = """\
+extends: soft_tissue.yaml
+defuzzification: {method}
+outputs:
+  poisson_ratio:
+    quantity: poisson_ratio
+    universe: [{low!r}, {high!r}]
+    terms:
+      compressible: {{trapmf: [{t[0]!r}, {t[0]!r}, {t[1]!r}, {t[2]!r}]}}
+      slightly_compressible: {{trimf: [{t[3]!r}, {t[4]!r}, {t[5]!r}]}}
+      nearly_incompressible: {{trapmf: [{t[6]!r}, {t[7]!r}, {t[8]!r}, {t[8]!r}]}}
+tissues:
+  sponge: {{compressibility: compressible}}
+  cartilage: {{compressibility: slightly_compressible}}
+  liver: {{compressibility: incompressible}}
+  vague: {{compressibility: somewhat compressible}}
+  measured: {{compressibility: 9.5}}
+"""
+
+
+@settings(FAST, max_examples=100)
+@given(method=st.sampled_from(["centroid", "lom", "som", "mom", "bisector"]),
+       bounds=st.tuples(st.sampled_from([0.0, 0.05, -0.1]), st.sampled_from([0.5, 0.48, 0.7])),
+       fractions=st.lists(st.floats(0.0, 1.0), min_size=9, max_size=9))
+def test_rule_files_with_a_poisson_output_refuse_or_give_nu_inside_0_to_half(
+        tmp_path, method, bounds, fractions):
+    """Property: a rule base with a Poisson's-ratio output (terms anywhere in a universe that
+    may reach beyond 0 or 0.5, any defuzzification) either is refused naming the file, or
+    every tissue's inferred ν lies strictly between 0 and 0.5 (the elements' bounds)."""
+    low, high = bounds
+    corners = [low + (high - low) * x for x in fractions]
+    corners = sorted(corners[:3]) + sorted(corners[3:6]) + sorted(corners[6:])
+    (tmp_path / "soft_tissue.yaml").write_bytes(RULES)
+    path = tmp_path / "nu.yaml"
+    path.write_text(NU_RULES.format(method=method, low=low, high=high, t=corners))
+    try:
+        rules = load_rules(path)
+    except NeurofuzzyError as error:
+        assert str(path) in str(error), str(error)
+        event("refused")
+        return
+    event("loaded")
+    assert len(rules.tissues) == 5
+    for tissue in rules.tissues:
+        try:
+            nu = rules.tissue(tissue)["poisson_ratio"]
+        except NeurofuzzyError as error:         # a tissue no rule fires for, named
+            assert str(path) in str(error), str(error)
+            event("a tissue refused at use")
+            continue
+        assert 0 < nu < 0.5, (tissue, nu)

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 from dataclasses import dataclass, field
@@ -42,13 +43,11 @@ from pathlib import Path
 from ..errors import InputError, closest_name
 from ..learn.prior import parse_prior
 from ..learn.run import METHODS
+from .rows import COLUMNS, csv_rows, yaml_rows
 
-__all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES"]
+__all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES",
+           "FOLDER_FILES", "BOOKS_NAME"]
 
-#: every column a manifest may have
-COLUMNS = ("id", "group", "experiments", "markers", "forces", "units", "dt", "start", "rules",
-           "tissue", "tie", "prior", "method", "cycles", "substeps", "learn_masses",
-           "diagnose")
 #: file types a manifest may be
 MANIFEST_SUFFIXES = (".csv", ".yaml", ".yml")
 #: columns that hold lists of files
@@ -57,6 +56,11 @@ _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 _TRUE, _FALSE = ("true", "yes", "1"), ("false", "no", "0", "")
 #: part of every fingerprint: a change in what a specimen's task computes invalidates results
 _TASK_VERSION = "fit-many/1"
+#: the record of the manifest a results folder was made from (what ``--resume`` checks)
+BOOKS_NAME = "fit-many.json"
+#: the files fit-many keeps at the top of its results folder: no specimen's folder may take
+#: their names (compared without letter case, as macOS and Windows file systems do)
+FOLDER_FILES = ("results.csv", "results.parquet", BOOKS_NAME)
 
 
 @dataclass(frozen=True)
@@ -157,21 +161,32 @@ def read_manifest(path: str | os.PathLike) -> list[Specimen]:
                          source=source)
     if not path.is_file():
         raise InputError("no such file", source=source)
-    rows = _csv_rows(path) if suffix == ".csv" else _yaml_rows(path)
+    rows = csv_rows(path) if suffix == ".csv" else yaml_rows(path)
     if not rows:
         raise InputError("lists no specimens", source=source)
-    specimens, problems, seen = [], [], {}
+    specimens, problems, seen, folded = [], [], {}, {}
     for line, row in rows:
         try:
             specimen = _specimen(row, path, line)
             if specimen.id in seen:
                 raise specimen.error(f"{specimen.id!r} is also the id of line {seen[specimen.id]}"
                                      "; ids name the result folders and must be unique", "id")
+            if specimen.id.lower() in folded:
+                other, at = folded[specimen.id.lower()]
+                raise specimen.error(f"{specimen.id!r} and {other!r} (line {at}) differ only in "
+                                     "letter case: on macOS and Windows they name one folder; "
+                                     "make the ids differ", "id")
+            if specimen.id.lower() in FOLDER_FILES:
+                raise specimen.error(f"{specimen.id!r} is the name of a file fit-many keeps in "
+                                     f"the results folder ({', '.join(FOLDER_FILES)}); choose "
+                                     "another id", "id")
             seen[specimen.id] = line
+            folded[specimen.id.lower()] = (specimen.id, line)
             specimens.append(specimen)
         except InputError as problem:
             problems.append(problem)
     problems += _check_tissues(specimens)
+    problems += _check_marker_units(specimens)
     if problems:
         more = "" if len(problems) == 1 else (
             f" (and {len(problems) - 1} more: " + "; ".join(
@@ -181,72 +196,6 @@ def read_manifest(path: str | os.PathLike) -> list[Specimen]:
         raise InputError(first.detail + more, source=first.source, key=first.key,
                          line=first.line)
     return specimens
-
-
-# -- reading ----------------------------------------------------------------------------------
-def _csv_rows(path: Path) -> list[tuple[int, dict]]:
-    from ..markers.readers import read_csv_table
-
-    header, rows, _ = read_csv_table(path, required=[("id",)])
-    _check_columns(header, str(path), _header_line(path))
-    names = list(header)
-    return [(line, {name: cells[header[name]].strip() for name in names})
-            for line, cells in rows]
-
-
-def _header_line(path: Path) -> int:
-    for number, text in enumerate(path.read_text(encoding="utf-8-sig").splitlines(), 1):
-        if text.strip() and not text.lstrip().startswith("#"):
-            return number
-    return 1
-
-
-def _yaml_rows(path: Path) -> list[tuple[int, dict]]:
-    from ..rules._yaml import load
-
-    source = str(path)
-    data = load(path)
-    if isinstance(data, list):
-        data_specimens, defaults, line = data, {}, data.line
-    elif isinstance(data, dict):
-        unknown = [key for key in data if key not in ("specimens", "defaults")]
-        if unknown:
-            hint = closest_name(str(unknown[0]), ("specimens", "defaults"))
-            raise InputError(f"unknown key {unknown[0]!r}; a manifest has 'specimens' (and "
-                             "'defaults')" + (f"; did you mean {hint!r}?" if hint else ""),
-                             source=source, line=data.line_of(unknown[0]))
-        data_specimens = data.get("specimens")
-        defaults = data.get("defaults") or {}
-        line = data.line_of("specimens")
-        if data_specimens is None:
-            raise InputError("has no 'specimens:' list", source=source, line=data.line)
-        if not isinstance(defaults, dict):
-            raise InputError("'defaults' must be a mapping of columns", source=source,
-                             line=data.line_of("defaults"))
-        _check_columns(defaults, source, data.line_of("defaults"), defaults)
-    else:
-        raise InputError("expected a 'specimens:' list", source=source, line=1)
-    if not isinstance(data_specimens, list):
-        raise InputError("'specimens' must be a list of mappings", source=source, line=line)
-    rows = []
-    for index, item in enumerate(data_specimens):
-        item_line = data_specimens.line_of(index)
-        if not isinstance(item, dict):
-            raise InputError("each specimen must be a mapping (id: …, group: …)",
-                             source=source, line=item_line)
-        _check_columns(item, source, item_line, item)
-        rows.append((item_line, {**defaults, **item}))
-    return rows
-
-
-def _check_columns(names, source: str, line: int, mapping=None) -> None:
-    for name in names:
-        if name not in COLUMNS:
-            hint = closest_name(str(name), COLUMNS)
-            at = mapping.line_of(name) if hasattr(mapping, "line_of") else line
-            raise InputError(f"unknown column {name!r}" + (f"; did you mean {hint!r}?" if hint
-                                                            else f"; known: {', '.join(COLUMNS)}"),
-                             source=source, line=at)
 
 
 # -- one specimen -----------------------------------------------------------------------------
@@ -316,8 +265,9 @@ def _options(text: dict, problem) -> dict:
                 value = kind(text[key])
             except ValueError:
                 value = None
-            if value is None or not value > 0:
-                raise problem(f"got {text[key]!r}; expected a positive number", key)
+            if value is None or not (math.isfinite(value) and value > 0):
+                raise problem(f"got {text[key]!r}; expected a positive number"
+                              + (" of seconds" if key == "dt" else ""), key)
             options[key] = value
     if text.get("substeps"):
         try:
@@ -401,6 +351,26 @@ def _check_tissues(specimens: list[Specimen]) -> list[InputError]:
                 f"{specimen.tissue!r} is not a tissue of {rules.name}"
                 + (f"; did you mean {hint!r}?" if hint else
                    f"; it has {', '.join(rules.tissues)}"), "tissue"))
+    return problems
+
+
+def _check_marker_units(specimens: list[Specimen]) -> list[InputError]:
+    """A row's ``units`` must agree with the unit its marker CSVs state (a unit given twice,
+    differently, is refused here, not half-way through the batch)."""
+    from ..markers.units import LENGTH_UNITS, header_statements, unit_factor
+
+    problems = []
+    for specimen in specimens:
+        units = specimen.options.get("units")
+        for path in specimen.markers if units else ():
+            if path.suffix.lower() != ".csv":
+                continue
+            try:
+                unit_factor(LENGTH_UNITS, what="length", stated=header_statements(path),
+                            keys=("units", "length units"), source=str(path), given=units,
+                            given_as="the manifest's units")
+            except InputError as error:
+                problems.append(specimen.error(f"markers {path.name}: {error}", "units"))
     return problems
 
 

@@ -9,7 +9,13 @@ Layout of the output folder ``OUT``:
 - ``OUT/<id>/error.json``: a specimen that failed (its message; a traceback only for what is
   not an input error);
 - ``OUT/results.csv``: one row per specimen and material region, rewritten atomically after
-  every specimen (``results.parquet`` too when pyarrow is installed).
+  every specimen (``results.parquet`` too when pyarrow is installed);
+- ``OUT/fit-many.json``: the manifest the folder was made from (:mod:`.books`), so that
+  ``--resume`` never mixes in another cohort.
+
+Nothing is written before the cluster answers: a refused or unreachable scheduler leaves the
+folder as it was. Ids that would collide with these files, inputs that an output would
+overwrite, and a folder of another manifest are refused before anything runs.
 
 Every file is written atomically by this process (the workers return their outputs), so an
 interrupted batch leaves only finished specimens behind, and ``resume=True`` fits only those
@@ -20,7 +26,6 @@ contents and the options). Dask is imported here only, when a batch runs.
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import os
 import time
@@ -28,11 +33,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..errors import InputError
-from ..serialization import atomic_write
 from ..progress import Progress, note
+from .books import RECORD_FORMAT, check_folder, finished, write_books, write_specimen
 from .manifest import Specimen, read_manifest
 from .table import TABLE_NAME, write_table
-from .task import OUTPUT_FILES, fit_specimen
+from .task import fit_specimen
 
 __all__ = ["fit_many", "Cohort", "THREAD_LIMITS", "RECORD_FORMAT"]
 
@@ -42,8 +47,6 @@ THREAD_LIMITS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_T
                  "NUMBA_NUM_THREADS": "1"}
 #: how long to wait for an existing scheduler
 CONNECT_TIMEOUT = "10s"
-#: marks the records this module writes (``fit.json``, ``error.json``)
-RECORD_FORMAT = "neurofuzzy-fit-many/1"
 
 
 @dataclass(frozen=True)
@@ -139,7 +142,7 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
     specimens = read_manifest(manifest)
     out = Path(out)
     report = None if report is None else Path(report)
-    _check_outputs(out, report, manifest, specimens, resume)
+    check_folder(out, report, manifest, specimens, resume)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
                                 or workers < 1):
         raise InputError(f"got {workers!r}; expected a positive number of processes",
@@ -148,7 +151,7 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
         raise InputError("an existing cluster has its own workers; give --workers only for "
                          "the local cluster", key="--workers")
     fingerprints = {s.id: s.fingerprint() for s in specimens}
-    records = {s.id: _finished(out / s.id, fingerprints[s.id]) if resume else None
+    records = {s.id: finished(out / s.id, fingerprints[s.id]) if resume else None
                for s in specimens}
     resumed = tuple(i for i, record in records.items() if record is not None)
     pending = [s for s in specimens if records[s.id] is None]
@@ -156,19 +159,28 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
         if records[specimen.id] is not None:
             records[specimen.id]["group"] = specimen.group       # labels may be renamed
     table = out / TABLE_NAME
-    out.mkdir(parents=True, exist_ok=True)
-    write_table(table, specimens, records)
-    if resumed:
-        note(progress, f"fit-many: {len(resumed)} of {len(specimens)} specimens already "
-                       f"fitted in {out} (resumed)")
-    if pending:
+
+    def open_books() -> None:
+        """The folder, its record of the manifest and the table: written only once the
+        cluster answers, so a refused or unreachable one leaves the folder as it was."""
+        out.mkdir(parents=True, exist_ok=True)
+        write_books(out, manifest, specimens)
+        write_table(table, specimens, records)
+        if resumed:
+            note(progress, f"fit-many: {len(resumed)} of {len(specimens)} specimens already "
+                           f"fitted in {out} (resumed)")
+
+    if not pending:
+        open_books()
+    else:
         try:
             _run(pending, fingerprints, records, out, table, specimens, scheduler, workers,
-                 progress, len(resumed))
+                 progress, len(resumed), open_books)
         except KeyboardInterrupt:
-            finished = sum(record is not None for record in records.values())
-            note(True, f"fit-many: interrupted; the {finished} of {len(specimens)} specimens "
-                       f"that finished are in {out}: run again with --resume for the rest")
+            finished_now = sum(record is not None for record in records.values())
+            note(True, f"fit-many: interrupted; the {finished_now} of {len(specimens)} "
+                       f"specimens that finished are in {out}: run again with --resume for "
+                       "the rest")
             raise
     cohort = Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out,
                     table, None, time.perf_counter() - started)
@@ -182,12 +194,13 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
 
 # -- running ----------------------------------------------------------------------------------
 def _run(pending, fingerprints, records, out, table, specimens, scheduler, workers, progress,
-         n_resumed) -> None:
+         n_resumed, open_books) -> None:
     from dask.distributed import as_completed
 
     total = len(specimens)
     counter = Progress("fit-many", total, enabled=progress)
     with _client(scheduler, workers) as client:
+        open_books()
         threads = sum(client.nthreads().values())
         if not threads:
             note(progress, f"fit-many: the scheduler {scheduler} has no workers yet; the "
@@ -202,8 +215,8 @@ def _run(pending, fingerprints, records, out, table, specimens, scheduler, worke
         for future in as_completed(futures):
             specimen = futures[future]
             outcome = _outcome(future, specimen)
-            records[specimen.id] = _write_specimen(out / specimen.id, specimen,
-                                                   fingerprints[specimen.id], outcome)
+            records[specimen.id] = write_specimen(out / specimen.id, specimen,
+                                                  fingerprints[specimen.id], outcome)
             write_table(table, specimens, records)
             finished += 1
             failed += outcome["status"] == "failed"
@@ -246,85 +259,3 @@ def _client(scheduler: str | None, workers: int | None):
                       processes=True, dashboard_address=None, silence_logs=logging.ERROR,
                       env=THREAD_LIMITS) as cluster, Client(cluster) as client:
         yield client
-
-
-# -- the books --------------------------------------------------------------------------------
-def _finished(folder: Path, fingerprint: str) -> dict | None:
-    """The record of a finished fit made from the same inputs, or None."""
-    try:
-        record = json.loads((folder / "fit.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if (isinstance(record, dict) and record.get("format") == RECORD_FORMAT
-            and record.get("status") == "ok" and record.get("fingerprint") == fingerprint):
-        return record
-    return None
-
-
-def _write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: dict) -> dict:
-    """Write one specimen's outputs atomically (``fit.json`` last) and return its record."""
-    from ..serialization import json_safe
-
-    record = {"format": RECORD_FORMAT, "id": specimen.id, "group": specimen.group,
-              "status": outcome["status"], "fingerprint": fingerprint,
-              "seconds": outcome.get("seconds"), "worker": outcome.get("worker"),
-              "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-    folder.mkdir(parents=True, exist_ok=True)
-    if outcome["status"] == "ok":
-        for name, content in outcome["files"].items():
-            with atomic_write(folder / name, "wb") as handle:
-                handle.write(content)
-        for name in set(OUTPUT_FILES) - set(outcome["files"]):       # of an earlier run
-            (folder / name).unlink(missing_ok=True)
-        record.update(fit=outcome["fit"], files=sorted(outcome["files"]))
-        _write_json(folder / "fit.json", record)
-        (folder / "error.json").unlink(missing_ok=True)
-    else:
-        (folder / "fit.json").unlink(missing_ok=True)       # an earlier result is stale now
-        record.update({key: outcome[key] for key in ("kind", "error", "traceback")
-                       if key in outcome})
-        _write_json(folder / "error.json", record)
-    return json_safe(record)
-
-
-def _write_json(path: Path, value: dict) -> None:
-    from ..serialization import json_safe
-
-    with atomic_write(path, "w") as handle:
-        json.dump(json_safe(value), handle, indent=1)
-
-
-def _check_outputs(out: Path, report: Path | None, manifest, specimens, resume: bool) -> None:
-    """Refuse outputs that would overwrite an input, or an earlier run (without resume)."""
-    if out.exists() and not out.is_dir():
-        raise InputError("is a file; --out names the folder of the results", source=str(out))
-    earlier = (out / TABLE_NAME).exists() or any(
-        (out / s.id / name).exists() for s in specimens for name in ("fit.json", "error.json"))
-    if earlier and not resume:
-        raise InputError("holds the results of an earlier fit-many; add --resume to keep "
-                         "what is finished and fit the rest, or choose another --out",
-                         source=str(out))
-    if report is None:
-        return
-    inputs = {Path(manifest).resolve(), *(p.resolve() for s in specimens for p in s.inputs)}
-    twin = report.with_suffix(".json")
-    if report.suffix.lower() == ".json":
-        raise InputError("the report is HTML with a .json twin beside it; name an .html file",
-                         key="--report", source=str(report))
-    for path in (report, twin):
-        if path.resolve() in inputs:
-            raise InputError("is an input of the batch; neurofuzzy never writes over its "
-                             "input", key="--report", source=str(path))
-    if twin.exists() and not _is_cohort_twin(twin):
-        raise InputError(f"the report's JSON twin would replace {twin}, which is not a "
-                         "neurofuzzy cohort report; move it or name another --report",
-                         key="--report", source=str(report))
-
-
-def _is_cohort_twin(path: Path) -> bool:
-    from .cohort import REPORT_FORMAT
-
-    try:
-        return json.loads(path.read_text(encoding="utf-8")).get("format") == REPORT_FORMAT
-    except (OSError, ValueError, AttributeError):
-        return False

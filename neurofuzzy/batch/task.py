@@ -72,10 +72,14 @@ def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..report import fit_report
     from ..serialization import json_safe
 
+    from ..plausibility import check_fit_inputs
+
     options = specimen.options
     experiments = load_specimen_experiments(specimen)
     start = start_model(experiments, model=specimen.start, rules=specimen.rules,
                         tissue=specimen.tissue, tie=options.get("tie"))
+    check_fit_inputs(experiments, start.model, substeps=options.get("substeps", "auto"),
+                     model_source=specimen.start, physical=start.how in ("model", "rules"))
     prior = make_prior(start, options.get("prior", "default"), tie=options.get("tie"),
                        method=options.get("method", "gradient"))
     learner = make_learner(options.get("method", "gradient"), cycles=options.get("cycles"),
@@ -125,13 +129,20 @@ def load_specimen_experiments(specimen: Specimen) -> list:
         return [load_experiment(path) for path in specimen.experiments]
     from ..io import load_model
     from ..markers import markers_to_experiment, read_markers
+    from ..plausibility import check_recording
 
     model = load_model(specimen.start)
     forces = specimen.forces or (None,) * len(specimen.markers)
-    return [markers_to_experiment(read_markers(path, units=specimen.options.get("units")),
-                                  model.mesh, dt=specimen.options.get("dt"), forces=force,
-                                  node_mass=model.node_mass, source=str(path)).experiment
-            for path, force in zip(specimen.markers, forces)]
+    experiments = []
+    for path, force in zip(specimen.markers, forces):
+        markers = read_markers(path, units=specimen.options.get("units"))
+        check_recording(markers, model.mesh, dt=specimen.options.get("dt"), model=model,
+                        topology=str(specimen.start),
+                        dt_option="dt" if specimen.options.get("dt") else None)
+        experiments.append(markers_to_experiment(
+            markers, model.mesh, dt=specimen.options.get("dt"), forces=force,
+            node_mass=model.node_mass, source=str(path)).experiment)
+    return experiments
 
 
 def fit_quality(model, experiments, substeps: int = 1, *, lack_of_fit=None) -> dict:

@@ -6,10 +6,11 @@ exits with status 2; ``--json`` output goes to stdout, progress to stderr.
 
 from __future__ import annotations
 
+import functools
 import sys
 import warnings
 
-from ..errors import NeurofuzzyError, RuleFileDeprecationWarning
+from ..errors import NeurofuzzyError, PlausibilityWarning, RuleFileDeprecationWarning
 from .common import EXIT_BAD_INPUT
 
 __all__ = ["main", "EXIT_BAD_INPUT"]
@@ -23,12 +24,15 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    held: list[str] = []           # our notes on the input, printed once the command succeeded
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", RuleFileDeprecationWarning)
-            warnings.showwarning = _show_warning
-            return args.run(args) or 0
+            warnings.simplefilter("always", PlausibilityWarning)
+            warnings.showwarning = functools.partial(_show_warning, held=held)
+            status = args.run(args) or 0
     except NeurofuzzyError as error:
+        # one root cause: the notes on the input that led here are not repeated
         print(f"neurofuzzy: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OSError as error:   # an output we cannot write: the user's path, not our bug
@@ -38,12 +42,19 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("neurofuzzy: interrupted", file=sys.stderr)
         return 130
+    for line in dict.fromkeys(held):
+        print(line, file=sys.stderr)
+    return status
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None):
-    """Our deprecation notes as one line (they name FILE:LINE themselves); others as usual."""
+def _show_warning(message, category, filename, lineno, file=None, line=None, *, held):
+    """Our notes on the input (deprecated rule-file forms, unusual values; they name FILE:LINE
+    or the option themselves) are held as one line each and printed when the command
+    succeeds; other warnings as usual, at once."""
     if issubclass(category, RuleFileDeprecationWarning):
-        print(f"neurofuzzy: deprecated: {message}", file=sys.stderr)
+        held.append(f"neurofuzzy: deprecated: {message}")
+    elif issubclass(category, PlausibilityWarning):
+        held.append(f"neurofuzzy: warning: {message}")
     else:
         print(warnings.formatwarning(message, category, filename, lineno, line),
               file=sys.stderr, end="")

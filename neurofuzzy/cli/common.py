@@ -17,7 +17,8 @@ from ..serialization import json_safe
 from ..errors import InputError, UnstableTimeStepError
 
 __all__ = ["EXIT_BAD_INPUT", "print_json", "refuse_overwrite", "written", "usage", "Outputs",
-           "positive", "at_least", "vtu_series", "naming"]
+           "positive", "at_least", "vtu_series", "naming", "rule_base_for",
+           "require_tissue"]
 
 EXIT_BAD_INPUT = 2
 
@@ -56,6 +57,33 @@ def at_least(value, minimum, option: str):
     if not (math.isfinite(value) and value >= minimum):
         raise InputError(f"got {value}; expected {minimum} or more", key=option)
     return value
+
+
+def rule_base_for(rules, tissue: str | None, option: str = "--tissue"):
+    """The rule base of ``--rules`` (None without one), with ``--tissue`` checked to be one of
+    its tissues ("did you mean"); a tissue without a rule base is refused."""
+    from ..rules import resolve
+
+    if rules is None:
+        if tissue is not None:
+            raise InputError(f"names tissue {tissue!r} of a rule base; give the rule base too "
+                             "(--rules R)", key=option)
+        return None
+    rule_base = resolve(rules)
+    if tissue is not None:
+        require_tissue(rule_base, tissue, option)
+    return rule_base
+
+
+def require_tissue(rule_base, tissue: str, option: str) -> None:
+    """Refuse a tissue the rule base lacks, naming the rule file and the option."""
+    from ..errors import closest_name
+
+    if tissue not in rule_base.tissues:
+        hint = closest_name(tissue, rule_base.tissues)
+        raise InputError(f"no tissue {tissue!r} ({option})" + (
+            f"; did you mean {hint!r}?" if hint else f"; tissues: {sorted(rule_base.tissues)}"),
+            source=rule_base.source, key="tissue")
 
 
 @contextlib.contextmanager

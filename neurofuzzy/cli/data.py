@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .common import Outputs, at_least, naming, positive, print_json, vtu_series, written
+from .common import (Outputs, at_least, naming, positive, print_json, require_tissue,
+                     vtu_series, written)
 
 __all__ = ["simulate", "mesh", "import_markers", "export"]
 
@@ -18,6 +19,7 @@ def simulate(args) -> int:
     from ..datasets import CUBE, paper_cube_model, top_centre_node
     from ..experiment import simulate_experiment
     from ..io import load_model, save_experiment
+    from ..plausibility import check_length_option, extent
 
     positive(args.dt, "--dt")
     at_least(args.frames, 2, "--frames")
@@ -27,6 +29,8 @@ def simulate(args) -> int:
     outputs = Outputs([Path(args.model)])
     out = outputs.file(args.out, "--out")
     model = paper_cube_model() if args.model == "cube" else load_model(args.model)
+    check_length_option(args.noise, extent(model.mesh.rest_positions), "--noise",
+                        "a marker noise", refused=0.25, warned=0.02)
     loads = np.zeros((model.n_nodes, 3))
     if args.force:
         for node, *force in args.force:
@@ -58,6 +62,7 @@ def mesh(args) -> int:
     from ..io import save_model
     from ..mesh import read_mesh
     from ..mesh.files import SURFACE_SUFFIXES
+    from ..plausibility import check_body_size
     from ..rules import resolve as load_rule_base
     from ..rules import initialize
 
@@ -67,15 +72,24 @@ def mesh(args) -> int:
     positive(args.scale, "--scale")
     if args.fix_below is not None and not np.isfinite(args.fix_below):
         raise InputError(f"got {args.fix_below}; expected a height in metres", key="--fix-below")
+    tissue_of = _region_options(args.region)
     outputs = Outputs([source, Path(args.rules)])
     out = outputs.file(args.out, "--out")
     method = "tetra" if args.tetra else "voxel"
+    rule_base = load_rule_base(args.rules)
+    for option, tissue in [("--tissue", args.tissue)] + [
+            (f"--region {region}={tissue}", tissue) for region, tissue in tissue_of.items()]:
+        if tissue:
+            require_tissue(rule_base, tissue, option)
     read = read_mesh(source, pitch=args.pitch, max_edge=args.max_edge, method=method)
     mesh = read.mesh
     if not (np.isfinite(args.scale) and args.scale > 0):
         raise InputError(f"got {args.scale}; expected a positive factor", key="--scale")
     if args.scale != 1.0:
         mesh = replace(mesh, rest_positions=mesh.rest_positions * args.scale)
+    tissues = ", ".join(dict.fromkeys(filter(None, [args.tissue, *tissue_of.values()])))
+    check_body_size(mesh.rest_positions, source=str(source), what="the mesh",
+                    tissue=tissues or None, scale=args.scale)
     if args.elements == "tetra" and mesh.tetrahedra is None:
         from ..mesh import lattice_to_tetra
 
@@ -86,17 +100,16 @@ def mesh(args) -> int:
         z = mesh.rest_positions[:, 2]
         mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
     elif args.fix_below is not None:
+        z = mesh.rest_positions[:, 2]
+        if args.fix_below >= z.max():
+            raise InputError(f"got {args.fix_below:g} m, at or above the top of the mesh "
+                             f"(z from {z.min():.4g} to {z.max():.4g} m): every node would be "
+                             "held and nothing could move", key="--fix-below")
         mesh = mesh.with_fixed(where=lambda p: p[:, 2] <= args.fix_below)
-    tissue_of = {}
-    for item in args.region:
-        region, _, tissue = item.partition("=")
-        if not region or not tissue:
-            raise InputError(f"got {item!r}; expected REGION=TISSUE", key="--region")
-        tissue_of[region] = tissue
-    rule_base = load_rule_base(args.rules)
     regions = {}
     if tissue_of:
         of = "tetrahedra" if read.tetrahedron_regions else "nodes"
+        _check_regions(read, tissue_of, args.tissue, source)
         regions = {("tetrahedron_regions" if of == "tetrahedra" else "regions"):
                    read.tissue_regions(tissue_of, of=of)}
     elif read.regions and len(read.regions) > 1:
@@ -120,6 +133,45 @@ def mesh(args) -> int:
     return 0
 
 
+def _region_options(items) -> dict[str, str]:
+    """``--region REGION=TISSUE`` options as a mapping; a region named twice is refused."""
+    tissue_of: dict[str, str] = {}
+    for item in items:
+        region, _, tissue = item.partition("=")
+        region, tissue = region.strip(), tissue.strip()
+        if not region or not tissue:
+            raise InputError(f"got {item!r}; expected REGION=TISSUE", key="--region")
+        if region in tissue_of:
+            raise InputError(f"region {region!r} is given twice ({region}={tissue_of[region]} "
+                             f"and {item}); give each region one tissue", key="--region")
+        tissue_of[region] = tissue
+    return tissue_of
+
+
+def _check_regions(read, tissue_of: dict, tissue: str | None, source: Path) -> None:
+    """Every --region names a region of the mesh, and every region has a tissue."""
+    from ..errors import closest_name
+
+    known = list(read.tetrahedron_regions or read.regions)
+    if not known:
+        raise InputError("has no regions (--region names regions of a volume mesh whose cells "
+                         "carry region ids, e.g. Gmsh physical groups); give --tissue for "
+                         "the whole object", source=str(source), key="--region")
+    for region in tissue_of:
+        if region not in known:
+            hint = closest_name(region, known)
+            raise InputError(f"no region {region!r}" + (f"; did you mean {hint!r}?" if hint
+                                                         else "") + f"; the regions are "
+                             f"{known}", source=str(source), key="--region")
+    missing = [region for region in known if region not in tissue_of]
+    if missing and not tissue:
+        raise InputError(f"region{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(map(repr, missing))} of the mesh "
+                         f"{'have' if len(missing) > 1 else 'has'} no tissue: give --region "
+                         f"{missing[0]}=TISSUE for each, or --tissue TISSUE for the rest",
+                         source=str(source), key="--region")
+
+
 def _resolution(args, bounds) -> str:
     """What resolution a surface was meshed at, and the option that changes it (a finer mesh
     resolves more and fits slower: fit time grows with the node count)."""
@@ -139,6 +191,7 @@ def _resolution(args, bounds) -> str:
 def import_markers(args) -> int:
     from ..io import load_experiment, load_model, save_experiment
     from ..markers import markers_to_experiment, read_marker_map, read_markers
+    from ..plausibility import check_body_size, check_length_option, check_recording
 
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
     positive(args.dt, "--dt")
@@ -148,6 +201,7 @@ def import_markers(args) -> int:
     outputs = Outputs(inputs)
     out = outputs.file(args.out, "--out")
     topology = Path(args.topology)
+    model = None
     if topology.suffix.lower() == ".npz":
         reference = load_experiment(topology)
         mesh, masses, dt = reference.mesh, reference.node_mass, reference.dt
@@ -157,13 +211,23 @@ def import_markers(args) -> int:
     else:
         raise InputError("expected a model (.yaml) or an experiment file (.npz)",
                          source=str(topology), key="--topology")
+    body = check_body_size(mesh.rest_positions, source=str(topology), what="its mesh",
+                           option="")
+    check_length_option(args.max_distance, body, "--max-distance",
+                        "a marker's distance from the mesh")
+    check_length_option(args.probe_radius, body, "--probe-radius", "a probe's contact radius")
+    if args.forces:
+        _check_force_options(args)
     markers = read_markers(args.markers, units=args.units)
+    check_recording(markers, mesh, dt=args.dt or dt, model=model, topology=str(topology),
+                    dt_option="--dt" if args.dt else None)
     mapping = read_marker_map(args.map, markers=markers, n_nodes=mesh.n_nodes) \
         if args.map else None
     imported = markers_to_experiment(
         markers, mesh, dt=args.dt or dt, mapping=mapping, max_distance=args.max_distance,
-        forces=args.forces, node_mass=masses, source=args.out, force_spread=args.force_spread,
-        probe_radius=args.probe_radius, attach=args.attach)
+        forces=args.forces, node_mass=masses, source=args.out,
+        force_spread=args.force_spread or 1, probe_radius=args.probe_radius,
+        attach=args.attach)
     experiment, summary = imported.experiment, imported.summary
     if args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",
@@ -190,6 +254,23 @@ def import_markers(args) -> int:
             print(f"  dropped the first {summary['dropped_leading_frames']} capture frames: "
                   "not every marker was seen yet")
     return 0
+
+
+def _check_force_options(args) -> None:
+    """--force-spread shares a point force among nodes: not for a node-numbered file, and
+    not together with a contact radius, which decides the spread itself."""
+    from ..markers.forces import force_file_form
+
+    if args.force_spread is None:
+        return
+    if force_file_form(args.forces) == "node":
+        raise InputError("shares a force given at a point (time,x,y,z,fx,fy,fz) among surface "
+                         "nodes; this force file names nodes", source=str(args.forces),
+                         key="--force-spread")
+    if args.probe_radius is not None:
+        raise InputError("--force-spread and --probe-radius both say how a point force is "
+                         "shared; give one (a contact radius spreads it over the patch the "
+                         "probe presses)", key="--force-spread")
 
 
 def export(args) -> int:

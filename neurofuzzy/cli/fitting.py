@@ -17,14 +17,19 @@ def _start(args, progress: bool):
     """The experiments named on the command line and the start of their fit."""
     from ..io import load_experiment
     from ..learn import start_model
+    from ..plausibility import check_fit_inputs
+    from .common import rule_base_for
 
     inputs = [Path(p) for p in args.experiments]
     experiments = [load_experiment(p) for p in inputs]
+    rules = rule_base_for(args.rules, args.tissue)
     elements = {"tetra": True, "springs": False}.get(args.elements)
     if getattr(args, "method", None) == "paper":
         elements = False                 # the paper's learner is the spring network's
-    start = start_model(experiments, model=args.start, rules=args.rules, tissue=args.tissue,
+    start = start_model(experiments, model=args.start, rules=rules, tissue=args.tissue,
                         tie=args.tie, elements=elements, progress=progress)
+    check_fit_inputs(experiments, start.model, substeps=args.substeps, model_source=args.start,
+                     physical=start.how in ("model", "rules"))
     return inputs, experiments, start
 
 

@@ -271,12 +271,13 @@ def build_parser() -> argparse.ArgumentParser:
                           help="contact radius of the probes of a point-force CSV without a "
                                "radius column (m): the force becomes a uniform traction on the "
                                "surface within R of the point")
-    importer.add_argument("--force-spread", type=int, default=1, metavar="K",
+    importer.add_argument("--force-spread", type=int, default=None, metavar="K",
                           help="share each point force among the K nearest surface nodes "
                                "(inverse-distance weights; default 1)")
     importer.add_argument("--units", choices=("m", "cm", "mm"),
-                          help="length unit of the marker file (CSV: required unless the file "
-                               "has a '# units: mm' line; C3D: overrides POINT:UNITS)")
+                          help="length unit of the marker file (required unless the file "
+                               "states it: a CSV's '# units: mm' line, a C3D's POINT:UNITS; "
+                               "if both, they must agree)")
     importer.add_argument("--dt", type=float, default=None,
                           help="the model's step (s) to resample to (default: the topology "
                                "file's dt, else the capture's frame period)")

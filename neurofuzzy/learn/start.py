@@ -119,12 +119,15 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         from ..io import load_model
 
         given = model if isinstance(model, SpringMassModel) else load_model(model)
-        check_experiments(given, experiments)
-        given = given if tie is None else given.tied(tie)
         source = "the given model" if isinstance(model, SpringMassModel) else str(model)
+        check_experiments(given, experiments, model_source=None if isinstance(
+            model, SpringMassModel) else source)
+        given = given if tie is None else given.tied(tie)
+        rule_base = None if rules is None else _rules(rules)
+        if tissue is not None:
+            _check_tissue(rule_base, tissue)
         note(progress, f"start values: {source}")
-        return StartModel(given, "model", f"model {source}",
-                          rules=None if rules is None else _rules(rules),
+        return StartModel(given, "model", f"model {source}", rules=rule_base,
                           tissue=tissue or _single_tissue(given))
     check_experiments(_topology_model(first), experiments)
     tie = tie or "groups"
@@ -164,6 +167,17 @@ def _rules(value):
     from ..rules import resolve
 
     return resolve(value)
+
+
+def _check_tissue(rule_base, tissue: str) -> None:
+    """A tissue named beside a start model lends its words: it must be one of the rules'."""
+    if rule_base is None:
+        raise InputError(f"names tissue {tissue!r} but no rule base to take it from; give "
+                         "the rule base too (--rules R)", key="tissue")
+    if tissue not in rule_base.tissues:
+        from ..rules.limits import unknown_tissue
+
+        raise unknown_tissue(rule_base, tissue)
 
 
 def _topology_model(experiment: Experiment) -> SpringMassModel:

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["Mesh", "TET_EDGES", "bottom_layer"]
+__all__ = ["Mesh", "TET_EDGES", "bottom_layer", "mesh_fingerprint"]
 
 #: The six edges of a tetrahedron, as pairs of its local vertex indices.
 TET_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
@@ -161,6 +161,20 @@ class Mesh:
         if name not in self.group_names:
             raise InputError(f"no spring group {name!r}; groups are {list(self.group_names)}")
         return self.group_names.index(name)
+
+
+def mesh_fingerprint(mesh: Mesh) -> str:
+    """A short fingerprint of the node numbering of ``mesh``: ``"27 nodes 3f5c…"`` (the node
+    count and 16 hex digits of a SHA-256 of the rest positions rounded to 0.1 µm).
+
+    Files that name nodes by number (node-numbered force CSVs) carry it, so that they are
+    refused on another mesh, whose node ``k`` is elsewhere (re-meshing renumbers nodes).
+    """
+    import hashlib
+
+    quantised = np.round(np.asarray(mesh.rest_positions, float) * 1e7).astype("<i8")
+    digest = hashlib.sha256(quantised.tobytes()).hexdigest()[:16]
+    return f"{mesh.n_nodes} nodes {digest}"
 
 
 def bottom_layer(rest_positions: np.ndarray, axis: int = 2, tol: float = 1e-9) -> np.ndarray:

@@ -6,6 +6,7 @@ import numpy as np
 import skfuzzy as fuzz
 
 from ..errors import InputError, closest_name
+from .limits import check_inferred
 from .membership import apply_hedges
 from .terms import GRID_POINTS, Phrase, Variable, parse_phrase
 
@@ -155,7 +156,9 @@ def tissue_values(rules, name: str) -> dict[str, float]:
     if missing:
         raise InputError(f"no rule fires for tissue {name!r} on {missing}; add a rule",
                          source=rules.source, key="tissues")
-    return {k: float(v[0]) for k, v in values.items()}
+    values = {k: float(v[0]) for k, v in values.items()}
+    check_inferred(rules, name, values)
+    return values
 
 
 def tissue_sets(rules, name: str) -> dict[str, np.ndarray]:

@@ -41,6 +41,8 @@ import numpy as np
 from ..errors import InputError, RuleFileDeprecationWarning, closest_name
 from ..safe_yaml import kind_of
 from . import _yaml
+from .limits import (defuzzification_problems, shared_quantities, term_problem,
+                     tissue_problems, universe_problems)
 from .membership import HEDGES, MEMBERSHIP_FUNCTIONS, check_parameters, evaluate
 from .rulebase import RuleBase
 from .terms import (DEFUZZIFICATION, QUANTITIES, TOP_KEYS, VARIABLE_KEYS, Clause, Phrase, Rule,
@@ -73,6 +75,11 @@ class _Builder:
     def __init__(self):
         self.problems: list[InputError] = []
         self.renamed: dict[str, str] = {}       # deprecated output names → quantity names
+        # what failed to build, already reported: later mentions are knock-on effects, not
+        # reported again (one root error each)
+        self.broken: set[tuple[str, str]] = set()           # (role, variable)
+        self.broken_terms: set[tuple[str, str]] = set()     # (variable, term)
+        self.dropped_rules = 0
 
     def problem(self, source, line, message):
         self.problems.append(InputError(message, source=str(source), line=line))
@@ -121,13 +128,17 @@ class _Builder:
                 self.problem(source, data.line_of(role + "s"), f"{role}s must be a mapping")
                 continue
             for name, spec in section.items():
-                variable = self.variable(source, role, str(name), spec, section.line_of(name))
+                variable = self.variable(source, role, str(name), spec, section.line_of(name),
+                                         section)
                 if variable is not None:
                     store[variable.name] = variable
+                else:
+                    self.broken.add((role, str(name)))
+        self.one_per_quantity(source, outputs)
         broken_base = "extends" in data and base is None    # already reported; the rest
-        if not inputs and not broken_base:                  # would follow from it
+        if not inputs and not broken_base and not self.any_broken("input"):  # would follow
             self.problem(source, data.line, "no input variables ('inputs:')")
-        if not outputs and not broken_base:
+        if not outputs and not broken_base and not self.any_broken("output"):
             self.problem(source, data.line, "no output variables ('outputs:')")
         rules = list(base.rules) if base else []
         for index, spec in enumerate(data["rules"] if isinstance(data.get("rules"), list)
@@ -135,14 +146,16 @@ class _Builder:
             rule = self.rule(source, spec, data["rules"].line_of(index), inputs, outputs)
             if rule is not None:
                 rules.append(rule)
-        if not rules and not broken_base:
+        if not rules and not broken_base and not self.dropped_rules:
             self.problem(source, data.line, "no rules ('rules:')")
         tissues = dict(base.tissues) if base else {}
+        tissue_lines = dict(base.tissue_lines) if base else {}
         section = data["tissues"] if isinstance(data.get("tissues"), dict) else {}
         for name, spec in section.items():
             tissue = self.tissue(source, str(name), spec, section.line_of(name), inputs)
             if tissue is not None:
                 tissues[str(name)] = tissue
+                tissue_lines[str(name)] = (source, section.line_of(name))
         settings = {}
         for key, default, allowed in (("defuzzification", "centroid", DEFUZZIFICATION),
                                       ("and", "min", ("min", "product")),
@@ -154,15 +167,37 @@ class _Builder:
                 self.problem(source, data.line_of(key), f"{key}: {value!r} is not one of "
                              f"{list(allowed)}" + (f"; did you mean {hint!r}?" if hint else ""))
             settings[key] = value
+        if not self.problems:
+            for line, message in defuzzification_problems(outputs, rules,
+                                                          settings["defuzzification"]):
+                self.problem(source, data.line_of("defuzzification") or line, message)
         if self.problems:
             raise RuleBaseError(self.problems)
-        return RuleBase(name=str(data.get("name", path.stem)), source=source, inputs=inputs,
-                        outputs=outputs, rules=rules, tissues=tissues,
-                        defuzzification=settings["defuzzification"],
-                        and_method=settings["and"], or_method=settings["or"],
-                        renamed=self.renamed)
+        rule_base = RuleBase(name=str(data.get("name", path.stem)), source=source,
+                             inputs=inputs, outputs=outputs, rules=rules, tissues=tissues,
+                             defuzzification=settings["defuzzification"],
+                             and_method=settings["and"], or_method=settings["or"],
+                             renamed=self.renamed, tissue_lines=tissue_lines)
+        self.check_tissue_values(rule_base)
+        if self.problems:
+            raise RuleBaseError(self.problems)
+        return rule_base
 
-    def variable(self, source, role, name, spec, line):
+    def any_broken(self, role: str) -> bool:
+        return any(r == role for r, _ in self.broken)
+
+    def one_per_quantity(self, source, outputs) -> None:
+        """Two outputs that stand for one quantity are refused (:func:`.limits.shared_quantities`);
+        neither is reported again where it is used."""
+        for line, message, names in shared_quantities(outputs, source):
+            self.problem(source, line, message)
+            self.broken.update(("output", name) for name in names)
+
+    def check_tissue_values(self, rule_base) -> None:
+        """Every tissue's inferred values must be physically possible."""
+        self.problems += tissue_problems(rule_base)
+
+    def variable(self, source, role, name, spec, line, siblings=None):
         if not isinstance(spec, dict):
             self.problem(source, line, f"{role} {name!r} needs 'universe' and 'terms'")
             return None
@@ -208,19 +243,36 @@ class _Builder:
             self.problem(source, spec.line_of("quantity"), f"{name}: unknown quantity "
                          f"{quantity!r}" + (f"; did you mean {hint!r}?" if hint else
                                              f"; quantities are {list(QUANTITIES)}"))
+            return None
+        if role == "output":
+            limits = universe_problems(name, quantity, low, high, unit)
+            for message in limits:
+                self.problem(source, spec.line_of("universe"), message)
+            if limits:
+                return None
         if role == "output" and name in QUANTITIES and quantity in QUANTITIES \
                 and quantity != name:
+            if siblings is not None and quantity in siblings:
+                self.problem(source, line, f"output {name!r} stands for {quantity} (its old "
+                             f"name), and output {quantity!r} (line "
+                             f"{siblings.line_of(quantity)}) is {quantity} too: the old name "
+                             f"would replace it; remove {name!r} (or rename it and the rules "
+                             f"that name it to {quantity!r} and remove the other)")
+                self.broken.add(("output", quantity))
+                return None
             warnings.warn(RuleFileDeprecationWarning(
                 f"{source}:{line}: output {name!r} stands for {quantity}; in neurofuzzy "
                 f"{name!r} means another quantity, so the output is read as {quantity!r} — "
                 f"rename it (and the rules that name it) to {quantity!r}"), stacklevel=4)
             self.renamed[name] = quantity
             name = quantity
-        variable = Variable(name, role, low, high, scale, unit, quantity, line=line)
+        variable = Variable(name, role, low, high, scale, unit, quantity, line=line,
+                            source=source)
         terms = spec.get("terms")
         if not isinstance(terms, dict) or not terms:
             self.problem(source, spec.line_of("terms"), f"{name}: needs at least one term")
-            return variable
+            self.broken.add((role, name))
+            return None
         for term, definition in terms.items():
             self.term(source, variable, str(term), definition, terms.line_of(term))
         return variable
@@ -228,10 +280,12 @@ class _Builder:
     def term(self, source, variable, name, definition, line):
         if name in HEDGES or name in ("and", "or", "is", "more", "less"):
             self.problem(source, line, f"{variable.name}: {name!r} is a reserved word, not a term")
+            self.broken_terms.add((variable.name, name))
             return
         if not isinstance(definition, dict) or len(definition) != 1:
             self.problem(source, line, f"{variable.name}.{name}: write one membership function, "
                          f"e.g. {{trimf: [a, b, c]}}; known: {list(MEMBERSHIP_FUNCTIONS)}")
+            self.broken_terms.add((variable.name, name))
             return
         (kind, params), = definition.items()
         if kind not in MEMBERSHIP_FUNCTIONS:
@@ -239,6 +293,7 @@ class _Builder:
             self.problem(source, line, f"{variable.name}.{name}: unknown membership function "
                          f"{kind!r}" + (f"; did you mean {hint!r}?" if hint else
                                         f"; known: {list(MEMBERSHIP_FUNCTIONS)}"))
+            self.broken_terms.add((variable.name, name))
             return
         why = check_parameters(kind, params)
         if why is None and variable.scale == "log":
@@ -246,13 +301,17 @@ class _Builder:
                 else [p[0] for p in params]
             if any(float(p) <= 0 for p in positions):
                 why = "positions on a log universe must be > 0"
+        if why is None and variable.role == "output":
+            why = term_problem(variable, kind, params)
         if why:
             self.problem(source, line, f"{variable.name}.{name}: {why}")
+            self.broken_terms.add((variable.name, name))
             return
         values = evaluate(kind, params, variable.grid, variable.to_internal)
         if not np.all(np.isfinite(values)) or values.max() <= 1e-9:
             self.problem(source, line, f"{variable.name}.{name}: the term is zero over the whole "
                          f"universe [{variable.low:g}, {variable.high:g}]; move it inside")
+            self.broken_terms.add((variable.name, name))
             return
         variable.terms[name] = Term(name, kind, params, values, line)
 
@@ -264,6 +323,8 @@ class _Builder:
         name, phrase_text = match.groups()
         if role == "output":
             name = self.renamed.get(name, name)
+        if name not in variables and (role, name) in self.broken:
+            return None                             # its definition's error is reported
         if name not in variables:
             hint = closest_name(name, variables)
             self.problem(source, line, f"rule names undefined {role} variable {name!r}" +
@@ -271,14 +332,21 @@ class _Builder:
                           f"; {role}s are {list(variables)}"))
             return None
         phrase, problem = parse_phrase(phrase_text, variables[name])
-        if problem:
+        if problem and not self.knock_on(name, phrase_text):
             self.problem(source, line, problem)
+        if problem:
             return None
         return Clause(name, phrase)
+
+    def knock_on(self, variable: str, phrase_text: str) -> bool:
+        """Does ``phrase_text`` name a term whose definition failed (already reported)?"""
+        words = phrase_text.split()
+        return bool(words) and (variable, words[-1]) in self.broken_terms
 
     def rule(self, source, spec, line, inputs, outputs):
         if not isinstance(spec, dict) or "if" not in spec or "then" not in spec:
             self.problem(source, line, "a rule needs 'if:' and 'then:'")
+            self.dropped_rules += 1
             return None
         for key in spec:
             if key not in ("if", "then", "weight"):
@@ -301,10 +369,13 @@ class _Builder:
         except (TypeError, ValueError):
             self.problem(source, spec.line_of("weight"), f"weight must be in [0, 1], got "
                          f"{spec.get('weight')!r}")
+            self.dropped_rules += 1
             return None
         if any(c is None for g in groups for c in g) or any(c is None for c in consequents):
+            self.dropped_rules += 1
             return None
-        return Rule(groups, consequents, weight, line, f"if {spec['if']} then {spec['then']}")
+        return Rule(groups, consequents, weight, line, f"if {spec['if']} then {spec['then']}",
+                    source=source)
 
     def tissue(self, source, name, spec, line, inputs):
         if not isinstance(spec, dict):
@@ -313,6 +384,8 @@ class _Builder:
         described = {}
         for variable, words in spec.items():
             at = spec.line_of(variable)
+            if variable not in inputs and ("input", str(variable)) in self.broken:
+                continue                            # its definition's error is reported
             if variable not in inputs:
                 hint = closest_name(str(variable), inputs)
                 self.problem(source, at, f"tissue {name!r}: unknown input {variable!r}" +
@@ -330,7 +403,8 @@ class _Builder:
                 continue
             phrase, problem = parse_phrase(str(words), inputs[variable])
             if problem:
-                self.problem(source, at, f"tissue {name!r}: {problem}")
+                if not self.knock_on(variable, str(words)):
+                    self.problem(source, at, f"tissue {name!r}: {problem}")
                 continue
             described[variable] = phrase
         return described

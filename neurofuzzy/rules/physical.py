@@ -267,9 +267,11 @@ def _tissue_labels(regions: dict, n: int, default: str | None, key: str,
             raise InputError(f"region {name!r}: got shape {mask.shape}; expected a bool mask "
                              f"of shape ({n},), one value per {what[:-1]}", key=key)
         labels[mask] = name
-    if any(label is None for label in labels):
-        raise InputError(f"some {what} are in no region and no default tissue is given",
-                         key=key)
+    missing = sum(label is None for label in labels)
+    if missing:
+        raise InputError(f"{missing} of the {n} {what} are in none of the regions "
+                         f"{', '.join(map(repr, regions)) or '(none given)'} and no default "
+                         "tissue is given; give a tissue for the rest (tissue=...)", key=key)
     return labels
 
 

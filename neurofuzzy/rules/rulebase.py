@@ -15,7 +15,7 @@ class RuleBase:
     """A parsed, validated rule base (use :func:`load_rules`)."""
 
     def __init__(self, *, name, source, inputs, outputs, rules, tissues, defuzzification,
-                 and_method, or_method, renamed=None):
+                 and_method, or_method, renamed=None, tissue_lines=None):
         self.name = name
         self.source = source
         self.inputs: dict[str, Variable] = inputs
@@ -27,6 +27,8 @@ class RuleBase:
         self.or_method = or_method
         #: old output names of a deprecated file → their new names (:mod:`.parser`)
         self.renamed: dict[str, str] = dict(renamed or {})
+        #: tissue name → (rule file, line) where it is described (for messages)
+        self.tissue_lines: dict[str, tuple[str, int]] = dict(tissue_lines or {})
 
     @property
     def variables(self) -> dict[str, Variable]:

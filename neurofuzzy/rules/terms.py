@@ -58,6 +58,7 @@ class Variable:
     quantity: str | None
     terms: dict = field(default_factory=dict)
     line: int = 0
+    source: str = ""              # the rule file that defines it (for messages)
 
     def to_internal(self, x):
         x = np.asarray(x, dtype=float)
@@ -104,6 +105,7 @@ class Rule:
     weight: float
     line: int
     text: str
+    source: str = ""              # the rule file that holds it (for messages)
 
 
 @dataclass
