@@ -114,6 +114,6 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
 __version__ = "0.1.0"
 
 # the function, set over the package of the same name (see the module docstring)
-from .export import export  # noqa: E402
+from .export import export  # noqa: E402, F401
 
 __all__ = sorted(_EXPORTS)
