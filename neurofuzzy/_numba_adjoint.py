@@ -19,6 +19,7 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
+from ._numba_integrator import euler_update, euler_update_transpose
 from ._numba_kernels import _spring
 from ._numba_sensitivity import (_edges, _element_tangents, _full, _mul, _sym_dot,
                                  _sym_t_mul)
@@ -220,11 +221,7 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
                 _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
             if has_elements:
                 _element_force(p, v, elements, blank, node_strain, force)
-            for i in range(n_nodes):
-                w = h * weight[i]
-                for k in range(3):
-                    v[i, k] += w * force[i, k]
-                    p[i, k] += h * v[i, k]
+            euler_update(p, v, force, weight, h)
         positions[t] = p
 
 
@@ -261,12 +258,9 @@ def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frame
             p = states_p[step]
             v = states_v[step]
             # p' = p + h v', v' = v + h W F: the new velocity's cotangent, then the force's
+            euler_update_transpose(lam_p, lam_v, weight, h, lam_force)
             for i in range(n_nodes):
                 for k in range(3):
-                    lam_v[i, k] += h * lam_p[i, k]
-                    if weight[i] == 0.0:          # fixed nodes do not move
-                        lam_v[i, k] = 0.0
-                    lam_force[i, k] = h * weight[i] * lam_v[i, k]
                     d_p[i, k] = 0.0
                     d_v[i, k] = -drag * lam_force[i, k]
             for j in range(a.shape[0]):

@@ -10,6 +10,8 @@ the node-averaged ``Λ θ̄ + H θ̄̇`` over the element's corners (nodal volum
 import numba
 import numpy as np
 
+from ._numba_integrator import euler_update
+
 
 @numba.njit(cache=True, nogil=True)
 def _deformation(p, v, n0, n1, n2, n3, B, F, Fd):
@@ -187,11 +189,7 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
         if tets.shape[0]:
             _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal,
                             node_volume, node_lam, node_lam_rate, node_strain, force)
-        for i in range(n_nodes):
-            step = h * weight[i]
-            for k in range(3):
-                v[i, k] += step * force[i, k]
-                p[i, k] += h * v[i, k]
+        euler_update(p, v, force, weight, h)
 
 
 @numba.njit(cache=True, nogil=True)

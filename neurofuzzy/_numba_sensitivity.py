@@ -24,6 +24,7 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
+from ._numba_integrator import euler_update
 from ._numba_kernels import _spring
 
 
@@ -343,6 +344,9 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     tp = np.zeros((n_nodes, 3, width))
     tv = np.zeros((n_nodes, 3, width))
     d_force = np.empty((n_nodes, 3, width))
+    tp_flat = tp.reshape((n_nodes, 3 * width))
+    tv_flat = tv.reshape((n_nodes, 3 * width))
+    d_force_flat = d_force.reshape((n_nodes, 3 * width))
     work = np.empty((3, width))
     node_strain = np.zeros((n_nodes, 2))
     d_node_strain = np.zeros((n_nodes, width, 2))
@@ -375,15 +379,9 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                                   d_lam_rate, d_node_lam, d_node_lam_rate, kappa,
                                   kappa_column, first, node_strain, d_node_strain, force,
                                   d_force)
-            for i in range(n_nodes):
-                step = h * weight[i]
-                for k in range(3):
-                    v[i, k] += step * force[i, k]
-                    p[i, k] += h * v[i, k]
-                    speed, place, change = tv[i, k], tp[i, k], d_force[i, k]
-                    for q in range(width):
-                        speed[q] += step * change[q]
-                        place[q] += h * speed[q]
+            euler_update(p, v, force, weight, h)
+            # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)
+            euler_update(tp_flat, tv_flat, d_force_flat, weight, h)
         positions[t] = p
         if tangents:
             for row in range(n_rows):

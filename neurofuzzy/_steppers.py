@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .simulation import numba_available
+from .simulation import euler_update, numba_available
 
 __all__ = ["NumpyStepper", "NumbaStepper", "make_stepper"]
 
@@ -67,9 +67,7 @@ class NumpyStepper:
                 force += load_t
             for term in self.other_terms:
                 force += term.force(self.model, pt.T, vt.T).T
-            force *= self.step_weight
-            vt += force
-            pt += h * vt
+            euler_update(pt, vt, force, self.step_weight, h)
         p[...] = pt.T
         v[...] = vt.T
 

@@ -38,6 +38,7 @@ __all__ = [
     "StabilityLimit",
     "internal_forces",
     "step",
+    "euler_update",
     "simulate",
     "stability_limit",
     "check_time_step",
@@ -83,15 +84,42 @@ def internal_forces(model: SpringMassModel, positions: np.ndarray,
     return force
 
 
+def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, step_weight,
+                 h: float) -> None:
+    """The semi-implicit Euler update, in place (eqs. 3.2, 3.1): ``v += h W F``, then
+    ``p += h v``.
+
+    The numpy reference of the compiled :func:`neurofuzzy._numba_integrator.euler_update`
+    (every numpy path takes this one: :func:`step`, the numpy stepper, the numpy
+    sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
+
+    Parameters
+    ----------
+    p, v : ndarray
+        Positions and velocities (or their tangents), updated in place.
+    force : ndarray
+        The force (or its tangent) at the start of the step, the shape of ``v`` (not changed).
+    step_weight : ndarray
+        ``h W`` (``W = 1/m``, zero at fixed nodes), shaped to broadcast against ``force``:
+        (n_nodes, 1) for node-major (n_nodes, 3) arrays, (n_nodes,) for component-major
+        (3, n_nodes) ones, (n_nodes, 1, 1) for tangents (n_nodes, P, 3).
+    h : float
+        Step length (s).
+    """
+    v += step_weight * force
+    p += h * v
+
+
 def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, h: float,
          external_force: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One semi-implicit Euler step of length ``h`` (eqs. 3.1–3.3); returns ``(p, v)``."""
     force = internal_forces(model, positions, velocities)
     if external_force is not None:
         force = force + external_force
-    velocities = velocities + h * model.node_inverse_mass[:, None] * force
-    velocities[model.mesh.fixed] = 0.0
-    return positions + h * velocities, velocities
+    p, v = np.array(positions, dtype=float), np.array(velocities, dtype=float)
+    v[model.mesh.fixed] = 0.0
+    euler_update(p, v, force, h * model.node_inverse_mass[:, None], h)
+    return p, v
 
 
 def simulate(model: SpringMassModel, *, dt: float, n_frames: int,

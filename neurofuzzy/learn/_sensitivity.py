@@ -26,6 +26,7 @@ from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence
 from ..observation import remove_offsets
+from ..simulation import euler_update
 from ._compiled import CompiledModel, compiled_possible
 from ._compiled_gradient import compiled_gradient
 from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
@@ -208,17 +209,14 @@ class Sensitivity:
                         if tangents:
                             d_force = self._force_tangent(model, state, p, v, tp, tv,
                                                           directions)
-                            d_velocity = tv + (h * weight)[:, :, None] * d_force
-                            if mass_rows is not None:
+                            if mass_rows is not None:      # ∂(W F)/∂log m = -W F_inertial
                                 nodes = param.free_nodes
                                 inertial = force - self._per_unit_mass(model, p, v)
-                                d_velocity[nodes, mass_rows] -= h * weight[nodes] * inertial[nodes]
-                            tv = d_velocity
-                            tv[model.mesh.fixed] = 0.0
-                            tp = tp + h * tv
-                        v = v + h * weight * force
-                        v[model.mesh.fixed] = 0.0
-                        p = p + h * v
+                                d_force[nodes, mass_rows] -= inertial[nodes]
+                            tp, tv = tp.copy(), tv.copy()
+                            euler_update(tp, tv, d_force, (h * weight)[:, :, None], h)
+                        p, v = p.copy(), v.copy()
+                        euler_update(p, v, force, h * weight, h)
                     if tangents:
                         jacobian[t - 1] = (observation.apply(tp).transpose(0, 2, 1)
                                            / self.length_unit * seen[t][:, None, None])
@@ -294,9 +292,8 @@ class Sensitivity:
                 for _ in range(substeps):
                     states.append((t, p, v))
                     force = self._force(model, p, v, SPRINGS.state(model, p, v)) + loads[t - 1]
-                    v = v + h * weight * force
-                    v[fixed] = 0.0
-                    p = p + h * v
+                    p, v = p.copy(), v.copy()
+                    euler_update(p, v, force, h * weight, h)
                 positions[t] = p
         scale = 1.0 / self.length_unit
         with np.errstate(over="ignore", invalid="ignore"):
