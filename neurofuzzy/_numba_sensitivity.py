@@ -26,6 +26,7 @@ import numpy as np
 
 from ._numba_integrator import euler_update
 from ._numba_kernels import _spring
+from ._numba_svk import stress, stress_jvp
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
@@ -250,14 +251,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                                + node_strain[n3, 0])
         else:
             pressure = lam[e] * theta + lam_rate[e] * theta_rate
-        squared = _sym_dot(G, G)
-        elastic = shear[e] + 2.0 * kappa * squared
-        viscous = shear_rate[e]
-        S = _full((elastic * G[0] + viscous * Gd[0] + pressure,
-                   elastic * G[1] + viscous * Gd[1] + pressure,
-                   elastic * G[2] + viscous * Gd[2] + pressure,
-                   elastic * G[3] + viscous * Gd[3], elastic * G[4] + viscous * Gd[4],
-                   elastic * G[5] + viscous * Gd[5]))
+        S = _full(stress(G, Gd, shear[e], shear_rate[e], pressure, kappa))
         scale = -volume[e]
         _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
         if n_params == 0:
@@ -279,7 +273,6 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                 d_pressure = (lam[e] * (dG[0] + dG[1] + dG[2])
                               + lam_rate[e] * (dGa[0] + dGa[1] + dGa[2] + dGb[0] + dGb[1]
                                                + dGb[2]))
-            g = 4.0 * kappa * _sym_dot(G, dG)
             shear_part = 0.0       # the element's own constants, when q is one of them
             rate_part = 0.0
             while entry < stop and element_column[entry] == first + q:
@@ -289,19 +282,11 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                     d_pressure += d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
                 entry += 1
             if first + q == kappa_column:
-                shear_part += 2.0 * squared
-            dS = _full((elastic * dG[0] + viscous * (dGa[0] + dGb[0]) + (g + shear_part) * G[0]
-                        + rate_part * Gd[0] + d_pressure,
-                        elastic * dG[1] + viscous * (dGa[1] + dGb[1]) + (g + shear_part) * G[1]
-                        + rate_part * Gd[1] + d_pressure,
-                        elastic * dG[2] + viscous * (dGa[2] + dGb[2]) + (g + shear_part) * G[2]
-                        + rate_part * Gd[2] + d_pressure,
-                        elastic * dG[3] + viscous * (dGa[3] + dGb[3]) + (g + shear_part) * G[3]
-                        + rate_part * Gd[3],
-                        elastic * dG[4] + viscous * (dGa[4] + dGb[4]) + (g + shear_part) * G[4]
-                        + rate_part * Gd[4],
-                        elastic * dG[5] + viscous * (dGa[5] + dGb[5]) + (g + shear_part) * G[5]
-                        + rate_part * Gd[5]))
+                shear_part += 2.0 * _sym_dot(G, G)
+            dGd = (dGa[0] + dGb[0], dGa[1] + dGb[1], dGa[2] + dGb[2], dGa[3] + dGb[3],
+                   dGa[4] + dGb[4], dGa[5] + dGb[5])
+            dS = _full(stress_jvp(G, Gd, dG, dGd, shear[e], shear_rate[e], kappa, shear_part,
+                                  rate_part, d_pressure))
             dFS = _mul(dF, S)                            # dP = dF S + F dS
             FdS = _mul(F, dS)
             dP = (dFS[0] + FdS[0], dFS[1] + FdS[1], dFS[2] + FdS[2], dFS[3] + FdS[3],

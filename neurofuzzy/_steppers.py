@@ -133,13 +133,14 @@ def compiled_terms_only(model) -> bool:
 
 
 def _element_arrays(model, dtype):
-    """``(tets, inverse_rest, volume, λ, μ, η/E, nodal, node_volume, Λ, H, node_strain)`` of
-    the model's elements in the kernel's layout (empty when it has none; ``node_strain`` is
-    scratch space of the nodal volumetric form)."""
+    """``(tets, inverse_rest, volume, shear, shear_rate, λ, λβ, nodal, node_volume, Λ, H,
+    node_strain)`` of the model's elements in the kernel's layout (the constants of
+    :class:`~neurofuzzy.forces.Materials`; empty when it has none; ``node_strain`` is scratch
+    space of the nodal volumetric form)."""
     if not model.has_elements:
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty, empty, empty,
-                empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
+                empty, empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
     from .forces.tetra_geometry import Materials
 
     materials = Materials.of(model)
@@ -150,9 +151,9 @@ def _element_arrays(model, dtype):
                    if nodal else (np.zeros(n_nodes),) * 3)
     return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
-            materials.lam.astype(dtype), (0.5 * materials.shear).astype(dtype),
-            (model.element_viscosity / model.element_youngs_modulus).astype(dtype), nodal,
-            *(np.ascontiguousarray(values, dtype) for values in node_values),
+            *(values.astype(dtype) for values in (materials.shear, materials.shear_rate,
+                                                  materials.lam, materials.lam_rate)),
+            nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
             np.zeros((n_nodes, 2), dtype))
 
 
