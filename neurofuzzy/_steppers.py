@@ -8,8 +8,7 @@ positions and velocities of shape (n_nodes, 3)):
   accumulation as sparse matrix products (the fastest of ``np.bincount``, ``np.add.at`` and a
   sparse incidence matrix measured in ``benchmarks/run.py``);
 - :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs, tetrahedral
-  elements and nodes (optional; ``pip install numba``), about six times faster on 10,000
-  springs.
+  elements and nodes (numba, a core dependency), about six times faster on 10,000 springs.
 
 Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). Models with
 effects use the numpy stepper, which adds the effect forces at every step.
@@ -19,9 +18,42 @@ from __future__ import annotations
 
 import numpy as np
 
-from .simulation import euler_update, numba_available
+__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
 
-__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper"]
+
+def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, step_weight,
+                 h: float) -> None:
+    """The semi-implicit Euler update, in place (eqs. 3.2, 3.1): ``v += h W F``, then
+    ``p += h v``.
+
+    The numpy reference of the compiled :func:`neurofuzzy.kernels.integrator.euler_update`
+    (every numpy path takes this one: :func:`neurofuzzy.simulation.step`, the numpy stepper, the numpy
+    sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
+
+    Parameters
+    ----------
+    p, v : ndarray
+        Positions and velocities (or their tangents), updated in place.
+    force : ndarray
+        The force (or its tangent) at the start of the step, the shape of ``v`` (not changed).
+    step_weight : ndarray
+        ``h W`` (``W = 1/m``, zero at fixed nodes), shaped to broadcast against ``force``:
+        (n_nodes, 1) for node-major (n_nodes, 3) arrays, (n_nodes,) for component-major
+        (3, n_nodes) ones, (n_nodes, 1, 1) for tangents (n_nodes, P, 3).
+    h : float
+        Step length (s).
+    """
+    v += step_weight * force
+    p += h * v
+
+
+def numba_available() -> bool:
+    """True when numba can be imported (a core dependency: always, in a correct install)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 class NumpyStepper:
@@ -158,7 +190,7 @@ def _element_arrays(model, dtype):
 
 
 def _compile():
-    from ._numba_kernels import advance, frames
+    from .kernels.stepper import advance, frames
 
     return advance, frames
 

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._steppers import euler_update, make_stepper, numba_available
 from .errors import InputError, UnstableTimeStepError
 from .model import SpringMassModel
 
@@ -84,32 +85,6 @@ def internal_forces(model: SpringMassModel, positions: np.ndarray,
     return force
 
 
-def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, step_weight,
-                 h: float) -> None:
-    """The semi-implicit Euler update, in place (eqs. 3.2, 3.1): ``v += h W F``, then
-    ``p += h v``.
-
-    The numpy reference of the compiled :func:`neurofuzzy._numba_integrator.euler_update`
-    (every numpy path takes this one: :func:`step`, the numpy stepper, the numpy
-    sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
-
-    Parameters
-    ----------
-    p, v : ndarray
-        Positions and velocities (or their tangents), updated in place.
-    force : ndarray
-        The force (or its tangent) at the start of the step, the shape of ``v`` (not changed).
-    step_weight : ndarray
-        ``h W`` (``W = 1/m``, zero at fixed nodes), shaped to broadcast against ``force``:
-        (n_nodes, 1) for node-major (n_nodes, 3) arrays, (n_nodes,) for component-major
-        (3, n_nodes) ones, (n_nodes, 1, 1) for tangents (n_nodes, P, 3).
-    h : float
-        Step length (s).
-    """
-    v += step_weight * force
-    p += h * v
-
-
 def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, h: float,
          external_force: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One semi-implicit Euler step of length ``h`` (eqs. 3.1–3.3); returns ``(p, v)``."""
@@ -157,8 +132,6 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     -------
     Trajectory
     """
-    from ._steppers import make_stepper
-
     n_nodes = model.n_nodes
     if not (np.isfinite(dt) and dt > 0):
         raise InputError(f"got {dt}; expected a positive time step", key="dt")
@@ -188,15 +161,6 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
             "infinite); reduce the time step or the stiffness, or raise substeps")
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
                       substeps=substeps)
-
-
-def numba_available() -> bool:
-    """True when the optional numba package is installed (the compiled stepper)."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 #: most integration steps per frame a caller may ask for

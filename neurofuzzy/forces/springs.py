@@ -1,5 +1,5 @@
 """The spring force (paper eqs. 3.4–3.6) and its derivatives: the one implementation every
-part of the package goes through (the compiled kernel in :mod:`neurofuzzy._numba_kernels` is
+part of the package goes through (the compiled kernel in :mod:`neurofuzzy.kernels.stepper` is
 tested equal to it).
 
 Spring ``j`` between nodes ``a`` and ``b``::

@@ -17,7 +17,6 @@ velocities from the backward difference of the measured positions.
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -29,36 +28,10 @@ from ..observation import remove_offsets
 from ..simulation import euler_update
 from ._compiled import CompiledModel, compiled_possible
 from ._compiled_gradient import compiled_gradient
+from ._passes import Run
 from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
 
 __all__ = ["Sensitivity", "Run"]
-
-
-@dataclass
-class Run:
-    """Result of one pass over an experiment.
-
-    Attributes
-    ----------
-    positions : (n_frames, n_nodes, 3) float
-        Simulated positions (with resets at the window starts).
-    residuals : (n_frames - 1, n_rows, 3) float
-        ``(simulated - measured) / length_unit`` at frames 1.., per measured row (tracked
-        node or embedded marker, :class:`~neurofuzzy.observation.Observation`); 0 in the gaps.
-    n_measured : int
-        Number of residual values that come from a measurement (not from a gap).
-    jacobian : (n_frames - 1, n_rows, 3, n_params) float or None
-        ``∂ residuals / ∂ θ`` (forward mode only).
-    """
-
-    positions: np.ndarray
-    residuals: np.ndarray
-    n_measured: int
-    jacobian: np.ndarray | None = None
-
-    @property
-    def finite(self) -> bool:
-        return bool(np.all(np.isfinite(self.residuals)))
 
 
 class Sensitivity:
@@ -71,7 +44,7 @@ class Sensitivity:
     length_unit : float
         Residuals are divided by it (dimensionless residuals; e.g. the mean spring length).
     backend : {"auto", "numpy", "numba"}
-        Forward passes in the compiled kernel (:mod:`neurofuzzy._numba_sensitivity`, one call
+        Forward passes in the compiled kernel (:mod:`neurofuzzy.kernels.sensitivity`, one call
         per experiment) or the numpy reference path; ``"auto"`` compiles when numba is
         installed and the model has only springs and elements with fixed masses.
     offsets : bool

@@ -3,16 +3,16 @@
 Imported only when numba is installed; module-level so that ``cache=True`` keeps the machine
 code between runs. The arithmetic is that of :class:`neurofuzzy.forces.SpringForce` and
 :class:`neurofuzzy.forces.TetrahedronForce` (tested equal); the elements' stress is the law of
-:mod:`neurofuzzy._numba_svk` (``S = 2μ G + 2μβ Ġ + π I``) with ``π = λ θ + λβ θ̇`` (per
+:mod:`neurofuzzy.kernels.svk` (``S = 2μ G + 2μβ Ġ + π I``) with ``π = λ θ + λβ θ̇`` (per
 element) or the mean of the node-averaged ``Λ θ̄ + H θ̄̇`` over the element's corners (nodal
-volumetric form); the update is :func:`neurofuzzy._numba_integrator.euler_update`.
+volumetric form); the update is :func:`neurofuzzy.kernels.integrator.euler_update`.
 """
 
 import numba
 import numpy as np
 
-from ._numba_integrator import euler_update
-from ._numba_svk import stress
+from .integrator import euler_update
+from .svk import stress
 
 
 @numba.njit(cache=True, nogil=True)

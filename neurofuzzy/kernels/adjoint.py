@@ -19,10 +19,10 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
-from ._numba_integrator import euler_update, euler_update_transpose
-from ._numba_kernels import _spring
-from ._numba_sensitivity import _edges, _element_tangents, _full, _mul, _sym_t_mul
-from ._numba_svk import stress, stress_vjp
+from .integrator import euler_update, euler_update_transpose
+from .stepper import _spring
+from .sensitivity import _edges, _element_tangents, _full, _mul, _sym_t_mul
+from .svk import stress, stress_vjp
 
 
 @numba.njit(cache=True, nogil=True)

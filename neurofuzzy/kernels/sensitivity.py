@@ -16,7 +16,7 @@ reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_tem
 Layout for speed: the tangents are ``(N, 3, P)``, parameters last, so the loop over the
 parameters of one spring reads and writes contiguous memory without a branch (it vectorises);
 an element's 3×3 matrices (F, Ḟ, S and their tangents) are tuples of nine scalars that stay
-in registers, as in the simulation kernel (:mod:`neurofuzzy._numba_kernels`).
+in registers, as in the simulation kernel (:mod:`neurofuzzy.kernels.stepper`).
 
 Imported only when numba is installed (module-level, ``cache=True``).
 """
@@ -24,9 +24,9 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
-from ._numba_integrator import euler_update
-from ._numba_kernels import _spring
-from ._numba_svk import stress, stress_jvp
+from .integrator import euler_update
+from .stepper import _spring
+from .svk import stress, stress_jvp
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------

@@ -10,8 +10,8 @@ with ``shear = 2μ``, ``shear_rate = 2μβ``, ``π`` the volumetric stress (per 
 
 :func:`stress` is the law; :func:`stress_jvp` its forward derivative (the sensitivities) and
 :func:`stress_vjp` its reverse derivative (the adjoint), written beside it. The stepper
-(:mod:`neurofuzzy._numba_kernels`), the forward sensitivities
-(:mod:`neurofuzzy._numba_sensitivity`) and the adjoint (:mod:`neurofuzzy._numba_adjoint`)
+(:mod:`neurofuzzy.kernels.stepper`), the forward sensitivities
+(:mod:`neurofuzzy.kernels.sensitivity`) and the adjoint (:mod:`neurofuzzy.kernels.adjoint`)
 all take the stress from here; ``tests/test_terms_registry.py`` checks the derivatives through
 the kernels against the numpy reference, which is checked against central differences.
 

@@ -5,11 +5,11 @@ One step of length ``h`` with the forces ``F`` evaluated at the start of the ste
     v' = v + h W F,    p' = p + h v'                (W = 1/m, zero at fixed nodes)
 
 :func:`euler_update` is that update for node-major arrays of any width: the state
-(``(n_nodes, 3)``: the stepper of :mod:`neurofuzzy._numba_kernels`, the forward sweeps of
-:mod:`neurofuzzy._numba_sensitivity` and :mod:`neurofuzzy._numba_adjoint`) and, because the
+(``(n_nodes, 3)``: the stepper of :mod:`neurofuzzy.kernels.stepper`, the forward sweeps of
+:mod:`neurofuzzy.kernels.sensitivity` and :mod:`neurofuzzy.kernels.adjoint`) and, because the
 update is linear, its tangents (``(n_nodes, 3 P)``: ``tv' = tv + h W dF``, ``tp' = tp + h tv'``,
 the forward sensitivities). :func:`euler_update_transpose` is its adjoint, the backward sweep
-of :mod:`neurofuzzy._numba_adjoint`. The numpy reference of the same update is
+of :mod:`neurofuzzy.kernels.adjoint`. The numpy reference of the same update is
 :func:`neurofuzzy.simulation.euler_update`.
 """
 
