@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from .integrator import euler_update, euler_update_transpose
-from .stepper import _spring
+from .stepper import _spring, spring_state
 from .sensitivity import _edges, _element_tangents, _full, _mul, _sym_t_mul
 from .svk import stress, stress_vjp
 
@@ -260,17 +260,11 @@ def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frame
                     d_v[i, k] = -drag * lam_force[i, k]
             for j in range(a.shape[0]):
                 ia, ib = a[j], b[j]
-                dx = p[ib, 0] - p[ia, 0]
-                dy = p[ib, 1] - p[ia, 1]
-                dz = p[ib, 2] - p[ia, 2]
-                length = np.sqrt(dx * dx + dy * dy + dz * dz)
-                ux, uy, uz = dx / length, dy / length, dz / length
+                ux, uy, uz, length, closing, stretch, magnitude = spring_state(
+                    p, v, ia, ib, stiffness[j], damping[j], rest[j])
                 wx = v[ib, 0] - v[ia, 0]
                 wy = v[ib, 1] - v[ia, 1]
                 wz = v[ib, 2] - v[ia, 2]
-                closing = wx * ux + wy * uy + wz * uz
-                stretch = length - rest[j]
-                magnitude = stiffness[j] * stretch + damping[j] * closing
                 # node a gets +f, node b -f: the cotangent of f is λ_a - λ_b
                 fx = lam_force[ia, 0] - lam_force[ib, 0]
                 fy = lam_force[ia, 1] - lam_force[ib, 1]

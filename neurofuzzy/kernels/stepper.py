@@ -15,10 +15,11 @@ from .integrator import euler_update
 from .svk import stress
 
 
-@numba.njit(cache=True, nogil=True)
-def _spring(p, v, ia, ib, stiffness, damping, rest, force):
-    """One spring's force ``(s (l - L0) + c closing) u`` added to ``force`` (node a +,
-    node b -); returns ``(ux, uy, uz, length, closing, stretch, magnitude)``."""
+@numba.njit(cache=True, nogil=True, inline="always")
+def spring_state(p, v, ia, ib, stiffness, damping, rest):
+    """The spring force of paper eqs. 3.4–3.6, once for every sweep: direction ``u``,
+    length ``l``, closing speed ``(v_b - v_a)·u``, stretch ``l - L0`` and the magnitude
+    ``s (l - L0) + c closing``, as ``(ux, uy, uz, length, closing, stretch, magnitude)``."""
     dx = p[ib, 0] - p[ia, 0]
     dy = p[ib, 1] - p[ia, 1]
     dz = p[ib, 2] - p[ia, 2]
@@ -27,7 +28,15 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, force):
     closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
                + (v[ib, 2] - v[ia, 2]) * uz)
     stretch = length - rest
-    magnitude = stiffness * stretch + damping * closing
+    return ux, uy, uz, length, closing, stretch, stiffness * stretch + damping * closing
+
+
+@numba.njit(cache=True, nogil=True)
+def _spring(p, v, ia, ib, stiffness, damping, rest, force):
+    """One spring's force ``m u`` (:func:`spring_state`) added to ``force`` (node a +,
+    node b -); returns :func:`spring_state`'s values."""
+    ux, uy, uz, length, closing, stretch, magnitude = spring_state(p, v, ia, ib, stiffness,
+                                                                   damping, rest)
     fx, fy, fz = magnitude * ux, magnitude * uy, magnitude * uz
     force[ia, 0] += fx
     force[ia, 1] += fy
