@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -104,6 +105,8 @@ def main(argv=None) -> int:
                              "(default 2: the first run of a fresh checkout compiles numba)")
     parser.add_argument("--out", default=str(HERE / "against.json"))
     args = parser.parse_args(argv)
+    # a stopped run still removes its worktree (the finally below runs on SystemExit)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     with tempfile.TemporaryDirectory() as folder:
         reference = Path(folder) / "ref"
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(reference),
