@@ -157,7 +157,7 @@ def test_coupled_neo_hookean_term_follows_sfepys_conventions():
     from neurofuzzy.nonlinear_reference._sfepy_terms import (CoupledNeoHookeanTLTerm,
                                                              _symmetric_product, to_matrix,
                                                              to_voigt)
-    from neurofuzzy.nonlinear_reference.solver import _variables
+    from neurofuzzy.nonlinear_reference._sfepy_setup import field_variables
 
     class Uncoupled(CoupledNeoHookeanTLTerm):
         name = "dw_test_uncoupled"
@@ -193,7 +193,7 @@ def test_coupled_neo_hookean_term_follows_sfepys_conventions():
     integral = Integral("i", order=2)
 
     def problem(make):
-        variables = _variables(solver.field)
+        variables = field_variables(solver.field)
         pb = Problem("p", equations=Equations([Equation("e", make(**variables))]))
         pb.set_bcs(ebcs=Conditions([EssentialBC("fix", solver.domain.regions["Fixedall"],
                                                 {"u.all": 0.0})]))

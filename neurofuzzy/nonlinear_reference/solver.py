@@ -16,7 +16,8 @@ hyperelastic framework (:mod:`._sfepy_terms`) and checked three ways: its stress
 equal sfepy's own C neo-Hookean terms when given the uncoupled law's formulas, a block in
 uniaxial stress reproduces the closed form of :mod:`.closed_forms` (written in principal
 stretches, a different formula), and the solver reduces to the linear reference at small
-strain. The time stepping (Newmark, Newton, the Prony update) is written here, as in
+strain. The time stepping (Newmark, Newton, the Prony update) is written in this package
+(:mod:`._stepping`, :mod:`._newton`), as in
 ``ContinuumSolver``; it is checked by convergence in time, energy conservation without
 damping, and the closed forms of creep.
 
@@ -43,64 +44,17 @@ node forces are), or gravity. Needs sfepy (``pip install sfepy``, or
 
 from __future__ import annotations
 
-import contextlib
-import io
-import time
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from ..errors import InputError
-from .materials import NeoHookean, Prony, Yeoh
+from ._newton import Inverted, ModifiedNewton
+from ._sfepy_setup import field_variables, quiet, require_sfepy
+from ._stepping import Trajectory, newmark
+from .materials import NeoHookean, Prony, Yeoh, lame_from_youngs
 
 __all__ = ["HyperelasticSolver", "Trajectory"]
-
-
-@contextlib.contextmanager
-def _quiet():
-    """sfepy reports its progress on stdout (and, without jax, a warning on import)."""
-    with contextlib.redirect_stdout(io.StringIO()):
-        yield
-
-
-def _sfepy():
-    try:
-        with _quiet():
-            import sfepy.discrete  # noqa: F401
-            import sfepy.discrete.fem  # noqa: F401
-            import sfepy.terms  # noqa: F401
-            from sfepy.base.base import output
-            output.set_output(quiet=True)  # sfepy's own switch; it only silences sfepy
-    except ImportError:
-        raise InputError("the nonlinear reference needs sfepy: pip install sfepy "
-                         "(or neurofuzzy[validation])") from None
-    import sfepy
-    return sfepy
-
-
-@dataclass
-class Trajectory:
-    """A run of :meth:`HyperelasticSolver.dynamic` with what it cost.
-
-    Attributes
-    ----------
-    displacement, velocity : (n_frames, n_dofs) float
-        At the frames (m, m/s).
-    newton_iterations : int
-        Over all steps.
-    factorisations : int
-        Sparse LU factorisations of the step matrix (modified Newton reuses them).
-    seconds : float
-        Wall time.
-    """
-
-    displacement: np.ndarray
-    velocity: np.ndarray
-    newton_iterations: int
-    factorisations: int
-    seconds: float
 
 
 class HyperelasticSolver:
@@ -133,7 +87,7 @@ class HyperelasticSolver:
     def __init__(self, points, tetrahedra, *, material: NeoHookean | Yeoh, density: float,
                  fixed: Callable | dict, viscosity: float = 0.0, prony: Prony | None = None,
                  order: int = 2, quadrature_order: int | None = None):
-        _sfepy()
+        require_sfepy()
         from sfepy.discrete import Equation, Equations, Function, Integral, Material, Problem
         from sfepy.discrete.conditions import Conditions, EssentialBC
         from sfepy.discrete.fem import FEDomain, Field, Mesh
@@ -169,7 +123,7 @@ class HyperelasticSolver:
                            corners[:, 3] - corners[:, 0])
         tetrahedra = np.where((volume < 0)[:, None], tetrahedra[:, [0, 2, 1, 3]], tetrahedra)
 
-        with _quiet():
+        with quiet():
             mesh = Mesh.from_data("block", points, None, [tetrahedra.astype(np.int32)],
                                   [np.zeros(len(tetrahedra), np.int32)], ["3_4"])
             self.domain = FEDomain("domain", mesh)
@@ -178,7 +132,7 @@ class HyperelasticSolver:
                                                      "facet")
             self.field = Field.from_args("displacement", np.float64, "vector", self.omega,
                                          approx_order=order)
-            variables = _variables(self.field)
+            variables = field_variables(self.field)
             self.u, self.v = variables["u"], variables["v"]
             integral = Integral("stiffness", order=self.quadrature_order)
             self._integral = integral
@@ -205,7 +159,7 @@ class HyperelasticSolver:
             given = GivenStressTLTerm(GivenStressTLTerm.name, "v, u", integral, self.omega,
                                       v=self.v, u=self.u)
             if self.viscosity > 0:
-                mu, lam = material.shear_modulus, _lame_lambda(material)
+                mu, lam = lame_from_youngs(material.youngs_modulus, material.poisson_ratio)
                 given.viscous_tangent = (self.viscosity / material.youngs_modulus
                                          * isotropic_tangent(lam, mu))
             self._elastic, self._given = elastic, given
@@ -245,7 +199,7 @@ class HyperelasticSolver:
             mass_integral = Integral("mass", order=2 * order)
             # own variables: sfepy binds variables to the equations that use them
             mass_term = Term.new("dw_dot(m.rho, v, u)", mass_integral, self.omega,
-                                 m=self._material, **_variables(self.field))
+                                 m=self._material, **field_variables(self.field))
             mass_problem = Problem("mass", equations=Equations([Equation("mass", mass_term)]),
                                    active_only=True)
             mass_problem.set_bcs(ebcs=self._ebcs)
@@ -286,11 +240,11 @@ class HyperelasticSolver:
                     * np.array([0.0, 0.0, 1.0])[None, :, None]}
 
         material = Material("load", function=Function("traction", traction))
-        with _quiet():
+        with quiet():
             unit = self.problem.evaluate("dw_surface_ltr.10.Surface(load.val, v)",
                                          mode="weak", dw_mode="vector", copy_materials=False,
                                          active_only=False, load=material,
-                                         v=_variables(self.field)["v"])
+                                         v=field_variables(self.field)["v"])
         unit = np.asarray(unit).reshape(-1, 3)[:, 2]
         area = float(unit.sum())
         if area <= 0:
@@ -302,11 +256,11 @@ class HyperelasticSolver:
         from sfepy.discrete import Material
 
         weight = Material("weight", val=(self.density * np.asarray(gravity, float))[:, None])
-        with _quiet():
+        with quiet():
             out = self.problem.evaluate("dw_volume_lvf.stiffness.Omega(weight.val, v)",
                                         mode="weak", dw_mode="vector", copy_materials=False,
                                         active_only=False, weight=weight,
-                                        v=_variables(self.field)["v"])
+                                        v=field_variables(self.field)["v"])
         return np.asarray(out).ravel()
 
     # -- the equations ------------------------------------------------------------------------
@@ -321,7 +275,7 @@ class HyperelasticSolver:
             return self._evaluator.eval_residual(u)
         except ValueError as error:
             if "warp" in str(error):
-                raise _Inverted() from None
+                raise Inverted() from None
             raise
 
     def _tangent(self, u):
@@ -333,7 +287,7 @@ class HyperelasticSolver:
             return self._evaluator.eval_tangent_matrix(u).tocsc()
         except ValueError as error:
             if "warp" in str(error):
-                raise _Inverted() from None
+                raise Inverted() from None
             raise
 
     def _set_scale(self, scale: float):
@@ -357,7 +311,7 @@ class HyperelasticSolver:
         Newton's method in ``increments`` equal load steps."""
         self._reset_state()
         load = np.asarray(load, float)[self.free]
-        newton = _ModifiedNewton(self, None, tolerance)
+        newton = ModifiedNewton(self, None, tolerance)
         u = np.zeros(len(self.free))
         for k in range(1, increments + 1):
             u = newton.solve(u, load * k / increments, k, what="load step")
@@ -401,61 +355,8 @@ class HyperelasticSolver:
         if not (dt > 0 and substeps >= 1 and n_frames >= 1):
             raise InputError(f"needs dt > 0, substeps ≥ 1, n_frames ≥ 1; got {dt}, "
                              f"{substeps}, {n_frames}", key="dt")
-        started = time.perf_counter()
-        loads = np.broadcast_to(np.asarray(load, float), (n_frames, self.n_dofs))[:, self.free]
-        h = dt / substeps
-        self._reset_state()
-        given = self._given
-        n_terms = 0
-        if self.prony is not None:
-            relative = np.asarray(self.prony.relative_moduli)[:, None, None, None]
-            decay, ramp = (x[:, None, None, None] for x in self.prony.step_factors(h))
-            n_terms = len(relative)
-            self._set_scale(1.0 + float(np.sum(relative * ramp)))
-        if self.viscosity > 0:
-            given.rate_coefficient = 2.0 / h
-        inertia_matrix = (4.0 / (h * h)) * self.mass if inertia else None
-        newton = _ModifiedNewton(self, inertia_matrix, tolerance)
-
-        n = len(self.free)
-        u, v = np.zeros(n), np.zeros(n)
-        a = spla.splu(self.mass).solve(loads[0]) if inertia else np.zeros(n)
-        shape = self._gradient_shape()
-        elastic_stress = np.zeros(shape[:2] + (6,))
-        history = np.zeros((n_terms,) + shape[:2] + (6,))
-        gradient, gradient_rate = np.zeros(shape) + np.eye(3), np.zeros(shape)
-        out_u, out_v = np.zeros((n_frames, self.n_dofs)), np.zeros((n_frames, self.n_dofs))
-        try:
-            for t in range(1, n_frames):
-                force = loads[t - 1]
-                for _ in range(substeps):
-                    if n_terms:
-                        given.history_stress = np.sum(
-                            relative * (decay * history - ramp * elastic_stress[None]), axis=0)
-                    given.previous_gradient, given.rate_predictor = gradient, -gradient_rate
-                    if inertia:   # the residual's inertia: M (4/h² (x - u - h v) - a)
-                        inertial = inertia_matrix @ (u + h * v) + self.mass @ a
-                        x = newton.solve(u + h * v + 0.25 * h * h * a, force + inertial, t)
-                        a_new = 4.0 / (h * h) * (x - u - h * v) - a
-                        u, v, a = x, v + 0.5 * h * (a + a_new), a_new
-                    else:
-                        x = newton.solve(u, force, t)
-                        u, v = x, 2.0 / h * (x - u) - v
-                    if n_terms or self.viscosity > 0:
-                        new_stress = self._elastic_stress(u)
-                        new_gradient = given.deformation_gradient
-                        if n_terms:
-                            history = decay * history + ramp * (new_stress - elastic_stress)
-                            elastic_stress = new_stress
-                        if self.viscosity > 0:
-                            gradient_rate = given.gradient_rate(new_gradient)
-                        gradient = new_gradient
-                out_u[t, self.free] = u
-                out_v[t, self.free] = v
-        finally:
-            self._reset_state()
-        return Trajectory(out_u, out_v, newton.iterations, newton.factorisations,
-                          time.perf_counter() - started)
+        return newmark(self, load, dt=dt, n_frames=n_frames, substeps=substeps,
+                       tolerance=tolerance, inertia=inertia)
 
     # -- what the solution says ---------------------------------------------------------------
     def at(self, displacement: np.ndarray, points) -> np.ndarray:
@@ -464,7 +365,7 @@ class HyperelasticSolver:
         points = np.asarray(points, float)
         flat = np.asarray(displacement, float).reshape(-1, self.n_dofs)
         values = flat.reshape(len(flat), -1, 3).transpose(1, 0, 2).reshape(-1, 3 * len(flat))
-        with _quiet():
+        with quiet():
             sampled = self.field.evaluate_at(points, values, close_limit=1e-6)
         sampled = np.asarray(sampled).reshape(len(points), len(flat), 3).transpose(1, 0, 2)
         return sampled.reshape(*np.shape(displacement)[:-1], len(points), 3)
@@ -498,94 +399,3 @@ class HyperelasticSolver:
         """½ vᵀ M v (J) for velocities (n_dofs,)."""
         v = np.asarray(velocity, float)[self.free]
         return float(0.5 * v @ (self.mass @ v))
-
-
-class _Inverted(Exception):
-    """sfepy met an element with negative volume."""
-
-
-class _ModifiedNewton:
-    """Newton's method for ``f_int(x) + A x = b`` (A: the step's inertia matrix or None)
-    with old LU factors of its matrix, accelerated (Anderson mixing of the last ``memory``
-    corrections, a multisecant quasi-Newton update: Walker & Ni 2011, *SIAM J. Numer.
-    Anal.* 49:1715), refactorised when the iterations stop contracting fast (a factorisation
-    costs as much as some forty residuals on the recordings' mesh). A step that would turn
-    an element inside out is halved."""
-
-    def __init__(self, solver: HyperelasticSolver, inertia_matrix, tolerance: float,
-                 slow: float = 0.5, most: int = 15, memory: int = 6):
-        self.solver, self.inertia_matrix, self.tolerance = solver, inertia_matrix, tolerance
-        self.slow, self.most, self.memory = slow, most, memory
-        self.lu, self.stale = None, True
-        self.iterations = self.factorisations = 0
-
-    def _residual(self, x, rhs):
-        residual = self.solver._internal(x) - rhs
-        if self.inertia_matrix is not None:
-            residual = residual + self.inertia_matrix @ x
-        return residual
-
-    def _factorise(self, x):
-        matrix = self.solver._tangent(x)
-        if self.inertia_matrix is not None:
-            matrix = matrix + self.inertia_matrix
-        self.lu = spla.splu(matrix.tocsc())
-        self.factorisations += 1
-        self.stale = False
-
-    def solve(self, x, rhs, frame: int, what: str = "frame"):
-        count, previous = 0, None
-        xs, fs = [], []                                  # iterates and their corrections
-        try:
-            residual = self._residual(x, rhs)
-            while True:
-                if self.lu is None or self.stale:
-                    self._factorise(x)
-                    previous, xs, fs = None, [], []
-                correction = -self.lu.solve(residual)
-                size = np.abs(correction).max()
-                if size <= self.tolerance * max(np.abs(x).max(), 1e-12):
-                    x = x + correction
-                    break
-                step = correction
-                if fs:                                   # Anderson mixing
-                    d_f = np.stack([correction - f for f in fs], axis=1)
-                    d_x = np.stack([x - xi for xi in xs], axis=1)
-                    gamma = np.linalg.lstsq(d_f, correction, rcond=None)[0]
-                    step = correction - (d_x + d_f) @ gamma
-                xs, fs = (xs + [x])[-self.memory:], (fs + [correction])[-self.memory:]
-                for _ in range(30):                      # back off inverted elements
-                    try:
-                        residual = self._residual(x + step, rhs)
-                        break
-                    except _Inverted:
-                        step = 0.5 * step
-                        xs, fs = [], []
-                else:
-                    raise _Inverted()
-                x = x + step
-                count += 1
-                if previous is not None and (size > self.slow * previous or count >= self.most):
-                    self.stale = True                    # too slow: fresh factors
-                previous = size
-                if count > 100:
-                    raise InputError(f"Newton's method did not converge at {what} {frame}; "
-                                     "take smaller steps", key="substeps")
-        except _Inverted:
-            raise InputError(f"an element turned inside out at {what} {frame}; lower the "
-                             "load or refine the mesh", key="load") from None
-        self.iterations += count + 1
-        return x
-
-
-def _variables(field) -> dict:
-    from sfepy.discrete import FieldVariable
-
-    u = FieldVariable("u", "unknown", field)
-    return {"u": u, "v": FieldVariable("v", "test", field, primary_var_name="u")}
-
-
-def _lame_lambda(material) -> float:
-    e, nu = material.youngs_modulus, material.poisson_ratio
-    return e * nu / ((1 + nu) * (1 - 2 * nu))
-
