@@ -36,9 +36,9 @@ import trimesh
 
 from neurofuzzy.export import export_paraview
 from neurofuzzy.io import save_experiment, save_model
-from neurofuzzy.learn import GradientLearner, start_model
 from neurofuzzy.markers import markers_to_experiment, read_markers, write_node_forces
 from neurofuzzy.mesh import read_mesh, surface_nodes
+from neurofuzzy.pipeline import fit
 from neurofuzzy.reference import reference_simulate
 from neurofuzzy.report import fit_report
 from neurofuzzy.rules import initialize, load_rules, shipped
@@ -135,7 +135,9 @@ def main(argv):
           f"{int((~experiment.observed).sum())}")
 
     # 5. fit from the surface alone
-    learner = GradientLearner(substeps="auto", progress=True).fit(start, experiment)
+    # the one fit pipeline of the command line and fit-many: start, learner, outcome check
+    outcome = fit(experiment, start=start, rules=rules, progress=True)
+    learner = outcome.learner
     fitted = learner.model_
     save_model(fitted, out / "fitted.yaml")
     files = {"fitted model": out / "fitted.yaml"}
@@ -143,7 +145,7 @@ def main(argv):
                                substeps=learner.substeps_, stem="organ", every=5)
     files.update({"ParaView series (.pvd)": exported["pvd"],
                   "ParaView time series (.xdmf)": exported["xdmf"]})
-    fit_report(start_model(experiment, model=start, rules=rules), learner,
+    fit_report(outcome.start, learner,
                out / "report.html", files=files, title="neurofuzzy: organ from surface markers")
 
     print(f"\n{'':<22}{'start (liver)':>14}{'fitted':>12}{'truth':>12}{'error':>9}")

@@ -95,8 +95,9 @@ def main(argv):
                                         forces=out / "forces.csv", node_mass=model.node_mass)
     experiment = imported.experiment
     nf.save_experiment(experiment, out / "experiment.npz")
-    start = nf.start_model([experiment], model=out / "organ.yaml", rules=rules)
-    learner = nf.GradientLearner(substeps="auto", progress=True).fit(start.model, experiment)
+    # the one fit pipeline of the command line and fit-many: start, learner, outcome check
+    outcome = nf.fit(experiment, start=out / "organ.yaml", rules=rules, progress=True)
+    start, learner = outcome.start, outcome.learner
     nf.save_model(learner.model_, out / "fitted.yaml")
     nf.fit_report(start, learner, out / "report.html",
                   title="neurofuzzy: a liver with a tumour", files={"fitted model":

@@ -23,7 +23,7 @@ from scipy.integrate import solve_ivp
 
 import neurofuzzy as nf
 from neurofuzzy.datasets import kuhn_block
-from neurofuzzy.rules.physical import tetra_geometry
+from neurofuzzy.constants import tetra_geometry
 
 E, ETA, RHO, FORCE, DT = 6000.0, 2.0, 1000.0, 0.05, 1e-3
 

@@ -16,7 +16,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
   marker recordings: :func:`read_markers`, :func:`markers_to_experiment`; markers between
   nodes: :class:`EmbeddedMarkers`, :class:`Observation`, :func:`embed_points`
 - learning: :func:`start_model` (:class:`StartModel`), :func:`estimate_start`,
-  :class:`PaperLearner`, :class:`GradientLearner`
+  :class:`PaperLearner`, :class:`GradientLearner`; the one fit pipeline of Python, the command
+  and fit-many: :func:`fit` (:class:`FitOutcome`, :class:`FitFailedError`)
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
 - diagnosis: :func:`diagnose` (:class:`Diagnosis`)
@@ -60,6 +61,7 @@ _EXPORTS = {
     "embed_points": "observation",
     "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "learn",
     "StartModel": "learn", "estimate_start": "learn",
+    "fit": "pipeline", "FitOutcome": "pipeline", "FitFailedError": "pipeline",
     "load_rules": "rules", "initialize": "rules", "material_values": "rules",
     "materials": "rules", "shipped_rules": "rules",
     "diagnose": "diagnosis", "Diagnosis": "diagnosis",
@@ -104,6 +106,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .mesh import MeshFile, read_mesh  # noqa: F401
     from .model import SpringMassModel  # noqa: F401
     from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
+    from .pipeline import FitFailedError, FitOutcome, fit  # noqa: F401
     from .reference import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401
     from .rules import initialize, load_rules, material_values, materials  # noqa: F401
@@ -111,7 +114,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .rulestudio import studio  # noqa: F401
     from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
 
-__version__ = "0.1.0"
+from .version import __version__  # noqa: E402
 
 # the function, set over the package of the same name (see the module docstring)
 from .export import export  # noqa: E402, F401

@@ -8,8 +8,7 @@ positions and velocities of shape (n_nodes, 3)):
   accumulation as sparse matrix products (the fastest of ``np.bincount``, ``np.add.at`` and a
   sparse incidence matrix measured in ``benchmarks/run.py``);
 - :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs, tetrahedral
-  elements and nodes (optional; ``pip install numba``), about six times faster on 10,000
-  springs.
+  elements and nodes (numba, a core dependency), about six times faster on 10,000 springs.
 
 Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). Models with
 effects use the numpy stepper, which adds the effect forces at every step.
@@ -19,9 +18,42 @@ from __future__ import annotations
 
 import numpy as np
 
-from .simulation import numba_available
+__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
 
-__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper"]
+
+def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, step_weight,
+                 h: float) -> None:
+    """The semi-implicit Euler update, in place (eqs. 3.2, 3.1): ``v += h W F``, then
+    ``p += h v``.
+
+    The numpy reference of the compiled :func:`neurofuzzy.kernels.integrator.euler_update`
+    (every numpy path takes this one: :func:`neurofuzzy.simulation.step`, the numpy stepper, the numpy
+    sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
+
+    Parameters
+    ----------
+    p, v : ndarray
+        Positions and velocities (or their tangents), updated in place.
+    force : ndarray
+        The force (or its tangent) at the start of the step, the shape of ``v`` (not changed).
+    step_weight : ndarray
+        ``h W`` (``W = 1/m``, zero at fixed nodes), shaped to broadcast against ``force``:
+        (n_nodes, 1) for node-major (n_nodes, 3) arrays, (n_nodes,) for component-major
+        (3, n_nodes) ones, (n_nodes, 1, 1) for tangents (n_nodes, P, 3).
+    h : float
+        Step length (s).
+    """
+    v += step_weight * force
+    p += h * v
+
+
+def numba_available() -> bool:
+    """True when numba can be imported (a core dependency: always, in a correct install)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 class NumpyStepper:
@@ -67,9 +99,7 @@ class NumpyStepper:
                 force += load_t
             for term in self.other_terms:
                 force += term.force(self.model, pt.T, vt.T).T
-            force *= self.step_weight
-            vt += force
-            pt += h * vt
+            euler_update(pt, vt, force, self.step_weight, h)
         p[...] = pt.T
         v[...] = vt.T
 
@@ -135,13 +165,14 @@ def compiled_terms_only(model) -> bool:
 
 
 def _element_arrays(model, dtype):
-    """``(tets, inverse_rest, volume, λ, μ, η/E, nodal, node_volume, Λ, H, node_strain)`` of
-    the model's elements in the kernel's layout (empty when it has none; ``node_strain`` is
-    scratch space of the nodal volumetric form)."""
+    """``(tets, inverse_rest, volume, shear, shear_rate, λ, λβ, nodal, node_volume, Λ, H,
+    node_strain)`` of the model's elements in the kernel's layout (the constants of
+    :class:`~neurofuzzy.forces.Materials`; empty when it has none; ``node_strain`` is scratch
+    space of the nodal volumetric form)."""
     if not model.has_elements:
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty, empty, empty,
-                empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
+                empty, empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
     from .forces.tetra_geometry import Materials
 
     materials = Materials.of(model)
@@ -152,14 +183,14 @@ def _element_arrays(model, dtype):
                    if nodal else (np.zeros(n_nodes),) * 3)
     return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
-            materials.lam.astype(dtype), (0.5 * materials.shear).astype(dtype),
-            (model.element_viscosity / model.element_youngs_modulus).astype(dtype), nodal,
-            *(np.ascontiguousarray(values, dtype) for values in node_values),
+            *(values.astype(dtype) for values in (materials.shear, materials.shear_rate,
+                                                  materials.lam, materials.lam_rate)),
+            nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
             np.zeros((n_nodes, 2), dtype))
 
 
 def _compile():
-    from ._numba_kernels import advance, frames
+    from .kernels.stepper import advance, frames
 
     return advance, frames
 

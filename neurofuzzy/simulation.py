@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ._steppers import euler_update, make_stepper, numba_available
 from .errors import InputError, UnstableTimeStepError
 from .model import SpringMassModel
 
@@ -38,6 +39,7 @@ __all__ = [
     "StabilityLimit",
     "internal_forces",
     "step",
+    "euler_update",
     "simulate",
     "stability_limit",
     "check_time_step",
@@ -89,9 +91,10 @@ def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, 
     force = internal_forces(model, positions, velocities)
     if external_force is not None:
         force = force + external_force
-    velocities = velocities + h * model.node_inverse_mass[:, None] * force
-    velocities[model.mesh.fixed] = 0.0
-    return positions + h * velocities, velocities
+    p, v = np.array(positions, dtype=float), np.array(velocities, dtype=float)
+    v[model.mesh.fixed] = 0.0
+    euler_update(p, v, force, h * model.node_inverse_mass[:, None], h)
+    return p, v
 
 
 def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
@@ -129,8 +132,6 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     -------
     Trajectory
     """
-    from ._steppers import make_stepper
-
     n_nodes = model.n_nodes
     if not (np.isfinite(dt) and dt > 0):
         raise InputError(f"got {dt}; expected a positive time step", key="dt")
@@ -160,15 +161,6 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
             "infinite); reduce the time step or the stiffness, or raise substeps")
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
                       substeps=substeps)
-
-
-def numba_available() -> bool:
-    """True when the optional numba package is installed (the compiled stepper)."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 #: most integration steps per frame a caller may ask for

@@ -218,8 +218,6 @@ def test_a_damped_block_settles_at_scikit_fem_static_solution():
 def test_fast_steppers_step_elements_as_the_reference_step(backend, volumetric):
     """Both steppers (numba's compiled element loop included) reproduce
     :func:`~neurofuzzy.simulation.step`, which sums the force terms one by one."""
-    if backend == "numba":
-        pytest.importorskip("numba")
     from neurofuzzy.simulation import step
 
     mesh = block((2, 2, 2), jitter=0.2, seed=3).with_fixed(where=lambda p: p[:, 2] < 1e-9)

@@ -14,7 +14,7 @@ from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.mesh import lattice
 from neurofuzzy.rules import initialize, lattice_geometry, load_rules, material_values
-from neurofuzzy.rules.materials import DEFAULT_POISSON_RATIO
+from neurofuzzy.constants import DEFAULT_POISSON_RATIO
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = ROOT / "rules"
@@ -135,7 +135,7 @@ def test_tetrahedral_springs_from_youngs_modulus_give_that_modulus(max_edge):
     import trimesh
 
     from neurofuzzy.mesh import from_surface_tetra
-    from neurofuzzy.rules.physical import spring_geometry, tetra_geometry
+    from neurofuzzy.constants import spring_geometry, tetra_geometry
 
     mesh = from_surface_tetra(trimesh.creation.box(extents=(1.0, 1.0, 1.0)), max_edge=max_edge)
     geometry = spring_geometry(mesh)
@@ -151,7 +151,7 @@ def test_tetrahedral_springs_from_youngs_modulus_give_that_modulus(max_edge):
 def test_tetra_geometry_is_van_gelder_on_a_split_cube():
     """The cube split into 6 tetrahedra around a body diagonal: hand-computed factors."""
     from neurofuzzy.mesh import from_tetra
-    from neurofuzzy.rules.physical import tetra_geometry
+    from neurofuzzy.constants import tetra_geometry
 
     corners = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
     tetrahedra = [[0, 4, 6, 7], [0, 4, 5, 7], [0, 2, 6, 7], [0, 2, 3, 7], [0, 1, 5, 7],
@@ -190,7 +190,7 @@ def _two_region_gmsh_file(path):
 def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     """Node regions of a MeshFile go straight into initialize; two tissues, two stiffnesses."""
     from neurofuzzy.mesh import read_mesh
-    from neurofuzzy.rules.physical import tetra_geometry
+    from neurofuzzy.constants import tetra_geometry
 
     read = read_mesh(_two_region_gmsh_file(tmp_path / "organ.msh"))
     rules = load_rules(TISSUES)
@@ -216,7 +216,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
 def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
     """With tetrahedron regions every spring sums its own tetrahedra's tissues (van Gelder)."""
     from neurofuzzy.mesh import read_mesh
-    from neurofuzzy.rules.physical import tetra_geometry
+    from neurofuzzy.constants import tetra_geometry
 
     read = read_mesh(_two_region_gmsh_file(tmp_path / "organ.msh"))
     mesh = read.mesh

@@ -151,8 +151,6 @@ def test_bad_simulation_input():
 
 @pytest.mark.parametrize("backend", ["numpy", "numba"])
 def test_fast_steppers_equal_the_reference_step(backend, rng):
-    if backend == "numba":
-        pytest.importorskip("numba")
     mesh = lattice((4, 3, 3), 0.01).with_fixed(np.arange(0, 36, 3))
     model = SpringMassModel(mesh, node_mass=rng.uniform(1e-4, 3e-4, mesh.n_nodes),
                             spring_stiffness=rng.uniform(20, 60, mesh.n_springs),

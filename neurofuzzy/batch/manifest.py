@@ -382,7 +382,7 @@ def _rule_path(rules: str) -> Path:
 
 def _rule_files(path: Path) -> list[Path]:
     """A rule file and the files it extends (for fingerprints)."""
-    from ..rules._yaml import load
+    from ..rules.files import load
 
     files = []
     while path not in files and path.is_file():

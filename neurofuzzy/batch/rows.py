@@ -36,7 +36,7 @@ def _header_line(path: Path) -> int:
 def yaml_rows(path: Path) -> list[tuple[int, dict]]:
     """``(line, {column: value})`` for every specimen of a YAML manifest, its ``defaults``
     applied."""
-    from ..rules._yaml import load
+    from ..rules.files import load
 
     source = str(path)
     data = load(path)

@@ -1,9 +1,10 @@
 """One specimen's fit, run on a Dask worker: :func:`fit_specimen`.
 
-The fit is the one of ``neurofuzzy fit``: :func:`~neurofuzzy.learn.start_model`, the learner
-of :func:`~neurofuzzy.learn.run.make_learner`, :func:`~neurofuzzy.learn.run.fit_summary`
-(materials and words), :func:`~neurofuzzy.report.fit_report`; optionally
-:func:`~neurofuzzy.diagnosis.diagnose`. The task reads its inputs from their paths and
+The fit is the one of ``neurofuzzy fit``, the library's pipeline :func:`neurofuzzy.pipeline.fit`
+(start, prior, learner, outcome check, summary with materials and words), then
+:func:`~neurofuzzy.report.fit_report`; optionally :func:`~neurofuzzy.diagnosis.diagnose`. A fit
+that diverged or explains the data worse than a model that never moves is a failed specimen,
+as it is an error of ``neurofuzzy fit``. The task reads its inputs from their paths and
 returns every output as bytes: the command writes them, so workers need to see the inputs
 (a shared file system on a cluster), not the output folder.
 """
@@ -16,7 +17,6 @@ import tempfile
 import time
 import traceback
 from pathlib import Path
-
 
 from ..errors import NeurofuzzyError
 from .manifest import Specimen, relative_path
@@ -43,12 +43,20 @@ def fit_specimen(specimen: Specimen) -> dict:
         (``worker``: ``HOST:PID`` of the process that ran it), where
         ``fit`` is the object of ``neurofuzzy fit --json`` plus ``quality`` (:func:`fit_quality`)
         and, when asked for, ``diagnosis``; or ``{"id", "status": "failed", "error",
-        "kind": "input" | "error", "traceback" (for "error" only), "seconds"}``.
+        "kind": "input" | "fit" | "error", "traceback" (for "error" only), "seconds"}``:
+        ``"fit"`` for a fit that ran but failed (diverged, or worse than a model that never
+        moves: :class:`~neurofuzzy.pipeline.FitFailedError`).
     """
     started = time.perf_counter()
     worker = f"{socket.gethostname()}:{os.getpid()}"
+    from ..pipeline import FitFailedError
+
     try:
         fit, files = _fit(specimen)
+    except FitFailedError as error:
+        # the fit ran and failed: recorded as failed with the reason, as `fit` would exit 2
+        return {"id": specimen.id, "status": "failed", "kind": "fit", "error": str(error),
+                "seconds": time.perf_counter() - started, "worker": worker}
     except NeurofuzzyError as error:
         # bad input of this one specimen (a corrupt file, an unstable start): recorded with
         # its message, and the batch goes on
@@ -67,36 +75,28 @@ def fit_specimen(specimen: Specimen) -> dict:
 
 def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..io import save_model
-    from ..learn import start_model
-    from ..learn.run import fit_summary, make_learner, make_prior
+    from ..pipeline import fit as fit_pipeline
     from ..report import fit_report
     from ..serialization import json_safe
 
-    from ..plausibility import check_fit_inputs
-
     options = specimen.options
     experiments = load_specimen_experiments(specimen)
-    start = start_model(experiments, model=specimen.start, rules=specimen.rules,
-                        tissue=specimen.tissue, tie=options.get("tie"))
-    check_fit_inputs(experiments, start.model, substeps=options.get("substeps", "auto"),
-                     model_source=specimen.start, physical=start.how in ("model", "rules"))
-    prior = make_prior(start, options.get("prior", "default"), tie=options.get("tie"),
-                       method=options.get("method", "gradient"))
-    learner = make_learner(options.get("method", "gradient"), cycles=options.get("cycles"),
-                           learn_masses=options.get("learn_masses", False),
-                           substeps=options.get("substeps", "auto"), prior=prior)
-    learner.fit(start.model, experiments)
     base = Path(specimen.source).parent
     inputs = [relative_path(path, base) for path in specimen.experiments or specimen.markers]
-    fit = fit_summary(learner, start, method=options.get("method", "gradient"),
-                      tie=options.get("tie") or ("model" if specimen.start else "groups"),
-                      experiments=inputs)
+    outcome = fit_pipeline(experiments, start=specimen.start, rules=specimen.rules,
+                           tissue=specimen.tissue, tie=options.get("tie"),
+                           prior=options.get("prior", "default"),
+                           method=options.get("method", "gradient"), cycles=options.get("cycles"),
+                           learn_masses=options.get("learn_masses", False),
+                           substeps=options.get("substeps", "auto"), names=inputs)
+    learner = outcome.learner
+    fit = dict(outcome.summary)
     fit["quality"] = fit_quality(learner.model_, experiments, learner.substeps_,
                                  lack_of_fit=learner.lack_of_fit_)
     with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
         folder = Path(folder)
         save_model(learner.model_, folder / "fitted.yaml")
-        fit_report(start, learner, folder / "report.html",
+        fit_report(outcome.start, learner, folder / "report.html",
                    title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})",
                    files={"fitted model": folder / "fitted.yaml"})
         if options.get("diagnose"):

@@ -1,5 +1,7 @@
 """``neurofuzzy fit`` and ``neurofuzzy diagnose``: experiments and a start in, a fitted model,
-a report and JSON out. The start policy is the library's :func:`~neurofuzzy.learn.start_model`."""
+a report and JSON out. The fit is the library's one pipeline (:func:`neurofuzzy.pipeline.fit`:
+start, prior, learner, outcome check, summary); the start policy of ``diagnose`` is the
+library's :func:`~neurofuzzy.learn.start_model`."""
 
 from __future__ import annotations
 
@@ -7,14 +9,14 @@ import sys
 from pathlib import Path
 
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
-from .outcome import check_outcome, explained, require_motion
 from ..learn.lack_of_fit import length_text
+from ..pipeline import check_outcome, explained, require_motion
 
 __all__ = ["fit", "diagnose"]
 
 
 def _start(args, progress: bool):
-    """The experiments named on the command line and the start of their fit."""
+    """The experiments named on the command line and the start of their diagnosis."""
     from ..io import load_experiment
     from ..learn import start_model
     from ..plausibility import check_fit_inputs
@@ -24,8 +26,6 @@ def _start(args, progress: bool):
     experiments = [load_experiment(p) for p in inputs]
     rules = rule_base_for(args.rules, args.tissue)
     elements = {"tetra": True, "springs": False}.get(args.elements)
-    if getattr(args, "method", None) == "paper":
-        elements = False                 # the paper's learner is the spring network's
     start = start_model(experiments, model=args.start, rules=rules, tissue=args.tissue,
                         tie=args.tie, elements=elements, progress=progress)
     check_fit_inputs(experiments, start.model, substeps=args.substeps, model_source=args.start,
@@ -40,8 +40,6 @@ def _protected(args) -> list[Path]:
 
 
 def fit(args) -> int:
-    from ..learn.run import fit_summary
-
     progress = not args.quiet and not args.json
     positive(args.cycles, "--cycles", integer=True)
     positive(args.learning_rate, "--learning-rate")
@@ -52,11 +50,8 @@ def fit(args) -> int:
         report = outputs.file(args.report, "--report", twins=(".json",))
         export = outputs.folder(args.export, "--export",
                                 owns=vtu_series(Path(args.experiments[0]).stem))
-        inputs, experiments, start, learner, exported = _fit(args, progress, substeps, out,
-                                                             report, export, outputs)
-    result = fit_summary(learner, start, method=args.method,
-                         tie=args.tie or ("model" if args.start else "groups"),
-                         experiments=inputs)
+        outcome, exported = _fit(args, progress, substeps, out, report, export, outputs)
+    learner, result = outcome.learner, outcome.summary
     if not learner.lack_of_fit_.explained and not args.quiet:
         print(f"neurofuzzy: warning: {learner.lack_of_fit_.verdict}", file=sys.stderr)
     if args.json:
@@ -77,27 +72,22 @@ def fit(args) -> int:
 
 
 def _fit(args, progress, substeps, out, report, export, outputs):
-    """Fit, refuse a failed fit, write the staged outputs."""
-    from ..errors import InputError
-    from ..io import save_model
-    from ..learn.run import fit_record, make_learner, make_prior
+    """Fit (the library's pipeline, which refuses a failed fit), write the staged outputs."""
+    from ..io import load_experiment, save_model
+    from ..pipeline import fit as fit_pipeline
+    from .common import rule_base_for
 
-    inputs, experiments, start = _start(args, progress)
-    require_motion(experiments)
-    if args.mesh_check and not start.model.has_elements:
-        raise InputError("refines tetrahedral elements; this fit's model is a spring network "
-                         "(give a model or experiment with tetrahedra, or --elements tetra)",
-                         key="--mesh-check")
-    prior = make_prior(start, args.prior, tie=args.tie, method=args.method)
-    learner = make_learner(args.method, cycles=args.cycles, learn_masses=args.learn_masses,
-                           substeps=substeps, learning_rate=args.learning_rate,
-                           mass_learning_rate=args.mass_learning_rate, prior=prior,
-                           mesh_check=args.mesh_check, progress=progress)
-    with explained("fit", experiments, start.model, substeps):
-        learner.fit(start.model, experiments)
-    check_outcome("fit", experiments, start.model, learner.model_, learner.rms_error_initial_,
-                  learner.rms_error_, learner.substeps_)
-    record = fit_record(learner, inputs)
+    inputs = [Path(p) for p in args.experiments]
+    loaded = [load_experiment(p) for p in inputs]
+    elements = {"tetra": True, "springs": False}.get(args.elements)
+    outcome = fit_pipeline(loaded, start=args.start, rules=rule_base_for(args.rules, args.tissue),
+                           tissue=args.tissue, tie=args.tie, elements=elements,
+                           prior=args.prior, method=args.method, cycles=args.cycles,
+                           learn_masses=args.learn_masses, substeps=substeps,
+                           learning_rate=args.learning_rate,
+                           mass_learning_rate=args.mass_learning_rate,
+                           mesh_check=args.mesh_check, names=inputs, progress=progress)
+    learner, record, experiments = outcome.learner, outcome.record, outcome.experiments
     if out:
         save_model(learner.model_, out, fit=record)
     files = {"fitted model": args.out} if args.out else {}
@@ -118,8 +108,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     if report:
         from ..report import fit_report
 
-        fit_report(start, learner, report, files=files)
-    return inputs, experiments, start, learner, exported
+        fit_report(outcome.start, learner, report, files=files)
+    return outcome, exported
 
 
 def diagnose(args) -> int:

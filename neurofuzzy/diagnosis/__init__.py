@@ -13,15 +13,20 @@ Each round (DESIGN.md, "Diagnosis"):
    together with the model's own parameter templates (sparse identification of dynamics, as in
    SINDy): the Bayesian information criterion with the noise floor as variance, ``ΔBIC =
    (RSS_model - RSS_model+candidate) / σ² - k ln n``, favours the simpler explanation;
-   ``none`` when no candidate explains enough of the residual (the evidence's
-   ``min_explained``) with strong evidence (``ΔBIC > MIN_EVIDENCE``);
-5. add the winner, refit everything, and keep it only if the gap (RMS above the noise floor)
-   shrinks at least ``MIN_SHRINK`` times; repeat until ``none``.
+5. decide against the lack of fit (:mod:`neurofuzzy.learn.lack_of_fit`), not the noise alone:
+   while the fitted model explains the data to the noise, ``none`` unless a candidate explains
+   a good share of the residual with strong evidence; while it does not, the best candidate of
+   every kind with strong evidence is refitted (from the fitted model and, if that stays above
+   the noise, from the start model's values), and the best refit is added when it shrinks the
+   gap (RMS above the noise floor) at least ``MIN_SHRINK`` times; repeat. When nothing does
+   and the model still misses the data, the answer is ``unexplained`` (never ``none``), with
+   where and when the misfit lives, and for element models how much of it the mesh refined
+   once explains.
 
 Element models and markers embedded anywhere are diagnosed in trajectory space instead
 (:mod:`.trajectory`): the evidence is the fitted model's free-run marker error, candidates are
 scored by the sensitivities of the error to their parameters (a linearised refit), and an
-inclusion is a region of elements with extra Young's modulus.
+inclusion is a ball of elements with extra Young's modulus.
 
 With the rule base as a prior (``diagnose(..., prior=FuzzyPrior(rules, model))``), an
 inclusion found is also located item by item (:mod:`.localise`): every element or spring is

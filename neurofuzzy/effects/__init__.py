@@ -26,7 +26,7 @@ unmodeled_load         a constant force ``f`` at one node                     ``
 =====================  ====================================================  ===============
 """
 
-from .base import EFFECTS, Effect, effect_from_dict, effect_to_dict, register
+from .base import EFFECTS, Effect, effect_from_dict, effect_to_dict, register, term_kinds
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .inclusions import SoftInclusion, StiffInclusion
 from .springs import SpringEffect
@@ -34,4 +34,4 @@ from .stiffening import NonlinearStiffening
 
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
            "NonlinearStiffening", "UnmodeledLoad", "EFFECTS", "register", "effect_to_dict",
-           "effect_from_dict"]
+           "effect_from_dict", "term_kinds"]

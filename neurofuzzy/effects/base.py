@@ -11,7 +11,8 @@ import numpy as np
 from ..errors import InputError, closest_name
 from ..forces import ForceTerm
 
-__all__ = ["Effect", "EFFECTS", "register", "effect_to_dict", "effect_from_dict"]
+__all__ = ["Effect", "EFFECTS", "register", "effect_to_dict", "effect_from_dict",
+           "term_kinds"]
 
 #: Registry of effect classes by name.
 EFFECTS: dict[str, type[Effect]] = {}
@@ -89,6 +90,35 @@ class Effect(ForceTerm):
                            velocities: np.ndarray) -> np.ndarray:
         """(n_nodes, n_params, 3): derivative of :meth:`force` with respect to ``params``."""
 
+    # -- the uniform parameter interface of force terms ----------------------------------------
+    def parameter_values(self, model) -> dict[str, np.ndarray]:
+        """``{"params": params}``: an effect owns its few parameters."""
+        return {"params": self.params}
+
+    def with_parameter_values(self, model, values):
+        """``(model, effect)`` with new parameters (the model's copy of the effect replaced
+        when it carries this one)."""
+        effect = self.with_params(values["params"])
+        effects = tuple(effect if e is self else e for e in model.effects)
+        return (model.replace(effects=effects) if effects != model.effects else model), effect
+
+    def parameter_jvp(self, model, positions, velocities, directions) -> np.ndarray:
+        """(n_nodes, P, 3) from :meth:`parameter_jacobian` and ``directions["params"]``
+        (n_params, P)."""
+        return np.einsum("ipk,pq->iqk", self.parameter_jacobian(model, positions, velocities),
+                         np.asarray(directions["params"]))
+
+    def parameter_vjp(self, model, positions, velocities, cotangent):
+        return {"params": np.einsum("ipk,ik->p",
+                                    self.parameter_jacobian(model, positions, velocities),
+                                    cotangent)}
+
+    @classmethod
+    def examples(cls, model) -> list:
+        """One instance with every parameter 0.5 (override where that is not a sensible
+        effect on ``model``)."""
+        return [(model, cls(np.full(len(cls._labels), 0.5)))]
+
     @classmethod
     def propose(cls, model, evidence) -> list:
         """Instances of this effect worth scoring against a diagnosis' residuals (zero
@@ -136,3 +166,12 @@ def effect_from_dict(data: dict, source: str = "<model>") -> Effect:
     except TypeError as error:
         raise InputError(f"bad options for {name}: {error}", source=source,
                          key="effects") from None
+
+
+def term_kinds() -> dict[str, type[ForceTerm]]:
+    """Every kind of force term a model can carry, by name: the springs, the tetrahedral
+    elements and every registered effect (:func:`register`). The registry test
+    (``tests/test_terms_registry.py``) checks each on its :meth:`ForceTerm.examples`."""
+    from ..forces import SpringForce, TetrahedronForce
+
+    return {SpringForce.name: SpringForce, TetrahedronForce.name: TetrahedronForce, **EFFECTS}

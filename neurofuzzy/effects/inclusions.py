@@ -56,6 +56,18 @@ class _Inclusion(SpringEffect):
     def on_elements(self) -> bool:
         return "elements" in self.options
 
+    #: the sign of the examples' extra stiffness
+    _sign = 1.0
+
+    @classmethod
+    def examples(cls, model):
+        """Half the springs (spring networks) or half the elements (element models)."""
+        if model.has_elements:
+            elements = np.arange(model.mesh.n_tetrahedra // 2)
+            return [(model, cls.of_elements(model, elements, cls._sign * 1e3))]
+        springs = np.arange(model.n_springs // 2)
+        return [(model, cls.for_model(model, cls._sign * 10.0, springs=springs))]
+
     @property
     def labels(self):
         return ("extra_youngs_modulus",) if self.on_elements else super().labels
@@ -148,6 +160,7 @@ class SoftInclusion(_Inclusion):
     """A compact region softer than the rest (k < 0 or δ < 0)."""
 
     name = "soft_inclusion"
+    _sign = -1.0
 
     @classmethod
     def propose(cls, model, evidence):

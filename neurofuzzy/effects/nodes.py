@@ -25,6 +25,10 @@ class Gravity(Effect):
     def parameter_jacobian(self, model, positions, velocities):
         return model.node_mass[:, None, None] * np.eye(3)[None]
 
+    @classmethod
+    def examples(cls, model):
+        return [(model, cls([0.3, -0.2, -9.81]))]
+
     def equation(self):
         g = self.params
         return (f"gravity: F_i += m_i g, g = ({g[0]:.4g}, {g[1]:.4g}, {g[2]:.4g}), "
@@ -51,6 +55,10 @@ class NodeDrag(Effect):
     def state_vjp(self, model, positions, velocities, cotangent):
         return np.zeros_like(cotangent), -self.params[0] * cotangent
 
+    @classmethod
+    def examples(cls, model):
+        return [(model, cls([2e-3]))]
+
     def equation(self):
         return f"node_drag: F_i += -b v_i, b = {self.params[0]:.4g}"
 
@@ -75,6 +83,10 @@ class UnmodeledLoad(Effect):
         jacobian = np.zeros((model.n_nodes, 3, 3))
         jacobian[self.options["node"]] = np.eye(3)
         return jacobian
+
+    @classmethod
+    def examples(cls, model):
+        return [(model, cls([0.01, -0.02, 0.03], node=int(np.flatnonzero(model.mesh.free)[0])))]
 
     @classmethod
     def propose(cls, model, evidence):

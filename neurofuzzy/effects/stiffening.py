@@ -64,6 +64,13 @@ class NonlinearStiffening(SpringEffect):
         return state.stretch**3 / rest2, 3 * state.stretch**2 / rest2
 
     @classmethod
+    def examples(cls, model):
+        """κ = 3 kPa on elements; κ = 400 N/m per spring group on springs."""
+        if model.has_elements:
+            return [(model, cls([3e3], on="elements"))]
+        return [(model, cls.for_model(model, 400.0))]
+
+    @classmethod
     def propose(cls, model, evidence):
         """One coefficient per spring group on spring networks, one κ on element models."""
         if cls.name in evidence.present:

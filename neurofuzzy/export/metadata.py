@@ -138,7 +138,7 @@ def volumetric_note(model, target: str, experiment=None, steps: int | None = Non
 def metadata(model, *, target: str, fit: dict | None, notes, experiment=None,
              time_step: float | None = None, steps: int | None = None) -> dict:
     """The JSON-ready block (see the module docstring)."""
-    from .. import __version__
+    from ..version import __version__
 
     block = {"generator": f"neurofuzzy {__version__}", "target": target,
              "units": "SI: m, kg, s, N, Pa (stiffness N/m, damping N s/m, viscosity Pa s)",
@@ -158,7 +158,7 @@ def metadata(model, *, target: str, fit: dict | None, notes, experiment=None,
 def header_lines(model, *, target: str, fit: dict | None, notes, experiment=None,
                  time_step: float | None = None, steps: int | None = None) -> list[str]:
     """The block as lines of text (no comment markers)."""
-    from .. import __version__
+    from ..version import __version__
 
     lines = [f"Written by neurofuzzy {__version__} (neurofuzzy export, target {target}). "
              "Units: SI (m, kg, s, N, Pa).", "Fitted values:"]

@@ -55,7 +55,41 @@ class ForceTerm(ABC):
         """``((∂F/∂p)ᵀ λ, (∂F/∂v)ᵀ λ)``, each (n_nodes, 3), for a cotangent ``λ`` (n_nodes, 3)."""
         return np.zeros_like(cotangent), np.zeros_like(cotangent)
 
+    # -- the term's own parameters ---------------------------------------------------------
+    def parameter_values(self, model) -> dict[str, np.ndarray]:
+        """The term's own parameters in ``model``, by name (each a 1-D array: per spring,
+        per element or the effect's few)."""
+        return {}
+
+    def with_parameter_values(self, model, values: dict):
+        """``(model, term)`` with the term's parameters set to ``values`` (the names of
+        :meth:`parameter_values`)."""
+        return model, self
+
+    def parameter_jvp(self, model, positions, velocities, directions: dict) -> np.ndarray:
+        """(n_nodes, P, 3): the force's change along P directions of the term's parameters
+        (``directions[name]`` of shape (len(values[name]), P), dense or sparse)."""
+        return np.zeros((model.n_nodes, _columns(directions), 3))
+
+    def parameter_vjp(self, model, positions, velocities, cotangent) -> dict[str, np.ndarray]:
+        """``λ · ∂F/∂θ`` for a cotangent ``λ`` (n_nodes, 3), by parameter name (the adjoint of
+        :meth:`parameter_jvp`)."""
+        return {}
+
+    @classmethod
+    def examples(cls, model) -> list:
+        """``[(model, term), …]``: instances of this kind of term on ``model`` (a small spring
+        network or element model) with non-zero parameters, or ``[]`` when it does not apply
+        there; the registry test checks every kind of term on them
+        (``tests/test_terms_registry.py``)."""
+        return []
+
     def rest_matrices(self, model):
         """``(K, C)``: the (3N, 3N) sparse stiffness and damping matrices at rest, or None for
         a term that adds neither (used for the stability bound of the time step)."""
         return None
+
+
+def _columns(directions: dict) -> int:
+    """P, the number of directions of a parameter-direction dictionary."""
+    return next(iter(directions.values())).shape[1] if directions else 0

@@ -1,5 +1,5 @@
 """The spring force (paper eqs. 3.4–3.6) and its derivatives: the one implementation every
-part of the package goes through (the compiled kernel in :mod:`neurofuzzy._numba_kernels` is
+part of the package goes through (the compiled kernel in :mod:`neurofuzzy.kernels.stepper` is
 tested equal to it).
 
 Spring ``j`` between nodes ``a`` and ``b``::
@@ -173,6 +173,33 @@ class SpringForce(ForceTerm):
         along = np.einsum("ij,ij->i", state.direction, lam_f)
         return (-maps.accumulate(lam_d), -maps.accumulate(lam_dv),
                 {"stiffness": state.stretch * along, "damping": state.closing_speed * along})
+
+    # -- the springs' own parameters -------------------------------------------------------
+    def parameter_values(self, model):
+        """``{"stiffness": s, "damping": c}``, each (n_springs,)."""
+        return {"stiffness": model.spring_stiffness, "damping": model.spring_damping}
+
+    def with_parameter_values(self, model, values):
+        return model.replace(spring_stiffness=values["stiffness"],
+                             spring_damping=values["damping"]), self
+
+    def parameter_jvp(self, model, positions, velocities, directions):
+        """(n_nodes, P, 3): ``Σ_j (ds_j (l - L0) + dc_j closing) u`` at both ends (node a +,
+        node b -) for per-spring directions ``directions["stiffness"]``, ``["damping"]``
+        (n_springs, P)."""
+        templates = self.parameter_templates(self.state(model, positions, velocities))
+        per_spring = sum(np.asarray(directions[name].todense() if sp.issparse(directions[name])
+                                    else directions[name])[:, :, None]
+                         * templates[name][:, None, :] for name in templates)
+        return incidence(model.mesh).accumulate(per_spring)
+
+    def parameter_vjp(self, model, positions, velocities, cotangent):
+        return self.vjp(model, cotangent, self.state(model, positions, velocities))[2]
+
+    @classmethod
+    def examples(cls, model):
+        """The model's own springs, when they pull (spring networks)."""
+        return [(model, SPRINGS)] if np.any(model.spring_stiffness) else []
 
     def rest_matrices(self, model):
         """``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` at rest for ``k = s`` and ``k = c``."""

@@ -245,6 +245,22 @@ class TetrahedronForce(ForceTerm):
         out["viscosity"] = out["viscosity"] + a * g_lam_rate
         return out
 
+    def parameter_values(self, model):
+        """``{"youngs_modulus", "poisson_ratio", "viscosity"}``, each (n_elements,)."""
+        return {"youngs_modulus": model.element_youngs_modulus,
+                "poisson_ratio": model.element_poisson_ratio,
+                "viscosity": model.element_viscosity}
+
+    def with_parameter_values(self, model, values):
+        return model.replace(element_youngs_modulus=values["youngs_modulus"],
+                             element_poisson_ratio=values["poisson_ratio"],
+                             element_viscosity=values["viscosity"]), self
+
+    @classmethod
+    def examples(cls, model):
+        """The model's own elements (element models)."""
+        return [(model, TETRAHEDRA)] if model.has_elements else []
+
     # -- the stability bound ------------------------------------------------------------------
     def rest_matrices(self, model):
         """``(K, C)``: ``-∂f/∂x`` and ``-∂f/∂v`` at rest, assembled (3N, 3N): the shear part

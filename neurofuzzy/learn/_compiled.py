@@ -1,6 +1,6 @@
 """The compiled path of :meth:`neurofuzzy.learn.Sensitivity.run`: the model, its parameter
 directions, the experiment's loads, window starts and observation operator laid out for
-:func:`neurofuzzy._numba_sensitivity.forward` (one call per experiment, no Python per time
+:func:`neurofuzzy.kernels.sensitivity.forward` (one call per experiment, no Python per time
 step).
 
 Used when numba is installed, masses are fixed and every effect of the model is one the kernel
@@ -166,7 +166,7 @@ class CompiledModel:
         """``(positions, jacobian)`` of one experiment; ``states`` maps every window start
         frame to its ``(p, v)``. With ``columns = (first, stop)`` only those columns of the
         Jacobian, written into ``jacobian`` (the state is simulated whole either way)."""
-        from .._numba_sensitivity import forward
+        from ..kernels.sensitivity import forward
 
         first, stop = columns if columns is not None else (0, self.n_params)
         width = stop - first if tangents else 0

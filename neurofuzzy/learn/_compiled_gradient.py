@@ -1,4 +1,4 @@
-"""The gradient of a pass in the compiled kernels (:mod:`neurofuzzy._numba_adjoint`): the
+"""The gradient of a pass in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`): the
 forward sweep keeps every substep's state, the backward sweep sums the parameters'
 cotangents; :meth:`~._sensitivity.Sensitivity.gradient` calls it when the model allows."""
 
@@ -7,16 +7,16 @@ from __future__ import annotations
 import numpy as np
 
 from ._compiled import CompiledModel
+from ._passes import Run
 
 __all__ = ["compiled_gradient"]
 
 
 def compiled_gradient(sensitivity, model, experiment, substeps, starts):
-    """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy._numba_adjoint`) for
+    """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
     models of springs and elements whose only effects are constant loads, a node drag
     and inclusions of elements, none of them learned."""
-    from .._numba_adjoint import pull_back, sweep
-    from ._sensitivity import Run
+    from ..kernels.adjoint import pull_back, sweep
 
     param = sensitivity.parameters
     compiled = CompiledModel(param, model)

@@ -7,10 +7,38 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..experiment import rms_error
+
+@dataclass
+class Run:
+    """Result of one pass over an experiment.
+
+    Attributes
+    ----------
+    positions : (n_frames, n_nodes, 3) float
+        Simulated positions (with resets at the window starts).
+    residuals : (n_frames - 1, n_rows, 3) float
+        ``(simulated - measured) / length_unit`` at frames 1.., per measured row (tracked
+        node or embedded marker, :class:`~neurofuzzy.observation.Observation`); 0 in the gaps.
+    n_measured : int
+        Number of residual values that come from a measurement (not from a gap).
+    jacobian : (n_frames - 1, n_rows, 3, n_params) float or None
+        ``∂ residuals / ∂ θ`` (forward mode only).
+    """
+
+    positions: np.ndarray
+    residuals: np.ndarray
+    n_measured: int
+    jacobian: np.ndarray | None = None
+
+    @property
+    def finite(self) -> bool:
+        return bool(np.all(np.isfinite(self.residuals)))
+
 
 #: Residuals (in spring lengths) beyond this mean the simulation diverged.
 DIVERGED = 1e6

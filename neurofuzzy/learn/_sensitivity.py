@@ -17,7 +17,6 @@ velocities from the backward difference of the measured positions.
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -26,38 +25,13 @@ from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence
 from ..observation import remove_offsets
+from ..simulation import euler_update
 from ._compiled import CompiledModel, compiled_possible
 from ._compiled_gradient import compiled_gradient
+from ._passes import Run
 from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
 
 __all__ = ["Sensitivity", "Run"]
-
-
-@dataclass
-class Run:
-    """Result of one pass over an experiment.
-
-    Attributes
-    ----------
-    positions : (n_frames, n_nodes, 3) float
-        Simulated positions (with resets at the window starts).
-    residuals : (n_frames - 1, n_rows, 3) float
-        ``(simulated - measured) / length_unit`` at frames 1.., per measured row (tracked
-        node or embedded marker, :class:`~neurofuzzy.observation.Observation`); 0 in the gaps.
-    n_measured : int
-        Number of residual values that come from a measurement (not from a gap).
-    jacobian : (n_frames - 1, n_rows, 3, n_params) float or None
-        ``∂ residuals / ∂ θ`` (forward mode only).
-    """
-
-    positions: np.ndarray
-    residuals: np.ndarray
-    n_measured: int
-    jacobian: np.ndarray | None = None
-
-    @property
-    def finite(self) -> bool:
-        return bool(np.all(np.isfinite(self.residuals)))
 
 
 class Sensitivity:
@@ -70,7 +44,7 @@ class Sensitivity:
     length_unit : float
         Residuals are divided by it (dimensionless residuals; e.g. the mean spring length).
     backend : {"auto", "numpy", "numba"}
-        Forward passes in the compiled kernel (:mod:`neurofuzzy._numba_sensitivity`, one call
+        Forward passes in the compiled kernel (:mod:`neurofuzzy.kernels.sensitivity`, one call
         per experiment) or the numpy reference path; ``"auto"`` compiles when numba is
         installed and the model has only springs and elements with fixed masses.
     offsets : bool
@@ -208,17 +182,14 @@ class Sensitivity:
                         if tangents:
                             d_force = self._force_tangent(model, state, p, v, tp, tv,
                                                           directions)
-                            d_velocity = tv + (h * weight)[:, :, None] * d_force
-                            if mass_rows is not None:
+                            if mass_rows is not None:      # ∂(W F)/∂log m = -W F_inertial
                                 nodes = param.free_nodes
                                 inertial = force - self._per_unit_mass(model, p, v)
-                                d_velocity[nodes, mass_rows] -= h * weight[nodes] * inertial[nodes]
-                            tv = d_velocity
-                            tv[model.mesh.fixed] = 0.0
-                            tp = tp + h * tv
-                        v = v + h * weight * force
-                        v[model.mesh.fixed] = 0.0
-                        p = p + h * v
+                                d_force[nodes, mass_rows] -= inertial[nodes]
+                            tp, tv = tp.copy(), tv.copy()
+                            euler_update(tp, tv, d_force, (h * weight)[:, :, None], h)
+                        p, v = p.copy(), v.copy()
+                        euler_update(p, v, force, h * weight, h)
                     if tangents:
                         jacobian[t - 1] = (observation.apply(tp).transpose(0, 2, 1)
                                            / self.length_unit * seen[t][:, None, None])
@@ -294,9 +265,8 @@ class Sensitivity:
                 for _ in range(substeps):
                     states.append((t, p, v))
                     force = self._force(model, p, v, SPRINGS.state(model, p, v)) + loads[t - 1]
-                    v = v + h * weight * force
-                    v[fixed] = 0.0
-                    p = p + h * v
+                    p, v = p.copy(), v.copy()
+                    euler_update(p, v, force, h * weight, h)
                 positions[t] = p
         scale = 1.0 / self.length_unit
         with np.errstate(over="ignore", invalid="ignore"):

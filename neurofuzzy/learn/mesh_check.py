@@ -135,7 +135,6 @@ def mesh_check(learner, experiments: Sequence, parameters, theta: np.ndarray) ->
     """Refit ``learner.model_`` (fitted on ``experiments``; its parameters ``theta`` of
     ``parameters``) on its mesh refined once, with the learner's options, from its fitted
     values; how far every parameter moves."""
-    from .gradient import GradientLearner
     from ._parameters import Parameterization
 
     if parameters.learn_masses:
@@ -146,7 +145,7 @@ def mesh_check(learner, experiments: Sequence, parameters, theta: np.ndarray) ->
     fine_model, refinement = refine_model(model)
     fine_experiments = [refine_experiment(e, fine_model.mesh, refinement) for e in experiments]
     options = {**learner.get_params(), "mesh_check": False, "prior": None, "progress": False}
-    refit = GradientLearner(**options).fit(fine_model, fine_experiments)
+    refit = type(learner)(**options).fit(fine_model, fine_experiments)
     theta_refined = Parameterization(refit.model_, learn_effects=parameters.effects != []
                                      ).initial()
     values = {}

@@ -35,6 +35,7 @@ from ..experiment import Experiment, check_experiments, require_node_observation
 from ..model import SpringMassModel
 from ..forces import SPRINGS, incidence
 from ..progress import Progress
+from ..simulation import euler_update
 from ._base import Learner, TiedSprings
 from .lack_of_fit import model_lack_of_fit
 
@@ -169,8 +170,8 @@ class PaperLearner(Learner):
             for effect in state.effects:
                 force += effect.force(model, p, v)
             force += loads[t - 1]
-            v = v + h * w[:, None] * force
-            p_new = p + h * v
+            p_new, v = p.copy(), v.copy()
+            euler_update(p_new, v, force, h * w[:, None], h)
             # 2. error E(t) (eqs. 2.2, 2.3) and 3. error rates (3.7–3.9, 3.14)
             e = np.where(tracked[t][:, None], targets[t] - p_new, 0.0)
             error += 0.5 * float(np.sum(e * e)) / length_unit**2

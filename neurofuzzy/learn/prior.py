@@ -311,7 +311,7 @@ class PriorTerms:
 
 def _spring_factor(model) -> np.ndarray:
     """``k = E · factor`` of every spring (the rule base's mapping)."""
-    from ..rules.physical import spring_geometry
+    from ..constants import spring_geometry
 
     factor = spring_geometry(model.mesh).spring_factor
     return np.where(factor > 0, factor, 1.0)

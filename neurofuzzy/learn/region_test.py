@@ -64,10 +64,8 @@ def homogeneous_start(model):
 def homogeneous_fit(learner, model, experiments):
     """The homogeneous model of ``model`` (:func:`homogeneous_start`) fitted with
     ``learner``'s options (no prior, no mesh check)."""
-    from .gradient import GradientLearner
-
     options = {**learner.get_params(), "prior": None, "mesh_check": False, "progress": False}
-    return GradientLearner(**options).fit(homogeneous_start(model), experiments)
+    return type(learner)(**options).fit(homogeneous_start(model), experiments)
 
 
 def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -> dict:
@@ -77,8 +75,6 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
     elements, do not both pass): the kept ones stay in ``"regions"``, the others move to
     ``"rejected"``; each carries ``"evidence"``: the RMS error per marker (m) without and
     with it, the shrink of the misfit above the noise and the BIC gain."""
-    from .gradient import GradientLearner
-
     current = homogeneous
     noise = homogeneous.lack_of_fit_.noise
     count = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
@@ -99,7 +95,7 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
             tie = base.spring_tie.copy()
             tie[items] = tie.max() + 1
             model, extra = base.replace(spring_tie=tie), 2
-        refit = GradientLearner(**options).fit(model, experiments)
+        refit = type(homogeneous)(**options).fit(model, experiments)
         rms0, rms1 = current.rms_error_, refit.rms_error_
         gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
         gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))

@@ -138,7 +138,7 @@ def fit_record(learner: Learner, experiments: Sequence[str]) -> dict:
     """What a fitted model file keeps of its fit (its ``fit:`` section,
     :func:`~neurofuzzy.model_files.save_model`): the toolkit version, the experiments, the RMS
     error and the lack of fit with its verdict."""
-    from .. import __version__
+    from ..version import __version__
 
     return {"neurofuzzy_version": __version__, "learner": type(learner).__name__,
             "experiments": [str(p) for p in experiments],

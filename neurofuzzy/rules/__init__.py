@@ -11,8 +11,8 @@
 
 from ..errors import RuleFileDeprecationWarning
 from .parser import load_rules
-from .materials import element_model, materials
-from .physical import initialize, lattice_geometry, material_values
+from .materials import materials
+from .physical import element_model, initialize, lattice_geometry, material_values
 from .rulebase import RuleBase
 from .terms import QUANTITIES, Label, RuleBaseError
 

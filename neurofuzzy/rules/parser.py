@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import InputError, RuleFileDeprecationWarning, closest_name
 from ..safe_yaml import kind_of
-from . import _yaml
+from . import files as rule_files
 from .limits import (defuzzification_problems, shared_quantities, term_problem,
                      tissue_problems, universe_problems)
 from .membership import HEDGES, MEMBERSHIP_FUNCTIONS, check_parameters, evaluate
@@ -85,7 +85,7 @@ class _Builder:
         self.problems.append(InputError(message, source=str(source), line=line))
 
     def build(self, path: Path, seen=(), text: str | None = None) -> RuleBase:
-        data = _yaml.load(path) if text is None else _yaml.loads(text, str(path))
+        data = rule_files.load(path) if text is None else rule_files.loads(text, str(path))
         source = str(path)
         if not isinstance(data, dict):
             raise RuleBaseError([InputError("a rule base is a mapping (name:, inputs:, …)",

@@ -19,9 +19,10 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
-from ._numba_kernels import _spring
-from ._numba_sensitivity import (_edges, _element_tangents, _full, _mul, _sym_dot,
-                                 _sym_t_mul)
+from .integrator import euler_update, euler_update_transpose
+from .stepper import _spring, spring_state
+from .sensitivity import _edges, _element_tangents, _full, _mul, _sym_t_mul
+from .svk import stress, stress_vjp
 
 
 @numba.njit(cache=True, nogil=True)
@@ -106,11 +107,7 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
                                     + node_lam_rate[node] * node_strain[node, 1])
         else:
             pressure = lam[e] * theta + lam_rate[e] * theta_rate
-        S = _full((shear[e] * G[0] + shear_rate[e] * Gd[0] + pressure,
-                   shear[e] * G[1] + shear_rate[e] * Gd[1] + pressure,
-                   shear[e] * G[2] + shear_rate[e] * Gd[2] + pressure,
-                   shear[e] * G[3] + shear_rate[e] * Gd[3], shear[e] * G[4] + shear_rate[e] * Gd[4],
-                   shear[e] * G[5] + shear_rate[e] * Gd[5]))
+        S = _full(stress(G, Gd, shear[e], shear_rate[e], pressure, 0.0))
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]
         Lc = (lam_force[n1, 0] - lam_force[n0, 0], lam_force[n2, 0] - lam_force[n0, 0],
@@ -123,9 +120,10 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         LP = (scale * LB[0], scale * LB[1], scale * LB[2], scale * LB[3], scale * LB[4],
               scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
-        g_shear[e] += _sym_dot(G, LS)
-        g_shear_rate[e] += _sym_dot(Gd, LS)
-        l_pressure = LS[0] + LS[1] + LS[2]
+        LG, LGd, l_shear, l_shear_rate, l_pressure, _ = stress_vjp(G, Gd, LS, shear[e],
+                                                                   shear_rate[e], 0.0)
+        g_shear[e] += l_shear
+        g_shear_rate[e] += l_shear_rate
         if nodal:
             l_theta = 0.0
             l_theta_rate = 0.0
@@ -136,12 +134,10 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
             l_theta_rate = lam_rate[e] * l_pressure
             g_lam[e] += l_pressure * theta
             g_lam_rate[e] += l_pressure * theta_rate
-        LG = _full((shear[e] * LS[0] + l_theta, shear[e] * LS[1] + l_theta,
-                    shear[e] * LS[2] + l_theta, shear[e] * LS[3], shear[e] * LS[4],
-                    shear[e] * LS[5]))
-        LGd = _full((shear_rate[e] * LS[0] + l_theta_rate, shear_rate[e] * LS[1] + l_theta_rate,
-                     shear_rate[e] * LS[2] + l_theta_rate, shear_rate[e] * LS[3],
-                     shear_rate[e] * LS[4], shear_rate[e] * LS[5]))
+        # the volumetric part of the strains' cotangents: π = λ θ + λβ θ̇ (per element)
+        LG = _full((LG[0] + l_theta, LG[1] + l_theta, LG[2] + l_theta, LG[3], LG[4], LG[5]))
+        LGd = _full((LGd[0] + l_theta_rate, LGd[1] + l_theta_rate, LGd[2] + l_theta_rate,
+                     LGd[3], LGd[4], LGd[5]))
         # L_F = L_P S + F L_G + Ḟ L_Ġ, L_Ḟ = F L_Ġ
         LPS = _mul(LP, S)
         FLG = _mul(F, LG)
@@ -220,11 +216,7 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
                 _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
             if has_elements:
                 _element_force(p, v, elements, blank, node_strain, force)
-            for i in range(n_nodes):
-                w = h * weight[i]
-                for k in range(3):
-                    v[i, k] += w * force[i, k]
-                    p[i, k] += h * v[i, k]
+            euler_update(p, v, force, weight, h)
         positions[t] = p
 
 
@@ -261,27 +253,18 @@ def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frame
             p = states_p[step]
             v = states_v[step]
             # p' = p + h v', v' = v + h W F: the new velocity's cotangent, then the force's
+            euler_update_transpose(lam_p, lam_v, weight, h, lam_force)
             for i in range(n_nodes):
                 for k in range(3):
-                    lam_v[i, k] += h * lam_p[i, k]
-                    if weight[i] == 0.0:          # fixed nodes do not move
-                        lam_v[i, k] = 0.0
-                    lam_force[i, k] = h * weight[i] * lam_v[i, k]
                     d_p[i, k] = 0.0
                     d_v[i, k] = -drag * lam_force[i, k]
             for j in range(a.shape[0]):
                 ia, ib = a[j], b[j]
-                dx = p[ib, 0] - p[ia, 0]
-                dy = p[ib, 1] - p[ia, 1]
-                dz = p[ib, 2] - p[ia, 2]
-                length = np.sqrt(dx * dx + dy * dy + dz * dz)
-                ux, uy, uz = dx / length, dy / length, dz / length
+                ux, uy, uz, length, closing, stretch, magnitude = spring_state(
+                    p, v, ia, ib, stiffness[j], damping[j], rest[j])
                 wx = v[ib, 0] - v[ia, 0]
                 wy = v[ib, 1] - v[ia, 1]
                 wz = v[ib, 2] - v[ia, 2]
-                closing = wx * ux + wy * uy + wz * uz
-                stretch = length - rest[j]
-                magnitude = stiffness[j] * stretch + damping[j] * closing
                 # node a gets +f, node b -f: the cotangent of f is λ_a - λ_b
                 fx = lam_force[ia, 0] - lam_force[ib, 0]
                 fy = lam_force[ia, 1] - lam_force[ib, 1]

@@ -21,43 +21,19 @@ own parameters.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Literal
 
 import numpy as np
 
-from .errors import InputError, closest_name
-from .mesh import Mesh
+from ..errors import InputError, closest_name
+from ..mesh import Mesh
+from .values import PerSpring, Tie, describe, per_spring, tie_index, vector
 
-__all__ = ["SpringMassModel", "Tie", "tie_index"]
+__all__ = ["SpringMassModel", "VOLUMETRIC"]
 
-Tie = Literal["global", "groups", "none"]
-TIES: tuple[str, ...] = ("global", "groups", "none")
 #: How tetrahedral elements form their volumetric stress (:mod:`neurofuzzy.forces.tetrahedra`).
 VOLUMETRIC: tuple[str, ...] = ("nodal", "element")
-
-PerSpring = float | Sequence[float] | np.ndarray | Mapping[str, float]
-
-
-def tie_index(mesh: Mesh, tie: Tie) -> np.ndarray:
-    """(n_springs,) int: the tie group of every spring for a tying mode.
-
-    Parameters
-    ----------
-    mesh : Mesh
-        Topology whose ``spring_group`` is used for ``tie="groups"``.
-    tie : {"global", "groups", "none"}
-        One shared group, the mesh's spring groups, or one group per spring.
-    """
-    if tie == "global":
-        return np.zeros(mesh.n_springs, dtype=np.intp)
-    if tie == "groups":
-        _, index = np.unique(mesh.spring_group, return_inverse=True)
-        return index.astype(np.intp)
-    if tie == "none":
-        return np.arange(mesh.n_springs, dtype=np.intp)
-    raise InputError(f"got {tie!r}; expected one of {list(TIES)}", key="tie")
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,13 +100,13 @@ class SpringMassModel:
     def __post_init__(self):
         mesh = self.mesh
         values = {
-            "node_mass": _vector(self.node_mass, mesh.n_nodes, "node_mass", "n_nodes"),
-            "spring_stiffness": _vector(self.spring_stiffness, mesh.n_springs,
+            "node_mass": vector(self.node_mass, mesh.n_nodes, "node_mass", "n_nodes"),
+            "spring_stiffness": vector(self.spring_stiffness, mesh.n_springs,
                                         "spring_stiffness", "n_springs"),
-            "spring_damping": _vector(self.spring_damping, mesh.n_springs, "spring_damping",
+            "spring_damping": vector(self.spring_damping, mesh.n_springs, "spring_damping",
                                       "n_springs"),
             "spring_rest_length": (mesh.rest_lengths if self.spring_rest_length is None else
-                                   _vector(self.spring_rest_length, mesh.n_springs,
+                                   vector(self.spring_rest_length, mesh.n_springs,
                                            "spring_rest_length", "n_springs")),
         }
         for key in ("node_mass", "spring_rest_length"):
@@ -204,8 +180,8 @@ class SpringMassModel:
         masses = (np.full(mesh.n_nodes, total_mass / mesh.n_nodes) if total_mass is not None
                   else node_mass)
         return cls(mesh, node_mass=np.broadcast_to(np.asarray(masses, float), (mesh.n_nodes,)),
-                   spring_stiffness=_per_spring(mesh, stiffness, "stiffness"),
-                   spring_damping=_per_spring(mesh, damping, "damping"),
+                   spring_stiffness=per_spring(mesh, stiffness, "stiffness"),
+                   spring_damping=per_spring(mesh, damping, "damping"),
                    spring_tie=tie_index(mesh, tie))
 
     @classmethod
@@ -225,7 +201,7 @@ class SpringMassModel:
 
         The springs of the mesh (its tetrahedron edges) get zero stiffness and damping.
         """
-        from .forces import tetrahedron_geometry
+        from ..forces import tetrahedron_geometry
 
         geometry = tetrahedron_geometry(mesh)
         n = mesh.n_tetrahedra
@@ -309,7 +285,7 @@ class SpringMassModel:
         if n == 0:
             raise InputError("element parameters need a mesh with tetrahedra",
                              key="element_youngs_modulus")
-        out = {key: _vector(getattr(self, key), n, key, "n_tetrahedra") for key in keys}
+        out = {key: vector(getattr(self, key), n, key, "n_tetrahedra") for key in keys}
         region = (np.zeros(n, np.intp) if self.element_region is None
                   else np.asarray(self.element_region))
         if region.shape != (n,) or not np.issubdtype(region.dtype, np.integer) or (
@@ -361,7 +337,7 @@ class SpringMassModel:
     def force_terms(self) -> tuple:
         """Every force term of the model: its springs, its tetrahedral elements (if any),
         then its effects (each a :class:`~neurofuzzy.forces.ForceTerm`)."""
-        from .forces import SPRINGS, TETRAHEDRA
+        from ..forces import SPRINGS, TETRAHEDRA
 
         return (SPRINGS, *((TETRAHEDRA,) if self.has_elements else ()), *self.effects)
 
@@ -393,17 +369,17 @@ class SpringMassModel:
         else:
             lines = [f"SpringMassModel: {self.n_nodes} nodes ({len(self.mesh.fixed)} fixed), "
                      f"{self.n_springs} springs, {self.n_ties} tie group(s)"]
-        lines.append(f"  node mass: {_describe(self.node_mass)}")
+        lines.append(f"  node mass: {describe(self.node_mass)}")
         if self.has_elements:
-            lines.append(f"  elements: Young's modulus {_describe(self.element_youngs_modulus)}"
-                         f" Pa, Poisson's ratio {_describe(self.element_poisson_ratio)}, "
-                         f"viscosity {_describe(self.element_viscosity)} Pa s")
+            lines.append(f"  elements: Young's modulus {describe(self.element_youngs_modulus)}"
+                         f" Pa, Poisson's ratio {describe(self.element_poisson_ratio)}, "
+                         f"viscosity {describe(self.element_viscosity)} Pa s")
         for g, name in enumerate(self.mesh.group_names if springs or not self.has_elements
                                  else ()):
             sel = self.mesh.spring_group == g
             lines.append(f"  {name} ({int(sel.sum())} springs): stiffness "
-                         f"{_describe(self.spring_stiffness[sel])}, damping "
-                         f"{_describe(self.spring_damping[sel])}")
+                         f"{describe(self.spring_stiffness[sel])}, damping "
+                         f"{describe(self.spring_damping[sel])}")
         if len(self.region_names) > 1 or self.region_tissues[0] is not None:
             for index, (name, tissue) in enumerate(zip(self.region_names, self.region_tissues)):
                 parts = (f"{int(np.sum(self.element_region == index))} elements"
@@ -414,38 +390,3 @@ class SpringMassModel:
         lines += [f"  effect: {effect}" for effect in self.effects]
         return "\n".join(lines)
 
-
-def _describe(values: np.ndarray) -> str:
-    lo, hi = float(values.min()), float(values.max())
-    if np.isclose(lo, hi, rtol=1e-9, atol=0):
-        return f"{lo:.6g}"
-    return f"{float(np.median(values)):.6g} (median; {lo:.4g} .. {hi:.4g})"
-
-
-def _vector(value, n: int, key: str, size_name: str) -> np.ndarray:
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError("expected numbers", key=key) from None
-    if array.ndim == 0:
-        array = np.full(n, float(array))
-    if array.shape != (n,):
-        raise InputError(f"got shape {array.shape}; expected ({size_name},) = ({n},)", key=key)
-    if not np.all(np.isfinite(array)):
-        raise InputError("contains NaN or infinite values", key=key)
-    return array
-
-
-def _per_spring(mesh: Mesh, value: PerSpring, key: str) -> np.ndarray:
-    if isinstance(value, Mapping):
-        unknown = set(value) - set(mesh.group_names)
-        if unknown:
-            raise InputError(f"unknown spring group(s) {sorted(unknown)}; the mesh has "
-                             f"{list(mesh.group_names)}", key=key)
-        missing = [name for g, name in enumerate(mesh.group_names)
-                   if name not in value and np.any(mesh.spring_group == g)]
-        if missing:
-            raise InputError(f"no value for spring group(s) {missing}", key=key)
-        per_group = np.array([value.get(name, np.nan) for name in mesh.group_names], float)
-        return per_group[mesh.spring_group]
-    return _vector(value, mesh.n_springs, key, "n_springs")

@@ -16,7 +16,7 @@ reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_tem
 Layout for speed: the tangents are ``(N, 3, P)``, parameters last, so the loop over the
 parameters of one spring reads and writes contiguous memory without a branch (it vectorises);
 an element's 3×3 matrices (F, Ḟ, S and their tangents) are tuples of nine scalars that stay
-in registers, as in the simulation kernel (:mod:`neurofuzzy._numba_kernels`).
+in registers, as in the simulation kernel (:mod:`neurofuzzy.kernels.stepper`).
 
 Imported only when numba is installed (module-level, ``cache=True``).
 """
@@ -24,7 +24,9 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
-from ._numba_kernels import _spring
+from .integrator import euler_update
+from .stepper import _spring
+from .svk import stress, stress_jvp
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
@@ -249,14 +251,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                                + node_strain[n3, 0])
         else:
             pressure = lam[e] * theta + lam_rate[e] * theta_rate
-        squared = _sym_dot(G, G)
-        elastic = shear[e] + 2.0 * kappa * squared
-        viscous = shear_rate[e]
-        S = _full((elastic * G[0] + viscous * Gd[0] + pressure,
-                   elastic * G[1] + viscous * Gd[1] + pressure,
-                   elastic * G[2] + viscous * Gd[2] + pressure,
-                   elastic * G[3] + viscous * Gd[3], elastic * G[4] + viscous * Gd[4],
-                   elastic * G[5] + viscous * Gd[5]))
+        S = _full(stress(G, Gd, shear[e], shear_rate[e], pressure, kappa))
         scale = -volume[e]
         _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
         if n_params == 0:
@@ -278,7 +273,6 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                 d_pressure = (lam[e] * (dG[0] + dG[1] + dG[2])
                               + lam_rate[e] * (dGa[0] + dGa[1] + dGa[2] + dGb[0] + dGb[1]
                                                + dGb[2]))
-            g = 4.0 * kappa * _sym_dot(G, dG)
             shear_part = 0.0       # the element's own constants, when q is one of them
             rate_part = 0.0
             while entry < stop and element_column[entry] == first + q:
@@ -288,19 +282,11 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
                     d_pressure += d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
                 entry += 1
             if first + q == kappa_column:
-                shear_part += 2.0 * squared
-            dS = _full((elastic * dG[0] + viscous * (dGa[0] + dGb[0]) + (g + shear_part) * G[0]
-                        + rate_part * Gd[0] + d_pressure,
-                        elastic * dG[1] + viscous * (dGa[1] + dGb[1]) + (g + shear_part) * G[1]
-                        + rate_part * Gd[1] + d_pressure,
-                        elastic * dG[2] + viscous * (dGa[2] + dGb[2]) + (g + shear_part) * G[2]
-                        + rate_part * Gd[2] + d_pressure,
-                        elastic * dG[3] + viscous * (dGa[3] + dGb[3]) + (g + shear_part) * G[3]
-                        + rate_part * Gd[3],
-                        elastic * dG[4] + viscous * (dGa[4] + dGb[4]) + (g + shear_part) * G[4]
-                        + rate_part * Gd[4],
-                        elastic * dG[5] + viscous * (dGa[5] + dGb[5]) + (g + shear_part) * G[5]
-                        + rate_part * Gd[5]))
+                shear_part += 2.0 * _sym_dot(G, G)
+            dGd = (dGa[0] + dGb[0], dGa[1] + dGb[1], dGa[2] + dGb[2], dGa[3] + dGb[3],
+                   dGa[4] + dGb[4], dGa[5] + dGb[5])
+            dS = _full(stress_jvp(G, Gd, dG, dGd, shear[e], shear_rate[e], kappa, shear_part,
+                                  rate_part, d_pressure))
             dFS = _mul(dF, S)                            # dP = dF S + F dS
             FdS = _mul(F, dS)
             dP = (dFS[0] + FdS[0], dFS[1] + FdS[1], dFS[2] + FdS[2], dFS[3] + FdS[3],
@@ -343,6 +329,9 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     tp = np.zeros((n_nodes, 3, width))
     tv = np.zeros((n_nodes, 3, width))
     d_force = np.empty((n_nodes, 3, width))
+    tp_flat = tp.reshape((n_nodes, 3 * width))
+    tv_flat = tv.reshape((n_nodes, 3 * width))
+    d_force_flat = d_force.reshape((n_nodes, 3 * width))
     work = np.empty((3, width))
     node_strain = np.zeros((n_nodes, 2))
     d_node_strain = np.zeros((n_nodes, width, 2))
@@ -375,15 +364,9 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                                   d_lam_rate, d_node_lam, d_node_lam_rate, kappa,
                                   kappa_column, first, node_strain, d_node_strain, force,
                                   d_force)
-            for i in range(n_nodes):
-                step = h * weight[i]
-                for k in range(3):
-                    v[i, k] += step * force[i, k]
-                    p[i, k] += h * v[i, k]
-                    speed, place, change = tv[i, k], tp[i, k], d_force[i, k]
-                    for q in range(width):
-                        speed[q] += step * change[q]
-                        place[q] += h * speed[q]
+            euler_update(p, v, force, weight, h)
+            # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)
+            euler_update(tp_flat, tv_flat, d_force_flat, weight, h)
         positions[t] = p
         if tangents:
             for row in range(n_rows):

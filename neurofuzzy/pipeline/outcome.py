@@ -1,6 +1,7 @@
 """Is a fit (or a diagnosis) a result at all? A fit that diverged, stayed non-finite or ends
 worse than a model that never moves is refused, with its likely cause, before anything is
-written (the learners themselves return whatever they reached: the command line decides)."""
+written. The learners themselves return whatever they reached; the fit pipeline
+(:func:`neurofuzzy.pipeline.fit`) decides, for the command line, ``fit-many`` and Python alike."""
 
 from __future__ import annotations
 

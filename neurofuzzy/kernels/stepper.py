@@ -2,34 +2,24 @@
 
 Imported only when numba is installed; module-level so that ``cache=True`` keeps the machine
 code between runs. The arithmetic is that of :class:`neurofuzzy.forces.SpringForce` and
-:class:`neurofuzzy.forces.TetrahedronForce` (tested equal); the elements' stress is written
-``S = π I + 2 μ X`` with ``X = G + (η/E) Ġ`` and ``π = λ tr X`` (per element) or the mean of
-the node-averaged ``Λ θ̄ + H θ̄̇`` over the element's corners (nodal volumetric form).
+:class:`neurofuzzy.forces.TetrahedronForce` (tested equal); the elements' stress is the law of
+:mod:`neurofuzzy.kernels.svk` (``S = 2μ G + 2μβ Ġ + π I``) with ``π = λ θ + λβ θ̇`` (per
+element) or the mean of the node-averaged ``Λ θ̄ + H θ̄̇`` over the element's corners (nodal
+volumetric form); the update is :func:`neurofuzzy.kernels.integrator.euler_update`.
 """
 
 import numba
 import numpy as np
 
-
-@numba.njit(cache=True, nogil=True)
-def _deformation(p, v, n0, n1, n2, n3, B, F, Fd):
-    """F = Ds B and Ḟ = Ḋs B (Ds columns: x1 - x0, x2 - x0, x3 - x0)."""
-    for r in range(3):
-        d1 = p[n1, r] - p[n0, r]
-        d2 = p[n2, r] - p[n0, r]
-        d3 = p[n3, r] - p[n0, r]
-        w1 = v[n1, r] - v[n0, r]
-        w2 = v[n2, r] - v[n0, r]
-        w3 = v[n3, r] - v[n0, r]
-        for c in range(3):
-            F[r, c] = d1 * B[0, c] + d2 * B[1, c] + d3 * B[2, c]
-            Fd[r, c] = w1 * B[0, c] + w2 * B[1, c] + w3 * B[2, c]
+from .integrator import euler_update
+from .svk import stress
 
 
-@numba.njit(cache=True, nogil=True)
-def _spring(p, v, ia, ib, stiffness, damping, rest, force):
-    """One spring's force ``(s (l - L0) + c closing) u`` added to ``force`` (node a +,
-    node b -); returns ``(ux, uy, uz, length, closing, stretch, magnitude)``."""
+@numba.njit(cache=True, nogil=True, inline="always")
+def spring_state(p, v, ia, ib, stiffness, damping, rest):
+    """The spring force of paper eqs. 3.4–3.6, once for every sweep: direction ``u``,
+    length ``l``, closing speed ``(v_b - v_a)·u``, stretch ``l - L0`` and the magnitude
+    ``s (l - L0) + c closing``, as ``(ux, uy, uz, length, closing, stretch, magnitude)``."""
     dx = p[ib, 0] - p[ia, 0]
     dy = p[ib, 1] - p[ia, 1]
     dz = p[ib, 2] - p[ia, 2]
@@ -38,7 +28,15 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, force):
     closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
                + (v[ib, 2] - v[ia, 2]) * uz)
     stretch = length - rest
-    magnitude = stiffness * stretch + damping * closing
+    return ux, uy, uz, length, closing, stretch, stiffness * stretch + damping * closing
+
+
+@numba.njit(cache=True, nogil=True)
+def _spring(p, v, ia, ib, stiffness, damping, rest, force):
+    """One spring's force ``m u`` (:func:`spring_state`) added to ``force`` (node a +,
+    node b -); returns :func:`spring_state`'s values."""
+    ux, uy, uz, length, closing, stretch, magnitude = spring_state(p, v, ia, ib, stiffness,
+                                                                   damping, rest)
     fx, fy, fz = magnitude * ux, magnitude * uy, magnitude * uz
     force[ia, 0] += fx
     force[ia, 1] += fy
@@ -47,23 +45,6 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, force):
     force[ib, 1] -= fy
     force[ib, 2] -= fz
     return ux, uy, uz, length, closing, stretch, magnitude
-
-
-@numba.njit(cache=True, nogil=True)
-def _scatter_piola(force, F, S, B, scale, n0, n1, n2, n3):
-    """``P = F S``; node j + 1 gets column j of ``scale P Bᵀ`` (``scale = -V``), node 0 minus
-    their sum."""
-    for r in range(3):
-        P0 = F[r, 0] * S[0, 0] + F[r, 1] * S[1, 0] + F[r, 2] * S[2, 0]
-        P1 = F[r, 0] * S[0, 1] + F[r, 1] * S[1, 1] + F[r, 2] * S[2, 1]
-        P2 = F[r, 0] * S[0, 2] + F[r, 1] * S[1, 2] + F[r, 2] * S[2, 2]
-        f1 = scale * (P0 * B[0, 0] + P1 * B[0, 1] + P2 * B[0, 2])
-        f2 = scale * (P0 * B[1, 0] + P1 * B[1, 1] + P2 * B[1, 2])
-        f3 = scale * (P0 * B[2, 0] + P1 * B[2, 1] + P2 * B[2, 2])
-        force[n1, r] += f1
-        force[n2, r] += f2
-        force[n3, r] += f3
-        force[n0, r] -= f1 + f2 + f3
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -77,8 +58,8 @@ def _row(x, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20, b21, b22):
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, node_volume,
-                    node_lam, node_lam_rate, node_strain, force):
+def _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal,
+                    node_volume, node_lam, node_lam_rate, node_strain, force):
     """Element forces into ``force``; with ``nodal`` the volumetric stress comes from the
     node averages of ``θ`` and ``θ̇`` (one pass for the averages, one for the forces).
     Written with scalars (F, Ḟ, S in registers): 1.6 times the rate of 3×3 work arrays."""
@@ -126,32 +107,25 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, nod
         g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-        # X = G + (η/E) Ġ, G = ½(FᵀF - I), Ġ = sym(FᵀḞ) (columns i, k of F)
-        rt = ratio[e]
-        x00 = 0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0) + rt * (
-            f00 * g00 + f10 * g10 + f20 * g20)
-        x11 = 0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0) + rt * (
-            f01 * g01 + f11 * g11 + f21 * g21)
-        x22 = 0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0) + rt * (
-            f02 * g02 + f12 * g12 + f22 * g22)
-        x01 = 0.5 * (f00 * f01 + f10 * f11 + f20 * f21) + 0.5 * rt * (
-            f00 * g01 + f10 * g11 + f20 * g21 + g00 * f01 + g10 * f11 + g20 * f21)
-        x02 = 0.5 * (f00 * f02 + f10 * f12 + f20 * f22) + 0.5 * rt * (
-            f00 * g02 + f10 * g12 + f20 * g22 + g00 * f02 + g10 * f12 + g20 * f22)
-        x12 = 0.5 * (f01 * f02 + f11 * f12 + f21 * f22) + 0.5 * rt * (
-            f01 * g02 + f11 * g12 + f21 * g22 + g01 * f02 + g11 * f12 + g21 * f22)
+        # G = ½(FᵀF - I), Ġ = sym(FᵀḞ) (columns i, k of F), six entries each
+        G = (0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0),
+             0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0),
+             0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0),
+             0.5 * (f00 * f01 + f10 * f11 + f20 * f21),
+             0.5 * (f00 * f02 + f10 * f12 + f20 * f22),
+             0.5 * (f01 * f02 + f11 * f12 + f21 * f22))
+        Gd = (f00 * g00 + f10 * g10 + f20 * g20, f01 * g01 + f11 * g11 + f21 * g21,
+              f02 * g02 + f12 * g12 + f22 * g22,
+              0.5 * (f00 * g01 + f10 * g11 + f20 * g21 + g00 * f01 + g10 * f11 + g20 * f21),
+              0.5 * (f00 * g02 + f10 * g12 + f20 * g22 + g00 * f02 + g10 * f12 + g20 * f22),
+              0.5 * (f01 * g02 + f11 * g12 + f21 * g22 + g01 * f02 + g11 * f12 + g21 * f22))
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
                                + node_strain[n3, 0])
         else:
-            pressure = lam[e] * (x00 + x11 + x22)
-        m2 = 2.0 * mu[e]
-        s00 = m2 * x00 + pressure
-        s11 = m2 * x11 + pressure
-        s22 = m2 * x22 + pressure
-        s01 = m2 * x01
-        s02 = m2 * x02
-        s12 = m2 * x12
+            pressure = (lam[e] * (G[0] + G[1] + G[2])
+                        + lam_rate[e] * (Gd[0] + Gd[1] + Gd[2]))
+        s00, s11, s22, s01, s02, s12 = stress(G, Gd, shear[e], shear_rate[e], pressure, 0.0)
         # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
         scale = -volume[e]
         for r in range(3):
@@ -174,9 +148,9 @@ def _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal, nod
 
 
 @numba.njit(cache=True, nogil=True)
-def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu, ratio,
-            nodal, node_volume, node_lam, node_lam_rate, node_strain, weight, load, h,
-            n_steps, force):
+def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, shear, shear_rate,
+            lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, weight,
+            load, h, n_steps, force):
     n_springs, n_nodes = a.shape[0], p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -185,25 +159,21 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
         for j in range(n_springs):
             _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
         if tets.shape[0]:
-            _element_forces(p, v, tets, inverse_rest, volume, lam, mu, ratio, nodal,
-                            node_volume, node_lam, node_lam_rate, node_strain, force)
-        for i in range(n_nodes):
-            step = h * weight[i]
-            for k in range(3):
-                v[i, k] += step * force[i, k]
-                p[i, k] += h * v[i, k]
+            _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate,
+                            nodal, node_volume, node_lam, node_lam_rate, node_strain, force)
+        euler_update(p, v, force, weight, h)
 
 
 @numba.njit(cache=True, nogil=True)
-def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu, ratio,
-           nodal, node_volume, node_lam, node_lam_rate, node_strain, weight, loads, h,
-           n_frames, substeps, force, positions, velocities):
+def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, shear, shear_rate,
+           lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, weight,
+           loads, h, n_frames, substeps, force, positions, velocities):
     positions[0] = p
     velocities[0] = v
     for t in range(1, n_frames):
-        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, lam, mu,
-                ratio, nodal, node_volume, node_lam, node_lam_rate, node_strain, weight,
-                loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
+        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, shear,
+                shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                node_strain, weight, loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
         if not np.isfinite(p.sum()):
             positions[t:] = np.nan
             velocities[t:] = np.nan

@@ -1,0 +1,40 @@
+"""The compiled (numba) kernels: one semi-implicit Euler update (:mod:`.integrator`), the
+elements' material law with its two derivatives generated from it (:mod:`.svk`), and the sweeps
+that call them: the stepper (:mod:`.stepper`, :func:`neurofuzzy.simulate`), the forward
+sensitivities (:mod:`.sensitivity`) and the discrete adjoint (:mod:`.adjoint`) of the gradient
+learner.
+
+Each module compiles (or loads from numba's cache) on first use. numba's cache knows only the
+file a function is defined in, not the files of the functions inlined into it: after an edit of
+the law in ``svk.py`` the sweeps would load their old machine code. So the first import here
+compares a fingerprint of all the kernels' sources with the one their cache was made from, and
+drops the cache when they differ.
+"""
+
+import hashlib
+from pathlib import Path
+
+
+def _drop_stale_cache() -> None:
+    """Remove this package's numba cache files when any kernel source changed since they were
+    written (a source checkout; an installed package changes only as a whole)."""
+    folder = Path(__file__).parent
+    fingerprint = hashlib.sha256(b"".join(path.read_bytes()
+                                          for path in sorted(folder.glob("*.py")))).hexdigest()
+    cache = folder / "__pycache__"
+    stamp = cache / "neurofuzzy-kernels.sha256"
+    try:
+        if stamp.read_text() == fingerprint:
+            return
+    except OSError:
+        pass
+    try:
+        for path in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
+            path.unlink(missing_ok=True)
+        cache.mkdir(exist_ok=True)
+        stamp.write_text(fingerprint)
+    except OSError:          # a read-only install: numba keeps its cache elsewhere
+        pass
+
+
+_drop_stale_cache()

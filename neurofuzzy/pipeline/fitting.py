@@ -1,0 +1,175 @@
+"""``fit(experiments, ...) -> FitOutcome``: the start of the fit, the rule base as a prior,
+the learner, the outcome check and the summary, in that order and in one place.
+
+Before this module the command line held the pipeline and ``fit-many`` rebuilt it without
+the outcome check, so a specimen whose fit diverged was recorded as fitted. Now both call
+:func:`fit`, and so do the examples.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from ..errors import InputError
+from ..experiment import Experiment
+from .outcome import check_outcome, explained, require_motion
+
+__all__ = ["FitOutcome", "fit", "tie_label"]
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """What one fit produced, checked.
+
+    Attributes
+    ----------
+    model : SpringMassModel
+        The fitted model (``learner.model_``).
+    learner : Learner
+        The fitted learner (history, standard errors, lack of fit …).
+    start : StartModel
+        Where the fit started (:func:`~neurofuzzy.learn.start_model`).
+    prior : FuzzyPrior or None
+        The rule base as a prior, when the fit used one.
+    experiments : list of Experiment
+        The load cases that were fitted.
+    summary : dict
+        The object of ``neurofuzzy fit --json`` (:func:`~neurofuzzy.learn.run.fit_summary`).
+    record : dict
+        What a fitted model file keeps of the fit (:func:`~neurofuzzy.learn.run.fit_record`).
+    """
+
+    model: object
+    learner: object
+    start: object
+    prior: object
+    experiments: list
+    summary: dict = field(repr=False)
+    record: dict = field(repr=False)
+
+    @property
+    def lack_of_fit(self):
+        """The fitted model's lack of fit against the marker noise (with its verdict)."""
+        return self.learner.lack_of_fit_
+
+    @property
+    def substeps(self) -> int:
+        """Integration steps per frame with which :attr:`model` reproduces the data."""
+        return self.learner.substeps_
+
+
+def tie_label(tie: str | None, start) -> str:
+    """The tying a fit used, for its record: the option given, else ``"model"`` when a start
+    model's own tie groups were kept, else ``"groups"``."""
+    return tie or ("model" if start is not None else "groups")
+
+
+def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, rules=None,
+        tissue: str | None = None, tie: str | None = None, elements: bool | None = None,
+        prior="default", method: str = "gradient", cycles: int | None = None,
+        learn_masses: bool = False, substeps: int | str = "auto",
+        learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool = False,
+        names: Sequence[str] | None = None, progress: bool = False) -> FitOutcome:
+    """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
+    Python.
+
+    1. the start (:func:`~neurofuzzy.learn.start_model`: ``start``, else ``rules`` and
+       ``tissue``, else the equation-error estimate), checked against the data
+       (:func:`~neurofuzzy.plausibility.check_fit_inputs`);
+    2. the prior (:func:`~neurofuzzy.learn.run.make_prior`) and the learner
+       (:func:`~neurofuzzy.learn.run.make_learner`);
+    3. the fit; a learner's own failure is re-raised as :class:`FitFailedError` with its
+       likely cause;
+    4. the outcome check (:func:`~.outcome.check_outcome`): a fit whose simulation diverges or
+       that ends worse than a model that never moves raises :class:`FitFailedError`;
+    5. the summary (``neurofuzzy fit --json``) and the model file's record.
+
+    Parameters
+    ----------
+    experiments : Experiment, path or sequence of them
+        Load cases of one object; paths are read with
+        :func:`~neurofuzzy.io.load_experiment`.
+    start : SpringMassModel or path, optional
+        A start model (its regions, tissues, masses and tie groups are kept).
+    rules : RuleBase, path or shipped name, optional
+        The rule base: start values with ``tissue``, words for the summary, the prior.
+    tissue : str, optional
+    tie : {"global", "groups", "none"}, optional
+        Parameter tying (default: the start model's own, else ``"groups"``).
+    elements : bool, optional
+        With ``rules``: tetrahedral elements or springs (default: elements when the mesh has
+        tetrahedra). The paper's learner always starts from the spring network.
+    prior : {"default", "auto", "off"} or float
+        See :func:`~neurofuzzy.learn.run.make_prior`.
+    method : {"gradient", "paper"}
+    cycles, learn_masses, substeps, learning_rate, mass_learning_rate, mesh_check
+        The learner's options (:func:`~neurofuzzy.learn.run.make_learner`).
+    names : sequence of str, optional
+        How the summary names the experiments (default: their files).
+    progress : bool
+        Report progress on stderr.
+
+    Returns
+    -------
+    FitOutcome
+
+    Raises
+    ------
+    InputError
+        Bad input (files, options, a start of another object).
+    FitFailedError
+        The fit ran but failed (diverged, or worse than a model that never moves).
+    """
+    from ..learn import start_model
+    from ..learn.run import fit_record, fit_summary, make_learner, make_prior
+    from ..plausibility import check_fit_inputs
+
+    experiments = _experiments(experiments)
+    if method == "paper":
+        elements = False                    # the paper's learner is the spring network's
+    begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
+                        elements=elements, progress=progress)
+    check_fit_inputs(experiments, begun.model, substeps=substeps,
+                     model_source=start if isinstance(start, str | os.PathLike) else None,
+                     physical=begun.how in ("model", "rules"))
+    require_motion(experiments)
+    if mesh_check and not begun.model.has_elements:
+        raise InputError("refines tetrahedral elements; this fit's model is a spring network "
+                         "(give a model or experiment with tetrahedra, or --elements tetra)",
+                         key="--mesh-check")
+    chosen_prior = make_prior(begun, prior, tie=tie, method=method)
+    learner = make_learner(method, cycles=cycles, learn_masses=learn_masses, substeps=substeps,
+                           learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
+                           prior=chosen_prior, mesh_check=mesh_check, progress=progress)
+    with explained("fit", experiments, begun.model, substeps):
+        learner.fit(begun.model, experiments)
+    check_outcome("fit", experiments, begun.model, learner.model_, learner.rms_error_initial_,
+                  learner.rms_error_, learner.substeps_)
+    names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]
+    summary = fit_summary(learner, begun, method=method, tie=tie_label(tie, start),
+                          experiments=names)
+    return FitOutcome(model=learner.model_, learner=learner, start=begun, prior=chosen_prior,
+                      experiments=experiments, summary=summary,
+                      record=fit_record(learner, names))
+
+
+def _experiments(experiments) -> list[Experiment]:
+    """``experiments`` as a list of :class:`Experiment` (paths read)."""
+    if isinstance(experiments, Experiment | str | os.PathLike):
+        experiments = [experiments]
+    out = []
+    for item in experiments:
+        if isinstance(item, Experiment):
+            out.append(item)
+        elif isinstance(item, str | os.PathLike):
+            from ..io import load_experiment
+
+            out.append(load_experiment(item))
+        else:
+            raise InputError(f"got {type(item).__name__}; expected an Experiment or the path "
+                             "of an experiment file", key="experiments")
+    if not out:
+        raise InputError("no experiments given", key="experiments")
+    return out

@@ -1,0 +1,151 @@
+"""The package's layers hold (docs/architecture.md): no import cycle between modules or between
+packages, no private module or name imported across packages, no module much over 400 lines,
+and the compiled kernels import nothing of the toolkit but each other.
+
+Imports are read from the source with :mod:`ast`, function-level imports included (a cycle
+hidden in a function body is still a cycle)."""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "neurofuzzy"
+#: the hook that reviews every change flags modules over 450 lines; aim at about 400
+MAX_LINES = 450
+
+
+def _modules() -> dict[str, Path]:
+    modules = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        modules[".".join(parts)] = path
+    return modules
+
+
+MODULES = _modules()
+
+
+def _imports(name: str) -> list[tuple[str, str | None]]:
+    """``(module, imported name or None)`` for every import of the toolkit in ``name``."""
+    path = MODULES[name]
+    package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            target = ".".join(base + ([node.module] if node.module else []))
+            if target.split(".")[0] != "neurofuzzy":
+                continue
+            for alias in node.names:
+                child = f"{target}.{alias.name}"
+                out.append((child, None) if child in MODULES else (target, alias.name))
+        elif isinstance(node, ast.Import):
+            out += [(alias.name, None) for alias in node.names
+                    if alias.name.split(".")[0] == "neurofuzzy"]
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    return {name: {target for target, _ in _imports(name) if target in MODULES and target != name}
+            for name in MODULES}
+
+
+def _unit(name: str) -> str:
+    """The package a module belongs to (``neurofuzzy.learn``), or the module itself for the
+    modules at the top of the package."""
+    parts = name.split(".")
+    if len(parts) > 2 or (len(parts) == 2 and MODULES[name].name == "__init__.py"):
+        return ".".join(parts[:2])
+    return name
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one node (Tarjan)."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(node):
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for other in graph.get(node, ()):
+            if other not in index:
+                visit(other)
+                low[node] = min(low[node], low[other])
+            elif other in on_stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                other = stack.pop()
+                on_stack.discard(other)
+                component.append(other)
+                if other == node:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return found
+
+
+def test_no_module_imports_itself_back():
+    assert _cycles(_graph()) == []
+
+
+def test_no_package_imports_itself_back():
+    packages: dict[str, set[str]] = {}
+    for name, targets in _graph().items():
+        for target in targets:
+            if name != "neurofuzzy" and target != "neurofuzzy" and _unit(name) != _unit(target):
+                packages.setdefault(_unit(name), set()).add(_unit(target))
+    assert _cycles(packages) == []
+
+
+def _private(module: str, name: str | None) -> bool:
+    parts = module.split(".")[1:] + ([name] if name else [])
+    return any(part.startswith("_") and not part.startswith("__") for part in parts)
+
+
+def test_private_modules_and_names_stay_inside_their_package():
+    """One rule for underscore modules: ``_name`` is private to its package (the top of the
+    package counts as one package); other packages go through its public modules."""
+    crossing = [f"{name} imports {target}{'.' + what if what else ''}"
+                for name in MODULES for target, what in _imports(name)
+                if _private(target, what) and target in MODULES
+                and _unit(name).split(".")[:2] != _unit(target).split(".")[:2]
+                and not (len(_unit(target).split(".")) == 2 and _unit(target) == target
+                         and _unit(name) == name)]
+    assert crossing == []
+
+
+def test_the_compiled_kernels_import_only_each_other():
+    for name in MODULES:
+        if name.startswith("neurofuzzy.kernels"):
+            outside = [t for t, _ in _imports(name) if not t.startswith("neurofuzzy.kernels")]
+            assert outside == [], name
+
+
+def test_nothing_imports_the_command_line():
+    users = [name for name in MODULES if not name.startswith("neurofuzzy.cli")
+             and any(t.startswith("neurofuzzy.cli") for t, _ in _imports(name))]
+    assert users == []
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_module_is_much_over_400_lines(name):
+    lines = MODULES[name].read_text(encoding="utf-8").count("\n")
+    assert lines <= MAX_LINES, f"{MODULES[name]}: {lines} lines"
+
+
+def test_the_checks_see_a_cycle_and_a_private_import():
+    """The checks above are not vacuous."""
+    assert _cycles({"a": {"b"}, "b": {"a"}, "c": {"a"}}) == [["a", "b"]]
+    assert _private("neurofuzzy.learn._compiled", None)
+    assert _private("neurofuzzy.rules", "_helper") and not _private("neurofuzzy.version", "__version__")
+    assert len(_graph()["neurofuzzy.learn.gradient"]) > 3

@@ -1,0 +1,72 @@
+"""The one fit pipeline (:func:`neurofuzzy.fit`): the same start, prior, learner, outcome check
+and summary for Python, ``neurofuzzy fit`` and every specimen of ``fit-many``; a fit that ends
+worse than a model that never moves is a failure in all three."""
+
+import json
+
+import numpy as np
+import pytest
+from helpers import cli
+
+import neurofuzzy as nf
+from neurofuzzy.batch import fit_specimen, read_manifest
+from neurofuzzy.datasets import CUBE, paper_cube_model
+from neurofuzzy.io import save_experiment, save_model
+
+
+@pytest.fixture(scope="module")
+def short(cube_experiment):
+    return cube_experiment.first_frames(40)
+
+
+@pytest.fixture
+def soft_start(tmp_path, short):
+    """An experiment file and a start model a thousand times too soft: one iteration cannot
+    bring it anywhere near the data, so the fit ends worse than a model that never moves."""
+    save_experiment(short, tmp_path / "cube.npz")
+    save_model(paper_cube_model(stiffness=0.05, damping=2e-5), tmp_path / "soft.yaml")
+    return tmp_path
+
+
+def test_a_fit_returns_the_checked_outcome_and_the_summary_of_the_command(short, tmp_path):
+    outcome = nf.fit(short, tie="global", names=["cube.npz"])
+    assert isinstance(outcome, nf.FitOutcome)
+    assert np.allclose(outcome.model.spring_stiffness, CUBE["stiffness"], rtol=1e-3)
+    assert outcome.summary["tie"] == "global" and outcome.summary["experiments"] == ["cube.npz"]
+    assert outcome.summary["start"]["how"] == outcome.start.how
+    assert outcome.record["lack_of_fit"] == outcome.lack_of_fit.to_dict()
+    path = save_experiment(short, tmp_path / "cube.npz")
+    done = cli("fit", path, "--tie", "global", "--json")
+    assert done.returncode == 0, done.stderr
+    command = json.loads(done.stdout)
+    assert set(command) == set(outcome.summary)
+    assert command["stiffness"] == pytest.approx(outcome.summary["stiffness"], rel=1e-9)
+
+
+def test_a_fit_worse_than_no_motion_fails_in_python_the_command_and_fit_many(soft_start):
+    folder = soft_start
+    with pytest.raises(nf.FitFailedError, match="worse than a model that never moves"):
+        nf.fit(folder / "cube.npz", start=folder / "soft.yaml", tie="global", substeps=1,
+               cycles=1)
+    done = cli("fit", folder / "cube.npz", "--start", folder / "soft.yaml", "--tie", "global",
+               "--substeps", "1", "--cycles", "1", "--quiet")
+    assert done.returncode == 2 and "the fit failed" in done.stderr
+    (folder / "cohort.csv").write_text("id,group,experiments,start,tie,substeps,cycles\n"
+                                       "soft,g,cube.npz,soft.yaml,global,1,1\n")
+    [specimen] = read_manifest(folder / "cohort.csv")
+    record = fit_specimen(specimen)                 # what fit-many runs for every specimen
+    assert record["status"] == "failed" and record["kind"] == "fit"
+    assert "worse than a model that never moves" in record["error"]
+    assert "fit" not in record and "files" not in record
+
+
+def test_the_paper_method_fits_the_spring_network(short):
+    outcome = nf.fit(short, tie="global", method="paper", cycles=2)
+    assert not outcome.model.has_elements and outcome.summary["method"] == "paper"
+
+
+def test_a_path_or_an_experiment_is_taken_and_anything_else_refused():
+    with pytest.raises(nf.InputError, match="expected an Experiment"):
+        nf.fit([3.0])
+    with pytest.raises(nf.InputError, match="no experiments"):
+        nf.fit([])
