@@ -299,8 +299,9 @@ class HyperelasticSolver:
         as a side effect, F in the given-stress term."""
         self.problem.equations.variables.set_state(self._full(u), force=True)
         stress = 0.0
-        for term in self._elastic:
-            stress = stress + term.evaluate(mode="qp", term_mode="stress", standalone=False)[0][..., 0] / term.sign
+        for term in self._elastic:   # (n_cells, n_qp, 6, 1) each
+            stress = stress + term.evaluate(mode="qp", term_mode="stress",
+                                            standalone=False)[..., 0] / term.sign
         self._given.evaluate(mode="qp", term_mode="stress", standalone=False)
         return stress
 
