@@ -365,3 +365,90 @@ def test_solver_refuses_bad_input():
     with pytest.raises(InputError, match="dt > 0"):
         solver.dynamic(np.zeros(solver.n_dofs), dt=0.0, n_frames=3)
 
+
+# -- recordings of the probed block ---------------------------------------------------------
+def fine_static():
+    """The 0.7 N equilibrium at the markers on 2.5 mm cells (tests/data, 1119 s to make)."""
+    from pathlib import Path
+
+    table = np.loadtxt(Path(__file__).parent / "data" / "nonlinear_block_fine_static.csv",
+                       delimiter=",", skiprows=6)
+    return table[:, :3], table[:, 3:]
+
+
+def test_a_coarse_recording_is_imported_with_its_own_force():
+    from neurofuzzy.nonlinear_reference.recordings import small_strain_block
+    from neurofuzzy.reference_data import block_experiment, block_model
+
+    recording = small_strain_block(cell=0.01, rest_frames=4, frames=8)
+    assert recording.markers.positions.shape == (12, 148, 3)
+    assert np.all(recording.markers.positions[:4, :, 2] - recording.rest_points[:, 2]
+                  < 1e-4)                                          # at rest: noise only
+    assert recording.truth["law"] == "neo-Hookean" and recording.truth["force"] == 0.12
+    assert recording.truth["youngs_modulus"] == pytest.approx(E)
+    model = block_model(pitch=0.01)
+    experiment = block_experiment(recording, model.mesh)
+    total = experiment.external_forces[recording.touch].sum(axis=0)
+    np.testing.assert_allclose(total, [0.0, 0.0, -0.12], atol=1e-12)
+    assert np.all(experiment.external_forces[: recording.touch] == 0)
+
+
+@pytest.mark.slow
+def test_the_block_converges_under_refinement_to_a_finer_run():
+    """Equilibrium under 0.7 N (27 % compression under the probe) at the markers: 1 cm and
+    5 mm cells against 2.5 mm (18 % and 6.3 % of the motion; the slow convergence is the
+    patch's edge, where the traction steps)."""
+    from neurofuzzy.nonlinear_reference.recordings import (LARGE_FORCE, block_solver,
+                                                           compressive_strain)
+    from neurofuzzy.reference_data import BLOCK
+
+    points, fine = fine_static()
+    errors = {}
+    for cell in (0.01, 0.005):
+        solver = block_solver(cell=cell)
+        load = solver.probe_load(BLOCK["probe"], BLOCK["radius"], (0, 0, -LARGE_FORCE))
+        displacement = solver.static(load, increments=3, tolerance=1e-8)
+        errors[cell] = (np.linalg.norm(solver.at(displacement, points) - fine)
+                        / np.linalg.norm(fine))
+    assert errors[0.005] < 0.07 and errors[0.005] < errors[0.01] / 2.5, errors
+    assert 0.25 < compressive_strain(solver, displacement) < 0.29
+
+
+@pytest.mark.slow
+def test_large_strain_recording_compresses_the_tissue_by_about_30_percent():
+    from neurofuzzy.nonlinear_reference.recordings import large_strain_block
+
+    recording = large_strain_block(rest_frames=5, frames=26)
+    truth = recording.truth
+    assert 0.32 < truth["compressive_strain_peak"] < 0.38
+    assert truth["seconds"] < 30
+    noise = recording.markers.positions[:5] - recording.rest_points
+    assert np.std(noise) == pytest.approx(20e-6, rel=0.1)
+    top_centre_side = recording.markers.positions[-1] - recording.rest_points
+    assert top_centre_side[:, 2].min() < -2e-3                   # millimetres, not microns
+
+
+@pytest.mark.slow
+def test_relaxing_block_creeps_as_the_standard_linear_solid():
+    """One Prony term, g = 0.5, τ = 50 ms, held load (1 cm cells, 0.3 s, with inertia): the
+    compression under the probe follows the SLS creep curve from 1/1.5 of the long-term
+    equilibrium to it, ε∞ · ε_SLS(t)/ε∞ (correspondence principle, 4 % strain), ringing
+    about it at first (means over windows: measured 4.5 % off in 5–40 ms, under 0.4 %
+    after)."""
+    from neurofuzzy.nonlinear_reference.recordings import (SMALL_FORCE, block_solver,
+                                                           compressive_strain, relaxing_block)
+    from neurofuzzy.reference_data import BLOCK
+
+    recording = relaxing_block(cell=0.01, rest_frames=0, frames=301, noise=0.0)
+    strain = recording.truth["compressive_strain"]
+    solver = block_solver(cell=0.01)
+    held = compressive_strain(solver, solver.static(
+        solver.probe_load(BLOCK["probe"], BLOCK["radius"], (0, 0, -SMALL_FORCE)),
+        increments=1))
+    expected = held * sls_creep(np.arange(301) * BLOCK["dt"], 1.0, modulus=1.0,
+                                relative_modulus=0.5, time=0.05, ramp=BLOCK["dt"])
+    for (first, last), tolerance in {(5, 40): 0.08, (40, 100): 0.015, (100, 200): 0.015,
+                                     (200, 301): 0.01}.items():
+        ratio = strain[first:last].mean() / expected[first:last].mean()
+        assert ratio == pytest.approx(1.0, abs=tolerance), (first, last, ratio)
+    assert recording.truth["prony"] == {"relative_moduli": (0.5,), "times": (0.05,)}

@@ -5,7 +5,8 @@ The laws (:mod:`.materials`): the coupled compressible neo-Hookean solid, Yeoh's
 strain-stiffening law, and FEBio's quasi-linear Prony-series viscoelasticity on top of
 either. :class:`HyperelasticSolver` solves them dynamically at large strain;
 :mod:`.closed_forms` gives uniaxial stress and the standard linear solid's creep and
-relaxation to check it against.
+relaxation to check it against; :mod:`.recordings` records the probed block of
+:mod:`neurofuzzy.reference_data` with them (up to about 35 % compression under the probe).
 
 Needs sfepy (``pip install sfepy``) for the solver; the closed forms need only numpy and
 scipy.
