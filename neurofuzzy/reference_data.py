@@ -158,11 +158,13 @@ def block_model(*, pitch: float | None = None, tetgen: bool = False,
 def block_experiment(recording: Recording, mesh):
     """The recording imported on ``mesh`` (``neurofuzzy import markers.csv --forces
     probe.csv``): markers embedded at their rest positions (the mean of the frames at rest),
-    the probe's force spread over its contact patch from the frame it touches."""
+    the probe's force (``recording.truth["force"]``, the block's 0.05 N if it names none)
+    spread over its contact patch from the frame it touches."""
     from .markers import markers_to_experiment
     from .mesh import patch_loads
 
-    load = patch_loads(mesh, BLOCK["probe"], BLOCK["radius"], (0.0, 0.0, -BLOCK["force"]))
+    force = recording.truth.get("force", BLOCK["force"])
+    load = patch_loads(mesh, BLOCK["probe"], BLOCK["radius"], (0.0, 0.0, -force))
     forces = np.zeros((recording.n_frames, mesh.n_nodes, 3))
     forces[recording.touch:] = load
     return markers_to_experiment(recording.markers, mesh, forces=forces,

@@ -137,6 +137,14 @@ def test_nothing_imports_the_command_line():
     assert users == []
 
 
+def test_nothing_imports_the_nonlinear_reference():
+    """neurofuzzy.nonlinear_reference is validation code (and needs sfepy): it may import
+    the toolkit, never the reverse."""
+    users = [name for name in MODULES if not name.startswith("neurofuzzy.nonlinear_reference")
+             and any(t.startswith("neurofuzzy.nonlinear_reference") for t, _ in _imports(name))]
+    assert users == []
+
+
 @pytest.mark.parametrize("name", sorted(MODULES))
 def test_no_module_is_much_over_400_lines(name):
     lines = MODULES[name].read_text(encoding="utf-8").count("\n")
