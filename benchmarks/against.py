@@ -25,8 +25,6 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-#: keys of run.py's JSON whose numbers are timings (the rest are sizes, errors, counts)
-DURATIONS = ("seconds", "_s", "time", "_us", "us_")
 RATES = ("steps_per_s",)
 
 
@@ -41,15 +39,16 @@ def _leaves(value, prefix=""):
 
 def _kind(name: str) -> str | None:
     """``"rate"``, ``"duration"`` or None (not a timing) for a flattened key."""
-    if any(part in name for part in RATES):
+    parts = name.split(".")
+    if any(rate in name for rate in RATES):
         return "rate"
-    last = name.rsplit(".", 1)[-1]
-    if "speedup" in name or "ratio" in name:
-        return None                       # already a ratio within one run
-    if last == "seconds" and "." not in name:
-        return None                       # the run's own wall time: not a measure
-    if any(part in last for part in DURATIONS) or "seconds" in name:
+    if name == "seconds" or any(word in name for word in ("speedup", "ratio", "error")):
+        return None             # the run's own wall time; ratios and errors are not timings
+    if any("seconds" in part or part.endswith("_s") or "us" in part.split("_")
+           for part in parts):
         return "duration"
+    if parts[0] == "large_elements_gradient" and parts[-1] in ("numba", "numpy"):
+        return "duration"       # one gradient's seconds per backend
     return None
 
 
