@@ -20,6 +20,7 @@ import numpy as np
 
 from .datasets import CUBE, paper_cube_experiment, paper_cube_model
 from .learn import GradientLearner, PaperLearner
+from .learn.lack_of_fit import length_text
 
 __all__ = ["PAPER_RESULTS", "CubeRun", "paper_experiments", "comparison_table",
            "plot_error_curves"]
@@ -211,8 +212,8 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
                       progress=progress)
     diagnosis_report(result, out / "diagnosis.html",
                      title="neurofuzzy demo: the cube hangs under gravity")
-    lines.append(f"diagnosis: {', '.join(result.names)}; RMS {result.rms_before:.3g} -> "
-                 f"{result.rms_after:.3g} m")
+    lines.append(f"diagnosis: {', '.join(result.names)}; RMS per marker "
+                 f"{length_text(result.rms_before)} -> {length_text(result.rms_after)}")
     for finding in result.effects:
         lines.append(f"  {finding.name}: confidence {finding.confidence:.2f}, "
                      + ", ".join(f"{k} = {v:.4g}" for k, v in finding.parameters.items()))

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..learn.lack_of_fit import length_text
 from .html import figure_html, pyplot, table_html, write_report
 from .lack_of_fit import lack_of_fit_section
 
@@ -87,8 +88,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
     ax.set_ylabel("E (eq. 2.2, mean spring lengths²)")
     ax.grid(True, which="both", alpha=0.3)
     sections.append(("Error per cycle", figure_html(figure, "error curve") +
-                     f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
-                     f" in {learner.n_cycles_} cycles.</p>"))
+                     f"<p>RMS error per marker {length_text(learner.rms_error_initial_)} → "
+                     f"{length_text(learner.rms_error_)} in {learner.n_cycles_} cycles.</p>"))
     lack_of_fit = getattr(learner, "lack_of_fit_", None)
     if lack_of_fit is not None:
         sections.append(lack_of_fit_section(plt, lack_of_fit))
