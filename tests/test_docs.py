@@ -43,7 +43,7 @@ def _blocks(readme: str, section: str) -> list[tuple[str, str]]:
 #: the sections whose commands and snippets run in order, in one fresh folder
 WALKTHROUGHS = ("Words in, numbers out, words back", "Command line",
                 "The rule base as a prior: where the tissue differs from its description",
-                "Finding the missing effect")
+                "Finding the missing effect", "Many specimens: fit-many on Dask")
 
 
 @pytest.mark.slow
@@ -72,3 +72,4 @@ def test_the_readme_walkthroughs_run_as_written(tmp_path):
             ran += 1
     assert ran >= 5
     assert (tmp_path / "fitted.yaml").exists() and (tmp_path / "prior" / "fit.html").exists()
+    assert (tmp_path / "results" / "results.csv").exists()
