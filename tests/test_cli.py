@@ -129,6 +129,8 @@ def test_demo_writes_table_plot_and_summary(tmp_path):
     for name in ("error_per_cycle.png", "table.txt", "summary.json", "report.html",
                  "report.json", "diagnosis.html", "diagnosis.json"):
         assert (tmp_path / "demo" / name).stat().st_size > 0
+    page = (tmp_path / "demo" / "diagnosis.html").read_text()
+    assert "nothing is marked" in page and "Red:" not in page     # gravity acts everywhere
     summary = json.loads((tmp_path / "demo" / "summary.json").read_text(),
                          parse_constant=_not_json)   # a diverged start is null, not Infinity
     assert {run["experiment"] for run in summary["runs"]} == {1, 2, 3}

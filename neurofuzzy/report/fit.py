@@ -214,12 +214,13 @@ def _words_sections(rules, region, tissue, start, fitted):
         x = variable.to_physical(variable.grid)
         for term in variable.terms.values():
             ax.plot(x, term.values, label=term.name)
-        ax.axvline(before[name], color="0.3", linestyle="--", label="start")
-        ax.axvline(after[name], color="crimson", linewidth=2, label="learned")
+        ax.axvline(after[name], color="crimson", linewidth=2, label="learned", zorder=3)
+        ax.axvline(before[name], color="0.2", linestyle="--", label="start", zorder=4)
         if variable.scale == "log":
             ax.set_xscale("log")
         ax.set_title(f"{name} ({variable.unit})" if variable.unit else name)
         ax.set_ylim(0, 1.05)
+        ax.set_ylabel("membership degree")
         ax.legend(fontsize=7)
     sections.append(("Membership functions with the start and learned values" + where,
                      figure_html(figure, "membership functions")))
