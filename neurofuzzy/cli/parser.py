@@ -1,4 +1,4 @@
-"""The argument parser of the ``neurofuzzy`` command (the shapes of DESIGN.md)."""
+"""The argument parser of the ``neurofuzzy`` command (the command shapes of the design notes)."""
 
 from __future__ import annotations
 
@@ -213,12 +213,14 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--force", nargs=4, action="append", metavar=("NODE", "FX", "FY", "FZ"),
                           help="constant force on a node, FX FY FZ in newtons (repeatable; "
                                "default: the cube's 0.2 N load on its top centre node)")
-    simulate.add_argument("--dt", type=float, default=None, help="frame spacing (s; default 0.0005, the built-in cube's)")
-    simulate.add_argument("--frames", type=int, default=251, help="frames incl. frame 0 (default 251)")
-    simulate.add_argument("--substeps", default="1", help="steps per frame, or 'auto': the fewest stable ones "
-                               "(default 1)")
-    simulate.add_argument("--noise", type=float, default=0.0, help="marker noise: standard deviation per coordinate (m; "
-                               "default 0)")
+    simulate.add_argument("--dt", type=float, default=None,
+                          help="frame spacing (s; default 0.0005, the built-in cube's)")
+    simulate.add_argument("--frames", type=int, default=251,
+                          help="frames incl. frame 0 (default 251)")
+    simulate.add_argument("--substeps", default="1",
+                          help="steps per frame, or 'auto': the fewest stable ones (default 1)")
+    simulate.add_argument("--noise", type=float, default=0.0,
+                          help="marker noise: standard deviation per coordinate (m; default 0)")
     simulate.add_argument("--seed", type=int, default=0,
                           help="seed of the marker noise (default 0)")
     simulate.set_defaults(run=data.simulate)
@@ -268,8 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
         "import", help="marker recording (CSV or C3D) -> experiment file",
         description="Attach the markers of an optical recording to the nodes of a model, "
                     "resample to the model's step and write an experiment file (.npz; "
-                    f"{FORMAT_DOC}; nodes with markers observed; frames where a marker was not seen are "
-                    "gaps, never interpolated across).")
+                    f"{FORMAT_DOC}; nodes with markers observed; frames where a marker "
+                    "was not seen are gaps, never interpolated across).")
     importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d")
     importer.add_argument("--topology", required=True, metavar="MODEL.yaml|EXPERIMENT.npz",
                           help="the object's nodes and springs: a model (its masses become the "
