@@ -102,7 +102,7 @@ def describe(case: str, result: dict) -> str:
 def main(argv):
     values = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a.startswith("--")}
     out = Path(next((a for a in argv if not a.startswith("--") and a not in values),
-                    "continuum-diagnosis"))
+                    "continuum-diagnosis-output"))
     cases = [argv[argv.index("--case") + 1]] if "--case" in argv else list(CASES)
     pitch = float(argv[argv.index("--pitch") + 1]) if "--pitch" in argv else 0.006
     if any(case not in CASES for case in cases):

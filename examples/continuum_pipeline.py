@@ -129,7 +129,7 @@ def main(argv):
     started = time.perf_counter()
     quick = "--quick" in argv
     args = [a for a in argv if not a.startswith("--")]
-    out = Path(args[0] if args else "continuum-pipeline")
+    out = Path(args[0] if args else "continuum-pipeline-output")
     out.mkdir(parents=True, exist_ok=True)
     meshes = [("voxel", [])]
     if not quick:

@@ -105,8 +105,8 @@ def main(argv):
 
     # 2. words -> start model; the hidden truth is another tissue of the same rule base
     rules = load_rules(shipped("liver"))
-    truth = initialize(rules, mesh, "fibrotic_liver")
-    start = initialize(rules, mesh, "liver")
+    truth = initialize(rules, mesh, "fibrotic_liver", elements=False)
+    start = initialize(rules, mesh, "liver", elements=False)
 
     # 3. the measurement: a probe pushes the top; markers on the surface only
     n_frames = 151 if quick else 301

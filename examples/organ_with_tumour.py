@@ -65,7 +65,8 @@ def main(argv):
     fix_below = float(z.min() + 0.4 * size)
     mesh = read.mesh.with_fixed(where=lambda p: p[:, 2] <= fix_below)
     expert = read.tissue_regions({"organ": "liver", "tumour": "tumour"}, of="tetrahedra")
-    nf.save_model(nf.initialize(rules, mesh, tetrahedron_regions=expert), out / "organ.yaml")
+    nf.save_model(nf.initialize(rules, mesh, tetrahedron_regions=expert,
+                                elements=False), out / "organ.yaml")
     print(f"organ: {mesh.n_nodes} nodes ({len(mesh.fixed)} fixed), {mesh.n_springs} springs, "
           f"{int(read.tetrahedron_regions['tumour'].sum())} of {mesh.n_tetrahedra} tetrahedra "
           "in the tumour")
@@ -73,7 +74,7 @@ def main(argv):
     # 2. the hidden truth: fibrotic liver around the same tumour
     hidden = read.tissue_regions({"organ": "fibrotic_liver", "tumour": "tumour"},
                                  of="tetrahedra")
-    truth = nf.initialize(rules, mesh, tetrahedron_regions=hidden)
+    truth = nf.initialize(rules, mesh, tetrahedron_regions=hidden, elements=False)
 
     # 3. the recording: a probe on the top above the tumour, markers on the surface
     n_frames = 151 if quick else 301

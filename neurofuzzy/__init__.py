@@ -16,7 +16,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
   marker recordings: :func:`read_markers`, :func:`markers_to_experiment`; markers between
   nodes: :class:`EmbeddedMarkers`, :class:`Observation`, :func:`embed_points`
 - learning: :func:`start_model` (:class:`StartModel`), :func:`estimate_start`,
-  :class:`PaperLearner`, :class:`GradientLearner`; the one fit pipeline of Python, the command
+  :class:`PaperLearner`, :class:`GradientLearner`, the rule base as a prior
+  :class:`FuzzyPrior`; the one fit pipeline of Python, the command
   and fit-many: :func:`fit` (:class:`FitOutcome`, :class:`FitFailedError`)
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
@@ -60,7 +61,7 @@ _EXPORTS = {
     "EmbeddedMarkers": "observation", "Observation": "observation",
     "embed_points": "observation",
     "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "learn",
-    "StartModel": "learn", "estimate_start": "learn",
+    "StartModel": "learn", "estimate_start": "learn", "FuzzyPrior": "learn.prior",
     "fit": "pipeline", "FitOutcome": "pipeline", "FitFailedError": "pipeline",
     "load_rules": "rules", "initialize": "rules", "material_values": "rules",
     "materials": "rules", "shipped_rules": "rules",

@@ -1,6 +1,6 @@
 """Measured (or simulated) node trajectories of one load case: the :class:`Experiment`.
 
-This is the in-memory form of the experiment file contract of DESIGN.md; :mod:`neurofuzzy.io`
+This is the in-memory form of the experiment file contract (docs/formats.md); :mod:`neurofuzzy.io`
 reads and writes it as ``.npz``.
 """
 

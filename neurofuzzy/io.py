@@ -1,4 +1,4 @@
-"""Experiment files (``.npz``, the contract of DESIGN.md) and, from :mod:`.model_files`, model
+"""Experiment files (``.npz``, the contract in docs/formats.md) and, from :mod:`.model_files`, model
 files (YAML).
 
 Every reader validates what it reads and raises :class:`~neurofuzzy.errors.InputError` naming
@@ -34,7 +34,7 @@ MAX_EXPERIMENT_BYTES = 2 * 2**30
 
 
 def load_experiment(path: str | os.PathLike) -> Experiment:
-    """Read and validate an experiment file (see DESIGN.md, "Experiment file").
+    """Read and validate an experiment file (the format: docs/formats.md).
 
     Raises
     ------

@@ -34,6 +34,9 @@ def test_every_exported_name_resolves_and_is_documented():
         assert not isinstance(value, types.ModuleType), name
         assert name in nf.__doc__, f"{name} is exported but not in the package docstring"
     assert set(dir(nf)) >= set(nf.__all__)
+    from neurofuzzy.learn.prior import FuzzyPrior
+
+    assert nf.FuzzyPrior is FuzzyPrior          # the README's prior walkthrough names it
     with pytest.raises(AttributeError, match="no attribute 'simulat'"):
         nf.simulat
 

@@ -103,6 +103,10 @@ def test_organ_with_tumour_example_and_the_readme_commands(tmp_path):
     assert rows["tumour"][0] < 10.0 and rows["tumour"][1].startswith("very_hard -> very_hard")
     commands = re.findall(r"^  (neurofuzzy .+)$", result.stdout, flags=re.M)
     assert [c.split()[1] for c in commands] == ["mesh", "import", "fit"]
+    readme = (EXAMPLES.parent / "README.md").read_text()
+    assert "python examples/organ_with_tumour.py tumour --quick" in readme
+    for command in commands:                      # the README's walkthrough is what runs here
+        assert f"\n{command}\n" in readme, command
     for command in commands:
         done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *command.split()[1:],
                                "--quiet"] if command.split()[1] == "fit" else
@@ -225,3 +229,27 @@ def test_cohort_example_fits_both_groups_in_parallel_and_serially_alike(tmp_path
     [modulus] = [c for c in twin["comparisons"] if c["quantity"] == "youngs_modulus"]
     assert modulus["excludes_zero"] and modulus["difference"] > 0
     assert (tmp_path / "results" / "results.csv").read_text().count("\n") == 5
+
+
+@pytest.mark.slow
+def test_the_readme_prior_walkthrough_finds_the_stiff_cell(tmp_path):
+    """The README's prior walkthrough as written: the example makes push.npz and pull.npz, the
+    fit with the rule base as a prior finds the six tetrahedra of the stiff cell, in words."""
+    import json
+
+    command = ("neurofuzzy fit push.npz pull.npz --rules liver --tissue liver --tie none --json "
+               "--report fit.html")
+    readme = (EXAMPLES.parent / "README.md").read_text()
+    assert "python ../examples/liver_block_with_inclusion.py" in readme and command in readme
+    made = subprocess.run([sys.executable, str(EXAMPLES / "liver_block_with_inclusion.py")],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert made.returncode == 0, made.stderr
+    done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *command.split()[1:]],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout)
+    assert result["prior"]["how"] == "discrepancy principle"
+    [region] = result["regions_found"]
+    assert region["elements"] == [9, 27, 45, 63, 81, 99] and region["label"] == "hard"
+    assert region["centroid"] == pytest.approx([0.015, 0.015, 0.015])
+    assert result["regions_rest"]["liver"]["youngs_modulus"]["label"] == "firm"

@@ -35,7 +35,7 @@ def hidden_truth(path):
     mesh = read.mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * read.mesh.rest_lengths.min())
     return initialize(load_rules(shipped("liver")), mesh, tetrahedron_regions={
         "fibrotic_liver": read.tetrahedron_regions["organ"],
-        "tumour": read.tetrahedron_regions["tumour"]})
+        "tumour": read.tetrahedron_regions["tumour"]}, elements=False)
 
 
 @pytest.fixture(scope="module")

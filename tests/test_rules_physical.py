@@ -13,7 +13,8 @@ from neurofuzzy.datasets import kuhn_block, paper_cube_mesh, point_load, top_cen
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.mesh import lattice
-from neurofuzzy.rules import initialize, lattice_geometry, load_rules, material_values
+from neurofuzzy.mesh import from_tetra
+from neurofuzzy.rules import initialize, lattice_geometry, load_rules, material_values, shipped
 from neurofuzzy.constants import DEFAULT_POISSON_RATIO
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -195,7 +196,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     read = read_mesh(_two_region_gmsh_file(tmp_path / "organ.msh"))
     rules = load_rules(TISSUES)
     regions = read.tissue_regions({"core": "soft_tissue", "shell": "firm_tissue"})
-    model = initialize(rules, read.mesh, regions=regions)
+    model = initialize(rules, read.mesh, regions=regions, elements=False)
     soft, firm = (rules.tissue(t)["youngs_modulus"] for t in ("soft_tissue", "firm_tissue"))
     assert firm > 2 * soft
     modulus = model.spring_stiffness / tetra_geometry(read.mesh).spring_factor
@@ -223,7 +224,8 @@ def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
     rules = load_rules(TISSUES)
     tissue_of = {"core": "soft_tissue", "shell": "firm_tissue"}
     model = initialize(rules, mesh,
-                               tetrahedron_regions=read.tissue_regions(tissue_of, of="tetrahedra"))
+                               tetrahedron_regions=read.tissue_regions(tissue_of, of="tetrahedra"),
+                               elements=False)
     soft, firm = (rules.tissue(t)["youngs_modulus"] for t in ("soft_tissue", "firm_tissue"))
     geometry = tetra_geometry(mesh)
     modulus = model.spring_stiffness / geometry.spring_factor
@@ -272,7 +274,7 @@ def test_words_to_a_tetrahedral_model_and_back():
     mesh = from_tetra(points, np.concatenate(tetrahedra)).with_fixed(
         where=lambda p: p[:, 2] == 0)
     rules = load_rules(TISSUES)
-    model = initialize(rules, mesh, "firm_tissue")                  # springs on tetrahedra
+    model = initialize(rules, mesh, "firm_tissue", elements=False)  # springs on tetrahedra
     recovered = material_values(rules, model)
     assert recovered.pop("poisson_ratio") == 0.25                   # springs lock it
     for name, value in rules.tissue("firm_tissue").items():
@@ -303,3 +305,15 @@ def test_end_to_end_firm_data_soft_start_gives_firm_label(tmp_path):
     page = report.read_text()
     assert "soft → firm" in page and page.count("data:image/png;base64") >= 2
     assert np.isfinite(json.loads(result.stdout)["rms_error"])
+
+
+def test_an_incompressible_tissue_reads_back_incompressible_by_default():
+    """``initialize`` builds elements on a mesh with tetrahedra (as ``neurofuzzy mesh``): the
+    springs' locked ν = 1/4 would read back "compressible" for incompressible white matter."""
+    rules = load_rules(shipped("brain"))
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01))
+    words = rules.describe(material_values(rules, initialize(rules, mesh, "white_matter")))
+    assert words["poisson_ratio"].term.endswith("incompressible")   # nearly_ or not
+    springs = initialize(rules, mesh, "white_matter", elements=False)
+    assert "incompressible" not in \
+        rules.describe(material_values(rules, springs))["poisson_ratio"].term

@@ -206,7 +206,9 @@ def _run(pending, fingerprints, records, out, table, specimens, scheduler, worke
             note(progress, f"fit-many: the scheduler {scheduler} has no workers yet; the "
                            "specimens wait for some")
         threads = max(threads, 1)
-        note(progress, f"fit-many: {len(pending)} specimens on {threads} worker thread(s)"
+        processes = max(len(client.nthreads()), 1)
+        note(progress, f"fit-many: {len(pending)} specimens on {processes} worker "
+                       f"process(es), {threads} thread(s) in all"
                        f"{' at ' + scheduler if scheduler else ''}")
         futures = {client.submit(fit_specimen, specimen, pure=False,
                                  key=f"fit-{specimen.id}-{fingerprints[specimen.id][:12]}"):

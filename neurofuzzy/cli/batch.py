@@ -17,7 +17,7 @@ def fit_many(args) -> int:
 
     cohort = run(args.manifest, args.out, report=args.report, scheduler=args.scheduler,
                  workers=args.workers, resume=args.resume, seed=args.seed,
-                 progress=not args.quiet and not args.json)
+                 progress=not args.quiet)
     if args.json:
         print_json(cohort.to_dict())
     else:

@@ -40,7 +40,7 @@ def _protected(args) -> list[Path]:
 
 
 def fit(args) -> int:
-    progress = not args.quiet and not args.json
+    progress = not args.quiet   # on stderr: --json output on stdout stays one object
     positive(args.cycles, "--cycles", integer=True)
     positive(args.learning_rate, "--learning-rate")
     at_least(args.mass_learning_rate, 0, "--mass-learning-rate")
@@ -119,7 +119,7 @@ def diagnose(args) -> int:
     from ..learn.run import make_prior
     from ..report import diagnosis_report
 
-    progress = not args.quiet and not args.json
+    progress = not args.quiet   # on stderr: --json output on stdout stays one object
     at_least(args.max_effects, 0, "--max-effects")
     substeps = _substeps(args.substeps)
     with Outputs(_protected(args)) as outputs:

@@ -35,7 +35,7 @@ def _demo(args, out: Path) -> None:
     runs = paper_experiments(cycles=args.cycles, progress=progress, gradient_for=(3,))
     table = comparison_table(runs)
     print(table)
-    from ..serialization import atomic_write
+    from ..serialization import atomic_write, json_safe
 
     plot_error_curves(runs, out / "error_per_cycle.png")
     summary = {"runs": [{"experiment": r.experiment, "learner": r.learner, "cycles": r.cycles,
@@ -44,7 +44,7 @@ def _demo(args, out: Path) -> None:
                          "rms_initial": r.rms_initial, "rms_final": r.rms_final,
                          "seconds": r.seconds} for r in runs]}
     with atomic_write(out / "summary.json", "w") as handle:
-        json.dump(summary, handle, indent=2, allow_nan=True)
+        json.dump(json_safe(summary), handle, indent=2, allow_nan=False)  # diverged: null
     with atomic_write(out / "table.txt", "w") as handle:
         handle.write(table + "\n")
     print()

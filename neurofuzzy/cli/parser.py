@@ -1,4 +1,4 @@
-"""The argument parser of the ``neurofuzzy`` command (the shapes of DESIGN.md)."""
+"""The argument parser of the ``neurofuzzy`` command (the command shapes of the design notes)."""
 
 from __future__ import annotations
 
@@ -6,6 +6,10 @@ import argparse
 
 from . import batch, data, fitting, misc, studio
 from .common import usage
+from ..version import __version__
+
+#: where the experiment file (.npz) is documented in the repository
+FORMAT_DOC = "the format: README.md, section 'Experiment files'"
 
 __all__ = ["build_parser"]
 
@@ -15,6 +19,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="neurofuzzy",
         description="Deformable-tissue models from words and measurements: spring-mass "
                     "simulation, the paper's recurrent learner and exact-gradient fitting.")
+    parser.add_argument("--version", action="version", version=f"neurofuzzy {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     demo = commands.add_parser("demo", help="the paper's cube experiments end to end",
@@ -29,8 +34,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(run=misc.demo)
 
     fit = commands.add_parser("fit", help="learn model parameters from experiment files",
-                              description="Fit stiffness, viscosity (and masses) of a "
-                                          "spring-mass model to the experiment files; start "
+                              description="Fit the parameters of a model (Young's "
+                                          "modulus, Poisson's ratio and viscosity of "
+                                          "tetrahedral elements, the default when the "
+                                          "experiment has tetrahedra; or stiffness, damping "
+                                          "and masses of a spring network) to the experiment "
+                                          "files; start "
                                           "from a model file (--start), a rule base's tissue "
                                           "(--rules, --tissue) or the data alone.")
     fit.add_argument("experiments", nargs="+", metavar="EXPERIMENT.npz")
@@ -152,7 +161,8 @@ def build_parser() -> argparse.ArgumentParser:
     many.add_argument("--resume", action="store_true",
                       help="keep the finished specimens in DIR whose inputs are unchanged; "
                            "fit the others")
-    many.add_argument("--seed", type=int, default=0, help="seed of the report's bootstrap")
+    many.add_argument("--seed", type=int, default=0,
+                      help="seed of the report's bootstrap (default 0)")
     many.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     many.add_argument("--quiet", action="store_true", help="no progress on stderr")
     many.set_defaults(run=batch.fit_many)
@@ -166,8 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
     show = rules_commands.add_parser("show", help="inferred start values of a tissue and "
                                                   "their labels")
     show.add_argument("rules", metavar="R.yaml")
-    show.add_argument("--tissue", required=True)
-    show.add_argument("--json", action="store_true")
+    show.add_argument("--tissue", required=True, help="the tissue of the rule base to show")
+    show.add_argument("--json", action="store_true", help="print one JSON object on stdout "
+                                                          "(values in SI units, labels, degrees)")
     show.set_defaults(run=misc.rules_show)
     rules.set_defaults(run=lambda args: usage(rules))
 
@@ -194,17 +205,24 @@ def build_parser() -> argparse.ArgumentParser:
     simulate = commands.add_parser(
         "simulate", help="simulate a model under a load and write an experiment file",
         description="Simulate a fitted model (YAML) or the built-in cube ('cube') from rest "
-                    "under constant node forces and write the DESIGN.md experiment file.")
+                    "under constant node forces and write an experiment file (.npz; "
+                    f"{FORMAT_DOC}).")
     simulate.add_argument("model", metavar="MODEL.yaml|cube")
-    simulate.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
+    simulate.add_argument("--out", required=True, metavar="EXPERIMENT.npz",
+                          help="the experiment file to write")
     simulate.add_argument("--force", nargs=4, action="append", metavar=("NODE", "FX", "FY", "FZ"),
-                          help="constant force on a node (repeatable; default: the cube's "
-                               "load on its top centre node)")
-    simulate.add_argument("--dt", type=float, default=None, help="frame spacing (s)")
-    simulate.add_argument("--frames", type=int, default=251, help="frames incl. frame 0")
-    simulate.add_argument("--substeps", default="1", help="steps per frame, or 'auto'")
-    simulate.add_argument("--noise", type=float, default=0.0, help="marker noise (std, m)")
-    simulate.add_argument("--seed", type=int, default=0)
+                          help="constant force on a node, FX FY FZ in newtons (repeatable; "
+                               "default: the cube's 0.2 N load on its top centre node)")
+    simulate.add_argument("--dt", type=float, default=None,
+                          help="frame spacing (s; default 0.0005, the built-in cube's)")
+    simulate.add_argument("--frames", type=int, default=251,
+                          help="frames incl. frame 0 (default 251)")
+    simulate.add_argument("--substeps", default="1",
+                          help="steps per frame, or 'auto': the fewest stable ones (default 1)")
+    simulate.add_argument("--noise", type=float, default=0.0,
+                          help="marker noise: standard deviation per coordinate (m; default 0)")
+    simulate.add_argument("--seed", type=int, default=0,
+                          help="seed of the marker noise (default 0)")
     simulate.set_defaults(run=data.simulate)
 
     mesh = commands.add_parser(
@@ -219,7 +237,8 @@ def build_parser() -> argparse.ArgumentParser:
     mesh.add_argument("--tissue", help="tissue of the whole object (or of the regions not "
                                        "named by --region)")
     mesh.add_argument("--region", action="append", default=[], metavar="REGION=TISSUE",
-                      help="tissue of a region of a volume mesh (repeatable)")
+                      help="tissue of a region of a volume mesh (repeatable; default: "
+                           "--tissue everywhere)")
     mesh.add_argument("--pitch", type=float, help="voxel lattice spacing of a surface (in the "
                                                   "file's length unit; default extent / 10)")
     mesh.add_argument("--tetra", action="store_true",
@@ -227,7 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
     mesh.add_argument("--max-edge", type=float, help="with --tetra: target edge length "
                                                      "(default 1.5 x extent / 10)")
     mesh.add_argument("--scale", type=float, default=1.0,
-                      help="multiply coordinates by this to get metres (e.g. 0.001 for mm)")
+                      help="multiply coordinates by this to get metres (e.g. 0.001 for mm; "
+                           "default 1)")
     fixing = mesh.add_mutually_exclusive_group()
     fixing.add_argument("--fix-bottom", action="store_true",
                         help="hold the lowest nodes (z within a quarter of the shortest "
@@ -239,22 +259,27 @@ def build_parser() -> argparse.ArgumentParser:
                            "parameters are the tissue's Young's modulus, Poisson's ratio and "
                            "viscosity (a voxel lattice is split into six tetrahedra per cell); "
                            "springs: the paper's spring network on the mesh's edges")
-    mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups")
-    mesh.add_argument("--out", required=True, metavar="MODEL.yaml")
+    mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups",
+                      help="parameters shared by all items, per group (default) or none, "
+                           "within each region; a fit with --start keeps it")
+    mesh.add_argument("--out", required=True, metavar="MODEL.yaml",
+                      help="the model file to write (the start of 'fit --start')")
     mesh.set_defaults(run=data.mesh)
 
     importer = commands.add_parser(
         "import", help="marker recording (CSV or C3D) -> experiment file",
         description="Attach the markers of an optical recording to the nodes of a model, "
-                    "resample to the model's step and write the DESIGN.md experiment file "
-                    "(nodes with markers observed; frames where a marker was not seen are "
-                    "gaps, never interpolated across).")
+                    "resample to the model's step and write an experiment file (.npz; "
+                    f"{FORMAT_DOC}; nodes with markers observed; frames where a marker "
+                    "was not seen are gaps, never interpolated across).")
     importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d")
     importer.add_argument("--topology", required=True, metavar="MODEL.yaml|EXPERIMENT.npz",
                           help="the object's nodes and springs: a model (its masses become the "
                                "experiment's known masses) or another experiment file")
     importer.add_argument("--map", metavar="MAP.csv",
-                          help="marker,node pairs (default: each marker to its nearest node)")
+                          help="marker,node pairs: each marker follows its node (--attach "
+                               "node); default: no map, markers embedded in the mesh unless "
+                               "--attach node, which takes each marker's nearest node")
     importer.add_argument("--forces", metavar="FORCES.csv",
                           help="time,node,fx,fy,fz in N, each row held until the node's next; "
                                "or time,x,y,z,fx,fy,fz[,radius]: a probe's force at a point "
@@ -285,7 +310,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="farthest a marker may lie from its node (--attach node) or "
                                "outside the mesh (embed) at the start (m; default half the "
                                "shortest spring)")
-    importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz")
+    importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz",
+                          help="the experiment file to write")
     importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     importer.set_defaults(run=data.import_markers)
     return parser

@@ -123,7 +123,7 @@ class PaperLearner(Learner):
                     f"learning diverged in cycle {cycle + 1} (the error became infinite); "
                     "lower the learning rates or start closer to plausible parameters")
             history.append(error)
-            progress.update(cycle + 1, f"E={error:.4g}")
+            progress.update(cycle + 1, f"E={error:.4g} (eq. 2.2, mean spring lengths²)")
             if error < self.tolerance:
                 break
         progress.update(int(self.cycles))

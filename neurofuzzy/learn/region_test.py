@@ -109,8 +109,9 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
         if progress is not None:
             progress(f"region {index + 1} ({region['label']} {region['quantity']}, "
                      f"{region['size']} items): RMS {length_text(rms0)} -> "
-                     f"{length_text(rms1)} per marker, the misfit above the noise shrinks "
-                     f"{shrink:.2g}x: {'kept' if keep else 'model error, not tissue'}")
+                     f"{length_text(rms1)} per marker, the misfit above the noise "
+                     + ("vanishes" if np.isinf(shrink) else f"shrinks {shrink:.2g}x")
+                     + f": {'kept' if keep else 'model error, not tissue'}")
         if keep:
             kept.append(region)
             current = refit

@@ -76,7 +76,8 @@ def match_markers(markers: MarkerData, mesh: Mesh, *, mapping: dict[str, int] | 
         raise InputError(f"{far.size} marker(s) lie farther than {limit:.3g} m from every node, "
                          f"e.g. {markers.names[worst]!r} at {gap[worst]:.3g} m from node "
                          f"{nearest[worst]}; check the units and the coordinate frame, or give "
-                         "a map file (marker,node) or a larger max_distance", source=source)
+                         "a map file (marker,node) or a larger --max-distance (Python: "
+                         "max_distance)", source=source)
     mapping = {name: int(node) for name, node in zip(markers.names, nearest)}
     _no_shared_nodes(mapping, source)
     return mapping
@@ -229,7 +230,8 @@ def _embed(markers, names, resampled, mesh, tetrahedra, forces, max_distance):
         worst = far[np.argmax(distance[far])]
         raise InputError(f"{far.size} marker(s) lie farther than {limit:.3g} m outside the "
                          f"mesh, e.g. {names[worst]!r} at {distance[worst]:.3g} m; check the "
-                         "units and the coordinate frame, or give a larger max_distance",
+                         "units and the coordinate frame, or give a larger --max-distance "
+                         "(Python: max_distance)",
                          source=markers.source)
     offset = np.where((distance > OFFSET_FRACTION * shortest)[:, None],
                       np.einsum("mk,mkj->mj", weights, mesh.rest_positions[nodes]) - rest_point,

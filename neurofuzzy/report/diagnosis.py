@@ -78,9 +78,11 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
     scatter = _object_plot(ax, model, first.per_node_error * 1e3, springs, nodes,
                            "trajectory error per node (mm)")
     figure.colorbar(scatter, ax=ax, shrink=0.7)
+    marked = ("Red: springs and nodes of the effects found." if springs or nodes else
+              "No effect found acts at a place, so nothing is marked.")
     sections.append(("Where: residual on the object (before any effect was added)",
                      figure_html(figure, "residual per node") +
-                     "<p class='note'>Red: springs and nodes of the effects found.</p>"))
+                     f"<p class='note'>{marked}</p>"))
 
     figure, ax = plt.subplots(figsize=(9, 3.4))
     for index, round_info in enumerate(diagnosis.rounds):
@@ -88,7 +90,7 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
                     label=f"round {index + 1}" + (f" (then added {round_info['winner']})"
                                                   if round_info["winner"] != "none" else ""))
         ax.axhline(round_info["residuals"].noise_floor, color="0.5", linestyle=":",
-                   linewidth=0.8)
+                   linewidth=0.8, label="noise floor" if index == 0 else None)
     ax.set_xlabel("frame")
     ax.set_ylabel("RMS residual force (N)" if forces else "RMS marker error (m)")
     ax.legend()
@@ -119,11 +121,15 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
     stages = ["fitted model"] + [f"+ {f.name}" for f in diagnosis.effects]
     values = [diagnosis.rms_before] + [f.rms_after for f in diagnosis.effects]
     figure, ax = plt.subplots(figsize=(7, 3.2))
-    ax.bar(stages, np.maximum(values, 1e-30), color="darkorange")
+    # bars below a millionth of the largest are drawn at that floor (rounding, not physics)
+    floor = 1e-6 * max(max(values), diagnosis.noise_rms, 1e-300)
+    ax.bar(stages, np.maximum(values, floor), color="darkorange")
     ax.set_yscale("log")
-    ax.axhline(max(diagnosis.noise_rms, 1e-30), color="0.4", linestyle=":", label="marker noise")
-    ax.set_ylabel("RMS trajectory error")
-    ax.legend()
+    ax.set_ylim(bottom=floor / 2)
+    if diagnosis.noise_rms > floor:
+        ax.axhline(diagnosis.noise_rms, color="0.4", linestyle=":", label="marker noise")
+        ax.legend()
+    ax.set_ylabel("RMS error per marker (m)")
     sections.append(("The gap before and after each added effect",
                      figure_html(figure, "error before and after")))
     sections.append(("Model equations", "<pre>" + html.escape(model.summary()) + "</pre>"))

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..learn.lack_of_fit import length_text
 from .html import figure_html, pyplot, table_html, write_report
 from .lack_of_fit import lack_of_fit_section
 
@@ -87,8 +88,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
     ax.set_ylabel("E (eq. 2.2, mean spring lengths²)")
     ax.grid(True, which="both", alpha=0.3)
     sections.append(("Error per cycle", figure_html(figure, "error curve") +
-                     f"<p>RMS error {learner.rms_error_initial_:.4g} → {learner.rms_error_:.4g}"
-                     f" in {learner.n_cycles_} cycles.</p>"))
+                     f"<p>RMS error per marker {length_text(learner.rms_error_initial_)} → "
+                     f"{length_text(learner.rms_error_)} in {learner.n_cycles_} cycles.</p>"))
     lack_of_fit = getattr(learner, "lack_of_fit_", None)
     if lack_of_fit is not None:
         sections.append(lack_of_fit_section(plt, lack_of_fit))
@@ -213,12 +214,13 @@ def _words_sections(rules, region, tissue, start, fitted):
         x = variable.to_physical(variable.grid)
         for term in variable.terms.values():
             ax.plot(x, term.values, label=term.name)
-        ax.axvline(before[name], color="0.3", linestyle="--", label="start")
-        ax.axvline(after[name], color="crimson", linewidth=2, label="learned")
+        ax.axvline(after[name], color="crimson", linewidth=2, label="learned", zorder=3)
+        ax.axvline(before[name], color="0.2", linestyle="--", label="start", zorder=4)
         if variable.scale == "log":
             ax.set_xscale("log")
         ax.set_title(f"{name} ({variable.unit})" if variable.unit else name)
         ax.set_ylim(0, 1.05)
+        ax.set_ylabel("membership degree")
         ax.legend(fontsize=7)
     sections.append(("Membership functions with the start and learned values" + where,
                      figure_html(figure, "membership functions")))

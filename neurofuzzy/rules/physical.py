@@ -23,7 +23,7 @@ __all__ = ["initialize", "material_values", "element_model", "LatticeGeometry",
 
 def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | None = None,
                tetrahedron_regions: dict | None = None,
-               elements: bool = False) -> SpringMassModel:
+               elements: bool | None = None) -> SpringMassModel:
     """The start model of ``mesh`` from a rule base's tissue(s).
 
     Parameters
@@ -45,11 +45,13 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
         node the mass of a quarter of each of its tetrahedra. This is exact at interfaces,
         where node regions have to give interface springs to one side.
         (``MeshFile.tissue_regions(..., of="tetrahedra")``.)
-    elements : bool
+    elements : bool, optional
         Build tetrahedral finite elements (the mesh needs tetrahedra) whose parameters are the
         tissue's Young's modulus, Poisson's ratio and viscosity themselves, with masses lumped
         from density (:func:`neurofuzzy.rules.materials.element_model`); the springs get zero
-        stiffness. Default: the spring network of the module docstring.
+        stiffness. ``False``: the spring network of the module docstring (which locks
+        Poisson's ratio at 1/4, so an incompressible tissue reads back "compressible").
+        Default: elements when the mesh has tetrahedra, as ``neurofuzzy mesh`` and ``fit``.
 
     Returns
     -------
@@ -64,6 +66,8 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
     if regions and tetrahedron_regions:
         raise InputError("give regions (of nodes) or tetrahedron_regions, not both",
                          key="regions")
+    if elements is None:
+        elements = mesh.tetrahedra is not None
     geometry = spring_geometry(mesh)
     if tetrahedron_regions:
         if mesh.tetrahedra is None:
