@@ -73,3 +73,31 @@ def test_the_readme_walkthroughs_run_as_written(tmp_path):
     assert ran >= 5
     assert (tmp_path / "fitted.yaml").exists() and (tmp_path / "prior" / "fit.html").exists()
     assert (tmp_path / "results" / "results.csv").exists()
+
+
+@pytest.mark.slow
+def test_the_readme_quotes_the_demo_as_it_prints(tmp_path):
+    """The demo's table (the paper learner's rows to every digit shown, the gradient row but
+    for its machine-precision columns) and its words are the README's, as the README says."""
+    import re
+
+    readme = (ROOT / "README.md").read_text()
+    result = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", "demo", "--out",
+                             str(tmp_path / "demo"), "--quiet"], capture_output=True, text=True,
+                            timeout=900)
+    assert result.returncode == 0, result.stderr
+
+    def without_time(line):
+        return re.sub(r"\s+\S+s$", "", line.rstrip())
+
+    table = [line for line in result.stdout.splitlines() if re.match(r"\s+[123]\s+paper", line)]
+    assert len(table) == 3
+    quoted = {without_time(line) for line in readme.splitlines()}
+    for line in table:
+        assert without_time(line) in quoted, line
+    gradient = next(line for line in result.stdout.splitlines() if "gradient" in line).split()
+    assert gradient[:2] == ["3", "gradient"] and gradient[5:8] == ["0.00%"] * 3
+    for line in result.stdout.splitlines():
+        if line.startswith(("words:", "  youngs_modulus", "  viscosity", "  density",
+                            "  in the expert's words")):
+            assert line in readme, line
