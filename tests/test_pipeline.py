@@ -60,6 +60,19 @@ def test_a_fit_worse_than_no_motion_fails_in_python_the_command_and_fit_many(sof
     assert "fit" not in record and "files" not in record
 
 
+@pytest.mark.parametrize("final", [np.nan, 1.0])
+def test_a_failed_fit_says_its_rms_per_marker_in_metres(short, final):
+    from neurofuzzy.pipeline.outcome import check_outcome
+
+    model = paper_cube_model()
+    with pytest.raises(nf.FitFailedError) as failed:
+        check_outcome("fit", [short], model, model, 2e-4, final, 1)
+    message = str(failed.value)
+    assert "RMS error per marker 0.0002 m -> " in message
+    assert ("diverges" in message) == (not np.isfinite(final))
+    assert np.isfinite(final) == ("-> 1 m, worse than a model that never moves" in message)
+
+
 def test_the_paper_method_fits_the_spring_network(short):
     outcome = nf.fit(short, tie="global", method="paper", cycles=2)
     assert not outcome.model.has_elements and outcome.summary["method"] == "paper"

@@ -75,10 +75,11 @@ def check_outcome(what: str, experiments, start_model, end_model, rms_initial: f
         return
     files = ", ".join(str(e.source) for e in experiments)
     if not math.isfinite(rms_final):
-        how = f"the simulation diverges (RMS error {rms_initial:.3g} -> {rms_final})"
+        how = (f"the simulation diverges (RMS error per marker {rms_initial:.3g} m -> "
+               f"{rms_final})")
     else:
-        how = (f"RMS error {rms_initial:.3g} -> {rms_final:.3g} m, worse than a model that "
-               f"never moves ({motion:.3g} m)")
+        how = (f"RMS error per marker {rms_initial:.3g} m -> {rms_final:.3g} m, worse than a "
+               f"model that never moves ({motion:.3g} m)")
     raise FitFailedError(f"{files}: the {what} failed: {how}; "
                          f"{_likely_cause(experiments, start_model, end_model, substeps)}; "
                          "nothing written")
