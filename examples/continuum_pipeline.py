@@ -36,7 +36,6 @@ from pathlib import Path
 
 import numpy as np
 
-import neurofuzzy as nf
 from neurofuzzy.continuum_reference import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 

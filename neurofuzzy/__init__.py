@@ -115,7 +115,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .rulestudio import studio  # noqa: F401
     from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
 
-from .version import __version__  # noqa: E402
+from .version import __version__  # noqa: E402, F401  (the package's version, public)
 
 # the function, set over the package of the same name (see the module docstring)
 from .export import export  # noqa: E402, F401
