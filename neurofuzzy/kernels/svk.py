@@ -106,15 +106,18 @@ def stress_vjp(G, Gd, LS, shear, shear_rate, kappa):
                        complex(shear_rate, 0.0), complex(0.0, 0.0), complex(kappa, 0.0)))
     LGd = _slope(stress(_lift(G, zero), _lift(Gd, LS), complex(shear, 0.0),
                         complex(shear_rate, 0.0), complex(0.0, 0.0), complex(kappa, 0.0)))
-    constants = (0.0, 0.0, 0.0, 0.0)
-    for k in range(4):
-        d = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0,
-             1.0 if k == 3 else 0.0)
-        along = _inner(LS, _slope(stress(_lift(G, zero), _lift(Gd, zero),
-                                         complex(shear, STEP * d[0]),
-                                         complex(shear_rate, STEP * d[1]),
-                                         complex(0.0, STEP * d[2]),
-                                         complex(kappa, STEP * d[3]))))
-        constants = (along if k == 0 else constants[0], along if k == 1 else constants[1],
-                     along if k == 2 else constants[2], along if k == 3 else constants[3])
-    return LG, LGd, constants[0], constants[1], constants[2], constants[3]
+    return (LG, LGd, _along(G, Gd, LS, shear, shear_rate, kappa, 1.0, 0.0, 0.0, 0.0),
+            _along(G, Gd, LS, shear, shear_rate, kappa, 0.0, 1.0, 0.0, 0.0),
+            _along(G, Gd, LS, shear, shear_rate, kappa, 0.0, 0.0, 1.0, 0.0),
+            _along(G, Gd, LS, shear, shear_rate, kappa, 0.0, 0.0, 0.0, 1.0))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _along(G, Gd, LS, shear, shear_rate, kappa, d_shear, d_rate, d_pressure, d_kappa):
+    """``L_S : ∂S/∂c`` along one direction of the constants (shear, rate, pressure, κ)."""
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return _inner(LS, _slope(stress(_lift(G, zero), _lift(Gd, zero),
+                                    complex(shear, STEP * d_shear),
+                                    complex(shear_rate, STEP * d_rate),
+                                    complex(0.0, STEP * d_pressure),
+                                    complex(kappa, STEP * d_kappa))))
