@@ -165,14 +165,15 @@ def compiled_terms_only(model) -> bool:
 
 
 def _element_arrays(model, dtype):
-    """``(tets, inverse_rest, volume, shear, shear_rate, λ, λβ, nodal, node_volume, Λ, H,
+    """``(tets, inverse_rest, volume, law, shear, shear_rate, λ, λβ, nodal, node_volume, Λ, H,
     node_strain)`` of the model's elements in the kernel's layout (the constants of
     :class:`~neurofuzzy.forces.Materials`; empty when it has none; ``node_strain`` is scratch
     space of the nodal volumetric form)."""
     if not model.has_elements:
         empty = np.zeros(0, dtype)
-        return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty, empty, empty,
-                empty, empty, False, empty, empty, empty, np.zeros((0, 2), dtype))
+        return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty,
+                np.zeros(0, np.intp), empty, empty, empty, empty, False, empty, empty, empty,
+                np.zeros((0, 2), dtype))
     from .forces.tetra_geometry import Materials
 
     materials = Materials.of(model)
@@ -183,6 +184,7 @@ def _element_arrays(model, dtype):
                    if nodal else (np.zeros(n_nodes),) * 3)
     return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
+            np.ascontiguousarray(materials.law, np.intp),
             *(values.astype(dtype) for values in (materials.shear, materials.shear_rate,
                                                   materials.lam, materials.lam_rate)),
             nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),

@@ -11,6 +11,7 @@ import yaml
 
 from . import safe_yaml
 from .errors import InputError, closest_name
+from .forces.laws import LAWS
 from .mesh import Mesh
 from .model import SpringMassModel
 from .safe_yaml import kind_of
@@ -61,6 +62,10 @@ def model_to_dict(model: SpringMassModel) -> dict:
                             "tie": model.element_tie.tolist(),
                             "region": model.element_region.tolist(),
                             "volumetric": model.element_volumetric}
+        laws = [LAWS[number] for number in model.element_law]
+        if any(number != 0 for number in model.element_law):
+            # one word when every element has the same law, else one per element
+            data["elements"]["law"] = laws[0] if len(set(laws)) == 1 else laws
     return data
 
 
@@ -73,7 +78,7 @@ MODEL_KEYS = {
                 ("group", "group_names", "rest_length", "tie", "region")),
     "regions": (("names",), ("tissues",)),
     "elements": ((), ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                      "volumetric")),
+                      "volumetric", "law")),
 }
 #: keys whose value is a single word, not a list
 _MODEL_SCALAR_KEYS = {("elements", "volumetric")}
@@ -89,7 +94,7 @@ _MODEL_FILE_KEY = {
     "region_tissues": ("regions", "tissues"), "effects": (None, "effects"),
     **{f"element_{key}": ("elements", key)
        for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                   "volumetric")},
+                   "volumetric", "law")},
 }
 
 
@@ -133,6 +138,8 @@ def check_model_dict(data, source: str = "<model>") -> None:
                                      f"{kind_of(value)}", source=source, key="fit",
                                      line=_line_of(where, key))
                 continue
+            if (section, key) == ("elements", "law") and isinstance(value, str):
+                continue               # one law for every element, or a list of them
             if (section, key) in _MODEL_SCALAR_KEYS:
                 if not isinstance(value, str):
                     raise InputError(f"expected a word, got {kind_of(value)}", source=source,
@@ -195,7 +202,8 @@ def _elements_from_dict(data: dict) -> dict:
         raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
                          key="elements")
     values = {f"element_{key}": elements.get(key)
-              for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region")}
+              for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
+                          "law")}
     # files written before the nodal volumetric form existed hold per-element elements
     values["element_volumetric"] = elements.get("volumetric", "element")
     return values

@@ -1,11 +1,15 @@
-"""The elements' law of the compiled kernels (:mod:`neurofuzzy.kernels.svk`): its derivatives,
-generated from the one function by complex step, against central differences of that function
-(forward) and by the dot-product test (reverse)."""
+"""The elements' laws of the compiled kernels (:mod:`neurofuzzy.kernels.laws`), for every law
+of :data:`neurofuzzy.forces.laws.LAWS`: the derivatives generated from the one function by
+complex step against central differences of that function (forward) and by the dot-product
+test (reverse); ``∂θ/∂G`` is the stress of unit pressure; the law is linear elasticity at small
+strain and equals its numpy form (:mod:`neurofuzzy.forces.laws`) at large strain."""
 
 import numpy as np
 import pytest
 
-from neurofuzzy.kernels.svk import stress, stress_jvp, stress_vjp
+from neurofuzzy.forces.laws import LAWS, law_number, law_numbers, law_parts
+from neurofuzzy.errors import InputError
+from neurofuzzy.kernels.laws import elastic, stress, stress_jvp, stress_vjp, volumetric
 
 
 def _inner(a, b):
@@ -14,31 +18,108 @@ def _inner(a, b):
     return float(a[:3] @ b[:3] + 2 * a[3:] @ b[3:])
 
 
+def _full(s):
+    return np.array([[s[0], s[3], s[4]], [s[3], s[1], s[5]], [s[4], s[5], s[2]]])
+
+
+def _six(m):
+    return (m[0, 0], m[1, 1], m[2, 2], m[0, 1], m[0, 2], m[1, 2])
+
+
+LAW_NUMBERS = list(range(len(LAWS)))
+
+
+@pytest.mark.parametrize("law", LAW_NUMBERS)
 @pytest.mark.parametrize("kappa", [0.0, 4e3])
-def test_the_generated_derivatives_of_the_law_are_its_derivatives(kappa):
-    rng = np.random.default_rng(5)
+def test_the_generated_derivatives_of_the_law_are_its_derivatives(law, kappa):
+    rng = np.random.default_rng(5 + law)
     G, Gd, dG, dGd, LS = (tuple(rng.normal(0, scale, 6)) for scale in (0.1, 2.0, 1.0, 1.0, 1.0))
-    shear, rate, pressure = 4e3, 10.0, 700.0
-    d_shear, d_rate, d_pressure = 300.0, 2.0, 50.0
+    shear, rate, pressure, pressure_rate = 4e3, 10.0, 700.0, -30.0
+    d = dict(shear=300.0, rate=2.0, pressure=50.0, pressure_rate=7.0, kappa=1e3)
     eps = 1e-6
 
-    def law(t):
-        move = lambda x, d: tuple(np.add(x, t * np.asarray(d)))  # noqa: E731
-        return np.array(stress(move(G, dG), move(Gd, dGd), shear + t * d_shear,
-                               rate + t * d_rate, pressure + t * d_pressure, kappa))
+    def law_at(t):
+        move = lambda x, dx: tuple(np.add(x, t * np.asarray(dx)))  # noqa: E731
+        return np.array(stress(law, move(G, dG), move(Gd, dGd), shear + t * d["shear"],
+                               rate + t * d["rate"], pressure + t * d["pressure"],
+                               pressure_rate + t * d["pressure_rate"], kappa + t * d["kappa"]))
 
-    central = (law(eps) - law(-eps)) / (2 * eps)
-    forward = np.array(stress_jvp(G, Gd, dG, dGd, shear, rate, kappa, d_shear, d_rate,
-                                  d_pressure))
-    assert np.allclose(forward, central, rtol=1e-7, atol=1e-7 * np.abs(central).max())
-    LG, LGd, l_shear, l_rate, l_pressure, l_kappa = stress_vjp(G, Gd, LS, shear, rate, kappa)
+    central = (law_at(eps) - law_at(-eps)) / (2 * eps)
+    forward = np.array(stress_jvp(law, G, Gd, dG, dGd, shear, rate, pressure, pressure_rate,
+                                  kappa, d["shear"], d["rate"], d["pressure"],
+                                  d["pressure_rate"], d["kappa"]))
+    assert np.allclose(forward, central, rtol=1e-6, atol=1e-7 * np.abs(central).max())
+    LG, LGd, *cotangents = stress_vjp(law, G, Gd, LS, shear, rate, pressure, pressure_rate,
+                                      kappa)
     # <L_S, dS> = <L_G, dG> + <L_Ġ, dĠ> + Σ l_c dc for every direction
     want = _inner(LS, forward)
-    got = (_inner(LG, dG) + _inner(LGd, dGd) + l_shear * d_shear + l_rate * d_rate
-           + l_pressure * d_pressure)
-    assert got == pytest.approx(want, rel=1e-10)
-    # κ's own cotangent: the derivative along dκ = 1 (through shear + 2κ G:G)
-    squared = _inner(G, G)
-    along_kappa = np.array(stress_jvp(G, Gd, (0.0,) * 6, (0.0,) * 6, shear, rate, kappa,
-                                      2 * squared, 0.0, 0.0))
-    assert l_kappa == pytest.approx(_inner(LS, along_kappa), rel=1e-10)
+    got = (_inner(LG, dG) + _inner(LGd, dGd)
+           + sum(l * dc for l, dc in zip(cotangents, d.values())))
+    assert got == pytest.approx(want, rel=1e-9)
+
+
+@pytest.mark.parametrize("law", LAW_NUMBERS)
+def test_the_volumetric_strain_s_gradient_is_the_stress_of_unit_pressure(law):
+    rng = np.random.default_rng(11)
+    G = tuple(rng.normal(0, 0.1, 6))
+    theta, N = volumetric(law, G)
+    eps = 1e-6
+    for k in range(6):
+        step = np.zeros(6)
+        step[k] = eps
+        slope = (volumetric(law, tuple(G + step))[0] - volumetric(law, tuple(G - step))[0]) / (
+            2 * eps)
+        assert slope == pytest.approx(N[k] * (1 if k < 3 else 2), rel=1e-7)
+    assert np.allclose(N, elastic(law, G, 0.0, 1.0)[0])
+
+
+@pytest.mark.parametrize("law", LAW_NUMBERS)
+def test_every_law_is_linear_elasticity_at_small_strain(law):
+    """``S ≈ 2μ ε + λ tr ε I`` for ``G = ε`` of size 1e-7."""
+    rng = np.random.default_rng(3)
+    eps = tuple(1e-7 * rng.normal(size=6))
+    mu, lam = 2e3, 9e3
+    theta = volumetric(law, eps)[0]
+    S = np.array(elastic(law, eps, 2 * mu, lam * theta)[0])
+    linear = 2 * mu * np.array(eps) + lam * sum(eps[:3]) * np.array([1, 1, 1, 0, 0, 0])
+    assert np.allclose(S, linear, rtol=1e-5, atol=1e-12 * lam)
+
+
+@pytest.mark.parametrize("law", LAW_NUMBERS)
+def test_the_compiled_law_is_the_numpy_law(law):
+    """At 30 % compression and shear, the kernels' stress is the numpy reference's."""
+    F = np.array([[1.0, 0.2, 0.0], [0.05, 1.0, 0.1], [0.0, 0.0, 0.7]])
+    G = 0.5 * (F.T @ F - np.eye(3))
+    parts = law_parts(np.array([law]), G[None])
+    shear, pressure = 4e3, 2e3
+    want = shear * parts.D[0] + pressure * parts.N[0]
+    got, theta = elastic(law, _six(G), shear, pressure)
+    assert np.allclose(_full(got), want, rtol=1e-12)
+    assert theta == pytest.approx(parts.theta[0], rel=1e-12)
+
+
+def test_the_neo_hookean_law_is_bonet_and_wood_s():
+    """``S = μ (I - C⁻¹) + λ ln J C⁻¹`` for ``π = λ ln J`` at J = 0.7 · 1.03."""
+    F = np.diag([1.0, 1.03, 0.7])
+    C = F.T @ F
+    mu, lam = 2e3, 9e3
+    G = _six(0.5 * (C - np.eye(3)))
+    log_j = np.log(np.linalg.det(F))
+    theta = volumetric(law_number("neo-hookean"), G)[0]
+    assert theta == pytest.approx(log_j, rel=1e-12)
+    S = _full(elastic(law_number("neo-hookean"), G, 2 * mu, lam * theta)[0])
+    inverse = np.linalg.inv(C)
+    assert np.allclose(S, mu * (np.eye(3) - inverse) + lam * log_j * inverse, rtol=1e-12)
+
+
+def test_law_names_numbers_and_mistakes():
+    assert law_number("Neo-Hookean") == law_number("neo_hookean") == law_number("nh") == 1
+    assert law_number("svk") == 0
+    assert list(law_numbers(["neo-hookean", "svk", "neo-hookean"], 3)) == [1, 0, 1]
+    assert list(law_numbers(None, 2)) == [0, 0]
+    with pytest.raises(InputError, match="did you mean 'neo-hookean'"):
+        law_number("neo-hooken")
+    with pytest.raises(InputError, match="expected 0..1"):
+        law_numbers(np.array([0, 5]), 2)
+    with pytest.raises(InputError, match="one per element"):
+        law_numbers(["svk"] * 2, 3)

@@ -41,13 +41,23 @@ def test_springs_with_tie_groups(starts):
     assert_same(*both(model, paper_cube_experiment(model), 2, starts))
 
 
+def _laws(name, rng, n):
+    """One law for all elements, or a random one per element ("mixed")."""
+    return rng.choice(["st-venant-kirchhoff", "neo-hookean"], n) if name == "mixed" else name
+
+
+LAWS = ["st-venant-kirchhoff", "neo-hookean", "mixed"]
+
+
+@pytest.mark.parametrize("law", LAWS)
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])
-def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric):
+def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric, law):
     mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     rng = np.random.default_rng(0)
     truth = SpringMassModel.continuum(
         mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra), poisson_ratio=0.45,
-        viscosity=2.0, density=1000.0, volumetric=volumetric).replace(
+        viscosity=2.0, density=1000.0, volumetric=volumetric,
+        law=_laws(law, rng, mesh.n_tetrahedra)).replace(
         element_tie=rng.integers(0, 3, mesh.n_tetrahedra))
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0.0, 0.01, -0.05)
@@ -150,8 +160,9 @@ def test_compiled_adjoint_of_springs_with_drag_and_gaps(starts):
     assert np.allclose(compiled[2].residuals, numpy_path[2].residuals, rtol=0, atol=1e-13)
 
 
+@pytest.mark.parametrize("law", LAWS)
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])
-def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric):
+def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, law):
     """The compiled adjoint of element models gives the numpy adjoint's cost and gradient:
     per-element E, ν and η in tie groups, an inclusion of elements (not learned), a node
     drag, seen through embedded markers with a gap."""
@@ -160,7 +171,7 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric):
     model = SpringMassModel.continuum(
         mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra),
         poisson_ratio=rng.uniform(0.3, 0.45, mesh.n_tetrahedra), viscosity=2.0,
-        density=1000.0, volumetric=volumetric).replace(
+        density=1000.0, volumetric=volumetric, law=_laws(law, rng, mesh.n_tetrahedra)).replace(
         element_tie=rng.integers(0, 4, mesh.n_tetrahedra)).with_effects(
         StiffInclusion([3000.0], elements=[3, 4, 10, 11], poisson_ratio=0.4),
         NodeDrag([0.05]))

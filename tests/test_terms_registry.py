@@ -3,7 +3,9 @@ tetrahedral elements (both volumetric forms) and every registered effect
 (:func:`neurofuzzy.effects.term_kinds`). A new term that registers itself is checked here
 with no new test: its force's state derivatives (forward tangent and adjoint) and its
 parameter derivatives (both directions) against central differences of its force, and, where
-the compiled kernels compute it, their forward sensitivities against the numpy reference.
+the compiled kernels compute it, their forward sensitivities against the numpy reference. The
+element models hold every material law (:data:`neurofuzzy.forces.laws.LAWS`), so a new law is
+checked here too.
 
 Each kind gives its own examples (:meth:`examples`) on a small spring network and a small
 element model, both with jittered nodes and random constants so that no symmetry hides an
@@ -16,6 +18,7 @@ import pytest
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.effects import term_kinds
 from neurofuzzy.experiment import simulate_experiment
+from neurofuzzy.forces.laws import LAWS
 from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.learn._compiled import compiled_possible
 from neurofuzzy.mesh import from_tetra, lattice
@@ -33,19 +36,24 @@ def _spring_model():
                            spring_damping=rng.uniform(0.005, 0.02, mesh.n_springs))
 
 
-def _element_model(volumetric):
+def _element_model(volumetric, law="st-venant-kirchhoff"):
     rng = np.random.default_rng(12)
     points, tetrahedra = kuhn_block((2, 2, 1), 0.01)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     k = mesh.n_tetrahedra
+    laws = rng.permutation(np.arange(k) % len(LAWS)) if law == "mixed" else law
     return SpringMassModel.continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
                                      poisson_ratio=rng.uniform(0.2, 0.45, k),
                                      viscosity=rng.uniform(1, 5, k), density=1000.0,
-                                     volumetric=volumetric)
+                                     volumetric=volumetric, law=laws)
 
 
+#: the element models: both volumetric forms, and every material law (one model with every
+#: law of :data:`neurofuzzy.forces.laws.LAWS` side by side, in each form)
 MODELS = {"springs": _spring_model(), "elements (nodal)": _element_model("nodal"),
-          "elements (element)": _element_model("element")}
+          "elements (element)": _element_model("element"),
+          "elements (every law, nodal)": _element_model("nodal", "mixed"),
+          "elements (every law, element)": _element_model("element", "mixed")}
 
 
 def _examples():

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..forces.laws import LAWS
 from .common import (Outputs, at_least, naming, positive, print_json, require_tissue,
                      vtu_series, written)
 
@@ -120,6 +121,11 @@ def mesh(args) -> int:
                          key="--tissue")
     model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
                        **regions).tied(args.tie)
+    if model.has_elements:
+        model = model.replace(element_law=args.law)
+    elif args.law != LAWS[0]:
+        raise InputError(f"a material law ({args.law!r}) is one of tetrahedral elements; "
+                         "this model is a spring network (--elements springs)", key="--law")
     with outputs:
         save_model(model, out)
     print(model.summary())

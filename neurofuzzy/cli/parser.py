@@ -6,6 +6,7 @@ import argparse
 
 from . import batch, data, fitting, misc, studio
 from .common import usage
+from ..forces.laws import LAWS
 from ..version import __version__
 
 #: where the experiment file (.npz) is documented in the repository
@@ -259,6 +260,9 @@ def build_parser() -> argparse.ArgumentParser:
                            "parameters are the tissue's Young's modulus, Poisson's ratio and "
                            "viscosity (a voxel lattice is split into six tetrahedra per cell); "
                            "springs: the paper's spring network on the mesh's edges")
+    mesh.add_argument("--law", choices=LAWS, default=LAWS[0],
+                      help="with --elements tetra: the elements' material law, "
+                           "st-venant-kirchhoff (default) or neo-hookean")
     mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups",
                       help="parameters shared by all items, per group (default) or none, "
                            "within each region; a fit with --start keeps it")
@@ -330,6 +334,11 @@ def _start_options(command) -> None:
                          help="with --rules: tetrahedral elements (the default when the "
                               "experiment has tetrahedra) or the spring network on the mesh's "
                               "edges (the paper's learner always uses springs)")
+    command.add_argument("--law", choices=LAWS, default=None,
+                         help="the tetrahedral elements' material law: st-venant-kirchhoff "
+                              "(SVK; softens beyond about 30 %% compression) or neo-hookean "
+                              "(stiffens as it is squeezed; the same E and ν at small strain) "
+                              "(default: the start model's own, else st-venant-kirchhoff)")
     command.add_argument("--tie", choices=("global", "groups", "none"), default=None,
                          help="share spring parameters: one value for all springs, one per "
                               "spring group, or one per spring, within each region (default: "

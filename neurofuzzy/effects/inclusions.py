@@ -83,7 +83,7 @@ class _Inclusion(SpringEffect):
     # -- elements -----------------------------------------------------------------------------
     def materials(self, model, extra: float) -> Materials:
         """The region's extra materials: Young's modulus ``extra`` on its elements, zero
-        elsewhere, the inclusion's Poisson's ratio, no viscosity."""
+        elsewhere, the inclusion's Poisson's ratio, no viscosity, the elements' own law."""
         if not model.has_elements:
             raise InputError("an inclusion of elements needs a model with tetrahedral elements",
                              key="elements")
@@ -91,7 +91,8 @@ class _Inclusion(SpringEffect):
         modulus[self.elements] = extra
         return Materials.from_values(tetrahedron_geometry(model.mesh), modulus,
                                      self.options["poisson_ratio"], np.zeros_like(modulus),
-                                     nodal=model.element_volumetric == "nodal")
+                                     nodal=model.element_volumetric == "nodal",
+                                     law=model.element_law)
 
     def force(self, model, positions, velocities):
         if not self.on_elements:

@@ -140,6 +140,8 @@ class Materials:
         ``λ`` and ``λβ = aη``.
     node_lam, node_lam_rate : (n_nodes,) float or None
         Their node averages ``Λ``, ``H`` (nodal volumetric form only).
+    law : (K,) int
+        Every element's material law (:mod:`neurofuzzy.forces.laws`).
     """
 
     geometry: TetrahedronGeometry
@@ -150,25 +152,30 @@ class Materials:
     lam_rate: np.ndarray
     node_lam: np.ndarray | None
     node_lam_rate: np.ndarray | None
+    law: np.ndarray
 
     @classmethod
     def of(cls, model) -> Materials:
         """The materials of ``model``'s elements."""
         return cls.from_values(tetrahedron_geometry(model.mesh), model.element_youngs_modulus,
                                model.element_poisson_ratio, model.element_viscosity,
-                               nodal=model.element_volumetric == "nodal")
+                               nodal=model.element_volumetric == "nodal",
+                               law=model.element_law)
 
     @classmethod
     def from_values(cls, geometry: TetrahedronGeometry, youngs_modulus, poisson_ratio,
-                    viscosity, *, nodal: bool) -> Materials:
+                    viscosity, *, nodal: bool, law=None) -> Materials:
         """Materials from per-element E, ν, η (K,) arrays (E and η may be zero: an extra
-        stiffness on part of a model, as an inclusion adds)."""
+        stiffness on part of a model, as an inclusion adds) and law numbers (K,) (default
+        St. Venant–Kirchhoff)."""
         E, eta = np.asarray(youngs_modulus, float), np.asarray(viscosity, float)
         a, b, _, _ = lame_factors(poisson_ratio)
         lam, lam_rate = E * a, eta * a
         return cls(geometry, nodal, 2 * E * b, 2 * eta * b, lam, lam_rate,
                    geometry.average @ lam if nodal else None,
-                   geometry.average @ lam_rate if nodal else None)
+                   geometry.average @ lam_rate if nodal else None,
+                   np.zeros(len(geometry.volume), np.intp) if law is None
+                   else np.asarray(law, np.intp))
 
     def pressure(self, theta, theta_rate):
         """``π`` (K, ...) from the volumetric strain and rate (K, ...)."""

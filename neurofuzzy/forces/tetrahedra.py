@@ -54,6 +54,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .base import ForceTerm
+from .laws import LawParts, law_parts
 from .tetra_geometry import (Materials, TetrahedronGeometry, broadcast_per_element,
                              corner_forces, lame_factors, tetrahedron_geometry)
 
@@ -81,6 +82,9 @@ class _State:
     green_rate: np.ndarray
     theta: np.ndarray
     theta_rate: np.ndarray
+    law: LawParts                # D, N, θ and their derivatives of every element's law
+    pressure: np.ndarray         # π (elastic) and π̇ (viscous), (K,) each
+    pressure_rate: np.ndarray
     stress: np.ndarray           # S
 
 
@@ -88,7 +92,8 @@ class TetrahedronForce(ForceTerm):
     """The tetrahedral elements of a model (stateless, like the springs: the parameters are
     the model's ``element_youngs_modulus``, ``element_poisson_ratio`` and
     ``element_viscosity``, the elements ``model.mesh.tetrahedra``, the volumetric form
-    ``model.element_volumetric``). :data:`TETRAHEDRA` is the one instance."""
+    ``model.element_volumetric``, the law of every element ``model.element_law``).
+    :data:`TETRAHEDRA` is the one instance."""
 
     name = "tetrahedra"
     parameters = {"youngs_modulus": "Pa", "poisson_ratio": "1", "viscosity": "Pa s"}
@@ -99,13 +104,16 @@ class TetrahedronForce(ForceTerm):
         F_rate = geometry.edges(velocities) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
-        theta = np.trace(green, axis1=1, axis2=2)
+        law = law_parts(materials.law, green)
         theta_rate = np.trace(green_rate, axis1=1, axis2=2)
-        pressure = materials.pressure(theta, theta_rate)
-        stress = (materials.shear[:, None, None] * green
+        pressure = materials.pressure(law.theta, np.zeros_like(theta_rate))
+        pressure_rate = materials.pressure(np.zeros_like(theta_rate), theta_rate)
+        stress = (materials.shear[:, None, None] * law.D
                   + materials.shear_rate[:, None, None] * green_rate
-                  + pressure[:, None, None] * np.eye(3))
-        return _State(F, F_rate, green, green_rate, theta, theta_rate, stress)
+                  + pressure[:, None, None] * law.N
+                  + pressure_rate[:, None, None] * np.eye(3))
+        return _State(F, F_rate, green, green_rate, law.theta, theta_rate, law, pressure,
+                      pressure_rate, stress)
 
     @staticmethod
     def _columns(geometry, first_piola: np.ndarray) -> np.ndarray:
@@ -141,12 +149,15 @@ class TetrahedronForce(ForceTerm):
         F, F_rate = state.F[:, None], state.F_rate[:, None]
         d_green = _sym(np.swapaxes(F, -1, -2) @ dF)
         d_green_rate = _sym(np.swapaxes(dF, -1, -2) @ F_rate + np.swapaxes(F, -1, -2) @ dF_rate)
-        d_theta = _trace_product(F, dF)                              # (K, P)
-        d_theta_rate = _trace_product(dF, F_rate) + _trace_product(F, dF_rate)
-        d_pressure = materials.pressure(d_theta, d_theta_rate)
-        d_stress = (broadcast_per_element(materials.shear, d_green) * d_green
+        d_theta = _trace_product(state.law.N[:, None], d_green)      # (K, P)
+        d_theta_rate = np.trace(d_green_rate, axis1=-2, axis2=-1)
+        d_pressure = materials.pressure(d_theta, np.zeros_like(d_theta))
+        d_pressure_rate = materials.pressure(np.zeros_like(d_theta), d_theta_rate)
+        d_stress = (broadcast_per_element(materials.shear, d_green) * state.law.dD(d_green)
                     + broadcast_per_element(materials.shear_rate, d_green) * d_green_rate
-                    + d_pressure[..., None, None] * np.eye(3))
+                    + d_pressure[..., None, None] * state.law.N[:, None]
+                    + broadcast_per_element(state.pressure, d_green) * state.law.dN(d_green)
+                    + d_pressure_rate[..., None, None] * np.eye(3))
         d_piola = dF @ state.stress[:, None] + F @ d_stress
         return geometry.scatter(self._columns(geometry, d_piola), len(positions))
 
@@ -157,15 +168,19 @@ class TetrahedronForce(ForceTerm):
         B = geometry.inverse_rest
         # cotangent of [f1 f2 f3] (columns): λ_{n_j} - λ_{n_0}
         lam_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
-        lam_stress = np.swapaxes(state.F, 1, 2) @ lam_piola
-        lam_green = _sym(materials.shear[:, None, None] * lam_stress)
-        lam_green_rate = _sym(materials.shear_rate[:, None, None] * lam_stress)
-        lam_theta, lam_theta_rate = materials.pressure_transpose(
-            np.trace(lam_stress, axis1=1, axis2=2))
+        lam_stress = _sym(np.swapaxes(state.F, 1, 2) @ lam_piola)
+        law = state.law
+        lam_theta = materials.pressure_transpose(_trace_product(lam_stress, law.N))[0]
+        lam_theta_rate = materials.pressure_transpose(np.trace(lam_stress, axis1=1,
+                                                               axis2=2))[1]
+        lam_green = (materials.shear[:, None, None] * law.dD(lam_stress)
+                     + state.pressure[:, None, None] * law.dN(lam_stress)
+                     + lam_theta[:, None, None] * law.N)
+        lam_green_rate = (materials.shear_rate[:, None, None] * lam_stress
+                          + lam_theta_rate[:, None, None] * np.eye(3))
         F, F_rate = state.F, state.F_rate
-        lam_F = (lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
-                 + lam_theta[:, None, None] * F + lam_theta_rate[:, None, None] * F_rate)
-        lam_F_rate = F @ lam_green_rate + lam_theta_rate[:, None, None] * F
+        lam_F = lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
+        lam_F_rate = F @ lam_green_rate
         # the adjoint of ``edges`` is ``scatter``: column j to node j+1, minus the sum to node 0
         n_nodes = len(positions)
         return (geometry.scatter(lam_F @ np.swapaxes(B, 1, 2), n_nodes),
@@ -181,11 +196,12 @@ class TetrahedronForce(ForceTerm):
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
                       model.element_viscosity)
         _, b, _, db = lame_factors(nu)
-        stresses = {"youngs_modulus": 2 * b[:, None, None] * state.green,
+        stresses = {"youngs_modulus": 2 * b[:, None, None] * state.law.D,
                     "viscosity": 2 * b[:, None, None] * state.green_rate,
                     "poisson_ratio": 2 * db[:, None, None] * (
-                        E[:, None, None] * state.green + eta[:, None, None] * state.green_rate),
-                    "pressure": np.broadcast_to(np.eye(3), state.F.shape)}
+                        E[:, None, None] * state.law.D + eta[:, None, None] * state.green_rate),
+                    "pressure": state.law.N,
+                    "pressure_rate": np.broadcast_to(np.eye(3), state.F.shape)}
         local = {name: corner_forces(self._columns(geometry, state.F @ stress))
                  for name, stress in stresses.items()}
         return materials, state, local
@@ -220,9 +236,12 @@ class TetrahedronForce(ForceTerm):
             part = geometry.corner_matrix(local[name], n_nodes) @ directions[name]
             total = part if total is None else total + part
         d_lam, d_lam_rate = self.lame_changes(model, directions)
-        d_pressure = materials.pressure_of_constants(d_lam, d_lam_rate, state.theta,
-                                                     state.theta_rate)
-        total = total + geometry.corner_matrix(local["pressure"], n_nodes) @ d_pressure
+        none = np.zeros_like(state.theta)
+        d_pressure = materials.pressure_of_constants(d_lam, 0 * d_lam_rate, state.theta, none)
+        d_pressure_rate = materials.pressure_of_constants(0 * d_lam, d_lam_rate, none,
+                                                          state.theta_rate)
+        total = (total + geometry.corner_matrix(local["pressure"], n_nodes) @ d_pressure
+                 + geometry.corner_matrix(local["pressure_rate"], n_nodes) @ d_pressure_rate)
         dense = total.toarray() if sp.issparse(total) else np.asarray(total)
         return dense.reshape(n_nodes, 3, -1).transpose(0, 2, 1)
 
@@ -234,9 +253,10 @@ class TetrahedronForce(ForceTerm):
         corners = cotangent[materials.geometry.nodes]                       # (K, 4, 3)
         out = {name: np.einsum("ejk,ejk->e", corners, values)
                for name, values in local.items()}
-        lam_pressure = out.pop("pressure")
-        g_lam, g_lam_rate = materials.constants_transpose(lam_pressure, state.theta,
-                                                          state.theta_rate)
+        g_lam = materials.constants_transpose(out.pop("pressure"), state.theta,
+                                              state.theta_rate)[0]
+        g_lam_rate = materials.constants_transpose(out.pop("pressure_rate"), state.theta,
+                                                   state.theta_rate)[1]
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
                       model.element_viscosity)
         a, _, da, _ = lame_factors(nu)

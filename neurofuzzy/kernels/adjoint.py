@@ -10,8 +10,8 @@ parameters (``log s``, ``log c`` per tie group; for elements the same derivative
 constants as the forward kernel). The arithmetic is that of the numpy reference path
 (:meth:`neurofuzzy.forces.SpringForce.vjp`, :func:`~neurofuzzy.forces.springs.central_vjp`,
 :meth:`neurofuzzy.forces.TetrahedronForce.state_vjp` and ``parameter_vjp``; tested equal):
-springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, elements ``S = shear G + shear_rate Ġ + π
-I``, a node drag ``-drag v`` and constant loads.
+springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, elements of each element's law
+(:mod:`neurofuzzy.kernels.laws`), a node drag ``-drag v`` and constant loads.
 
 Imported only when numba is installed (module-level, ``cache=True``).
 """
@@ -21,8 +21,8 @@ import numpy as np
 
 from .integrator import euler_update, euler_update_transpose
 from .stepper import _spring, spring_state
-from .sensitivity import _edges, _element_tangents, _full, _mul, _sym_t_mul
-from .svk import stress, stress_vjp
+from .sensitivity import _edges, _element_tangents, _full, _green, _mul, _sym_t_mul
+from .laws import stress, stress_vjp, volumetric
 
 
 @numba.njit(cache=True, nogil=True)
@@ -37,10 +37,10 @@ def _no_tangents(n_nodes):
 def _element_force(p, v, elements, blank, node_strain, force):
     """Element forces into ``force`` (the forward kernel's, without tangents; ``blank`` from
     :func:`_no_tangents`)."""
-    (tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+    (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
      node_lam, node_lam_rate) = elements
     none, pointer, columns, empty, per_node, node_pairs = blank
-    _element_tangents(p, v, none, none, tets, inverse_rest, volume, shear, shear_rate, lam,
+    _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, pointer, columns,
                       empty, empty, empty, empty, per_node, per_node, 0.0, -1, 0, node_strain,
                       node_pairs, force, none)
@@ -66,21 +66,17 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
     """``λ · ∂F/∂p`` into ``d_p``, ``λ · ∂F/∂v`` into ``d_v`` and ``λ · ∂F`` by every
     element's constants into ``g_*`` (per element; with the nodal form ``g_lam`` and
     ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the cotangent ``λ = lam_force``."""
-    (tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+    (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
      node_lam, node_lam_rate) = elements
-    if nodal:                      # the node averages θ̄, θ̄̇ and the node pressures
+    if nodal:                      # the node averages θ̄, θ̄̇
         node_strain[:] = 0.0
         for e in range(tets.shape[0]):
             n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-            F = _edges(p, n0, n1, n2, n3, inverse_rest[e])
-            Fd = _edges(v, n0, n1, n2, n3, inverse_rest[e])
+            G, Gd = _green(_edges(p, n0, n1, n2, n3, inverse_rest[e]),
+                           _edges(v, n0, n1, n2, n3, inverse_rest[e]))
             corner = 0.25 * volume[e]
-            theta = corner * (0.5 * (F[0] * F[0] + F[1] * F[1] + F[2] * F[2] + F[3] * F[3]
-                                     + F[4] * F[4] + F[5] * F[5] + F[6] * F[6] + F[7] * F[7]
-                                     + F[8] * F[8]) - 1.5)
-            rate = corner * (F[0] * Fd[0] + F[1] * Fd[1] + F[2] * Fd[2] + F[3] * Fd[3]
-                             + F[4] * Fd[4] + F[5] * Fd[5] + F[6] * Fd[6] + F[7] * Fd[7]
-                             + F[8] * Fd[8])
+            theta = corner * volumetric(law[e], G)[0]
+            rate = corner * (Gd[0] + Gd[1] + Gd[2])
             for node in (n0, n1, n2, n3):
                 node_strain[node, 0] += theta
                 node_strain[node, 1] += rate
@@ -88,26 +84,26 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
             if node_volume[i] > 0.0:
                 node_strain[i, 0] /= node_volume[i]
                 node_strain[i, 1] /= node_volume[i]
-            node_adjoint[i] = 0.0
+            node_adjoint[i, 0] = 0.0
+            node_adjoint[i, 1] = 0.0
     for e in range(tets.shape[0]):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
         F = _edges(p, n0, n1, n2, n3, B)
         Fd = _edges(v, n0, n1, n2, n3, B)
-        C = _sym_t_mul(F, F)
-        G = (0.5 * (C[0] - 1.0), 0.5 * (C[1] - 1.0), 0.5 * (C[2] - 1.0), 0.5 * C[3],
-             0.5 * C[4], 0.5 * C[5])
-        Gd = _sym_t_mul(F, Fd)
-        theta = G[0] + G[1] + G[2]
+        G, Gd = _green(F, Fd)
+        theta, N = volumetric(law[e], G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         if nodal:
             pressure = 0.0
+            pressure_rate = 0.0
             for node in (n0, n1, n2, n3):
-                pressure += 0.25 * (node_lam[node] * node_strain[node, 0]
-                                    + node_lam_rate[node] * node_strain[node, 1])
+                pressure += 0.25 * node_lam[node] * node_strain[node, 0]
+                pressure_rate += 0.25 * node_lam_rate[node] * node_strain[node, 1]
         else:
-            pressure = lam[e] * theta + lam_rate[e] * theta_rate
-        S = _full(stress(G, Gd, shear[e], shear_rate[e], pressure, 0.0))
+            pressure = lam[e] * theta
+            pressure_rate = lam_rate[e] * theta_rate
+        S = _full(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, 0.0))
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]
         Lc = (lam_force[n1, 0] - lam_force[n0, 0], lam_force[n2, 0] - lam_force[n0, 0],
@@ -120,22 +116,24 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         LP = (scale * LB[0], scale * LB[1], scale * LB[2], scale * LB[3], scale * LB[4],
               scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
-        LG, LGd, l_shear, l_shear_rate, l_pressure, _ = stress_vjp(G, Gd, LS, shear[e],
-                                                                   shear_rate[e], 0.0)
+        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, _ = stress_vjp(
+            law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate, 0.0)
         g_shear[e] += l_shear
         g_shear_rate[e] += l_shear_rate
         if nodal:
             l_theta = 0.0
             l_theta_rate = 0.0
             for node in (n0, n1, n2, n3):
-                node_adjoint[node] += 0.25 * l_pressure
+                node_adjoint[node, 0] += 0.25 * l_pressure
+                node_adjoint[node, 1] += 0.25 * l_pressure_rate
         else:
             l_theta = lam[e] * l_pressure
-            l_theta_rate = lam_rate[e] * l_pressure
+            l_theta_rate = lam_rate[e] * l_pressure_rate
             g_lam[e] += l_pressure * theta
-            g_lam_rate[e] += l_pressure * theta_rate
-        # the volumetric part of the strains' cotangents: π = λ θ + λβ θ̇ (per element)
-        LG = _full((LG[0] + l_theta, LG[1] + l_theta, LG[2] + l_theta, LG[3], LG[4], LG[5]))
+            g_lam_rate[e] += l_pressure_rate * theta_rate
+        # the volumetric part of the strains' cotangents: π = λ θ(G), π̇ = λβ tr Ġ
+        LG = _full((LG[0] + l_theta * N[0], LG[1] + l_theta * N[1], LG[2] + l_theta * N[2],
+                    LG[3] + l_theta * N[3], LG[4] + l_theta * N[4], LG[5] + l_theta * N[5]))
         LGd = _full((LGd[0] + l_theta_rate, LGd[1] + l_theta_rate, LGd[2] + l_theta_rate,
                      LGd[3], LGd[4], LGd[5]))
         # L_F = L_P S + F L_G + Ḟ L_Ġ, L_Ḟ = F L_Ġ
@@ -151,11 +149,11 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         _pull_columns(d_v, _mul(F, LGd), B, n0, n1, n2, n3)
     if not nodal:
         return
-    # π_e = ¼ Σ_a (Λ_a θ̄_a + H_a θ̄̇_a), θ̄_a = Σ_e (V_e/4) θ_e / V_a: the node pressures'
-    # cotangents to Λ, H and back to every element's θ and θ̇
+    # π_e = ¼ Σ_a Λ_a θ̄_a, π̇_e = ¼ Σ_a H_a θ̄̇_a, θ̄_a = Σ_e (V_e/4) θ_e / V_a: the node
+    # pressures' cotangents to Λ, H and back to every element's θ and θ̇
     for i in range(node_strain.shape[0]):
-        g_lam[i] += node_adjoint[i] * node_strain[i, 0]
-        g_lam_rate[i] += node_adjoint[i] * node_strain[i, 1]
+        g_lam[i] += node_adjoint[i, 0] * node_strain[i, 0]
+        g_lam_rate[i] += node_adjoint[i, 1] * node_strain[i, 1]
     for e in range(tets.shape[0]):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
@@ -164,17 +162,19 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         l_theta_rate = 0.0
         for node in (n0, n1, n2, n3):
             if node_volume[node] > 0.0:
-                share = corner / node_volume[node] * node_adjoint[node]
-                l_theta += share * node_lam[node]
-                l_theta_rate += share * node_lam_rate[node]
+                share = corner / node_volume[node]
+                l_theta += share * node_adjoint[node, 0] * node_lam[node]
+                l_theta_rate += share * node_adjoint[node, 1] * node_lam_rate[node]
         F = _edges(p, n0, n1, n2, n3, B)
         Fd = _edges(v, n0, n1, n2, n3, B)
-        # θ = ½ |F|² - 3/2, θ̇ = F : Ḟ
-        LF = (l_theta * F[0] + l_theta_rate * Fd[0], l_theta * F[1] + l_theta_rate * Fd[1],
-              l_theta * F[2] + l_theta_rate * Fd[2], l_theta * F[3] + l_theta_rate * Fd[3],
-              l_theta * F[4] + l_theta_rate * Fd[4], l_theta * F[5] + l_theta_rate * Fd[5],
-              l_theta * F[6] + l_theta_rate * Fd[6], l_theta * F[7] + l_theta_rate * Fd[7],
-              l_theta * F[8] + l_theta_rate * Fd[8])
+        N = volumetric(law[e], _green(F, Fd)[0])[1]
+        # ∂θ/∂F = F N (dG = sym(Fᵀ dF)), θ̇ = tr Ġ = F : Ḟ
+        FN = _mul(F, _full(N))
+        LF = (l_theta * FN[0] + l_theta_rate * Fd[0], l_theta * FN[1] + l_theta_rate * Fd[1],
+              l_theta * FN[2] + l_theta_rate * Fd[2], l_theta * FN[3] + l_theta_rate * Fd[3],
+              l_theta * FN[4] + l_theta_rate * Fd[4], l_theta * FN[5] + l_theta_rate * Fd[5],
+              l_theta * FN[6] + l_theta_rate * Fd[6], l_theta * FN[7] + l_theta_rate * Fd[7],
+              l_theta * FN[8] + l_theta_rate * Fd[8])
         LFd = (l_theta_rate * F[0], l_theta_rate * F[1], l_theta_rate * F[2],
                l_theta_rate * F[3], l_theta_rate * F[4], l_theta_rate * F[5],
                l_theta_rate * F[6], l_theta_rate * F[7], l_theta_rate * F[8])
@@ -232,7 +232,7 @@ def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frame
     g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
     has_elements = elements[0].shape[0] > 0
     node_strain = np.zeros((n_nodes, 2))
-    node_adjoint = np.zeros(n_nodes)
+    node_adjoint = np.zeros((n_nodes, 2))
     lam_p = np.zeros((n_nodes, 3))
     lam_v = np.zeros((n_nodes, 3))
     lam_force = np.empty((n_nodes, 3))

@@ -9,9 +9,10 @@ reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_tem
 - springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, parameters ``log s`` and ``log c`` of
   the spring's tie group (columns ``stiffness_column[j]``, ``damping_column[j]``, -1 when
   not learned);
-- tetrahedral elements ``S = 2μ (G + β Ġ) + π I`` (module :mod:`neurofuzzy.forces.tetrahedra`),
-  parameters ``log E``, ``logit 2ν`` and ``log η`` of the element's tie group; the volumetric
-  ``π`` per element or from the node averages (two passes over the elements).
+- tetrahedral elements of each element's law (:mod:`neurofuzzy.kernels.laws`; module
+  :mod:`neurofuzzy.forces.tetrahedra`), parameters ``log E``, ``logit 2ν`` and ``log η`` of
+  the element's tie group; the volumetric ``π``, ``π̇`` per element or from the node averages
+  (two passes over the elements).
 
 Layout for speed: the tangents are ``(N, 3, P)``, parameters last, so the loop over the
 parameters of one spring reads and writes contiguous memory without a branch (it vectorises);
@@ -26,7 +27,7 @@ import numpy as np
 
 from .integrator import euler_update
 from .stepper import _spring
-from .svk import stress, stress_jvp
+from .laws import stress, stress_jvp, volumetric
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
@@ -171,13 +172,21 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
 
 
 # -- tetrahedral elements ----------------------------------------------------------------------
+@numba.njit(cache=True, nogil=True, inline="always")
+def _green(F, Fd):
+    """``(G, Ġ)`` of ``F``, ``Ḟ``: ``½(FᵀF - I)`` and ``sym(FᵀḞ)``, six entries each."""
+    C = _sym_t_mul(F, F)
+    return ((0.5 * (C[0] - 1.0), 0.5 * (C[1] - 1.0), 0.5 * (C[2] - 1.0), 0.5 * C[3],
+             0.5 * C[4], 0.5 * C[5]), _sym_t_mul(F, Fd))
+
+
 @numba.njit(cache=True, nogil=True)
-def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_lam,
+def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
                     node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
                     d_node_strain):
-    """Nodal volumetric form: ``node_strain[:, 0]`` the node pressures ``Λ θ̄ + H θ̄̇`` and
-    ``d_node_strain[:, q, 0]`` their tangents (the node averages of ``θ = tr G`` and ``θ̇``
-    and of their tangents first)."""
+    """Nodal volumetric form: ``node_strain[:, 0]``, ``[:, 1]`` the node pressures ``Λ θ̄``
+    and ``H θ̄̇`` and ``d_node_strain[:, q, :]`` their tangents (the node averages of the
+    laws' ``θ`` and of ``θ̇ = tr Ġ`` and of their tangents first)."""
     n_params = tp.shape[2]
     node_strain[:] = 0.0
     d_node_strain[:] = 0.0
@@ -186,23 +195,26 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_
         B = inverse_rest[e]
         F = _edges(p, n0, n1, n2, n3, B)
         Fd = _edges(v, n0, n1, n2, n3, B)
-        theta = 0.5 * _dot(F, F) - 1.5                   # tr G = ½ (|F|² - 3)
-        theta_rate = _dot(F, Fd)
+        G, Gd = _green(F, Fd)
+        theta, N = volumetric(law[e], G)
+        theta_rate = Gd[0] + Gd[1] + Gd[2]
         corner = 0.25 * volume[e]
         for node in (n0, n1, n2, n3):
             node_strain[node, 0] += corner * theta
             node_strain[node, 1] += corner * theta_rate
         if n_params == 0:
             continue
-        # dθ = F : dF = Σ dDs ∘ (F Bᵀ), and dθ̇ = dF : Ḟ + F : dḞ likewise
+        # dθ = N : dG with dG = sym(Fᵀ dF), so dθ = dF : (F N) = Σ dDs ∘ (F N Bᵀ);
+        # dθ̇ = dF : Ḟ + F : dḞ likewise
         Bt = (B[0, 0], B[1, 0], B[2, 0], B[0, 1], B[1, 1], B[2, 1], B[0, 2], B[1, 2], B[2, 2])
-        A = _mul(F, Bt)
+        A = _mul(_mul(F, _full(N)), Bt)
+        Ar = _mul(F, Bt)
         Ad = _mul(Fd, Bt)
         for q in range(n_params):
             D = _differences(tp, n0, n1, n2, n3, q)
             W = _differences(tv, n0, n1, n2, n3, q)
             d_theta = corner * _dot(D, A)
-            d_theta_rate = corner * (_dot(D, Ad) + _dot(W, A))
+            d_theta_rate = corner * (_dot(D, Ad) + _dot(W, Ar))
             for node in (n0, n1, n2, n3):
                 d_node_strain[node, q, 0] += d_theta
                 d_node_strain[node, q, 1] += d_theta_rate
@@ -210,29 +222,30 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_
         if node_volume[i] > 0.0:
             theta = node_strain[i, 0] / node_volume[i]
             theta_rate = node_strain[i, 1] / node_volume[i]
-            node_strain[i, 0] = node_lam[i] * theta + node_lam_rate[i] * theta_rate
+            node_strain[i, 0] = node_lam[i] * theta
+            node_strain[i, 1] = node_lam_rate[i] * theta_rate
             for q in range(n_params):
-                d_node_strain[i, q, 0] = (
-                    (node_lam[i] * d_node_strain[i, q, 0]
-                     + node_lam_rate[i] * d_node_strain[i, q, 1]) / node_volume[i]
-                    + d_node_lam[i, first + q] * theta
-                    + d_node_lam_rate[i, first + q] * theta_rate)
+                d_node_strain[i, q, 0] = (node_lam[i] * d_node_strain[i, q, 0] / node_volume[i]
+                                          + d_node_lam[i, first + q] * theta)
+                d_node_strain[i, q, 1] = (node_lam_rate[i] * d_node_strain[i, q, 1]
+                                          / node_volume[i]
+                                          + d_node_lam_rate[i, first + q] * theta_rate)
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate, lam,
+def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
                       element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
                       d_node_lam_rate, kappa, kappa_column, first, node_strain, d_node_strain,
                       force, d_force):
-    """Element forces and their tangents. ``S = shear G + shear_rate Ġ + π I
-    + 2 κ (G:G) G`` (the last term: strain stiffening, ``kappa_column`` its parameter or -1);
-    the element's parameter columns (CSR ``element_ptr``/``element_column``, columns
-    ascending) carry the derivatives of its four constants, and with ``nodal`` those of the
-    node averages (``d_node_lam*``). Tangent ``q`` is that of parameter ``first + q``."""
+    """Element forces and their tangents: each element's law (:mod:`.laws`) with strain
+    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1); the element's
+    parameter columns (CSR ``element_ptr``/``element_column``, columns ascending) carry the
+    derivatives of its four constants, and with ``nodal`` those of the node averages
+    (``d_node_lam*``). Tangent ``q`` is that of parameter ``first + q``."""
     n_params = tp.shape[2]
     if nodal:
-        _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, node_volume, node_lam,
+        _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
                         node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
                         d_node_strain)
     for e in range(tets.shape[0]):
@@ -240,18 +253,19 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
         B = inverse_rest[e]
         F = _edges(p, n0, n1, n2, n3, B)
         Fd = _edges(v, n0, n1, n2, n3, B)
-        C = _sym_t_mul(F, F)                             # FᵀF, six entries
-        G = (0.5 * (C[0] - 1.0), 0.5 * (C[1] - 1.0), 0.5 * (C[2] - 1.0), 0.5 * C[3],
-             0.5 * C[4], 0.5 * C[5])
-        Gd = _sym_t_mul(F, Fd)                            # sym(FᵀḞ)
-        theta = G[0] + G[1] + G[2]
+        G, Gd = _green(F, Fd)
+        theta, N = volumetric(law[e], G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
                                + node_strain[n3, 0])
+            pressure_rate = 0.25 * (node_strain[n0, 1] + node_strain[n1, 1]
+                                    + node_strain[n2, 1] + node_strain[n3, 1])
         else:
-            pressure = lam[e] * theta + lam_rate[e] * theta_rate
-        S = _full(stress(G, Gd, shear[e], shear_rate[e], pressure, kappa))
+            pressure = lam[e] * theta
+            pressure_rate = lam_rate[e] * theta_rate
+        S = _full(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate,
+                         kappa))
         scale = -volume[e]
         _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
         if n_params == 0:
@@ -260,33 +274,35 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rat
         while entry < stop and element_column[entry] < first:
             entry += 1
         for q in range(n_params):
-            # the state's part: dS = elastic dG + viscous dĠ + dπ I + 4κ (G:dG) G
+            # the state's part: dG, dĠ and the pressures' changes through θ, θ̇
             dF = _edges_of_tangent(tp, n0, n1, n2, n3, B, q)
             dFd = _edges_of_tangent(tv, n0, n1, n2, n3, B, q)
             dG = _sym_t_mul(F, dF)
             dGa = _sym_t_mul(dF, Fd)
             dGb = _sym_t_mul(F, dFd)
+            dGd = (dGa[0] + dGb[0], dGa[1] + dGb[1], dGa[2] + dGb[2], dGa[3] + dGb[3],
+                   dGa[4] + dGb[4], dGa[5] + dGb[5])
             if nodal:
                 d_pressure = 0.25 * (d_node_strain[n0, q, 0] + d_node_strain[n1, q, 0]
                                      + d_node_strain[n2, q, 0] + d_node_strain[n3, q, 0])
+                d_pressure_rate = 0.25 * (d_node_strain[n0, q, 1] + d_node_strain[n1, q, 1]
+                                          + d_node_strain[n2, q, 1] + d_node_strain[n3, q, 1])
             else:
-                d_pressure = (lam[e] * (dG[0] + dG[1] + dG[2])
-                              + lam_rate[e] * (dGa[0] + dGa[1] + dGa[2] + dGb[0] + dGb[1]
-                                               + dGb[2]))
+                d_pressure = lam[e] * _sym_dot(N, dG)
+                d_pressure_rate = lam_rate[e] * (dGd[0] + dGd[1] + dGd[2])
             shear_part = 0.0       # the element's own constants, when q is one of them
             rate_part = 0.0
             while entry < stop and element_column[entry] == first + q:
                 shear_part += d_shear[entry]
                 rate_part += d_shear_rate[entry]
                 if not nodal:
-                    d_pressure += d_lam[entry] * theta + d_lam_rate[entry] * theta_rate
+                    d_pressure += d_lam[entry] * theta
+                    d_pressure_rate += d_lam_rate[entry] * theta_rate
                 entry += 1
-            if first + q == kappa_column:
-                shear_part += 2.0 * _sym_dot(G, G)
-            dGd = (dGa[0] + dGb[0], dGa[1] + dGb[1], dGa[2] + dGb[2], dGa[3] + dGb[3],
-                   dGa[4] + dGb[4], dGa[5] + dGb[5])
-            dS = _full(stress_jvp(G, Gd, dG, dGd, shear[e], shear_rate[e], kappa, shear_part,
-                                  rate_part, d_pressure))
+            d_kappa = 1.0 if first + q == kappa_column else 0.0
+            dS = _full(stress_jvp(law[e], G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
+                                  pressure_rate, kappa, shear_part, rate_part, d_pressure,
+                                  d_pressure_rate, d_kappa))
             dFS = _mul(dF, S)                            # dP = dF S + F dS
             FdS = _mul(F, dS)
             dP = (dFS[0] + FdS[0], dFS[1] + FdS[1], dFS[2] + FdS[2], dFS[3] + FdS[3],
@@ -306,7 +322,7 @@ def _edges_of_tangent(x, n0, n1, n2, n3, B, q):
 # -- one experiment ----------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
-            inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+            inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
             node_lam, node_lam_rate, element_ptr, element_column, d_shear, d_shear_rate, d_lam,
             d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column, drag, drag_column,
             force_direction,
@@ -358,11 +374,11 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
                              damping_column, first, force, d_force, work)
             if tets.shape[0]:
-                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, shear, shear_rate,
-                                  lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                                  element_ptr, element_column, d_shear, d_shear_rate, d_lam,
-                                  d_lam_rate, d_node_lam, d_node_lam_rate, kappa,
-                                  kappa_column, first, node_strain, d_node_strain, force,
+                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear,
+                                  shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
+                                  node_lam_rate, element_ptr, element_column, d_shear,
+                                  d_shear_rate, d_lam, d_lam_rate, d_node_lam,
+                                  d_node_lam_rate, kappa, kappa_column, first, node_strain, d_node_strain, force,
                                   d_force)
             euler_update(p, v, force, weight, h)
             # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)

@@ -1,10 +1,10 @@
 """Compiled inner loops (numba) of :class:`neurofuzzy._steppers.NumbaStepper`.
 
-Imported only when numba is installed; module-level so that ``cache=True`` keeps the machine
-code between runs. The arithmetic is that of :class:`neurofuzzy.forces.SpringForce` and
-:class:`neurofuzzy.forces.TetrahedronForce` (tested equal); the elements' stress is the law of
-:mod:`neurofuzzy.kernels.svk` (``S = 2μ G + 2μβ Ġ + π I``) with ``π = λ θ + λβ θ̇`` (per
-element) or the mean of the node-averaged ``Λ θ̄ + H θ̄̇`` over the element's corners (nodal
+Module-level so that ``cache=True`` keeps the machine code between runs. The arithmetic is that
+of :class:`neurofuzzy.forces.SpringForce` and :class:`neurofuzzy.forces.TetrahedronForce`
+(tested equal); the elements' stress is that of :mod:`neurofuzzy.kernels.laws` (each element's
+law, ``S = S_law(G; 2μ, π) + 2μβ Ġ + π̇ I``) with ``π = λ θ``, ``π̇ = λβ tr Ġ`` (per element)
+or the means of the node-averaged ``Λ θ̄`` and ``H θ̄̇`` over the element's corners (nodal
 volumetric form); the update is :func:`neurofuzzy.kernels.integrator.euler_update`.
 """
 
@@ -12,7 +12,7 @@ import numba
 import numpy as np
 
 from .integrator import euler_update
-from .svk import stress
+from .laws import stress, volumetric
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -57,11 +57,35 @@ def _row(x, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20, b21, b22):
             d1 * b02 + d2 * b12 + d3 * b22)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _strains(p, v, n0, n1, n2, n3, b00, b01, b02, b10, b11, b12, b20, b21, b22):
+    """``(G, Ġ)``: the Green strain ``½(FᵀF - I)`` and its rate ``sym(FᵀḞ)`` (six entries
+    each) of ``F = Ds B``, ``Ḟ = Ḋs B`` (row r = coordinate r)."""
+    f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    G = (0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0),
+         0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0),
+         0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0),
+         0.5 * (f00 * f01 + f10 * f11 + f20 * f21),
+         0.5 * (f00 * f02 + f10 * f12 + f20 * f22),
+         0.5 * (f01 * f02 + f11 * f12 + f21 * f22))
+    Gd = (f00 * g00 + f10 * g10 + f20 * g20, f01 * g01 + f11 * g11 + f21 * g21,
+          f02 * g02 + f12 * g12 + f22 * g22,
+          0.5 * (f00 * g01 + f10 * g11 + f20 * g21 + g00 * f01 + g10 * f11 + g20 * f21),
+          0.5 * (f00 * g02 + f10 * g12 + f20 * g22 + g00 * f02 + g10 * f12 + g20 * f22),
+          0.5 * (f01 * g02 + f11 * g12 + f21 * g22 + g01 * f02 + g11 * f12 + g21 * f22))
+    return G, Gd
+
+
 @numba.njit(cache=True, nogil=True)
-def _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate, nodal,
-                    node_volume, node_lam, node_lam_rate, node_strain, force):
-    """Element forces into ``force``; with ``nodal`` the volumetric stress comes from the
-    node averages of ``θ`` and ``θ̇`` (one pass for the averages, one for the forces).
+def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate,
+                    nodal, node_volume, node_lam, node_lam_rate, node_strain, force):
+    """Element forces into ``force``; with ``nodal`` the volumetric stresses come from the
+    node averages of ``θ`` and ``θ̇ = tr Ġ`` (one pass for the averages, one for the forces).
     Written with scalars (F, Ḟ, S in registers): 1.6 times the rate of 3×3 work arrays."""
     n_elements = tets.shape[0]
     if nodal:
@@ -72,15 +96,10 @@ def _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, la
             b00, b01, b02 = B[0, 0], B[0, 1], B[0, 2]
             b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
             b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
-            theta = -1.5
-            theta_rate = 0.0
-            for r in range(3):
-                fa, fb, fc = _row(p, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20,
-                                  b21, b22)
-                ga, gb, gc = _row(v, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20,
-                                  b21, b22)
-                theta += 0.5 * (fa * fa + fb * fb + fc * fc)    # tr G = ½ (|F|² - 3)
-                theta_rate += fa * ga + fb * gb + fc * gc
+            G, Gd = _strains(p, v, n0, n1, n2, n3, b00, b01, b02, b10, b11, b12, b20, b21,
+                             b22)
+            theta = volumetric(law[e], G)[0]
+            theta_rate = Gd[0] + Gd[1] + Gd[2]
             corner = 0.25 * volume[e]
             node_strain[n0, 0] += corner * theta
             node_strain[n1, 0] += corner * theta
@@ -92,40 +111,28 @@ def _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, la
             node_strain[n3, 1] += corner * theta_rate
         for i in range(node_strain.shape[0]):
             if node_volume[i] > 0.0:
-                node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
-                                     + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
+                node_strain[i, 0] *= node_lam[i] / node_volume[i]
+                node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
     for e in range(n_elements):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
         b00, b01, b02 = B[0, 0], B[0, 1], B[0, 2]
         b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
         b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
-        # F = Ds B, Ḟ = Ḋs B, row r = coordinate r
         f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-        g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-        g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-        g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-        # G = ½(FᵀF - I), Ġ = sym(FᵀḞ) (columns i, k of F), six entries each
-        G = (0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0),
-             0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0),
-             0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0),
-             0.5 * (f00 * f01 + f10 * f11 + f20 * f21),
-             0.5 * (f00 * f02 + f10 * f12 + f20 * f22),
-             0.5 * (f01 * f02 + f11 * f12 + f21 * f22))
-        Gd = (f00 * g00 + f10 * g10 + f20 * g20, f01 * g01 + f11 * g11 + f21 * g21,
-              f02 * g02 + f12 * g12 + f22 * g22,
-              0.5 * (f00 * g01 + f10 * g11 + f20 * g21 + g00 * f01 + g10 * f11 + g20 * f21),
-              0.5 * (f00 * g02 + f10 * g12 + f20 * g22 + g00 * f02 + g10 * f12 + g20 * f22),
-              0.5 * (f01 * g02 + f11 * g12 + f21 * g22 + g01 * f02 + g11 * f12 + g21 * f22))
+        G, Gd = _strains(p, v, n0, n1, n2, n3, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
                                + node_strain[n3, 0])
+            pressure_rate = 0.25 * (node_strain[n0, 1] + node_strain[n1, 1]
+                                    + node_strain[n2, 1] + node_strain[n3, 1])
         else:
-            pressure = (lam[e] * (G[0] + G[1] + G[2])
-                        + lam_rate[e] * (Gd[0] + Gd[1] + Gd[2]))
-        s00, s11, s22, s01, s02, s12 = stress(G, Gd, shear[e], shear_rate[e], pressure, 0.0)
+            pressure = lam[e] * volumetric(law[e], G)[0]
+            pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
+        s00, s11, s22, s01, s02, s12 = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
+                                              pressure_rate, 0.0)
         # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
         scale = -volume[e]
         for r in range(3):
@@ -148,9 +155,9 @@ def _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, la
 
 
 @numba.njit(cache=True, nogil=True)
-def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, shear, shear_rate,
-            lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, weight,
-            load, h, n_steps, force):
+def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, shear,
+            shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+            weight, load, h, n_steps, force):
     n_springs, n_nodes = a.shape[0], p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -159,19 +166,20 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, sh
         for j in range(n_springs):
             _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
         if tets.shape[0]:
-            _element_forces(p, v, tets, inverse_rest, volume, shear, shear_rate, lam, lam_rate,
-                            nodal, node_volume, node_lam, node_lam_rate, node_strain, force)
+            _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, lam,
+                            lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+                            force)
         euler_update(p, v, force, weight, h)
 
 
 @numba.njit(cache=True, nogil=True)
-def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, shear, shear_rate,
-           lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, weight,
-           loads, h, n_frames, substeps, force, positions, velocities):
+def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, shear,
+           shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+           weight, loads, h, n_frames, substeps, force, positions, velocities):
     positions[0] = p
     velocities[0] = v
     for t in range(1, n_frames):
-        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, shear,
+        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, shear,
                 shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
                 node_strain, weight, loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
         if not np.isfinite(p.sum()):

@@ -78,7 +78,8 @@ class CompiledModel:
         n_nodes = model.n_nodes
         if not model.has_elements:
             empty, none = np.zeros(0), np.zeros(0, np.intp)
-            return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), *(empty,) * 5, False,
+            return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), empty, none,
+                    *(empty,) * 4, False,
                     *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
                     np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1)
         own = Materials.of(model)
@@ -126,6 +127,7 @@ class CompiledModel:
             node_values = (np.zeros(n_nodes),) * 3
         return (np.array(geometry.nodes, np.intp, order="C"),
                 np.ascontiguousarray(geometry.inverse_rest), geometry.volume,
+                np.ascontiguousarray(own.law, np.intp),
                 *(np.ascontiguousarray(total[key], float)
                   for key in ("shear", "shear_rate", "lam", "lam_rate")),
                 own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),

@@ -22,7 +22,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     compiled = CompiledModel(param, model)
     a, b, stiffness, damping, rest = compiled.springs[:5]
     drag, _, _, constant = compiled.effects
-    elements = compiled.elements[:11]       # the elements and their constants
+    elements = compiled.elements[:12]       # the elements and their constants
     n_frames, observation = experiment.n_frames, experiment.observation
     frames = sorted(set(int(t) for t in starts) | {0})
     start_index = np.full(n_frames, -1, np.intp)
@@ -53,7 +53,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
         np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
         sensitivity.n_nodes, n_frames, 3), 0, 1) * scale)
     d_stiffness, d_damping = np.zeros(len(a)), np.zeros(len(a))
-    n_elements, nodal = len(elements[0]), elements[7]
+    n_elements, nodal = len(elements[0]), elements[8]
     per_volumetric = sensitivity.n_nodes if nodal else n_elements   # λ, λβ: per node or element
     d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
                   np.zeros(per_volumetric))
@@ -69,7 +69,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     if n_elements:
         # the constants' derivatives by the parameters, as in the forward kernel
         (pointer, column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-         d_node_lam_rate) = compiled.elements[11:19]
+         d_node_lam_rate) = compiled.elements[12:20]
         element = np.repeat(np.arange(n_elements), np.diff(pointer))
         g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
         weights = d_shear * g_shear[element] + d_shear_rate * g_shear_rate[element]

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import lsq_linear
@@ -27,6 +27,7 @@ from scipy.optimize import lsq_linear
 from ..errors import InputError
 from ..experiment import Experiment, check_experiments
 from ..forces import SPRINGS, incidence
+from ..forces.laws import LAWS
 from ..model import SpringMassModel, tie_index
 from ..progress import note
 from ._base import TiedSprings
@@ -76,7 +77,8 @@ class StartModel:
 def start_model(experiments: Experiment | Sequence[Experiment], *,
                 model: SpringMassModel | str | os.PathLike | None = None,
                 rules=None, tissue: str | None = None, tie: str | None = None,
-                elements: bool | None = None, progress: bool = False) -> StartModel:
+                elements: bool | None = None, law: str | None = None,
+                progress: bool = False) -> StartModel:
     """The start of a fit of ``experiments``: the policy of ``neurofuzzy fit``.
 
     1. ``model`` (a :class:`SpringMassModel` or a model file, e.g. written by
@@ -102,6 +104,10 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     elements : bool, optional
         With ``rules``: tetrahedral elements (True) or springs (False); default elements
         when the experiments' mesh has tetrahedra.
+    law : str, optional
+        The elements' material law for every element (:mod:`neurofuzzy.forces.laws`:
+        ``"st-venant-kirchhoff"`` or ``"neo-hookean"``); default the model's own, else
+        St. Venant–Kirchhoff.
     progress : bool
         Say on stderr where the start came from.
 
@@ -109,8 +115,23 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     ------
     InputError
         Experiments of different objects; a model of another object; rules without a tissue;
-        no masses given and none estimable.
+        no masses given and none estimable; a law for a spring network.
     """
+    begun = _start_model(experiments, model=model, rules=rules, tissue=tissue, tie=tie,
+                         elements=elements, progress=progress)
+    if law is None:
+        return begun
+    if not begun.model.has_elements:
+        raise InputError(f"a material law ({law!r}) is one of tetrahedral elements; this "
+                         "start is a spring network (give a model or experiment with "
+                         "tetrahedra, or --elements tetra)", key="--law")
+    changed = begun.model.replace(element_law=law)
+    note(progress, f"material law: {LAWS[int(changed.element_law[0])]}")
+    return replace(begun, model=changed)
+
+
+def _start_model(experiments, *, model, rules, tissue, tie, elements, progress) -> StartModel:
+    """:func:`start_model` but for the law."""
     experiments = [experiments] if isinstance(experiments, Experiment) else list(experiments)
     if not experiments:
         raise InputError("no experiments given", key="experiments")

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, closest_name
+from ..forces.laws import LAWS, law_numbers
 from ..mesh import Mesh
 from .values import PerSpring, Tie, describe, per_spring, tie_index, vector
 
@@ -77,6 +78,10 @@ class SpringMassModel:
         (:mod:`neurofuzzy.forces.tetrahedra`): averaged over the tetrahedra around every
         node (the default; free of volumetric locking for nearly incompressible tissue) or
         per element (the textbook linear tetrahedron).
+    element_law : str, int or (n_tetrahedra,) of them, optional
+        Every element's material law (:mod:`neurofuzzy.forces.laws`):
+        ``"st-venant-kirchhoff"`` (the default) or ``"neo-hookean"``, one for all elements
+        or one per element; stored as law numbers.
     """
 
     mesh: Mesh
@@ -96,6 +101,7 @@ class SpringMassModel:
     element_tie: np.ndarray | None = None
     element_region: np.ndarray | None = None
     element_volumetric: str = "nodal"
+    element_law: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -186,7 +192,8 @@ class SpringMassModel:
 
     @classmethod
     def continuum(cls, mesh: Mesh, *, youngs_modulus, poisson_ratio, viscosity,
-                  density, volumetric: str = "nodal") -> SpringMassModel:
+                  density, volumetric: str = "nodal", law="st-venant-kirchhoff"
+                  ) -> SpringMassModel:
         """A tetrahedral finite-element model of ``mesh`` (which needs ``tetrahedra``).
 
         Parameters
@@ -198,6 +205,9 @@ class SpringMassModel:
             (lumped mass).
         volumetric : {"nodal", "element"}
             The elements' volumetric form (``element_volumetric``).
+        law : str or (n_tetrahedra,), optional
+            The elements' material law (``element_law``): ``"st-venant-kirchhoff"`` or
+            ``"neo-hookean"``.
 
         The springs of the mesh (its tetrahedron edges) get zero stiffness and damping.
         """
@@ -215,7 +225,7 @@ class SpringMassModel:
                    element_youngs_modulus=np.broadcast_to(youngs_modulus, (n,)),
                    element_poisson_ratio=np.broadcast_to(poisson_ratio, (n,)),
                    element_viscosity=np.broadcast_to(viscosity, (n,)),
-                   element_volumetric=volumetric)
+                   element_volumetric=volumetric, element_law=law)
 
     def replace(self, **changes) -> SpringMassModel:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -298,6 +308,7 @@ class SpringMassModel:
             raise InputError(f"expected ({n},) integers, one tie group per element",
                              key="element_tie")
         out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
+        out["element_law"] = law_numbers(self.element_law, n)
         if self.element_volumetric not in VOLUMETRIC:
             hint = closest_name(str(self.element_volumetric), VOLUMETRIC)
             raise InputError(f"got {self.element_volumetric!r}; expected one of "
@@ -359,6 +370,13 @@ class SpringMassModel:
         return {name: float(values[groups == g].mean())
                 for g, name in enumerate(self.mesh.group_names) if np.any(groups == g)}
 
+    def law_names(self) -> str:
+        """The elements' material laws in words: one name, or each with its element count."""
+        numbers, counts = np.unique(self.element_law, return_counts=True)
+        if len(numbers) == 1:
+            return LAWS[int(numbers[0])]
+        return ", ".join(f"{LAWS[int(n)]} ({int(c)} elements)" for n, c in zip(numbers, counts))
+
     def summary(self) -> str:
         """Short human-readable description of the parameters."""
         springs = bool(np.any(self.spring_stiffness != 0) or np.any(self.spring_damping != 0))
@@ -374,6 +392,7 @@ class SpringMassModel:
             lines.append(f"  elements: Young's modulus {describe(self.element_youngs_modulus)}"
                          f" Pa, Poisson's ratio {describe(self.element_poisson_ratio)}, "
                          f"viscosity {describe(self.element_viscosity)} Pa s")
+            lines.append(f"  material law: {self.law_names()}")
         for g, name in enumerate(self.mesh.group_names if springs or not self.has_elements
                                  else ()):
             sel = self.mesh.spring_group == g

@@ -68,7 +68,7 @@ def tie_label(tie: str | None, start) -> str:
 
 def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, rules=None,
         tissue: str | None = None, tie: str | None = None, elements: bool | None = None,
-        prior="default", method: str = "gradient", cycles: int | None = None,
+        law: str | None = None, prior="default", method: str = "gradient", cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
         learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool = False,
         names: Sequence[str] | None = None, progress: bool = False) -> FitOutcome:
@@ -101,6 +101,9 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     elements : bool, optional
         With ``rules``: tetrahedral elements or springs (default: elements when the mesh has
         tetrahedra). The paper's learner always starts from the spring network.
+    law : {"st-venant-kirchhoff", "neo-hookean"}, optional
+        The elements' material law (default: the start model's own, else
+        St. Venant–Kirchhoff); see :mod:`neurofuzzy.forces.laws`.
     prior : {"default", "auto", "off"} or float
         See :func:`~neurofuzzy.learn.run.make_prior`.
     method : {"gradient", "paper"}
@@ -130,7 +133,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     if method == "paper":
         elements = False                    # the paper's learner is the spring network's
     begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
-                        elements=elements, progress=progress)
+                        elements=elements, law=law, progress=progress)
     check_fit_inputs(experiments, begun.model, substeps=substeps,
                      model_source=start if isinstance(start, str | os.PathLike) else None,
                      physical=begun.how in ("model", "rules"))

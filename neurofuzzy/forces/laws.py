@@ -1,0 +1,124 @@
+"""The tetrahedral elements' material laws, by name, and their numpy form (the oracle the
+compiled laws of :mod:`neurofuzzy.kernels.laws` are tested against).
+
+A law gives the elastic second Piola–Kirchhoff stress of the Green strain ``G`` as
+``S = 2μ D(G) + π N(G)`` with ``π`` the volumetric stress (``λ θ`` per element, or the node
+average: :class:`~neurofuzzy.forces.tetra_geometry.Materials`), ``θ(G)`` the law's volumetric
+strain and ``N = ∂θ/∂G``:
+
+========================  ==================  ===========  ==============
+law                       ``D(G)``            ``θ(G)``     ``N(G)``
+========================  ==================  ===========  ==============
+``st-venant-kirchhoff``   ``G``               ``tr G``     ``I``
+``neo-hookean``           ``½ (I - C⁻¹)``     ``ln J``     ``C⁻¹``
+========================  ==================  ===========  ==============
+
+(``C = I + 2G = FᵀF``, ``J = det F``). The neo-Hookean law is the coupled compressible solid
+``Ψ = μ/2 (I₁ - 3) - μ ln J + λ/2 (ln J)²`` (Bonet & Wood, *Nonlinear Continuum Mechanics for
+Finite Element Analysis*, eq. 6.27; FEBio's ``neo-Hookean``, ArtiSynth's
+``NeoHookeanMaterial``): its energy grows without bound as an element is squeezed flat, where
+St. Venant–Kirchhoff's falls back to zero (SVK softens beyond about 30 % compression, under a
+probe), and both are linear elasticity with the same E and ν at small strain. Kelvin–Voigt
+viscosity (``2μβ Ġ + λβ tr Ġ I``, ``β = η/E``) is the same for every law.
+
+The derivatives ``dD`` and ``dN`` along a change ``dG`` are self-adjoint linear maps (the
+second derivatives of an energy), so the same function serves the forward and the reverse
+derivative.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import InputError, closest_name
+
+#: The laws by name; a law's number (``model.element_law``) is its position here, the same in
+#: the compiled kernels (:mod:`neurofuzzy.kernels.laws`, checked by the tests).
+LAWS = ("st-venant-kirchhoff", "neo-hookean")
+#: Short names accepted for the laws.
+ALIASES = {"svk": "st-venant-kirchhoff", "stvk": "st-venant-kirchhoff",
+           "neohookean": "neo-hookean", "nh": "neo-hookean"}
+
+
+def law_number(name) -> int:
+    """The number of law ``name`` (a name of :data:`LAWS`, an alias, or already a number)."""
+    if isinstance(name, (int, np.integer)):
+        if not 0 <= int(name) < len(LAWS):
+            raise InputError(f"got law number {int(name)}; expected 0..{len(LAWS) - 1} "
+                             f"({', '.join(LAWS)})", key="law")
+        return int(name)
+    key = str(name).strip().lower().replace("_", "-").replace(" ", "-")
+    key = ALIASES.get(key.replace("-", ""), key)
+    if key not in LAWS:
+        hint = closest_name(str(name), LAWS)
+        raise InputError(f"unknown material law {name!r}; expected one of {list(LAWS)}"
+                         + (f" (did you mean {hint!r}?)" if hint else ""), key="law")
+    return LAWS.index(key)
+
+
+def law_numbers(value, n: int) -> np.ndarray:
+    """(n,) law numbers of ``value``: None (St. Venant–Kirchhoff), one name or number for all,
+    or one per element."""
+    if value is None:
+        return np.zeros(n, np.intp)
+    if isinstance(value, (str, int, np.integer)):
+        return np.full(n, law_number(value), np.intp)
+    values = np.asarray(value)
+    if values.shape != (n,):
+        raise InputError(f"got shape {values.shape}; expected one law for all elements or "
+                         f"({n},), one per element", key="element_law")
+    if np.issubdtype(values.dtype, np.integer):
+        numbers = values.astype(np.intp)
+        bad = (numbers < 0) | (numbers >= len(LAWS))
+        if np.any(bad):
+            law_number(int(numbers[np.flatnonzero(bad)[0]]))       # raises with the message
+        return numbers
+    names, index = np.unique(values.astype(str), return_inverse=True)
+    return np.array([law_number(name) for name in names], np.intp)[index]
+
+
+@dataclass(frozen=True)
+class LawParts:
+    """``D``, ``N`` (K, 3, 3), ``θ`` (K,) of every element and the maps ``dD``, ``dN`` of a
+    change (K, ..., 3, 3) of ``G`` (self-adjoint: also the reverse derivatives)."""
+
+    D: np.ndarray
+    N: np.ndarray
+    theta: np.ndarray
+    dD: Callable[[np.ndarray], np.ndarray]
+    dN: Callable[[np.ndarray], np.ndarray]
+
+
+def _per_element(values: np.ndarray, like: np.ndarray) -> np.ndarray:
+    """(K, 1, ..., 1, 3, 3) view of (K, 3, 3) ``values`` against (K, ..., 3, 3) ``like``."""
+    return values.reshape(values.shape[:1] + (1,) * (like.ndim - 3) + values.shape[1:])
+
+
+def law_parts(law: np.ndarray, G: np.ndarray) -> LawParts:
+    """:class:`LawParts` of (K, 3, 3) Green strains for per-element law numbers (K,)."""
+    K = len(G)
+    eye = np.broadcast_to(np.eye(3), G.shape)
+    neo = np.asarray(law) == LAWS.index("neo-hookean")
+    if not neo.any():
+        return LawParts(G, eye, np.trace(G, axis1=1, axis2=2), lambda X: X,
+                        lambda X: np.zeros_like(X))
+    C = eye + 2.0 * G
+    inverse = np.where(neo[:, None, None], np.linalg.inv(np.where(neo[:, None, None], C, eye)),
+                       eye)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        log_j = 0.5 * np.log(np.linalg.det(np.where(neo[:, None, None], C, eye)))
+    mask = neo.reshape(K, 1, 1)
+
+    def sandwich(X):
+        """``C⁻¹ X C⁻¹`` on the neo-Hookean elements, 0 elsewhere."""
+        inv = _per_element(inverse, X)
+        return np.where(_per_element(np.broadcast_to(mask, (K, 3, 3)), X), inv @ X @ inv, 0.0)
+
+    return LawParts(np.where(mask, 0.5 * (eye - inverse), G), inverse,
+                    np.where(neo, log_j, np.trace(G, axis1=1, axis2=2)),
+                    lambda X: np.where(_per_element(np.broadcast_to(mask, (K, 3, 3)), X),
+                                       sandwich(X), X),
+                    lambda X: -2.0 * sandwich(X))

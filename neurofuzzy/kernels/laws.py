@@ -1,0 +1,178 @@
+"""The elements' material laws in the compiled kernels, each written once, and the stress they
+make with Kelvin–Voigt viscosity and (optionally) strain stiffening, as the second
+Piola–Kirchhoff stress of the Green strain ``G`` and its rate ``Ġ``
+(:mod:`neurofuzzy.forces.tetrahedra` is the numpy reference)::
+
+    S = S_law(G; 2μ, π) + 2κ (G:G) G + 2μβ Ġ + π̇ I
+
+A **law** is one function ``law(G, shear, pressure) -> (S_elastic, θ)`` of the strain, the
+shear constant ``2μ`` and the volumetric stress ``π``: the elastic stress and the law's
+volumetric strain ``θ(G)``, whose derivative ``∂θ/∂G`` is the stress of unit ``π``
+(``law(G, 0, 1)``). The callers form ``π = λ θ`` per element, or the node average of
+``Λ θ̄`` (the nodal volumetric form), and ``π̇ = λβ tr Ġ`` likewise: the viscosity is the
+Kelvin–Voigt stress of the small-strain elasticity tensor times ``β = η/E`` for every law, as
+FEBio's and sfepy's Kelvin–Voigt solids write it.
+
+- :func:`st_venant_kirchhoff`: ``S = 2μ G + π I``, ``θ = tr G`` (energy ``μ G:G + ½ λ θ²``).
+- :func:`neo_hookean`: the coupled compressible neo-Hookean solid (Bonet & Wood, eq. 6.27;
+  FEBio's ``neo-Hookean``), ``S = μ (I - C⁻¹) + π C⁻¹``, ``θ = ln J``
+  (energy ``μ/2 (I₁ - 3) - μ ln J + ½ λ (ln J)²``). Its energy grows without bound as an
+  element is squeezed flat (J → 0), where SVK's falls back to zero, and it is SVK at small
+  strain (the same E, ν).
+
+Adding a law: write its function here, give it the next number in :data:`LAWS` and a branch
+in :func:`elastic`; its forward and reverse derivatives then come from it by complex step
+(below), and ``tests/test_kernels_law.py`` checks them, ``∂θ/∂G`` and the small-strain limit
+for every entry of :data:`LAWS`.
+
+Derivatives: :func:`stress_jvp` (the sensitivities) and :func:`stress_vjp` (the adjoint) are
+generated from :func:`stress` by complex-step differentiation: numba compiles it for complex
+arguments too, and ``Im S(x + i h d) / h`` is the exact directional derivative (to round-off;
+no difference is taken, so no step-size error). The reverse derivative uses the symmetry of a
+law with a strain energy (at fixed ``π``) and a dissipation potential of the strain rate.
+
+Symmetric 3×3 matrices are tuples of six entries ``(00, 11, 22, 01, 02, 12)``.
+"""
+
+import numba
+import numpy as np
+
+#: Law numbers, as stored per element (``model.element_law``): name → number.
+LAWS = {"st-venant-kirchhoff": 0, "neo-hookean": 1}
+ST_VENANT_KIRCHHOFF = LAWS["st-venant-kirchhoff"]
+NEO_HOOKEAN = LAWS["neo-hookean"]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _inner(a, b):
+    """``a : b`` of two symmetric matrices given by their six entries."""
+    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+            + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]))
+
+
+# -- the laws ----------------------------------------------------------------------------------
+@numba.njit(cache=True, nogil=True, inline="always")
+def st_venant_kirchhoff(G, shear, pressure):
+    """``S = shear G + π I`` and ``θ = tr G``."""
+    return ((shear * G[0] + pressure, shear * G[1] + pressure, shear * G[2] + pressure,
+             shear * G[3], shear * G[4], shear * G[5]), G[0] + G[1] + G[2])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def neo_hookean(G, shear, pressure):
+    """``S = ½ shear (I - C⁻¹) + π C⁻¹`` and ``θ = ln J = ½ ln det C`` (``C = I + 2G``)."""
+    c00, c11, c22 = 1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2]
+    c01, c02, c12 = 2.0 * G[3], 2.0 * G[4], 2.0 * G[5]
+    # the cofactors of C (symmetric), det C by the first row
+    k00 = c11 * c22 - c12 * c12
+    k11 = c00 * c22 - c02 * c02
+    k22 = c00 * c11 - c01 * c01
+    k01 = c02 * c12 - c01 * c22
+    k02 = c01 * c12 - c02 * c11
+    k12 = c01 * c02 - c00 * c12
+    det = c00 * k00 + c01 * k01 + c02 * k02
+    half = 0.5 * shear
+    scale = (pressure - half) / det                   # (π - ½ shear) C⁻¹
+    return ((half + scale * k00, half + scale * k11, half + scale * k22, scale * k01,
+             scale * k02, scale * k12), 0.5 * np.log(det))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def elastic(law, G, shear, pressure):
+    """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`)."""
+    if law == NEO_HOOKEAN:
+        return neo_hookean(G, shear, pressure)
+    return st_venant_kirchhoff(G, shear, pressure)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def volumetric(law, G):
+    """``(θ, ∂θ/∂G)``: the law's volumetric strain and its gradient (six entries, the stress
+    of unit ``π``)."""
+    zero = G[0] * 0.0
+    N, theta = elastic(law, G, zero, zero + 1.0)
+    return theta, N
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa):
+    """``S = S_law(G; shear, π) + 2κ (G:G) G + shear_rate Ġ + π̇ I`` (six entries).
+
+    Parameters
+    ----------
+    law : int
+        The law's number (:data:`LAWS`).
+    G, Gd : 6-tuples of float
+        Green strain ``½(FᵀF - I)`` and its rate ``sym(FᵀḞ)``.
+    shear, shear_rate : float
+        ``2μ`` (Pa) and ``2μβ`` (Pa·s).
+    pressure, pressure_rate : float
+        The elastic volumetric stress ``π`` (``λ θ``, Pa) and the viscous one ``π̇``
+        (``λβ tr Ġ``, Pa).
+    kappa : float
+        Strain stiffening ``κ`` (Pa); 0 for none.
+    """
+    S, _ = elastic(law, G, shear, pressure)
+    stiff = 2.0 * kappa * _inner(G, G)
+    return (S[0] + stiff * G[0] + shear_rate * Gd[0] + pressure_rate,
+            S[1] + stiff * G[1] + shear_rate * Gd[1] + pressure_rate,
+            S[2] + stiff * G[2] + shear_rate * Gd[2] + pressure_rate,
+            S[3] + stiff * G[3] + shear_rate * Gd[3], S[4] + stiff * G[4] + shear_rate * Gd[4],
+            S[5] + stiff * G[5] + shear_rate * Gd[5])
+
+
+# -- the derivatives, by complex step ----------------------------------------------------------
+#: the complex step: ``Im f(x + i h d) / h`` is the derivative of an analytic ``f`` along ``d``
+#: to round-off (no difference is taken), for any ``h`` far below ``x`` and far above underflow
+STEP = 1e-30
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _lift(x, d):
+    """Six entries ``x + i h d``."""
+    return (complex(x[0], STEP * d[0]), complex(x[1], STEP * d[1]), complex(x[2], STEP * d[2]),
+            complex(x[3], STEP * d[3]), complex(x[4], STEP * d[4]), complex(x[5], STEP * d[5]))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _slope(S):
+    """Six entries ``Im S / h``."""
+    return (S[0].imag / STEP, S[1].imag / STEP, S[2].imag / STEP, S[3].imag / STEP,
+            S[4].imag / STEP, S[5].imag / STEP)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def stress_jvp(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure_rate, kappa,
+               d_shear, d_shear_rate, d_pressure, d_pressure_rate, d_kappa):
+    """Forward derivative of :func:`stress` (exact to round-off): ``dS`` for changes ``dG``,
+    ``dĠ`` of the strains and ``d_*`` of the constants (six entries)."""
+    return _slope(stress(law, _lift(G, dG), _lift(Gd, dGd), complex(shear, STEP * d_shear),
+                         complex(shear_rate, STEP * d_shear_rate),
+                         complex(pressure, STEP * d_pressure),
+                         complex(pressure_rate, STEP * d_pressure_rate),
+                         complex(kappa, STEP * d_kappa)))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa):
+    """Reverse derivative of :func:`stress` for the cotangent ``L_S`` (six entries, the
+    symmetric part): ``(L_G, L_Ġ, l_shear, l_shear_rate, l_pressure, l_pressure_rate,
+    l_kappa)`` with ``L_G``, ``L_Ġ`` six entries each (``π`` and ``π̇`` held: their own
+    dependence on the strains is the caller's, through ``θ``).
+
+    The elastic stress derives from a strain energy (``S = ∂ψ/∂G`` at fixed ``π``) and the
+    viscous one from a dissipation potential of ``Ġ`` alone, so ``∂S/∂G`` and ``∂S/∂Ġ`` are
+    self-adjoint and ``L_G``, ``L_Ġ`` are the forward derivatives along ``L_S``; a
+    constant's cotangent is ``L_S : ∂S/∂c``. (A law that breaks this symmetry fails
+    ``tests/test_kernels_law.py``.)"""
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    LG = stress_jvp(law, G, Gd, LS, zero, shear, shear_rate, pressure, pressure_rate, kappa,
+                    0.0, 0.0, 0.0, 0.0, 0.0)
+    LGd = stress_jvp(law, G, Gd, zero, LS, shear, shear_rate, pressure, pressure_rate, kappa,
+                     0.0, 0.0, 0.0, 0.0, 0.0)
+    N = volumetric(law, G)[1]
+    # S is linear in shear_rate, π̇ and κ, and in shear and π: their cotangents in closed form
+    # from the law (S_law(G; 1, 0) is the shear's part, N the pressure's)
+    unit_shear = elastic(law, G, 1.0, 0.0)[0]
+    return (LG, LGd, _inner(LS, unit_shear), _inner(LS, Gd), _inner(LS, N),
+            LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G))
