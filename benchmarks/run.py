@@ -11,6 +11,7 @@ Prints a table and writes benchmarks/results.json (or --out PATH). Sections:
    10th step as a real-time simulator renders;
 2b. tetrahedral elements: steps per second at 288, 10,368 (and 48,000) tetrahedra, numpy and
    numba (target: 1,000 steps/s at 10,000 tetrahedra on one core with numba);
+2c. every material law at 10,368 tetrahedra with numba, as a ratio to SVK's time (target < 2x);
 3. fitting the cube's tied constants to 0.1 %: the paper's learner, scipy's least_squares with
    finite differences on our simulator, and ours (from the same start, and as `neurofuzzy fit`
    runs it, with the equation-error start);
@@ -175,6 +176,38 @@ def bench_elements(results, quick):
     if "numba" in at_10k:
         rows.append(("  numba / numpy at 10,368 tetrahedra",
                      f"{at_10k['numba'] / at_10k['numpy']:.1f}x"))
+    return rows
+
+
+def bench_laws(results, quick):
+    """Step rate of each material law (:data:`neurofuzzy.forces.laws.LAWS`) at 10,368
+    tetrahedra with numba, measured alternately in the same run, as a ratio to SVK's
+    (target: every law within 2x of SVK)."""
+    from neurofuzzy.forces.laws import LAWS
+
+    points, tetrahedra = kuhn_block((12, 12, 12), 0.03 / 12)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=bottom_layer)
+    models = {law: SpringMassModel.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
+                                             viscosity=2.0, density=1000.0, law=law)
+              for law in LAWS}
+    load = np.zeros((mesh.n_nodes, 3))
+    load[-1] = (0, 0, -1e-3)
+    h = stability_limit(models[LAWS[0]]).max_step
+    steps = 500 if quick else 2000
+    best = {}
+    for _ in range(2 if quick else 3):          # alternate the laws: the machine's drift is shared
+        for law, model in models.items():
+            simulate(model, dt=h, n_frames=2, external_forces=load, backend="numba")
+            seconds, _ = timed(lambda: simulate(model, dt=10 * h, n_frames=steps // 10 + 1,
+                                                substeps=10, external_forces=load,
+                                                backend="numba", check_stability=False))
+            best[law] = max(best.get(law, 0.0), 10 * (steps // 10) / seconds)
+    results["law_steps_per_s_10k_tetrahedra"] = best
+    rows = []
+    for law, rate in best.items():
+        ratio = best[LAWS[0]] / rate
+        rows.append((f"simulate 10,368 tetrahedra, {law} (numba)",
+                     f"{rate:,.0f} steps/s, {ratio:.2f}x SVK's time (target < 2x)"))
     return rows
 
 
@@ -377,6 +410,7 @@ def main(argv=None):
     sections = [lambda: bench_accumulation(results),
                 lambda: bench_simulation(results, args.quick),
                 lambda: bench_elements(results, args.quick),
+                lambda: bench_laws(results, args.quick),
                 lambda: bench_tied_fit(results)]
     sections.append(lambda: bench_large_fit(results, args.quick))
     if not args.quick:

@@ -123,3 +123,13 @@ def test_law_names_numbers_and_mistakes():
         law_numbers(np.array([0, 5]), 2)
     with pytest.raises(InputError, match="one per element"):
         law_numbers(["svk"] * 2, 3)
+
+
+def test_an_element_squeezed_flat_gives_nan_not_an_exception():
+    """``det C = 0``: no neo-Hookean stress exists; both forms return NaN (the run then
+    diverges and says so) instead of raising ZeroDivisionError or LinAlgError."""
+    flat = (-0.5, 0.0, 0.0, 0.0, 0.0, 0.0)                   # C = diag(0, 1, 1)
+    S, theta = elastic(law_number("neo-hookean"), flat, 4e3, 1e3)
+    assert np.all(np.isnan(S)) and np.isnan(theta)
+    parts = law_parts(np.array([1]), _full(flat)[None])
+    assert not np.all(np.isfinite(parts.N)) and not np.isfinite(parts.theta[0])

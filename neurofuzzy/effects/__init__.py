@@ -10,7 +10,7 @@ for candidates through :meth:`Effect.propose`).
 Modules: :mod:`.base` (the interface, the registry, model-file form), :mod:`.nodes` (gravity,
 node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.stiffening`
 (springs or elements that stiffen with strain), :mod:`.inclusions` (regions of springs or of
-tetrahedral elements).
+tetrahedral elements), :mod:`.hyperelasticity` (elements whose law should be neo-Hookean).
 
 =====================  ====================================================  ===============
 name                   force on node i                                        parameters
@@ -23,6 +23,9 @@ soft_inclusion         the same with k < 0 (k > -s), δ < 0                    a
 nonlinear_stiffening   every spring gets ``κ (l - L0)³ / L0² u`` extra;      ``κ`` per group;
                        every element the stress ``2 κ (G:G) G`` extra        ``κ`` (Pa)
 unmodeled_load         a constant force ``f`` at one node                     ``f`` (3,)
+hyperelasticity        the share ``s`` of the way from the elements' own      ``s``
+                       law to neo-Hookean: ``s (f_nH - f_own)``; the
+                       diagnosis switches the law instead of keeping it
 =====================  ====================================================  ===============
 """
 
@@ -31,7 +34,8 @@ from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .inclusions import SoftInclusion, StiffInclusion
 from .springs import SpringEffect
 from .stiffening import NonlinearStiffening
+from .hyperelasticity import Hyperelasticity
 
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
-           "NonlinearStiffening", "UnmodeledLoad", "EFFECTS", "register", "effect_to_dict",
+           "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "EFFECTS", "register", "effect_to_dict",
            "effect_from_dict", "term_kinds"]

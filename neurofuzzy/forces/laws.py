@@ -97,6 +97,18 @@ def _per_element(values: np.ndarray, like: np.ndarray) -> np.ndarray:
     return values.reshape(values.shape[:1] + (1,) * (like.ndim - 3) + values.shape[1:])
 
 
+def _adjugate(C: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) adjugates (transposed cofactors) of (K, 3, 3) matrices."""
+    rows = [[1, 2], [0, 2], [0, 1]]
+    out = np.empty_like(C)
+    for i in range(3):
+        for j in range(3):
+            minor = C[:, rows[j]][:, :, rows[i]]
+            out[:, i, j] = (-1) ** (i + j) * (minor[:, 0, 0] * minor[:, 1, 1]
+                                              - minor[:, 0, 1] * minor[:, 1, 0])
+    return out
+
+
 def law_parts(law: np.ndarray, G: np.ndarray) -> LawParts:
     """:class:`LawParts` of (K, 3, 3) Green strains for per-element law numbers (K,)."""
     K = len(G)
@@ -105,11 +117,13 @@ def law_parts(law: np.ndarray, G: np.ndarray) -> LawParts:
     if not neo.any():
         return LawParts(G, eye, np.trace(G, axis1=1, axis2=2), lambda X: X,
                         lambda X: np.zeros_like(X))
-    C = eye + 2.0 * G
-    inverse = np.where(neo[:, None, None], np.linalg.inv(np.where(neo[:, None, None], C, eye)),
-                       eye)
+    C = np.where(neo[:, None, None], eye + 2.0 * G, eye)
     with np.errstate(invalid="ignore", divide="ignore"):
-        log_j = 0.5 * np.log(np.linalg.det(np.where(neo[:, None, None], C, eye)))
+        # the adjugate over the determinant: an element squeezed flat gives inf/NaN (the run
+        # diverges and says so), where np.linalg.inv would raise
+        det = np.linalg.det(C)
+        inverse = np.where(neo[:, None, None], _adjugate(C) / det[:, None, None], eye)
+        log_j = 0.5 * np.log(det)
     mask = neo.reshape(K, 1, 1)
 
     def sandwich(X):

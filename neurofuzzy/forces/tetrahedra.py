@@ -1,6 +1,9 @@
-"""Linear tetrahedral finite elements: St. Venant–Kirchhoff elasticity with Kelvin–Voigt
-viscosity, parameterised by the material's own Young's modulus ``E`` (Pa), Poisson's ratio
-``ν`` and viscosity ``η`` (Pa·s) per element.
+"""Linear tetrahedral finite elements: St. Venant–Kirchhoff (or neo-Hookean) elasticity with
+Kelvin–Voigt viscosity, parameterised by the material's own Young's modulus ``E`` (Pa),
+Poisson's ratio ``ν`` and viscosity ``η`` (Pa·s) per element, and each element's law
+(``model.element_law``, :mod:`neurofuzzy.forces.laws`; written below for St. Venant–Kirchhoff,
+whose ``D(G) = G``, ``N = I``, ``θ = tr G``: another law puts its ``2μ D(G) + π N(G)`` in place
+of ``2μ G + π I`` and its ``θ(G)`` in place of ``tr G``; the viscous part is the same).
 
 Element ``e`` with nodes ``n0..n3``, rest edge matrix ``Dm = [X1-X0, X2-X0, X3-X0]``,
 ``B = Dm⁻¹``, volume ``V = |det Dm| / 6``; at the state ``(x, v)``::
@@ -40,7 +43,8 @@ elasticity at small strain and both are exact under rigid rotation, but SVK's fo
 polynomial in the node positions, so its exact forward and reverse derivatives (which both
 learners need) are a few batched 3×3 products, where the corotational element needs the
 derivative of a polar decomposition. SVK softens under strong compression (beyond ~30 %),
-far past the strains of palpation and probing.
+far past the strains of palpation and probing; where a probe compresses tissue by more, the
+neo-Hookean law (the same E, ν and η at small strain) does not soften.
 
 Everything is vectorised over elements (``einsum`` on (n_elements, 3, 3) arrays, sparse
 matrices for the node averages).

@@ -71,6 +71,8 @@ def neo_hookean(G, shear, pressure):
     k02 = c01 * c12 - c02 * c11
     k12 = c01 * c02 - c00 * c12
     det = c00 * k00 + c01 * k01 + c02 * k02
+    if det == 0.0:
+        det = det + np.nan         # squeezed flat: no stress exists, the run turns NaN
     half = 0.5 * shear
     scale = (pressure - half) / det                   # (π - ½ shear) C⁻¹
     return ((half + scale * k00, half + scale * k11, half + scale * k22, scale * k01,

@@ -1,0 +1,100 @@
+"""What St. Venant–Kirchhoff and neo-Hookean elements recover from data of a solver nobody here
+wrote: sfepy's total-Lagrangian neo-Hookean block (quadratic tetrahedra on 5 mm Kuhn cells,
+Newmark, 20 µm marker noise; ``neurofuzzy.nonlinear_reference``), probed to 27–35 %
+compression (large strain) and to 4–5 % (small strain), replayed from ``tests/data`` and fitted
+on the meshes a user builds from the block's surface (voxels split six to a cube, TetGen), none
+of them the reference's own. Also the diagnosis of the SVK start on each dataset.
+
+    python benchmarks/laws.py [--meshes "vox 7.5 mm" "vox 5 mm" ...] [--no-diagnosis]
+
+Prints a table and writes ``benchmarks/laws.json``: per dataset, mesh and law the errors of E,
+ν, η, the shear modulus μ and the bulk modulus K against the truth, the RMS marker error as a
+multiple of the noise, and the seconds; per dataset the diagnosis' answer.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from neurofuzzy.diagnosis import diagnose  # noqa: E402
+from neurofuzzy.learn import GradientLearner  # noqa: E402
+from neurofuzzy.nonlinear_reference.recordings import stored  # noqa: E402
+from neurofuzzy.reference_data import block_experiment, block_model  # noqa: E402
+
+DATA = {"large strain": ROOT / "tests" / "data" / "neo_hookean_block_large_strain.npz",
+        "small strain": ROOT / "tests" / "data" / "neo_hookean_block_small_strain.npz"}
+MESHES = {"vox 7.5 mm": {"pitch": 0.0075}, "vox 5 mm": {"pitch": 0.005},
+          "TetGen 8 mm": {"tetgen": True, "max_edge": 0.008},
+          "vox 3.3 mm": {"pitch": 0.01 / 3}}
+LAWS = ("st-venant-kirchhoff", "neo-hookean")
+
+
+def fit(recording, mesh: str, law: str) -> dict:
+    """A global fit (one E, ν, η) of the block with ``law`` on ``mesh``."""
+    start = block_model(**MESHES[mesh]).tied("global").replace(element_law=law)
+    experiment = block_experiment(recording, start.mesh)
+    began = time.perf_counter()
+    fitted = GradientLearner(substeps="auto").fit(start, experiment)
+    model, truth = fitted.model_, recording.truth
+    E, nu, eta = (float(model.element_youngs_modulus[0]), float(model.element_poisson_ratio[0]),
+                  float(model.element_viscosity[0]))
+    mu, bulk = E / (2 * (1 + nu)), E / (3 * (1 - 2 * nu))
+    return {"youngs_modulus": E / truth["youngs_modulus"] - 1,
+            "poisson_ratio": nu - truth["poisson_ratio"], "viscosity": eta / truth["viscosity"] - 1,
+            "shear_modulus": mu / truth["shear_modulus"] - 1,
+            "bulk_modulus": bulk / truth["bulk_modulus"] - 1,
+            "ratio": fitted.lack_of_fit_.ratio, "explained": fitted.lack_of_fit_.explained,
+            "seconds": time.perf_counter() - began}
+
+
+def diagnosis(recording, mesh: str) -> dict:
+    start = block_model(**MESHES[mesh]).tied("global")
+    experiment = block_experiment(recording, start.mesh)
+    began = time.perf_counter()
+    result = diagnose(start, experiment, mesh_check=False)
+    return {"answer": result.names, "law": result.model_.law_names(),
+            "ratio_before": result.rms_before / result.noise_rms,
+            "ratio_after": result.rms_after / result.noise_rms,
+            "seconds": time.perf_counter() - began}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=list(MESHES))
+    parser.add_argument("--diagnosis-mesh", default="vox 7.5 mm", choices=list(MESHES))
+    parser.add_argument("--no-diagnosis", action="store_true")
+    parser.add_argument("--out", default=str(Path(__file__).with_name("laws.json")))
+    args = parser.parse_args(argv)
+    results = {"fits": [], "diagnosis": {}}
+    print(f"{'data':<13}{'mesh':<13}{'law':<21}{'E':>8}{'ν':>8}{'μ':>8}{'K':>8}{'η':>8}"
+          f"{'RMS/noise':>11}{'s':>6}")
+    for name, path in DATA.items():
+        recording = stored(path)
+        for mesh in args.meshes:
+            for law in LAWS:
+                row = {"data": name, "mesh": mesh, "law": law, **fit(recording, mesh, law)}
+                results["fits"].append(row)
+                print(f"{name:<13}{mesh:<13}{law:<21}{row['youngs_modulus']:>+8.1%}"
+                      f"{row['poisson_ratio']:>+8.3f}{row['shear_modulus']:>+8.1%}"
+                      f"{row['bulk_modulus']:>+8.0%}{row['viscosity']:>+8.0%}"
+                      f"{row['ratio']:>10.2f}x{row['seconds']:>6.0f}", flush=True)
+        if not args.no_diagnosis:
+            found = diagnosis(recording, args.diagnosis_mesh)
+            results["diagnosis"][name] = {"mesh": args.diagnosis_mesh, **found}
+            print(f"diagnosis of the SVK start, {name}, {args.diagnosis_mesh}: "
+                  f"{', '.join(found['answer'])} ({found['law']}); RMS "
+                  f"{found['ratio_before']:.2f}x -> {found['ratio_after']:.2f}x the noise, "
+                  f"{found['seconds']:.0f} s", flush=True)
+    Path(args.out).write_text(json.dumps(results, indent=2, default=float))
+    print(f"wrote {args.out}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

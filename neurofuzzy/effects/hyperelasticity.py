@@ -1,0 +1,83 @@
+"""Large-strain hyperelasticity: the diagnosis' candidate for "the elements' law is wrong at
+large strain", whose addition makes the elements neo-Hookean.
+
+A St. Venant–Kirchhoff element model softens under strong compression (beyond about 30 %,
+under a probe) where tissue stiffens; the neo-Hookean law (:mod:`neurofuzzy.forces.laws`) has
+the same E, ν and η at small strain and does not. As a force term the effect is the share
+``s`` of the way from the model's own elements to the same elements with the neo-Hookean law::
+
+    f = s (f_neo-Hookean(x, v) - f_own(x, v))
+
+so that ``s = 0`` is the model as it is and ``s = 1`` the neo-Hookean model. The diagnosis
+scores the candidate by the sensitivity to ``s`` at 0 (the linearised switch) and, when it
+wins, does not keep the patch: it switches the elements' law and refits
+(:mod:`neurofuzzy.diagnosis.loop`), so the model it returns is a neo-Hookean one with no
+effect added. Only element models with St. Venant–Kirchhoff elements are offered it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..forces import TETRAHEDRA, Materials
+from ..forces.laws import LAWS
+from .base import Effect, register
+
+__all__ = ["Hyperelasticity", "NEO_HOOKEAN"]
+
+#: the law number the effect moves the elements to
+NEO_HOOKEAN = LAWS.index("neo-hookean")
+
+
+@register
+class Hyperelasticity(Effect):
+    """The share ``s`` (1) of the way to neo-Hookean elements (module docstring)."""
+
+    name = "hyperelasticity"
+    unit = (0, 0, 0)
+    _labels = ("share",)
+
+    @staticmethod
+    def _pair(model) -> tuple[Materials, Materials]:
+        own = Materials.of(model)
+        return own, replace(own, law=np.full_like(own.law, NEO_HOOKEAN))
+
+    def _difference(self, method, model, *args):
+        own, target = self._pair(model)
+        return (getattr(TETRAHEDRA, method)(target, *args)
+                - getattr(TETRAHEDRA, method)(own, *args))
+
+    def force(self, model, positions, velocities):
+        return self.params[0] * self._difference("force_of", model, positions, velocities)
+
+    def parameter_jacobian(self, model, positions, velocities):
+        return self._difference("force_of", model, positions, velocities)[:, None, :]
+
+    def state_jvp(self, model, positions, velocities, dp, dv):
+        return self.params[0] * self._difference("state_jvp_of", model, positions, velocities,
+                                                 dp, dv)
+
+    def state_vjp(self, model, positions, velocities, cotangent):
+        own, target = self._pair(model)
+        lam_p, lam_v = TETRAHEDRA.state_vjp_of(target, positions, velocities, cotangent)
+        own_p, own_v = TETRAHEDRA.state_vjp_of(own, positions, velocities, cotangent)
+        return self.params[0] * (lam_p - own_p), self.params[0] * (lam_v - own_v)
+
+    @classmethod
+    def examples(cls, model) -> list:
+        """Half way to neo-Hookean on element models."""
+        return [(model, cls([0.5]))] if model.has_elements else []
+
+    @classmethod
+    def propose(cls, model, evidence) -> list:
+        """One candidate on element models with St. Venant–Kirchhoff elements."""
+        if (cls.name in evidence.present or not model.has_elements
+                or np.all(model.element_law == NEO_HOOKEAN)):
+            return []
+        return [cls([0.0])]
+
+    def equation(self) -> str:
+        return (f"hyperelasticity: the elements {self.params[0]:.3g} of the way to the "
+                "neo-Hookean law (S = μ (I - C⁻¹) + λ ln J C⁻¹)")
