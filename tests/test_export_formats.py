@@ -91,7 +91,7 @@ FEBIO = {
 FEBIO_TYPES = {
     "Module": {"solid"}, "solver": {"solid"}, "Elements": {"tet4"},
     "material": {"isotropic elastic", "solid mixture", "neo-Hookean"},
-    "solid": {"isotropic elastic", "Newtonian viscous solid"},
+    "solid": {"isotropic elastic", "neo-Hookean", "Newtonian viscous solid"},
     "bc": {"zero displacement"}, "nodal_load": {"nodal_force"}, "body_load": {"body force"},
     "discrete_material": {"linear spring"}, "load_controller": {"loadcurve"},
     "plotfile": {"febio"},
@@ -405,3 +405,28 @@ def test_export_refuses_bad_options_in_one_line(tmp_path, capsys, args, names):
     (tmp_path / "folder.xml").mkdir()
     args = [str(model) if a == "MODEL" else a.replace("OUT", str(tmp_path)) for a in args]
     refused(capsys, ["export", model, *args], names=names, folder=tmp_path)
+
+
+def test_exports_carry_the_elements_law(tmp_path):
+    """FEBio writes its own neo-Hookean solid for neo-Hookean elements (a region holding two
+    laws becomes two materials, never mixed); SOFA and MuJoCo, which have no such element in
+    what we write, say so in the file's notes with the difference measured."""
+    model = two_regions()
+    model = model.replace(element_law=(model.element_region == 1).astype(int))
+    data = pressed(model)
+    root = ET.parse(nf.export(model, to="febio", path=tmp_path / "t.feb",
+                              experiment=data).path).getroot()
+    check_febio_structure(root)
+    kinds = {m.get("name"): m.find("solid").get("type")
+             for m in root.findall("./Material/material")}
+    assert kinds == {"liver": "isotropic elastic", "tumour": "neo-Hookean"}
+    mixed = model.replace(element_law=np.arange(model.mesh.n_tetrahedra) % 2)
+    root = ET.parse(nf.export(mixed, to="febio", path=tmp_path / "m.feb").path).getroot()
+    kinds = {m.get("name"): m.find("solid").get("type")
+             for m in root.findall("./Material/material")}
+    assert kinds["liver_neo-hookean"] == "neo-Hookean"
+    assert kinds["liver_st-venant-kirchhoff"] == "isotropic elastic"
+    for target, suffix in (("sofa", ".py"), ("mujoco", ".xml")):
+        notes = nf.export(model, to=target, path=tmp_path / f"t{suffix}", experiment=data).notes
+        law = [note for note in notes if "material law" in note]
+        assert len(law) == 1 and "differ by" in law[0] and "neo-hookean" in law[0], notes

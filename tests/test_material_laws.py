@@ -3,6 +3,8 @@ form of uniaxial stress (:mod:`neurofuzzy.nonlinear_reference.closed_forms`), bo
 small strain and apart at large, and the law carried by model files, the command line and
 ``nf.fit``."""
 
+import json
+
 import numpy as np
 import pytest
 import yaml
@@ -116,8 +118,9 @@ def test_fit_with_a_law_and_refusals(tmp_path):
                                                                     4000.0),
                                      element_law=0), tmp_path / "start.yaml")
     result = cli("fit", data_path, "--start", start, "--law", "neo-hookean", "--tie", "global",
-                 "--out", tmp_path / "fitted.yaml", "--quiet")
+                 "--out", tmp_path / "fitted.yaml", "--quiet", "--json")
     assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["material_law"] == "neo-hookean"
     fitted = load_model(tmp_path / "fitted.yaml")
     assert set(fitted.element_law) == {1}
     assert fitted.element_youngs_modulus[0] == pytest.approx(E, rel=1e-3)

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..forces.laws import LAWS
+
 __all__ = ["Exported", "Prepared", "MaterialGroup", "prepare", "material_groups",
            "region_densities", "load_components", "time_step"]
 
@@ -137,6 +139,9 @@ class MaterialGroup:
         merged).
     damping_time : float
         ``β = η / E`` (s), the stiffness-proportional (Rayleigh) damping.
+    law : int
+        The elements' material law (:data:`neurofuzzy.forces.laws.LAWS`); a group never mixes
+        laws.
     """
 
     name: str
@@ -145,6 +150,7 @@ class MaterialGroup:
     youngs_modulus: float
     poisson_ratio: float
     damping_time: float
+    law: int = 0
 
 
 def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], list[str]]:
@@ -162,33 +168,41 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
     values = np.column_stack([model.element_youngs_modulus, model.element_poisson_ratio,
                               model.element_viscosity / model.element_youngs_modulus])
     rounded = _significant(values, 12)         # equal values, up to the last bits, share
-    regions = [np.flatnonzero(model.element_region == r) for r in range(len(model.region_names))]
+    # the parts to group: each region, split by law when it holds several (never mixed)
+    laws = [np.unique(model.element_law[model.element_region == r])
+            for r in range(len(model.region_names))]
+    parts_of = [(r, law, np.flatnonzero((model.element_region == r)
+                                        & (model.element_law == law)))
+                for r in range(len(model.region_names)) for law in laws[r]]
+    regions = [elements for _, _, elements in parts_of]
     distinct = [len(np.unique(rounded[e], axis=0)) if len(e) else 0 for e in regions]
     budget = _allot(distinct, max_groups)
     groups, notes = [], []
-    for r, elements in enumerate(regions):
+    for index, elements in enumerate(regions):
+        r, law = parts_of[index][:2]
+        label = model.region_names[r] + (f"_{LAWS[int(law)]}" if len(laws[r]) > 1 else "")
         if len(elements) == 0:
             continue
-        if distinct[r] <= budget[r]:
+        if distinct[index] <= budget[index]:
             _, inverse = np.unique(rounded[elements], axis=0, return_inverse=True)
             bins = inverse.ravel()
         else:
             order = np.argsort(values[elements, 0], kind="stable")
             bins = np.empty(len(elements), int)
-            bins[order] = np.arange(len(elements)) * budget[r] // len(elements)
+            bins[order] = np.arange(len(elements)) * budget[index] // len(elements)
         parts = [elements[bins == b] for b in np.unique(bins)]
         moved = np.zeros(3)
         for k, part in enumerate(parts):
             weight = volume[part] / volume[part].sum()
-            mean = (values[part[0]] if distinct[r] <= budget[r]       # the elements' own values
+            mean = (values[part[0]] if distinct[index] <= budget[index]   # the elements' own
                     else weight @ values[part])
             moved = np.maximum(moved, np.max(np.abs(values[part] - mean), axis=0)
                                / np.array([mean[0], 1.0, max(mean[2], 1e-300)]))
-            name = model.region_names[r] + (f"_{k + 1}" if len(parts) > 1 else "")
+            name = label + (f"_{k + 1}" if len(parts) > 1 else "")
             groups.append(MaterialGroup(name, r, part, float(mean[0]), float(mean[1]),
-                                        float(mean[2])))
-        if distinct[r] > budget[r]:
-            notes.append(f"region {model.region_names[r]!r}: {distinct[r]} distinct element "
+                                        float(mean[2]), int(law)))
+        if distinct[index] > budget[index]:
+            notes.append(f"region {label!r}: {distinct[index]} distinct element "
                          f"materials merged into {len(parts)} groups by quantiles of E (largest "
                          f"change: E {100 * moved[0]:.2g} %, Poisson's ratio {moved[1]:.3g}, "
                          f"damping time {100 * moved[2]:.2g} %)")

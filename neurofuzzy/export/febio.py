@@ -14,10 +14,12 @@ reads the model and the load back from them:
   ``NodeSet`` of the fixed nodes and one per loaded node, ``DiscreteSet`` of springs;
 - ``Material`` per part: ``isotropic elastic`` (``E``, ``v``, ``density``), which is
   St. Venant–Kirchhoff (σ = J⁻¹ F (λ tr E I + 2μ E) Fᵀ, ``FEIsotropicElastic::Stress``) as
-  our element; with viscosity a ``solid mixture`` of it and a ``Newtonian viscous solid`` of
-  shear viscosity ``mu`` = βμ and bulk viscosity ``kappa`` = βK (β = η/E, K the bulk
-  modulus), our Kelvin–Voigt stress at small strain (FEBio's viscous stress is Cauchy in the
-  rate of deformation, ours second Piola–Kirchhoff in the Green strain rate);
+  our element, or ``neo-Hookean`` (``E``, ``v``) for neo-Hookean elements, FEBio's coupled
+  compressible neo-Hookean solid as ours (:data:`FEBIO_LAWS`); with viscosity a
+  ``solid mixture`` of it and a ``Newtonian viscous solid`` of shear viscosity ``mu`` = βμ
+  and bulk viscosity ``kappa`` = βK (β = η/E, K the bulk modulus), our Kelvin–Voigt stress
+  at small strain (FEBio's viscous stress is Cauchy in the rate of deformation, ours second
+  Piola–Kirchhoff in the Green strain rate);
   density per region from the node masses (:func:`~neurofuzzy.export.base.region_densities`);
 - ``Boundary``: ``zero displacement`` of the fixed nodes;
 - ``Loads``: ``nodal_force`` per loaded node with a ``value lc="k"``, the load decomposed into
@@ -41,6 +43,7 @@ from __future__ import annotations
 import numpy as np
 from xml.sax.saxutils import quoteattr
 
+from ..forces.laws import LAWS
 from .base import load_components, material_groups, prepare, region_densities, time_step
 from .metadata import header_lines, volumetric_note
 
@@ -144,6 +147,12 @@ def feb(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     return "\n".join(out) + "\n", notes
 
 
+#: FEBio's material for each of our laws (both take E and v): ``isotropic elastic`` is
+#: St. Venant–Kirchhoff, ``neo-Hookean`` the coupled compressible neo-Hookean solid
+#: (``FENeoHookean``: W = μ/2 (I₁ - 3) - μ ln J + λ/2 (ln J)²), ours.
+FEBIO_LAWS = {"st-venant-kirchhoff": "isotropic elastic", "neo-hookean": "neo-Hookean"}
+
+
 def _materials(groups, densities, runs) -> list[str]:
     if not groups:
         return []
@@ -152,17 +161,18 @@ def _materials(groups, densities, runs) -> list[str]:
         E, nu, beta = group.youngs_modulus, group.poisson_ratio, group.damping_time
         density = float(densities[group.region])
         elastic = f"<E>{E!r}</E><v>{nu!r}</v>"
+        kind = FEBIO_LAWS[LAWS[group.law]]
         if beta > 0:
             mu = beta * E / (2 * (1 + nu))                  # β μ, Pa·s
             kappa = beta * E / (3 * (1 - 2 * nu))           # β K, Pa·s
             out.append(f'    <material id="{index}" name={quoteattr(group.name)} '
                        f'type="solid mixture"><density>{density!r}</density>'
-                       f'<solid type="isotropic elastic">{elastic}</solid>'
+                       f'<solid type="{kind}">{elastic}</solid>'
                        f'<solid type="Newtonian viscous solid"><kappa>{kappa!r}</kappa>'
                        f"<mu>{mu!r}</mu></solid></material>")
         else:
             out.append(f'    <material id="{index}" name={quoteattr(group.name)} '
-                       f'type="isotropic elastic"><density>{density!r}</density>{elastic}'
+                       f'type="{kind}"><density>{density!r}</density>{elastic}'
                        "</material>")
     out.append("  </Material>")
     return out

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import InputError
 from .base import material_groups, prepare, time_step
-from .metadata import header_lines, metadata, volumetric_note
+from .metadata import header_lines, law_note, metadata, volumetric_note
 
 __all__ = ["mjcf", "simulate_mujoco"]
 
@@ -82,9 +82,11 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     if np.any(prepared.constant_load):
         notes.append("unmodeled_load: MJCF holds no constant force; apply it with "
                      "data.xfrc_applied (see simulate_mujoco)")
-    note = volumetric_note(prepared.model, "MuJoCo", experiment, steps)
-    if note:
-        notes.append(note)
+    for note in (volumetric_note(prepared.model, "MuJoCo", experiment, steps),
+                 law_note(prepared.model, "MuJoCo", "flex elasticity (linear St. Venant-"
+                          "Kirchhoff tetrahedra)", experiment, steps)):
+        if note:
+            notes.append(note)
     groups = []
     if runs.has_elements:
         groups, merged = material_groups(runs, max_materials)

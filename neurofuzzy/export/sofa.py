@@ -33,7 +33,7 @@ import json
 import numpy as np
 
 from .base import load_components, prepare, time_step
-from .metadata import header_lines, metadata, volumetric_note
+from .metadata import header_lines, law_note, metadata, volumetric_note
 
 __all__ = ["scene", "PLUGINS"]
 
@@ -78,9 +78,11 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     if prepared.node_drag:
         notes.append("node_drag is not exported: SOFA's Rayleigh mass damping is "
                      "proportional to each node's mass, the drag is not")
-    note = volumetric_note(prepared.model, "SOFA", experiment, steps)
-    if note:
-        notes.append(note)
+    for note in (volumetric_note(prepared.model, "SOFA", experiment, steps),
+                 law_note(prepared.model, "SOFA", "TetrahedronFEMForceField (corotational "
+                          "linear elasticity)", experiment, steps)):
+        if note:
+            notes.append(note)
     mesh = runs.mesh
     elements = runs.has_elements
     beta = 0.0

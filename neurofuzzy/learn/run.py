@@ -120,6 +120,8 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     result = learner.to_dict()
     result.update(method=method, tie=tie, start=start.to_dict(),
                   experiments=[str(p) for p in experiments])
+    if learner.model_.has_elements:
+        result["material_law"] = learner.model_.law_names()
     if start.rules is not None or any(start.model.region_tissues):
         from ..rules import materials
 
