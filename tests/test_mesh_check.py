@@ -38,8 +38,10 @@ def test_refinement_splits_every_tetrahedron_into_eight_of_the_same_volume():
 
 def test_a_refined_model_keeps_mass_materials_regions_and_markers():
     model = element_block((2, 2, 2))
-    model = model.replace(element_youngs_modulus=np.linspace(5e3, 7e3, model.mesh.n_tetrahedra))
+    model = model.replace(element_youngs_modulus=np.linspace(5e3, 7e3, model.mesh.n_tetrahedra),
+                          element_law=np.arange(model.mesh.n_tetrahedra) % 2)
     fine, refinement = refine_model(model)
+    assert np.array_equal(fine.element_law, model.element_law[refinement.parent])
     assert fine.node_mass.sum() == pytest.approx(model.node_mass.sum(), rel=1e-12)
     assert np.array_equal(fine.element_youngs_modulus,
                           model.element_youngs_modulus[refinement.parent])

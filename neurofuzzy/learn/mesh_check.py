@@ -96,7 +96,7 @@ def refine_model(model):
         element_poisson_ratio=model.element_poisson_ratio[parent],
         element_viscosity=model.element_viscosity[parent],
         element_tie=model.element_tie[parent], element_region=model.element_region[parent],
-        element_volumetric=model.element_volumetric)
+        element_volumetric=model.element_volumetric, element_law=model.element_law[parent])
     return fine_model, refinement
 
 
