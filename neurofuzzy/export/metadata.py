@@ -115,24 +115,8 @@ def volumetric_note(model, target: str, experiment=None, steps: int | None = Non
             "element_volumetric='element'); this model was fitted with the nodal volumetric "
             "form (averaged over the tetrahedra around each node), which is softer for nearly "
             "incompressible tissue")
-    if experiment is None:
-        return text + "; pass an experiment to measure the difference"
-    from ..experiment import simulate_like
-    from ..simulation import required_substeps
-
-    # the target's steps, unless the nodal form needs more to be stable
-    steps = max(steps or 1, required_substeps(model, experiment.dt))
-    with np.errstate(all="ignore"):
-        nodal = simulate_like(model, experiment, steps)
-        element = simulate_like(model.replace(element_volumetric="element"), experiment, steps)
-    free = model.mesh.free
-    rest = nodal[0, free]
-    difference = np.sqrt(np.mean(np.sum((nodal[:, free] - element[:, free]) ** 2, axis=-1)))
-    peak = np.max(np.linalg.norm(nodal[:, free] - rest, axis=-1))
-    share = f" ({100 * difference / peak:.2g} % of the peak motion {peak:.3g} m)" if peak else ""
-    return (text + f"; on {experiment.source} the two forms differ by {difference:.3g} m RMS "
-            f"per node{share}, measured with neurofuzzy's own stepper at {steps} step(s) per "
-            "frame")
+    return text + _measured(model, model.replace(element_volumetric="element"), "forms",
+                            experiment, steps)
 
 
 def law_note(model, target: str, element: str, experiment=None,
@@ -145,21 +129,29 @@ def law_note(model, target: str, element: str, experiment=None,
     text = (f"the elements' material law ({model.law_names()}) is written as {target}'s "
             f"{element}: the same E, nu and eta at small strain, but it softens under strong "
             "compression where neo-Hookean stiffens")
+    return text + _measured(model, model.replace(element_law=0), "laws", experiment, steps)
+
+
+def _measured(model, other, what: str, experiment, steps: int | None) -> str:
+    """"; on … the two {what} differ by … m RMS per node (… % of the peak motion)": ``model``
+    and ``other`` simulated by our own stepper under ``experiment``'s load (the RMS distance of
+    the free nodes over all frames), or a hint when there is no experiment."""
     if experiment is None:
-        return text + "; pass an experiment to measure the difference"
+        return "; pass an experiment to measure the difference"
     from ..experiment import simulate_like
     from ..simulation import required_substeps
 
+    # the target's steps, unless the model needs more to be stable
     steps = max(steps or 1, required_substeps(model, experiment.dt))
     with np.errstate(all="ignore"):
         own = simulate_like(model, experiment, steps)
-        svk = simulate_like(model.replace(element_law=0), experiment, steps)
+        changed = simulate_like(other, experiment, steps)
     free = model.mesh.free
-    difference = np.sqrt(np.mean(np.sum((own[:, free] - svk[:, free]) ** 2, axis=-1)))
+    difference = np.sqrt(np.mean(np.sum((own[:, free] - changed[:, free]) ** 2, axis=-1)))
     peak = np.max(np.linalg.norm(own[:, free] - own[0, free], axis=-1))
     share = f" ({100 * difference / peak:.2g} % of the peak motion {peak:.3g} m)" if peak else ""
-    return (text + f"; on {experiment.source} the two laws differ by {difference:.3g} m RMS "
-            f"per node{share}, measured with neurofuzzy's own stepper")
+    return (f"; on {experiment.source} the two {what} differ by {difference:.3g} m RMS per "
+            f"node{share}, measured with neurofuzzy's own stepper at {steps} step(s) per frame")
 
 
 def metadata(model, *, target: str, fit: dict | None, notes, experiment=None,
