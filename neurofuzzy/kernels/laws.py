@@ -115,7 +115,9 @@ def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa):
         Strain stiffening ``κ`` (Pa); 0 for none.
     """
     S, _ = elastic(law, G, shear, pressure)
-    stiff = 2.0 * kappa * _inner(G, G)
+    stiff = 0.0 * kappa
+    if kappa != 0.0:                   # most models have none: skip its G:G
+        stiff = 2.0 * kappa * _inner(G, G)
     return (S[0] + stiff * G[0] + shear_rate * Gd[0] + pressure_rate,
             S[1] + stiff * G[1] + shear_rate * Gd[1] + pressure_rate,
             S[2] + stiff * G[2] + shear_rate * Gd[2] + pressure_rate,

@@ -58,15 +58,10 @@ def _row(x, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20, b21, b22):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _strains(p, v, n0, n1, n2, n3, b00, b01, b02, b10, b11, b12, b20, b21, b22):
+def _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11, g12, g20, g21,
+           g22):
     """``(G, Ġ)``: the Green strain ``½(FᵀF - I)`` and its rate ``sym(FᵀḞ)`` (six entries
-    each) of ``F = Ds B``, ``Ḟ = Ḋs B`` (row r = coordinate r)."""
-    f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+    each) of ``F`` and ``Ḟ`` given by their entries (row r = coordinate r)."""
     G = (0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0),
          0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0),
          0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0),
@@ -96,8 +91,20 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, la
             b00, b01, b02 = B[0, 0], B[0, 1], B[0, 2]
             b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
             b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
-            G, Gd = _strains(p, v, n0, n1, n2, n3, b00, b01, b02, b10, b11, b12, b20, b21,
-                             b22)
+            f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21,
+                                 b22)
+            f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21,
+                                 b22)
+            f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21,
+                                 b22)
+            g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21,
+                                 b22)
+            g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21,
+                                 b22)
+            g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21,
+                                 b22)
+            G, Gd = _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11,
+                           g12, g20, g21, g22)
             theta = volumetric(law[e], G)[0]
             theta_rate = Gd[0] + Gd[1] + Gd[2]
             corner = 0.25 * volume[e]
@@ -122,7 +129,11 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, la
         f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
         f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-        G, Gd = _strains(p, v, n0, n1, n2, n3, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
+        G, Gd = _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11, g12,
+                       g20, g21, g22)
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
                                + node_strain[n3, 0])
