@@ -177,17 +177,22 @@ class Materials:
                    np.zeros(len(geometry.volume), np.intp) if law is None
                    else np.asarray(law, np.intp))
 
-    def pressure(self, theta, theta_rate):
-        """``π`` (K, ...) from the volumetric strain and rate (K, ...)."""
+    def pressures(self, theta, theta_rate):
+        """``(π, π̇)``: the elastic and the viscous volumetric stress (K, ...) of the volumetric
+        strain ``θ`` and its rate (K, ...): ``λ θ`` and ``λβ θ̇`` per element, or the corner
+        means of the node averages ``Λ θ̄`` and ``H θ̄̇`` (nodal form)."""
         if not self.nodal:
-            return broadcast_per_element(self.lam, theta) * theta + broadcast_per_element(self.lam_rate, theta) * theta_rate
-        average = self.geometry.average
-        at_nodes = (broadcast_per_element(self.node_lam, theta[:1]) * (average @ theta)
-                    + broadcast_per_element(self.node_lam_rate, theta[:1]) * (average @ theta_rate))
-        return self.geometry.corner_mean @ at_nodes
+            return (broadcast_per_element(self.lam, theta) * theta,
+                    broadcast_per_element(self.lam_rate, theta) * theta_rate)
+        average, corner_mean = self.geometry.average, self.geometry.corner_mean
+        return (corner_mean @ (broadcast_per_element(self.node_lam, theta[:1])
+                               * (average @ theta)),
+                corner_mean @ (broadcast_per_element(self.node_lam_rate, theta[:1])
+                               * (average @ theta_rate)))
 
     def pressure_transpose(self, lam_pressure):
-        """The adjoint of :meth:`pressure`: cotangents of ``θ`` and ``θ̇`` (K,)."""
+        """The adjoint of :meth:`pressures` for one cotangent of both: cotangents of ``θ``
+        (through ``π``) and of ``θ̇`` (through ``π̇``) (K,)."""
         if not self.nodal:
             return self.lam * lam_pressure, self.lam_rate * lam_pressure
         at_nodes = self.geometry.corner_mean.T @ lam_pressure

@@ -110,8 +110,7 @@ class TetrahedronForce(ForceTerm):
         green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
         law = law_parts(materials.law, green)
         theta_rate = np.trace(green_rate, axis1=1, axis2=2)
-        pressure = materials.pressure(law.theta, np.zeros_like(theta_rate))
-        pressure_rate = materials.pressure(np.zeros_like(theta_rate), theta_rate)
+        pressure, pressure_rate = materials.pressures(law.theta, theta_rate)
         stress = (materials.shear[:, None, None] * law.D
                   + materials.shear_rate[:, None, None] * green_rate
                   + pressure[:, None, None] * law.N
@@ -155,8 +154,7 @@ class TetrahedronForce(ForceTerm):
         d_green_rate = _sym(np.swapaxes(dF, -1, -2) @ F_rate + np.swapaxes(F, -1, -2) @ dF_rate)
         d_theta = _trace_product(state.law.N[:, None], d_green)      # (K, P)
         d_theta_rate = np.trace(d_green_rate, axis1=-2, axis2=-1)
-        d_pressure = materials.pressure(d_theta, np.zeros_like(d_theta))
-        d_pressure_rate = materials.pressure(np.zeros_like(d_theta), d_theta_rate)
+        d_pressure, d_pressure_rate = materials.pressures(d_theta, d_theta_rate)
         d_stress = (broadcast_per_element(materials.shear, d_green) * state.law.dD(d_green)
                     + broadcast_per_element(materials.shear_rate, d_green) * d_green_rate
                     + d_pressure[..., None, None] * state.law.N[:, None]
