@@ -130,3 +130,19 @@ def test_fit_with_a_law_and_refusals(tmp_path):
                  "--out", tmp_path / "no.yaml")
     assert result.returncode == 2
     assert "--law" in result.stderr and "spring network" in result.stderr
+
+
+def test_the_mesh_command_writes_the_law_and_refuses_it_for_springs(tmp_path):
+    import trimesh
+
+    trimesh.creation.box(extents=(0.03, 0.03, 0.02)).export(tmp_path / "box.stl")
+    common = ["mesh", tmp_path / "box.stl", "--pitch", "0.01", "--fix-bottom", "--rules",
+              "liver", "--tissue", "liver"]
+    result = cli(*common, "--law", "neo-hookean", "--out", tmp_path / "nh.yaml")
+    assert result.returncode == 0, result.stderr
+    assert "material law: neo-hookean" in result.stdout
+    assert set(load_model(tmp_path / "nh.yaml").element_law) == {1}
+    result = cli(*common, "--elements", "springs", "--law", "neo-hookean",
+                 "--out", tmp_path / "springs.yaml")
+    assert result.returncode == 2 and "--law" in result.stderr
+    assert not (tmp_path / "springs.yaml").exists()
