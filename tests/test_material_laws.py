@@ -146,3 +146,24 @@ def test_the_mesh_command_writes_the_law_and_refuses_it_for_springs(tmp_path):
                  "--out", tmp_path / "springs.yaml")
     assert result.returncode == 2 and "--law" in result.stderr
     assert not (tmp_path / "springs.yaml").exists()
+
+
+def test_the_uniaxial_curves_and_the_report_section():
+    """The report's curve of the neo-Hookean law is the closed form (another implementation,
+    in principal stretches) to round-off; SVK has slope E at rest and softens under strong
+    compression; a fit report of a neo-Hookean model has its section."""
+    from neurofuzzy.forces.laws import uniaxial_stress as curve
+    from neurofuzzy.report.html import pyplot
+    from neurofuzzy.report.laws import law_section
+
+    stretches = np.array([0.65, 0.7, 0.9, 1.1, 1.25])
+    closed = uniaxial_stress(NeoHookean(E, NU), stretches).nominal_stress
+    assert np.allclose(curve("neo-hookean", E, NU, stretches), closed, rtol=1e-10)
+    slope = np.diff(curve("st-venant-kirchhoff", E, NU, [0.9999, 1.0001]))[0] / 2e-4
+    assert slope == pytest.approx(E, rel=1e-3)
+    svk = curve("st-venant-kirchhoff", E, NU, [0.7, 0.65])
+    assert abs(svk[1]) < abs(closed[0]) / 2                    # far softer at 35 %
+    title, text = law_section(pyplot(), _block("neo-hookean"))
+    assert title == "Material law" and "neo-hookean" in text and "<img" in text
+    assert law_section(pyplot(), SpringMassModel.uniform(
+        _block("neo-hookean").mesh, stiffness=1.0, damping=0.0, total_mass=1.0)) is None

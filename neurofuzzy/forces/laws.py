@@ -136,3 +136,32 @@ def law_parts(law: np.ndarray, G: np.ndarray) -> LawParts:
                     lambda X: np.where(_per_element(np.broadcast_to(mask, (K, 3, 3)), X),
                                        sandwich(X), X),
                     lambda X: -2.0 * sandwich(X))
+
+
+def uniaxial_stress(law, youngs_modulus: float, poisson_ratio: float, stretches) -> np.ndarray:
+    """Nominal (first Piola–Kirchhoff) stress (Pa) of a homogeneous block of one law pulled
+    or pressed along one axis with free sides, at axial stretches ``stretches`` (1 is rest;
+    NaN where the law has no state with free sides, as SVK beyond its compressive limit): the
+    stress–strain curve a fitted material stands for, for the report."""
+    from scipy.optimize import brentq
+
+    number = law_number(law)
+    mu = youngs_modulus / (2 * (1 + poisson_ratio))
+    lam = youngs_modulus * poisson_ratio / ((1 + poisson_ratio) * (1 - 2 * poisson_ratio))
+
+    def stress(axial, lateral):
+        G = np.diag([0.5 * (axial**2 - 1), 0.5 * (lateral**2 - 1), 0.5 * (lateral**2 - 1)])
+        parts = law_parts(np.array([number]), G[None])
+        return 2 * mu * parts.D[0] + lam * parts.theta[0] * parts.N[0]
+
+    out = []
+    for axial in np.atleast_1d(np.asarray(stretches, float)):
+        low, high = sorted((1.0, axial ** -0.5))
+        low, high = 0.5 * low, 1.5 * high
+        side = [stress(axial, s)[1, 1] for s in (low, high)]
+        if not (np.all(np.isfinite(side)) and side[0] * side[1] <= 0):
+            out.append(np.nan)
+            continue
+        lateral = brentq(lambda s: stress(axial, s)[1, 1], low, high, xtol=1e-14)
+        out.append(axial * stress(axial, lateral)[0, 0])
+    return np.array(out)

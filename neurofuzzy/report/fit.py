@@ -12,6 +12,7 @@ import numpy as np
 from ..learn.lack_of_fit import length_text
 from .html import figure_html, pyplot, table_html, write_report
 from .lack_of_fit import lack_of_fit_section
+from .laws import law_section
 
 __all__ = ["fit_report", "identifiability_html", "prior_section"]
 
@@ -96,6 +97,9 @@ def fit_report(start, learner, path, *, title: str | None = None,
         data["lack_of_fit"] = lack_of_fit.to_dict()
     sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
                      "</pre>"))
+    law = law_section(plt, learner.model_)
+    if law is not None:
+        sections.append(law)
     if getattr(learner, "prior", None) is not None:
         sections.append(prior_section(plt, learner, data))
     text, suggestions = identifiability_html(learner)

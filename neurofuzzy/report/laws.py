@@ -1,0 +1,48 @@
+"""The report's section on the elements' material law: the stress–strain curve each region's
+fitted material stands for (uniaxial, free sides, from 35 % compression to 25 % stretch) under
+its law, beside the other law with the same E and ν."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..forces.laws import LAWS, uniaxial_stress
+from .html import figure_html
+
+__all__ = ["law_section"]
+
+#: engineering strains of the curves: a probe's compression to a stretch
+STRAINS = np.linspace(-0.35, 0.25, 61)
+
+
+def law_section(plt, model) -> tuple[str, str] | None:
+    """``(title, html)`` for an element model, None for a spring network."""
+    if not model.has_elements:
+        return None
+    figure, ax = plt.subplots(figsize=(6.5, 3.6))
+    for r, name in enumerate(model.region_names):
+        chosen = model.element_region == r
+        if not chosen.any():
+            continue
+        E = float(np.median(model.element_youngs_modulus[chosen]))
+        nu = float(np.median(model.element_poisson_ratio[chosen]))
+        laws = np.unique(model.element_law[chosen])
+        own = LAWS[int(laws[0])] if len(laws) == 1 else None
+        for law in LAWS:
+            fitted = law == own
+            curve = uniaxial_stress(law, E, nu, 1.0 + STRAINS)
+            ax.plot(100 * STRAINS, curve / 1e3, "-" if fitted else "--", color=f"C{r % 10}",
+                    label=f"{name}: {law}" + (" (fitted)" if fitted else ""))
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.axvline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel("engineering strain along the load (%)")
+    ax.set_ylabel("nominal stress (kPa)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    text = (f"<p>Material law of the elements: {model.law_names()}. The curves are the "
+            "uniaxial stress of each region's fitted E and ν (the median of its elements) "
+            "under its law (solid) and under the other law (dashed, same colour): the same slope at rest, "
+            "apart under strong compression, where St. Venant–Kirchhoff softens (its curve "
+            "turns back, or ends where it has no state with free sides) and neo-Hookean "
+            "stiffens.</p>")
+    return "Material law", text + figure_html(figure, "uniaxial stress-strain curves")
