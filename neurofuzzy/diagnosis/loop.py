@@ -7,8 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import Hyperelasticity, SoftInclusion, StiffInclusion
-from ..effects.hyperelasticity import NEO_HOOKEAN
+from ..effects import SoftInclusion, StiffInclusion
 from ..experiment import Experiment, check_experiments
 from ..forces import tetrahedron_geometry
 from ..learn import GradientLearner
@@ -30,9 +29,6 @@ __all__ = ["diagnose", "Diagnosis", "Finding"]
 MIN_EVIDENCE = 10.0
 #: …and refitting with it must shrink the gap above the noise floor at least this many times.
 MIN_SHRINK = 1.5
-#: Catalogue entries whose addition changes the elements' material law (to this law number)
-#: instead of adding a force term.
-LAW_SWITCHES = {Hyperelasticity.name: NEO_HOOKEAN}
 #: Candidates refitted per round, best-scored first, until one passes the refit test: with
 #: noisy accelerations the one-step scores can rank a wrong local effect above the global one.
 MAX_REFITS = 5
@@ -242,8 +238,8 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
             break
         round_info["winner"] = winner.name
         # a law switch adds no effect: the refitted model's elements are neo-Hookean
-        added = winner.effect.with_params([1.0]) if winner.name in LAW_SWITCHES \
-            else refit.model_.effects[-1]
+        added = (winner.effect.with_params([1.0]) if _law_of(winner) is not None
+                 else refit.model_.effects[-1])
         others = [c for c in ranked if c is not winner]
         nodes, centroid = where(current, added)
         findings.append(Finding(
@@ -340,15 +336,21 @@ def _refit(candidate: Candidate, model, evidence, experiments, substeps, staged=
     markers (``staged=False``) the refit starts from the fitted model and the linearised
     step, so it fits the whole recording at once rather than growing beginnings of it."""
     learner = GradientLearner(substeps=substeps, windows=None if staged else ())
-    if candidate.name in LAW_SWITCHES:
+    if _law_of(candidate) is not None:
         # not a patch: the elements take the law, and everything is refitted
-        return learner.fit(model.replace(element_law=LAW_SWITCHES[candidate.name]), experiments)
+        return learner.fit(model.replace(element_law=_law_of(candidate)), experiments)
     effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
     if effect.name in ("stiff_inclusion", "soft_inclusion"):
         kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
         effect = kind(effect.params, **effect.options)
         candidate.name = effect.name
     return learner.fit(model.with_effects(effect), experiments)
+
+
+def _law_of(candidate: Candidate) -> int | None:
+    """The material law a catalogue entry switches the elements to (``switches_to``, e.g.
+    :class:`~neurofuzzy.effects.Hyperelasticity`), None for a force term."""
+    return getattr(candidate.effect, "switches_to", None)
 
 
 def significant(rms: float, noise_rms: float, n: int) -> bool:

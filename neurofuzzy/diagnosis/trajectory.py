@@ -194,7 +194,11 @@ class TrajectoryEvidence(TakenByEffects):
         if not candidates:
             return []
         self._candidate_columns = {}
-        for group in self._passes(candidates):
+        switches = [c for c in candidates if getattr(c, "switches_to", None) is not None]
+        for effect in switches:
+            self._candidate_columns[id(effect)] = self._switched(effect.switches_to)
+        others = [c for c in candidates if c not in switches]
+        for group in self._passes(others) if others else []:
             _, columns = self._sensitivities(group)
             self._candidate_columns.update(zip(map(id, group), columns[1:]))
         columns = [None] + [self._candidate_columns[id(c)] for c in candidates]
@@ -216,6 +220,21 @@ class TrajectoryEvidence(TakenByEffects):
                 elements=[int(k) for k in effect.elements]))
         scored.sort(key=lambda c: -c.score)
         return scored
+
+    def _switched(self, law: int) -> np.ndarray:
+        """(n_residuals, 1): the change of the residual when every element takes ``law`` (the
+        secant of a law switch, from one compiled run of the switched model at the fitted
+        values; its tangent would need the numpy path, tens of times slower)."""
+        switched = self.model.replace(element_law=law)
+        parameters = Parameterization(switched)
+        sensitivity = Sensitivity(parameters, self.length_unit,
+                                  offsets=fits_offsets("auto", self.experiments))
+        theta = parameters.initial()
+        with np.errstate(all="ignore"):
+            runs = [sensitivity.run(theta, e, substeps=self.substeps)
+                    for e in self.experiments]
+        change = np.concatenate([run.residuals.ravel() for run in runs]) - self.residual
+        return np.nan_to_num(change, nan=0.0, posinf=0.0, neginf=0.0)[:, None]
 
     def _passes(self, candidates) -> list[list]:
         """Candidates grouped into forward passes: all that the compiled kernel runs in one,

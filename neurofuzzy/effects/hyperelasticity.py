@@ -9,10 +9,11 @@ the same E, ν and η at small strain and does not. As a force term the effect i
     f = s (f_neo-Hookean(x, v) - f_own(x, v))
 
 so that ``s = 0`` is the model as it is and ``s = 1`` the neo-Hookean model. The diagnosis
-scores the candidate by the sensitivity to ``s`` at 0 (the linearised switch) and, when it
-wins, does not keep the patch: it switches the elements' law and refits
-(:mod:`neurofuzzy.diagnosis.loop`), so the model it returns is a neo-Hookean one with no
-effect added. Only element models with St. Venant–Kirchhoff elements are offered it.
+scores the candidate by the change of the marker residual from ``s = 0`` to ``s = 1`` (the
+secant of the switch, one compiled run of the neo-Hookean model) and, when it wins, does not
+keep the patch: it switches the elements' law (:attr:`Hyperelasticity.switches_to`) and
+refits (:mod:`neurofuzzy.diagnosis.loop`), so the model it returns is a neo-Hookean one with
+no effect added. Only element models with St. Venant–Kirchhoff elements are offered it.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ class Hyperelasticity(Effect):
     name = "hyperelasticity"
     unit = (0, 0, 0)
     _labels = ("share",)
+    #: the diagnosis switches the elements to this law instead of keeping the effect
+    switches_to = NEO_HOOKEAN
 
     @staticmethod
     def _pair(model) -> tuple[Materials, Materials]:
