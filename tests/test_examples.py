@@ -158,7 +158,8 @@ def test_the_pipeline_recovers_the_continuum_through_mesh_import_fit(tmp_path):
 @pytest.mark.slow
 def test_the_diagnosis_names_hidden_gravity_in_continuum_data(tmp_path):
     """mesh -> import -> diagnose on scikit-fem data of the block let go under gravity nobody
-    declared (1 cm cells to keep it short; docs/tutorials/springs-or-elements.md quotes the others)."""
+    declared (1 cm cells to keep it short; docs/tutorials/springs-or-elements.md quotes the
+    other cases)."""
     import json
 
     pytest.importorskip("skfem")
