@@ -1,7 +1,7 @@
 """What the toolkit says when its model cannot fit the data (issue 25): continuum data of the
 probed block from solvers nobody here wrote (scikit-fem's quadratic tetrahedra; MuJoCo's flex
 of linear tetrahedra split five to a cube), fitted on meshes a user would build (voxels of
-1 cm and 7.5 mm split six to a cube, TetGen), as the README's tables report them.
+1 cm and 7.5 mm split six to a cube, TetGen), as the tables of docs/lack-of-fit.md report them.
 
 ``validation``: per dataset, the homogeneous fit with the mesh check (RMS against the noise,
 errors of E, ν and η, whether the 95 % intervals hold them), the diagnosis's answer and the

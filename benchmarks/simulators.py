@@ -1,5 +1,5 @@
 """Real-time check of the exports: steps per second of MuJoCo running the exported models of the
-README's examples, beside neurofuzzy's own stepper, measured in the same run.
+documentation's examples, beside neurofuzzy's own stepper, measured in the same run.
 
     python benchmarks/simulators.py            # about a minute on 2 cores
     python benchmarks/simulators.py --quick    # smaller runs, without the 10,368-tetrahedra block
@@ -41,7 +41,8 @@ from neurofuzzy.datasets import kuhn_block, paper_cube_model  # noqa: E402
 from neurofuzzy.mesh import lattice_to_tetra, read_mesh  # noqa: E402
 from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
 
-#: README, "The documented pipeline on continuum data", ν = 0.45, voxel 4 mm
+#: docs/tutorials/springs-or-elements.md, "The documented pipeline on continuum data",
+#: ν = 0.45, voxel 4 mm
 BLOCK_FIT = {"youngs_modulus": 5945.0, "poisson_ratio": 0.447, "viscosity": 1.99,
              "density": 1050.0}
 RECORD_EVERY = 10

@@ -1,4 +1,4 @@
-"""The rule studio's screenshots in docs/images/ (README, "The rule studio").
+"""The rule studio's screenshots in docs/images/ (docs/studio.md).
 
 Run from the repository: ``python docs/screenshots.py``. It needs the test extra
 (``pip install '.[test]'``) and Debian's chromium (/usr/bin/chromium). It copies liver.yaml

@@ -1,5 +1,5 @@
-"""Recordings of a liver block with a hidden stiff inclusion: the data of the README's prior
-walkthrough (*The rule base as a prior*).
+"""Recordings of a liver block with a hidden stiff inclusion: the data of the prior
+walkthrough (docs/tutorials/prior.md).
 
 Run:  python examples/liver_block_with_inclusion.py [OUT_DIR]
 

@@ -1,6 +1,6 @@
 """Continuum data from a solver nobody here wrote: scikit-fem's quadratic tetrahedra.
 
-Our element models are validated, and the README's accuracy figures measured, against motion
+Our element models are validated, and the documentation's accuracy figures measured, against motion
 that does not come from our own simulator. :class:`ContinuumSolver` assembles linear
 elastodynamics on a tetrahedral mesh with scikit-fem (quadratic ``P2`` tetrahedra by default:
 ten nodes each, far closer to the continuum than our linear elements on the same mesh, and

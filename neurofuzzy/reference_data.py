@@ -1,6 +1,6 @@
 """Recordings of a probed soft block made by code nobody here wrote, to validate against.
 
-The block of the README's continuum examples: 4 × 4 × 3 cm, bottom held, pushed on the top
+The block of the documentation's continuum examples: 4 × 4 × 3 cm, bottom held, pushed on the top
 centre by a probe through a 1 cm contact patch; markers on the top (off the patch) and two
 sides on a 5 mm grid, recorded at 1 kHz with white noise. The motion comes from scikit-fem's
 quadratic tetrahedra (:class:`~neurofuzzy.continuum_reference.ContinuumSolver`: Kuhn cells of

@@ -36,7 +36,7 @@ def test_every_exported_name_resolves_and_is_documented():
     assert set(dir(nf)) >= set(nf.__all__)
     from neurofuzzy.learn.prior import FuzzyPrior
 
-    assert nf.FuzzyPrior is FuzzyPrior          # the README's prior walkthrough names it
+    assert nf.FuzzyPrior is FuzzyPrior          # docs/tutorials/prior.md names it
     with pytest.raises(AttributeError, match="no attribute 'simulat'"):
         nf.simulat
 

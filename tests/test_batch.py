@@ -173,7 +173,7 @@ def test_a_local_cluster_is_started_when_no_scheduler_is_given(tmp_path):
     result = cli("fit-many", manifest, "--out", tmp_path / "out", "--workers", "1")
     assert result.returncode == 0, result.stderr          # every specimen fitted
     assert "2 specimens: 2 fitted, 0 failed" in result.stdout
-    assert "on 1 worker process(es), 1 thread(s) in all" in result.stderr   # as the README
+    assert "on 1 worker process(es), 1 thread(s) in all" in result.stderr   # as the tutorial says
     assert "2/2 done" in result.stderr
     records = [json.loads((tmp_path / "out" / f"s{i}" / "fit.json").read_text())
                for i in range(2)]

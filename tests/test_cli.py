@@ -303,10 +303,10 @@ def test_every_option_has_help_naming_its_default():
 
 def test_help_texts_name_units_and_where_formats_are_documented():
     result = run_cli("simulate", "--help")
-    assert "DESIGN.md" not in result.stdout and "README.md" in result.stdout
+    assert "DESIGN.md" not in result.stdout and "docs/formats.md" in result.stdout
     assert "newtons" in result.stdout and "default 251" in result.stdout
     import_help = run_cli("import", "--help").stdout
-    assert "DESIGN.md" not in import_help and "README.md" in import_help
+    assert "DESIGN.md" not in import_help and "docs/formats.md" in import_help
     fit_help = " ".join(run_cli("fit", "--help").stdout.split())
     assert "tetrahedral elements" in fit_help
 

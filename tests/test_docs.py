@@ -1,6 +1,15 @@
-"""The documentation site builds from docs/ with warnings as errors, and the help texts and the
-README say where the file formats are documented."""
+"""The documentation: the site builds from docs/ with warnings as errors, the short README
+points to every page, and every tutorial runs as written (slow), its quoted numbers checked
+against what the run prints within the tolerances the page states.
 
+A fenced ``bash`` or ``python`` block of a tutorial runs unless the line before it is
+``<!-- not run: REASON -->`` (an illustration, e.g. one that needs SOFA); ``text`` blocks are
+output and are never run."""
+
+import json
+import os
+import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -8,6 +17,17 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+TUTORIALS = sorted(path.stem for path in (DOCS / "tutorials").glob("*.md"))
+
+#: a fenced block, with the marker that keeps it from running when one precedes it
+BLOCK = re.compile(r"(?:^<!-- not run: (?P<why>[^>]+?) -->\n)?^```(?P<language>\w*)\n"
+                   r"(?P<code>.*?)^```$", flags=re.S | re.M)
+
+
+def blocks(text: str) -> list[tuple[str, str, str | None]]:
+    """(language, code, why not run or None) of every fenced block of a page, in order."""
+    return [(m["language"], m["code"], m["why"]) for m in BLOCK.finditer(text)]
 
 
 def test_the_site_builds_strictly_with_the_api_reference(tmp_path):
@@ -21,66 +41,191 @@ def test_the_site_builds_strictly_with_the_api_reference(tmp_path):
         assert name in api, name
     assert "discrepancy principle" in api                  # a docstring, rendered
     assert "rest_positions" in (site / "formats" / "index.html").read_text()
+    for page in TUTORIALS:                                 # every tutorial is in the nav
+        assert (site / "tutorials" / page / "index.html").exists(), page
 
 
 def test_the_format_the_help_points_to_is_documented():
-    readme = (ROOT / "README.md").read_text()
-    section = readme.split("## Experiment files", 1)[1].split("\n## ", 1)[0]
+    section = (DOCS / "formats.md").read_text().split("## Experiment files", 1)[1]
+    section = section.split("\n## ", 1)[0]
     for key in ("rest_positions", "springs", "dt", "positions", "fixed", "external_forces",
                 "observed", "masses", "tetrahedra"):
         assert f"`{key}`" in section, key
     assert "DESIGN.md" not in section
 
 
-def _blocks(readme: str, section: str) -> list[tuple[str, str]]:
-    """(language, code) of every fenced block of a README section (## level)."""
-    import re
-
-    body = readme.split(f"\n## {section}\n", 1)[1].split("\n## ", 1)[0]
-    return re.findall(r"```(\w*)\n(.*?)```", body, flags=re.S)
-
-
-#: the sections whose commands and snippets run in order, in one fresh folder
-WALKTHROUGHS = ("Words in, numbers out, words back", "Command line",
-                "The rule base as a prior: where the tissue differs from its description",
-                "Finding the missing effect", "Many specimens: fit-many on Dask")
-
-
-@pytest.mark.slow
-def test_the_readme_walkthroughs_run_as_written(tmp_path):
-    """Every bash block and Python snippet of these README sections, copy-pasted in order into
-    a shell in a fresh folder holding what a clone holds (rules/, examples/)."""
-    import os
-    import shutil
-
+def test_the_readme_is_short_and_links_every_page():
     readme = (ROOT / "README.md").read_text()
-    for folder in ("rules", "examples"):
-        shutil.copytree(ROOT / folder, tmp_path / folder)
+    assert readme.count("\n") < 120
+    first = blocks(readme)[0]
+    assert first[0] == "bash" and first[2]                 # the set-up: marked, never run
+    lines = first[1].splitlines()
+    assert lines[0].endswith("pip install . && neurofuzzy demo")
+    assert 'python -m pytest -m "slow or not slow"' in lines[1]   # .ci/run reads it here
+    for page in (p for p in DOCS.rglob("*.md") if p.name != "index.md"):
+        name = page.relative_to(ROOT).as_posix()
+        assert f"]({name})" in readme, f"the README does not link {name}"
+    for link in re.findall(r"\]\(((?:docs|rules)/[^)#]+)\)", readme):
+        assert (ROOT / link).exists(), link
+
+
+def test_not_run_blocks_are_few_and_say_why():
+    """Only illustrations stay out of the run, each with its reason."""
+    skipped = []
+    for page in TUTORIALS:
+        text = (DOCS / "tutorials" / f"{page}.md").read_text()
+        found = blocks(text)
+        assert any(language in ("bash", "python") and why is None
+                   for language, _, why in found), page
+        assert text.count("<!-- not run:") == sum(why is not None for _, _, why in found), (
+            f"{page}: a 'not run' marker that is not right before a block")
+        skipped += [(page, why) for language, _, why in found if why]
+    assert len(skipped) <= 2, skipped
+
+
+def run_page(page: str, folder: Path) -> list[tuple[str, str]]:
+    """Every bash block and Python snippet of a tutorial, copy-pasted in order into a shell
+    in ``folder`` holding what a clone holds (rules/, examples/): (code, stdout) of each."""
+    for name in ("rules", "examples"):
+        shutil.copytree(ROOT / name, folder / name)
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
-    ran = 0
-    for section in WALKTHROUGHS:
-        for language, code in _blocks(readme, section):
-            if language == "bash":
-                command = ["bash", "-euo", "pipefail", "-c", code]
-            elif language == "python":
-                command = [sys.executable, "-c", code]
-            else:
-                continue
-            result = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path,
-                                    env=env, timeout=900)
-            assert result.returncode == 0, f"{section}:\n{code}\n{result.stderr[-2000:]}"
-            ran += 1
-    assert ran >= 5
-    assert (tmp_path / "fitted.yaml").exists() and (tmp_path / "prior" / "fit.html").exists()
-    assert (tmp_path / "results" / "results.csv").exists()
+    outputs = []
+    for language, code, why in blocks((DOCS / "tutorials" / f"{page}.md").read_text()):
+        if why or language not in ("bash", "python"):
+            continue
+        command = (["bash", "-euo", "pipefail", "-c", code] if language == "bash"
+                   else [sys.executable, "-c", code])
+        result = subprocess.run(command, capture_output=True, text=True, cwd=folder, env=env,
+                                timeout=900)
+        assert result.returncode == 0, f"{page}:\n{code}\n{result.stderr[-3000:]}"
+        outputs.append((code, result.stdout))
+    return outputs
+
+
+def last_json(stdout: str) -> dict:
+    """The last line of a block's output that is a JSON object (``fit --json``)."""
+    return json.loads([line for line in stdout.splitlines() if line.startswith("{")][-1])
+
+
+def check_words(folder, outputs):
+    assert (folder / "fitted.yaml").exists() and (folder / "report.html").exists()
+    # the snippet's comment: white matter's Poisson's ratio in words, with its degree
+    printed = outputs[-1][1]
+    assert "nearly_incompressible" in printed and "0.72" in printed, printed
+
+
+def check_command_line(folder, outputs):
+    fitted = last_json(outputs[0][1])
+    assert fitted["rms_error"] < fitted["rms_error_initial"]
+
+
+def check_python(folder, outputs):
+    assert (folder / "report.html").exists()
+
+
+def check_prior(folder, outputs):
+    """The page: α 17.9 and the noise 1.02e-05 m (to 10 %), the stiff cell's six elements,
+    its E 17902 Pa (to 5 %) and word "hard" with degree 0.92 (±0.03)."""
+    result = last_json(outputs[0][1])
+    prior = result["prior"]
+    assert prior["how"] == "discrepancy principle"
+    assert prior["alpha"] == pytest.approx(17.9, rel=0.1)
+    assert prior["noise"] == pytest.approx(1.02e-5, rel=0.1)
+    [region] = result["regions_found"]
+    assert region["elements"] == [9, 27, 45, 63, 81, 99] and region["size"] == 6
+    assert region["centroid"] == pytest.approx([0.015, 0.015, 0.015])
+    assert region["value"] == pytest.approx(17902, rel=0.05)
+    assert region["label"] == "hard" and region["described"] == "firm"
+    assert region["degree"] == pytest.approx(0.92, abs=0.03)
+    assert result["regions_rest"]["liver"]["youngs_modulus"]["label"] == "firm"
+    assert (folder / "prior" / "fit.html").exists()
+
+
+def check_missing_effect(folder, outputs):
+    assert (folder / "diagnosis.html").exists()
+    assert last_json(outputs[0][1])["answer"] == ["none"]     # nothing hidden in push.npz
+
+
+def check_many_specimens(folder, outputs):
+    assert "healthy: firm (2/2)" in outputs[0][1] and "fibrotic: hard (2/2)" in outputs[0][1]
+    assert (folder / "results" / "results.csv").read_text().count("\n") == 5
+    assert (folder / "cohort.html").exists()
+
+
+def check_motion_capture(folder, outputs):
+    """The organ's table (stiffness to 0.1 %, viscosity to 2 %, the final RMS to 5 %), the
+    tumour example's three commands as the page has them, and the two regions' E (to 1 %),
+    the RMS (to 5 %) and words of the command-line fit."""
+    page = (DOCS / "tutorials" / "motion-capture.md").read_text()
+    organ = outputs[0][1]
+    quoted = {"edge": (104.7, 0.01263), "diagonal": (58.19, 0.007094)}
+    for quantity, group, fitted in re.findall(r"^(stiffness|viscosity) (edge|diagonal)\s+\S+"
+                                              r"\s+(\S+)", organ, flags=re.M):
+        value = quoted[group][quantity == "viscosity"]
+        tolerance = 0.001 if quantity == "stiffness" else 0.02
+        assert float(fitted) == pytest.approx(value, rel=tolerance), (quantity, group)
+    rms = float(re.search(r"RMS marker error \d+ µm -> (\S+) µm", organ)[1])
+    assert rms == pytest.approx(34.6, rel=0.05)
+    assert "hard" in (folder / "fit.html").read_text()
+    tumour = outputs[1][1]
+    commands = re.findall(r"^  (neurofuzzy .+)$", tumour, flags=re.M)
+    assert [c.split()[1] for c in commands] == ["mesh", "import", "fit"]
+    for command in commands:
+        assert f"\n{command}\n" in page, command
+    assert "162 markers embedded" in tumour
+    fitted = last_json(tumour)
+    materials = fitted["materials"]
+    assert materials["liver"]["youngs_modulus"] == pytest.approx(1.94e4, rel=0.01)
+    assert materials["tumour"]["youngs_modulus"] == pytest.approx(8.39e4, rel=0.01)
+    assert materials["liver"]["labels"]["youngs_modulus"] == "hard"
+    assert materials["tumour"]["labels"]["youngs_modulus"] == "very_hard"
+    assert fitted["rms_error"] == pytest.approx(34.7e-6, rel=0.05)
+    report = json.loads((folder / "tumour" / "fit.json").read_text())
+    assert [region["region"] for region in report["regions"]] == ["liver", "tumour"]
+
+
+def check_springs_or_elements(folder, outputs):
+    """E ≈ 5948 Pa and η ≈ 2.02 Pa·s (to 2 %), ν ≈ 0.447 (±0.005), and the words."""
+    [material] = last_json(outputs[0][1])["materials"].values()
+    assert material["youngs_modulus"] == pytest.approx(5948, rel=0.02)
+    assert material["viscosity"] == pytest.approx(2.02, rel=0.02)
+    assert material["poisson_ratio"] == pytest.approx(0.447, abs=0.005)
+    assert [material["labels"][k] for k in ("youngs_modulus", "poisson_ratio", "viscosity")] \
+        == ["firm", "nearly_incompressible", "medium"]
+
+
+def check_export(folder, outputs):
+    for name in ("tissue.xml", "tissue.py", "tissue.feb", "paraview"):
+        assert (folder / name).exists(), name
+
+
+CHECKS = {"words": check_words, "command-line": check_command_line, "python": check_python,
+          "prior": check_prior, "missing-effect": check_missing_effect,
+          "many-specimens": check_many_specimens, "motion-capture": check_motion_capture,
+          "springs-or-elements": check_springs_or_elements, "export": check_export}
+
+
+def test_every_tutorial_has_its_checks():
+    assert sorted(CHECKS) == TUTORIALS
 
 
 @pytest.mark.slow
-def test_the_readme_quotes_the_demo_as_it_prints(tmp_path):
-    """The demo's table (the paper learner's rows to every digit shown, the gradient row but
-    for its machine-precision columns) and its words are the README's, as the README says."""
-    import re
+@pytest.mark.parametrize("page", TUTORIALS)
+def test_the_tutorials_run_as_written(tmp_path, page):
+    """Every bash block and Python snippet of the page runs in order in a fresh folder, and
+    the numbers the page quotes from that run are what it prints."""
+    if page in ("springs-or-elements", "export"):
+        pytest.importorskip("skfem")
+    outputs = run_page(page, tmp_path)
+    CHECKS[page](tmp_path, outputs)
 
+
+@pytest.mark.slow
+def test_the_demo_prints_what_the_docs_quote(tmp_path):
+    """The demo's table (the paper learner's rows to every digit shown, the gradient row but
+    for its machine-precision columns) and its words are those of docs/paper-cube.md, as
+    that page says, and the README's excerpt is taken from it."""
+    page = (DOCS / "paper-cube.md").read_text()
     readme = (ROOT / "README.md").read_text()
     result = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", "demo", "--out",
                              str(tmp_path / "demo"), "--quiet"], capture_output=True, text=True,
@@ -92,7 +237,7 @@ def test_the_readme_quotes_the_demo_as_it_prints(tmp_path):
 
     table = [line for line in result.stdout.splitlines() if re.match(r"\s+[123]\s+paper", line)]
     assert len(table) == 3
-    quoted = {without_time(line) for line in readme.splitlines()}
+    quoted = {without_time(line) for line in page.splitlines()}
     for line in table:
         assert without_time(line) in quoted, line
     gradient = next(line for line in result.stdout.splitlines() if "gradient" in line).split()
@@ -100,4 +245,9 @@ def test_the_readme_quotes_the_demo_as_it_prints(tmp_path):
     for line in result.stdout.splitlines():
         if line.startswith(("words:", "  youngs_modulus", "  viscosity", "  density",
                             "  in the expert's words")):
-            assert line in readme, line
+            assert line in page, line
+    printed = {without_time(line) for line in result.stdout.splitlines()}
+    for _, excerpt, _ in blocks(readme)[1:]:
+        for line in excerpt.splitlines():
+            if re.match(r"\s+[12]\s+paper|\s+3\s+paper|\s+youngs_modulus", line):
+                assert without_time(line) in printed, line

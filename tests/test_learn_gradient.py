@@ -134,3 +134,23 @@ def test_every_spring_from_two_load_cases_of_rk4_data():
     fitted = learner.model_
     assert np.median(np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]) < 0.01
     assert np.median(np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]) < 0.01
+
+
+@pytest.mark.parametrize("method", ["lm", "lbfgs"])
+def test_the_error_curve_has_one_point_per_cycle(tmp_path, cube_experiment, method):
+    """The report's 'in N cycles' and its error curve count the same thing: every simulation
+    of the data, Jacobian passes included (the demo's 15 cycles had 8 points)."""
+    import json
+    import re
+
+    from neurofuzzy.learn import StartModel
+    from neurofuzzy.report import fit_report
+
+    start = paper_cube_model(stiffness=70.0, damping=0.03, tie="groups")
+    learner = GradientLearner(method=method).fit(start, cube_experiment)
+    assert learner.n_cycles_ > 2 and len(learner.history_) == learner.n_cycles_
+    assert np.all(np.diff(learner.history_) <= 0)              # best so far
+    report = fit_report(StartModel(start, "model", "given"), learner, tmp_path / "fit.html")
+    cycles = int(re.search(r"in (\d+) cycles", report.read_text())[1])
+    twin = json.loads(report.with_suffix(".json").read_text())
+    assert cycles == learner.n_cycles_ == twin["cycles"] == len(twin["history"])

@@ -10,7 +10,7 @@ from ..forces.laws import LAWS
 from ..version import __version__
 
 #: where the experiment file (.npz) is documented in the repository
-FORMAT_DOC = "the format: README.md, section 'Experiment files'"
+FORMAT_DOC = "the format: docs/formats.md, section 'Experiment files'"
 
 __all__ = ["build_parser"]
 

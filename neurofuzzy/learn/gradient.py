@@ -95,11 +95,13 @@ class GradientLearner(Learner):
 
     Attributes
     ----------
-    history_ : (n_evaluations,) float
+    history_ : (n_cycles_,) float
         The paper's error ``E`` (eq. 2.2, lengths in mean spring lengths) after every
-        simulation of the data, best so far (trial steps the solver rejects do not raise it).
+        simulation of the data, best so far (trial steps the solver rejects do not raise it):
+        one value per cycle, Jacobian passes included.
     n_cycles_ : int
-        Complete simulations of all experiments (a Jacobian or gradient pass counts as one).
+        Complete simulations of all experiments (a Jacobian or gradient pass counts as one);
+        ``len(history_)``.
     substeps_ : int
         Substeps per frame with which the returned model reproduces the data best.
     extrapolated_ : bool
@@ -328,10 +330,11 @@ class GradientLearner(Learner):
 
     def _jacobian(self, sensitivity, experiments, theta, starts, substeps, *,
                   with_runs: bool = False, columns=None):
-        """:func:`._passes.jacobian`, counted as one simulation of the data."""
-        self.n_cycles_ += 1
+        """:func:`._passes.jacobian`, counted as one simulation of the data (and one point
+        of ``history_``: its runs carry the residuals at ``theta``)."""
         jacobian, runs = passes.jacobian(sensitivity, experiments, theta, starts, substeps,
                                          columns=columns)
+        self._record(runs, sensitivity.length_unit)
         return (jacobian, runs) if with_runs else jacobian
 
     def _solve_lm(self, sensitivity, experiments, theta, starts, substeps, lower, upper,

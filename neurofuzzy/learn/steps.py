@@ -51,7 +51,7 @@ def auto_substeps(model: SpringMassModel, dt: float) -> int:
     discretisation artefacts (``ω_max`` grows as the mesh is refined) far above the motion a
     recording resolves, and the Richardson extrapolation the learner applies removes the
     first-order bias of the modes that are seen (on scikit-fem continuum data: E, ν and η
-    within 1 % at this step, README).
+    within 1 % at this step, docs/tutorials/springs-or-elements.md).
     """
     limit = stability_limit(model)
     by_stability = dt / limit.max_step
