@@ -122,7 +122,8 @@ class NumbaStepper:
         self.stiffness = model.spring_stiffness[springs].astype(self.dtype)
         self.damping = model.spring_damping[springs].astype(self.dtype)
         self.rest = model.spring_rest_length[springs].astype(self.dtype)
-        self.elements = _element_arrays(model, self.dtype)
+        self.elements = _element_arrays(model, self.dtype, self.h)
+        self.history = self.elements[-1]
         self.weight = model.node_inverse_mass.astype(self.dtype)
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
@@ -137,6 +138,7 @@ class NumbaStepper:
         pc = np.array(p, dtype=self.dtype)
         vc = np.array(v, dtype=self.dtype)
         vc[self.fixed] = 0.0
+        self.history[...] = 0.0             # relaxation starts from rest, as the state does
         loads = (np.zeros((1, p.shape[0], 3), dtype=self.dtype) if loads is None
                  else np.ascontiguousarray(loads[:max(n_frames - 1, 1)], self.dtype))
         NumbaStepper._frames_kernel(pc, vc, self.a, self.b, self.stiffness, self.damping,
@@ -164,16 +166,20 @@ def compiled_terms_only(model) -> bool:
     return not model.effects
 
 
-def _element_arrays(model, dtype):
+def _element_arrays(model, dtype, h: float):
     """``(tets, inverse_rest, volume, law, shear, shear_rate, λ, λβ, nodal, node_volume, Λ, H,
-    node_strain)`` of the model's elements in the kernel's layout (the constants of
-    :class:`~neurofuzzy.forces.Materials`; empty when it has none; ``node_strain`` is scratch
-    space of the nodal volumetric form)."""
+    node_strain, g, a, history)`` of the model's elements in the kernel's layout (the
+    constants of :class:`~neurofuzzy.forces.Materials`; empty when it has none;
+    ``node_strain`` is scratch space of the nodal volumetric form; ``g``, ``a = exp(-h/τ)``
+    and ``history`` (n_elements, K, 6) the Prony terms of steps of ``h`` seconds and their
+    internal variables, :mod:`neurofuzzy.forces.relaxation`)."""
     if not model.has_elements:
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty,
                 np.zeros(0, np.intp), empty, empty, empty, empty, False, empty, empty, empty,
-                np.zeros((0, 2), dtype))
+                np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
+                np.zeros((0, 0, 6), dtype))
+    from .forces.relaxation import decay
     from .forces.tetra_geometry import Materials
 
     materials = Materials.of(model)
@@ -188,7 +194,10 @@ def _element_arrays(model, dtype):
             *(values.astype(dtype) for values in (materials.shear, materials.shear_rate,
                                                   materials.lam, materials.lam_rate)),
             nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
-            np.zeros((n_nodes, 2), dtype))
+            np.zeros((n_nodes, 2), dtype),
+            np.ascontiguousarray(model.element_relaxation_moduli, dtype),
+            np.ascontiguousarray(decay(model.element_relaxation_times, h), dtype),
+            np.zeros((model.mesh.n_tetrahedra, model.n_relaxation_terms, 6), dtype))
 
 
 def _compile():
@@ -219,8 +228,9 @@ def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64, work:
     enough (``work`` = springs × steps above 2·10⁷, an element counting as ten springs) to
     repay its compilation.
     """
+    relaxing = model.n_relaxation_terms > 0      # internal variables: the compiled loop only
     if backend == "numba" or (backend == "auto" and compiled_terms_only(model)
-                              and work >= 2e7 and numba_available()):
+                              and (work >= 2e7 or relaxing) and numba_available()):
         return NumbaStepper(model, h, dtype)
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"unknown backend {backend!r}")

@@ -66,6 +66,10 @@ def model_to_dict(model: SpringMassModel) -> dict:
         if any(number != 0 for number in model.element_law):
             # one word when every element has the same law, else one per element
             data["elements"]["law"] = laws[0] if len(set(laws)) == 1 else laws
+        if model.n_relaxation_terms:
+            # Prony terms: one [g, ...] and one [τ, ...] row per element
+            data["elements"]["relaxation_moduli"] = model.element_relaxation_moduli.tolist()
+            data["elements"]["relaxation_times"] = model.element_relaxation_times.tolist()
     return data
 
 
@@ -78,7 +82,7 @@ MODEL_KEYS = {
                 ("group", "group_names", "rest_length", "tie", "region")),
     "regions": (("names",), ("tissues",)),
     "elements": ((), ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                      "volumetric", "law")),
+                      "volumetric", "law", "relaxation_moduli", "relaxation_times")),
 }
 #: keys whose value is a single word, not a list
 _MODEL_SCALAR_KEYS = {("elements", "volumetric")}
@@ -94,7 +98,7 @@ _MODEL_FILE_KEY = {
     "region_tissues": ("regions", "tissues"), "effects": (None, "effects"),
     **{f"element_{key}": ("elements", key)
        for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                   "volumetric", "law")},
+                   "volumetric", "law", "relaxation_moduli", "relaxation_times")},
 }
 
 
@@ -203,7 +207,7 @@ def _elements_from_dict(data: dict) -> dict:
                          key="elements")
     values = {f"element_{key}": elements.get(key)
               for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                          "law")}
+                          "law", "relaxation_moduli", "relaxation_times")}
     # files written before the nodal volumetric form existed hold per-element elements
     values["element_volumetric"] = elements.get("volumetric", "element")
     return values

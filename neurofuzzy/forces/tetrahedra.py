@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..errors import InputError
 from .base import ForceTerm
 from .laws import LawParts, law_parts
 from .tetra_geometry import (Materials, TetrahedronGeometry, broadcast_per_element,
@@ -67,6 +68,18 @@ __all__ = ["TetrahedronForce", "TETRAHEDRA", "TetrahedronGeometry", "tetrahedron
 
 #: The elements' parameters, in the order of every per-element parameter dictionary.
 PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
+
+
+def _stateless(model) -> Materials:
+    """The materials of ``model``'s elements for the numpy path, which has no internal
+    variables: a model with Prony relaxation (:mod:`neurofuzzy.forces.relaxation`) runs in
+    the compiled kernels only, and says so here rather than be simulated without it."""
+    if model.n_relaxation_terms:
+        raise InputError("this model's elements relax (Prony terms), which only the compiled "
+                         "kernels simulate; the numpy path was asked for (an effect the kernels "
+                         "do not compute, learned masses, or backend='numpy')",
+                         key="element_relaxation_moduli")
+    return Materials.of(model)
 
 
 def _sym(matrix):
@@ -127,13 +140,13 @@ class TetrahedronForce(ForceTerm):
         return -broadcast_per_element(geometry.volume, first_piola) * (first_piola @ inverse_transpose)
 
     def force(self, model, positions, velocities):
-        return self.force_of(Materials.of(model), positions, velocities)
+        return self.force_of(_stateless(model), positions, velocities)
 
     def state_jvp(self, model, positions, velocities, dp, dv):
-        return self.state_jvp_of(Materials.of(model), positions, velocities, dp, dv)
+        return self.state_jvp_of(_stateless(model), positions, velocities, dp, dv)
 
     def state_vjp(self, model, positions, velocities, cotangent):
-        return self.state_vjp_of(Materials.of(model), positions, velocities, cotangent)
+        return self.state_vjp_of(_stateless(model), positions, velocities, cotangent)
 
     # the same for any per-element materials (an inclusion's extra stiffness on part of a model)
     def force_of(self, materials: Materials, positions, velocities):
@@ -192,7 +205,7 @@ class TetrahedronForce(ForceTerm):
     def _unit_forces(self, model, positions, velocities):
         """Per-corner forces (K, 4, 3) per unit change of each element's shear part
         (``2μ`` by ``E``, ``ν``, ``η``) and of its ``π``, with the materials and state."""
-        materials = Materials.of(model)
+        materials = _stateless(model)
         geometry = materials.geometry
         state = self._state(materials, positions, velocities)
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
@@ -287,7 +300,13 @@ class TetrahedronForce(ForceTerm):
     def rest_matrices(self, model):
         """``(K, C)``: ``-∂f/∂x`` and ``-∂f/∂v`` at rest, assembled (3N, 3N): the shear part
         element by element, the volumetric part ``Dᵀ W D`` from the rest divergence ``D``
-        (and, for the nodal form, its node averages)."""
+        (and, for the nodal form, its node averages). Elements that relax (Prony terms) are
+        ``1 + Σ gᵢ`` times stiffer at once than their long-term E, and so in the bound."""
+        if model.n_relaxation_terms:
+            instant = model.element_youngs_modulus * (
+                1.0 + model.element_relaxation_moduli.sum(axis=1))
+            return self.rest_matrices_of(Materials.of(model.replace(
+                element_youngs_modulus=instant)))
         return self.rest_matrices_of(Materials.of(model))
 
     def rest_matrices_of(self, materials: Materials):

@@ -37,6 +37,8 @@ def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
     if not numba_available() or parameters.learn_masses:
         return False
+    if model.n_relaxation_terms:       # not yet in the sensitivity kernel: the numpy path
+        return False                   # refuses such a model with a message
     drags = sum(isinstance(effect, NodeDrag) for effect in model.effects)
     stiffenings = sum(_element_stiffening(effect) for effect in model.effects)
     return drags <= 1 and stiffenings <= 1 and all(

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import InputError, closest_name
 from ..forces.laws import LAWS, law_numbers
+from ..forces.relaxation import relaxation_arrays, relaxation_fields
 from ..mesh import Mesh
 from .values import PerSpring, Tie, describe, per_spring, tie_index, vector
 
@@ -82,6 +83,12 @@ class SpringMassModel:
         Every element's material law (:mod:`neurofuzzy.forces.laws`):
         ``"st-venant-kirchhoff"`` (the default) or ``"neo-hookean"``, one for all elements
         or one per element; stored as law numbers.
+    element_relaxation_moduli, element_relaxation_times : (K,) or (n_tetrahedra, K) float,
+        optional
+        Prony-series relaxation of the elements (:mod:`neurofuzzy.forces.relaxation`, 1–3
+        terms): relative moduli ``gᵢ ≥ 0`` (of the long-term modulus E) and times
+        ``τᵢ > 0`` (s), for all elements or per element; both or neither. Stored as
+        (n_tetrahedra, K) arrays, K = 0 without relaxation.
     """
 
     mesh: Mesh
@@ -102,6 +109,8 @@ class SpringMassModel:
     element_region: np.ndarray | None = None
     element_volumetric: str = "nodal"
     element_law: np.ndarray | None = None
+    element_relaxation_moduli: np.ndarray | None = None
+    element_relaxation_times: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -192,8 +201,8 @@ class SpringMassModel:
 
     @classmethod
     def continuum(cls, mesh: Mesh, *, youngs_modulus, poisson_ratio, viscosity,
-                  density, volumetric: str = "nodal", law="st-venant-kirchhoff"
-                  ) -> SpringMassModel:
+                  density, volumetric: str = "nodal", law="st-venant-kirchhoff",
+                  relaxation=None) -> SpringMassModel:
         """A tetrahedral finite-element model of ``mesh`` (which needs ``tetrahedra``).
 
         Parameters
@@ -208,6 +217,10 @@ class SpringMassModel:
         law : str or (n_tetrahedra,), optional
             The elements' material law (``element_law``): ``"st-venant-kirchhoff"`` or
             ``"neo-hookean"``.
+        relaxation : tuple of (g, τ) pairs, optional
+            Prony terms for every element (``element_relaxation_moduli``,
+            ``element_relaxation_times``), e.g. ``[(0.5, 0.05)]``: the standard linear solid
+            whose long-term modulus is E and instantaneous one 1.5 E, relaxing in 50 ms.
 
         The springs of the mesh (its tetrahedron edges) get zero stiffness and damping.
         """
@@ -225,7 +238,8 @@ class SpringMassModel:
                    element_youngs_modulus=np.broadcast_to(youngs_modulus, (n,)),
                    element_poisson_ratio=np.broadcast_to(poisson_ratio, (n,)),
                    element_viscosity=np.broadcast_to(viscosity, (n,)),
-                   element_volumetric=volumetric, element_law=law)
+                   element_volumetric=volumetric, element_law=law,
+                   **relaxation_fields(relaxation))
 
     def replace(self, **changes) -> SpringMassModel:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -309,6 +323,8 @@ class SpringMassModel:
                              key="element_tie")
         out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
         out["element_law"] = law_numbers(self.element_law, n)
+        out["element_relaxation_moduli"], out["element_relaxation_times"] = relaxation_arrays(
+            self.element_relaxation_moduli, self.element_relaxation_times, n)
         if self.element_volumetric not in VOLUMETRIC:
             hint = closest_name(str(self.element_volumetric), VOLUMETRIC)
             raise InputError(f"got {self.element_volumetric!r}; expected one of "
@@ -343,6 +359,11 @@ class SpringMassModel:
     def has_elements(self) -> bool:
         """True when the model carries tetrahedral finite elements."""
         return self.element_youngs_modulus is not None
+
+    @property
+    def n_relaxation_terms(self) -> int:
+        """How many Prony terms the elements carry (0: no relaxation, or no elements)."""
+        return self.element_relaxation_moduli.shape[1] if self.has_elements else 0
 
     @property
     def force_terms(self) -> tuple:
@@ -393,6 +414,10 @@ class SpringMassModel:
                          f" Pa, Poisson's ratio {describe(self.element_poisson_ratio)}, "
                          f"viscosity {describe(self.element_viscosity)} Pa s")
             lines.append(f"  material law: {self.law_names()}")
+            for k in range(self.n_relaxation_terms):
+                lines.append(f"  relaxation term {k + 1}: relative modulus "
+                             f"{describe(self.element_relaxation_moduli[:, k])}, time "
+                             f"{describe(self.element_relaxation_times[:, k])} s")
         for g, name in enumerate(self.mesh.group_names if springs or not self.has_elements
                                  else ()):
             sel = self.mesh.spring_group == g

@@ -1,0 +1,140 @@
+"""Prony-series relaxation of the elements (:mod:`neurofuzzy.forces.relaxation`): the creep of a
+block against the closed form of the standard linear solid, the compiled update against its
+numpy reference, the stability bound, model files and the paths that cannot simulate it."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.errors import InputError
+from neurofuzzy.forces import TETRAHEDRA
+from neurofuzzy.forces.relaxation import (decay, relaxation_arrays, relaxation_update,
+                                          relaxed_stress)
+from neurofuzzy.io import load_model, save_model
+from neurofuzzy.kernels.relaxation import relax, relaxed
+from neurofuzzy.mesh import from_tetra
+from neurofuzzy.model import SpringMassModel
+from neurofuzzy.nonlinear_reference import sls_creep
+from neurofuzzy.simulation import required_substeps, simulate
+
+E, NU, G, TAU = 6000.0, 0.3, 0.5, 0.05
+
+
+def _block(law="st-venant-kirchhoff", relaxation=((G, TAU),), density=50.0):
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.005)).with_fixed(
+        where=lambda p: p[:, 2] < 1e-9)
+    return SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=0.5,
+                                     density=density, law=law, relaxation=relaxation)
+
+
+def _top_load(model, newtons=0.002):
+    rest = model.mesh.rest_positions
+    top = np.flatnonzero(np.isclose(rest[:, 2], rest[:, 2].max()))
+    load = np.zeros((model.n_nodes, 3))
+    load[top, 2] = -newtons / len(top)
+    return top, load
+
+
+@pytest.mark.parametrize("law", ["st-venant-kirchhoff", "neo-hookean"])
+def test_a_relaxing_block_creeps_as_the_standard_linear_solid(law):
+    """Under a held load at small strain every stress of the block relaxes by the same
+    function, so (correspondence principle) its displacement is the long-term one times the
+    SLS creep compliance of one dimension, ``1 - g/(1+g) e^(-t/((1+g)τ))``: the simulated
+    creep follows the closed form within 0.005 once the wave transients have died out (the
+    block is light, so they die in a few ms), for both laws; the plain block does not creep."""
+    model = _block(law)
+    top, load = _top_load(model)
+    dt, n = 0.002, 300
+    t = np.arange(n) * dt
+    moved = simulate(model, dt=dt, n_frames=n, external_forces=load,
+                     substeps="auto").positions[:, top, 2].mean(axis=1)
+    plain = simulate(_block(law, relaxation=None), dt=dt, n_frames=n, external_forces=load,
+                     substeps="auto").positions[:, top, 2].mean(axis=1)
+    rest = model.mesh.rest_positions[top, 2].mean()
+    long_term = plain[-50:].mean() - rest
+    ratio = (moved - rest) / long_term
+    closed = sls_creep(t, 1.0, modulus=1.0, relative_modulus=G, time=TAU)
+    settled = t >= 0.04
+    assert np.abs(ratio[settled] - closed[settled]).max() < 0.005
+    assert ratio[20] < 0.85 and ratio[-1] > 0.99                     # it did creep
+    assert np.abs((plain[settled] - rest) / long_term - 1).max() < 0.01
+
+
+def test_no_relaxation_is_the_plain_model_and_more_is_stiffer_at_once():
+    """g = 0 simulates exactly the plain block; a Prony term makes the first response
+    stiffer (by 1 + g at once) and the stability bound follows the instantaneous modulus."""
+    plain, zero, relaxing = (_block(relaxation=r) for r in (None, ((0.0, TAU),), ((G, TAU),)))
+    _, load = _top_load(plain)
+    runs = [simulate(m, dt=0.002, n_frames=40, external_forces=load, substeps=12,
+                     backend="numba").positions
+            for m in (plain, zero, relaxing)]
+    assert np.array_equal(runs[0], runs[1])
+    assert np.abs(runs[2] - runs[0]).max() > 1e-5
+    stiff = plain.replace(element_youngs_modulus=plain.element_youngs_modulus * (1 + G))
+    assert required_substeps(relaxing, 0.002) == required_substeps(stiff, 0.002)
+    assert required_substeps(relaxing, 0.002) > required_substeps(plain, 0.002)
+
+
+def test_the_compiled_update_is_its_numpy_reference():
+    """The kernels' stress and update of the internal variables equal the numpy reference for
+    random values of two terms."""
+    rng = np.random.default_rng(3)
+    n, k = 5, 2
+    g = rng.uniform(0, 1, (n, k))
+    a = decay(rng.uniform(0.01, 0.2, (n, k)), 0.001)
+    history = rng.normal(size=(n, k, 6))
+    S = rng.normal(size=(n, 6))
+    S_el = rng.normal(size=(n, 6))
+    full = [0, 3, 4, 3, 1, 5, 4, 5, 2]          # six entries -> row-major 3x3
+
+    def matrix(six):
+        return np.asarray(six)[..., full].reshape(*np.shape(six)[:-1], 3, 3)
+
+    expected_stress = relaxed_stress(matrix(S_el), matrix(history), g) - matrix(S_el) \
+        + matrix(S)
+    expected_history = relaxation_update(matrix(S_el), matrix(history), a)
+    for e in range(n):
+        out = relaxed(tuple(S[e]), tuple(S_el[e]), g, history, e)
+        np.testing.assert_allclose(matrix(out), expected_stress[e], rtol=1e-14)
+        relax(tuple(S_el[e]), a, history, e)
+    np.testing.assert_allclose(matrix(history), expected_history, rtol=1e-14)
+
+
+def test_relaxation_values_are_checked_and_survive_model_files(tmp_path):
+    """Bad Prony terms are refused with the key named; a model file keeps the terms."""
+    model = _block(relaxation=((0.5, 0.05), (0.2, 1.0)))
+    assert model.n_relaxation_terms == 2
+    assert "relaxation term 2: relative modulus 0.2, time 1 s" in model.summary()
+    path = tmp_path / "model.yaml"
+    save_model(model, path)
+    back = load_model(path)
+    np.testing.assert_array_equal(back.element_relaxation_moduli,
+                                  model.element_relaxation_moduli)
+    np.testing.assert_array_equal(back.element_relaxation_times, model.element_relaxation_times)
+    assert load_model(_saved(tmp_path, _block(relaxation=None))).n_relaxation_terms == 0
+    for terms, key, words in ((((-0.1, 0.05),), "element_relaxation_moduli", "negative"),
+                              (((0.5, 0.0),), "element_relaxation_times", "positive"),
+                              (((0.5, np.nan),), "element_relaxation_times", "finite"),
+                              (((0.1, 1.0),) * 4, "element_relaxation_moduli", "at most 3")):
+        with pytest.raises(InputError, match=words) as error:
+            _block(relaxation=terms)
+        assert error.value.key == key
+    with pytest.raises(InputError, match="both"):
+        relaxation_arrays([0.5], None, 3)
+
+
+def _saved(tmp_path, model):
+    path = tmp_path / "plain.yaml"
+    save_model(model, path)
+    return path
+
+
+def test_the_numpy_path_refuses_a_relaxing_model():
+    """The numpy force has no internal variables: it says so instead of simulating the
+    elements without their relaxation."""
+    model = _block()
+    rest = model.mesh.rest_positions
+    with pytest.raises(InputError, match="relax"):
+        TETRAHEDRA.force(model, rest, np.zeros_like(rest))
+    with pytest.raises(InputError, match="relax"):
+        simulate(model, dt=0.002, n_frames=3, substeps=12, backend="numpy")
