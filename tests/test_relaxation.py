@@ -138,3 +138,42 @@ def test_the_numpy_path_refuses_a_relaxing_model():
         TETRAHEDRA.force(model, rest, np.zeros_like(rest))
     with pytest.raises(InputError, match="relax"):
         simulate(model, dt=0.002, n_frames=3, substeps=12, backend="numpy")
+
+
+@pytest.mark.parametrize("law", ["st-venant-kirchhoff", "neo-hookean"])
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_the_sensitivities_of_a_relaxing_model_are_exact(law, volumetric):
+    """Forward sensitivities of the compiled kernel (E, ν, η and two Prony terms' g and τ, with
+    the internal variables' tangents) against central differences of the simulated markers,
+    and the gradient (Jᵀ r: the adjoint kernel has no internal variables) against those of
+    the loss."""
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.learn._parameters import Parameterization
+    from neurofuzzy.learn._sensitivity import Sensitivity
+
+    model = _block(law, relaxation=((0.5, 0.02), (0.3, 0.1))).replace(
+        element_volumetric=volumetric, element_poisson_ratio=np.full(48, 0.4))
+    top, load = _top_load(model, 0.2)
+    load[top, 0] = 0.05 / len(top)
+    experiment = simulate_experiment(model, dt=0.002, n_frames=25, external_forces=load,
+                                     substeps=20)
+    parameters = Parameterization(model)
+    assert parameters.names()[-4:] == ["relaxation_modulus1[all elements]",
+                                       "relaxation_modulus2[all elements]",
+                                       "relaxation_time1[all elements]",
+                                       "relaxation_time2[all elements]"]
+    sensitivity = Sensitivity(parameters, 1e-3)
+    assert sensitivity.compiled
+    theta = parameters.initial() + np.random.default_rng(0).normal(0, 0.05, parameters.size)
+    run = sensitivity.run(theta, experiment, substeps=20, tangents=True)
+    loss, gradient, _ = sensitivity.gradient(theta, experiment, substeps=20)
+    step = 1e-6
+    for p in range(parameters.size):
+        e = np.zeros(parameters.size)
+        e[p] = step
+        ahead, behind = (sensitivity.run(theta + s * e, experiment, substeps=20)
+                         for s in (1, -1))
+        central = (ahead.residuals - behind.residuals) / (2 * step)
+        assert np.abs(central - run.jacobian[..., p]).max() < 1e-5 * np.abs(central).max()
+        slope = (np.sum(ahead.residuals ** 2) - np.sum(behind.residuals ** 2)) / (4 * step)
+        assert gradient[p] == pytest.approx(slope, rel=1e-5, abs=1e-9 * abs(loss))

@@ -30,7 +30,8 @@ def _no_tangents(n_nodes):
     """Empty tangent and parameter arrays for :func:`_element_force` (made once per sweep;
     with no tangents the kernel reads none of them)."""
     return (np.zeros((n_nodes, 3, 0)), np.zeros(1, np.intp), np.zeros(0, np.intp),
-            np.zeros(0), np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0, 2)))
+            np.zeros(0), np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0, 2)), np.zeros((0, 0)),
+            np.zeros((0, 0, 2), np.intp), np.zeros((0, 0, 6)), np.zeros((0, 0, 6, 0)))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -39,10 +40,12 @@ def _element_force(p, v, elements, blank, node_strain, force):
     :func:`_no_tangents`)."""
     (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
      node_lam, node_lam_rate) = elements
-    none, pointer, columns, empty, per_node, node_pairs = blank
+    (none, pointer, columns, empty, per_node, node_pairs, no_terms, no_columns, no_history,
+     no_tangents) = blank
     _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, pointer, columns,
-                      empty, empty, empty, empty, per_node, per_node, 0.0, -1, 0, node_strain,
+                      empty, empty, empty, empty, per_node, per_node, 0.0, -1, no_terms,
+                      no_terms, no_columns, no_history, no_tangents, 0, node_strain,
                       node_pairs, force, none)
 
 

@@ -27,7 +27,8 @@ import numpy as np
 
 from .integrator import euler_update
 from .stepper import _spring
-from .laws import stress, stress_jvp, volumetric
+from .laws import elastic, stress, stress_jvp, volumetric
+from .relaxation import relax, relaxed
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
@@ -236,14 +237,19 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, 
 def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
                       element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                      d_node_lam_rate, kappa, kappa_column, first, node_strain, d_node_strain,
+                      d_node_lam_rate, kappa, kappa_column, relax_g, relax_decay,
+                      relax_column, history, d_history, first, node_strain, d_node_strain,
                       force, d_force):
     """Element forces and their tangents: each element's law (:mod:`.laws`) with strain
-    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1); the element's
-    parameter columns (CSR ``element_ptr``/``element_column``, columns ascending) carry the
-    derivatives of its four constants, and with ``nodal`` those of the node averages
-    (``d_node_lam*``). Tangent ``q`` is that of parameter ``first + q``."""
+    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1) and Prony relaxation
+    (:mod:`.relaxation`; ``relax_column[e, k]`` the columns of term k's ``log g`` and
+    ``log τ``, -1 when not learned), whose internal variables ``history`` and their tangents
+    ``d_history`` (n_elements, K, 6, P) it advances; the element's parameter columns (CSR
+    ``element_ptr``/``element_column``, columns ascending) carry the derivatives of its four
+    constants, and with ``nodal`` those of the node averages (``d_node_lam*``). Tangent ``q``
+    is that of parameter ``first + q``."""
     n_params = tp.shape[2]
+    n_terms = relax_g.shape[1]
     if nodal:
         _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
                         node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
@@ -264,11 +270,17 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
         else:
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
-        S = _full(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate,
-                         kappa))
+        S6 = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, kappa)
+        S_el = S6
+        if n_terms:
+            S_el = elastic(law[e], G, shear[e], pressure)[0]
+            S6 = relaxed(S6, S_el, relax_g, history, e)
+        S = _full(S6)
         scale = -volume[e]
         _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
         if n_params == 0:
+            if n_terms:
+                relax(S_el, relax_decay, history, e)
             continue
         entry, stop = element_ptr[e], element_ptr[e + 1]
         while entry < stop and element_column[entry] < first:
@@ -300,15 +312,48 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
                     d_pressure_rate += d_lam_rate[entry] * theta_rate
                 entry += 1
             d_kappa = 1.0 if first + q == kappa_column else 0.0
-            dS = _full(stress_jvp(law[e], G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
-                                  pressure_rate, kappa, shear_part, rate_part, d_pressure,
-                                  d_pressure_rate, d_kappa))
+            dS6 = stress_jvp(law[e], G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
+                             pressure_rate, kappa, shear_part, rate_part, d_pressure,
+                             d_pressure_rate, d_kappa)
+            if n_terms:
+                dS6 = _relaxation_tangent(dS6, law[e], G, Gd, dG, dGd, shear[e], pressure,
+                                          shear_part, d_pressure, S_el, relax_g, relax_decay,
+                                          relax_column, history, d_history, e, first + q, q)
+            dS = _full(dS6)
             dFS = _mul(dF, S)                            # dP = dF S + F dS
             FdS = _mul(F, dS)
             dP = (dFS[0] + FdS[0], dFS[1] + FdS[1], dFS[2] + FdS[2], dFS[3] + FdS[3],
                   dFS[4] + FdS[4], dFS[5] + FdS[5], dFS[6] + FdS[6], dFS[7] + FdS[7],
                   dFS[8] + FdS[8])
             _scatter(d_force, dP, B, scale, n0, n1, n2, n3, q)
+        if n_terms:
+            relax(S_el, relax_decay, history, e)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, d_shear, d_pressure, S_el,
+                        g, decay, column, history, d_history, e, parameter, q):
+    """``dS`` plus the tangent of element ``e``'s relaxation along tangent ``q``
+    (parameter ``parameter``), ``Σᵢ gᵢ (dS_e + drᵢ) + dgᵢ (S_e + rᵢ)``; advances the
+    internal variables' tangent, ``drᵢ' = aᵢ drᵢ - (1 - aᵢ) dS_e + daᵢ (rᵢ + S_e)``
+    (``da/d log τ = -a ln a``, ``dg/d log g = g``)."""
+    dS_el = stress_jvp(law, G, Gd, dG, dGd, shear, 0.0, pressure, 0.0, 0.0, d_shear, 0.0,
+                       d_pressure, 0.0, 0.0)
+    d0, d1, d2, d3, d4, d5 = dS
+    for k in range(g.shape[1]):
+        gk, a = g[e, k], decay[e, k]
+        r, dr = history[e, k], d_history[e, k]
+        dg = gk if column[e, k, 0] == parameter else 0.0
+        da = -a * np.log(a) if column[e, k, 1] == parameter else 0.0
+        d0 += gk * (dS_el[0] + dr[0, q]) + dg * (S_el[0] + r[0])
+        d1 += gk * (dS_el[1] + dr[1, q]) + dg * (S_el[1] + r[1])
+        d2 += gk * (dS_el[2] + dr[2, q]) + dg * (S_el[2] + r[2])
+        d3 += gk * (dS_el[3] + dr[3, q]) + dg * (S_el[3] + r[3])
+        d4 += gk * (dS_el[4] + dr[4, q]) + dg * (S_el[4] + r[4])
+        d5 += gk * (dS_el[5] + dr[5, q]) + dg * (S_el[5] + r[5])
+        for i in range(6):
+            dr[i, q] = a * dr[i, q] - (1.0 - a) * dS_el[i] + da * (r[i] + S_el[i])
+    return d0, d1, d2, d3, d4, d5
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -324,8 +369,8 @@ def _edges_of_tangent(x, n0, n1, n2, n3, B, q):
 def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
             inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
             node_lam, node_lam_rate, element_ptr, element_column, d_shear, d_shear_rate, d_lam,
-            d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column, drag, drag_column,
-            force_direction,
+            d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column, relax_g, relax_decay,
+            relax_column, drag, drag_column, force_direction,
             weight, loads, h, n_frames, substeps, first, width, start_index, start_p, start_v,
             rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
     """Positions (n_frames, N, 3) and, with ``tangents``, columns ``first .. first + width
@@ -351,6 +396,10 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     work = np.empty((3, width))
     node_strain = np.zeros((n_nodes, 2))
     d_node_strain = np.zeros((n_nodes, width, 2))
+    # the relaxation's internal variables and their tangents: from rest, carried over window
+    # starts (a window starts from a measured state; the elements' history goes on)
+    history = np.zeros((tets.shape[0], relax_g.shape[1], 6))
+    d_history = np.zeros((tets.shape[0], relax_g.shape[1], 6, width))
     for t in range(n_frames):
         if start_index[t] >= 0:
             p[:] = start_p[start_index[t]]
@@ -378,8 +427,9 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                                   shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
                                   node_lam_rate, element_ptr, element_column, d_shear,
                                   d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                                  d_node_lam_rate, kappa, kappa_column, first, node_strain, d_node_strain, force,
-                                  d_force)
+                                  d_node_lam_rate, kappa, kappa_column, relax_g, relax_decay,
+                                  relax_column, history, d_history, first, node_strain,
+                                  d_node_strain, force, d_force)
             euler_update(p, v, force, weight, h)
             # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)
             euler_update(tp_flat, tv_flat, d_force_flat, weight, h)

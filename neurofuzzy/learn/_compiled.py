@@ -18,7 +18,8 @@ from ..effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion, St
                        UnmodeledLoad)
 from ..forces.tetra_geometry import Materials, lame_factors
 from ..simulation import numba_available
-from ._parameters import ELEMENT_BLOCKS
+from ..forces.relaxation import decay
+from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS
 
 __all__ = ["compiled_possible", "CompiledModel"]
 
@@ -37,8 +38,6 @@ def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
     if not numba_available() or parameters.learn_masses:
         return False
-    if model.n_relaxation_terms:       # not yet in the sensitivity kernel: the numpy path
-        return False                   # refuses such a model with a message
     drags = sum(isinstance(effect, NodeDrag) for effect in model.effects)
     stiffenings = sum(_element_stiffening(effect) for effect in model.effects)
     return drags <= 1 and stiffenings <= 1 and all(
@@ -69,6 +68,7 @@ class CompiledModel:
         # the model's effects are the parameterisation's, in order, when they are learned
         columns = {i: blocks[f"effect:{i}"].start for i in range(len(parameters.effects))}
         self.elements = self._elements(parameters, model, n_params, columns)
+        self.relaxation = self._relaxation(parameters, model)
         self.effects = self._effects(model, n_params, columns)
         self.weight = model.node_inverse_mass
         self.n_params = n_params
@@ -137,6 +137,23 @@ class CompiledModel:
                 *CompiledModel._stiffening(model, columns))
 
     @staticmethod
+    def _relaxation(parameters, model):
+        """``(g, τ, columns)`` of the elements' Prony terms: (n_elements, K) each and the
+        (n_elements, K, 2) columns of ``log g``, ``log τ`` (-1 when not learned)."""
+        if not model.has_elements:
+            return np.zeros((0, 0)), np.ones((0, 0)), np.zeros((0, 0, 2), np.intp)
+        n, k = model.mesh.n_tetrahedra, model.n_relaxation_terms
+        columns = np.full((n, k, 2), -1, np.intp)
+        for side, name in enumerate(RELAXATION_BLOCKS):
+            block = parameters.blocks.get(name)
+            if block is not None:
+                ties = model.n_element_ties
+                columns[:, :, side] = (block.start + np.arange(k)[None, :] * ties
+                                       + model.element_tie[:, None])
+        return (np.ascontiguousarray(model.element_relaxation_moduli, float),
+                np.ascontiguousarray(model.element_relaxation_times, float), columns)
+
+    @staticmethod
     def _stiffening(model, columns):
         """``(kappa, kappa_column)`` of the elements' strain stiffening (0, -1 without)."""
         for i, effect in enumerate(model.effects):
@@ -192,8 +209,9 @@ class CompiledModel:
         loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
         h = experiment.dt / substeps
         with np.errstate(over="ignore", invalid="ignore"):
+            g, times, relax_column = self.relaxation
             forward(start_p[0].copy(), start_v[0].copy(), *self.springs, *self.elements,
-                    drag, drag_column, direction, self.weight, loads, h, n_frames,
+                    g, decay(times, h), relax_column, drag, drag_column, direction, self.weight, loads, h, n_frames,
                     int(substeps), int(first), int(width), start_index, start_p, start_v,
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
                     operator.data.astype(float),

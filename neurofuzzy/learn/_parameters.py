@@ -8,6 +8,9 @@ Blocks, in this order (each optional):
 - ``log_youngs_modulus``, ``logit_poisson_ratio``, ``log_viscosity`` (n_element_ties,): the
   tetrahedral elements' E, ν = σ(θ)/2 (so ν stays in (0, 0.5)) and η of every element tie
   group (element models);
+- ``log_relaxation_moduli``, ``log_relaxation_times`` (K · n_element_ties, term-major): the
+  relative modulus g and time τ of each of the K Prony terms of every element tie group
+  (elements that relax, :mod:`neurofuzzy.forces.relaxation`);
 - ``log_mass`` (n_free_nodes,): log of every free node's mass (when masses are learned);
 - effect parameters, raw, one block per effect (when effects are learned).
 
@@ -25,10 +28,14 @@ from ..errors import InputError
 from ..model import SpringMassModel
 from ._base import TiedSprings
 
-__all__ = ["Parameterization", "ELEMENT_BLOCKS", "element_directions"]
+__all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions"]
 
 #: The element parameter blocks, in order.
 ELEMENT_BLOCKS = ("log_youngs_modulus", "logit_poisson_ratio", "log_viscosity")
+#: The blocks of the elements' Prony terms (after the element blocks), in order.
+RELAXATION_BLOCKS = ("log_relaxation_moduli", "log_relaxation_times")
+#: The smallest relative modulus a fit starts from (g = 0 has no logarithm).
+SMALLEST_RELATIVE_MODULUS = 1e-3
 
 
 def element_directions(model) -> dict[str, sp.csr_matrix]:
@@ -92,6 +99,18 @@ class Parameterization:
             # η = 0 has no logarithm: start from η/E = 1 ns, a viscosity too small to see
             self.viscosity_shared = np.maximum(self.viscosity_shared, 1e-9 * self.modulus_shared)
             self.ratio_shared = elements.split(model.element_poisson_ratio)[0]
+            # Prony terms, (K, n_element_ties) each: a shared value and per-element ratios
+            pairs = [elements.split(model.element_relaxation_moduli[:, k])
+                     for k in range(model.n_relaxation_terms)]
+            self.relaxation_moduli = np.maximum(
+                np.array([pair[0] for pair in pairs]).reshape(-1, model.n_element_ties),
+                SMALLEST_RELATIVE_MODULUS)
+            self.relaxation_moduli_ratio = [pair[1] for pair in pairs]
+            pairs = [elements.split(model.element_relaxation_times[:, k])
+                     for k in range(model.n_relaxation_terms)]
+            self.relaxation_times = np.array([pair[0] for pair in pairs]).reshape(
+                -1, model.n_element_ties)
+            self.relaxation_times_ratio = [pair[1] for pair in pairs]
         self.free_nodes = np.flatnonzero(model.mesh.free)
         self.learn_masses = learn_masses
         self.effects = list(model.effects) if learn_effects else []
@@ -100,6 +119,9 @@ class Parameterization:
                  if self.learn_springs else [])
         if model.has_elements:
             sizes += [(name, model.n_element_ties) for name in ELEMENT_BLOCKS]
+            if model.n_relaxation_terms:
+                sizes += [(name, model.n_relaxation_terms * model.n_element_ties)
+                          for name in RELAXATION_BLOCKS]
         if learn_masses:
             sizes.append(("log_mass", len(self.free_nodes)))
         sizes += [(f"effect:{i}", len(e.params)) for i, e in enumerate(self.effects)]
@@ -120,6 +142,11 @@ class Parameterization:
             ratio = 2.0 * self.ratio_shared
             theta[self.blocks["logit_poisson_ratio"].slice] = np.log(ratio / (1.0 - ratio))
             theta[self.blocks["log_viscosity"].slice] = np.log(self.viscosity_shared)
+            if self.base.n_relaxation_terms:
+                theta[self.blocks["log_relaxation_moduli"].slice] = np.log(
+                    self.relaxation_moduli).ravel()
+                theta[self.blocks["log_relaxation_times"].slice] = np.log(
+                    self.relaxation_times).ravel()
         if self.learn_masses:
             theta[self.blocks["log_mass"].slice] = np.log(self.base.node_mass[self.free_nodes])
         for i, effect in enumerate(self.effects):
@@ -150,11 +177,22 @@ class Parameterization:
         """The elements' E, ν and η (per element) of the parameter vector ``theta``."""
         tie = self.element_tie
         logistic = 1.0 / (1.0 + np.exp(-theta[self.blocks["logit_poisson_ratio"].slice]))
-        return {"element_youngs_modulus": np.exp(
-                    theta[self.blocks["log_youngs_modulus"].slice])[tie] * self.modulus_ratio,
-                "element_poisson_ratio": 0.5 * logistic[tie],
-                "element_viscosity": np.exp(
-                    theta[self.blocks["log_viscosity"].slice])[tie] * self.viscosity_ratio}
+        values = {"element_youngs_modulus": np.exp(
+                      theta[self.blocks["log_youngs_modulus"].slice])[tie] * self.modulus_ratio,
+                  "element_poisson_ratio": 0.5 * logistic[tie],
+                  "element_viscosity": np.exp(
+                      theta[self.blocks["log_viscosity"].slice])[tie] * self.viscosity_ratio}
+        terms = self.base.n_relaxation_terms
+        if terms:
+            for key, block, ratios in (
+                    ("element_relaxation_moduli", "log_relaxation_moduli",
+                     self.relaxation_moduli_ratio),
+                    ("element_relaxation_times", "log_relaxation_times",
+                     self.relaxation_times_ratio)):
+                shared = np.exp(theta[self.blocks[block].slice]).reshape(terms, -1)
+                values[key] = np.stack([shared[k][tie] * ratios[k] for k in range(terms)],
+                                       axis=1)
+        return values
 
     def physical(self, theta: np.ndarray) -> np.ndarray:
         """(n_params,) every parameter in its own units: ``exp`` of the log blocks (a tie
@@ -181,6 +219,10 @@ class Parameterization:
             groups = ["all elements"] if n == 1 else [f"element group {k}" for k in range(n)]
             for quantity in ("youngs_modulus", "poisson_ratio", "viscosity"):
                 names += [f"{quantity}[{label}]" for label in groups]
+            terms = self.base.n_relaxation_terms
+            for quantity in ("relaxation_modulus", "relaxation_time") if terms else ():
+                names += [f"{quantity}{'' if terms == 1 else k + 1}[{label}]"
+                          for k in range(terms) for label in groups]
         if self.learn_masses:
             names += [f"mass[node {i}]" for i in self.free_nodes]
         for effect in self.effects:
