@@ -10,8 +10,10 @@ positions and velocities of shape (n_nodes, 3)):
 - :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs, tetrahedral
   elements and nodes (numba, a core dependency), about six times faster on 10,000 springs.
 
-Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). Models with
-effects use the numpy stepper, which adds the effect forces at every step.
+Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). The
+compiled loop also computes the effects of :mod:`neurofuzzy.effects.compiled` and the elements'
+Prony relaxation (internal variables: the compiled loop only); models with other effects use the
+numpy stepper, which adds the effect forces at every step.
 """
 
 from __future__ import annotations
@@ -105,15 +107,22 @@ class NumpyStepper:
 
 
 class NumbaStepper:
-    """The same step as one compiled loop (requires numba): springs and tetrahedral elements,
-    no effects."""
+    """The same step as one compiled loop (requires numba): springs, tetrahedral elements
+    (with their Prony relaxation) and the effects the kernels compute
+    (:mod:`neurofuzzy.effects.compiled`: constant forces, a node drag, inclusions and strain
+    stiffening of elements)."""
 
     _kernel = None
     _frames_kernel = None
 
     def __init__(self, model, h: float, dtype=np.float64):
         if not compiled_terms_only(model):
-            raise ValueError("the numba stepper steps springs and elements only (no effects)")
+            raise ValueError("the numba stepper steps springs, elements and the effects the "
+                             "kernels compute (neurofuzzy.effects.compiled)")
+        from .effects.compiled import kernel_values
+
+        self.drag, constant, self.kappa = kernel_values(model)
+        self.constant = constant.astype(dtype)
         self.h = float(h)
         self.dtype = np.dtype(dtype)
         springs = np.flatnonzero((model.spring_stiffness != 0) | (model.spring_damping != 0))
@@ -141,8 +150,10 @@ class NumbaStepper:
         self.history[...] = 0.0             # relaxation starts from rest, as the state does
         loads = (np.zeros((1, p.shape[0], 3), dtype=self.dtype) if loads is None
                  else np.ascontiguousarray(loads[:max(n_frames - 1, 1)], self.dtype))
+        loads = loads + self.constant
         NumbaStepper._frames_kernel(pc, vc, self.a, self.b, self.stiffness, self.damping,
-                                    self.rest, *self.elements, self.weight, loads,
+                                    self.rest, *self.elements, self.dtype.type(self.kappa),
+                                    self.dtype.type(self.drag), self.weight, loads,
                                     self.dtype.type(self.h),
                                     int(n_frames), int(substeps), self.force, positions,
                                     velocities)
@@ -152,18 +163,23 @@ class NumbaStepper:
         pc = np.ascontiguousarray(p, dtype=self.dtype)
         vc = np.ascontiguousarray(v, dtype=self.dtype)
         vc[self.fixed] = 0.0
-        load = self.zero_load if load is None else np.ascontiguousarray(load, dtype=self.dtype)
+        load = (self.zero_load if load is None
+                else np.ascontiguousarray(load, dtype=self.dtype)) + self.constant
         NumbaStepper._kernel(pc, vc, self.a, self.b, self.stiffness, self.damping, self.rest,
-                             *self.elements, self.weight, load, self.dtype.type(self.h),
+                             *self.elements, self.dtype.type(self.kappa),
+                             self.dtype.type(self.drag), self.weight, load,
+                             self.dtype.type(self.h),
                              int(n_steps), self.force)
         p[...] = pc
         v[...] = vc
 
 
 def compiled_terms_only(model) -> bool:
-    """True when every force term of ``model`` is one the compiled loop knows (springs and
-    tetrahedral elements, no effects)."""
-    return not model.effects
+    """True when every force term of ``model`` is one the compiled loop knows (springs,
+    tetrahedral elements and the effects of :func:`neurofuzzy.effects.compiled.kernel_effects`)."""
+    from .effects.compiled import kernel_effects
+
+    return kernel_effects(model)
 
 
 def _element_arrays(model, dtype, h: float):
@@ -180,19 +196,19 @@ def _element_arrays(model, dtype, h: float):
                 np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
                 np.zeros((0, 0, 6), dtype))
     from .forces.relaxation import decay
-    from .forces.tetra_geometry import Materials
+    from .effects.compiled import element_constants
 
-    materials = Materials.of(model)
+    materials, total = element_constants(model)        # the inclusions' constants added
     geometry = materials.geometry
     nodal = materials.nodal
     n_nodes = model.n_nodes
-    node_values = ((geometry.node_volume, materials.node_lam, materials.node_lam_rate)
-                   if nodal else (np.zeros(n_nodes),) * 3)
+    node_values = ((geometry.node_volume, geometry.average @ total["lam"],
+                    geometry.average @ total["lam_rate"]) if nodal else (np.zeros(n_nodes),) * 3)
     return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
             np.ascontiguousarray(materials.law, np.intp),
-            *(values.astype(dtype) for values in (materials.shear, materials.shear_rate,
-                                                  materials.lam, materials.lam_rate)),
+            *(np.asarray(total[key], dtype) for key in ("shear", "shear_rate", "lam",
+                                                       "lam_rate")),
             nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
             np.zeros((n_nodes, 2), dtype),
             np.ascontiguousarray(model.element_relaxation_moduli, dtype),
@@ -224,9 +240,9 @@ def _frames(stepper, p, v, loads, n_frames, substeps):
 def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64, work: float = 0.0):
     """A stepper for ``model``: ``backend`` "numpy", "numba" or "auto".
 
-    ``"auto"`` takes numba when it is installed, the model has no effects and the job is large
-    enough (``work`` = springs × steps above 2·10⁷, an element counting as ten springs) to
-    repay its compilation.
+    ``"auto"`` takes numba when it is installed, the compiled loop computes every effect of the
+    model and the job is large enough (``work`` = springs × steps above 2·10⁷, an element
+    counting as ten springs) to repay its compilation, or the elements relax.
     """
     relaxing = model.n_relaxation_terms > 0      # internal variables: the compiled loop only
     if backend == "numba" or (backend == "auto" and compiled_terms_only(model)

@@ -21,7 +21,7 @@ from .observation import EmbeddedMarkers, Observation, remove_offsets
 from .simulation import simulate
 
 __all__ = ["Experiment", "simulate_experiment", "check_experiments", "simulate_like",
-           "require_node_observations",
+           "require_node_observations", "duration",
            "rms_error"]
 
 
@@ -278,6 +278,12 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
                       external_forces=external_forces, observed=observed,
                       node_mass=model.node_mass if with_masses else None, truth=truth,
                       source=source)
+
+
+def duration(experiments) -> float:
+    """The longest recording's length (s) of an experiment or a sequence of them."""
+    experiments = [experiments] if isinstance(experiments, Experiment) else experiments
+    return max(e.dt * (e.n_frames - 1) for e in experiments)
 
 
 def check_experiments(model: SpringMassModel,

@@ -23,10 +23,11 @@ def all_effects(model):
 
 
 def test_the_vocabulary_is_registered():
-    # DESIGN.md's vocabulary and the law switch of issue 27 (hyperelasticity: the elements
-    # become neo-Hookean)
+    # DESIGN.md's vocabulary and the switches of the elements' material of issue 27
+    # (hyperelasticity: the elements become neo-Hookean; relaxation: they get a Prony term)
     assert set(EFFECTS) == {"gravity", "node_drag", "stiff_inclusion", "soft_inclusion",
-                            "nonlinear_stiffening", "unmodeled_load", "hyperelasticity"}
+                            "nonlinear_stiffening", "unmodeled_load", "hyperelasticity",
+                            "relaxation"}
 
 
 @pytest.mark.parametrize("index", [0, 5] + [pytest.param(i, marks=pytest.mark.slow)

@@ -172,3 +172,28 @@ def test_float32_path_stays_close(cube_model, cube_experiment):
                       backend="numpy")
     error = np.abs(single.positions - cube_experiment.positions).max()
     assert 0 < error < 1e-6 * 0.01 * 100          # within 1e-4 edge lengths
+
+
+def test_the_compiled_stepper_computes_the_kernels_effects_as_the_numpy_one():
+    """Gravity, a node drag, an unmodeled load, an inclusion of elements and their strain
+    stiffening (:mod:`neurofuzzy.effects.compiled`) in the compiled loop: the trajectory of
+    the numpy stepper, for both volumetric forms."""
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, StiffInclusion,
+                                    UnmodeledLoad)
+    from neurofuzzy.mesh import from_tetra
+
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    for volumetric in ("nodal", "element"):
+        model = SpringMassModel.continuum(mesh, youngs_modulus=5000.0, poisson_ratio=0.4,
+                                          viscosity=1.0, density=1000.0,
+                                          volumetric=volumetric).with_effects(
+            Gravity([0.0, 0.0, -9.81]), NodeDrag([0.01]), UnmodeledLoad([0.0, 0.02, 0.0],
+                                                                        node=mesh.n_nodes - 1),
+            StiffInclusion([3000.0], elements=[0, 1, 2, 3], poisson_ratio=0.45),
+            NonlinearStiffening([2000.0], on="elements"))
+        runs = [simulate(model, dt=2e-3, n_frames=30, substeps="auto", backend=backend)
+                for backend in ("numpy", "numba")]
+        assert np.abs(runs[0].positions - mesh.rest_positions).max() > 1e-4      # it moved
+        np.testing.assert_allclose(runs[1].positions, runs[0].positions, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(runs[1].velocities, runs[0].velocities, rtol=0, atol=1e-10)

@@ -339,6 +339,11 @@ def _start_options(command) -> None:
                               "(SVK; softens beyond about 30 %% compression) or neo-hookean "
                               "(stiffens as it is squeezed; the same E and ν at small strain) "
                               "(default: the start model's own, else st-venant-kirchhoff)")
+    command.add_argument("--relaxation", metavar="TERMS", default=None,
+                         help="the tetrahedral elements relax (Prony series on top of their "
+                              "law, FEBio's convention: E is the long-term modulus): a number "
+                              "of terms to fit (1-3), or their start values as g:tau pairs, "
+                              "e.g. 0.5:0.05 (default: the start model's own, else none)")
     command.add_argument("--tie", choices=("global", "groups", "none"), default=None,
                          help="share spring parameters: one value for all springs, one per "
                               "spring group, or one per spring, within each region (default: "

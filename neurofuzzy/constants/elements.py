@@ -46,13 +46,25 @@ def element_model(mesh, names, per_tissue: dict, element_tissue, *, spring_regio
 
 def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, float]:
     """E, ν, η (medians) and density of the elements ``chosen`` (bool mask) of an element
-    model, by quantity."""
-    return {
+    model, by quantity; for elements that relax (Prony terms, E the long-term modulus) also
+    ``relaxation_modulus``, the relative modulus that relaxes away in all (``Σ gᵢ``: the
+    material is ``1 + Σ gᵢ`` times stiffer at once), and ``relaxation_time``, its times'
+    mean weighted by their moduli (geometric; τ itself for one term), medians over the
+    elements."""
+    values = {
         "youngs_modulus": float(np.median(model.element_youngs_modulus[chosen])),
         "poisson_ratio": float(np.median(model.element_poisson_ratio[chosen])),
         "viscosity": float(np.median(model.element_viscosity[chosen])),
         "density": region_density(model, chosen),
     }
+    if model.n_relaxation_terms:
+        g = model.element_relaxation_moduli[chosen]
+        total = g.sum(axis=1)
+        weights = g / np.where(total > 0, total, 1.0)[:, None]
+        times = np.exp((weights * np.log(model.element_relaxation_times[chosen])).sum(axis=1))
+        values["relaxation_modulus"] = float(np.median(total))
+        values["relaxation_time"] = float(np.median(times))
+    return values
 
 
 def region_density(model, chosen) -> float:

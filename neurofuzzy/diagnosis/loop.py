@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..effects import SoftInclusion, StiffInclusion
-from ..experiment import Experiment, check_experiments
+from ..experiment import Experiment, check_experiments, duration
 from ..forces import tetrahedron_geometry
 from ..learn import GradientLearner
 from ..learn.lack_of_fit import length_text
@@ -237,8 +237,9 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
             say("diagnose: no candidate shrinks the gap enough when refitted")
             break
         round_info["winner"] = winner.name
-        # a law switch adds no effect: the refitted model's elements are neo-Hookean
-        added = (winner.effect.with_params([1.0]) if _law_of(winner) is not None
+        # a switch of the material adds no effect: the refitted model's elements are
+        # neo-Hookean, or relax
+        added = (winner.effect.with_params([1.0]) if _switches(winner)
                  else refit.model_.effects[-1])
         others = [c for c in ranked if c is not winner]
         nodes, centroid = where(current, added)
@@ -336,9 +337,9 @@ def _refit(candidate: Candidate, model, evidence, experiments, substeps, staged=
     markers (``staged=False``) the refit starts from the fitted model and the linearised
     step, so it fits the whole recording at once rather than growing beginnings of it."""
     learner = GradientLearner(substeps=substeps, windows=None if staged else ())
-    if _law_of(candidate) is not None:
-        # not a patch: the elements take the law, and everything is refitted
-        return learner.fit(model.replace(element_law=_law_of(candidate)), experiments)
+    if _switches(candidate):
+        # not a patch: the elements take the law or relax, and everything is refitted
+        return learner.fit(candidate.effect.switch(model, duration(experiments)), experiments)
     effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
     if effect.name in ("stiff_inclusion", "soft_inclusion"):
         kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
@@ -347,10 +348,11 @@ def _refit(candidate: Candidate, model, evidence, experiments, substeps, staged=
     return learner.fit(model.with_effects(effect), experiments)
 
 
-def _law_of(candidate: Candidate) -> int | None:
-    """The material law a catalogue entry switches the elements to (``switches_to``, e.g.
-    :class:`~neurofuzzy.effects.Hyperelasticity`), None for a force term."""
-    return getattr(candidate.effect, "switches_to", None)
+def _switches(candidate: Candidate) -> bool:
+    """Does the catalogue entry switch the elements' material (``switch``:
+    :class:`~neurofuzzy.effects.Hyperelasticity`, :class:`~neurofuzzy.effects.Relaxation`)
+    rather than add a force term?"""
+    return hasattr(candidate.effect, "switch")
 
 
 def significant(rms: float, noise_rms: float, n: int) -> bool:

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..effects import StiffInclusion
+from ..experiment import duration
 from ..forces import tetrahedron_geometry
 from ..learn import Parameterization, Sensitivity
 from ..learn.steps import fits_offsets
@@ -194,9 +195,9 @@ class TrajectoryEvidence(TakenByEffects):
         if not candidates:
             return []
         self._candidate_columns = {}
-        switches = [c for c in candidates if getattr(c, "switches_to", None) is not None]
+        switches = [c for c in candidates if hasattr(c, "switch")]
         for effect in switches:
-            self._candidate_columns[id(effect)] = self._switched(effect.switches_to)
+            self._candidate_columns[id(effect)] = self._switched(effect)
         others = [c for c in candidates if c not in switches]
         for group in self._passes(others) if others else []:
             _, columns = self._sensitivities(group)
@@ -221,11 +222,12 @@ class TrajectoryEvidence(TakenByEffects):
         scored.sort(key=lambda c: -c.score)
         return scored
 
-    def _switched(self, law: int) -> np.ndarray:
-        """(n_residuals, 1): the change of the residual when every element takes ``law`` (the
-        secant of a law switch, from one compiled run of the switched model at the fitted
-        values; its tangent would need the numpy path, tens of times slower)."""
-        switched = self.model.replace(element_law=law)
+    def _switched(self, effect) -> np.ndarray:
+        """(n_residuals, 1): the change of the residual when the elements' material is
+        switched (``effect.switch``: a law, a Prony term), the secant of the switch from one
+        compiled run of the switched model at the fitted values (its tangent would need the
+        numpy path, tens of times slower, or has none: relaxation)."""
+        switched = effect.switch(self.model, duration(self.experiments))
         parameters = Parameterization(switched)
         sensitivity = Sensitivity(parameters, self.length_unit,
                                   offsets=fits_offsets("auto", self.experiments))

@@ -10,7 +10,8 @@ for candidates through :meth:`Effect.propose`).
 Modules: :mod:`.base` (the interface, the registry, model-file form), :mod:`.nodes` (gravity,
 node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.stiffening`
 (springs or elements that stiffen with strain), :mod:`.inclusions` (regions of springs or of
-tetrahedral elements), :mod:`.hyperelasticity` (elements whose law should be neo-Hookean).
+tetrahedral elements), :mod:`.hyperelasticity` (elements whose law should be neo-Hookean),
+:mod:`.relaxation` (elements that should relax).
 
 =====================  ====================================================  ===============
 name                   force on node i                                        parameters
@@ -26,6 +27,8 @@ unmodeled_load         a constant force ``f`` at one node                     ``
 hyperelasticity        the share ``s`` of the way from the elements' own      ``s``
                        law to neo-Hookean: ``s (f_nH - f_own)``; the
                        diagnosis switches the law instead of keeping it
+relaxation             none of its own: the diagnosis gives every element     ``s``
+                       a Prony term (:mod:`neurofuzzy.forces.relaxation`)
 =====================  ====================================================  ===============
 """
 
@@ -35,7 +38,9 @@ from .inclusions import SoftInclusion, StiffInclusion
 from .springs import SpringEffect
 from .stiffening import NonlinearStiffening
 from .hyperelasticity import Hyperelasticity
+from .relaxation import Relaxation
 
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
-           "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "EFFECTS", "register", "effect_to_dict",
+           "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "Relaxation", "EFFECTS", "register",
+           "effect_to_dict",
            "effect_from_dict", "term_kinds"]

@@ -42,6 +42,12 @@ class Hyperelasticity(Effect):
     #: the diagnosis switches the elements to this law instead of keeping the effect
     switches_to = NEO_HOOKEAN
 
+    @classmethod
+    def switch(cls, model, duration: float):
+        """``model`` with neo-Hookean elements (what the diagnosis refits when the candidate
+        wins; ``duration`` unused)."""
+        return model.replace(element_law=cls.switches_to)
+
     @staticmethod
     def _pair(model) -> tuple[Materials, Materials]:
         own = Materials.of(model)

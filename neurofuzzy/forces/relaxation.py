@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["MAX_TERMS", "relaxation_arrays", "relaxation_fields", "decay", "relaxed_stress", "relaxation_update"]
+__all__ = ["MAX_TERMS", "relaxation_arrays", "relaxation_fields", "start_terms", "decay", "relaxed_stress", "relaxation_update"]
 
 #: The most Prony terms an element can carry.
 MAX_TERMS = 3
@@ -88,6 +88,46 @@ def relaxation_fields(terms) -> dict:
         raise InputError(f"got {terms!r}; expected (g, τ) pairs, e.g. [(0.5, 0.05)]",
                          key="relaxation") from None
     return {"element_relaxation_moduli": pairs[:, 0], "element_relaxation_times": pairs[:, 1]}
+
+
+#: A fit's start for each relative modulus when none is given: half the long-term stiffness
+#: relaxes away, the middle of soft tissue's range (liver, brain: g about 0.3-3)
+START_RELATIVE_MODULUS = 0.5
+
+
+def start_terms(spec, duration: float) -> list[tuple[float, float]]:
+    """The Prony terms ``[(g, τ), ...]`` a fit starts from: ``spec`` is a number of terms
+    (1–3; each g = 0.5 and the times spread by tens below a fifth of the recording's
+    ``duration``, so the first is seen to relax within it), ``(g, τ)`` pairs, or their text
+    ``"0.5:0.05,0.2:1"`` (the command line's).
+
+    Raises
+    ------
+    InputError
+        A count outside 1–3, a pair that is not two numbers, or bad values.
+    """
+    if isinstance(spec, str):
+        text = spec.strip()
+        if text.isdigit():
+            spec = int(text)
+        else:
+            try:
+                spec = [tuple(float(x) for x in pair.split(":")) for pair in text.split(",")]
+            except ValueError:
+                spec = None
+            if spec is None or any(len(pair) != 2 for pair in spec):
+                raise InputError(f"got {text!r}; expected a number of Prony terms (1-"
+                                 f"{MAX_TERMS}) or g:tau pairs such as 0.5:0.05,0.2:1",
+                                 key="--relaxation")
+    if isinstance(spec, (int, np.integer)):
+        if not 1 <= int(spec) <= MAX_TERMS:
+            raise InputError(f"got {int(spec)} Prony terms; expected 1 to {MAX_TERMS}",
+                             key="--relaxation")
+        first = max(float(duration), 1e-6) / 5.0
+        return [(START_RELATIVE_MODULUS, first / 10.0**k) for k in range(int(spec))]
+    terms = [tuple(float(x) for x in pair) for pair in spec]
+    relaxation_arrays([g for g, _ in terms], [t for _, t in terms], 1)   # checks the values
+    return terms
 
 
 def decay(times, h: float) -> np.ndarray:

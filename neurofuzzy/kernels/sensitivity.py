@@ -28,7 +28,7 @@ import numpy as np
 from .integrator import euler_update
 from .stepper import _spring
 from .laws import elastic, stress, stress_jvp, volumetric
-from .relaxation import relax, relaxed
+from .relaxation import relax, relaxation_tangent, relaxed
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
@@ -316,9 +316,9 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
                              pressure_rate, kappa, shear_part, rate_part, d_pressure,
                              d_pressure_rate, d_kappa)
             if n_terms:
-                dS6 = _relaxation_tangent(dS6, law[e], G, Gd, dG, dGd, shear[e], pressure,
-                                          shear_part, d_pressure, S_el, relax_g, relax_decay,
-                                          relax_column, history, d_history, e, first + q, q)
+                dS6 = relaxation_tangent(dS6, law[e], G, Gd, dG, dGd, shear[e], pressure,
+                                         shear_part, d_pressure, S_el, relax_g, relax_decay,
+                                         relax_column, history, d_history, e, first + q, q)
             dS = _full(dS6)
             dFS = _mul(dF, S)                            # dP = dF S + F dS
             FdS = _mul(F, dS)
@@ -328,32 +328,6 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
             _scatter(d_force, dP, B, scale, n0, n1, n2, n3, q)
         if n_terms:
             relax(S_el, relax_decay, history, e)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, d_shear, d_pressure, S_el,
-                        g, decay, column, history, d_history, e, parameter, q):
-    """``dS`` plus the tangent of element ``e``'s relaxation along tangent ``q``
-    (parameter ``parameter``), ``Σᵢ gᵢ (dS_e + drᵢ) + dgᵢ (S_e + rᵢ)``; advances the
-    internal variables' tangent, ``drᵢ' = aᵢ drᵢ - (1 - aᵢ) dS_e + daᵢ (rᵢ + S_e)``
-    (``da/d log τ = -a ln a``, ``dg/d log g = g``)."""
-    dS_el = stress_jvp(law, G, Gd, dG, dGd, shear, 0.0, pressure, 0.0, 0.0, d_shear, 0.0,
-                       d_pressure, 0.0, 0.0)
-    d0, d1, d2, d3, d4, d5 = dS
-    for k in range(g.shape[1]):
-        gk, a = g[e, k], decay[e, k]
-        r, dr = history[e, k], d_history[e, k]
-        dg = gk if column[e, k, 0] == parameter else 0.0
-        da = -a * np.log(a) if column[e, k, 1] == parameter else 0.0
-        d0 += gk * (dS_el[0] + dr[0, q]) + dg * (S_el[0] + r[0])
-        d1 += gk * (dS_el[1] + dr[1, q]) + dg * (S_el[1] + r[1])
-        d2 += gk * (dS_el[2] + dr[2, q]) + dg * (S_el[2] + r[2])
-        d3 += gk * (dS_el[3] + dr[3, q]) + dg * (S_el[3] + r[3])
-        d4 += gk * (dS_el[4] + dr[4, q]) + dg * (S_el[4] + r[4])
-        d5 += gk * (dS_el[5] + dr[5, q]) + dg * (S_el[5] + r[5])
-        for i in range(6):
-            dr[i, q] = a * dr[i, q] - (1.0 - a) * dS_el[i] + da * (r[i] + S_el[i])
-    return d0, d1, d2, d3, d4, d5
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

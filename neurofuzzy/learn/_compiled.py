@@ -14,35 +14,19 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion, StiffInclusion,
-                       UnmodeledLoad)
-from ..forces.tetra_geometry import Materials, lame_factors
+from ..effects import NodeDrag
+from ..effects.compiled import (CONSTANT, element_constants, element_inclusion,
+                                element_stiffening, kernel_effects)
+from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
 from ..forces.relaxation import decay
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS
 
 __all__ = ["compiled_possible", "CompiledModel"]
 
-_CONSTANT = (Gravity, UnmodeledLoad)
-
-
-def _element_inclusion(effect) -> bool:
-    return isinstance(effect, (StiffInclusion, SoftInclusion)) and effect.on_elements
-
-
-def _element_stiffening(effect) -> bool:
-    return isinstance(effect, NonlinearStiffening) and effect.on_elements
-
-
 def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
-    if not numba_available() or parameters.learn_masses:
-        return False
-    drags = sum(isinstance(effect, NodeDrag) for effect in model.effects)
-    stiffenings = sum(_element_stiffening(effect) for effect in model.effects)
-    return drags <= 1 and stiffenings <= 1 and all(
-        isinstance(effect, (*_CONSTANT, NodeDrag)) or _element_inclusion(effect)
-        or _element_stiffening(effect) for effect in model.effects)
+    return numba_available() and not parameters.learn_masses and kernel_effects(model)
 
 
 class CompiledModel:
@@ -84,12 +68,8 @@ class CompiledModel:
                     *(empty,) * 4, False,
                     *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
                     np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1)
-        own = Materials.of(model)
+        own, total = element_constants(model)
         geometry = own.geometry
-        parts = [own] + [effect.materials(model, effect.params[0])
-                         for effect in model.effects if _element_inclusion(effect)]
-        total = {key: sum(getattr(part, key) for part in parts)
-                 for key in ("shear", "shear_rate", "lam", "lam_rate")}
         # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
                       model.element_viscosity)
@@ -104,7 +84,7 @@ class CompiledModel:
                     da * E * logistic, da * eta * logistic),
                    (index, first + 2 * ties + tie, zero, 2 * b * eta, zero, a * eta)]
         for i, effect in enumerate(model.effects):
-            if _element_inclusion(effect) and i in columns:
+            if element_inclusion(effect) and i in columns:
                 region = effect.elements
                 ai, bi, _, _ = lame_factors(effect.options["poisson_ratio"])
                 ones = np.ones(len(region))
@@ -157,7 +137,7 @@ class CompiledModel:
     def _stiffening(model, columns):
         """``(kappa, kappa_column)`` of the elements' strain stiffening (0, -1 without)."""
         for i, effect in enumerate(model.effects):
-            if _element_stiffening(effect):
+            if element_stiffening(effect):
                 return float(effect.params[0]), int(columns.get(i, -1))
         return 0.0, -1
 
@@ -174,7 +154,7 @@ class CompiledModel:
             if isinstance(effect, NodeDrag):
                 drag = float(effect.params[0])
                 drag_column = -1 if column is None else column
-            elif isinstance(effect, _CONSTANT):
+            elif isinstance(effect, CONSTANT):
                 constant += effect.force(model, model.mesh.rest_positions, None)
                 if column is not None:
                     span = slice(column, column + len(effect.params))

@@ -25,9 +25,10 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from ..errors import InputError
-from ..experiment import Experiment, check_experiments
+from ..experiment import Experiment, check_experiments, duration
 from ..forces import SPRINGS, incidence
 from ..forces.laws import LAWS
+from ..forces.relaxation import relaxation_fields, start_terms
 from ..model import SpringMassModel, tie_index
 from ..progress import note
 from ._base import TiedSprings
@@ -78,7 +79,7 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
                 model: SpringMassModel | str | os.PathLike | None = None,
                 rules=None, tissue: str | None = None, tie: str | None = None,
                 elements: bool | None = None, law: str | None = None,
-                progress: bool = False) -> StartModel:
+                relaxation=None, progress: bool = False) -> StartModel:
     """The start of a fit of ``experiments``: the policy of ``neurofuzzy fit``.
 
     1. ``model`` (a :class:`SpringMassModel` or a model file, e.g. written by
@@ -108,6 +109,11 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         The elements' material law for every element (:mod:`neurofuzzy.forces.laws`:
         ``"st-venant-kirchhoff"`` or ``"neo-hookean"``); default the model's own, else
         St. Venant–Kirchhoff.
+    relaxation : int, sequence of (g, τ) or str, optional
+        Prony relaxation of every element (:mod:`neurofuzzy.forces.relaxation`): a number
+        of terms (1–3) started from g = 0.5 and times below the recording's length, or the
+        terms' start values (:func:`~neurofuzzy.forces.relaxation.start_terms`); default the
+        model's own, else none.
     progress : bool
         Say on stderr where the start came from.
 
@@ -119,14 +125,26 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     """
     begun = _start_model(experiments, model=model, rules=rules, tissue=tissue, tie=tie,
                          elements=elements, progress=progress)
-    if law is None:
+    changes = {}
+    for value, key, words in ((law, "--law", f"a material law ({law!r})"),
+                              (relaxation, "--relaxation", "relaxation (Prony terms)")):
+        if value is not None and not begun.model.has_elements:
+            raise InputError(f"{words} is one of tetrahedral elements; this start is a spring "
+                             "network (give a model or experiment with tetrahedra, or "
+                             "--elements tetra)", key=key)
+    if law is not None:
+        changes["element_law"] = law
+    if relaxation is not None:
+        changes.update(relaxation_fields(start_terms(relaxation, duration(experiments))))
+    if not changes:
         return begun
-    if not begun.model.has_elements:
-        raise InputError(f"a material law ({law!r}) is one of tetrahedral elements; this "
-                         "start is a spring network (give a model or experiment with "
-                         "tetrahedra, or --elements tetra)", key="--law")
-    changed = begun.model.replace(element_law=law)
-    note(progress, f"material law: {LAWS[int(changed.element_law[0])]}")
+    changed = begun.model.replace(**changes)
+    if law is not None:
+        note(progress, f"material law: {LAWS[int(changed.element_law[0])]}")
+    if relaxation is not None:
+        note(progress, "relaxation: " + ", ".join(
+            f"g {g:.3g}, tau {t:.3g} s" for g, t in zip(changed.element_relaxation_moduli[0],
+                                                        changed.element_relaxation_times[0])))
     return replace(begun, model=changed)
 
 

@@ -68,7 +68,8 @@ def tie_label(tie: str | None, start) -> str:
 
 def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, rules=None,
         tissue: str | None = None, tie: str | None = None, elements: bool | None = None,
-        law: str | None = None, prior="default", method: str = "gradient", cycles: int | None = None,
+        law: str | None = None, relaxation=None, prior="default", method: str = "gradient",
+        cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
         learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool = False,
         names: Sequence[str] | None = None, progress: bool = False) -> FitOutcome:
@@ -104,6 +105,9 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     law : {"st-venant-kirchhoff", "neo-hookean"}, optional
         The elements' material law (default: the start model's own, else
         St. Venant–Kirchhoff); see :mod:`neurofuzzy.forces.laws`.
+    relaxation : int, sequence of (g, τ) or str, optional
+        Prony relaxation of the elements to fit (a number of terms, or their start values;
+        default the start model's own, else none); see :mod:`neurofuzzy.forces.relaxation`.
     prior : {"default", "auto", "off"} or float
         See :func:`~neurofuzzy.learn.run.make_prior`.
     method : {"gradient", "paper"}
@@ -133,7 +137,8 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     if method == "paper":
         elements = False                    # the paper's learner is the spring network's
     begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
-                        elements=elements, law=law, progress=progress)
+                        elements=elements, law=law, relaxation=relaxation,
+                        progress=progress)
     check_fit_inputs(experiments, begun.model, substeps=substeps,
                      model_source=start if isinstance(start, str | os.PathLike) else None,
                      physical=begun.how in ("model", "rules"))
