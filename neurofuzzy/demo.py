@@ -195,8 +195,8 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     fit_report(start_model(data, model=start, rules=rules), learner, out / "report.html",
                title="neurofuzzy demo: the expert said healthy liver")
     # a spring network locks Poisson's ratio at 1/4: not learned, so neither shown nor explained
-    learned = [name for name in rules.outputs if name != "poisson_ratio"]
     before = rules.describe(material_values(rules, start))
+    learned = [name for name in before if name != "poisson_ratio"]   # no relaxation either
     fitted = {name: value for name, value in material_values(rules, learner.model_).items()
               if name in learned}
     after = rules.describe(fitted)

@@ -59,8 +59,11 @@ FEBIO = {
                                "solver", "time_stepper", "plot_level", "output_level"}),
     "solver": ({"type"}, set(), set()),
     "Material": (set(), set(), {"material"}),
-    "material": ({"id", "name", "type"}, set(), {"density", "E", "v", "solid"}),
-    "solid": ({"type"}, set(), {"density", "E", "v", "kappa", "mu"}),
+    # FEBio's viscoelastic solid: FEViscoElasticMaterial's parameters g0..g6, t1..t6 and its
+    # "elastic" property
+    "material": ({"id", "name", "type"}, set(), {"density", "E", "v", "solid", "g1", "t1", "g2", "t2", "g3", "t3", "elastic"}),
+    "solid": ({"type"}, set(), {"density", "E", "v", "kappa", "mu", "g1", "t1", "g2", "t2", "g3", "t3", "elastic"}),
+    "elastic": ({"type"}, set(), {"E", "v"}),
     "Mesh": (set(), set(), {"Nodes", "Elements", "NodeSet", "Surface", "ElementSet",
                             "DiscreteSet"}),
     "Nodes": (set(), {"name"}, {"node"}),
@@ -90,8 +93,9 @@ FEBIO = {
 #: registered type names (REGISTER_FECORE_CLASS) and enumerations the file may use
 FEBIO_TYPES = {
     "Module": {"solid"}, "solver": {"solid"}, "Elements": {"tet4"},
-    "material": {"isotropic elastic", "solid mixture", "neo-Hookean"},
-    "solid": {"isotropic elastic", "neo-Hookean", "Newtonian viscous solid"},
+    "material": {"isotropic elastic", "solid mixture", "neo-Hookean", "viscoelastic"},
+    "solid": {"isotropic elastic", "neo-Hookean", "Newtonian viscous solid", "viscoelastic"},
+    "elastic": {"isotropic elastic", "neo-Hookean"},
     "bc": {"zero displacement"}, "nodal_load": {"nodal_force"}, "body_load": {"body force"},
     "discrete_material": {"linear spring"}, "load_controller": {"loadcurve"},
     "plotfile": {"febio"},
@@ -430,3 +434,31 @@ def test_exports_carry_the_elements_law(tmp_path):
         notes = nf.export(model, to=target, path=tmp_path / f"t{suffix}", experiment=data).notes
         law = [note for note in notes if "material law" in note]
         assert len(law) == 1 and "differ by" in law[0] and "neo-hookean" in law[0], notes
+
+
+def test_exports_carry_the_elements_relaxation(tmp_path):
+    """FEBio wraps a relaxing region's law in its viscoelastic solid (g1, t1, the law as its
+    elastic part; the same convention as ours); SOFA and MuJoCo, which have no such element,
+    say so in the notes with the difference measured."""
+    model = two_regions()
+    relaxing = model.replace(element_relaxation_moduli=(model.element_region == 1) * 0.5,
+                             element_relaxation_times=np.full(model.mesh.n_tetrahedra, 0.05),
+                             element_law=(model.element_region == 1).astype(int))
+    data = pressed(relaxing)
+    root = ET.parse(nf.export(relaxing, to="febio", path=tmp_path / "r.feb",
+                              experiment=data).path).getroot()
+    check_febio_structure(root)
+    solids = {m.get("name"): m.find("solid") for m in root.findall("./Material/material")}
+    tumour = solids["tumour"]
+    assert tumour.get("type") == "viscoelastic"
+    assert float(tumour.find("g1").text) == 0.5 and float(tumour.find("t1").text) == 0.05
+    assert tumour.find("elastic").get("type") == "neo-Hookean"
+    assert float(tumour.find("elastic/E").text) == float(
+        relaxing.element_youngs_modulus[relaxing.element_region == 1][0])
+    assert solids["liver"].get("type") == "viscoelastic"          # g = 0: no relaxation
+    assert float(solids["liver"].find("g1").text) == 0.0
+    for target, suffix in (("sofa", ".py"), ("mujoco", ".xml")):
+        notes = nf.export(relaxing, to=target, path=tmp_path / f"r{suffix}",
+                          experiment=data).notes
+        relax = [note for note in notes if "relax" in note]
+        assert len(relax) == 1 and "differ by" in relax[0], notes

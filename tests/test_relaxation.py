@@ -114,7 +114,7 @@ def test_relaxation_values_are_checked_and_survive_model_files(tmp_path):
     assert load_model(_saved(tmp_path, _block(relaxation=None))).n_relaxation_terms == 0
     for terms, key, words in ((((-0.1, 0.05),), "element_relaxation_moduli", "negative"),
                               (((0.5, 0.0),), "element_relaxation_times", "positive"),
-                              (((0.5, np.nan),), "element_relaxation_times", "finite"),
+                              (((0.5, np.nan),), "element_relaxation_times", "NaN"),
                               (((0.1, 1.0),) * 4, "element_relaxation_moduli", "at most 3")):
         with pytest.raises(InputError, match=words) as error:
             _block(relaxation=terms)
@@ -177,3 +177,72 @@ def test_the_sensitivities_of_a_relaxing_model_are_exact(law, volumetric):
         assert np.abs(central - run.jacobian[..., p]).max() < 1e-5 * np.abs(central).max()
         slope = (np.sum(ahead.residuals ** 2) - np.sum(behind.residuals ** 2)) / (4 * step)
         assert gradient[p] == pytest.approx(slope, rel=1e-5, abs=1e-9 * abs(loss))
+
+
+def test_words_of_relaxation_make_a_relaxing_model_and_come_back(tmp_path):
+    """A tissue described as relaxing quickly becomes elements with one Prony term of the rule
+    base's g and τ; the fitted values come back as words ("moderate", "quick"); a tissue that
+    says nothing of relaxation gets none, and the words of the fit leave it out."""
+    from neurofuzzy.rules import load_rules, materials
+    from neurofuzzy.rules.physical import initialize
+
+    from pathlib import Path
+
+    shared = Path(__file__).resolve().parents[1] / "rules" / "soft_tissue.yaml"
+    (tmp_path / "r.yaml").write_text(
+        f"extends: {shared}\nname: relaxing\n"
+        "tissues:\n"
+        "  creeping: {consistency: firm, elasticity: elastic, heaviness: normal, "
+        "compressibility: incompressible, relaxation: relaxes, relaxation_speed: quickly}\n"
+        "  plain: {consistency: firm, elasticity: elastic, heaviness: normal, "
+        "compressibility: incompressible}\n")
+    rules = load_rules(tmp_path / "r.yaml")
+    mesh = _block().mesh
+    model = initialize(rules, mesh, "creeping", elements=True)
+    values = rules.tissue("creeping")
+    assert model.n_relaxation_terms == 1
+    assert model.element_relaxation_moduli[0, 0] == pytest.approx(
+        values["relaxation_modulus"], rel=1e-12)
+    assert model.element_relaxation_times[0, 0] == pytest.approx(
+        values["relaxation_time"], rel=1e-12)
+    words = materials(model, rules)["creeping"]["labels"]
+    assert (words["relaxation_modulus"], words["relaxation_time"]) == ("moderate", "quick")
+    fitted = model.replace(element_relaxation_moduli=np.full((48, 1), 2.0),
+                           element_relaxation_times=np.full((48, 1), 20.0))
+    words = materials(fitted, rules)["creeping"]["labels"]
+    assert (words["relaxation_modulus"], words["relaxation_time"]) == ("much", "slow")
+    plain = initialize(rules, mesh, "plain", elements=True)
+    assert plain.n_relaxation_terms == 0
+    assert "relaxation_modulus" not in materials(plain, rules)["plain"]["labels"]
+
+
+def test_fit_and_diagnose_take_relaxation_from_the_command_line(tmp_path):
+    """``fit --relaxation 1`` fits a Prony term (its JSON names the relaxation's values),
+    ``--relaxation 0.4:0.03`` starts it there, and a bad one exits 2 naming the option."""
+    import json
+
+    from helpers import cli
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.io import save_experiment
+
+    truth = _block(relaxation=((0.5, 0.03),))
+    top, load = _top_load(truth, 0.02)
+    path = save_experiment(simulate_experiment(truth, dt=0.002, n_frames=100,
+                                               external_forces=load, substeps=16, noise=2e-6,
+                                               seed=1), tmp_path / "creep.npz")
+    start = tmp_path / "start.yaml"
+    save_model(_block(relaxation=None).replace(
+        element_youngs_modulus=np.full(48, 8000.0)), start)
+    result = cli("fit", path, "--start", start, "--relaxation", "1", "--tie", "global",
+                 "--json", "--out", tmp_path / "fitted.yaml")
+    assert result.returncode == 0, result.stderr
+    fitted = load_model(tmp_path / "fitted.yaml")
+    assert fitted.n_relaxation_terms == 1
+    # the issue's tolerances (g within 0.05, τ within 15 %): measured 0.528 and -8 % here,
+    # where g, τ and η trade against each other at this noise (2 µm)
+    assert fitted.element_relaxation_moduli[0, 0] == pytest.approx(0.5, abs=0.05)
+    assert fitted.element_relaxation_times[0, 0] == pytest.approx(0.03, rel=0.15)
+    assert fitted.element_youngs_modulus[0] == pytest.approx(E, rel=0.02)
+    assert np.shape(json.loads(result.stdout)["elements"]["relaxation_moduli"]) == (48, 1)
+    bad = cli("fit", path, "--start", start, "--relaxation", "0.5:x")
+    assert bad.returncode == 2 and "--relaxation" in bad.stderr

@@ -142,6 +142,8 @@ class MaterialGroup:
     law : int
         The elements' material law (:data:`neurofuzzy.forces.laws.LAWS`); a group never mixes
         laws.
+    relaxation : tuple of (g, τ)
+        The elements' Prony terms (:mod:`neurofuzzy.forces.relaxation`; empty: none).
     """
 
     name: str
@@ -151,6 +153,7 @@ class MaterialGroup:
     poisson_ratio: float
     damping_time: float
     law: int = 0
+    relaxation: tuple = ()
 
 
 def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], list[str]]:
@@ -165,8 +168,11 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
     from ..forces import tetrahedron_geometry
 
     volume = tetrahedron_geometry(model.mesh).volume
+    # E, ν, β, then the Prony terms' g and τ (grouped alike: equal values share a group)
     values = np.column_stack([model.element_youngs_modulus, model.element_poisson_ratio,
-                              model.element_viscosity / model.element_youngs_modulus])
+                              model.element_viscosity / model.element_youngs_modulus,
+                              model.element_relaxation_moduli, model.element_relaxation_times])
+    terms = model.n_relaxation_terms
     rounded = _significant(values, 12)         # equal values, up to the last bits, share
     # the parts to group: each region, split by law when it holds several (never mixed)
     laws = [np.unique(model.element_law[model.element_region == r])
@@ -196,11 +202,13 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
             weight = volume[part] / volume[part].sum()
             mean = (values[part[0]] if distinct[index] <= budget[index]   # the elements' own
                     else weight @ values[part])
-            moved = np.maximum(moved, np.max(np.abs(values[part] - mean), axis=0)
+            moved = np.maximum(moved, np.max(np.abs(values[part, :3] - mean[:3]), axis=0)
                                / np.array([mean[0], 1.0, max(mean[2], 1e-300)]))
             name = label + (f"_{k + 1}" if len(parts) > 1 else "")
+            relaxation = tuple((float(mean[3 + k]), float(mean[3 + terms + k]))
+                               for k in range(terms))
             groups.append(MaterialGroup(name, r, part, float(mean[0]), float(mean[1]),
-                                        float(mean[2]), int(law)))
+                                        float(mean[2]), int(law), relaxation))
         if distinct[index] > budget[index]:
             notes.append(f"region {label!r}: {distinct[index]} distinct element "
                          f"materials merged into {len(parts)} groups by quantiles of E (largest "

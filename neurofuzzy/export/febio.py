@@ -19,7 +19,9 @@ reads the model and the load back from them:
   ``solid mixture`` of it and a ``Newtonian viscous solid`` of shear viscosity ``mu`` = βμ
   and bulk viscosity ``kappa`` = βK (β = η/E, K the bulk modulus), our Kelvin–Voigt stress
   at small strain (FEBio's viscous stress is Cauchy in the rate of deformation, ours second
-  Piola–Kirchhoff in the Green strain rate);
+  Piola–Kirchhoff in the Green strain rate); elements that relax wrap their law in FEBio's
+  ``viscoelastic`` solid (``g1``, ``t1``, … and the law as its ``elastic``: the same Prony
+  convention as :mod:`neurofuzzy.forces.relaxation`, g0 = 1);
   density per region from the node masses (:func:`~neurofuzzy.export.base.region_densities`);
 - ``Boundary``: ``zero displacement`` of the fixed nodes;
 - ``Loads``: ``nodal_force`` per loaded node with a ``value lc="k"``, the load decomposed into
@@ -162,6 +164,13 @@ def _materials(groups, densities, runs) -> list[str]:
         density = float(densities[group.region])
         elastic = f"<E>{E!r}</E><v>{nu!r}</v>"
         kind = FEBIO_LAWS[LAWS[group.law]]
+        if group.relaxation:
+            # FEBio's viscoelastic solid: the same convention as ours (g0 = 1, the elastic
+            # law the long-term response), the law inside it
+            terms = "".join(f"<g{k}>{g!r}</g{k}><t{k}>{t!r}</t{k}>"
+                            for k, (g, t) in enumerate(group.relaxation, start=1))
+            elastic = f'{terms}<elastic type="{kind}">{elastic}</elastic>'
+            kind = "viscoelastic"
         if beta > 0:
             mu = beta * E / (2 * (1 + nu))                  # β μ, Pa·s
             kappa = beta * E / (3 * (1 - 2 * nu))           # β K, Pa·s

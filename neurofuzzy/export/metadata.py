@@ -132,6 +132,20 @@ def law_note(model, target: str, element: str, experiment=None,
     return text + _measured(model, model.replace(element_law=0), "laws", experiment, steps)
 
 
+def relaxation_note(model, target: str, experiment=None, steps: int | None = None) -> str | None:
+    """What dropping the elements' Prony relaxation changes (``target`` has no such element):
+    said, and measured as in :func:`law_note`."""
+    if not model.has_elements or not model.n_relaxation_terms:
+        return None
+    text = (f"the elements relax ({model.n_relaxation_terms} Prony term(s), relative modulus "
+            f"{float(model.element_relaxation_moduli.sum(axis=1).max()):.3g} at most), which "
+            f"{target}'s elements cannot: written at their long-term E, so they are softer at "
+            "first than the fitted model and do not creep")
+    return text + _measured(model, model.replace(element_relaxation_moduli=None,
+                                                 element_relaxation_times=None),
+                            "models", experiment, steps)
+
+
 def _measured(model, other, what: str, experiment, steps: int | None) -> str:
     """"; on … the two {what} differ by … m RMS per node (… % of the peak motion)": ``model``
     and ``other`` simulated by our own stepper under ``experiment``'s load (the RMS distance of

@@ -36,7 +36,8 @@ import numpy as np
 
 from ..errors import InputError
 from .base import material_groups, prepare, time_step
-from .metadata import header_lines, law_note, metadata, volumetric_note
+from .metadata import (header_lines, law_note, metadata, relaxation_note,
+                       volumetric_note)
 
 __all__ = ["mjcf", "simulate_mujoco"]
 
@@ -84,7 +85,8 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
                      "data.xfrc_applied (see simulate_mujoco)")
     for note in (volumetric_note(prepared.model, "MuJoCo", experiment, steps),
                  law_note(prepared.model, "MuJoCo", "flex elasticity (linear St. Venant-"
-                          "Kirchhoff tetrahedra)", experiment, steps)):
+                          "Kirchhoff tetrahedra)", experiment, steps),
+                 relaxation_note(prepared.model, "MuJoCo", experiment, steps)):
         if note:
             notes.append(note)
     groups = []

@@ -33,7 +33,8 @@ import json
 import numpy as np
 
 from .base import load_components, prepare, time_step
-from .metadata import header_lines, law_note, metadata, volumetric_note
+from .metadata import (header_lines, law_note, metadata, relaxation_note,
+                       volumetric_note)
 
 __all__ = ["scene", "PLUGINS"]
 
@@ -80,7 +81,8 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
                      "proportional to each node's mass, the drag is not")
     for note in (volumetric_note(prepared.model, "SOFA", experiment, steps),
                  law_note(prepared.model, "SOFA", "TetrahedronFEMForceField (corotational "
-                          "linear elasticity)", experiment, steps)):
+                          "linear elasticity)", experiment, steps),
+                 relaxation_note(prepared.model, "SOFA", experiment, steps)):
         if note:
             notes.append(note)
     mesh = runs.mesh

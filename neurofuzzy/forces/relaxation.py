@@ -37,13 +37,14 @@ MAX_TERMS = 3
 
 def relaxation_arrays(moduli, times, n: int) -> tuple[np.ndarray, np.ndarray]:
     """``(g, τ)`` as (n, K) float arrays: ``None`` for both (no relaxation, K = 0), one value
-    or K values for every element, or (n, K) per element.
+    or K values for every element, (n, K) per element, or (n,) one term per element (when
+    n > :data:`MAX_TERMS`, so it cannot be K terms).
 
     Raises
     ------
     InputError
         When only one is given, the shapes differ or exceed :data:`MAX_TERMS` terms, a
-        relative modulus is negative or a time is not positive (or either is not finite).
+        relative modulus is negative or a time is not positive (or either is NaN).
     """
     if moduli is None and times is None:
         return np.zeros((n, 0)), np.zeros((n, 0))
@@ -55,13 +56,16 @@ def relaxation_arrays(moduli, times, n: int) -> tuple[np.ndarray, np.ndarray]:
     for key, value in (("element_relaxation_moduli", moduli),
                        ("element_relaxation_times", times)):
         array = np.asarray(value, float)
+        if array.ndim == 1 and len(array) == n > MAX_TERMS:
+            array = array[:, None]                       # one term, a value per element
         if array.ndim < 2:
             array = np.broadcast_to(np.atleast_1d(array), (n, max(np.atleast_1d(array).size, 1)))
         if array.ndim != 2 or array.shape[0] != n or array.shape[1] > MAX_TERMS:
             raise InputError(f"got shape {np.shape(value)}; expected one value per term "
                              f"(at most {MAX_TERMS} terms) or ({n}, K), per element", key=key)
-        if not np.all(np.isfinite(array)):
-            raise InputError("must be finite numbers", key=key)
+        if np.any(np.isnan(array)) or np.any(array == -np.inf):
+            # +inf is a limit a fit may step to (τ = ∞: a term that never relaxes)
+            raise InputError("must be numbers, not NaN", key=key)
         out.append(np.ascontiguousarray(array))
     g, tau = out
     if g.shape != tau.shape:

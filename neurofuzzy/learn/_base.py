@@ -108,6 +108,10 @@ class Learner:
             "youngs_modulus": model.element_youngs_modulus.tolist(),
             "poisson_ratio": model.element_poisson_ratio.tolist(),
             "viscosity": model.element_viscosity.tolist()}}
+        if model.n_relaxation_terms:              # Prony terms, per element: [g, ...], [τ, ...]
+            elements["elements"].update(
+                relaxation_moduli=model.element_relaxation_moduli.tolist(),
+                relaxation_times=model.element_relaxation_times.tolist())
         return {
             **elements,
             "stiffness": model.spring_stiffness.tolist(),

@@ -187,8 +187,10 @@ def _words_sections(rules, region, tissue, start, fitted):
     where = f" ({html.escape(region)})" if len(start.region_names) > 1 else ""
 
     rows, changed, data_rows = [], [], []
-    for name in rules.outputs:
-        b, a = labels_before[name], labels_after[name]
+    # the quantities the fitted model has (relaxation only when its elements relax)
+    for name in (name for name in rules.outputs if name in labels_after):
+        a = labels_after[name]
+        b = labels_before.get(name, a)
         change = (f"{b.term} → {a.term} ({a.degree:.2f})" if a.term != b.term
                   else f"{a.term} ({a.degree:.2f})")
         unit = rules.outputs[name].unit
@@ -213,13 +215,15 @@ def _words_sections(rules, region, tissue, start, fitted):
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
                            for k, v in explained["words"].items()) +
                  f" (distance {explained['distance']:.3f} universe spans).</p>")]
-    figure, axes = plt.subplots(1, len(rules.outputs), figsize=(5 * len(rules.outputs), 3.4))
-    for ax, (name, variable) in zip(np.atleast_1d(axes), rules.outputs.items()):
+    shown = {name: variable for name, variable in rules.outputs.items() if name in after}
+    figure, axes = plt.subplots(1, len(shown), figsize=(5 * len(shown), 3.4))
+    for ax, (name, variable) in zip(np.atleast_1d(axes), shown.items()):
         x = variable.to_physical(variable.grid)
         for term in variable.terms.values():
             ax.plot(x, term.values, label=term.name)
         ax.axvline(after[name], color="crimson", linewidth=2, label="learned", zorder=3)
-        ax.axvline(before[name], color="0.2", linestyle="--", label="start", zorder=4)
+        ax.axvline(before.get(name, after[name]), color="0.2", linestyle="--", label="start",
+                   zorder=4)
         if variable.scale == "log":
             ax.set_xscale("log")
         ax.set_title(f"{name} ({variable.unit})" if variable.unit else name)

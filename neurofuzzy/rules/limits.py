@@ -86,6 +86,15 @@ QUANTITY_LIMITS = {
                              "a spring's damping is positive", (("N s/mm", 1e3),)),
     "node_mass": QuantityLimit("node mass", "kg", 0.0, math.inf, ("kg",),
                                "a mass is positive", (("g", 1e-3), ("mg", 1e-6))),
+    # Prony relaxation of elements (neurofuzzy.forces.relaxation): Σ g, of the long-term
+    # modulus, and the relaxation time
+    "relaxation_modulus": QuantityLimit("relaxation modulus", "", 0.0, math.inf,
+                                        ("", "1", "-", "dimensionless", "none"),
+                                        "the share of stiffness that relaxes away is not "
+                                        "negative (of the long-term modulus)"),
+    "relaxation_time": QuantityLimit("relaxation time", "s", 0.0, math.inf, ("s",),
+                                     "a relaxation time is positive",
+                                     (("ms", 1e-3), ("min", 60.0))),
 }
 #: a density universe that lies wholly below this is lighter than any tissue (kg/m³): the
 #: values are in g/cm³, most likely

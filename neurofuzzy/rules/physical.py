@@ -173,10 +173,14 @@ def material_values(rules, model: SpringMassModel, springs=None, nodes=None,
             if variable.quantity in by_quantity}
 
 
-def _poisson_inputs(rules) -> set[str]:
-    """The input variables of the rules that conclude on a Poisson's-ratio output."""
+#: the quantities of a Prony term's words
+RELAXATION = ("relaxation_modulus", "relaxation_time")
+
+
+def _inputs_of(rules, *quantities) -> set[str]:
+    """The input variables of the rules that conclude on an output of ``quantities``."""
     outputs = {name for name, variable in rules.outputs.items()
-               if variable.quantity == "poisson_ratio"}
+               if variable.quantity in quantities}
     return {clause.variable for rule in rules.rules
             if any(c.variable in outputs for c in rule.consequents)
             for group in rule.antecedent for clause in group}
@@ -189,12 +193,16 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
     outputs). ν comes from an output of quantity ``poisson_ratio`` where the rule base has
     one and the tissue's description names an input of its rules; else (the expert said
     nothing about compressibility, and every ν rule would fire at once, giving the centre of
-    the universe) :data:`~neurofuzzy.constants.DEFAULT_POISSON_RATIO`."""
+    the universe) :data:`~neurofuzzy.constants.DEFAULT_POISSON_RATIO`. Likewise the elements
+    relax (one Prony term, :mod:`neurofuzzy.forces.relaxation`) with the ``relaxation_modulus``
+    and ``relaxation_time`` outputs where some tissue's description names an input of their
+    rules; the others then get g = 0 (no relaxation)."""
     if mesh.tetrahedra is None:
         raise InputError("element models need a mesh with tetrahedra (a volume mesh, or "
                          "--tetra for a surface)", key="elements")
     per_tissue = {key: np.empty(len(names)) for key in ("youngs_modulus", "poisson_ratio",
                                                          "viscosity", "density")}
+    relaxation = []
     for index, name in enumerate(names):
         quantities = {rules.outputs[output].quantity: value
                       for output, value in values[name].items() if rules.outputs[output].quantity}
@@ -203,9 +211,19 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
                 raise InputError(f"an element model needs the rule base's {key}; it has "
                                  f"{sorted(quantities)}", source=rules.source, key="outputs")
             per_tissue[key][index] = quantities[key]
-        said = _poisson_inputs(rules) & set(rules.tissues.get(name, {}))
+        said = _inputs_of(rules, "poisson_ratio") & set(rules.tissues.get(name, {}))
         per_tissue["poisson_ratio"][index] = (quantities["poisson_ratio"] if said
                                               and "poisson_ratio" in quantities
                                               else DEFAULT_POISSON_RATIO)
-    return build_element_model(mesh, names, per_tissue, element_tissue,
-                               spring_region=spring_region, node_region=node_region)
+        relaxes = (_inputs_of(rules, *RELAXATION) & set(rules.tissues.get(name, {}))
+                   and all(key in quantities for key in RELAXATION))
+        relaxation.append((quantities["relaxation_modulus"], quantities["relaxation_time"])
+                          if relaxes else None)
+    model = build_element_model(mesh, names, per_tissue, element_tissue,
+                                spring_region=spring_region, node_region=node_region)
+    if not any(relaxation):
+        return model
+    g = np.array([0.0 if r is None else r[0] for r in relaxation])
+    tau = np.array([1.0 if r is None else r[1] for r in relaxation])
+    return model.replace(element_relaxation_moduli=g[element_tissue][:, None],
+                         element_relaxation_times=tau[element_tissue][:, None])
