@@ -246,3 +246,15 @@ def test_fit_and_diagnose_take_relaxation_from_the_command_line(tmp_path):
     assert np.shape(json.loads(result.stdout)["elements"]["relaxation_moduli"]) == (48, 1)
     bad = cli("fit", path, "--start", start, "--relaxation", "0.5:x")
     assert bad.returncode == 2 and "--relaxation" in bad.stderr
+
+
+def test_the_report_shows_the_relaxation_modulus():
+    """A relaxing model's "Material law" section adds the relaxation modulus plot, naming each
+    region's g and τ; a plain model's has none."""
+    from neurofuzzy.report.html import pyplot
+    from neurofuzzy.report.laws import law_section
+
+    _, text = law_section(pyplot(), _block(relaxation=((0.5, 0.05),)))
+    assert "relaxation modulus" in text and text.count("<img") == 2
+    _, plain = law_section(pyplot(), _block(relaxation=None))
+    assert "relaxation modulus" not in plain and plain.count("<img") == 1

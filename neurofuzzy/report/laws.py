@@ -1,6 +1,7 @@
 """The report's section on the elements' material law: the stress–strain curve each region's
 fitted material stands for (uniaxial, free sides, from 35 % compression to 25 % stretch) under
-its law, beside the other law with the same E and ν."""
+its law, beside the other law with the same E and ν; for elements that relax, the relaxation
+modulus ``E G(t)`` of each region (:mod:`neurofuzzy.forces.relaxation`)."""
 
 from __future__ import annotations
 
@@ -45,4 +46,35 @@ def law_section(plt, model) -> tuple[str, str] | None:
             "apart under strong compression, where St. Venant–Kirchhoff softens (its curve "
             "turns back, or ends where it has no state with free sides) and neo-Hookean "
             "stiffens.</p>")
-    return "Material law", text + figure_html(figure, "uniaxial stress-strain curves")
+    return "Material law", (text + figure_html(figure, "uniaxial stress-strain curves")
+                            + _relaxation(plt, model))
+
+
+def _relaxation(plt, model) -> str:
+    """The relaxation modulus ``E (1 + Σᵢ gᵢ e^(-t/τᵢ))`` of each region over four of its
+    longest times (medians over its elements), or "" when the elements do not relax."""
+    if not model.n_relaxation_terms:
+        return ""
+    figure, ax = plt.subplots(figsize=(6.5, 3.2))
+    longest = float(np.max(model.element_relaxation_times[np.isfinite(
+        model.element_relaxation_times)], initial=1.0))
+    t = np.linspace(0.0, 4.0 * longest, 200)
+    for r, name in enumerate(model.region_names):
+        chosen = model.element_region == r
+        if not chosen.any():
+            continue
+        E = float(np.median(model.element_youngs_modulus[chosen]))
+        g = np.median(model.element_relaxation_moduli[chosen], axis=0)
+        tau = np.median(model.element_relaxation_times[chosen], axis=0)
+        modulus = E * (1.0 + np.sum(g[:, None] * np.exp(-t[None, :] / tau[:, None]), axis=0))
+        ax.plot(1e3 * t, modulus / 1e3, color=f"C{r % 10}",
+                label=f"{name}: g {', '.join(f'{x:.3g}' for x in g)}, "
+                      f"tau {', '.join(f'{1e3 * x:.3g} ms' for x in tau)}")
+        ax.axhline(E / 1e3, color=f"C{r % 10}", ls=":", lw=0.8)
+    ax.set_xlabel("time after a sudden strain (ms)")
+    ax.set_ylabel("relaxation modulus E G(t) (kPa)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    return ("<p>The elements relax (Prony series, FEBio's convention): after a sudden strain "
+            "each region's stiffness falls from E (1 + Σ g) to its long-term E (dotted).</p>"
+            + figure_html(figure, "relaxation modulus"))
