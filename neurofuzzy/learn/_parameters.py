@@ -189,7 +189,8 @@ class Parameterization:
                      self.relaxation_moduli_ratio),
                     ("element_relaxation_times", "log_relaxation_times",
                      self.relaxation_times_ratio)):
-                shared = np.exp(theta[self.blocks[block].slice]).reshape(terms, -1)
+                with np.errstate(over="ignore"):     # τ may step to ∞ (never relaxes)
+                    shared = np.exp(theta[self.blocks[block].slice]).reshape(terms, -1)
                 values[key] = np.stack([shared[k][tie] * ratios[k] for k in range(terms)],
                                        axis=1)
         return values
