@@ -1,12 +1,12 @@
 """The compiled (numba) kernels: one semi-implicit Euler update (:mod:`.integrator`), the
-elements' material law with its two derivatives generated from it (:mod:`.svk`), and the sweeps
-that call them: the stepper (:mod:`.stepper`, :func:`neurofuzzy.simulate`), the forward
-sensitivities (:mod:`.sensitivity`) and the discrete adjoint (:mod:`.adjoint`) of the gradient
-learner.
+elements' material laws with their two derivatives generated from them (:mod:`.laws`), their
+Prony relaxation (:mod:`.relaxation`), and the sweeps that call them: the stepper
+(:mod:`.stepper`, :func:`neurofuzzy.simulate`), the forward sensitivities (:mod:`.sensitivity`)
+and the discrete adjoint (:mod:`.adjoint`) of the gradient learner.
 
 Each module compiles (or loads from numba's cache) on first use. numba's cache knows only the
 file a function is defined in, not the files of the functions inlined into it: after an edit of
-the law in ``svk.py`` the sweeps would load their old machine code. So the first import here
+a law in ``laws.py`` the sweeps would load their old machine code. So the first import here
 compares a fingerprint of all the kernels' sources with the one their cache was made from, and
 drops the cache when they differ.
 """
