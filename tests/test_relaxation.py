@@ -145,8 +145,9 @@ def test_the_numpy_path_refuses_a_relaxing_model():
 def test_the_sensitivities_of_a_relaxing_model_are_exact(law, volumetric):
     """Forward sensitivities of the compiled kernel (E, ν, η and two Prony terms' g and τ, with
     the internal variables' tangents) against central differences of the simulated markers,
-    and the gradient (Jᵀ r: the adjoint kernel has no internal variables) against those of
-    the loss."""
+    the adjoint's gradient (the internal variables' cotangents) against those of the loss,
+    and both against each other when a window starts mid-recording (the internal variables
+    run on across it, forwards and backwards)."""
     from neurofuzzy.experiment import simulate_experiment
     from neurofuzzy.learn._parameters import Parameterization
     from neurofuzzy.learn._sensitivity import Sensitivity
@@ -177,6 +178,10 @@ def test_the_sensitivities_of_a_relaxing_model_are_exact(law, volumetric):
         assert np.abs(central - run.jacobian[..., p]).max() < 1e-5 * np.abs(central).max()
         slope = (np.sum(ahead.residuals ** 2) - np.sum(behind.residuals ** 2)) / (4 * step)
         assert gradient[p] == pytest.approx(slope, rel=1e-5, abs=1e-9 * abs(loss))
+    windows = sensitivity.run(theta, experiment, substeps=20, starts=(0, 12), tangents=True)
+    _, adjoint, _ = sensitivity.gradient(theta, experiment, substeps=20, starts=(0, 12))
+    forward = np.einsum("trk,trkp->p", windows.residuals, windows.jacobian)
+    np.testing.assert_allclose(adjoint, forward, rtol=1e-9, atol=1e-12 * np.abs(forward).max())
 
 
 def test_words_of_relaxation_make_a_relaxing_model_and_come_back(tmp_path):

@@ -22,7 +22,8 @@ import numpy as np
 from .integrator import euler_update, euler_update_transpose
 from .stepper import _spring, spring_state
 from .sensitivity import _edges, _element_tangents, _full, _green, _mul, _sym_t_mul
-from .laws import stress, stress_vjp, volumetric
+from .laws import elastic, stress, stress_vjp, volumetric
+from .relaxation import relaxed
 
 
 @numba.njit(cache=True, nogil=True)
@@ -30,22 +31,21 @@ def _no_tangents(n_nodes):
     """Empty tangent and parameter arrays for :func:`_element_force` (made once per sweep;
     with no tangents the kernel reads none of them)."""
     return (np.zeros((n_nodes, 3, 0)), np.zeros(1, np.intp), np.zeros(0, np.intp),
-            np.zeros(0), np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0, 2)), np.zeros((0, 0)),
-            np.zeros((0, 0, 2), np.intp), np.zeros((0, 0, 6)), np.zeros((0, 0, 6, 0)))
+            np.zeros(0), np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0, 2)),
+            np.zeros((0, 0, 2), np.intp), np.zeros((0, 0, 6, 0)))
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_force(p, v, elements, blank, node_strain, force):
-    """Element forces into ``force`` (the forward kernel's, without tangents; ``blank`` from
-    :func:`_no_tangents`)."""
+def _element_force(p, v, elements, relax_g, relax_decay, history, blank, node_strain, force):
+    """Element forces into ``force`` and the relaxation's step of ``history`` (the forward
+    kernel's, without tangents; ``blank`` from :func:`_no_tangents`)."""
     (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
      node_lam, node_lam_rate) = elements
-    (none, pointer, columns, empty, per_node, node_pairs, no_terms, no_columns, no_history,
-     no_tangents) = blank
+    none, pointer, columns, empty, per_node, node_pairs, no_columns, no_tangents = blank
     _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, shear, shear_rate, lam,
                       lam_rate, nodal, node_volume, node_lam, node_lam_rate, pointer, columns,
-                      empty, empty, empty, empty, per_node, per_node, 0.0, -1, no_terms,
-                      no_terms, no_columns, no_history, no_tangents, 0, node_strain,
+                      empty, empty, empty, empty, per_node, per_node, 0.0, -1, relax_g,
+                      relax_decay, no_columns, history, no_tangents, 0, node_strain,
                       node_pairs, force, none)
 
 
@@ -65,10 +65,16 @@ def _pull_columns(out, L, B, n0, n1, n2, n3):
 
 @numba.njit(cache=True, nogil=True)
 def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_lam,
-                 g_lam_rate, node_strain, node_adjoint):
+                 g_lam_rate, node_strain, node_adjoint, relax_g, relax_decay, history,
+                 lam_history, g_relax):
     """``λ · ∂F/∂p`` into ``d_p``, ``λ · ∂F/∂v`` into ``d_v`` and ``λ · ∂F`` by every
     element's constants into ``g_*`` (per element; with the nodal form ``g_lam`` and
-    ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the cotangent ``λ = lam_force``."""
+    ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the cotangent ``λ = lam_force``.
+
+    With Prony terms (:mod:`.relaxation`; ``history`` the internal variables at the step's
+    start) ``lam_history`` (n_elements, K, 6) holds the cotangents of the internal variables
+    after the step and leaves holding those before it; ``g_relax[e, k]`` gains the step's
+    derivatives by ``log g`` and ``log τ`` of element ``e``'s term ``k``."""
     (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
      node_lam, node_lam_rate) = elements
     if nodal:                      # the node averages θ̄, θ̄̇
@@ -106,7 +112,12 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         else:
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
-        S = _full(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, 0.0))
+        S6 = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, 0.0)
+        S_el = S6
+        if relax_g.shape[1]:                 # the relaxed stress (its P = F S is the force's)
+            S_el = elastic(law[e], G, shear[e], pressure)[0]
+            S6 = relaxed(S6, S_el, relax_g, history, e)
+        S = _full(S6)
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]
         Lc = (lam_force[n1, 0] - lam_force[n0, 0], lam_force[n2, 0] - lam_force[n0, 0],
@@ -121,6 +132,17 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
         LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, _ = stress_vjp(
             law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate, 0.0)
+        if relax_g.shape[1]:
+            # S = S_rest + Σ g (S_e + r), r' = a r - (1 - a) S_e: the elastic stress' own
+            # cotangent, the internal variables' and the terms' constants'
+            L_el = _relaxation_vjp(LS, S_el, relax_g, relax_decay, history, lam_history,
+                                   g_relax, e)
+            LG2, _, l_shear2, _, l_pressure2, _, _ = stress_vjp(
+                law[e], G, Gd, L_el, shear[e], 0.0, pressure, 0.0, 0.0)
+            LG = (LG[0] + LG2[0], LG[1] + LG2[1], LG[2] + LG2[2], LG[3] + LG2[3],
+                  LG[4] + LG2[4], LG[5] + LG2[5])
+            l_shear += l_shear2
+            l_pressure += l_pressure2
         g_shear[e] += l_shear
         g_shear_rate[e] += l_shear_rate
         if nodal:
@@ -185,12 +207,51 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         _pull_columns(d_v, LFd, B, n0, n1, n2, n3)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _inner6(a, b):
+    """``a : b`` of two symmetric matrices of six entries (off-diagonals twice)."""
+    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+            + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]))
+
+
 @numba.njit(cache=True, nogil=True)
-def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_frames,
-          substeps, start_index, start_p, start_v, positions, states_p, states_v):
+def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
+    """The adjoint of element ``e``'s relaxation (:mod:`.relaxation`) for the cotangent
+    ``L_S`` of its stress: returns the cotangent of the elastic stress ``S_e`` beyond the
+    ``L_S`` it gets as part of ``S``, ``Σᵢ gᵢ L_S - (1 - aᵢ) λ_rᵢ'``; turns ``lam_history[e]``
+    from the cotangents after the step (``λ_rᵢ'``) into those before it
+    (``aᵢ λ_rᵢ' + gᵢ L_S``) and adds ``∂/∂ log gᵢ = gᵢ L_S : (S_e + rᵢ)`` and
+    ``∂/∂ log τᵢ = -aᵢ ln aᵢ λ_rᵢ' : (rᵢ + S_e)`` to ``g_relax[e, i]``."""
+    l0 = l1 = l2 = l3 = l4 = l5 = 0.0
+    for k in range(g.shape[1]):
+        gk, a = g[e, k], decay[e, k]
+        r, lr = history[e, k], lam_history[e, k]
+        total = (S_el[0] + r[0], S_el[1] + r[1], S_el[2] + r[2], S_el[3] + r[3],
+                 S_el[4] + r[4], S_el[5] + r[5])
+        after = (lr[0], lr[1], lr[2], lr[3], lr[4], lr[5])
+        g_relax[e, k, 0] += gk * _inner6(LS, total)
+        if a > 0.0:
+            g_relax[e, k, 1] += -a * np.log(a) * _inner6(after, total)
+        l0 += gk * LS[0] - (1.0 - a) * after[0]
+        l1 += gk * LS[1] - (1.0 - a) * after[1]
+        l2 += gk * LS[2] - (1.0 - a) * after[2]
+        l3 += gk * LS[3] - (1.0 - a) * after[3]
+        l4 += gk * LS[4] - (1.0 - a) * after[4]
+        l5 += gk * LS[5] - (1.0 - a) * after[5]
+        for i in range(6):
+            lr[i] = a * after[i] + gk * LS[i]
+    return l0, l1, l2, l3, l4, l5
+
+
+@numba.njit(cache=True, nogil=True)
+def sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, loads,
+          h, n_frames, substeps, start_index, start_p, start_v, positions, states_p, states_v,
+          states_r):
     """Positions (n_frames, N, 3) and the state at the start of every substep
     (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
-    substeps of a window's first frame are left unset)."""
+    substeps of a window's first frame are left unset), with the elements' Prony terms the
+    internal variables in ``states_r`` (steps, n_elements, K, 6; carried over window
+    starts, as the forward kernel does)."""
     n_nodes = start_p.shape[1]
     p = start_p[0].copy()
     v = start_v[0].copy()
@@ -198,6 +259,7 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
     node_strain = np.zeros((n_nodes, 2))
     has_elements = elements[0].shape[0] > 0
     blank = _no_tangents(n_nodes)
+    history = np.zeros((elements[0].shape[0], relax_g.shape[1], 6))
     step = 0
     for t in range(n_frames):
         if start_index[t] >= 0:
@@ -211,6 +273,8 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
         for _ in range(substeps):
             states_p[step] = p
             states_v[step] = v
+            if relax_g.shape[1]:
+                states_r[step] = history
             step += 1
             for i in range(n_nodes):
                 for k in range(3):
@@ -218,19 +282,22 @@ def sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_fr
             for j in range(a.shape[0]):
                 _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
             if has_elements:
-                _element_force(p, v, elements, blank, node_strain, force)
+                _element_force(p, v, elements, relax_g, relax_decay, history, blank,
+                               node_strain, force)
             euler_update(p, v, force, weight, h)
         positions[t] = p
 
 
 @numba.njit(cache=True, nogil=True)
-def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frames, substeps,
-              start_index, states_p, states_v, frame_adjoint, d_stiffness, d_damping,
-              d_elements):
+def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
+              n_frames, substeps, start_index, states_p, states_v, states_r, frame_adjoint,
+              d_stiffness, d_damping, d_elements, g_relax):
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
     ``Σ λ_F · ∂F/∂s_j`` to ``d_stiffness[j]`` and ``Σ λ_F · ∂F/∂c_j`` to ``d_damping[j]``
     over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
-    of the element constants to ``d_elements`` (see :func:`_element_vjp`)."""
+    of the element constants to ``d_elements`` and of the Prony terms' ``log g``, ``log τ``
+    to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
+    cotangents run on across window starts, as their values do forwards)."""
     n_nodes = frame_adjoint.shape[1]
     g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
     has_elements = elements[0].shape[0] > 0
@@ -239,6 +306,7 @@ def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frame
     lam_p = np.zeros((n_nodes, 3))
     lam_v = np.zeros((n_nodes, 3))
     lam_force = np.empty((n_nodes, 3))
+    lam_history = np.zeros((elements[0].shape[0], relax_g.shape[1], 6))
     d_p = np.empty((n_nodes, 3))
     d_v = np.empty((n_nodes, 3))
     step = (n_frames - 1) * substeps
@@ -300,7 +368,8 @@ def pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frame
                 d_v[ib, 2] += cv * uz
             if has_elements:
                 _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate,
-                             g_lam, g_lam_rate, node_strain, node_adjoint)
+                             g_lam, g_lam_rate, node_strain, node_adjoint, relax_g,
+                             relax_decay, states_r[step], lam_history, g_relax)
             for i in range(n_nodes):
                 for k in range(3):
                     lam_p[i, k] += d_p[i, k]

@@ -14,8 +14,9 @@ __all__ = ["compiled_gradient"]
 
 def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
-    models of springs and elements whose only effects are constant loads, a node drag
-    and inclusions of elements, none of them learned."""
+    models of springs and elements (relaxing or not) whose only effects are constant loads, a
+    node drag and inclusions of elements, none of them learned."""
+    from ..forces.relaxation import decay
     from ..kernels.adjoint import pull_back, sweep
 
     param = sensitivity.parameters
@@ -37,9 +38,15 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     states_p = np.empty((steps, sensitivity.n_nodes, 3))
     states_v = np.empty((steps, sensitivity.n_nodes, 3))
     weight = np.ascontiguousarray(compiled.weight, dtype=float)
+    relax_g, times, relax_column = compiled.relaxation
+    relax_decay = decay(times, h)
+    # the internal variables at every substep (empty without relaxation)
+    states_r = np.empty((steps, relax_g.shape[0] if relax_g.shape[1] else 0,
+                         relax_g.shape[1], 6))
     with np.errstate(over="ignore", invalid="ignore"):
-        sweep(a, b, stiffness, damping, rest, elements, drag, weight, loads, h, n_frames,
-              int(substeps), start_index, start_p, start_v, positions, states_p, states_v)
+        sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight,
+              loads, h, n_frames, int(substeps), start_index, start_p, start_v, positions,
+              states_p, states_v, states_r)
         scale = 1.0 / sensitivity.length_unit
         residuals = sensitivity._frame_residuals(observation, positions)
     run = Run(positions=positions, residuals=residuals[1:],
@@ -57,9 +64,10 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     per_volumetric = sensitivity.n_nodes if nodal else n_elements   # λ, λβ: per node or element
     d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
                   np.zeros(per_volumetric))
-    pull_back(a, b, stiffness, damping, rest, elements, drag, weight, h, n_frames,
-              int(substeps), start_index, states_p, states_v, frame_adjoint, d_stiffness,
-              d_damping, d_elements)
+    g_relax = np.zeros(relax_column.shape)
+    pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
+              n_frames, int(substeps), start_index, states_p, states_v, states_r,
+              frame_adjoint, d_stiffness, d_damping, d_elements, g_relax)
     if param.learn_springs:
         tie, n_ties = param.tied.tie, param.tied.n_ties
         grad[param.blocks["log_stiffness"].slice] = np.bincount(
@@ -78,4 +86,6 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
         else:
             weights = weights + d_lam * g_lam[element] + d_lam_rate * g_lam_rate[element]
         grad += np.bincount(column, weights, param.size)
+        learned = relax_column >= 0                    # log g, log τ of each element's terms
+        grad += np.bincount(relax_column[learned], g_relax[learned], param.size)
     return loss, grad, run

@@ -243,14 +243,6 @@ class Sensitivity:
         """``(½ Σ r², ∂/∂θ, run)`` by the discrete adjoint (one forward, one backward sweep)."""
         param = self.parameters
         model = param.model(theta)
-        if self.compiled and model.n_relaxation_terms:
-            # the adjoint kernel has no internal variables yet: the exact gradient Jᵀ r from
-            # the forward sensitivities (one column per parameter, fine for a fit per region)
-            run = self.run(theta, experiment, substeps=substeps, starts=starts, tangents=True)
-            loss = 0.5 * float(np.sum(run.residuals ** 2))
-            if not np.isfinite(loss):
-                return float("inf"), np.zeros(param.size), run
-            return loss, np.einsum("trk,trkp->p", run.residuals, run.jacobian), run
         if self.compiled_gradient:
             return compiled_gradient(self, model, experiment, substeps, starts)
         weight = model.node_inverse_mass[:, None]
