@@ -263,3 +263,23 @@ def test_the_report_shows_the_relaxation_modulus():
     assert "relaxation modulus" in text and text.count("<img") == 2
     _, plain = law_section(pyplot(), _block(relaxation=None))
     assert "relaxation modulus" not in plain and plain.count("<img") == 1
+
+
+def test_a_trial_step_far_out_keeps_the_prony_terms_valid():
+    """A fit's trial step may put log g or log τ anywhere: the model it stands for stays
+    valid (τ positive and finite; a diagnosis once stopped on τ = 0 from an underflow) and
+    its simulation runs."""
+    from neurofuzzy.learn._parameters import Parameterization
+
+    model = _block()
+    parameters = Parameterization(model)
+    for far in (-1000.0, 1000.0):
+        theta = parameters.initial()
+        theta[parameters.blocks["log_relaxation_times"].slice] = far
+        theta[parameters.blocks["log_relaxation_moduli"].slice] = -abs(far)
+        stepped = parameters.model(theta)
+        times = stepped.element_relaxation_times
+        assert np.all((times > 0) & np.isfinite(times))
+        _, load = _top_load(stepped)
+        run = simulate(stepped, dt=0.002, n_frames=5, external_forces=load, substeps=12)
+        assert np.all(np.isfinite(run.positions))

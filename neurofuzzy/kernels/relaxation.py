@@ -57,7 +57,7 @@ def relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, d_shear, d_pres
         gk, a = g[e, k], decay[e, k]
         r, dr = history[e, k], d_history[e, k]
         dg = gk if column[e, k, 0] == parameter else 0.0
-        da = -a * np.log(a) if column[e, k, 1] == parameter else 0.0
+        da = -a * np.log(a) if column[e, k, 1] == parameter and a > 0.0 else 0.0
         d0 += gk * (dS_el[0] + dr[0, q]) + dg * (S_el[0] + r[0])
         d1 += gk * (dS_el[1] + dr[1, q]) + dg * (S_el[1] + r[1])
         d2 += gk * (dS_el[2] + dr[2, q]) + dg * (S_el[2] + r[2])

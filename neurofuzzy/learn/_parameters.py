@@ -36,6 +36,8 @@ ELEMENT_BLOCKS = ("log_youngs_modulus", "logit_poisson_ratio", "log_viscosity")
 RELAXATION_BLOCKS = ("log_relaxation_moduli", "log_relaxation_times")
 #: The smallest relative modulus a fit starts from (g = 0 has no logarithm).
 SMALLEST_RELATIVE_MODULUS = 1e-3
+#: The Prony terms' logarithms a fit's trial step is held within (e^±40: 4e-18 to 2e17)
+LOG_LIMIT = 40.0
 
 
 def element_directions(model) -> dict[str, sp.csr_matrix]:
@@ -189,8 +191,10 @@ class Parameterization:
                      self.relaxation_moduli_ratio),
                     ("element_relaxation_times", "log_relaxation_times",
                      self.relaxation_times_ratio)):
-                with np.errstate(over="ignore"):     # τ may step to ∞ (never relaxes)
-                    shared = np.exp(theta[self.blocks[block].slice]).reshape(terms, -1)
+                # a trial step may take log g or log τ anywhere: kept finite and positive
+                # (τ → 0 relaxes at once, τ → ∞ never; g → 0 is no term)
+                shared = np.exp(np.clip(theta[self.blocks[block].slice], -LOG_LIMIT,
+                                        LOG_LIMIT)).reshape(terms, -1)
                 values[key] = np.stack([shared[k][tie] * ratios[k] for k in range(terms)],
                                        axis=1)
         return values
