@@ -217,6 +217,12 @@ def data_file(tmp_path):
      "cohort.csv:2: prior: got 'banana'; expected off, auto or a positive weight"),
     ("id,group,experiments,prior\na,x,a.npz,auto\n", "cohort.csv:2: prior: a prior needs a "
                                                      "rule base"),
+    ("id,group,experiments,law\na,x,a.npz,neo-hooke\n",
+     "cohort.csv:2: law: unknown material law 'neo-hooke'"),
+    ("id,group,experiments,relaxation\na,x,a.npz,0.5:x\n",
+     "cohort.csv:2: relaxation: got '0.5:x'; expected a number of Prony terms"),
+    ("id,group,experiments,relaxation\na,x,a.npz,4\n",
+     "cohort.csv:2: relaxation: got 4 Prony terms; expected 1 to 3"),
 ])
 def test_bad_manifests_exit_2_naming_the_file_and_line(tmp_path, data_file, text, message):
     path = tmp_path / "cohort.csv" if text is None else _manifest(tmp_path, text)
@@ -339,6 +345,35 @@ def test_a_specimen_fitted_element_by_element_uses_the_prior_as_fit_does(tmp_pat
     assert first["fit"]["prior"]["how"] == "discrepancy principle"
     assert "regions_found" in first["fit"] and "firm" in json.dumps(first["fit"]["regions_rest"])
     assert second["fit"]["prior"] is None and "regions_found" not in second["fit"]
+
+
+def test_a_specimen_takes_the_law_and_relaxation_of_its_row(tmp_path):
+    """``law`` and ``relaxation`` columns reach the fit as ``fit --law --relaxation`` do: the
+    fitted model of the row is neo-Hookean with a Prony term."""
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.io import save_experiment
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import SpringMassModel
+
+    mesh = from_tetra(*kuhn_block((2, 2, 1), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+                                      viscosity=2.0, density=1050.0, law="neo-hookean",
+                                      relaxation=[(0.5, 0.02)])
+    top = np.flatnonzero(mesh.rest_positions[:, 2] > 0.01 - 1e-9)
+    load = np.zeros((mesh.n_nodes, 3))
+    load[top, 2] = -0.03 / len(top)
+    save_experiment(simulate_experiment(truth, dt=2e-3, n_frames=30, external_forces=load,
+                                        substeps=8, noise=1e-6, seed=0), tmp_path / "a.npz")
+    _manifest(tmp_path, "id,group,experiments,rules,tissue,tie,law,relaxation,cycles,prior\n"
+                        "s1,g,a.npz,liver,liver,global,neo-hookean,0.4:0.03,5,off\n")
+    [specimen] = read_manifest(tmp_path / "cohort.csv")
+    assert specimen.options["law"] == "neo-hookean" and specimen.options["relaxation"]
+    result = fit_specimen(specimen)
+    assert result["status"] == "ok", result.get("error")
+    assert result["fit"]["material_law"] == "neo-hookean"
+    terms = np.asarray(result["fit"]["elements"]["relaxation_moduli"])
+    assert terms.shape == (mesh.n_tetrahedra, 1) and np.all(terms > 0)
 
 
 def test_median_difference_is_seeded_and_moves_with_a_shift():

@@ -16,6 +16,8 @@ specimen takes unless it says otherwise). Both know the same columns (:data:`COL
 ``rules``       a rule base (YAML file or the name of a shipped one, ``liver``) …
 ``tissue``      … and its tissue (a start from the rules, or the words of the report)
 ``tie``         ``global``, ``groups`` or ``none``
+``law``         the elements' material law (``st-venant-kirchhoff``, ``neo-hookean``)
+``relaxation``  Prony terms to fit: a number (1–3) or ``g:tau`` pairs (as ``fit --relaxation``)
 ``prior``       the rule base as a prior: ``off``, ``auto`` or a weight (default as ``fit``:
                 ``auto`` with ``tie: none`` and a rule base)
 ``method``      ``gradient`` (default) or ``paper``
@@ -250,6 +252,21 @@ def _options(text: dict, problem) -> dict:
         if text["tie"] not in ("global", "groups", "none"):
             raise problem(f"got {text['tie']!r}; expected global, groups or none", "tie")
         options["tie"] = text["tie"]
+    if text.get("law"):
+        from ..forces.laws import LAWS, law_number
+
+        try:
+            options["law"] = LAWS[law_number(text["law"])]
+        except InputError as error:
+            raise problem(error.detail, "law") from None
+    if text.get("relaxation"):
+        from ..forces.relaxation import start_terms
+
+        try:
+            start_terms(text["relaxation"], 1.0)          # checked here; started in the fit
+        except InputError as error:
+            raise problem(error.detail, "relaxation") from None
+        options["relaxation"] = text["relaxation"]
     if text.get("prior"):
         try:
             options["prior"] = parse_prior(text["prior"])

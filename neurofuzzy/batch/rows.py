@@ -11,8 +11,8 @@ __all__ = ["COLUMNS", "csv_rows", "yaml_rows"]
 
 #: every column a manifest may have
 COLUMNS = ("id", "group", "experiments", "markers", "forces", "units", "dt", "start", "rules",
-           "tissue", "tie", "prior", "method", "cycles", "substeps", "learn_masses",
-           "diagnose")
+           "tissue", "tie", "law", "relaxation", "prior", "method", "cycles", "substeps",
+           "learn_masses", "diagnose")
 
 
 def csv_rows(path: Path) -> list[tuple[int, dict]]:
