@@ -321,9 +321,9 @@ def test_a_specimen_asked_to_be_diagnosed_names_the_missing_effect(tmp_path):
     assert row["effects"] == "gravity"
 
 
-def test_a_specimen_fitted_element_by_element_uses_the_prior_as_fit_does(tmp_path):
-    """tie: none with a rule base takes the prior by default (as ``neurofuzzy fit``), and
-    the specimen's summary says where the tissue differs from its description."""
+def _pressed_block(path, *, n_frames, substeps, noise, **material):
+    """A 2×2×1 cm block of elements (E 6 kPa, ν 0.45, η 2 Pa·s, and ``material``'s law or
+    relaxation) pressed on its top, saved as an experiment at ``path``; returns its mesh."""
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.experiment import simulate_experiment
     from neurofuzzy.io import save_experiment
@@ -332,12 +332,19 @@ def test_a_specimen_fitted_element_by_element_uses_the_prior_as_fit_does(tmp_pat
 
     mesh = from_tetra(*kuhn_block((2, 2, 1), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     truth = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
-                                      viscosity=2.0, density=1050.0)
+                                      viscosity=2.0, density=1050.0, **material)
     top = np.flatnonzero(mesh.rest_positions[:, 2] > 0.01 - 1e-9)
     load = np.zeros((mesh.n_nodes, 3))
     load[top, 2] = -0.03 / len(top)
-    save_experiment(simulate_experiment(truth, dt=2e-3, n_frames=15, external_forces=load,
-                                        substeps=2, noise=1e-5, seed=0), tmp_path / "a.npz")
+    save_experiment(simulate_experiment(truth, dt=2e-3, n_frames=n_frames, external_forces=load,
+                                        substeps=substeps, noise=noise, seed=0), path)
+    return mesh
+
+
+def test_a_specimen_fitted_element_by_element_uses_the_prior_as_fit_does(tmp_path):
+    """tie: none with a rule base takes the prior by default (as ``neurofuzzy fit``), and
+    the specimen's summary says where the tissue differs from its description."""
+    _pressed_block(tmp_path / "a.npz", n_frames=15, substeps=2, noise=1e-5)
     _manifest(tmp_path, "id,group,experiments,rules,tissue,tie,substeps,cycles,prior\n"
                         "s1,g,a.npz,liver,liver,none,2,5,\ns2,g,a.npz,liver,liver,none,2,5,off\n")
     first, second = (fit_specimen(s) for s in read_manifest(tmp_path / "cohort.csv"))
@@ -350,21 +357,8 @@ def test_a_specimen_fitted_element_by_element_uses_the_prior_as_fit_does(tmp_pat
 def test_a_specimen_takes_the_law_and_relaxation_of_its_row(tmp_path):
     """``law`` and ``relaxation`` columns reach the fit as ``fit --law --relaxation`` do: the
     fitted model of the row is neo-Hookean with a Prony term."""
-    from neurofuzzy.datasets import kuhn_block
-    from neurofuzzy.experiment import simulate_experiment
-    from neurofuzzy.io import save_experiment
-    from neurofuzzy.mesh import from_tetra
-    from neurofuzzy.model import SpringMassModel
-
-    mesh = from_tetra(*kuhn_block((2, 2, 1), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    truth = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
-                                      viscosity=2.0, density=1050.0, law="neo-hookean",
-                                      relaxation=[(0.5, 0.02)])
-    top = np.flatnonzero(mesh.rest_positions[:, 2] > 0.01 - 1e-9)
-    load = np.zeros((mesh.n_nodes, 3))
-    load[top, 2] = -0.03 / len(top)
-    save_experiment(simulate_experiment(truth, dt=2e-3, n_frames=30, external_forces=load,
-                                        substeps=8, noise=1e-6, seed=0), tmp_path / "a.npz")
+    mesh = _pressed_block(tmp_path / "a.npz", n_frames=30, substeps=8, noise=1e-6,
+                          law="neo-hookean", relaxation=[(0.5, 0.02)])
     _manifest(tmp_path, "id,group,experiments,rules,tissue,tie,law,relaxation,cycles,prior\n"
                         "s1,g,a.npz,liver,liver,global,neo-hookean,0.4:0.03,5,off\n")
     [specimen] = read_manifest(tmp_path / "cohort.csv")
