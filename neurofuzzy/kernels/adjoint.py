@@ -21,9 +21,9 @@ import numpy as np
 
 from .integrator import euler_update, euler_update_transpose
 from .stepper import _spring, spring_state
-from .sensitivity import _edges, _element_tangents, _full, _green, _mul, _sym_t_mul
-from .laws import elastic, stress, stress_vjp, volumetric
-from .relaxation import relaxed
+from .sensitivity import _edges, _element_tangents, _full, _green, _mul, _sym_dot, _sym_t_mul
+from .laws import stress, stress_vjp, volumetric
+from .relaxation import relaxed_stress
 
 
 @numba.njit(cache=True, nogil=True)
@@ -112,11 +112,10 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         else:
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
-        S6 = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, 0.0)
-        S_el = S6
-        if relax_g.shape[1]:                 # the relaxed stress (its P = F S is the force's)
-            S_el = elastic(law[e], G, shear[e], pressure)[0]
-            S6 = relaxed(S6, S_el, relax_g, history, e)
+        # the relaxed stress: its P = F S is the force's
+        S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
+                                         pressure_rate, 0.0),
+                                  law[e], G, shear[e], pressure, relax_g, history, e)
         S = _full(S6)
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]
@@ -207,13 +206,6 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         _pull_columns(d_v, LFd, B, n0, n1, n2, n3)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _inner6(a, b):
-    """``a : b`` of two symmetric matrices of six entries (off-diagonals twice)."""
-    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-            + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]))
-
-
 @numba.njit(cache=True, nogil=True)
 def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
     """The adjoint of element ``e``'s relaxation (:mod:`.relaxation`) for the cotangent
@@ -229,9 +221,9 @@ def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
         total = (S_el[0] + r[0], S_el[1] + r[1], S_el[2] + r[2], S_el[3] + r[3],
                  S_el[4] + r[4], S_el[5] + r[5])
         after = (lr[0], lr[1], lr[2], lr[3], lr[4], lr[5])
-        g_relax[e, k, 0] += gk * _inner6(LS, total)
+        g_relax[e, k, 0] += gk * _sym_dot(LS, total)
         if a > 0.0:
-            g_relax[e, k, 1] += -a * np.log(a) * _inner6(after, total)
+            g_relax[e, k, 1] += -a * np.log(a) * _sym_dot(after, total)
         l0 += gk * LS[0] - (1.0 - a) * after[0]
         l1 += gk * LS[1] - (1.0 - a) * after[1]
         l2 += gk * LS[2] - (1.0 - a) * after[2]

@@ -14,7 +14,7 @@ symmetric matrix, ``(00, 11, 22, 01, 02, 12)``). K = 0: no relaxation, nothing c
 import numba
 import numpy as np
 
-from .laws import stress_jvp
+from .laws import elastic, stress_jvp
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -31,6 +31,16 @@ def relaxed(S, S_el, g, history, e):
         s4 += gk * (S_el[4] + r[4])
         s5 += gk * (S_el[5] + r[5])
     return s0, s1, s2, s3, s4, s5
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def relaxed_stress(S, law, G, shear, pressure, g, history, e):
+    """``(S_relaxed, S_e)``: :func:`relaxed` of element ``e``'s stress ``S`` with its
+    law's elastic stress ``S_e`` (``(S, S)`` without Prony terms: nothing computed)."""
+    if g.shape[1] == 0:
+        return S, S
+    S_el = elastic(law, G, shear, pressure)[0]
+    return relaxed(S, S_el, g, history, e), S_el
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

@@ -27,8 +27,8 @@ import numpy as np
 
 from .integrator import euler_update
 from .stepper import _spring
-from .laws import elastic, stress, stress_jvp, volumetric
-from .relaxation import relax, relaxation_tangent, relaxed
+from .laws import stress, stress_jvp, volumetric
+from .relaxation import relax, relaxation_tangent, relaxed_stress
 
 
 # -- 3×3 matrices as row-major tuples of nine scalars ----------------------------------------
@@ -270,11 +270,9 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
         else:
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
-        S6 = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, kappa)
-        S_el = S6
-        if n_terms:
-            S_el = elastic(law[e], G, shear[e], pressure)[0]
-            S6 = relaxed(S6, S_el, relax_g, history, e)
+        S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
+                                         pressure_rate, kappa),
+                                  law[e], G, shear[e], pressure, relax_g, history, e)
         S = _full(S6)
         scale = -volume[e]
         _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)

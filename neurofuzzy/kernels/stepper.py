@@ -12,8 +12,8 @@ import numba
 import numpy as np
 
 from .integrator import euler_update
-from .laws import elastic, stress, volumetric
-from .relaxation import relax, relaxed
+from .laws import stress, volumetric
+from .relaxation import relax, relaxed_stress
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -147,12 +147,11 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, la
         else:
             pressure = lam[e] * volumetric(law[e], G)[0]
             pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
-        s00, s11, s22, s01, s02, s12 = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                              pressure_rate, kappa)
+        S, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
+                                        pressure_rate, kappa),
+                                 law[e], G, shear[e], pressure, relax_g, history, e)
+        s00, s11, s22, s01, s02, s12 = S
         if relax_g.shape[1]:
-            S_el = elastic(law[e], G, shear[e], pressure)[0]
-            s00, s11, s22, s01, s02, s12 = relaxed((s00, s11, s22, s01, s02, s12), S_el,
-                                                   relax_g, history, e)
             relax(S_el, relax_decay, history, e)
         # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
         scale = -volume[e]
