@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from ..effects import NodeDrag
 from ..effects.compiled import (CONSTANT, element_constants, element_inclusion,
-                                element_stiffening, kernel_effects)
+                                element_stiffening, kernel_effects, kernel_values)
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
 from ..forces.relaxation import decay
@@ -136,26 +136,26 @@ class CompiledModel:
     @staticmethod
     def _stiffening(model, columns):
         """``(kappa, kappa_column)`` of the elements' strain stiffening (0, -1 without)."""
+        kappa = kernel_values(model)[2]
         for i, effect in enumerate(model.effects):
             if element_stiffening(effect):
-                return float(effect.params[0]), int(columns.get(i, -1))
-        return 0.0, -1
+                return kappa, int(columns.get(i, -1))
+        return kappa, -1
 
     @staticmethod
     def _effects(model, n_params, columns):
-        """``(drag, drag_column, force_direction, constant_force)``."""
-        drag, drag_column = 0.0, -1
+        """``(drag, drag_column, force_direction, constant_force)``: the values of
+        :func:`~neurofuzzy.effects.compiled.kernel_values` and the columns."""
+        drag, constant, _ = kernel_values(model)
+        drag_column = -1
         # parameters last, as the kernel's tangents; np.zeros maps its pages lazily, so the
         # (N, 3, P) array of a model with thousands of parameters costs no memory until used
         direction = np.zeros((model.n_nodes, 3, n_params))
-        constant = np.zeros((model.n_nodes, 3))
         for i, effect in enumerate(model.effects):
             column = columns.get(i)
             if isinstance(effect, NodeDrag):
-                drag = float(effect.params[0])
                 drag_column = -1 if column is None else column
             elif isinstance(effect, CONSTANT):
-                constant += effect.force(model, model.mesh.rest_positions, None)
                 if column is not None:
                     span = slice(column, column + len(effect.params))
                     direction[:, :, span] = effect.parameter_jacobian(
