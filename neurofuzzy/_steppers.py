@@ -183,8 +183,9 @@ def compiled_terms_only(model) -> bool:
 
 
 def _element_arrays(model, dtype, h: float):
-    """``(tets, inverse_rest, volume, law, shear, shear_rate, λ, λβ, nodal, node_volume, Λ, H,
-    node_strain, g, a, history)`` of the model's elements in the kernel's layout (the
+    """``(tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
+    node_volume, Λ, H, node_strain, g, a, history)`` of the model's elements in the kernel's
+    layout (the
     constants of :class:`~neurofuzzy.forces.Materials`; empty when it has none;
     ``node_strain`` is scratch space of the nodal volumetric form; ``g``, ``a = exp(-h/τ)``
     and ``history`` (n_elements, K, 6) the Prony terms of steps of ``h`` seconds and their
@@ -192,7 +193,8 @@ def _element_arrays(model, dtype, h: float):
     if not model.has_elements:
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty,
-                np.zeros(0, np.intp), empty, empty, empty, empty, False, empty, empty, empty,
+                np.zeros(0, np.intp), empty, empty, empty, empty, empty, False, empty, empty,
+                empty,
                 np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
                 np.zeros((0, 0, 6), dtype))
     from .forces.relaxation import decay
@@ -207,6 +209,7 @@ def _element_arrays(model, dtype, h: float):
     return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
             np.ascontiguousarray(materials.law, np.intp),
+            np.ascontiguousarray(model.element_stiffening, dtype),
             *(np.asarray(total[key], dtype) for key in ("shear", "shear_rate", "lam",
                                                        "lam_rate")),
             nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),

@@ -11,7 +11,7 @@ import yaml
 
 from . import safe_yaml
 from .errors import InputError, closest_name
-from .forces.laws import LAWS
+from .forces.laws import LAWS, YEOH
 from .mesh import Mesh
 from .model import SpringMassModel
 from .safe_yaml import kind_of
@@ -66,6 +66,9 @@ def model_to_dict(model: SpringMassModel) -> dict:
         if any(number != 0 for number in model.element_law):
             # one word when every element has the same law, else one per element
             data["elements"]["law"] = laws[0] if len(set(laws)) == 1 else laws
+        if np.any(model.element_law == YEOH):
+            # Yeoh's C20/C10 per element (0 on the other laws' elements)
+            data["elements"]["stiffening"] = model.element_stiffening.tolist()
         if model.n_relaxation_terms:
             # Prony terms: one [g, ...] and one [τ, ...] row per element
             data["elements"]["relaxation_moduli"] = model.element_relaxation_moduli.tolist()
@@ -82,7 +85,8 @@ MODEL_KEYS = {
                 ("group", "group_names", "rest_length", "tie", "region")),
     "regions": (("names",), ("tissues",)),
     "elements": ((), ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                      "volumetric", "law", "relaxation_moduli", "relaxation_times")),
+                      "volumetric", "law", "relaxation_moduli", "relaxation_times",
+                      "stiffening")),
 }
 #: keys whose value is a single word, not a list
 _MODEL_SCALAR_KEYS = {("elements", "volumetric")}
@@ -98,7 +102,8 @@ _MODEL_FILE_KEY = {
     "region_tissues": ("regions", "tissues"), "effects": (None, "effects"),
     **{f"element_{key}": ("elements", key)
        for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                   "volumetric", "law", "relaxation_moduli", "relaxation_times")},
+                   "volumetric", "law", "relaxation_moduli", "relaxation_times",
+                   "stiffening")},
 }
 
 
@@ -207,7 +212,7 @@ def _elements_from_dict(data: dict) -> dict:
                          key="elements")
     values = {f"element_{key}": elements.get(key)
               for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                          "law", "relaxation_moduli", "relaxation_times")}
+                          "law", "relaxation_moduli", "relaxation_times", "stiffening")}
     # files written before the nodal volumetric form existed hold per-element elements
     values["element_volumetric"] = elements.get("volumetric", "element")
     return values

@@ -34,23 +34,25 @@ LAW_NUMBERS = list(range(len(LAWS)))
 def test_the_generated_derivatives_of_the_law_are_its_derivatives(law, kappa):
     rng = np.random.default_rng(5 + law)
     G, Gd, dG, dGd, LS = (tuple(rng.normal(0, scale, 6)) for scale in (0.1, 2.0, 1.0, 1.0, 1.0))
-    shear, rate, pressure, pressure_rate = 4e3, 10.0, 700.0, -30.0
-    d = dict(shear=300.0, rate=2.0, pressure=50.0, pressure_rate=7.0, kappa=1e3)
+    shear, rate, pressure, pressure_rate, stiffening = 4e3, 10.0, 700.0, -30.0, 1.3
+    d = dict(shear=300.0, rate=2.0, pressure=50.0, pressure_rate=7.0, kappa=1e3,
+             stiffening=0.4)
     eps = 1e-6
 
     def law_at(t):
         move = lambda x, dx: tuple(np.add(x, t * np.asarray(dx)))  # noqa: E731
         return np.array(stress(law, move(G, dG), move(Gd, dGd), shear + t * d["shear"],
                                rate + t * d["rate"], pressure + t * d["pressure"],
-                               pressure_rate + t * d["pressure_rate"], kappa + t * d["kappa"]))
+                               pressure_rate + t * d["pressure_rate"], kappa + t * d["kappa"],
+                               stiffening + t * d["stiffening"]))
 
     central = (law_at(eps) - law_at(-eps)) / (2 * eps)
     forward = np.array(stress_jvp(law, G, Gd, dG, dGd, shear, rate, pressure, pressure_rate,
-                                  kappa, d["shear"], d["rate"], d["pressure"],
-                                  d["pressure_rate"], d["kappa"]))
+                                  kappa, stiffening, d["shear"], d["rate"], d["pressure"],
+                                  d["pressure_rate"], d["kappa"], d["stiffening"]))
     assert np.allclose(forward, central, rtol=1e-6, atol=1e-7 * np.abs(central).max())
     LG, LGd, *cotangents = stress_vjp(law, G, Gd, LS, shear, rate, pressure, pressure_rate,
-                                      kappa)
+                                      kappa, stiffening)
     # <L_S, dS> = <L_G, dG> + <L_Ġ, dĠ> + Σ l_c dc for every direction
     want = _inner(LS, forward)
     got = (_inner(LG, dG) + _inner(LGd, dGd)
@@ -70,17 +72,18 @@ def test_the_volumetric_strain_s_gradient_is_the_stress_of_unit_pressure(law):
         slope = (volumetric(law, tuple(G + step))[0] - volumetric(law, tuple(G - step))[0]) / (
             2 * eps)
         assert slope == pytest.approx(N[k] * (1 if k < 3 else 2), rel=1e-7)
-    assert np.allclose(N, elastic(law, G, 0.0, 1.0)[0])
+    assert np.allclose(N, elastic(law, G, 0.0, 1.0, 0.7)[0])
 
 
 @pytest.mark.parametrize("law", LAW_NUMBERS)
-def test_every_law_is_linear_elasticity_at_small_strain(law):
-    """``S ≈ 2μ ε + λ tr ε I`` for ``G = ε`` of size 1e-7."""
+@pytest.mark.parametrize("stiffening", [0.0, 5.0])
+def test_every_law_is_linear_elasticity_at_small_strain(law, stiffening):
+    """``S ≈ 2μ ε + λ tr ε I`` for ``G = ε`` of size 1e-7, whatever the law's stiffening."""
     rng = np.random.default_rng(3)
     eps = tuple(1e-7 * rng.normal(size=6))
     mu, lam = 2e3, 9e3
     theta = volumetric(law, eps)[0]
-    S = np.array(elastic(law, eps, 2 * mu, lam * theta)[0])
+    S = np.array(elastic(law, eps, 2 * mu, lam * theta, stiffening)[0])
     linear = 2 * mu * np.array(eps) + lam * sum(eps[:3]) * np.array([1, 1, 1, 0, 0, 0])
     assert np.allclose(S, linear, rtol=1e-5, atol=1e-12 * lam)
 
@@ -90,10 +93,10 @@ def test_the_compiled_law_is_the_numpy_law(law):
     """At 30 % compression and shear, the kernels' stress is the numpy reference's."""
     F = np.array([[1.0, 0.2, 0.0], [0.05, 1.0, 0.1], [0.0, 0.0, 0.7]])
     G = 0.5 * (F.T @ F - np.eye(3))
-    parts = law_parts(np.array([law]), G[None])
+    parts = law_parts(np.array([law]), G[None], [0.8])
     shear, pressure = 4e3, 2e3
     want = shear * parts.D[0] + pressure * parts.N[0]
-    got, theta = elastic(law, _six(G), shear, pressure)
+    got, theta = elastic(law, _six(G), shear, pressure, 0.8)
     assert np.allclose(_full(got), want, rtol=1e-12)
     assert theta == pytest.approx(parts.theta[0], rel=1e-12)
 
@@ -107,9 +110,31 @@ def test_the_neo_hookean_law_is_bonet_and_wood_s():
     log_j = np.log(np.linalg.det(F))
     theta = volumetric(law_number("neo-hookean"), G)[0]
     assert theta == pytest.approx(log_j, rel=1e-12)
-    S = _full(elastic(law_number("neo-hookean"), G, 2 * mu, lam * theta)[0])
+    S = _full(elastic(law_number("neo-hookean"), G, 2 * mu, lam * theta, 0.0)[0])
     inverse = np.linalg.inv(C)
     assert np.allclose(S, mu * (np.eye(3) - inverse) + lam * log_j * inverse, rtol=1e-12)
+
+
+@pytest.mark.parametrize("stiffening", [0.0, 1.5])
+def test_the_yeoh_law_is_the_reference_yeoh_solid(stiffening):
+    """``S`` of the compiled law against the principal stresses ``∂Ψ/∂λᵢ / λᵢ`` of
+    :class:`neurofuzzy.nonlinear_reference.Yeoh` (its energy in principal stretches, written
+    apart) with ``C₂₀ = c C₁₀``, under 30 % compression with free-ish sides."""
+    from neurofuzzy.nonlinear_reference import Yeoh
+
+    E, nu = 5e3, 0.45
+    reference = Yeoh.from_youngs(E, nu, c20_ratio=stiffening)
+    stretches = np.array([0.7, 1.12, 1.09])
+    mu = E / (2 * (1 + nu))
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    law = law_number("yeoh")
+    G = _six(np.diag(0.5 * (stretches**2 - 1)))
+    theta = volumetric(law, G)[0]
+    assert theta == pytest.approx(np.prod(stretches) - 1, rel=1e-12)
+    S = _full(elastic(law, G, 2 * mu, lam * theta, stiffening)[0])
+    want = reference.principal_nominal_stress(stretches) / stretches
+    assert np.allclose(np.diag(S), want, rtol=1e-10)
+    assert np.allclose(S - np.diag(np.diag(S)), 0.0)
 
 
 def test_law_names_numbers_and_mistakes():
@@ -119,7 +144,7 @@ def test_law_names_numbers_and_mistakes():
     assert list(law_numbers(None, 2)) == [0, 0]
     with pytest.raises(InputError, match="did you mean 'neo-hookean'"):
         law_number("neo-hooken")
-    with pytest.raises(InputError, match="expected 0..1"):
+    with pytest.raises(InputError, match="expected 0..2"):
         law_numbers(np.array([0, 5]), 2)
     with pytest.raises(InputError, match="one per element"):
         law_numbers(["svk"] * 2, 3)
@@ -129,7 +154,7 @@ def test_an_element_squeezed_flat_gives_nan_not_an_exception():
     """``det C = 0``: no neo-Hookean stress exists; both forms return NaN (the run then
     diverges and says so) instead of raising ZeroDivisionError or LinAlgError."""
     flat = (-0.5, 0.0, 0.0, 0.0, 0.0, 0.0)                   # C = diag(0, 1, 1)
-    S, theta = elastic(law_number("neo-hookean"), flat, 4e3, 1e3)
+    S, theta = elastic(law_number("neo-hookean"), flat, 4e3, 1e3, 0.0)
     assert np.all(np.isnan(S)) and np.isnan(theta)
     parts = law_parts(np.array([1]), _full(flat)[None])
     assert not np.all(np.isfinite(parts.N)) and not np.isfinite(parts.theta[0])

@@ -43,10 +43,11 @@ def test_springs_with_tie_groups(starts):
 
 def _laws(name, rng, n):
     """One law for all elements, or a random one per element ("mixed")."""
-    return rng.choice(["st-venant-kirchhoff", "neo-hookean"], n) if name == "mixed" else name
+    return (rng.choice(["st-venant-kirchhoff", "neo-hookean", "yeoh"], n) if name == "mixed"
+            else name)
 
 
-LAWS = ["st-venant-kirchhoff", "neo-hookean", "mixed"]
+LAWS = ["st-venant-kirchhoff", "neo-hookean", "yeoh", "mixed"]
 
 
 @pytest.mark.parametrize("law", LAWS)
@@ -57,7 +58,8 @@ def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric, law):
     truth = SpringMassModel.continuum(
         mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra), poisson_ratio=0.45,
         viscosity=2.0, density=1000.0, volumetric=volumetric,
-        law=_laws(law, rng, mesh.n_tetrahedra)).replace(
+        law=_laws(law, rng, mesh.n_tetrahedra),
+        stiffening=rng.uniform(0.5, 2.0, mesh.n_tetrahedra)).replace(
         element_tie=rng.integers(0, 3, mesh.n_tetrahedra))
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0.0, 0.01, -0.05)
@@ -171,7 +173,8 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, 
     model = SpringMassModel.continuum(
         mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra),
         poisson_ratio=rng.uniform(0.3, 0.45, mesh.n_tetrahedra), viscosity=2.0,
-        density=1000.0, volumetric=volumetric, law=_laws(law, rng, mesh.n_tetrahedra)).replace(
+        density=1000.0, volumetric=volumetric, law=_laws(law, rng, mesh.n_tetrahedra),
+        stiffening=rng.uniform(0.5, 2.0, mesh.n_tetrahedra)).replace(
         element_tie=rng.integers(0, 4, mesh.n_tetrahedra)).with_effects(
         StiffInclusion([3000.0], elements=[3, 4, 10, 11], poisson_ratio=0.4),
         NodeDrag([0.05]))

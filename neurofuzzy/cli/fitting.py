@@ -28,7 +28,8 @@ def _start(args, progress: bool):
     elements = {"tetra": True, "springs": False}.get(args.elements)
     start = start_model(experiments, model=args.start, rules=rules, tissue=args.tissue,
                         tie=args.tie, elements=elements, law=args.law,
-                        relaxation=args.relaxation, progress=progress)
+                        relaxation=args.relaxation, stiffening=args.stiffening,
+                        progress=progress)
     check_fit_inputs(experiments, start.model, substeps=args.substeps, model_source=args.start,
                      physical=start.how in ("model", "rules"))
     return inputs, experiments, start
@@ -83,7 +84,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     elements = {"tetra": True, "springs": False}.get(args.elements)
     outcome = fit_pipeline(loaded, start=args.start, rules=rule_base_for(args.rules, args.tissue),
                            tissue=args.tissue, tie=args.tie, elements=elements,
-                           law=args.law, relaxation=args.relaxation, prior=args.prior,
+                           law=args.law, relaxation=args.relaxation,
+                           stiffening=args.stiffening, prior=args.prior,
                            method=args.method, cycles=args.cycles,
                            learn_masses=args.learn_masses, substeps=substeps,
                            learning_rate=args.learning_rate,

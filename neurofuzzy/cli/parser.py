@@ -262,7 +262,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "springs: the paper's spring network on the mesh's edges")
     mesh.add_argument("--law", choices=LAWS, default=LAWS[0],
                       help="with --elements tetra: the elements' material law, "
-                           "st-venant-kirchhoff (default) or neo-hookean")
+                           "st-venant-kirchhoff (default), neo-hookean or yeoh")
     mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups",
                       help="parameters shared by all items, per group (default) or none, "
                            "within each region; a fit with --start keeps it")
@@ -336,9 +336,14 @@ def _start_options(command) -> None:
                               "edges (the paper's learner always uses springs)")
     command.add_argument("--law", choices=LAWS, default=None,
                          help="the tetrahedral elements' material law: st-venant-kirchhoff "
-                              "(SVK; softens beyond about 30 %% compression) or neo-hookean "
-                              "(stiffens as it is squeezed; the same E and ν at small strain) "
+                              "(SVK; softens beyond about 30 %% compression), neo-hookean "
+                              "(stiffens as it is squeezed) or yeoh (stiffens more, by a "
+                              "fitted C20/C10); all have the same E and ν at small strain "
                               "(default: the start model's own, else st-venant-kirchhoff)")
+    command.add_argument("--stiffening", type=float, metavar="C", default=None,
+                         help="with --law yeoh: Yeoh's C20/C10 to start from (>= 0; default "
+                              "the start model's own, else 1: 1.65 times as stiff as "
+                              "neo-Hookean at 30 %% compression); fitted per region")
     command.add_argument("--relaxation", metavar="TERMS", default=None,
                          help="the tetrahedral elements relax (Prony series on top of their "
                               "law, FEBio's convention: E is the long-term modulus): a number "

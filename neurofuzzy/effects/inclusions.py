@@ -92,7 +92,8 @@ class _Inclusion(SpringEffect):
         return Materials.from_values(tetrahedron_geometry(model.mesh), modulus,
                                      self.options["poisson_ratio"], np.zeros_like(modulus),
                                      nodal=model.element_volumetric == "nodal",
-                                     law=model.element_law)
+                                     law=model.element_law,
+                                     stiffening=model.element_stiffening)
 
     def force(self, model, positions, velocities):
         if not self.on_elements:

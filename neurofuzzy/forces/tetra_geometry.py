@@ -142,6 +142,8 @@ class Materials:
         Their node averages ``Λ``, ``H`` (nodal volumetric form only).
     law : (K,) int
         Every element's material law (:mod:`neurofuzzy.forces.laws`).
+    stiffening : (K,) float
+        Yeoh's ``C₂₀/C₁₀`` of every element (0 on the other laws' elements).
     """
 
     geometry: TetrahedronGeometry
@@ -153,6 +155,7 @@ class Materials:
     node_lam: np.ndarray | None
     node_lam_rate: np.ndarray | None
     law: np.ndarray
+    stiffening: np.ndarray
 
     @classmethod
     def of(cls, model) -> Materials:
@@ -160,14 +163,14 @@ class Materials:
         return cls.from_values(tetrahedron_geometry(model.mesh), model.element_youngs_modulus,
                                model.element_poisson_ratio, model.element_viscosity,
                                nodal=model.element_volumetric == "nodal",
-                               law=model.element_law)
+                               law=model.element_law, stiffening=model.element_stiffening)
 
     @classmethod
     def from_values(cls, geometry: TetrahedronGeometry, youngs_modulus, poisson_ratio,
-                    viscosity, *, nodal: bool, law=None) -> Materials:
+                    viscosity, *, nodal: bool, law=None, stiffening=None) -> Materials:
         """Materials from per-element E, ν, η (K,) arrays (E and η may be zero: an extra
-        stiffness on part of a model, as an inclusion adds) and law numbers (K,) (default
-        St. Venant–Kirchhoff)."""
+        stiffness on part of a model, as an inclusion adds), law numbers (K,) (default
+        St. Venant–Kirchhoff) and Yeoh's stiffening constants (K,) (default 0)."""
         E, eta = np.asarray(youngs_modulus, float), np.asarray(viscosity, float)
         a, b, _, _ = lame_factors(poisson_ratio)
         lam, lam_rate = E * a, eta * a
@@ -175,7 +178,9 @@ class Materials:
                    geometry.average @ lam if nodal else None,
                    geometry.average @ lam_rate if nodal else None,
                    np.zeros(len(geometry.volume), np.intp) if law is None
-                   else np.asarray(law, np.intp))
+                   else np.asarray(law, np.intp),
+                   np.zeros(len(geometry.volume)) if stiffening is None
+                   else np.asarray(stiffening, float))
 
     def pressures(self, theta, theta_rate):
         """``(π, π̇)``: the elastic and the viscous volumetric stress (K, ...) of the volumetric

@@ -121,7 +121,7 @@ class TetrahedronForce(ForceTerm):
         F_rate = geometry.edges(velocities) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
-        law = law_parts(materials.law, green)
+        law = law_parts(materials.law, green, materials.stiffening)
         theta_rate = np.trace(green_rate, axis1=1, axis2=2)
         pressure, pressure_rate = materials.pressures(law.theta, theta_rate)
         stress = (materials.shear[:, None, None] * law.D
@@ -279,6 +279,22 @@ class TetrahedronForce(ForceTerm):
         out["poisson_ratio"] = out["poisson_ratio"] + da * (E * g_lam + eta * g_lam_rate)
         out["viscosity"] = out["viscosity"] + a * g_lam_rate
         return out
+
+    def stiffening_forces(self, model, positions, velocities, shear) -> np.ndarray:
+        """Per-corner forces (K, 4, 3) per unit change of every Yeoh element's ``log c``
+        (its stiffening constant, :mod:`neurofuzzy.forces.laws`), for the elements' total
+        shear constants ``shear`` (K,) (their own and any inclusion's): the stress is
+        ``shear D(G; c)`` with ``D`` affine in ``c``, so ``∂S/∂ log c = c shear (D(G; 1) -
+        D(G; 0))``; 0 on the other laws' elements."""
+        materials = _stateless(model)
+        geometry = materials.geometry
+        F = geometry.edges(positions) @ geometry.inverse_rest
+        green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
+        ones = np.ones(len(green))
+        slope = (law_parts(materials.law, green, ones).D
+                 - law_parts(materials.law, green, 0 * ones).D)
+        stress = (materials.stiffening * shear)[:, None, None] * slope
+        return corner_forces(self._columns(geometry, F @ stress))
 
     def parameter_values(self, model):
         """``{"youngs_modulus", "poisson_ratio", "viscosity"}``, each (n_elements,)."""

@@ -39,14 +39,14 @@ def _no_tangents(n_nodes):
 def _element_force(p, v, elements, relax_g, relax_decay, history, blank, node_strain, force):
     """Element forces into ``force`` and the relaxation's step of ``history`` (the forward
     kernel's, without tangents; ``blank`` from :func:`_no_tangents`)."""
-    (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
-     node_lam, node_lam_rate) = elements
+    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+     node_volume, node_lam, node_lam_rate) = elements
     none, pointer, columns, empty, per_node, node_pairs, no_columns, no_tangents = blank
-    _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, shear, shear_rate, lam,
-                      lam_rate, nodal, node_volume, node_lam, node_lam_rate, pointer, columns,
-                      empty, empty, empty, empty, per_node, per_node, 0.0, -1, relax_g,
-                      relax_decay, no_columns, history, no_tangents, 0, node_strain,
-                      node_pairs, force, none)
+    _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, stiffening, shear,
+                      shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                      pointer, columns, empty, empty, empty, empty, per_node, per_node, 0.0, -1,
+                      columns, relax_g, relax_decay, no_columns, history, no_tangents, 0,
+                      node_strain, node_pairs, force, none)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -65,18 +65,19 @@ def _pull_columns(out, L, B, n0, n1, n2, n3):
 
 @numba.njit(cache=True, nogil=True)
 def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_lam,
-                 g_lam_rate, node_strain, node_adjoint, relax_g, relax_decay, history,
-                 lam_history, g_relax):
+                 g_lam_rate, g_stiffening, node_strain, node_adjoint, relax_g, relax_decay,
+                 history, lam_history, g_relax):
     """``λ · ∂F/∂p`` into ``d_p``, ``λ · ∂F/∂v`` into ``d_v`` and ``λ · ∂F`` by every
-    element's constants into ``g_*`` (per element; with the nodal form ``g_lam`` and
-    ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the cotangent ``λ = lam_force``.
+    element's constants into ``g_*`` (per element, the law's stiffening constant's too; with
+    the nodal form ``g_lam`` and ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the
+    cotangent ``λ = lam_force``.
 
     With Prony terms (:mod:`.relaxation`; ``history`` the internal variables at the step's
     start) ``lam_history`` (n_elements, K, 6) holds the cotangents of the internal variables
     after the step and leaves holding those before it; ``g_relax[e, k]`` gains the step's
     derivatives by ``log g`` and ``log τ`` of element ``e``'s term ``k``."""
-    (tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
-     node_lam, node_lam_rate) = elements
+    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+     node_volume, node_lam, node_lam_rate) = elements
     if nodal:                      # the node averages θ̄, θ̄̇
         node_strain[:] = 0.0
         for e in range(tets.shape[0]):
@@ -114,8 +115,9 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
             pressure_rate = lam_rate[e] * theta_rate
         # the relaxed stress: its P = F S is the force's
         S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                         pressure_rate, 0.0),
-                                  law[e], G, shear[e], pressure, relax_g, history, e)
+                                         pressure_rate, 0.0, stiffening[e]),
+                                  law[e], G, shear[e], pressure, stiffening[e], relax_g,
+                                  history, e)
         S = _full(S6)
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]
@@ -129,20 +131,23 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         LP = (scale * LB[0], scale * LB[1], scale * LB[2], scale * LB[3], scale * LB[4],
               scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
-        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, _ = stress_vjp(
-            law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate, 0.0)
+        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, _, l_stiffening = (
+            stress_vjp(law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate,
+                       0.0, stiffening[e]))
         if relax_g.shape[1]:
             # S = S_rest + Σ g (S_e + r), r' = a r - (1 - a) S_e: the elastic stress' own
             # cotangent, the internal variables' and the terms' constants'
             L_el = _relaxation_vjp(LS, S_el, relax_g, relax_decay, history, lam_history,
                                    g_relax, e)
-            LG2, _, l_shear2, _, l_pressure2, _, _ = stress_vjp(
-                law[e], G, Gd, L_el, shear[e], 0.0, pressure, 0.0, 0.0)
+            LG2, _, l_shear2, _, l_pressure2, _, _, l_stiffening2 = stress_vjp(
+                law[e], G, Gd, L_el, shear[e], 0.0, pressure, 0.0, 0.0, stiffening[e])
             LG = (LG[0] + LG2[0], LG[1] + LG2[1], LG[2] + LG2[2], LG[3] + LG2[3],
                   LG[4] + LG2[4], LG[5] + LG2[5])
             l_shear += l_shear2
             l_pressure += l_pressure2
+            l_stiffening += l_stiffening2
         g_shear[e] += l_shear
+        g_stiffening[e] += l_stiffening
         g_shear_rate[e] += l_shear_rate
         if nodal:
             l_theta = 0.0
@@ -291,7 +296,7 @@ def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, dr
     to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
     cotangents run on across window starts, as their values do forwards)."""
     n_nodes = frame_adjoint.shape[1]
-    g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
+    g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
     has_elements = elements[0].shape[0] > 0
     node_strain = np.zeros((n_nodes, 2))
     node_adjoint = np.zeros((n_nodes, 2))
@@ -360,8 +365,8 @@ def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, dr
                 d_v[ib, 2] += cv * uz
             if has_elements:
                 _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate,
-                             g_lam, g_lam_rate, node_strain, node_adjoint, relax_g,
-                             relax_decay, states_r[step], lam_history, g_relax)
+                             g_lam, g_lam_rate, g_stiffening, node_strain, node_adjoint,
+                             relax_g, relax_decay, states_r[step], lam_history, g_relax)
             for i in range(n_nodes):
                 for k in range(3):
                     lam_p[i, k] += d_p[i, k]

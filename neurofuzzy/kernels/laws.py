@@ -5,13 +5,15 @@ Piola–Kirchhoff stress of the Green strain ``G`` and its rate ``Ġ``
 
     S = S_law(G; 2μ, π) + 2κ (G:G) G + 2μβ Ġ + π̇ I
 
-A **law** is one function ``law(G, shear, pressure) -> (S_elastic, θ)`` of the strain, the
-shear constant ``2μ`` and the volumetric stress ``π``: the elastic stress and the law's
+A **law** is one function ``law(G, shear, pressure, stiffening) -> (S_elastic, θ)`` of the
+strain, the shear constant ``2μ``, the volumetric stress ``π`` and the law's own stiffening
+constant (per element; laws without one ignore it): the elastic stress and the law's
 volumetric strain ``θ(G)``, whose derivative ``∂θ/∂G`` is the stress of unit ``π``
-(``law(G, 0, 1)``). The callers form ``π = λ θ`` per element, or the node average of
-``Λ θ̄`` (the nodal volumetric form), and ``π̇ = λβ tr Ġ`` likewise: the viscosity is the
-Kelvin–Voigt stress of the small-strain elasticity tensor times ``β = η/E`` for every law, as
-FEBio's and sfepy's Kelvin–Voigt solids write it.
+(``law(G, 0, 1, 0)``). The stress is linear in ``shear`` and in ``π``. The callers form
+``π = λ θ`` per element, or the node average of ``Λ θ̄`` (the nodal volumetric form), and
+``π̇ = λβ tr Ġ`` likewise: the viscosity is the Kelvin–Voigt stress of the small-strain
+elasticity tensor times ``β = η/E`` for every law, as FEBio's and sfepy's Kelvin–Voigt solids
+write it.
 
 - :func:`st_venant_kirchhoff`: ``S = 2μ G + π I``, ``θ = tr G`` (energy ``μ G:G + ½ λ θ²``).
 - :func:`neo_hookean`: the coupled compressible neo-Hookean solid (Bonet & Wood, eq. 6.27;
@@ -19,6 +21,13 @@ FEBio's and sfepy's Kelvin–Voigt solids write it.
   (energy ``μ/2 (I₁ - 3) - μ ln J + ½ λ (ln J)²``). Its energy grows without bound as an
   element is squeezed flat (J → 0), where SVK's falls back to zero, and it is SVK at small
   strain (the same E, ν).
+- :func:`yeoh`: Yeoh's strain-stiffening solid in the uncoupled form of Abaqus, ANSYS, COMSOL
+  and sfepy, ``Ψ = C₁₀ (Ī₁ - 3) + C₂₀ (Ī₁ - 3)² + K/2 (J - 1)²`` (``Ī₁ = J^(-2/3) I₁``) with
+  ``C₁₀ = μ/2``, ``C₂₀ = c C₁₀`` (``c`` the element's ``stiffening``, dimensionless) and
+  ``K = λ + 2μ/3``: ``θ = J - 1``, and the law adds the shear's share ``2μ/3 θ`` to the
+  caller's ``π = λ θ``. Linear elasticity with the same E, ν at small strain for any ``c``
+  (``(Ī₁ - 3)²`` is of fourth order in the strain); stiffer than neo-Hookean in compression
+  and tension alike as ``c`` grows (why Yeoh: :class:`neurofuzzy.nonlinear_reference.Yeoh`).
 
 Adding a law: write its function here, give it the next number in :data:`LAWS` and a branch
 in :func:`elastic`; its forward and reverse derivatives then come from it by complex step
@@ -38,9 +47,10 @@ import numba
 import numpy as np
 
 #: Law numbers, as stored per element (``model.element_law``): name → number.
-LAWS = {"st-venant-kirchhoff": 0, "neo-hookean": 1}
+LAWS = {"st-venant-kirchhoff": 0, "neo-hookean": 1, "yeoh": 2}
 ST_VENANT_KIRCHHOFF = LAWS["st-venant-kirchhoff"]
 NEO_HOOKEAN = LAWS["neo-hookean"]
+YEOH = LAWS["yeoh"]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -52,6 +62,25 @@ def _inner(a, b):
 
 # -- the laws ----------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True, inline="always")
+def _cofactors(G):
+    """The cofactors ``(k00, k11, k22, k01, k02, k12)`` of ``C = I + 2G`` (symmetric) and
+    ``det C``; ``det C = 0`` (an element squeezed flat) becomes NaN: no stress exists there,
+    and the run turns NaN rather than raise."""
+    c00, c11, c22 = 1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2]
+    c01, c02, c12 = 2.0 * G[3], 2.0 * G[4], 2.0 * G[5]
+    k00 = c11 * c22 - c12 * c12
+    k11 = c00 * c22 - c02 * c02
+    k22 = c00 * c11 - c01 * c01
+    k01 = c02 * c12 - c01 * c22
+    k02 = c01 * c12 - c02 * c11
+    k12 = c01 * c02 - c00 * c12
+    det = c00 * k00 + c01 * k01 + c02 * k02
+    if det == 0.0:
+        det = det + np.nan
+    return (k00, k11, k22, k01, k02, k12), det
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def st_venant_kirchhoff(G, shear, pressure):
     """``S = shear G + π I`` and ``θ = tr G``."""
     return ((shear * G[0] + pressure, shear * G[1] + pressure, shear * G[2] + pressure,
@@ -61,29 +90,38 @@ def st_venant_kirchhoff(G, shear, pressure):
 @numba.njit(cache=True, nogil=True, inline="always")
 def neo_hookean(G, shear, pressure):
     """``S = ½ shear (I - C⁻¹) + π C⁻¹`` and ``θ = ln J = ½ ln det C`` (``C = I + 2G``)."""
-    c00, c11, c22 = 1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2]
-    c01, c02, c12 = 2.0 * G[3], 2.0 * G[4], 2.0 * G[5]
-    # the cofactors of C (symmetric), det C by the first row
-    k00 = c11 * c22 - c12 * c12
-    k11 = c00 * c22 - c02 * c02
-    k22 = c00 * c11 - c01 * c01
-    k01 = c02 * c12 - c01 * c22
-    k02 = c01 * c12 - c02 * c11
-    k12 = c01 * c02 - c00 * c12
-    det = c00 * k00 + c01 * k01 + c02 * k02
-    if det == 0.0:
-        det = det + np.nan         # squeezed flat: no stress exists, the run turns NaN
+    k, det = _cofactors(G)
     half = 0.5 * shear
     scale = (pressure - half) / det                   # (π - ½ shear) C⁻¹
-    return ((half + scale * k00, half + scale * k11, half + scale * k22, scale * k01,
-             scale * k02, scale * k12), 0.5 * np.log(det))
+    return ((half + scale * k[0], half + scale * k[1], half + scale * k[2], scale * k[3],
+             scale * k[4], scale * k[5]), 0.5 * np.log(det))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def elastic(law, G, shear, pressure):
-    """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`)."""
+def yeoh(G, shear, pressure, stiffening):
+    """``S = ½ shear (1 + 2c x) J^(-2/3) (I - I₁/3 C⁻¹) + (π + shear θ/3) J C⁻¹`` with
+    ``x = Ī₁ - 3``, ``c = stiffening``, and ``θ = J - 1``."""
+    k, det = _cofactors(G)
+    i1 = 3.0 + 2.0 * (G[0] + G[1] + G[2])
+    j = np.sqrt(det)
+    j23 = np.exp(np.log(det) / -3.0)                  # J^(-2/3) = (det C)^(-1/3)
+    x = j23 * i1 - 3.0
+    theta = j - 1.0
+    deviatoric = 0.5 * shear * (1.0 + 2.0 * stiffening * x) * j23
+    # S = d (I - I₁/3 C⁻¹) + (π + shear θ/3) J C⁻¹, C⁻¹ = k / det
+    scale = ((pressure + shear * theta / 3.0) * j - deviatoric * i1 / 3.0) / det
+    return ((deviatoric + scale * k[0], deviatoric + scale * k[1], deviatoric + scale * k[2],
+             scale * k[3], scale * k[4], scale * k[5]), theta)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def elastic(law, G, shear, pressure, stiffening):
+    """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`) with the law's own
+    constant ``stiffening`` (ignored by laws without one)."""
     if law == NEO_HOOKEAN:
         return neo_hookean(G, shear, pressure)
+    if law == YEOH:
+        return yeoh(G, shear, pressure, stiffening)
     return st_venant_kirchhoff(G, shear, pressure)
 
 
@@ -92,13 +130,13 @@ def volumetric(law, G):
     """``(θ, ∂θ/∂G)``: the law's volumetric strain and its gradient (six entries, the stress
     of unit ``π``)."""
     zero = G[0] * 0.0
-    N, theta = elastic(law, G, zero, zero + 1.0)
+    N, theta = elastic(law, G, zero, zero + 1.0, zero)
     return theta, N
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa):
-    """``S = S_law(G; shear, π) + 2κ (G:G) G + shear_rate Ġ + π̇ I`` (six entries).
+def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
+    """``S = S_law(G; shear, π, c) + 2κ (G:G) G + shear_rate Ġ + π̇ I`` (six entries).
 
     Parameters
     ----------
@@ -112,9 +150,11 @@ def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa):
         The elastic volumetric stress ``π`` (``λ θ``, Pa) and the viscous one ``π̇``
         (``λβ tr Ġ``, Pa).
     kappa : float
-        Strain stiffening ``κ`` (Pa); 0 for none.
+        Strain stiffening ``κ`` (Pa) of the ``nonlinear_stiffening`` effect; 0 for none.
+    stiffening : float
+        The law's own stiffening constant ``c`` (Yeoh's ``C₂₀/C₁₀``; ignored by the others).
     """
-    S, _ = elastic(law, G, shear, pressure)
+    S, _ = elastic(law, G, shear, pressure, stiffening)
     stiff = 0.0 * kappa
     if kappa != 0.0:                   # most models have none: skip its G:G
         stiff = 2.0 * kappa * _inner(G, G)
@@ -147,36 +187,45 @@ def _slope(S):
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def stress_jvp(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure_rate, kappa,
-               d_shear, d_shear_rate, d_pressure, d_pressure_rate, d_kappa):
+               stiffening, d_shear, d_shear_rate, d_pressure, d_pressure_rate, d_kappa,
+               d_stiffening):
     """Forward derivative of :func:`stress` (exact to round-off): ``dS`` for changes ``dG``,
     ``dĠ`` of the strains and ``d_*`` of the constants (six entries)."""
     return _slope(stress(law, _lift(G, dG), _lift(Gd, dGd), complex(shear, STEP * d_shear),
                          complex(shear_rate, STEP * d_shear_rate),
                          complex(pressure, STEP * d_pressure),
                          complex(pressure_rate, STEP * d_pressure_rate),
-                         complex(kappa, STEP * d_kappa)))
+                         complex(kappa, STEP * d_kappa),
+                         complex(stiffening, STEP * d_stiffening)))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa):
+def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
     """Reverse derivative of :func:`stress` for the cotangent ``L_S`` (six entries, the
     symmetric part): ``(L_G, L_Ġ, l_shear, l_shear_rate, l_pressure, l_pressure_rate,
-    l_kappa)`` with ``L_G``, ``L_Ġ`` six entries each (``π`` and ``π̇`` held: their own
+    l_kappa, l_stiffening)`` with ``L_G``, ``L_Ġ`` six entries each (``π`` and ``π̇`` held:
+    their own
     dependence on the strains is the caller's, through ``θ``).
 
     The elastic stress derives from a strain energy (``S = ∂ψ/∂G`` at fixed ``π``) and the
     viscous one from a dissipation potential of ``Ġ`` alone, so ``∂S/∂G`` and ``∂S/∂Ġ`` are
     self-adjoint and ``L_G``, ``L_Ġ`` are the forward derivatives along ``L_S``; a
-    constant's cotangent is ``L_S : ∂S/∂c``. (A law that breaks this symmetry fails
+    constant's cotangent is ``L_S : ∂S/∂c`` (the law's stiffening constant's by one forward
+    derivative). (A law that breaks this symmetry fails
     ``tests/test_kernels_law.py``.)"""
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     LG = stress_jvp(law, G, Gd, LS, zero, shear, shear_rate, pressure, pressure_rate, kappa,
-                    0.0, 0.0, 0.0, 0.0, 0.0)
+                    stiffening, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     LGd = stress_jvp(law, G, Gd, zero, LS, shear, shear_rate, pressure, pressure_rate, kappa,
-                     0.0, 0.0, 0.0, 0.0, 0.0)
+                     stiffening, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     N = volumetric(law, G)[1]
     # S is linear in shear_rate, π̇ and κ, and in shear and π: their cotangents in closed form
-    # from the law (S_law(G; 1, 0) is the shear's part, N the pressure's)
-    unit_shear = elastic(law, G, 1.0, 0.0)[0]
+    # from the law (S_law(G; 1, 0, c) is the shear's part, N the pressure's)
+    unit_shear = elastic(law, G, 1.0, 0.0, stiffening)[0]
+    l_stiffening = 0.0
+    if law == YEOH:
+        l_stiffening = _inner(LS, stress_jvp(law, G, Gd, zero, zero, shear, shear_rate,
+                                             pressure, pressure_rate, kappa, stiffening,
+                                             0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
     return (LG, LGd, _inner(LS, unit_shear), _inner(LS, Gd), _inner(LS, N),
-            LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G))
+            LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G), l_stiffening)

@@ -34,12 +34,12 @@ def relaxed(S, S_el, g, history, e):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def relaxed_stress(S, law, G, shear, pressure, g, history, e):
+def relaxed_stress(S, law, G, shear, pressure, stiffening, g, history, e):
     """``(S_relaxed, S_e)``: :func:`relaxed` of element ``e``'s stress ``S`` with its
     law's elastic stress ``S_e`` (``(S, S)`` without Prony terms: nothing computed)."""
     if g.shape[1] == 0:
         return S, S
-    S_el = elastic(law, G, shear, pressure)[0]
+    S_el = elastic(law, G, shear, pressure, stiffening)[0]
     return relaxed(S, S_el, g, history, e), S_el
 
 
@@ -54,14 +54,15 @@ def relax(S_el, decay, history, e):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, d_shear, d_pressure, S_el,
-                       g, decay, column, history, d_history, e, parameter, q):
+def relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, stiffening, d_shear,
+                       d_pressure, d_stiffening, S_el, g, decay, column, history, d_history,
+                       e, parameter, q):
     """``dS`` plus the tangent of element ``e``'s relaxation along tangent ``q``
     (parameter ``parameter``), ``Σᵢ gᵢ (dS_e + drᵢ) + dgᵢ (S_e + rᵢ)``; advances the
     internal variables' tangent, ``drᵢ' = aᵢ drᵢ - (1 - aᵢ) dS_e + daᵢ (rᵢ + S_e)``
     (``da/d log τ = -a ln a``, ``dg/d log g = g``)."""
-    dS_el = stress_jvp(law, G, Gd, dG, dGd, shear, 0.0, pressure, 0.0, 0.0, d_shear, 0.0,
-                       d_pressure, 0.0, 0.0)
+    dS_el = stress_jvp(law, G, Gd, dG, dGd, shear, 0.0, pressure, 0.0, 0.0, stiffening,
+                       d_shear, 0.0, d_pressure, 0.0, 0.0, d_stiffening)
     d0, d1, d2, d3, d4, d5 = dS
     for k in range(g.shape[1]):
         gk, a = g[e, k], decay[e, k]

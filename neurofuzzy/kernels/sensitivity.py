@@ -234,14 +234,17 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, 
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shear_rate, lam,
-                      lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
-                      element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                      d_node_lam_rate, kappa, kappa_column, relax_g, relax_decay,
+def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening, shear,
+                      shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                      element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate,
+                      d_node_lam, d_node_lam_rate, kappa, kappa_column, stiffening_column,
+                      relax_g, relax_decay,
                       relax_column, history, d_history, first, node_strain, d_node_strain,
                       force, d_force):
     """Element forces and their tangents: each element's law (:mod:`.laws`) with strain
-    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1) and Prony relaxation
+    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1), the law's own
+    stiffening constant ``stiffening[e]`` (``stiffening_column[e]`` the column of its
+    logarithm, -1 when not learned) and Prony relaxation
     (:mod:`.relaxation`; ``relax_column[e, k]`` the columns of term k's ``log g`` and
     ``log τ``, -1 when not learned), whose internal variables ``history`` and their tangents
     ``d_history`` (n_elements, K, 6, P) it advances; the element's parameter columns (CSR
@@ -271,8 +274,9 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
         S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                         pressure_rate, kappa),
-                                  law[e], G, shear[e], pressure, relax_g, history, e)
+                                         pressure_rate, kappa, stiffening[e]),
+                                  law[e], G, shear[e], pressure, stiffening[e], relax_g,
+                                  history, e)
         S = _full(S6)
         scale = -volume[e]
         _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
@@ -310,13 +314,16 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear, shea
                     d_pressure_rate += d_lam_rate[entry] * theta_rate
                 entry += 1
             d_kappa = 1.0 if first + q == kappa_column else 0.0
+            # the law's constant is learned by its logarithm: dc/d log c = c
+            d_stiffening = stiffening[e] if first + q == stiffening_column[e] else 0.0
             dS6 = stress_jvp(law[e], G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
-                             pressure_rate, kappa, shear_part, rate_part, d_pressure,
-                             d_pressure_rate, d_kappa)
+                             pressure_rate, kappa, stiffening[e], shear_part, rate_part,
+                             d_pressure, d_pressure_rate, d_kappa, d_stiffening)
             if n_terms:
                 dS6 = relaxation_tangent(dS6, law[e], G, Gd, dG, dGd, shear[e], pressure,
-                                         shear_part, d_pressure, S_el, relax_g, relax_decay,
-                                         relax_column, history, d_history, e, first + q, q)
+                                         stiffening[e], shear_part, d_pressure, d_stiffening,
+                                         S_el, relax_g, relax_decay, relax_column, history,
+                                         d_history, e, first + q, q)
             dS = _full(dS6)
             dFS = _mul(dF, S)                            # dP = dF S + F dS
             FdS = _mul(F, dS)
@@ -339,11 +346,12 @@ def _edges_of_tangent(x, n0, n1, n2, n3, B, q):
 # -- one experiment ----------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
-            inverse_rest, volume, law, shear, shear_rate, lam, lam_rate, nodal, node_volume,
-            node_lam, node_lam_rate, element_ptr, element_column, d_shear, d_shear_rate, d_lam,
-            d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column, relax_g, relax_decay,
-            relax_column, drag, drag_column, force_direction,
-            weight, loads, h, n_frames, substeps, first, width, start_index, start_p, start_v,
+            inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+            node_volume, node_lam, node_lam_rate, element_ptr, element_column, d_shear,
+            d_shear_rate, d_lam, d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column,
+            stiffening_column, relax_g, relax_decay, relax_column, drag, drag_column,
+            force_direction, weight, loads, h, n_frames, substeps, first, width, start_index,
+            start_p, start_v,
             rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
     """Positions (n_frames, N, 3) and, with ``tangents``, columns ``first .. first + width
     - 1`` of ``jacobian`` (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured
@@ -352,9 +360,10 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
-    ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed); inclusions of elements are in
-    the element constants and their CSR columns; strain stiffening of the elements is
-    ``kappa`` (its column ``kappa_column``).
+    ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
+    inclusions of elements are in the element constants and their CSR columns; strain
+    stiffening of the elements is ``kappa`` (its column ``kappa_column``). The elements' law
+    constants ``stiffening`` (per element) have the columns ``stiffening_column``.
     """
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
@@ -395,11 +404,12 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
                              damping_column, first, force, d_force, work)
             if tets.shape[0]:
-                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, shear,
-                                  shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
-                                  node_lam_rate, element_ptr, element_column, d_shear,
-                                  d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                                  d_node_lam_rate, kappa, kappa_column, relax_g, relax_decay,
+                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
+                                  shear, shear_rate, lam, lam_rate, nodal, node_volume,
+                                  node_lam, node_lam_rate, element_ptr, element_column,
+                                  d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
+                                  d_node_lam_rate, kappa, kappa_column, stiffening_column,
+                                  relax_g, relax_decay,
                                   relax_column, history, d_history, first, node_strain,
                                   d_node_strain, force, d_force)
             euler_update(p, v, force, weight, h)

@@ -78,14 +78,15 @@ def _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11,
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, lam, lam_rate,
-                    nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
+def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+                    lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
                     relax_decay, history, kappa, force):
     """Element forces into ``force``; with ``nodal`` the volumetric stresses come from the
     node averages of ``θ`` and ``θ̇ = tr Ġ`` (one pass for the averages, one for the forces);
     with Prony terms (``relax_g`` (n_elements, K), K > 0) the relaxation of
     :mod:`neurofuzzy.kernels.relaxation`, whose internal variables ``history`` it advances;
-    ``kappa`` the strain stiffening of :func:`neurofuzzy.kernels.laws.stress` (0: none).
+    ``kappa`` the strain stiffening of :func:`neurofuzzy.kernels.laws.stress` (0: none),
+    ``stiffening`` (n_elements,) the laws' own constants.
     Written with scalars (F, Ḟ, S in registers): 1.6 times the rate of 3×3 work arrays."""
     n_elements = tets.shape[0]
     if nodal:
@@ -148,8 +149,9 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, la
             pressure = lam[e] * volumetric(law[e], G)[0]
             pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
         S, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                        pressure_rate, kappa),
-                                 law[e], G, shear[e], pressure, relax_g, history, e)
+                                        pressure_rate, kappa, stiffening[e]),
+                                 law[e], G, shear[e], pressure, stiffening[e], relax_g,
+                                 history, e)
         s00, s11, s22, s01, s02, s12 = S
         if relax_g.shape[1]:
             relax(S_el, relax_decay, history, e)
@@ -175,9 +177,10 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, la
 
 
 @numba.njit(cache=True, nogil=True)
-def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, shear,
-            shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-            relax_g, relax_decay, history, kappa, drag, weight, load, h, n_steps, force):
+def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, stiffening,
+            shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+            node_strain, relax_g, relax_decay, history, kappa, drag, weight, load, h, n_steps,
+            force):
     n_springs, n_nodes = a.shape[0], p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -186,23 +189,24 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
         for j in range(n_springs):
             _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
         if tets.shape[0]:
-            _element_forces(p, v, tets, inverse_rest, volume, law, shear, shear_rate, lam,
-                            lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                            relax_g, relax_decay, history, kappa, force)
+            _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear,
+                            shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
+                            node_lam_rate, node_strain, relax_g, relax_decay, history, kappa,
+                            force)
         euler_update(p, v, force, weight, h)
 
 
 @numba.njit(cache=True, nogil=True)
-def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, shear,
-           shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-           relax_g, relax_decay, history, kappa, drag, weight, loads, h, n_frames, substeps,
-           force, positions, velocities):
+def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, stiffening,
+           shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+           node_strain, relax_g, relax_decay, history, kappa, drag, weight, loads, h, n_frames,
+           substeps, force, positions, velocities):
     positions[0] = p
     velocities[0] = v
     for t in range(1, n_frames):
-        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, shear,
-                shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                node_strain, relax_g, relax_decay, history, kappa, drag, weight,
+        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law,
+                stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
+                node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight,
                 loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
         if not np.isfinite(p.sum()):
             positions[t:] = np.nan

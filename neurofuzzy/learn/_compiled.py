@@ -20,7 +20,7 @@ from ..effects.compiled import (CONSTANT, element_constants, element_inclusion,
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
 from ..forces.relaxation import decay
-from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS
+from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
 __all__ = ["compiled_possible", "CompiledModel"]
 
@@ -65,9 +65,9 @@ class CompiledModel:
         if not model.has_elements:
             empty, none = np.zeros(0), np.zeros(0, np.intp)
             return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), empty, none,
-                    *(empty,) * 4, False,
+                    *(empty,) * 5, False,
                     *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
-                    np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1)
+                    np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1, none)
         own, total = element_constants(model)
         geometry = own.geometry
         # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
@@ -110,11 +110,13 @@ class CompiledModel:
         return (np.array(geometry.nodes, np.intp, order="C"),
                 np.ascontiguousarray(geometry.inverse_rest), geometry.volume,
                 np.ascontiguousarray(own.law, np.intp),
+                np.ascontiguousarray(model.element_stiffening, float),
                 *(np.ascontiguousarray(total[key], float)
                   for key in ("shear", "shear_rate", "lam", "lam_rate")),
                 own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
                 pointer, column, *values, d_node_lam, d_node_lam_rate,
-                *CompiledModel._stiffening(model, columns))
+                *CompiledModel._stiffening(model, columns),
+                stiffening_columns(parameters, model))
 
     @staticmethod
     def _relaxation(parameters, model):

@@ -23,7 +23,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     compiled = CompiledModel(param, model)
     a, b, stiffness, damping, rest = compiled.springs[:5]
     drag, _, _, constant = compiled.effects
-    elements = compiled.elements[:12]       # the elements and their constants
+    elements = compiled.elements[:13]       # the elements and their constants
     n_frames, observation = experiment.n_frames, experiment.observation
     frames = sorted(set(int(t) for t in starts) | {0})
     start_index = np.full(n_frames, -1, np.intp)
@@ -60,10 +60,10 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
         np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
         sensitivity.n_nodes, n_frames, 3), 0, 1) * scale)
     d_stiffness, d_damping = np.zeros(len(a)), np.zeros(len(a))
-    n_elements, nodal = len(elements[0]), elements[8]
+    n_elements, nodal = len(elements[0]), elements[9]
     per_volumetric = sensitivity.n_nodes if nodal else n_elements   # λ, λβ: per node or element
     d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
-                  np.zeros(per_volumetric))
+                  np.zeros(per_volumetric), np.zeros(n_elements))
     g_relax = np.zeros(relax_column.shape)
     pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
               n_frames, int(substeps), start_index, states_p, states_v, states_r,
@@ -77,9 +77,9 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     if n_elements:
         # the constants' derivatives by the parameters, as in the forward kernel
         (pointer, column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-         d_node_lam_rate) = compiled.elements[12:20]
+         d_node_lam_rate) = compiled.elements[13:21]
         element = np.repeat(np.arange(n_elements), np.diff(pointer))
-        g_shear, g_shear_rate, g_lam, g_lam_rate = d_elements
+        g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
         weights = d_shear * g_shear[element] + d_shear_rate * g_shear_rate[element]
         if nodal:
             grad += d_node_lam.T @ g_lam + d_node_lam_rate.T @ g_lam_rate
@@ -88,4 +88,9 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
         grad += np.bincount(column, weights, param.size)
         learned = relax_column >= 0                    # log g, log τ of each element's terms
         grad += np.bincount(relax_column[learned], g_relax[learned], param.size)
+        # the Yeoh elements' log c: dc/d log c = c
+        stiffening, stiffening_column = elements[4], compiled.elements[-1]
+        learned = stiffening_column >= 0
+        grad += np.bincount(stiffening_column[learned],
+                            stiffening[learned] * g_stiffening[learned], param.size)
     return loss, grad, run

@@ -11,6 +11,8 @@ Blocks, in this order (each optional):
 - ``log_relaxation_moduli``, ``log_relaxation_times`` (K · n_element_ties, term-major): the
   relative modulus g and time τ of each of the K Prony terms of every element tie group
   (elements that relax, :mod:`neurofuzzy.forces.relaxation`);
+- ``log_stiffening`` (one per element tie group with Yeoh elements): Yeoh's ``C₂₀/C₁₀``
+  (:mod:`neurofuzzy.forces.laws`);
 - ``log_mass`` (n_free_nodes,): log of every free node's mass (when masses are learned);
 - effect parameters, raw, one block per effect (when effects are learned).
 
@@ -26,9 +28,11 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import SpringMassModel
+from ..forces.laws import YEOH
 from ._base import TiedSprings
 
-__all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions"]
+__all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions",
+           "stiffening_columns"]
 
 #: The element parameter blocks, in order.
 ELEMENT_BLOCKS = ("log_youngs_modulus", "logit_poisson_ratio", "log_viscosity")
@@ -38,6 +42,28 @@ RELAXATION_BLOCKS = ("log_relaxation_moduli", "log_relaxation_times")
 SMALLEST_RELATIVE_MODULUS = 1e-3
 #: The Prony terms' logarithms a fit's trial step is held within (e^±40: 4e-18 to 2e17)
 LOG_LIMIT = 40.0
+#: The smallest Yeoh C₂₀/C₁₀ a fit starts from (0, the neo-Hookean solid, has no logarithm)
+SMALLEST_STIFFENING = 1e-3
+
+
+def stiffening_groups(model) -> np.ndarray:
+    """The element tie groups that hold Yeoh elements, ascending (one ``log_stiffening``
+    parameter each)."""
+    return np.unique(model.element_tie[model.element_law == YEOH])
+
+
+def stiffening_columns(parameters, model) -> np.ndarray:
+    """(n_elements,) the column of every element's ``log_stiffening`` parameter (-1: not a
+    Yeoh element, or not learned)."""
+    if not model.has_elements:
+        return np.zeros(0, np.intp)
+    columns = np.full(model.mesh.n_tetrahedra, -1, np.intp)
+    block = parameters.blocks.get("log_stiffening")
+    if block is not None:
+        yeoh = model.element_law == YEOH
+        columns[yeoh] = block.start + np.searchsorted(stiffening_groups(model),
+                                                      model.element_tie[yeoh])
+    return columns
 
 
 def element_directions(model) -> dict[str, sp.csr_matrix]:
@@ -113,6 +139,18 @@ class Parameterization:
             self.relaxation_times = np.array([pair[0] for pair in pairs]).reshape(
                 -1, model.n_element_ties)
             self.relaxation_times_ratio = [pair[1] for pair in pairs]
+            # Yeoh's C20/C10: a shared value per tie group with Yeoh elements, their ratios
+            self.stiffening_groups = stiffening_groups(model)
+            yeoh = model.element_law == YEOH
+            shared = np.ones(model.n_element_ties)
+            for group in self.stiffening_groups:
+                members = yeoh & (model.element_tie == group)
+                shared[group] = max(float(np.mean(model.element_stiffening[members])),
+                                    SMALLEST_STIFFENING)
+            self.stiffening_shared = shared[self.stiffening_groups]
+            self.stiffening_ratio = np.where(
+                yeoh, np.maximum(model.element_stiffening, SMALLEST_STIFFENING)
+                / shared[model.element_tie], 0.0)
         self.free_nodes = np.flatnonzero(model.mesh.free)
         self.learn_masses = learn_masses
         self.effects = list(model.effects) if learn_effects else []
@@ -124,6 +162,8 @@ class Parameterization:
             if model.n_relaxation_terms:
                 sizes += [(name, model.n_relaxation_terms * model.n_element_ties)
                           for name in RELAXATION_BLOCKS]
+            if len(self.stiffening_groups):
+                sizes.append(("log_stiffening", len(self.stiffening_groups)))
         if learn_masses:
             sizes.append(("log_mass", len(self.free_nodes)))
         sizes += [(f"effect:{i}", len(e.params)) for i, e in enumerate(self.effects)]
@@ -149,6 +189,8 @@ class Parameterization:
                     self.relaxation_moduli).ravel()
                 theta[self.blocks["log_relaxation_times"].slice] = np.log(
                     self.relaxation_times).ravel()
+            if len(self.stiffening_groups):
+                theta[self.blocks["log_stiffening"].slice] = np.log(self.stiffening_shared)
         if self.learn_masses:
             theta[self.blocks["log_mass"].slice] = np.log(self.base.node_mass[self.free_nodes])
         for i, effect in enumerate(self.effects):
@@ -197,6 +239,11 @@ class Parameterization:
                                         LOG_LIMIT)).reshape(terms, -1)
                 values[key] = np.stack([shared[k][tie] * ratios[k] for k in range(terms)],
                                        axis=1)
+        if len(self.stiffening_groups):
+            shared = np.zeros(self.base.n_element_ties)
+            shared[self.stiffening_groups] = np.exp(np.clip(
+                theta[self.blocks["log_stiffening"].slice], -LOG_LIMIT, LOG_LIMIT))
+            values["element_stiffening"] = shared[tie] * self.stiffening_ratio
         return values
 
     def physical(self, theta: np.ndarray) -> np.ndarray:
@@ -228,6 +275,7 @@ class Parameterization:
             for quantity in ("relaxation_modulus", "relaxation_time") if terms else ():
                 names += [f"{quantity}{'' if terms == 1 else k + 1}[{label}]"
                           for k in range(terms) for label in groups]
+            names += [f"stiffening[{groups[k]}]" for k in self.stiffening_groups]
         if self.learn_masses:
             names += [f"mass[node {i}]" for i in self.free_nodes]
         for effect in self.effects:

@@ -19,17 +19,20 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..effects import NonlinearStiffening
+from ..effects.compiled import element_constants
 from ..errors import InputError
 from ..experiment import Experiment
-from ..forces import SPRINGS, TETRAHEDRA, incidence
+from ..forces import SPRINGS, TETRAHEDRA, incidence, tetrahedron_geometry
 from ..observation import remove_offsets
 from ..simulation import euler_update
 from ._compiled import CompiledModel, compiled_possible
 from ._compiled_gradient import compiled_gradient
 from ._passes import Run
-from ._parameters import ELEMENT_BLOCKS, Parameterization, element_directions
+from ._parameters import (ELEMENT_BLOCKS, Parameterization, element_directions,
+                          stiffening_columns)
 
 __all__ = ["Sensitivity", "Run"]
 
@@ -87,6 +90,17 @@ class Sensitivity:
                 and not any(isinstance(effect, NonlinearStiffening)
                             for effect in self.parameters.base.effects))
 
+    def _stiffening_forces(self, model, p, v):
+        """``(local, columns, block)``: the Yeoh elements' per-corner forces per unit
+        ``log c`` (K, 4, 3), every element's ``log_stiffening`` column and the block (None
+        without Yeoh elements)."""
+        block = self.parameters.blocks.get("log_stiffening")
+        if block is None:
+            return None, None, None
+        shear = element_constants(model)[1]["shear"]
+        return (TETRAHEDRA.stiffening_forces(model, p, v, shear),
+                stiffening_columns(self.parameters, model), block)
+
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
     def _force(model, p, v, state) -> np.ndarray:
@@ -114,6 +128,16 @@ class Sensitivity:
                                                              ).transpose(1, 0, 2)
         if model.has_elements:
             d_force[:, self.element_slice] += TETRAHEDRA.parameter_jvp(model, p, v, directions)
+            local, columns, block = self._stiffening_forces(model, p, v)
+            if block is not None:
+                yeoh = np.flatnonzero(columns >= 0)
+                direction = sp.csr_matrix(
+                    (np.ones(len(yeoh)), (yeoh, columns[yeoh] - block.start)),
+                    shape=(len(columns), block.stop - block.start))
+                geometry = tetrahedron_geometry(model.mesh)
+                d_force[:, block.slice] += (geometry.corner_matrix(local, self.n_nodes)
+                                            @ direction).toarray().reshape(
+                    self.n_nodes, 3, -1).transpose(0, 2, 1)
         for i, effect in enumerate(param.effects):
             d_force[:, param.blocks[f"effect:{i}"].slice] += effect.parameter_jacobian(
                 model, p, v)
@@ -316,6 +340,12 @@ class Sensitivity:
                     per_element = TETRAHEDRA.parameter_vjp(model, p, v, lam_force)
                     for name, direction in directions.items():
                         grad[self.element_slice] += direction.T @ per_element[name]
+                    local, columns, block = self._stiffening_forces(model, p, v)
+                    if block is not None:
+                        geometry = tetrahedron_geometry(model.mesh)
+                        per_yeoh = np.einsum("ejk,ejk->e", lam_force[geometry.nodes], local)
+                        yeoh = columns >= 0
+                        grad += np.bincount(columns[yeoh], per_yeoh[yeoh], param.size)
                 for i, effect in enumerate(param.effects):
                     jac = effect.parameter_jacobian(model, p, v)
                     grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,

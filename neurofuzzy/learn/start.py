@@ -27,7 +27,7 @@ from scipy.optimize import lsq_linear
 from ..errors import InputError
 from ..experiment import Experiment, check_experiments, duration
 from ..forces import SPRINGS, incidence
-from ..forces.laws import LAWS
+from ..forces.laws import LAWS, YEOH
 from ..forces.relaxation import relaxation_fields, start_terms
 from ..model import SpringMassModel, tie_index
 from ..progress import note
@@ -79,7 +79,8 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
                 model: SpringMassModel | str | os.PathLike | None = None,
                 rules=None, tissue: str | None = None, tie: str | None = None,
                 elements: bool | None = None, law: str | None = None,
-                relaxation=None, progress: bool = False) -> StartModel:
+                relaxation=None, stiffening: float | None = None,
+                progress: bool = False) -> StartModel:
     """The start of a fit of ``experiments``: the policy of ``neurofuzzy fit``.
 
     1. ``model`` (a :class:`SpringMassModel` or a model file, e.g. written by
@@ -107,13 +108,17 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         when the experiments' mesh has tetrahedra.
     law : str, optional
         The elements' material law for every element (:mod:`neurofuzzy.forces.laws`:
-        ``"st-venant-kirchhoff"`` or ``"neo-hookean"``); default the model's own, else
-        St. Venant–Kirchhoff.
+        ``"st-venant-kirchhoff"``, ``"neo-hookean"`` or ``"yeoh"``); default the model's own,
+        else St. Venant–Kirchhoff.
     relaxation : int, sequence of (g, τ) or str, optional
         Prony relaxation of every element (:mod:`neurofuzzy.forces.relaxation`): a number
         of terms (1–3) started from g = 0.5 and times below the recording's length, or the
         terms' start values (:func:`~neurofuzzy.forces.relaxation.start_terms`); default the
         model's own, else none.
+    stiffening : float, optional
+        Yeoh's ``C₂₀/C₁₀`` to start the Yeoh elements from (``element_stiffening``;
+        default the model's own, else :data:`~neurofuzzy.forces.laws.DEFAULT_STIFFENING`
+        for elements that become Yeoh's).
     progress : bool
         Say on stderr where the start came from.
 
@@ -121,19 +126,29 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     ------
     InputError
         Experiments of different objects; a model of another object; rules without a tissue;
-        no masses given and none estimable; a law for a spring network.
+        no masses given and none estimable; a law for a spring network; a stiffening without
+        Yeoh elements.
     """
     begun = _start_model(experiments, model=model, rules=rules, tissue=tissue, tie=tie,
                          elements=elements, progress=progress)
     changes = {}
     for value, key, words in ((law, "--law", f"a material law ({law!r})"),
-                              (relaxation, "--relaxation", "relaxation (Prony terms)")):
+                              (relaxation, "--relaxation", "relaxation (Prony terms)"),
+                              (stiffening, "--stiffening", "a stiffening (Yeoh's C20/C10)")):
         if value is not None and not begun.model.has_elements:
             raise InputError(f"{words} is one of tetrahedral elements; this start is a spring "
                              "network (give a model or experiment with tetrahedra, or "
                              "--elements tetra)", key=key)
     if law is not None:
         changes["element_law"] = law
+        if stiffening is None and np.any(begun.model.element_law != YEOH):
+            changes["element_stiffening"] = None           # the new Yeoh elements' default
+    if stiffening is not None:
+        changes["element_stiffening"] = stiffening
+    if stiffening is not None and begun.model.has_elements and not np.any(
+            begun.model.replace(**changes).element_law == YEOH):
+        raise InputError(f"a stiffening ({stiffening!r}) is Yeoh's C20/C10; this start has no "
+                         "Yeoh elements (add --law yeoh)", key="--stiffening")
     if relaxation is not None:
         changes.update(relaxation_fields(start_terms(relaxation, duration(experiments))))
     if not changes:
@@ -141,6 +156,10 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     changed = begun.model.replace(**changes)
     if law is not None:
         note(progress, f"material law: {LAWS[int(changed.element_law[0])]}")
+    yeoh = changed.element_law == YEOH
+    if (law is not None or stiffening is not None) and yeoh.any():
+        note(progress, "Yeoh stiffening C20/C10: "
+             f"{float(np.mean(changed.element_stiffening[yeoh])):.3g}")
     if relaxation is not None:
         note(progress, "relaxation: " + ", ".join(
             f"g {g:.3g}, tau {t:.3g} s" for g, t in zip(changed.element_relaxation_moduli[0],

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, closest_name
-from ..forces.laws import LAWS, law_numbers
+from ..forces.laws import LAWS, YEOH, law_numbers, stiffening_array
 from ..forces.relaxation import relaxation_arrays, relaxation_fields
 from ..mesh import Mesh
 from .values import PerSpring, Tie, describe, per_spring, tie_index, vector
@@ -81,8 +81,13 @@ class SpringMassModel:
         per element (the textbook linear tetrahedron).
     element_law : str, int or (n_tetrahedra,) of them, optional
         Every element's material law (:mod:`neurofuzzy.forces.laws`):
-        ``"st-venant-kirchhoff"`` (the default) or ``"neo-hookean"``, one for all elements
-        or one per element; stored as law numbers.
+        ``"st-venant-kirchhoff"`` (the default), ``"neo-hookean"`` or ``"yeoh"``, one for
+        all elements or one per element; stored as law numbers.
+    element_stiffening : float or (n_tetrahedra,) float, optional
+        Yeoh's ``C₂₀/C₁₀`` (dimensionless, ≥ 0) of every element with the ``"yeoh"`` law:
+        how much stiffer it grows with strain (0 is the uncoupled neo-Hookean solid); default
+        :data:`~neurofuzzy.forces.laws.DEFAULT_STIFFENING` on Yeoh elements. Stored as
+        (n_tetrahedra,), 0 on elements of the other laws (which have no such constant).
     element_relaxation_moduli, element_relaxation_times : (K,) or (n_tetrahedra, K) float,
         optional
         Prony-series relaxation of the elements (:mod:`neurofuzzy.forces.relaxation`, 1–3
@@ -111,6 +116,7 @@ class SpringMassModel:
     element_law: np.ndarray | None = None
     element_relaxation_moduli: np.ndarray | None = None
     element_relaxation_times: np.ndarray | None = None
+    element_stiffening: np.ndarray | None = None
 
     def __post_init__(self):
         mesh = self.mesh
@@ -202,7 +208,7 @@ class SpringMassModel:
     @classmethod
     def continuum(cls, mesh: Mesh, *, youngs_modulus, poisson_ratio, viscosity,
                   density, volumetric: str = "nodal", law="st-venant-kirchhoff",
-                  relaxation=None) -> SpringMassModel:
+                  relaxation=None, stiffening=None) -> SpringMassModel:
         """A tetrahedral finite-element model of ``mesh`` (which needs ``tetrahedra``).
 
         Parameters
@@ -215,12 +221,14 @@ class SpringMassModel:
         volumetric : {"nodal", "element"}
             The elements' volumetric form (``element_volumetric``).
         law : str or (n_tetrahedra,), optional
-            The elements' material law (``element_law``): ``"st-venant-kirchhoff"`` or
-            ``"neo-hookean"``.
+            The elements' material law (``element_law``): ``"st-venant-kirchhoff"``,
+            ``"neo-hookean"`` or ``"yeoh"``.
         relaxation : tuple of (g, τ) pairs, optional
             Prony terms for every element (``element_relaxation_moduli``,
             ``element_relaxation_times``), e.g. ``[(0.5, 0.05)]``: the standard linear solid
             whose long-term modulus is E and instantaneous one 1.5 E, relaxing in 50 ms.
+        stiffening : float or (n_tetrahedra,), optional
+            Yeoh's ``C₂₀/C₁₀`` of the Yeoh elements (``element_stiffening``).
 
         The springs of the mesh (its tetrahedron edges) get zero stiffness and damping.
         """
@@ -239,7 +247,7 @@ class SpringMassModel:
                    element_poisson_ratio=np.broadcast_to(poisson_ratio, (n,)),
                    element_viscosity=np.broadcast_to(viscosity, (n,)),
                    element_volumetric=volumetric, element_law=law,
-                   **relaxation_fields(relaxation))
+                   element_stiffening=stiffening, **relaxation_fields(relaxation))
 
     def replace(self, **changes) -> SpringMassModel:
         """A copy with some fields changed (``dataclasses.replace``)."""
@@ -323,6 +331,8 @@ class SpringMassModel:
                              key="element_tie")
         out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
         out["element_law"] = law_numbers(self.element_law, n)
+        out["element_stiffening"] = stiffening_array(self.element_stiffening,
+                                                     out["element_law"])
         out["element_relaxation_moduli"], out["element_relaxation_times"] = relaxation_arrays(
             self.element_relaxation_moduli, self.element_relaxation_times, n)
         if self.element_volumetric not in VOLUMETRIC:
@@ -414,6 +424,10 @@ class SpringMassModel:
                          f" Pa, Poisson's ratio {describe(self.element_poisson_ratio)}, "
                          f"viscosity {describe(self.element_viscosity)} Pa s")
             lines.append(f"  material law: {self.law_names()}")
+            yeoh = self.element_law == YEOH
+            if yeoh.any():
+                lines.append(f"  Yeoh stiffening C20/C10: "
+                             f"{describe(self.element_stiffening[yeoh])}")
             for k in range(self.n_relaxation_terms):
                 lines.append(f"  relaxation term {k + 1}: relative modulus "
                              f"{describe(self.element_relaxation_moduli[:, k])}, time "

@@ -68,7 +68,8 @@ def tie_label(tie: str | None, start) -> str:
 
 def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, rules=None,
         tissue: str | None = None, tie: str | None = None, elements: bool | None = None,
-        law: str | None = None, relaxation=None, prior="default", method: str = "gradient",
+        law: str | None = None, relaxation=None, stiffening: float | None = None,
+        prior="default", method: str = "gradient",
         cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
         learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool = False,
@@ -102,9 +103,12 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     elements : bool, optional
         With ``rules``: tetrahedral elements or springs (default: elements when the mesh has
         tetrahedra). The paper's learner always starts from the spring network.
-    law : {"st-venant-kirchhoff", "neo-hookean"}, optional
+    law : {"st-venant-kirchhoff", "neo-hookean", "yeoh"}, optional
         The elements' material law (default: the start model's own, else
         St. Venant–Kirchhoff); see :mod:`neurofuzzy.forces.laws`.
+    stiffening : float, optional
+        Yeoh's ``C₂₀/C₁₀`` to start the Yeoh elements from (default the start model's own,
+        else 1); it is fitted per region.
     relaxation : int, sequence of (g, τ) or str, optional
         Prony relaxation of the elements to fit (a number of terms, or their start values;
         default the start model's own, else none); see :mod:`neurofuzzy.forces.relaxation`.
@@ -138,7 +142,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         elements = False                    # the paper's learner is the spring network's
     begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
                         elements=elements, law=law, relaxation=relaxation,
-                        progress=progress)
+                        stiffening=stiffening, progress=progress)
     check_fit_inputs(experiments, begun.model, substeps=substeps,
                      model_source=start if isinstance(start, str | os.PathLike) else None,
                      physical=begun.how in ("model", "rules"))
