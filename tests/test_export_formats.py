@@ -48,6 +48,8 @@ SOFA = {
                            {"name", "indices", "forces", "totalForce"}),
 }
 
+#: the parameters of FEBio's Yeoh material (FEYeoh, FEUncoupledMaterial)
+YEOH = {"c1", "c2", "c3", "c4", "c5", "c6", "k", "pressure_model"}
 #: FEBio 4.0's reader (febiosoftware/FEBio, FEBioXML/*Section*.cpp, the classes' ADD_PARAMETER
 #: names): element -> (required attributes, allowed attributes, allowed children).
 FEBIO = {
@@ -60,10 +62,12 @@ FEBIO = {
     "solver": ({"type"}, set(), set()),
     "Material": (set(), set(), {"material"}),
     # FEBio's viscoelastic solid: FEViscoElasticMaterial's parameters g0..g6, t1..t6 and its
-    # "elastic" property
-    "material": ({"id", "name", "type"}, set(), {"density", "E", "v", "solid", "g1", "t1", "g2", "t2", "g3", "t3", "elastic"}),
-    "solid": ({"type"}, set(), {"density", "E", "v", "kappa", "mu", "g1", "t1", "g2", "t2", "g3", "t3", "elastic"}),
-    "elastic": ({"type"}, set(), {"E", "v"}),
+    # "elastic" property; FEYeoh's c1..c6 and FEUncoupledMaterial's k and pressure_model
+    "material": ({"id", "name", "type"}, set(), {"density", "E", "v", "solid", "g1", "t1", "g2",
+                                                 "t2", "g3", "t3", "elastic", *YEOH}),
+    "solid": ({"type"}, set(), {"density", "E", "v", "kappa", "mu", "g1", "t1", "g2", "t2",
+                                "g3", "t3", "elastic", *YEOH}),
+    "elastic": ({"type"}, set(), {"E", "v", *YEOH}),
     "Mesh": (set(), set(), {"Nodes", "Elements", "NodeSet", "Surface", "ElementSet",
                             "DiscreteSet"}),
     "Nodes": (set(), {"name"}, {"node"}),
@@ -93,9 +97,10 @@ FEBIO = {
 #: registered type names (REGISTER_FECORE_CLASS) and enumerations the file may use
 FEBIO_TYPES = {
     "Module": {"solid"}, "solver": {"solid"}, "Elements": {"tet4"},
-    "material": {"isotropic elastic", "solid mixture", "neo-Hookean", "viscoelastic"},
-    "solid": {"isotropic elastic", "neo-Hookean", "Newtonian viscous solid", "viscoelastic"},
-    "elastic": {"isotropic elastic", "neo-Hookean"},
+    "material": {"isotropic elastic", "solid mixture", "neo-Hookean", "viscoelastic", "Yeoh"},
+    "solid": {"isotropic elastic", "neo-Hookean", "Newtonian viscous solid", "viscoelastic",
+              "Yeoh"},
+    "elastic": {"isotropic elastic", "neo-Hookean", "Yeoh"},
     "bc": {"zero displacement"}, "nodal_load": {"nodal_force"}, "body_load": {"body force"},
     "discrete_material": {"linear spring"}, "load_controller": {"loadcurve"},
     "plotfile": {"febio"},
@@ -462,3 +467,30 @@ def test_exports_carry_the_elements_relaxation(tmp_path):
                           experiment=data).notes
         relax = [note for note in notes if "relax" in note]
         assert len(relax) == 1 and "differ by" in relax[0], notes
+
+
+def test_exports_carry_yeoh_elements(tmp_path):
+    """FEBio writes its Yeoh solid for Yeoh elements (c1 = C10 = mu/2, c2 = C20, the bulk
+    modulus k with Abaqus' volumetric energy, ours); SOFA and MuJoCo say in their notes that
+    the law is dropped, with the difference measured."""
+    model = two_regions()
+    yeoh = model.replace(element_law=np.where(model.element_region == 1, 2, 0),
+                         element_stiffening=1.5)
+    data = pressed(yeoh)
+    root = ET.parse(nf.export(yeoh, to="febio", path=tmp_path / "y.feb",
+                              experiment=data).path).getroot()
+    check_febio_structure(root)
+    solids = {m.get("name"): m.find("solid") for m in root.findall("./Material/material")}
+    tumour = solids["tumour"]
+    assert tumour.get("type") == "Yeoh" and solids["liver"].get("type") == "isotropic elastic"
+    E = float(yeoh.element_youngs_modulus[yeoh.element_region == 1][0])
+    nu = float(yeoh.element_poisson_ratio[yeoh.element_region == 1][0])
+    c10 = float(tumour.find("c1").text)
+    assert c10 == pytest.approx(E / (4 * (1 + nu)), rel=1e-12)
+    assert float(tumour.find("c2").text) == pytest.approx(1.5 * c10, rel=1e-12)
+    assert float(tumour.find("k").text) == pytest.approx(E / (3 * (1 - 2 * nu)), rel=1e-12)
+    assert tumour.find("pressure_model").text == "2"
+    for target, suffix in (("sofa", ".py"), ("mujoco", ".xml")):
+        notes = nf.export(yeoh, to=target, path=tmp_path / f"y{suffix}", experiment=data).notes
+        law = [note for note in notes if "material law" in note]
+        assert len(law) == 1 and "yeoh" in law[0] and "differ by" in law[0], notes

@@ -55,8 +55,9 @@ def test_state_lists_variables_rules_tissues_with_their_files_and_lines(client):
     assert modulus_variable["unit"] == "Pa"
     assert [t["name"] for t in state["tissues"]] == ["liver", "fibrotic_liver", "tumour"]
     assert all(t["own"] and t["file"] == "liver.yaml" for t in state["tissues"])
-    # the shared rules of soft_tissue.yaml: E, η, density, ν and relaxation (6)
-    assert len(state["rules"]) == 19 and not state["rules"][0]["own"]
+    # the shared rules of soft_tissue.yaml: E (4), η (3), density (3), relaxation (6),
+    # stiffening (3) and ν (3)
+    assert len(state["rules"]) == 22 and not state["rules"][0]["own"]
 
 
 def test_the_tissue_in_values_units_words_and_fired_rules(client):

@@ -147,3 +147,36 @@ def test_fit_with_the_yeoh_law_from_the_command_line(tmp_path):
         bad = cli("fit", path, "--start", start, *args, "--out", tmp_path / "x.yaml")
         assert bad.returncode == 2 and words in bad.stderr, bad.stderr
         assert "Traceback" not in bad.stderr
+
+
+def test_words_of_stiffening_make_yeoh_elements_and_come_back(tmp_path):
+    """A tissue described as stiffening strongly becomes Yeoh elements with the rule base's
+    C20/C10; fitted values come back as words ("little" for 0.05, "moderate" for 1,
+    "strongly" for 8); a tissue that says nothing of it keeps the default law, and its words
+    leave the quantity out."""
+    from pathlib import Path
+
+    from neurofuzzy.rules import load_rules, materials
+    from neurofuzzy.rules.physical import initialize
+
+    shared = Path(__file__).resolve().parents[1] / "rules" / "soft_tissue.yaml"
+    (tmp_path / "r.yaml").write_text(
+        f"extends: {shared}\nname: stiffening\n"
+        "tissues:\n"
+        "  hardening: {consistency: firm, elasticity: elastic, heaviness: normal, "
+        "compressibility: incompressible, stiffening: strongly}\n"
+        "  plain: {consistency: firm, elasticity: elastic, heaviness: normal, "
+        "compressibility: incompressible}\n")
+    rules = load_rules(tmp_path / "r.yaml")
+    mesh = _block().mesh
+    model = initialize(rules, mesh, "hardening", elements=True)
+    assert set(model.element_law) == {2}
+    value = rules.tissue("hardening")["strain_stiffening"]
+    assert value > 1.5 and model.element_stiffening[0] == pytest.approx(value, rel=1e-12)
+    assert materials(model, rules)["hardening"]["labels"]["strain_stiffening"] == "strongly"
+    for c, word in ((0.05, "little"), (1.0, "moderate"), (8.0, "strongly")):
+        fitted = model.replace(element_stiffening=np.full(48, c))
+        assert materials(fitted, rules)["hardening"]["labels"]["strain_stiffening"] == word
+    plain = initialize(rules, mesh, "plain", elements=True)
+    assert set(plain.element_law) == {0}
+    assert "strain_stiffening" not in materials(plain, rules)["plain"]["labels"]

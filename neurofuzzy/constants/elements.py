@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..forces.laws import YEOH
 from ..model import SpringMassModel
 
 __all__ = ["DEFAULT_POISSON_RATIO", "element_model", "element_values", "region_density"]
@@ -50,7 +51,7 @@ def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, floa
     ``relaxation_modulus``, the relative modulus that relaxes away in all (``Σ gᵢ``: the
     material is ``1 + Σ gᵢ`` times stiffer at once), and ``relaxation_time``, its times'
     mean weighted by their moduli (geometric; τ itself for one term), medians over the
-    elements."""
+    elements; for Yeoh elements ``strain_stiffening``, the median of their ``C₂₀/C₁₀``."""
     values = {
         "youngs_modulus": float(np.median(model.element_youngs_modulus[chosen])),
         "poisson_ratio": float(np.median(model.element_poisson_ratio[chosen])),
@@ -64,6 +65,9 @@ def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, floa
         times = np.exp((weights * np.log(model.element_relaxation_times[chosen])).sum(axis=1))
         values["relaxation_modulus"] = float(np.median(total))
         values["relaxation_time"] = float(np.median(times))
+    yeoh = chosen & (model.element_law == YEOH)
+    if np.any(yeoh):
+        values["strain_stiffening"] = float(np.median(model.element_stiffening[yeoh]))
     return values
 
 

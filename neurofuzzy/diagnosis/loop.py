@@ -245,7 +245,8 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         nodes, centroid = where(current, added)
         findings.append(Finding(
             name=winner.name, confidence=confidence([winner, *others]),
-            parameters=dict(zip(added.labels, added.params.tolist())),
+            parameters=(winner.effect.switched_values(refit.model_) if _switches(winner)
+                        else dict(zip(added.labels, added.params.tolist()))),
             springs=winner.springs, nodes=nodes, rms_before=rms,
             rms_after=refit.rms_error_, gap_before=gap_before, gap_after=gap_after,
             runner_up=others[0].name if others else "none", candidates=ranked,
@@ -349,10 +350,10 @@ def _refit(candidate: Candidate, model, evidence, experiments, substeps, staged=
 
 
 def _switches(candidate: Candidate) -> bool:
-    """Does the catalogue entry switch the elements' material (``switch``:
-    :class:`~neurofuzzy.effects.Hyperelasticity`, :class:`~neurofuzzy.effects.Relaxation`)
-    rather than add a force term?"""
-    return hasattr(candidate.effect, "switch")
+    """Does the catalogue entry switch the elements' material
+    (:attr:`~neurofuzzy.effects.Effect.switches_material`: neo-Hookean or Yeoh elements, a
+    Prony term) rather than add a force term?"""
+    return candidate.effect.switches_material
 
 
 def significant(rms: float, noise_rms: float, n: int) -> bool:

@@ -195,7 +195,7 @@ class TrajectoryEvidence(TakenByEffects):
         if not candidates:
             return []
         self._candidate_columns = {}
-        switches = [c for c in candidates if hasattr(c, "switch")]
+        switches = [c for c in candidates if c.switches_material]
         for effect in switches:
             self._candidate_columns[id(effect)] = self._switched(effect)
         others = [c for c in candidates if c not in switches]

@@ -55,6 +55,15 @@ class Effect(ForceTerm):
         return self._labels
 
     _labels: ClassVar[tuple[str, ...]] = ()
+    #: True for a catalogue entry that the diagnosis applies by switching the elements'
+    #: material (``switch(model, duration) -> model``: a law, a Prony term) instead of adding
+    #: it as a force term
+    switches_material: ClassVar[bool] = False
+
+    def switched_values(self, model) -> dict[str, float]:
+        """For an entry that switches the material, what the switched and refitted ``model``
+        carries for it, by name (the diagnosis' finding reports it)."""
+        return {label: 1.0 for label in self.labels}
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -41,6 +41,7 @@ class Hyperelasticity(Effect):
     _labels = ("share",)
     #: the diagnosis switches the elements to this law instead of keeping the effect
     switches_to = NEO_HOOKEAN
+    switches_material = True
 
     @classmethod
     def switch(cls, model, duration: float):

@@ -16,6 +16,8 @@ force of its own (:meth:`Relaxation.force` says so) and is never added to a mode
 from __future__ import annotations
 
 
+import numpy as np
+
 from ..errors import InputError
 from ..forces.relaxation import START_RELATIVE_MODULUS, relaxation_fields
 from .base import Effect, register
@@ -30,6 +32,7 @@ class Relaxation(Effect):
     name = "relaxation"
     unit = (0, 0, 0)
     _labels = ("share",)
+    switches_material = True
 
     @staticmethod
     def switch(model, duration: float):
@@ -37,6 +40,11 @@ class Relaxation(Effect):
         recording's ``duration`` (s), for the refit to start from."""
         return model.replace(**relaxation_fields([(START_RELATIVE_MODULUS,
                                                    max(float(duration), 1e-6) / 5.0)]))
+
+    def switched_values(self, model) -> dict[str, float]:
+        """The refitted elements' relative modulus g and time τ (s) (medians)."""
+        return {"relaxation_modulus": float(np.median(model.element_relaxation_moduli)),
+                "relaxation_time": float(np.median(model.element_relaxation_times))}
 
     def force(self, model, positions, velocities):
         raise InputError("relaxation is a change of the elements' material (a Prony term with "

@@ -7,6 +7,13 @@ On a tetrahedral-element model every element gains the strain energy
 small strain, and independent of the model's own E, ν and η (their derivatives stay exact when
 both are fitted). The force is conservative, so its position Jacobian is symmetric: the
 state VJP is the JVP of the cotangent.
+
+In the diagnosis of an element model the entry is not that patch but a **switch of the law**
+(:attr:`NonlinearStiffening.switches_material` on elements): neo-Hookean elements become Yeoh's
+strain-stiffening ones (:mod:`neurofuzzy.forces.laws`, C₂₀/C₁₀ started at 1 and refitted with
+E, ν and η), the same at small strain. It is offered once the elements are neo-Hookean (an SVK
+model is first offered ``hyperelasticity``): Yeoh's law contains a neo-Hookean-like solid, so
+offering both at once would let the larger law win on data the smaller one explains.
 """
 
 from __future__ import annotations
@@ -15,6 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..forces import TETRAHEDRA, tetrahedron_geometry
+from ..forces.laws import LAWS
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -51,6 +59,21 @@ class NonlinearStiffening(SpringEffect):
         return self.options.get("on") == "elements"
 
     @property
+    def switches_material(self) -> bool:
+        """On elements the diagnosis switches their law to Yeoh's (module docstring)."""
+        return self.on_elements
+
+    def switched_values(self, model) -> dict[str, float]:
+        """Yeoh's C₂₀/C₁₀ of the refitted elements (the median)."""
+        return {"stiffening": float(np.median(model.element_stiffening))}
+
+    @staticmethod
+    def switch(model, duration: float):
+        """``model`` with Yeoh elements of the default C₂₀/C₁₀ (what the diagnosis refits
+        when the entry wins on an element model; ``duration`` unused)."""
+        return model.replace(element_law="yeoh", element_stiffening=None)
+
+    @property
     def labels(self):
         return ("kappa",) if self.on_elements else super().labels
 
@@ -72,11 +95,13 @@ class NonlinearStiffening(SpringEffect):
 
     @classmethod
     def propose(cls, model, evidence):
-        """One coefficient per spring group on spring networks, one κ on element models."""
+        """One coefficient per spring group on spring networks; on element models with
+        neo-Hookean elements the switch to Yeoh's law (module docstring), none on others."""
         if cls.name in evidence.present:
             return []
         if model.has_elements and not np.any(model.spring_stiffness):
-            return [cls([0.0], on="elements")]
+            neo_hookean = np.all(model.element_law == LAWS.index("neo-hookean"))
+            return [cls([0.0], on="elements")] if neo_hookean else []
         return [cls.for_model(model, [0.0])]
 
     # -- elements -----------------------------------------------------------------------------

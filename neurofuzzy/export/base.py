@@ -144,6 +144,8 @@ class MaterialGroup:
         laws.
     relaxation : tuple of (g, τ)
         The elements' Prony terms (:mod:`neurofuzzy.forces.relaxation`; empty: none).
+    stiffening : float
+        Yeoh's ``C₂₀/C₁₀`` of Yeoh elements (0 for the other laws).
     """
 
     name: str
@@ -154,6 +156,7 @@ class MaterialGroup:
     damping_time: float
     law: int = 0
     relaxation: tuple = ()
+    stiffening: float = 0.0
 
 
 def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], list[str]]:
@@ -168,10 +171,12 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
     from ..forces import tetrahedron_geometry
 
     volume = tetrahedron_geometry(model.mesh).volume
-    # E, ν, β, then the Prony terms' g and τ (grouped alike: equal values share a group)
+    # E, ν, β, then the Prony terms' g and τ and Yeoh's C20/C10 (grouped alike: equal values
+    # share a group)
     values = np.column_stack([model.element_youngs_modulus, model.element_poisson_ratio,
                               model.element_viscosity / model.element_youngs_modulus,
-                              model.element_relaxation_moduli, model.element_relaxation_times])
+                              model.element_relaxation_moduli, model.element_relaxation_times,
+                              model.element_stiffening])
     terms = model.n_relaxation_terms
     rounded = _significant(values, 12)         # equal values, up to the last bits, share
     # the parts to group: each region, split by law when it holds several (never mixed)
@@ -208,7 +213,7 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
             relaxation = tuple((float(mean[3 + k]), float(mean[3 + terms + k]))
                                for k in range(terms))
             groups.append(MaterialGroup(name, r, part, float(mean[0]), float(mean[1]),
-                                        float(mean[2]), int(law), relaxation))
+                                        float(mean[2]), int(law), relaxation, float(mean[-1])))
         if distinct[index] > budget[index]:
             notes.append(f"region {label!r}: {distinct[index]} distinct element "
                          f"materials merged into {len(parts)} groups by quantiles of E (largest "

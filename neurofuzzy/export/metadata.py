@@ -128,7 +128,7 @@ def law_note(model, target: str, element: str, experiment=None,
         return None
     text = (f"the elements' material law ({model.law_names()}) is written as {target}'s "
             f"{element}: the same E, nu and eta at small strain, but it softens under strong "
-            "compression where neo-Hookean stiffens")
+            "compression where the fitted law stiffens")
     return text + _measured(model, model.replace(element_law=0), "laws", experiment, steps)
 
 

@@ -98,7 +98,8 @@ def refine_model(model):
         element_tie=model.element_tie[parent], element_region=model.element_region[parent],
         element_volumetric=model.element_volumetric, element_law=model.element_law[parent],
         element_relaxation_moduli=model.element_relaxation_moduli[parent],
-        element_relaxation_times=model.element_relaxation_times[parent])
+        element_relaxation_times=model.element_relaxation_times[parent],
+        element_stiffening=model.element_stiffening[parent])
     return fine_model, refinement
 
 

@@ -1,13 +1,14 @@
 """The report's section on the elements' material law: the stress–strain curve each region's
 fitted material stands for (uniaxial, free sides, from 35 % compression to 25 % stretch) under
-its law, beside the other law with the same E and ν; for elements that relax, the relaxation
+its law, beside the other laws with the same E and ν (Yeoh's with the region's fitted
+``C₂₀/C₁₀``, else the default); for elements that relax, the relaxation
 modulus ``E G(t)`` of each region (:mod:`neurofuzzy.forces.relaxation`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..forces.laws import LAWS, uniaxial_stress
+from ..forces.laws import DEFAULT_STIFFENING, LAWS, YEOH, uniaxial_stress
 from .html import figure_html
 
 __all__ = ["law_section"]
@@ -29,11 +30,16 @@ def law_section(plt, model) -> tuple[str, str] | None:
         nu = float(np.median(model.element_poisson_ratio[chosen]))
         laws = np.unique(model.element_law[chosen])
         own = LAWS[int(laws[0])] if len(laws) == 1 else None
-        for law in LAWS:
+        yeoh = chosen & (model.element_law == YEOH)
+        c = float(np.median(model.element_stiffening[yeoh])) if yeoh.any() \
+            else DEFAULT_STIFFENING
+        for number, law in enumerate(LAWS):
             fitted = law == own
-            curve = uniaxial_stress(law, E, nu, 1.0 + STRAINS)
-            ax.plot(100 * STRAINS, curve / 1e3, "-" if fitted else "--", color=f"C{r % 10}",
-                    label=f"{name}: {law}" + (" (fitted)" if fitted else ""))
+            curve = uniaxial_stress(law, E, nu, 1.0 + STRAINS, c)
+            style = "-" if fitted else (":" if number == YEOH else "--")
+            ax.plot(100 * STRAINS, curve / 1e3, style, color=f"C{r % 10}",
+                    label=f"{name}: {law}" + (f" (C20/C10 {c:.3g})" if number == YEOH else "")
+                    + (" (fitted)" if fitted else ""))
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.axvline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("engineering strain along the load (%)")
@@ -42,10 +48,11 @@ def law_section(plt, model) -> tuple[str, str] | None:
     ax.legend(fontsize=8)
     text = (f"<p>Material law of the elements: {model.law_names()}. The curves are the "
             "uniaxial stress of each region's fitted E and ν (the median of its elements) "
-            "under its law (solid) and under the other law (dashed, same colour): the same slope at rest, "
-            "apart under strong compression, where St. Venant–Kirchhoff softens (its curve "
-            "turns back, or ends where it has no state with free sides) and neo-Hookean "
-            "stiffens.</p>")
+            "under its law (solid) and under the other laws (dashed, Yeoh's dotted, same "
+            "colour): the same slope at rest, apart under strong compression, where St. "
+            "Venant–Kirchhoff softens (its curve turns back, or ends where it has no state "
+            "with free sides), neo-Hookean stiffens and Yeoh stiffens more, by its "
+            "C20/C10.</p>")
     return "Material law", (text + figure_html(figure, "uniaxial stress-strain curves")
                             + _relaxation(plt, model))
 

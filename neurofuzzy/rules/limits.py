@@ -95,6 +95,11 @@ QUANTITY_LIMITS = {
     "relaxation_time": QuantityLimit("relaxation time", "s", 0.0, math.inf, ("s",),
                                      "a relaxation time is positive",
                                      (("ms", 1e-3), ("min", 60.0))),
+    # Yeoh's C20/C10 of elements (neurofuzzy.forces.laws): how much the tissue stiffens
+    "strain_stiffening": QuantityLimit("strain stiffening", "", 0.0, math.inf,
+                                       ("", "1", "-", "dimensionless", "none"),
+                                       "Yeoh's C20/C10 is not negative (a negative one "
+                                       "softens with strain and loses stability)"),
 }
 #: a density universe that lies wholly below this is lighter than any tissue (kg/m³): the
 #: values are in g/cm³, most likely

@@ -175,6 +175,8 @@ def material_values(rules, model: SpringMassModel, springs=None, nodes=None,
 
 #: the quantities of a Prony term's words
 RELAXATION = ("relaxation_modulus", "relaxation_time")
+#: the quantity of Yeoh's stiffening in words
+STIFFENING = "strain_stiffening"
 
 
 def _inputs_of(rules, *quantities) -> set[str]:
@@ -196,13 +198,15 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
     the universe) :data:`~neurofuzzy.constants.DEFAULT_POISSON_RATIO`. Likewise the elements
     relax (one Prony term, :mod:`neurofuzzy.forces.relaxation`) with the ``relaxation_modulus``
     and ``relaxation_time`` outputs where some tissue's description names an input of their
-    rules; the others then get g = 0 (no relaxation)."""
+    rules; the others then get g = 0 (no relaxation). And the tissues whose description names
+    an input of the ``strain_stiffening`` output's rules become Yeoh elements
+    (:mod:`neurofuzzy.forces.laws`) with that ``C₂₀/C₁₀``; the others keep the default law."""
     if mesh.tetrahedra is None:
         raise InputError("element models need a mesh with tetrahedra (a volume mesh, or "
                          "--tetra for a surface)", key="elements")
     per_tissue = {key: np.empty(len(names)) for key in ("youngs_modulus", "poisson_ratio",
                                                          "viscosity", "density")}
-    relaxation = []
+    relaxation, stiffening = [], []
     for index, name in enumerate(names):
         quantities = {rules.outputs[output].quantity: value
                       for output, value in values[name].items() if rules.outputs[output].quantity}
@@ -219,8 +223,17 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
                    and all(key in quantities for key in RELAXATION))
         relaxation.append((quantities["relaxation_modulus"], quantities["relaxation_time"])
                           if relaxes else None)
+        stiffens = (_inputs_of(rules, STIFFENING) & set(rules.tissues.get(name, {}))
+                    and STIFFENING in quantities)
+        stiffening.append(quantities[STIFFENING] if stiffens else None)
     model = build_element_model(mesh, names, per_tissue, element_tissue,
                                 spring_region=spring_region, node_region=node_region)
+    if any(value is not None for value in stiffening):
+        yeoh = np.array([value is not None for value in stiffening])
+        c = np.array([0.0 if value is None else value for value in stiffening])
+        laws = np.where(yeoh, "yeoh", "st-venant-kirchhoff")
+        model = model.replace(element_law=laws[element_tissue],
+                              element_stiffening=c[element_tissue])
     if not any(relaxation):
         return model
     g = np.array([0.0 if r is None else r[0] for r in relaxation])

@@ -16,7 +16,8 @@ __all__ = ["QUANTITIES", "Term", "Variable", "Phrase", "Clause", "Rule", "Label"
 
 #: Physical quantities an output variable may stand for.
 QUANTITIES = ("youngs_modulus", "poisson_ratio", "stiffness", "viscosity", "damping",
-              "density", "node_mass", "relaxation_modulus", "relaxation_time")
+              "density", "node_mass", "relaxation_modulus", "relaxation_time",
+              "strain_stiffening")
 DEFUZZIFICATION = ("centroid", "bisector", "mom", "som", "lom")
 GRID_POINTS = 401
 TOP_KEYS = ("name", "description", "extends", "defuzzification", "and", "or", "inputs",
