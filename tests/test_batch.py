@@ -223,6 +223,10 @@ def data_file(tmp_path):
      "cohort.csv:2: relaxation: got '0.5:x'; expected a number of Prony terms"),
     ("id,group,experiments,relaxation\na,x,a.npz,4\n",
      "cohort.csv:2: relaxation: got 4 Prony terms; expected 1 to 3"),
+    ("id,group,experiments,law,stiffening\na,x,a.npz,yeoh,-1\n",
+     "cohort.csv:2: stiffening: got '-1'; expected Yeoh's C20/C10, a number >= 0"),
+    ("id,group,experiments,stiffening\na,x,a.npz,1\n",
+     "cohort.csv:2: stiffening: a stiffening is Yeoh's C20/C10; give law: yeoh"),
 ])
 def test_bad_manifests_exit_2_naming_the_file_and_line(tmp_path, data_file, text, message):
     path = tmp_path / "cohort.csv" if text is None else _manifest(tmp_path, text)
@@ -368,6 +372,22 @@ def test_a_specimen_takes_the_law_and_relaxation_of_its_row(tmp_path):
     assert result["fit"]["material_law"] == "neo-hookean"
     terms = np.asarray(result["fit"]["elements"]["relaxation_moduli"])
     assert terms.shape == (mesh.n_tetrahedra, 1) and np.all(terms > 0)
+
+
+def test_a_specimen_takes_yeoh_s_law_and_its_stiffening(tmp_path):
+    """``law: yeoh`` with ``stiffening`` reaches the fit as ``fit --law yeoh --stiffening``:
+    the row's fitted elements are Yeoh's with a fitted C20/C10."""
+    mesh = _pressed_block(tmp_path / "a.npz", n_frames=20, substeps=4, noise=1e-6,
+                          law="yeoh", stiffening=2.0)
+    _manifest(tmp_path, "id,group,experiments,rules,tissue,tie,law,stiffening,cycles,prior\n"
+                        "s1,g,a.npz,liver,liver,global,yeoh,1.5,5,off\n")
+    [specimen] = read_manifest(tmp_path / "cohort.csv")
+    assert specimen.options["stiffening"] == 1.5
+    result = fit_specimen(specimen)
+    assert result["status"] == "ok", result.get("error")
+    assert result["fit"]["material_law"] == "yeoh"
+    stiffening = np.asarray(result["fit"]["elements"]["stiffening"])
+    assert stiffening.shape == (mesh.n_tetrahedra,) and np.all(stiffening > 0)
 
 
 def test_median_difference_is_seeded_and_moves_with_a_shift():

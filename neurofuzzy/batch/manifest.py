@@ -16,7 +16,8 @@ specimen takes unless it says otherwise). Both know the same columns (:data:`COL
 ``rules``       a rule base (YAML file or the name of a shipped one, ``liver``) …
 ``tissue``      … and its tissue (a start from the rules, or the words of the report)
 ``tie``         ``global``, ``groups`` or ``none``
-``law``         the elements' material law (``st-venant-kirchhoff``, ``neo-hookean``)
+``law``         the elements' material law (``st-venant-kirchhoff``, ``neo-hookean``, ``yeoh``)
+``stiffening``  with ``law: yeoh``: Yeoh's C20/C10 to start from (as ``fit --stiffening``)
 ``relaxation``  Prony terms to fit: a number (1–3) or ``g:tau`` pairs (as ``fit --relaxation``)
 ``prior``       the rule base as a prior: ``off``, ``auto`` or a weight (default as ``fit``:
                 ``auto`` with ``tie: none`` and a rule base)
@@ -259,6 +260,17 @@ def _options(text: dict, problem) -> dict:
             options["law"] = LAWS[law_number(text["law"])]
         except InputError as error:
             raise problem(error.detail, "law") from None
+    if text.get("stiffening"):
+        try:
+            value = float(text["stiffening"])
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value >= 0):
+            raise problem(f"got {text['stiffening']!r}; expected Yeoh's C20/C10, a number "
+                          ">= 0", "stiffening")
+        if options.get("law") != "yeoh":
+            raise problem("a stiffening is Yeoh's C20/C10; give law: yeoh", "stiffening")
+        options["stiffening"] = value
     if text.get("relaxation"):
         from ..forces.relaxation import start_terms
 

@@ -11,7 +11,8 @@ __all__ = ["COLUMNS", "csv_rows", "yaml_rows"]
 
 #: every column a manifest may have
 COLUMNS = ("id", "group", "experiments", "markers", "forces", "units", "dt", "start", "rules",
-           "tissue", "tie", "law", "relaxation", "prior", "method", "cycles", "substeps",
+           "tissue", "tie", "law", "stiffening", "relaxation", "prior", "method", "cycles",
+           "substeps",
            "learn_masses", "diagnose")
 
 

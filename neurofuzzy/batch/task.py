@@ -85,7 +85,8 @@ def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     inputs = [relative_path(path, base) for path in specimen.experiments or specimen.markers]
     outcome = fit_pipeline(experiments, start=specimen.start, rules=specimen.rules,
                            tissue=specimen.tissue, tie=options.get("tie"),
-                           law=options.get("law"), relaxation=options.get("relaxation"),
+                           law=options.get("law"), stiffening=options.get("stiffening"),
+                           relaxation=options.get("relaxation"),
                            prior=options.get("prior", "default"),
                            method=options.get("method", "gradient"), cycles=options.get("cycles"),
                            learn_masses=options.get("learn_masses", False),
