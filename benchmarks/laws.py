@@ -46,8 +46,7 @@ LAWS = ("st-venant-kirchhoff", "neo-hookean", "yeoh")
 
 def fit(recording, mesh: str, law: str) -> dict:
     """A global fit (one E, ν, η) of the block with ``law`` on ``mesh``."""
-    start = block_model(**MESHES[mesh]).tied("global").replace(element_law=law,
-                                                               element_stiffening=None)
+    start = block_model(**MESHES[mesh]).tied("global").replace(element_law=law)
     experiment = block_experiment(recording, start.mesh)
     began = time.perf_counter()
     fitted = GradientLearner(substeps="auto").fit(start, experiment)

@@ -117,7 +117,13 @@ def test_stiffening_values_are_checked_and_survive_model_files(tmp_path):
     back = load_model(path)
     np.testing.assert_array_equal(back.element_stiffening, model.element_stiffening)
     assert np.all(_block(None).element_stiffening == 1.0)              # the default
-    assert np.all(_block(3.0, law="neo-hookean").element_stiffening == 0.0)   # no such constant
+    # kept unused by a law without the constant, and taken up when the elements become Yeoh's
+    neo = _block(3.0, law="neo-hookean")
+    rest = neo.mesh.rest_positions
+    pressed = rest * (1.0, 1.0, 0.7)
+    assert np.array_equal(TETRAHEDRA.force(neo, pressed, 0 * rest),
+                          TETRAHEDRA.force(_block(0.0, law="neo-hookean"), pressed, 0 * rest))
+    assert np.all(neo.replace(element_law="yeoh").element_stiffening == 3.0)
     for value, words in ((-0.5, ">= 0"), (np.nan, ">= 0"), ([1.0, 2.0], "one per element")):
         with pytest.raises(InputError, match=words) as error:
             _block(value)
@@ -180,3 +186,30 @@ def test_words_of_stiffening_make_yeoh_elements_and_come_back(tmp_path):
     plain = initialize(rules, mesh, "plain", elements=True)
     assert set(plain.element_law) == {0}
     assert "strain_stiffening" not in materials(plain, rules)["plain"]["labels"]
+
+
+def test_the_diagnosis_offers_each_law_switch_in_turn():
+    """SVK elements are offered ``hyperelasticity`` (to neo-Hookean) and not the Yeoh switch;
+    neo-Hookean ones ``nonlinear_stiffening`` (to Yeoh's law, a switch, not a force patch);
+    Yeoh's neither; a spring network keeps the cubic spring term."""
+    from types import SimpleNamespace
+
+    from neurofuzzy.datasets import paper_cube_model
+    from neurofuzzy.effects import Hyperelasticity, NonlinearStiffening
+
+    nothing = SimpleNamespace(present=set())
+
+    def offered(model):
+        return [effect for cls in (Hyperelasticity, NonlinearStiffening)
+                for effect in cls.propose(model, nothing)]
+
+    svk, neo, yeoh = (_block(law=law) for law in ("st-venant-kirchhoff", "neo-hookean", "yeoh"))
+    assert [e.name for e in offered(svk)] == ["hyperelasticity"]
+    [switch] = offered(neo)
+    assert switch.name == "nonlinear_stiffening" and switch.switches_material
+    switched = switch.switch(neo, 0.1)
+    assert set(switched.element_law) == {2} and np.all(switched.element_stiffening == 1.0)
+    assert switch.switched_values(switched) == {"stiffening": 1.0}
+    assert offered(yeoh) == []
+    [spring] = offered(paper_cube_model())
+    assert spring.name == "nonlinear_stiffening" and not spring.switches_material

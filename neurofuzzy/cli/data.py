@@ -122,7 +122,7 @@ def mesh(args) -> int:
     model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
                        **regions).tied(args.tie)
     if model.has_elements:
-        model = model.replace(element_law=args.law, element_stiffening=None)
+        model = model.replace(element_law=args.law)
     elif args.law != LAWS[0]:
         raise InputError(f"a material law ({args.law!r}) is one of tetrahedral elements; "
                          "this model is a spring network (--elements springs)", key="--law")

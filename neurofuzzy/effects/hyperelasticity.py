@@ -84,8 +84,8 @@ class Hyperelasticity(Effect):
     def propose(cls, model, evidence) -> list:
         """One candidate on element models with St. Venant–Kirchhoff elements."""
         if (cls.name in evidence.present or not model.has_elements
-                or np.all(model.element_law == NEO_HOOKEAN)):
-            return []
+                or not np.any(model.element_law == LAWS.index("st-venant-kirchhoff"))):
+            return []          # neo-Hookean or Yeoh elements already stiffen
         return [cls([0.0])]
 
     def equation(self) -> str:

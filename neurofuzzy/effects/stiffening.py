@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..forces import TETRAHEDRA, tetrahedron_geometry
-from ..forces.laws import LAWS
+from ..forces.laws import DEFAULT_STIFFENING, LAWS
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -71,7 +71,7 @@ class NonlinearStiffening(SpringEffect):
     def switch(model, duration: float):
         """``model`` with Yeoh elements of the default C₂₀/C₁₀ (what the diagnosis refits
         when the entry wins on an element model; ``duration`` unused)."""
-        return model.replace(element_law="yeoh", element_stiffening=None)
+        return model.replace(element_law="yeoh", element_stiffening=DEFAULT_STIFFENING)
 
     @property
     def labels(self):

@@ -97,30 +97,28 @@ def law_numbers(value, n: int) -> np.ndarray:
     return np.array([law_number(name) for name in names], np.intp)[index]
 
 
-def stiffening_array(value, law: np.ndarray) -> np.ndarray:
-    """(n,) Yeoh ``C₂₀/C₁₀`` of elements with law numbers ``law`` (n,): ``None`` for
-    :data:`DEFAULT_STIFFENING` on every Yeoh element, one value for all, or one per element;
-    0 on the elements of the other laws (they have no such constant, and a value given for
-    them is dropped).
+def stiffening_array(value, n: int) -> np.ndarray:
+    """(n,) Yeoh ``C₂₀/C₁₀`` of n elements: ``None`` for :data:`DEFAULT_STIFFENING`, one value
+    for all, or one per element. Elements of the other laws keep theirs unused (so a model
+    whose elements later become Yeoh's starts from it, the default unless given).
 
     Raises
     ------
     InputError
         On a wrong shape, or a value that is negative, NaN or infinite.
     """
-    n = len(law)
-    yeoh = np.asarray(law) == YEOH
     array = np.asarray(DEFAULT_STIFFENING if value is None else value, float)
     if array.ndim > 1 or (array.ndim == 1 and array.shape != (n,)):
         raise InputError(f"got shape {array.shape}; expected one value for all elements or "
                          f"({n},), one per element", key="element_stiffening")
-    array = np.broadcast_to(array, (n,))
-    if not np.all(np.isfinite(array[yeoh])) or np.any(array[yeoh] < 0):
-        bad = np.flatnonzero(yeoh & ~(np.isfinite(array) & (array >= 0)))[0]
-        raise InputError(f"element {bad} has stiffening {array[bad]:g}; Yeoh's C20/C10 must "
-                         "be a number >= 0 (0 is the neo-Hookean solid; a negative one softens "
-                         "with strain and loses stability)", key="element_stiffening")
-    return np.where(yeoh, array, 0.0)
+    array = np.ascontiguousarray(np.broadcast_to(array, (n,)))
+    bad = ~(np.isfinite(array) & (array >= 0))
+    if np.any(bad):
+        first = int(np.flatnonzero(bad)[0])
+        raise InputError(f"element {first} has stiffening {array[first]:g}; Yeoh's C20/C10 "
+                         "must be a number >= 0 (0 is the neo-Hookean solid; a negative one "
+                         "softens with strain and loses stability)", key="element_stiffening")
+    return array
 
 
 @dataclass(frozen=True)

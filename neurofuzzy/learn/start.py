@@ -141,8 +141,6 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
                              "--elements tetra)", key=key)
     if law is not None:
         changes["element_law"] = law
-        if stiffening is None and np.any(begun.model.element_law != YEOH):
-            changes["element_stiffening"] = None           # the new Yeoh elements' default
     if stiffening is not None:
         changes["element_stiffening"] = stiffening
     if stiffening is not None and begun.model.has_elements and not np.any(

@@ -86,8 +86,9 @@ class SpringMassModel:
     element_stiffening : float or (n_tetrahedra,) float, optional
         Yeoh's ``C₂₀/C₁₀`` (dimensionless, ≥ 0) of every element with the ``"yeoh"`` law:
         how much stiffer it grows with strain (0 is the uncoupled neo-Hookean solid); default
-        :data:`~neurofuzzy.forces.laws.DEFAULT_STIFFENING` on Yeoh elements. Stored as
-        (n_tetrahedra,), 0 on elements of the other laws (which have no such constant).
+        :data:`~neurofuzzy.forces.laws.DEFAULT_STIFFENING`. Stored as (n_tetrahedra,); the
+        other laws have no such constant and leave theirs unused (an element switched to Yeoh's
+        law later starts from it).
     element_relaxation_moduli, element_relaxation_times : (K,) or (n_tetrahedra, K) float,
         optional
         Prony-series relaxation of the elements (:mod:`neurofuzzy.forces.relaxation`, 1–3
@@ -331,8 +332,7 @@ class SpringMassModel:
                              key="element_tie")
         out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
         out["element_law"] = law_numbers(self.element_law, n)
-        out["element_stiffening"] = stiffening_array(self.element_stiffening,
-                                                     out["element_law"])
+        out["element_stiffening"] = stiffening_array(self.element_stiffening, n)
         out["element_relaxation_moduli"], out["element_relaxation_times"] = relaxation_arrays(
             self.element_relaxation_moduli, self.element_relaxation_times, n)
         if self.element_volumetric not in VOLUMETRIC:
