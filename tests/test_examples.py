@@ -196,3 +196,20 @@ def test_cohort_example_fits_both_groups_in_parallel_and_serially_alike(tmp_path
     [modulus] = [c for c in twin["comparisons"] if c["quantity"] == "youngs_modulus"]
     assert modulus["excludes_zero"] and modulus["difference"] > 0
     assert (tmp_path / "results" / "results.csv").read_text().count("\n") == 5
+
+
+@pytest.mark.slow
+def test_the_stiffening_tissue_example_fits_each_law_and_says_the_words(tmp_path):
+    """On sfepy's Yeoh block: Yeoh's elements fit the markers best, SVK worst, and the words
+    of the Yeoh fit name a firm tissue that stiffens moderately (SVK's say "hard")."""
+    result = subprocess.run([sys.executable, str(EXAMPLES / "tissue_that_stiffens.py"),
+                             str(tmp_path)], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    rows = {line.split()[0]: line for line in result.stdout.splitlines()
+            if line.split() and line.split()[0] in ("st-venant-kirchhoff", "neo-hookean",
+                                                    "yeoh")}
+    ratio = {law: float(line.split("x")[0].split()[-1]) for law, line in rows.items()}
+    assert ratio["yeoh"] < ratio["neo-hookean"] < ratio["st-venant-kirchhoff"]
+    assert "strain_stiffening moderate" in rows["yeoh"] and "youngs_modulus firm" in rows["yeoh"]
+    assert "youngs_modulus hard" in rows["st-venant-kirchhoff"]
+    assert (tmp_path / "fitted_yeoh.yaml").exists()
