@@ -19,6 +19,24 @@ def cli(*args):
     return SimpleNamespace(returncode=status, stdout=out.getvalue(), stderr=err.getvalue())
 
 
+#: the words of a firm tissue, and no more (for rule files that add one more word)
+FIRM = ("consistency: firm, elasticity: elastic, heaviness: normal, "
+        "compressibility: incompressible")
+
+
+def soft_tissue_rules(path, name, tissues):
+    """A rule base at ``path`` extending the shipped ``soft_tissue.yaml`` with ``tissues``
+    (name → the words inside ``{…}``), loaded."""
+    from pathlib import Path
+
+    from neurofuzzy.rules import load_rules
+
+    shared = Path(__file__).resolve().parents[1] / "rules" / "soft_tissue.yaml"
+    path.write_text(f"extends: {shared}\nname: {name}\ntissues:\n" + "".join(
+        f"  {tissue}: {{{words}}}\n" for tissue, words in tissues.items()))
+    return load_rules(path)
+
+
 def cli_process(*args, cwd=None):
     """The installed command in a fresh interpreter, as a user runs it."""
     return subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *map(str, args)],

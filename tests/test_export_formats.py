@@ -441,6 +441,14 @@ def test_exports_carry_the_elements_law(tmp_path):
         assert len(law) == 1 and "differ by" in law[0] and "neo-hookean" in law[0], notes
 
 
+def _febio_solids(model, path, experiment):
+    """The ``solid`` of every material of ``model``'s FEBio file (checked against the
+    reader's structure), by material name."""
+    root = ET.parse(nf.export(model, to="febio", path=path, experiment=experiment).path).getroot()
+    check_febio_structure(root)
+    return {m.get("name"): m.find("solid") for m in root.findall("./Material/material")}
+
+
 def test_exports_carry_the_elements_relaxation(tmp_path):
     """FEBio wraps a relaxing region's law in its viscoelastic solid (g1, t1, the law as its
     elastic part; the same convention as ours); SOFA and MuJoCo, which have no such element,
@@ -450,10 +458,7 @@ def test_exports_carry_the_elements_relaxation(tmp_path):
                              element_relaxation_times=np.full(model.mesh.n_tetrahedra, 0.05),
                              element_law=(model.element_region == 1).astype(int))
     data = pressed(relaxing)
-    root = ET.parse(nf.export(relaxing, to="febio", path=tmp_path / "r.feb",
-                              experiment=data).path).getroot()
-    check_febio_structure(root)
-    solids = {m.get("name"): m.find("solid") for m in root.findall("./Material/material")}
+    solids = _febio_solids(relaxing, tmp_path / "r.feb", data)
     tumour = solids["tumour"]
     assert tumour.get("type") == "viscoelastic"
     assert float(tumour.find("g1").text) == 0.5 and float(tumour.find("t1").text) == 0.05
@@ -477,10 +482,7 @@ def test_exports_carry_yeoh_elements(tmp_path):
     yeoh = model.replace(element_law=np.where(model.element_region == 1, 2, 0),
                          element_stiffening=1.5)
     data = pressed(yeoh)
-    root = ET.parse(nf.export(yeoh, to="febio", path=tmp_path / "y.feb",
-                              experiment=data).path).getroot()
-    check_febio_structure(root)
-    solids = {m.get("name"): m.find("solid") for m in root.findall("./Material/material")}
+    solids = _febio_solids(yeoh, tmp_path / "y.feb", data)
     tumour = solids["tumour"]
     assert tumour.get("type") == "Yeoh" and solids["liver"].get("type") == "isotropic elastic"
     E = float(yeoh.element_youngs_modulus[yeoh.element_region == 1][0])

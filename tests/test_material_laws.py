@@ -16,7 +16,7 @@ from neurofuzzy.forces import TETRAHEDRA
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
-from neurofuzzy.nonlinear_reference import NeoHookean, uniaxial_stress
+from neurofuzzy.nonlinear_reference import NeoHookean, Yeoh, uniaxial_stress
 
 E, NU = 6000.0, 0.45
 
@@ -27,16 +27,23 @@ def _block(law, volumetric="nodal", cells=(2, 2, 2)):
                                      density=1000.0, volumetric=volumetric, law=law)
 
 
+#: each curved law and its closed form (:mod:`neurofuzzy.nonlinear_reference`, written in
+#: principal stretches apart from the elements); Yeoh's with C20 = 1.5 C10
+CLOSED_FORMS = {"neo-hookean": NeoHookean(E, NU), "yeoh": Yeoh.from_youngs(E, NU, c20_ratio=1.5)}
+
+
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])
 @pytest.mark.parametrize("stretch", [0.7, 1.25])
-def test_a_neo_hookean_block_carries_the_closed_form_uniaxial_stress(volumetric, stretch):
+@pytest.mark.parametrize("law", list(CLOSED_FORMS))
+def test_a_block_carries_the_closed_form_uniaxial_stress_of_its_law(law, volumetric, stretch):
     """A block stretched homogeneously by the closed form's axial and lateral stretches: the
     force on its end face per reference area is the closed-form nominal stress, its free sides
-    carry none and no inner node is pushed (to round-off), in both volumetric forms; an SVK
-    block at the same stretches does not carry it at 30 % compression."""
-    closed = uniaxial_stress(NeoHookean(E, NU), stretch)
+    carry none and no inner node is pushed (to round-off), in both volumetric forms, for the
+    neo-Hookean and the Yeoh law; an SVK block at the same stretches does not carry it at 30 %
+    compression."""
+    closed = uniaxial_stress(CLOSED_FORMS[law], stretch)
     F = np.diag([float(closed.lateral_stretch)] * 2 + [stretch])       # axial along z
-    model = _block("neo-hookean", volumetric)
+    model = _block(law, volumetric).replace(element_stiffening=1.5)
     rest = model.mesh.rest_positions
     force = TETRAHEDRA.force(model, rest @ F.T, np.zeros_like(rest))
     side = 0.02

@@ -188,20 +188,12 @@ def test_words_of_relaxation_make_a_relaxing_model_and_come_back(tmp_path):
     """A tissue described as relaxing quickly becomes elements with one Prony term of the rule
     base's g and τ; the fitted values come back as words ("moderate", "quick"); a tissue that
     says nothing of relaxation gets none, and the words of the fit leave it out."""
-    from neurofuzzy.rules import load_rules, materials
+    from helpers import FIRM, soft_tissue_rules
+    from neurofuzzy.rules import materials
     from neurofuzzy.rules.physical import initialize
 
-    from pathlib import Path
-
-    shared = Path(__file__).resolve().parents[1] / "rules" / "soft_tissue.yaml"
-    (tmp_path / "r.yaml").write_text(
-        f"extends: {shared}\nname: relaxing\n"
-        "tissues:\n"
-        "  creeping: {consistency: firm, elasticity: elastic, heaviness: normal, "
-        "compressibility: incompressible, relaxation: relaxes, relaxation_speed: quickly}\n"
-        "  plain: {consistency: firm, elasticity: elastic, heaviness: normal, "
-        "compressibility: incompressible}\n")
-    rules = load_rules(tmp_path / "r.yaml")
+    rules = soft_tissue_rules(tmp_path / "r.yaml", "relaxing", {
+        "creeping": f"{FIRM}, relaxation: relaxes, relaxation_speed: quickly", "plain": FIRM})
     mesh = _block().mesh
     model = initialize(rules, mesh, "creeping", elements=True)
     values = rules.tissue("creeping")

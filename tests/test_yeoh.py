@@ -1,6 +1,6 @@
-"""Yeoh's strain-stiffening elements (``law="yeoh"``, :mod:`neurofuzzy.forces.laws`): a block
-against the closed form of uniaxial stress, the stiffening constant learned with exact
-derivatives (against central differences, at large strain where it matters), and the constant
+"""Yeoh's strain-stiffening elements (``law="yeoh"``, :mod:`neurofuzzy.forces.laws`; the block
+against the closed form of uniaxial stress is in tests/test_material_laws.py): the stiffening
+constant learned with exact derivatives (against central differences, at large strain where it matters), and the constant
 as a user meets it (model files, the command line, bad values)."""
 
 import json
@@ -18,7 +18,6 @@ from neurofuzzy.io import load_model, save_experiment, save_model
 from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
-from neurofuzzy.nonlinear_reference import Yeoh, uniaxial_stress
 from neurofuzzy.simulation import required_substeps
 
 E, NU = 6000.0, 0.45
@@ -29,26 +28,6 @@ def _block(stiffening=1.0, cells=(2, 2, 2), volumetric="nodal", law="yeoh"):
     return SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
                                      density=1000.0, volumetric=volumetric, law=law,
                                      stiffening=stiffening)
-
-
-@pytest.mark.parametrize("volumetric", ["nodal", "element"])
-@pytest.mark.parametrize("stretch", [0.7, 1.25])
-def test_a_yeoh_block_carries_the_closed_form_uniaxial_stress(volumetric, stretch):
-    """A block stretched homogeneously by the closed form's stretches of Yeoh's solid
-    (:class:`neurofuzzy.nonlinear_reference.Yeoh`, C20 = 1.5 C10, written in principal
-    stretches apart from the elements): the end face carries the closed-form nominal stress,
-    free sides and inner nodes none, in both volumetric forms."""
-    closed = uniaxial_stress(Yeoh.from_youngs(E, NU, c20_ratio=1.5), stretch)
-    F = np.diag([float(closed.lateral_stretch)] * 2 + [stretch])
-    model = _block(1.5, volumetric=volumetric)
-    rest = model.mesh.rest_positions
-    force = TETRAHEDRA.force(model, rest @ F.T, np.zeros_like(rest))
-    side = 0.02
-    top = np.isclose(rest[:, 2], side)
-    assert -force[top, 2].sum() / side**2 == pytest.approx(float(closed.nominal_stress),
-                                                           rel=1e-10)
-    inner = np.all((rest > 1e-9) & (rest < side - 1e-9), axis=1)
-    assert np.abs(force[inner]).max() < 1e-10 * np.abs(force).max()
 
 
 def _pressed(model, newtons, frames=150, **options):
@@ -160,20 +139,12 @@ def test_words_of_stiffening_make_yeoh_elements_and_come_back(tmp_path):
     C20/C10; fitted values come back as words ("little" for 0.05, "moderate" for 1,
     "strongly" for 8); a tissue that says nothing of it keeps the default law, and its words
     leave the quantity out."""
-    from pathlib import Path
-
-    from neurofuzzy.rules import load_rules, materials
+    from helpers import FIRM, soft_tissue_rules
+    from neurofuzzy.rules import materials
     from neurofuzzy.rules.physical import initialize
 
-    shared = Path(__file__).resolve().parents[1] / "rules" / "soft_tissue.yaml"
-    (tmp_path / "r.yaml").write_text(
-        f"extends: {shared}\nname: stiffening\n"
-        "tissues:\n"
-        "  hardening: {consistency: firm, elasticity: elastic, heaviness: normal, "
-        "compressibility: incompressible, stiffening: strongly}\n"
-        "  plain: {consistency: firm, elasticity: elastic, heaviness: normal, "
-        "compressibility: incompressible}\n")
-    rules = load_rules(tmp_path / "r.yaml")
+    rules = soft_tissue_rules(tmp_path / "r.yaml", "stiffening", {
+        "hardening": f"{FIRM}, stiffening: strongly", "plain": FIRM})
     mesh = _block().mesh
     model = initialize(rules, mesh, "hardening", elements=True)
     assert set(model.element_law) == {2}
