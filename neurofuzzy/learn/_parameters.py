@@ -80,6 +80,13 @@ def element_directions(model) -> dict[str, sp.csr_matrix]:
             for block, name in enumerate(factors)}
 
 
+def _split_terms(elements: TiedSprings, values: np.ndarray, ties: int):
+    """``(shared (K, ties), [ratios (n,)] * K)`` of per-element values (n, K) of K terms."""
+    pairs = [elements.split(values[:, k]) for k in range(values.shape[1])]
+    return (np.array([pair[0] for pair in pairs]).reshape(-1, ties),
+            [pair[1] for pair in pairs])
+
+
 @dataclass
 class Block:
     name: str
@@ -128,17 +135,11 @@ class Parameterization:
             self.viscosity_shared = np.maximum(self.viscosity_shared, 1e-9 * self.modulus_shared)
             self.ratio_shared = elements.split(model.element_poisson_ratio)[0]
             # Prony terms, (K, n_element_ties) each: a shared value and per-element ratios
-            pairs = [elements.split(model.element_relaxation_moduli[:, k])
-                     for k in range(model.n_relaxation_terms)]
-            self.relaxation_moduli = np.maximum(
-                np.array([pair[0] for pair in pairs]).reshape(-1, model.n_element_ties),
-                SMALLEST_RELATIVE_MODULUS)
-            self.relaxation_moduli_ratio = [pair[1] for pair in pairs]
-            pairs = [elements.split(model.element_relaxation_times[:, k])
-                     for k in range(model.n_relaxation_terms)]
-            self.relaxation_times = np.array([pair[0] for pair in pairs]).reshape(
-                -1, model.n_element_ties)
-            self.relaxation_times_ratio = [pair[1] for pair in pairs]
+            moduli, self.relaxation_moduli_ratio = _split_terms(
+                elements, model.element_relaxation_moduli, model.n_element_ties)
+            self.relaxation_moduli = np.maximum(moduli, SMALLEST_RELATIVE_MODULUS)
+            self.relaxation_times, self.relaxation_times_ratio = _split_terms(
+                elements, model.element_relaxation_times, model.n_element_ties)
             # Yeoh's C20/C10: a shared value per tie group with Yeoh elements, their ratios
             self.stiffening_groups = stiffening_groups(model)
             yeoh = model.element_law == YEOH
