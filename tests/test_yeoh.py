@@ -103,6 +103,13 @@ def test_stiffening_values_are_checked_and_survive_model_files(tmp_path):
     assert np.array_equal(TETRAHEDRA.force(neo, pressed, 0 * rest),
                           TETRAHEDRA.force(_block(0.0, law="neo-hookean"), pressed, 0 * rest))
     assert np.all(neo.replace(element_law="yeoh").element_stiffening == 3.0)
+    # a fit moves the Yeoh elements' constant only
+    mixed = neo.replace(element_law=np.arange(48) % 2 * 2)
+    parameters = Parameterization(mixed)
+    theta = parameters.initial()
+    theta[parameters.blocks["log_stiffening"].slice] += np.log(2.0)
+    moved = parameters.model(theta).element_stiffening
+    assert np.allclose(moved[1::2], 6.0) and np.all(moved[::2] == 3.0)
     for value, words in ((-0.5, ">= 0"), (np.nan, ">= 0"), ([1.0, 2.0], "one per element")):
         with pytest.raises(InputError, match=words) as error:
             _block(value)

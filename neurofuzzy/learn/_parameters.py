@@ -244,7 +244,10 @@ class Parameterization:
             shared = np.zeros(self.base.n_element_ties)
             shared[self.stiffening_groups] = np.exp(np.clip(
                 theta[self.blocks["log_stiffening"].slice], -LOG_LIMIT, LOG_LIMIT))
-            values["element_stiffening"] = shared[tie] * self.stiffening_ratio
+            # the other laws' elements keep their (unused) value
+            values["element_stiffening"] = np.where(self.base.element_law == YEOH,
+                                                    shared[tie] * self.stiffening_ratio,
+                                                    self.base.element_stiffening)
         return values
 
     def physical(self, theta: np.ndarray) -> np.ndarray:
