@@ -30,7 +30,8 @@ bulk modulus ``K = λ + 2μ/3``: ``D = ½ (1 + 2c (Ī₁ - 3)) J^(-2/3) (I - I�
 for every ``c``; it stiffens with strain as ``c`` grows. Why Yeoh for tissue:
 :class:`neurofuzzy.nonlinear_reference.Yeoh`. Its ``dD`` and ``dN`` here are complex-step
 derivatives of ``D`` and ``N`` (the kernels generate theirs from their own stress function
-alike); the parameter ``c`` itself is learned in the compiled kernels only.
+alike); ``D`` is affine in ``c``, so the force's derivative by ``c`` is that of
+``D(G; 1) - D(G; 0)`` (:meth:`~neurofuzzy.forces.TetrahedronForce.stiffening_forces`).
 
 The derivatives ``dD`` and ``dN`` along a change ``dG`` are self-adjoint linear maps (the
 second derivatives of an energy), so the same function serves the forward and the reverse
