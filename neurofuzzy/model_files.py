@@ -67,7 +67,7 @@ def model_to_dict(model: SpringMassModel) -> dict:
             # one word when every element has the same law, else one per element
             data["elements"]["law"] = laws[0] if len(set(laws)) == 1 else laws
         if np.any(model.element_law == YEOH):
-            # Yeoh's C20/C10 per element (0 on the other laws' elements)
+            # Yeoh's C20/C10 per element (unused on the other laws' elements)
             data["elements"]["stiffening"] = model.element_stiffening.tolist()
         if model.n_relaxation_terms:
             # Prony terms: one [g, ...] and one [τ, ...] row per element

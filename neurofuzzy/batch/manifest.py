@@ -261,13 +261,13 @@ def _options(text: dict, problem) -> dict:
         except InputError as error:
             raise problem(error.detail, "law") from None
     if text.get("stiffening"):
+        from ..forces.laws import stiffening_array
+
         try:
-            value = float(text["stiffening"])
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value >= 0):
+            value = float(stiffening_array(float(text["stiffening"]), 1)[0])
+        except (ValueError, InputError):            # checked by the model's own rule
             raise problem(f"got {text['stiffening']!r}; expected Yeoh's C20/C10, a number "
-                          ">= 0", "stiffening")
+                          ">= 0", "stiffening") from None
         if options.get("law") != "yeoh":
             raise problem("a stiffening is Yeoh's C20/C10; give law: yeoh", "stiffening")
         options["stiffening"] = value

@@ -143,7 +143,7 @@ class Materials:
     law : (K,) int
         Every element's material law (:mod:`neurofuzzy.forces.laws`).
     stiffening : (K,) float
-        Yeoh's ``C₂₀/C₁₀`` of every element (0 on the other laws' elements).
+        Yeoh's ``C₂₀/C₁₀`` of every element (unused by the other laws).
     """
 
     geometry: TetrahedronGeometry

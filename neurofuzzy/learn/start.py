@@ -143,18 +143,17 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
         changes["element_law"] = law
     if stiffening is not None:
         changes["element_stiffening"] = stiffening
-    if stiffening is not None and begun.model.has_elements and not np.any(
-            begun.model.replace(**changes).element_law == YEOH):
-        raise InputError(f"a stiffening ({stiffening!r}) is Yeoh's C20/C10; this start has no "
-                         "Yeoh elements (add --law yeoh)", key="--stiffening")
     if relaxation is not None:
         changes.update(relaxation_fields(start_terms(relaxation, duration(experiments))))
     if not changes:
         return begun
     changed = begun.model.replace(**changes)
+    yeoh = changed.element_law == YEOH
+    if stiffening is not None and not yeoh.any():
+        raise InputError(f"a stiffening ({stiffening!r}) is Yeoh's C20/C10; this start has no "
+                         "Yeoh elements (add --law yeoh)", key="--stiffening")
     if law is not None:
         note(progress, f"material law: {LAWS[int(changed.element_law[0])]}")
-    yeoh = changed.element_law == YEOH
     if (law is not None or stiffening is not None) and yeoh.any():
         note(progress, "Yeoh stiffening C20/C10: "
              f"{float(np.mean(changed.element_stiffening[yeoh])):.3g}")
