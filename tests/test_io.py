@@ -44,7 +44,7 @@ def test_model_yaml_round_trip_is_exact(tmp_path, rng, cube_model):
 
 
 def test_a_model_file_keeps_the_record_of_its_fit(tmp_path, cube_model):
-    from neurofuzzy.model_files import load_fit_record
+    from neurofuzzy.io.models import load_fit_record
 
     record = {"neurofuzzy_version": "0.1.0",
               "lack_of_fit": {"rms": 2.5e-5, "noise": 1.2e-5, "ratio": 2.08,

@@ -132,7 +132,7 @@ def test_length_text_chooses_a_unit_people_read():
 
 def test_fit_prints_saves_and_reports_its_lack_of_fit(tmp_path):
     """The command line: the verdict in the text output, the JSON and the fitted model file."""
-    from neurofuzzy.model_files import load_fit_record
+    from neurofuzzy.io.models import load_fit_record
 
     data = tmp_path / "pull.npz"
     assert cli("simulate", "cube", "--force", "26", "0.1", "0", "0", "--noise", "2e-5",

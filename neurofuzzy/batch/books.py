@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from ..errors import InputError
-from ..serialization import atomic_write
+from ..io.writing import atomic_write
 from .manifest import BOOKS_NAME, FOLDER_FILES, Specimen
 from .task import OUTPUT_FILES
 
@@ -162,7 +162,7 @@ def finished(folder: Path, fingerprint: str) -> dict | None:
 
 def write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: dict) -> dict:
     """Write one specimen's outputs atomically (``fit.json`` last) and return its record."""
-    from ..serialization import json_safe
+    from ..io.writing import json_safe
 
     record = {"format": RECORD_FORMAT, "id": specimen.id, "group": specimen.group,
               "status": outcome["status"], "fingerprint": fingerprint,
@@ -187,7 +187,7 @@ def write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: 
 
 
 def _write_json(path: Path, value: dict) -> None:
-    from ..serialization import json_safe
+    from ..io.writing import json_safe
 
     with atomic_write(path, "w") as handle:
         json.dump(json_safe(value), handle, indent=1)

@@ -17,7 +17,7 @@ import importlib.util
 import io
 from pathlib import Path
 
-from ..serialization import atomic_write
+from ..io.writing import atomic_write
 
 __all__ = ["QUANTITIES", "COLUMNS", "TABLE_NAME", "table_rows", "write_table"]
 

@@ -77,7 +77,7 @@ def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..io import save_model
     from ..pipeline import fit as fit_pipeline
     from ..report import fit_report
-    from ..serialization import json_safe
+    from ..io.writing import json_safe
 
     options = specimen.options
     experiments = load_specimen_experiments(specimen)

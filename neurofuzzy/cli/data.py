@@ -284,7 +284,7 @@ def export(args) -> int:
         return _export_paraview(args)
     from ..export import TARGETS, export as write
     from ..io import load_experiment, load_model
-    from ..model_files import load_fit_record
+    from ..io.models import load_fit_record
 
     for option, value in (("--stem", args.stem), ("--every", args.every),
                           ("--formats", args.formats)):
@@ -316,7 +316,7 @@ def export(args) -> int:
 def _export_paraview(args) -> int:
     from ..export import export as write
     from ..io import load_experiment, load_model
-    from ..model_files import load_fit_record
+    from ..io.models import load_fit_record
 
     every = 1 if args.every is None else args.every
     stem = args.stem or "neurofuzzy"

@@ -14,7 +14,7 @@ from ..learn import GradientLearner
 from ..learn.lack_of_fit import length_text
 from ..model import SpringMassModel
 from ..progress import note
-from ..serialization import json_safe
+from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
 from .localise import INCLUSIONS, Localisation, localise
 from .scoring import Candidate, confidence

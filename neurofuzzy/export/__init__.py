@@ -64,7 +64,7 @@ def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
         nodal volumetric form.
     fit : dict, optional
         The record of the fit (``lack_of_fit``: ``rms``, ``noise`` in m per marker,
-        ``ratio``, ``verdict``), as :func:`~neurofuzzy.model_files.load_fit_record` reads it.
+        ``ratio``, ``verdict``), as :func:`~neurofuzzy.io.models.load_fit_record` reads it.
     substeps : int or "auto"
         Simulator steps per frame of the experiment (``"auto"``: the fewest stable for
         semi-implicit Euler, as :func:`neurofuzzy.simulate` picks them).
@@ -86,8 +86,8 @@ def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
         a file), or a model the target cannot take.
     """
     from ..errors import InputError, closest_name
-    from ..model_files import load_fit_record, load_model
-    from ..serialization import atomic_write
+    from ..io.models import load_fit_record, load_model
+    from ..io.writing import atomic_write
     from .base import Exported
 
     if to not in TARGETS:

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..noise import noise_level
-from ..serialization import json_safe
+from ..io.writing import json_safe
 
 __all__ = ["LackOfFit", "lack_of_fit", "model_lack_of_fit", "EXPLAINED", "length_text"]
 

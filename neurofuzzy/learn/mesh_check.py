@@ -59,7 +59,7 @@ class MeshCheck:
     values: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        from ..serialization import json_safe
+        from ..io.writing import json_safe
 
         return json_safe({"refined_nodes": self.nodes[1], "refined_elements": self.elements[1],
                           "change": dict(zip(self.names, self.change)),

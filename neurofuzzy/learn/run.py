@@ -138,7 +138,7 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
 
 def fit_record(learner: Learner, experiments: Sequence[str]) -> dict:
     """What a fitted model file keeps of its fit (its ``fit:`` section,
-    :func:`~neurofuzzy.model_files.save_model`): the toolkit version, the experiments, the RMS
+    :func:`~neurofuzzy.io.models.save_model`): the toolkit version, the experiments, the RMS
     error and the lack of fit with its verdict."""
     from ..version import __version__
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..serialization import json_safe
+from ..io.writing import json_safe
 from .identifiability import analyse
 from .lack_of_fit import lack_of_fit
 

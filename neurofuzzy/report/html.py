@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..serialization import atomic_write, json_safe
+from ..io.writing import atomic_write, json_safe
 
 __all__ = ["write_report", "figure_html", "table_html", "pyplot", "REPORT_MARKER"]
 

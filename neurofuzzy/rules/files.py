@@ -1,10 +1,10 @@
-"""Rule files as YAML with line numbers: :mod:`neurofuzzy.safe_yaml` with a rule file's size
+"""Rule files as YAML with line numbers: :mod:`neurofuzzy.io.safe_yaml` with a rule file's size
 limit (:data:`MAX_RULE_FILE_BYTES`)."""
 
 from __future__ import annotations
 
-from .. import safe_yaml
-from ..safe_yaml import Mapping, Sequence
+from ..io import safe_yaml
+from ..io.safe_yaml import Mapping, Sequence
 
 __all__ = ["Mapping", "Sequence", "load", "loads", "MAX_RULE_FILE_BYTES"]
 

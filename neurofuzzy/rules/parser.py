@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, RuleFileDeprecationWarning, closest_name
-from ..safe_yaml import kind_of
+from ..io.safe_yaml import kind_of
 from . import files as rule_files
 from .limits import (defuzzification_problems, shared_quantities, term_problem,
                      tissue_problems, universe_problems)

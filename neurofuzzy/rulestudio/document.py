@@ -204,7 +204,7 @@ class RuleDocument:
         """Write the text to the opened file, or to a new file ``name`` in its folder (which
         then becomes the opened file). Refused while the text has problems, when the opened
         file changed on disk since it was read, or when ``name`` exists or lies elsewhere."""
-        from ..serialization import atomic_write
+        from ..io.writing import atomic_write
 
         target = self.path
         if name is not None:

@@ -92,7 +92,7 @@ def own_tissue(doc: YamlText, parents: list[YamlText], name: str) -> YamlText:
 
 def _value(doc: YamlText, path):
     """The plain value (dicts, lists, strings, numbers) at ``path``."""
-    from .. import safe_yaml
+    from ..io import safe_yaml
 
     value = safe_yaml.loads(doc.text)
     for step in path:

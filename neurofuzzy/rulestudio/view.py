@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .. import safe_yaml
+from ..io import safe_yaml
 from ..errors import InputError
 from ..rules.membership import HEDGES, MEMBERSHIP_FUNCTIONS
 from ..rules.terms import QUANTITIES

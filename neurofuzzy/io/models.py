@@ -10,12 +10,12 @@ import numpy as np
 import yaml
 
 from . import safe_yaml
-from .errors import InputError, closest_name
-from .forces.laws import LAWS, YEOH
-from .mesh import Mesh
-from .model import SpringMassModel
+from ..errors import InputError, closest_name
+from ..forces.laws import LAWS, YEOH
+from ..mesh import Mesh
+from ..model import SpringMassModel
 from .safe_yaml import kind_of
-from .serialization import atomic_write
+from .writing import atomic_write
 
 __all__ = ["load_model", "save_model", "model_to_dict", "model_from_dict", "check_model_dict",
            "load_fit_record", "MODEL_KEYS"]
@@ -27,7 +27,7 @@ MAX_MODEL_FILE_BYTES = 64 * 2**20
 
 def model_to_dict(model: SpringMassModel) -> dict:
     """Plain-Python (YAML/JSON-ready) description of a model; exact round trip."""
-    from .effects import effect_to_dict
+    from ..effects import effect_to_dict
 
     mesh = model.mesh
     data = {
@@ -164,7 +164,7 @@ def _dotted(section, key) -> str:
 
 
 def _line_of(mapping, key) -> int | None:
-    """The line of ``key`` in a mapping read by :mod:`neurofuzzy.safe_yaml` (else None)."""
+    """The line of ``key`` in a mapping read by :mod:`neurofuzzy.io.safe_yaml` (else None)."""
     line_of = getattr(mapping, "line_of", None)
     return line_of(key) if line_of is not None else None
 
@@ -185,7 +185,7 @@ def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
 
 
 def _model_from_checked_dict(data: dict, source: str) -> SpringMassModel:
-    from .effects import effect_from_dict
+    from ..effects import effect_from_dict
 
     try:
         nodes, springs = data["nodes"], data["springs"]
@@ -256,7 +256,7 @@ def load_model(path: str | os.PathLike) -> SpringMassModel:
     ------
     InputError
         The file is missing, larger than :data:`MAX_MODEL_FILE_BYTES`, not YAML (see
-        :mod:`neurofuzzy.safe_yaml`), not laid out as a model file, or holds impossible values;
+        :mod:`neurofuzzy.io.safe_yaml`), not laid out as a model file, or holds impossible values;
         the message names the file, the key and the line.
     """
     return model_from_dict(safe_yaml.load(path, max_bytes=MAX_MODEL_FILE_BYTES,
@@ -273,7 +273,7 @@ def load_fit_record(path: str | os.PathLike) -> dict | None:
 
 
 def _plain(value):
-    """A mapping read by :mod:`neurofuzzy.safe_yaml` as plain dicts and lists."""
+    """A mapping read by :mod:`neurofuzzy.io.safe_yaml` as plain dicts and lists."""
     if isinstance(value, dict):
         return {key: _plain(item) for key, item in value.items()}
     if isinstance(value, list):

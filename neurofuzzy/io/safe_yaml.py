@@ -30,7 +30,7 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InputError
+from ..errors import InputError
 
 __all__ = ["Mapping", "Sequence", "load", "loads", "kind_of", "MAX_DEPTH", "MAX_VALUES"]
 

@@ -1,5 +1,4 @@
-"""Experiment files (``.npz``, the contract in docs/formats.md) and, from :mod:`.model_files`, model
-files (YAML).
+"""Experiment files (``.npz``, the contract in docs/formats.md).
 
 Every reader validates what it reads and raises :class:`~neurofuzzy.errors.InputError` naming
 the file and the key. Every writer writes atomically (a temporary file in the target folder,
@@ -16,13 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, closest_name
-from .experiment import Experiment
-from .mesh import Mesh
-from .model_files import load_model, save_model  # noqa: F401  (files are read through io)
-from .serialization import atomic_write
+from ..errors import InputError, closest_name
+from ..experiment import Experiment
+from ..mesh import Mesh
+from .writing import atomic_write
 
-__all__ = ["load_experiment", "save_experiment", "load_model", "save_model"]
+__all__ = ["load_experiment", "save_experiment"]
 
 REQUIRED_KEYS = ("rest_positions", "springs", "dt", "positions")
 #: embedded markers (:class:`~neurofuzzy.observation.EmbeddedMarkers`): all or none
@@ -169,7 +167,7 @@ def _read_npy(handle, size: int) -> np.ndarray:
 
 def _markers(data: dict):
     """The embedded markers of an experiment file, or None."""
-    from .observation import EmbeddedMarkers
+    from ..observation import EmbeddedMarkers
 
     present = [key for key in MARKER_KEYS if key in data]
     if not present:
