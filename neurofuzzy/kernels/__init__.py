@@ -1,6 +1,7 @@
 """The compiled (numba) kernels: one semi-implicit Euler update (:mod:`.integrator`), the
 elements' material laws with their two derivatives generated from them (:mod:`.laws`), their
-Prony relaxation (:mod:`.relaxation`), and the sweeps that call them: the stepper
+Prony relaxation (:mod:`.relaxation`), 3×3 matrices as tuples of scalars (:mod:`.tuples`),
+and the sweeps that call them: the stepper
 (:mod:`.stepper`, :func:`neurofuzzy.simulate`), the forward sensitivities (:mod:`.sensitivity`)
 and the discrete adjoint (:mod:`.adjoint`) of the gradient learner.
 

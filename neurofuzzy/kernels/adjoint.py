@@ -21,7 +21,8 @@ import numpy as np
 
 from .integrator import euler_update, euler_update_transpose
 from .stepper import _spring, spring_state
-from .sensitivity import _edges, _element_tangents, _full, _green, _mul, _sym_dot, _sym_t_mul
+from .sensitivity import _element_tangents
+from .tuples import _edges, _full, _green, _mul, _sym_dot, _sym_t_mul
 from .laws import stress, stress_vjp, volumetric
 from .relaxation import relaxed_stress
 

@@ -27,16 +27,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, closest_name
-from ..forces.laws import LAWS, YEOH, law_numbers, stiffening_array
-from ..forces.relaxation import relaxation_arrays, relaxation_fields
+from ..forces.laws import LAWS, YEOH
+from ..forces.relaxation import relaxation_fields
 from ..mesh import Mesh
+from .elements import VOLUMETRIC, element_values
 from .values import PerSpring, Tie, describe, per_spring, tie_index, vector
 
 __all__ = ["SpringMassModel", "VOLUMETRIC"]
-
-#: How tetrahedral elements form their volumetric stress (:mod:`neurofuzzy.forces.tetrahedra`).
-VOLUMETRIC: tuple[str, ...] = ("nodal", "element")
-
 
 @dataclass(frozen=True, eq=False)
 class SpringMassModel:
@@ -165,7 +162,7 @@ class SpringMassModel:
                 raise InputError(f"expected ({size_name},) = ({n},) integers in "
                                  f"0..{len(names) - 1}, one region index each", key=key)
             values[key] = index.astype(np.intp)
-        values.update(self._element_values())
+        values.update(element_values(self))
         object.__setattr__(self, "region_names", names)
         object.__setattr__(self, "region_tissues", tissues)
         for key, value in values.items():
@@ -305,65 +302,6 @@ class SpringMassModel:
     @property
     def n_springs(self) -> int:
         return self.mesh.n_springs
-
-    def _element_values(self) -> dict:
-        keys = ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity")
-        given = [getattr(self, key) is not None for key in keys]
-        if not any(given):
-            return {}
-        if not all(given):
-            raise InputError("give all three of element_youngs_modulus, element_poisson_ratio "
-                             "and element_viscosity, or none", key="element_youngs_modulus")
-        n = self.mesh.n_tetrahedra
-        if n == 0:
-            raise InputError("element parameters need a mesh with tetrahedra",
-                             key="element_youngs_modulus")
-        out = {key: vector(getattr(self, key), n, key, "n_tetrahedra") for key in keys}
-        region = (np.zeros(n, np.intp) if self.element_region is None
-                  else np.asarray(self.element_region))
-        if region.shape != (n,) or not np.issubdtype(region.dtype, np.integer) or (
-                region.min() < 0 or region.max() >= len(self.region_names)):
-            raise InputError(f"expected ({n},) integers in 0..{len(self.region_names) - 1}, "
-                             "one region index per element", key="element_region")
-        out["element_region"] = region.astype(np.intp)
-        tie = region if self.element_tie is None else np.asarray(self.element_tie)
-        if tie.shape != (n,) or not np.issubdtype(tie.dtype, np.integer):
-            raise InputError(f"expected ({n},) integers, one tie group per element",
-                             key="element_tie")
-        out["element_tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
-        out["element_law"] = law_numbers(self.element_law, n)
-        out["element_stiffening"] = stiffening_array(self.element_stiffening, n)
-        out["element_relaxation_moduli"], out["element_relaxation_times"] = relaxation_arrays(
-            self.element_relaxation_moduli, self.element_relaxation_times, n)
-        if self.element_volumetric not in VOLUMETRIC:
-            hint = closest_name(str(self.element_volumetric), VOLUMETRIC)
-            raise InputError(f"got {self.element_volumetric!r}; expected one of "
-                             f"{list(VOLUMETRIC)}" + (f" (did you mean {hint!r}?)" if hint
-                                                      else ""), key="element_volumetric")
-        nu = out["element_poisson_ratio"]
-        for key, bad, rule in (
-                ("element_youngs_modulus", out["element_youngs_modulus"] <= 0,
-                 "Young's modulus {:g} Pa; it must be positive (Pa)"),
-                ("element_poisson_ratio", (nu <= 0) | (nu >= 0.5),
-                 "Poisson's ratio {:g}; it must lie in (0, 0.5), strictly: 0.5 is a "
-                 "perfectly incompressible solid, which elements cannot represent"),
-                ("element_viscosity", out["element_viscosity"] < 0,
-                 "viscosity {:g} Pa s; it must not be negative (Pa s)")):
-            if np.any(bad):
-                first = int(np.flatnonzero(bad)[0])
-                more = f" ({int(bad.sum())} elements in all)" if bad.sum() > 1 else ""
-                raise InputError(f"element {first}{self._where(out['element_region'][first])}"
-                                 " has " + rule.format(out[key][first]) + more, key=key)
-        return out
-
-    def _where(self, region: int) -> str:
-        """" (region 'tumour', tissue 'tumour')" for messages; "" for a one-region model."""
-        names = tuple(str(name) for name in self.region_names)
-        tissues = tuple(self.region_tissues or (None,) * len(names))
-        if len(names) == 1 and tissues[0] is None:
-            return ""
-        tissue = tissues[region] if region < len(tissues) else None
-        return f" (region {names[region]!r}" + (f", tissue {tissue!r})" if tissue else ")")
 
     @property
     def has_elements(self) -> bool:
