@@ -12,8 +12,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "neurofuzzy"
-#: the hook that reviews every change flags modules over 450 lines; aim at about 400
-MAX_LINES = 450
+#: "no module over about 400 lines" (issue 26); the hook that reviews every change flags 450
+MAX_LINES = 420
 
 
 def _modules() -> dict[str, Path]:

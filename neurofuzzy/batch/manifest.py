@@ -37,15 +37,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import InputError, closest_name
-from ..learn.prior import parse_prior
-from ..learn.run import METHODS
+from .options import fit_options
 from .rows import COLUMNS, csv_rows, yaml_rows
 
 __all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES",
@@ -56,7 +54,6 @@ MANIFEST_SUFFIXES = (".csv", ".yaml", ".yml")
 #: columns that hold lists of files
 _FILE_LISTS = ("experiments", "markers", "forces")
 _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
-_TRUE, _FALSE = ("true", "yes", "1"), ("false", "no", "0", "")
 #: part of every fingerprint: a change in what a specimen's task computes invalidates results
 _TASK_VERSION = "fit-many/1"
 #: the record of the manifest a results folder was made from (what ``--resume`` checks)
@@ -235,7 +232,7 @@ def _specimen(row: dict, manifest: Path, line: int) -> Specimen:
                       "theirs)", "tissue")
     if tissue is not None and rules is None:
         raise problem("a tissue needs a rule base (rules: liver, or a file)", "rules")
-    options = _options(text, problem)
+    options = fit_options(text, problem)
     if options.get("prior", "off") != "off":
         if rules is None:
             raise problem("a prior needs a rule base (rules: liver, or a file)", "prior")
@@ -243,77 +240,6 @@ def _specimen(row: dict, manifest: Path, line: int) -> Specimen:
             raise problem("the paper's learner has no prior; use method: gradient", "prior")
     return Specimen(id=identifier, group=group, start=start, rules=rules, tissue=tissue,
                     options=options, source=source, line=line, **files)
-
-
-def _options(text: dict, problem) -> dict:
-    from ..simulation import check_substeps
-
-    options = {}
-    if text.get("tie"):
-        if text["tie"] not in ("global", "groups", "none"):
-            raise problem(f"got {text['tie']!r}; expected global, groups or none", "tie")
-        options["tie"] = text["tie"]
-    if text.get("law"):
-        from ..forces.laws import LAWS, law_number
-
-        try:
-            options["law"] = LAWS[law_number(text["law"])]
-        except InputError as error:
-            raise problem(error.detail, "law") from None
-    if text.get("stiffening"):
-        from ..forces.laws import stiffening_array
-
-        try:
-            value = float(stiffening_array(float(text["stiffening"]), 1)[0])
-        except (ValueError, InputError):            # checked by the model's own rule
-            raise problem(f"got {text['stiffening']!r}; expected Yeoh's C20/C10, a number "
-                          ">= 0", "stiffening") from None
-        if options.get("law") != "yeoh":
-            raise problem("a stiffening is Yeoh's C20/C10; give law: yeoh", "stiffening")
-        options["stiffening"] = value
-    if text.get("relaxation"):
-        from ..forces.relaxation import start_terms
-
-        try:
-            start_terms(text["relaxation"], 1.0)          # checked here; started in the fit
-        except InputError as error:
-            raise problem(error.detail, "relaxation") from None
-        options["relaxation"] = text["relaxation"]
-    if text.get("prior"):
-        try:
-            options["prior"] = parse_prior(text["prior"])
-        except InputError as error:
-            raise problem(error.detail, "prior") from None
-    if text.get("method"):
-        if text["method"] not in METHODS:
-            raise problem(f"got {text['method']!r}; expected {' or '.join(METHODS)}", "method")
-        options["method"] = text["method"]
-    for key, kind in (("cycles", int), ("dt", float)):
-        if text.get(key):
-            try:
-                value = kind(text[key])
-            except ValueError:
-                value = None
-            if value is None or not (math.isfinite(value) and value > 0):
-                raise problem(f"got {text[key]!r}; expected a positive number"
-                              + (" of seconds" if key == "dt" else ""), key)
-            options[key] = value
-    if text.get("substeps"):
-        try:
-            options["substeps"] = check_substeps(text["substeps"], "substeps")
-        except InputError as error:
-            raise problem(error.detail, "substeps") from None
-    if text.get("units"):
-        if text["units"] not in ("m", "cm", "mm"):
-            raise problem(f"got {text['units']!r}; expected m, cm or mm", "units")
-        options["units"] = text["units"]
-    for key in ("learn_masses", "diagnose"):
-        value = (text.get(key) or "").lower()
-        if value not in _TRUE + _FALSE:
-            raise problem(f"got {text[key]!r}; expected true or false", key)
-        if value in _TRUE:
-            options[key] = True
-    return options
 
 
 def _text(value) -> str:
