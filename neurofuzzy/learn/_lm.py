@@ -65,28 +65,41 @@ def _damped_step(normal, gradient, damping):
 
 
 def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluations: int,
-                        tolerance: float) -> Solution:
+                        tolerance: float, both=None) -> Solution:
     """Minimise ``½‖r(x)‖²`` within the box ``[lower, upper]`` (steps are clipped to it).
 
     ``residuals(x)`` returns r (m,), ``jacobian(x)`` returns J (m, n). ``max_evaluations``
     bounds the residual evaluations (as ``max_nfev`` did).
+
+    ``both(x)``, when given, returns ``(r, J)`` from one pass (a tangent sweep simulates the
+    state too), for a Jacobian that costs a few residual passes: a trial step is then
+    evaluated with its Jacobian when the last step was accepted at its first trial (the first
+    Gauss–Newton step from a start within a factor of the truth, and near the solution nearly
+    every step, are) and the step is not predicted to end the fit, so an accepted step needs no
+    second pass, and the Jacobian at the result is there for the standard errors. The steps
+    taken are the same either way; only the passes that compute them differ.
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        return _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance)
+        return _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
+                         tolerance)
 
 
-def _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance) -> Solution:
+def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
+              tolerance) -> Solution:
     x = np.clip(np.asarray(x0, float), lower, upper)
-    r = residuals(x)
+    r, J = both(x) if both is not None else (residuals(x), None)
     cost = 0.5 * float(r @ r)
     evaluations = 1
     if not np.isfinite(cost):
         return Solution(x, cost, evaluations, "the start is not finite")
-    J = jacobian(x)
+    if J is None:
+        J = jacobian(x)
     normal = J.T @ J
     damping = INITIAL_DAMPING
+    speculate = True        # evaluate the next trial with its Jacobian (``both``)
     while True:
         gradient = J.T @ r
+        trials = 0
         while True:
             if evaluations >= max_evaluations:
                 return Solution(x, cost, evaluations, "evaluation limit")
@@ -98,13 +111,20 @@ def _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance)
                 continue
             trial = np.clip(x + step, lower, upper)
             step = trial - x
-            r_trial = residuals(trial)
-            evaluations += 1
-            cost_trial = 0.5 * float(r_trial @ r_trial)
             predicted = -(gradient @ step + 0.5 * step @ normal @ step)
+            J_trial = None
+            # not for a step predicted to end the fit (its Jacobian would go unused)
+            if speculate and both is not None and predicted > tolerance * cost:
+                r_trial, J_trial = both(trial)
+            else:
+                r_trial = residuals(trial)
+            evaluations += 1
+            trials += 1
+            cost_trial = 0.5 * float(r_trial @ r_trial)
             if np.isfinite(cost_trial) and cost_trial < cost:
                 break
             damping *= 4.0
+            speculate = False    # the next trials of this step: residuals only
             if damping > 1e16 or not np.any(step):
                 return Solution(x, cost, evaluations, "no step lowers the cost")
         ratio = (cost - cost_trial) / predicted if predicted > 0 else 0.0
@@ -119,8 +139,9 @@ def _minimise(residuals, jacobian, x0, lower, upper, max_evaluations, tolerance)
         # the standard errors of the last Jacobian: the step just taken is that one's step
         if _insignificant(step, normal, cost, len(r)):
             return Solution(x, cost, evaluations, "step below the standard errors")
-        J = jacobian(x)
+        J = J_trial if J_trial is not None else jacobian(x)
         normal = J.T @ J
+        speculate = trials == 1
 
 
 def _insignificant(step, normal, cost, m) -> bool:

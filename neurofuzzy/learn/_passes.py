@@ -67,14 +67,56 @@ def side_by_side(sensitivity, run, experiments, starts, *, compiled=None) -> lis
         return list(pool.map(run, experiments, starts))
 
 
-def rms(sensitivity, experiments, theta, substeps) -> float:
+@dataclass
+class Last:
+    """The last simulation of the data a learner ran: where (``theta``, ``substeps``, window
+    ``starts``), its runs and, for a Jacobian pass, the Jacobian of ``columns`` (None: all).
+    A pass asked for at the same place again is read from here instead of run twice."""
+
+    theta: np.ndarray
+    substeps: int
+    starts: list
+    runs: list
+    jacobian: np.ndarray | None = None
+    columns: np.ndarray | None = None
+
+    def at(self, theta, substeps, starts) -> bool:
+        return (self.substeps == substeps and list(self.starts) == list(starts)
+                and np.array_equal(self.theta, theta))
+
+    def jacobian_of(self, columns) -> np.ndarray | None:
+        """The Jacobian's ``columns`` (all for None; sorted), or None when not computed."""
+        if self.jacobian is None:
+            return None
+        size = self.theta.size
+        stored = np.arange(size) if self.columns is None else np.asarray(self.columns)
+        if len(stored) == size:
+            return self.jacobian if columns is None else self.jacobian[:, columns]
+        wanted = np.arange(size) if columns is None else np.asarray(columns)
+        return self.jacobian if np.array_equal(stored, wanted) else None
+
+
+def stacked(runs) -> np.ndarray:
+    """The residuals of ``runs`` as one vector; all :data:`DIVERGED` when a simulation diverged
+    (a huge cost the solver rejects)."""
+    residuals = np.concatenate([run.residuals.ravel() for run in runs])
+    if not np.all(np.abs(residuals) < DIVERGED):
+        return np.full_like(residuals, DIVERGED)
+    return residuals
+
+
+def rms(sensitivity, experiments, theta, substeps, last: Last | None = None) -> float:
     """:func:`~neurofuzzy.experiment.rms_error` of ``theta``; by the compiled forward pass
-    when there is one."""
+    when there is one (read from ``last`` when that simulated the data there)."""
     if not sensitivity.compiled:
         return rms_error(sensitivity.parameters.model(theta), experiments, substeps=substeps,
                          offsets=sensitivity.offsets)
-    runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
-        theta, e, substeps=substeps, starts=s), experiments, [(0,)] * len(experiments))
+    starts = [(0,)] * len(experiments)
+    if last is not None and last.at(theta, substeps, starts):
+        runs = last.runs
+    else:
+        runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
+            theta, e, substeps=substeps, starts=s), experiments, starts)
     with np.errstate(over="ignore", invalid="ignore"):
         total = sum(float(np.sum(run.residuals**2)) for run in runs)
     rows = sum(run.n_measured for run in runs) // 3      # measured positions

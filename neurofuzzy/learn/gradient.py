@@ -45,6 +45,10 @@ MAX_JACOBIAN_ENTRIES = 3e7
 DEFAULT_WINDOW = 25
 #: Relative tolerance on the cost of the stages before the last (windows, beginnings).
 STAGE_TOLERANCE = 1e-3
+#: A Jacobian pass costing at most this many residual passes is run with the trial steps
+#: after a step accepted at its first trial (:func:`._lm.levenberg_marquardt`'s ``both``): a
+#: rejected trial then costs at most 3 passes more, an accepted one saves one.
+SPECULATE_COST = 4
 
 
 
@@ -175,6 +179,7 @@ class GradientLearner(Learner):
         discrete = not auto or stable_at_one_step(model, experiments)
         self.n_cycles_ = 0
         self._trace = []        # (E, RMS) best so far after every simulation of the data
+        self._last = None       # the last simulation of the data (passes.Last)
         model = stable_start(model, min(e.dt for e in experiments)
                               / (1 if auto and discrete else initial_steps))
         parameters = Parameterization(model, learn_masses=self.learn_masses,
@@ -212,7 +217,7 @@ class GradientLearner(Learner):
         if discrete:
             substeps = 1 if auto else int(self.substeps)
             theta = fit(theta, substeps, self.windows)
-            best = (passes.rms(sensitivity, experiments, theta, substeps), theta,
+            best = (passes.rms(sensitivity, experiments, theta, substeps, self._last), theta,
                     substeps)
         exact = best[0] <= 1e-9 * sensitivity.length_unit     # the discrete model fits exactly
         if auto and not exact:
@@ -222,7 +227,7 @@ class GradientLearner(Learner):
             theta_k = fit(theta, k, () if discrete else self.windows)
             theta_2k = fit(theta_k, 2 * k, ())
             if not discrete:      # nothing fitted at one step per frame to fall back on
-                best = (passes.rms(sensitivity, experiments, theta_2k, 2 * k),
+                best = (passes.rms(sensitivity, experiments, theta_2k, 2 * k, self._last),
                         theta_2k, 2 * k)
             theta_inf = np.clip(2 * theta_2k - theta_k, lower, upper)
             rms_inf = passes.rms(sensitivity, experiments, theta_inf, 2 * k)
@@ -233,7 +238,7 @@ class GradientLearner(Learner):
                 # a start unstable at one step per frame may end stable there: data of the
                 # paper's network (one step per frame) are fitted exactly only at that step
                 theta_1 = fit(best[1], 1, self.windows)
-                rms_1 = passes.rms(sensitivity, experiments, theta_1, 1)
+                rms_1 = passes.rms(sensitivity, experiments, theta_1, 1, self._last)
                 if rms_1 < best[0]:
                     best = (rms_1, theta_1, 1)
                     self.extrapolated_ = False
@@ -323,18 +328,24 @@ class GradientLearner(Learner):
         runs = passes.side_by_side(sensitivity, lambda e, s: sensitivity.run(
             theta, e, substeps=substeps, starts=s), experiments, starts)
         self._record(runs, sensitivity.length_unit)
-        residuals = np.concatenate([run.residuals.ravel() for run in runs])
-        if not np.all(np.abs(residuals) < passes.DIVERGED):
-            return np.full_like(residuals, passes.DIVERGED)   # a huge cost the solver rejects
-        return residuals
+        self._last = passes.Last(theta.copy(), substeps, starts, runs)
+        return passes.stacked(runs)
 
     def _jacobian(self, sensitivity, experiments, theta, starts, substeps, *,
                   with_runs: bool = False, columns=None):
         """:func:`._passes.jacobian`, counted as one simulation of the data (and one point
-        of ``history_``: its runs carry the residuals at ``theta``)."""
-        jacobian, runs = passes.jacobian(sensitivity, experiments, theta, starts, substeps,
-                                         columns=columns)
-        self._record(runs, sensitivity.length_unit)
+        of ``history_``: its runs carry the residuals at ``theta``); that of the last
+        simulation when it computed it at ``theta`` (not counted again)."""
+        last = getattr(self, "_last", None)
+        jacobian = (last.jacobian_of(columns) if last is not None
+                    and last.at(theta, substeps, starts) else None)
+        if jacobian is not None:
+            runs = last.runs
+        else:
+            jacobian, runs = passes.jacobian(sensitivity, experiments, theta, starts,
+                                             substeps, columns=columns)
+            self._record(runs, sensitivity.length_unit)
+            self._last = passes.Last(theta.copy(), substeps, starts, runs, jacobian, columns)
         return (jacobian, runs) if with_runs else jacobian
 
     def _solve_lm(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
@@ -346,22 +357,32 @@ class GradientLearner(Learner):
 
         terms, scale = self._prior_terms, self._prior_scale
 
+        def with_prior(x, data):
+            return data if terms is None else np.concatenate([data,
+                                                              scale * terms.residuals(full(x))])
+
         def residuals(x):
-            data = self._residuals(sensitivity, experiments, full(x), starts, substeps)
-            if terms is None:
-                return data
-            return np.concatenate([data, scale * terms.residuals(full(x))])
+            return with_prior(x, self._residuals(sensitivity, experiments, full(x), starts,
+                                                 substeps))
 
         def jacobian(x):
-            data = self._jacobian(sensitivity, experiments, full(x), starts, substeps,
-                                  columns=active)
-            if terms is not None:
-                data = np.vstack([data, scale * terms.jacobian(full(x)).toarray()[:, active]])
-            return data
+            J = self._jacobian(sensitivity, experiments, full(x), starts, substeps,
+                               columns=active)
+            if terms is None:
+                return J
+            return np.vstack([J, scale * terms.jacobian(full(x)).toarray()[:, active]])
 
+        def both(x):           # one pass: the Jacobian's runs hold the residuals at x
+            J = jacobian(x)
+            return with_prior(x, passes.stacked(self._last.runs)), J
+
+        # a Jacobian pass simulates the state and ceil(columns / threads) tangents per thread
+        threads = max(1, passes.cores() // len(experiments))
+        cheap = sensitivity.compiled and 1 + -(-len(active) // threads) <= SPECULATE_COST
         result = levenberg_marquardt(residuals, jacobian,
             theta[active], lower[active], upper[active],
-            max_evaluations=int(self.max_iterations), tolerance=tolerance)
+            max_evaluations=int(self.max_iterations), tolerance=tolerance,
+            both=both if cheap else None)
         return full(result.x)
 
     def _solve_lbfgs(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
