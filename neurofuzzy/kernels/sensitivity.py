@@ -251,7 +251,8 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
             node_volume, node_lam, node_lam_rate, element_ptr, element_column, d_shear,
             d_shear_rate, d_lam, d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column,
             stiffening_column, relax_g, relax_decay, relax_column, drag, drag_column,
-            force_direction, weight, loads, h, n_frames, substeps, first, width, start_index,
+            force_direction, weight, mass_column, unit_mass_force, loads, h, n_frames, substeps,
+            first, width, start_index,
             start_p, start_v,
             rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
     """Positions (n_frames, N, 3) and, with ``tangents``, columns ``first .. first + width
@@ -264,7 +265,10 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
     inclusions of elements are in the element constants and their CSR columns; strain
     stiffening of the elements is ``kappa`` (its column ``kappa_column``). The elements' law
-    constants ``stiffening`` (per element) have the columns ``stiffening_column``.
+    constants ``stiffening`` (per element) have the columns ``stiffening_column``. Learned
+    node masses: ``mass_column`` (N,) the column of each node's ``log m`` (-1 when not
+    learned; empty when no mass is), ``unit_mass_force`` (N, 3) the forces proportional to
+    the mass (gravity), which ``W F`` does not see: ``∂(W F)/∂log m = -W (F - F_unit)``.
     """
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
@@ -313,6 +317,11 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                                   relax_g, relax_decay,
                                   relax_column, history, d_history, first, node_strain,
                                   d_node_strain, force, d_force)
+            for i in range(mass_column.shape[0]):
+                c = mass_column[i] - first
+                if 0 <= c < width:
+                    for k in range(3):
+                        d_force[i, k, c] -= force[i, k] - unit_mass_force[i, k]
             euler_update(p, v, force, weight, h)
             # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)
             euler_update(tp_flat, tv_flat, d_force_flat, weight, h)

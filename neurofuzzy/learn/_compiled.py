@@ -3,10 +3,10 @@ directions, the experiment's loads, window starts and observation operator laid 
 :func:`neurofuzzy.kernels.sensitivity.forward` (one call per experiment, no Python per time
 step).
 
-Used when numba is installed, masses are fixed and every effect of the model is one the kernel
-knows: gravity and unmodeled loads (constant forces), a node drag, inclusions of elements
-(extra element constants) and strain stiffening of elements. Everything else takes the numpy
-reference path.
+Used when numba is installed and every effect of the model is one the kernel knows: gravity
+and unmodeled loads (constant forces), a node drag, inclusions of elements (extra element
+constants) and strain stiffening of elements; node masses learned or fixed. Everything else
+takes the numpy reference path.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ __all__ = ["compiled_possible", "CompiledModel"]
 
 def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
-    return numba_available() and not parameters.learn_masses and kernel_effects(model)
+    return numba_available() and kernel_effects(model)
 
 
 class CompiledModel:
@@ -55,7 +55,25 @@ class CompiledModel:
         self.relaxation = self._relaxation(parameters, model)
         self.effects = self._effects(model, n_params, columns)
         self.weight = model.node_inverse_mass
+        self.masses = self._masses(parameters, model)
         self.n_params = n_params
+
+    @staticmethod
+    def _masses(parameters, model):
+        """``(mass_column, unit_mass_force)``: the column of every node's ``log m`` (-1 for
+        the fixed nodes; an empty array when masses are fixed) and the forces proportional to
+        the mass (gravity: constant, so taken at rest)."""
+        if not parameters.learn_masses:
+            return np.zeros(0, np.intp), np.zeros((0, 3))
+        column = np.full(model.n_nodes, -1, np.intp)
+        column[parameters.free_nodes] = (parameters.blocks["log_mass"].start
+                                         + np.arange(len(parameters.free_nodes)))
+        rest, still = model.mesh.rest_positions, np.zeros((model.n_nodes, 3))
+        unit = np.zeros((model.n_nodes, 3))
+        for effect in model.effects:
+            if effect.per_unit_mass:
+                unit += effect.force(model, rest, still)
+        return column, unit
 
     @staticmethod
     def _elements(parameters, model, n_params, columns):
@@ -193,7 +211,8 @@ class CompiledModel:
         with np.errstate(over="ignore", invalid="ignore"):
             g, times, relax_column = self.relaxation
             forward(start_p[0].copy(), start_v[0].copy(), *self.springs, *self.elements,
-                    g, decay(times, h), relax_column, drag, drag_column, direction, self.weight, loads, h, n_frames,
+                    g, decay(times, h), relax_column, drag, drag_column, direction, self.weight,
+                    *self.masses, loads, h, n_frames,
                     int(substeps), int(first), int(width), start_index, start_p, start_v,
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
                     operator.data.astype(float),

@@ -49,7 +49,8 @@ class Sensitivity:
     backend : {"auto", "numpy", "numba"}
         Forward passes in the compiled kernel (:mod:`neurofuzzy.kernels.sensitivity`, one call
         per experiment) or the numpy reference path; ``"auto"`` compiles when numba is
-        installed and the model has only springs and elements with fixed masses.
+        installed and every effect of the model is one the kernel computes (node masses
+        learned or fixed; :func:`._compiled.compiled_possible`).
     offsets : bool
         Fit every measured row's constant offset (the markers' rest positions as nuisance
         parameters, :func:`~neurofuzzy.observation.remove_offsets`): residuals, Jacobians and
@@ -84,9 +85,10 @@ class Sensitivity:
     @property
     def compiled_gradient(self) -> bool:
         """Does :meth:`gradient` run in the compiled kernels (springs, elements, their
-        inclusions, constant loads and a node drag; no effect learned, no strain
+        inclusions, constant loads and a node drag; no effect or mass learned, no strain
         stiffening)?"""
         return (self.compiled and not self.parameters.effects
+                and not self.parameters.learn_masses
                 and not any(isinstance(effect, NonlinearStiffening)
                             for effect in self.parameters.base.effects))
 
@@ -168,8 +170,9 @@ class Sensitivity:
             return self._compiled_run(model, experiment, substeps, starts, tangents,
                                       threads if tangents else 1)
         if self.backend == "numba":
-            raise InputError("the compiled path needs numba and a model of springs and "
-                             "elements with fixed masses", key="backend")
+            raise InputError("the compiled path needs numba and a model whose effects it "
+                             "computes (springs, elements, constant loads, a node drag, "
+                             "inclusions and stiffening of elements)", key="backend")
         weight = model.node_inverse_mass[:, None]          # (N, 1)
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
