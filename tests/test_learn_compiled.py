@@ -108,7 +108,7 @@ def test_learned_effects_of_element_models(volumetric):
 def test_learned_masses_with_gravity(kind):
     """Node masses learned with the springs' or the elements' constants, under gravity (a force
     per unit mass, which the masses' columns leave out): the kernel's mass columns equal the
-    numpy path's, split over threads too; the adjoint stays on the numpy path."""
+    numpy path's, split over threads too, and so does the compiled adjoint's gradient."""
     if kind == "springs":
         model = paper_cube_model(tie="groups")
         data = paper_cube_experiment(model)
@@ -129,12 +129,21 @@ def test_learned_masses_with_gravity(kind):
     parameters = Parameterization(model, learn_masses=True)
     masses = parameters.blocks["log_mass"].slice
     assert np.abs(compiled_run.jacobian[..., masses]).max() > 0
+    parameters = Parameterization(model, learn_masses=True, learn_effects=False)
+    masses = parameters.blocks["log_mass"].slice
     sensitivity = Sensitivity(parameters, 0.01)
-    assert sensitivity.compiled and not sensitivity.compiled_gradient
-    theta = parameters.initial() + 0.01
+    assert sensitivity.compiled and sensitivity.compiled_gradient
+    theta = parameters.initial() + np.random.default_rng(5).normal(0, 0.02, parameters.size)
     whole = sensitivity.run(theta, data, substeps=steps, tangents=True)
     split = sensitivity.run(theta, data, substeps=steps, tangents=True, threads=3)
     assert np.array_equal(split.jacobian, whole.jacobian)
+    numpy_path, compiled = (Sensitivity(parameters, 0.01, backend=backend).gradient(
+        theta, data, substeps=steps) for backend in ("numpy", "numba"))
+    assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-12)
+    scale = np.abs(numpy_path[1][masses]).max()
+    assert scale > 0
+    assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * np.abs(numpy_path[1]).max()
+    assert np.abs(compiled[1][masses] - numpy_path[1][masses]).max() < 1e-10 * scale
 
 
 def assert_split_equal(model, data, steps, shift=0.01):

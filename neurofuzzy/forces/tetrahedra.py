@@ -77,7 +77,7 @@ def _stateless(model) -> Materials:
     if model.n_relaxation_terms:
         raise InputError("this model's elements relax (Prony terms), which only the compiled "
                          "kernels simulate; the numpy path was asked for (an effect the kernels "
-                         "do not compute, the adjoint of learned masses, or backend='numpy')",
+                         "do not compute, or backend='numpy')",
                          key="element_relaxation_moduli")
     return Materials.of(model)
 

@@ -244,12 +244,13 @@ def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
 @numba.njit(cache=True, nogil=True)
 def sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, loads,
           h, n_frames, substeps, start_index, start_p, start_v, positions, states_p, states_v,
-          states_r):
+          states_r, states_f):
     """Positions (n_frames, N, 3) and the state at the start of every substep
     (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
     substeps of a window's first frame are left unset), with the elements' Prony terms the
     internal variables in ``states_r`` (steps, n_elements, K, 6; carried over window
-    starts, as the forward kernel does)."""
+    starts, as the forward kernel does) and, when ``states_f`` is not empty (learned
+    masses), every substep's force."""
     n_nodes = start_p.shape[1]
     p = start_p[0].copy()
     v = start_v[0].copy()
@@ -282,20 +283,26 @@ def sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, 
             if has_elements:
                 _element_force(p, v, elements, relax_g, relax_decay, history, blank,
                                node_strain, force)
+            if states_f.shape[0]:
+                states_f[step - 1] = force
             euler_update(p, v, force, weight, h)
         positions[t] = p
 
 
 @numba.njit(cache=True, nogil=True)
 def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
-              n_frames, substeps, start_index, states_p, states_v, states_r, frame_adjoint,
-              d_stiffness, d_damping, d_elements, g_relax):
+              n_frames, substeps, start_index, states_p, states_v, states_r, states_f,
+              unit_mass_force, frame_adjoint, d_stiffness, d_damping, d_elements, g_relax,
+              g_mass):
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
     ``Σ λ_F · ∂F/∂s_j`` to ``d_stiffness[j]`` and ``Σ λ_F · ∂F/∂c_j`` to ``d_damping[j]``
     over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
     of the element constants to ``d_elements`` and of the Prony terms' ``log g``, ``log τ``
     to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
-    cotangents run on across window starts, as their values do forwards)."""
+    cotangents run on across window starts, as their values do forwards). With the forces
+    ``states_f`` of :func:`sweep` (learned masses), ``Σ λ_F · ∂(W F)/∂log m / W`` into
+    ``g_mass`` (N,): ``-λ_F · (F - F_unit)``, ``unit_mass_force`` the forces proportional to
+    the mass (gravity), which ``W F`` does not see."""
     n_nodes = frame_adjoint.shape[1]
     g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
     has_elements = elements[0].shape[0] > 0
@@ -323,6 +330,11 @@ def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, dr
             v = states_v[step]
             # p' = p + h v', v' = v + h W F: the new velocity's cotangent, then the force's
             euler_update_transpose(lam_p, lam_v, weight, h, lam_force)
+            if states_f.shape[0]:
+                force = states_f[step]
+                for i in range(n_nodes):
+                    for k in range(3):
+                        g_mass[i] -= lam_force[i, k] * (force[i, k] - unit_mass_force[i, k])
             for i in range(n_nodes):
                 for k in range(3):
                     d_p[i, k] = 0.0

@@ -15,7 +15,8 @@ __all__ = ["compiled_gradient"]
 def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
     models of springs and elements (relaxing or not) whose only effects are constant loads, a
-    node drag and inclusions of elements, none of them learned."""
+    node drag and inclusions of elements, none of them learned; node masses learned or
+    fixed."""
     from ..forces.relaxation import decay
     from ..kernels.adjoint import pull_back, sweep
 
@@ -43,10 +44,13 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     # the internal variables at every substep (empty without relaxation)
     states_r = np.empty((steps, relax_g.shape[0] if relax_g.shape[1] else 0,
                          relax_g.shape[1], 6))
+    # every substep's force when masses are learned (empty otherwise)
+    mass_column, unit_mass_force = compiled.masses
+    states_f = np.empty((steps if len(mass_column) else 0, sensitivity.n_nodes, 3))
     with np.errstate(over="ignore", invalid="ignore"):
         sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight,
               loads, h, n_frames, int(substeps), start_index, start_p, start_v, positions,
-              states_p, states_v, states_r)
+              states_p, states_v, states_r, states_f)
         scale = 1.0 / sensitivity.length_unit
         residuals = sensitivity._frame_residuals(observation, positions)
     run = Run(positions=positions, residuals=residuals[1:],
@@ -65,9 +69,13 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
                   np.zeros(per_volumetric), np.zeros(n_elements))
     g_relax = np.zeros(relax_column.shape)
+    g_mass = np.zeros(sensitivity.n_nodes)
     pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
-              n_frames, int(substeps), start_index, states_p, states_v, states_r,
-              frame_adjoint, d_stiffness, d_damping, d_elements, g_relax)
+              n_frames, int(substeps), start_index, states_p, states_v, states_r, states_f,
+              unit_mass_force, frame_adjoint, d_stiffness, d_damping, d_elements, g_relax,
+              g_mass)
+    learned = mass_column >= 0                          # each free node's log m
+    grad += np.bincount(mass_column[learned], g_mass[learned], param.size)
     if param.learn_springs:
         tie, n_ties = param.tied.tie, param.tied.n_ties
         grad[param.blocks["log_stiffness"].slice] = np.bincount(

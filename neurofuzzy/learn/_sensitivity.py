@@ -85,10 +85,9 @@ class Sensitivity:
     @property
     def compiled_gradient(self) -> bool:
         """Does :meth:`gradient` run in the compiled kernels (springs, elements, their
-        inclusions, constant loads and a node drag; no effect or mass learned, no strain
-        stiffening)?"""
+        inclusions, constant loads and a node drag, masses learned or fixed; no effect
+        learned, no strain stiffening)?"""
         return (self.compiled and not self.parameters.effects
-                and not self.parameters.learn_masses
                 and not any(isinstance(effect, NonlinearStiffening)
                             for effect in self.parameters.base.effects))
 
