@@ -29,7 +29,7 @@ import numpy as np
 from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.learn import GradientLearner
 from neurofuzzy.learn.prior import FuzzyPrior
-from neurofuzzy.reference_data import (BLOCK, Inclusion, block_experiment, block_model,
+from neurofuzzy.validation.probed_block import (BLOCK, Inclusion, block_experiment, block_model,
                                        mujoco_block, probed_block)
 
 TRUE = {"youngs_modulus": BLOCK["youngs_modulus"], "viscosity": BLOCK["viscosity"]}

@@ -1,6 +1,6 @@
 """What St. Venant–Kirchhoff, neo-Hookean and Yeoh elements recover from data of a solver
 nobody here wrote: sfepy's total-Lagrangian neo-Hookean block (quadratic tetrahedra on 5 mm
-Kuhn cells, Newmark, 20 µm marker noise; ``neurofuzzy.nonlinear_reference``), probed to 27–35 %
+Kuhn cells, Newmark, 20 µm marker noise; ``neurofuzzy.validation.nonlinear``), probed to 27–35 %
 compression (large strain) and to 4–5 % (small strain), and its uncoupled Yeoh block (C20 =
 C10, the same small-strain E and ν) probed by the same 0.7 N ("stiffening"), replayed from
 ``tests/data`` and fitted on the meshes a user builds from the block's surface (voxels split
@@ -30,8 +30,8 @@ sys.path.insert(0, str(ROOT))
 
 from neurofuzzy.diagnosis import diagnose  # noqa: E402
 from neurofuzzy.learn import GradientLearner  # noqa: E402
-from neurofuzzy.nonlinear_reference.recordings import stored  # noqa: E402
-from neurofuzzy.reference_data import block_experiment, block_model  # noqa: E402
+from neurofuzzy.validation.nonlinear.recordings import stored  # noqa: E402
+from neurofuzzy.validation.probed_block import block_experiment, block_model  # noqa: E402
 
 DATA = {"large strain": ROOT / "tests" / "data" / "neo_hookean_block_large_strain.npz",
         "small strain": ROOT / "tests" / "data" / "neo_hookean_block_small_strain.npz",

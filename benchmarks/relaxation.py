@@ -26,8 +26,8 @@ sys.path.insert(0, str(ROOT))
 
 from neurofuzzy.diagnosis import diagnose  # noqa: E402
 from neurofuzzy.learn import GradientLearner  # noqa: E402
-from neurofuzzy.nonlinear_reference.recordings import stored  # noqa: E402
-from neurofuzzy.reference_data import block_experiment, block_model  # noqa: E402
+from neurofuzzy.validation.nonlinear.recordings import stored  # noqa: E402
+from neurofuzzy.validation.probed_block import block_experiment, block_model  # noqa: E402
 
 DATA = {"relaxing": ROOT / "tests" / "data" / "relaxing_block.npz",
         "small strain": ROOT / "tests" / "data" / "neo_hookean_block_small_strain.npz"}

@@ -32,7 +32,7 @@ import numpy as np
 
 from continuum_pipeline import DT, E, ETA, FORCE, PROBE, RADIUS, REST, RHO
 from continuum_pipeline import command, marker_points, write_recording
-from neurofuzzy.continuum_reference import ContinuumSolver
+from neurofuzzy.validation.continuum import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 
 CENTRE, INCLUSION_RADIUS, CONTRAST = np.array([0.015, 0.02, 0.02]), 0.0075, 5.0

@@ -1,7 +1,7 @@
 """The documented pipeline on continuum data: mesh -> import -> fit, as a user runs it.
 
 The data come from a solver nobody here wrote: scikit-fem's quadratic tetrahedra
-(:class:`neurofuzzy.continuum_reference.ContinuumSolver`, 5 mm Kuhn cells, ten nodes per
+(:class:`neurofuzzy.validation.continuum.ContinuumSolver`, 5 mm Kuhn cells, ten nodes per
 tetrahedron, consistent mass, Newmark integration at a tenth of the frame step) for a soft
 block of 4 x 4 x 3 cm: E = 6 kPa, Poisson's ratio 0.3 or 0.45, viscosity 2 Pa s
 (Kelvin-Voigt, a Rayleigh stiffness-proportional damping), density 1050 kg/m3, bottom held,
@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neurofuzzy.continuum_reference import ContinuumSolver
+from neurofuzzy.validation.continuum import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 
 E, ETA, RHO = 6000.0, 2.0, 1050.0      # Pa, Pa s, kg/m3

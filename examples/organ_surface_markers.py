@@ -39,7 +39,7 @@ from neurofuzzy.io import save_experiment, save_model
 from neurofuzzy.markers import markers_to_experiment, read_markers, write_node_forces
 from neurofuzzy.mesh import read_mesh, surface_nodes
 from neurofuzzy.pipeline import fit
-from neurofuzzy.reference import reference_simulate
+from neurofuzzy.validation.integrators import reference_simulate
 from neurofuzzy.report import fit_report
 from neurofuzzy.rules import initialize, load_rules, shipped
 

@@ -4,7 +4,7 @@ data, and back to words.
 The data: sfepy's uncoupled Yeoh block (4 x 4 x 3 cm, E = 6 kPa, nu = 0.45, C20 = C10,
 viscosity 2 Pa s, bottom held) pressed by 0.7 N through a 1 cm patch, 25 % compression under
 the probe at its deepest, 148 surface markers at 1 kHz with 20 um noise
-(``tests/data/stiffening_block.npz``, made by ``neurofuzzy.nonlinear_reference``).
+(``tests/data/stiffening_block.npz``, made by ``neurofuzzy.validation.nonlinear``).
 
 The steps: a rule base describes the tissue as "firm, stiffens moderately when compressed";
 its words make the start model (Yeoh elements with the inferred C20/C10) on voxels a user would
@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 import neurofuzzy as nf
-from neurofuzzy.nonlinear_reference.recordings import stored
-from neurofuzzy.reference_data import block_experiment, block_model
+from neurofuzzy.validation.nonlinear.recordings import stored
+from neurofuzzy.validation.probed_block import block_experiment, block_model
 from neurofuzzy.rules import load_rules, materials
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -53,7 +53,8 @@ _EXPORTS = {
     "StiffInclusion": "effects", "SoftInclusion": "effects",
     "NonlinearStiffening": "effects", "UnmodeledLoad": "effects",
     "Trajectory": "simulation", "simulate": "simulation", "stability_limit": "simulation",
-    "reference_simulate": "reference", "reference_experiment": "reference",
+    "reference_simulate": "validation.integrators",
+    "reference_experiment": "validation.integrators",
     "Experiment": "experiment", "simulate_experiment": "experiment",
     "check_experiments": "experiment", "simulate_like": "experiment", "rms_error": "experiment",
     "load_experiment": "io", "load_model": "io", "save_experiment": "io", "save_model": "io",
@@ -108,7 +109,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .model import SpringMassModel  # noqa: F401
     from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
     from .pipeline import FitFailedError, FitOutcome, fit  # noqa: F401
-    from .reference import reference_experiment, reference_simulate  # noqa: F401
+    from .validation.integrators import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401
     from .rules import initialize, load_rules, material_values, materials  # noqa: F401
     from .rules import shipped as shipped_rules  # noqa: F401

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .experiment import Experiment, simulate_experiment
-from .mesh import Mesh, bottom_layer, lattice
+from .mesh import Mesh, bottom_layer, kuhn_block, lattice  # noqa: F401  (kuhn_block: datasets' since v0)
 from .model import SpringMassModel
 
 __all__ = ["per_spring_cube", "kuhn_block", "CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
@@ -112,7 +112,7 @@ def per_spring_cube(seed: int = 0, spread: float = 0.3):
     truth : SpringMassModel
     experiments : list of Experiment
     """
-    from .reference import reference_experiment
+    from .validation.integrators import reference_experiment
 
     rng = np.random.default_rng(seed)
     base = paper_cube_model()
@@ -123,23 +123,3 @@ def per_spring_cube(seed: int = 0, spread: float = 0.3):
                                         external_forces=load, method="rk4", substeps=10)
                    for load in push_and_pull(base.mesh)]
     return base, truth, experiments
-
-
-def kuhn_block(shape, spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """A conforming tetrahedral block: ``shape`` cubic cells per axis, each split into the six
-    Kuhn tetrahedra around its (0,0,0)–(1,1,1) diagonal.
-
-    Returns
-    -------
-    points : (n_nodes, 3) float
-        Grid nodes, ``spacing`` apart, the block's corner at the origin.
-    tetrahedra : (6 · n_cells, 4) int
-    """
-    from .mesh import kuhn_tetrahedra
-
-    shape = tuple(int(n) for n in shape)
-    node_shape = tuple(n + 1 for n in shape)
-    points = np.argwhere(np.ones(node_shape, bool)).astype(float) * spacing
-    tetrahedra = kuhn_tetrahedra(np.argwhere(np.ones(shape, bool)),
-                                 lambda corners: np.ravel_multi_index(corners.T, node_shape))
-    return points, tetrahedra

@@ -137,11 +137,20 @@ def test_nothing_imports_the_command_line():
     assert users == []
 
 
+def test_only_the_datasets_import_the_validation_code():
+    """neurofuzzy.validation makes data to validate against with other solvers; the toolkit's
+    own code does not depend on it, but for the paper cube's RK4 data (datasets)."""
+    users = {name for name in MODULES if not name.startswith("neurofuzzy.validation")
+             and name != "neurofuzzy"
+             and any(t.startswith("neurofuzzy.validation") for t, _ in _imports(name))}
+    assert users == {"neurofuzzy.datasets"}
+
+
 def test_nothing_imports_the_nonlinear_reference():
-    """neurofuzzy.nonlinear_reference is validation code (and needs sfepy): it may import
+    """neurofuzzy.validation.nonlinear is validation code (and needs sfepy): it may import
     the toolkit, never the reverse."""
-    users = [name for name in MODULES if not name.startswith("neurofuzzy.nonlinear_reference")
-             and any(t.startswith("neurofuzzy.nonlinear_reference") for t, _ in _imports(name))]
+    users = [name for name in MODULES if not name.startswith("neurofuzzy.validation.nonlinear")
+             and any(t.startswith("neurofuzzy.validation.nonlinear") for t, _ in _imports(name))]
     assert users == []
 
 

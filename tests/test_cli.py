@@ -144,7 +144,7 @@ def test_demo_writes_table_plot_and_summary(tmp_path):
 @pytest.mark.slow
 def test_fit_tie_groups_on_rk4_data_recovers_groups_within_two_percent(tmp_path):
     from neurofuzzy.datasets import paper_cube_model, point_load, top_centre_node
-    from neurofuzzy.reference import reference_experiment
+    from neurofuzzy.validation.integrators import reference_experiment
 
     truth = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0}, damping=0.02)
     load = point_load(truth.mesh, top_centre_node(truth.mesh), CUBE["force"])

@@ -8,7 +8,7 @@ from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, 
 from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion,
                                 StiffInclusion, UnmodeledLoad)
-from neurofuzzy.reference import reference_experiment
+from neurofuzzy.validation.integrators import reference_experiment
 
 TRUTH = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})
 CENTRE = [j for j in range(86) if 13 in TRUTH.mesh.springs[j]]      # springs around node 13

@@ -118,9 +118,9 @@ def test_the_neo_hookean_law_is_bonet_and_wood_s():
 @pytest.mark.parametrize("stiffening", [0.0, 1.5])
 def test_the_yeoh_law_is_the_reference_yeoh_solid(stiffening):
     """``S`` of the compiled law against the principal stresses ``∂Ψ/∂λᵢ / λᵢ`` of
-    :class:`neurofuzzy.nonlinear_reference.Yeoh` (its energy in principal stretches, written
+    :class:`neurofuzzy.validation.nonlinear.Yeoh` (its energy in principal stretches, written
     apart) with ``C₂₀ = c C₁₀``, under 30 % compression with free-ish sides."""
-    from neurofuzzy.nonlinear_reference import Yeoh
+    from neurofuzzy.validation.nonlinear import Yeoh
 
     E, nu = 5e3, 0.45
     reference = Yeoh.from_youngs(E, nu, c20_ratio=stiffening)

@@ -13,7 +13,7 @@ from neurofuzzy.learn.prior import FuzzyPrior
 
 skfem = pytest.importorskip("skfem")
 
-from neurofuzzy.reference_data import (BLOCK, Inclusion, block_experiment,  # noqa: E402
+from neurofuzzy.validation.probed_block import (BLOCK, Inclusion, block_experiment,  # noqa: E402
                                        block_model, probed_block)
 
 PITCH = 0.0075

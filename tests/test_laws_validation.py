@@ -1,6 +1,6 @@
 """The material laws against data of a solver nobody here wrote: sfepy's total-Lagrangian
 neo-Hookean block (quadratic tetrahedra on 5 mm Kuhn cells, 20 µm marker noise), stored in
-``tests/data`` by :func:`neurofuzzy.nonlinear_reference.recordings.store`, fitted on 7.5 mm
+``tests/data`` by :func:`neurofuzzy.validation.nonlinear.recordings.store`, fitted on 7.5 mm
 voxels split six to a cube (not the reference's mesh). ``benchmarks/laws.py`` measures the same
 on finer meshes and runs the whole diagnosis (the README's table)."""
 
@@ -14,8 +14,8 @@ from neurofuzzy.diagnosis.candidates import propose_candidates
 from neurofuzzy.diagnosis.loop import MIN_SHRINK, _refit, _to_refit, gap
 from neurofuzzy.diagnosis.trajectory import TrajectoryEvidence
 from neurofuzzy.learn import GradientLearner
-from neurofuzzy.nonlinear_reference.recordings import stored
-from neurofuzzy.reference_data import block_experiment, block_model
+from neurofuzzy.validation.nonlinear.recordings import stored
+from neurofuzzy.validation.probed_block import block_experiment, block_model
 
 DATA = Path(__file__).parent / "data"
 

@@ -5,7 +5,7 @@ from neurofuzzy.datasets import (CUBE, paper_cube_experiment, paper_cube_model, 
                                  top_centre_node)
 from neurofuzzy.learn import GradientLearner, auto_substeps
 from neurofuzzy.learn import Parameterization, Sensitivity
-from neurofuzzy.reference import reference_experiment
+from neurofuzzy.validation.integrators import reference_experiment
 
 
 def _perturbed(rng):

@@ -1,5 +1,5 @@
 """The elements' material laws as a user meets them: the neo-Hookean element against the closed
-form of uniaxial stress (:mod:`neurofuzzy.nonlinear_reference.closed_forms`), both laws alike at
+form of uniaxial stress (:mod:`neurofuzzy.validation.nonlinear.closed_forms`), both laws alike at
 small strain and apart at large, and the law carried by model files, the command line and
 ``nf.fit``."""
 
@@ -16,7 +16,7 @@ from neurofuzzy.forces import TETRAHEDRA
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
-from neurofuzzy.nonlinear_reference import NeoHookean, Yeoh, uniaxial_stress
+from neurofuzzy.validation.nonlinear import NeoHookean, Yeoh, uniaxial_stress
 
 E, NU = 6000.0, 0.45
 
@@ -27,7 +27,7 @@ def _block(law, volumetric="nodal", cells=(2, 2, 2)):
                                      density=1000.0, volumetric=volumetric, law=law)
 
 
-#: each curved law and its closed form (:mod:`neurofuzzy.nonlinear_reference`, written in
+#: each curved law and its closed form (:mod:`neurofuzzy.validation.nonlinear`, written in
 #: principal stretches apart from the elements); Yeoh's with C20 = 1.5 C10
 CLOSED_FORMS = {"neo-hookean": NeoHookean(E, NU), "yeoh": Yeoh.from_youngs(E, NU, c20_ratio=1.5)}
 

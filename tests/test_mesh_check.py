@@ -7,7 +7,7 @@ import pytest
 from helpers import cli
 from test_markers_embedded import as_recording, element_block, interior_points, record
 
-from neurofuzzy.continuum_reference import ContinuumSolver
+from neurofuzzy.validation.continuum import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.effects import Gravity
 from neurofuzzy.errors import InputError

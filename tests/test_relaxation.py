@@ -14,7 +14,7 @@ from neurofuzzy.io import load_model, save_model
 from neurofuzzy.kernels.relaxation import relax, relaxed
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
-from neurofuzzy.nonlinear_reference import sls_creep
+from neurofuzzy.validation.nonlinear import sls_creep
 from neurofuzzy.simulation import required_substeps, simulate
 
 E, NU, G, TAU = 6000.0, 0.3, 0.5, 0.05

@@ -12,8 +12,8 @@ import pytest
 
 from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.learn import GradientLearner
-from neurofuzzy.nonlinear_reference.recordings import stored
-from neurofuzzy.reference_data import block_experiment, block_model
+from neurofuzzy.validation.nonlinear.recordings import stored
+from neurofuzzy.validation.probed_block import block_experiment, block_model
 
 DATA = Path(__file__).parent / "data"
 

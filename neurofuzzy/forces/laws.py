@@ -28,7 +28,7 @@ write it, ``Ψ = C₁₀ (Ī₁ - 3) + C₂₀ (Ī₁ - 3)² + K/2 (J - 1)²`` (
 bulk modulus ``K = λ + 2μ/3``: ``D = ½ (1 + 2c (Ī₁ - 3)) J^(-2/3) (I - I₁/3 C⁻¹) + θ/3 N``
 (the shear's share of ``K``). At small strain it is linear elasticity with the same E and ν
 for every ``c``; it stiffens with strain as ``c`` grows. Why Yeoh for tissue:
-:class:`neurofuzzy.nonlinear_reference.Yeoh`. Its ``dD`` and ``dN`` here are complex-step
+:class:`neurofuzzy.validation.nonlinear.Yeoh`. Its ``dD`` and ``dN`` here are complex-step
 derivatives of ``D`` and ``N`` (the kernels generate theirs from their own stress function
 alike); ``D`` is affine in ``c``, so the force's derivative by ``c`` is that of
 ``D(G; 1) - D(G; 0)`` (:meth:`~neurofuzzy.forces.TetrahedronForce.stiffening_forces`).

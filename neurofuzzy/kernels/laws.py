@@ -27,7 +27,7 @@ write it.
   ``K = λ + 2μ/3``: ``θ = J - 1``, and the law adds the shear's share ``2μ/3 θ`` to the
   caller's ``π = λ θ``. Linear elasticity with the same E, ν at small strain for any ``c``
   (``(Ī₁ - 3)²`` is of fourth order in the strain); stiffer than neo-Hookean in compression
-  and tension alike as ``c`` grows (why Yeoh: :class:`neurofuzzy.nonlinear_reference.Yeoh`).
+  and tension alike as ``c`` grows (why Yeoh: :class:`neurofuzzy.validation.nonlinear.Yeoh`).
 
 Adding a law: write its function here, give it the next number in :data:`LAWS` and a branch
 in :func:`elastic`; its forward and reverse derivatives then come from it by complex step

@@ -30,10 +30,10 @@ from .core import TET_EDGES, Mesh, bottom_layer, mesh_fingerprint
 from .files import MeshFile, read_mesh
 from .lattice import LatticeCells, cell_lattice, from_trimesh, lattice, lattice_cells
 from .surface import patch_loads, patch_weights, surface_triangles
-from .tetra import (from_surface_tetra, from_tetra, kuhn_tetrahedra, lattice_to_tetra,
+from .tetra import (from_surface_tetra, from_tetra, kuhn_block, kuhn_tetrahedra, lattice_to_tetra,
                     surface_nodes)
 
 __all__ = ["Mesh", "lattice", "from_trimesh", "cell_lattice", "from_tetra", "from_surface_tetra",
            "surface_nodes", "lattice_cells", "LatticeCells", "bottom_layer", "TET_EDGES",
-           "read_mesh", "MeshFile", "lattice_to_tetra", "kuhn_tetrahedra", "surface_triangles",
+           "read_mesh", "MeshFile", "lattice_to_tetra", "kuhn_tetrahedra", "kuhn_block", "surface_triangles",
            "patch_loads", "patch_weights", "mesh_fingerprint"]

@@ -14,7 +14,7 @@ from .core import (MAX_CELLS, TET_EDGES, Mesh, as_float_array, as_index_array, c
 from .lattice import lattice_cells
 
 __all__ = ["from_tetra", "from_surface_tetra", "surface_nodes", "lattice_to_tetra",
-           "kuhn_tetrahedra"]
+           "kuhn_tetrahedra", "kuhn_block"]
 
 
 def from_tetra(points, tetrahedra, *, cell_region=None,
@@ -228,3 +228,21 @@ def lattice_to_tetra(mesh: Mesh, *, bounds=None) -> Mesh:
         raise InputError(f"{mesh.n_nodes - split.n_nodes} node(s) belong to no complete cell",
                          key="mesh")
     return split.with_fixed(mesh.fixed)
+
+
+def kuhn_block(shape, spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """A conforming tetrahedral block: ``shape`` cubic cells per axis, each split into the six
+    Kuhn tetrahedra around its (0,0,0)–(1,1,1) diagonal.
+
+    Returns
+    -------
+    points : (n_nodes, 3) float
+        Grid nodes, ``spacing`` apart, the block's corner at the origin.
+    tetrahedra : (6 · n_cells, 4) int
+    """
+    shape = tuple(int(n) for n in shape)
+    node_shape = tuple(n + 1 for n in shape)
+    points = np.argwhere(np.ones(node_shape, bool)).astype(float) * spacing
+    tetrahedra = kuhn_tetrahedra(np.argwhere(np.ones(shape, bool)),
+                                 lambda corners: np.ravel_multi_index(corners.T, node_shape))
+    return points, tetrahedra

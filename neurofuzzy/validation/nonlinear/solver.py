@@ -1,7 +1,7 @@
 """Large-strain elastodynamics of a tetrahedral mesh by sfepy, for data nobody here wrote.
 
 :class:`HyperelasticSolver` is the nonlinear sibling of
-:class:`~neurofuzzy.continuum_reference.ContinuumSolver` (same arguments, loads and
+:class:`~neurofuzzy.validation.continuum.ContinuumSolver` (same arguments, loads and
 sampling): total-Lagrangian finite elements of sfepy (quadratic tetrahedra by default,
 consistent mass), integrated with the average-acceleration Newmark scheme and Newton's
 method at each step.
@@ -48,7 +48,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
 from ._newton import Inverted, ModifiedNewton
 from ._sfepy_setup import field_variables, quiet, require_sfepy
 from ._stepping import Trajectory, newmark

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
-from ..errors import InputError
+from ...errors import InputError
 
 __all__ = ["UniaxialStress", "uniaxial_stress", "uniaxial_stretch", "sls_relaxation",
            "sls_creep", "prony_relaxation"]

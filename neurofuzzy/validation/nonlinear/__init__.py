@@ -6,7 +6,7 @@ strain-stiffening law, and FEBio's quasi-linear Prony-series viscoelasticity on 
 either. :class:`HyperelasticSolver` solves them dynamically at large strain;
 :mod:`.closed_forms` gives uniaxial stress and the standard linear solid's creep and
 relaxation to check it against; :mod:`.recordings` records the probed block of
-:mod:`neurofuzzy.reference_data` with them (up to about 35 % compression under the probe).
+:mod:`neurofuzzy.validation.probed_block` with them (up to about 35 % compression under the probe).
 
 Needs sfepy (``pip install sfepy``) for the solver; the closed forms need only numpy and
 scipy.

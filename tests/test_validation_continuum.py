@@ -1,5 +1,5 @@
 """Our tetrahedral elements against the continuum as scikit-fem's quadratic tetrahedra solve it
-(:class:`~neurofuzzy.continuum_reference.ContinuumSolver`): the nodal volumetric form does not
+(:class:`~neurofuzzy.validation.continuum.ContinuumSolver`): the nodal volumetric form does not
 lock, and both forms converge under refinement. The reference itself is checked against
 closed forms first."""
 
@@ -14,7 +14,7 @@ from neurofuzzy.model import SpringMassModel
 from neurofuzzy.observation import embed_points
 
 pytest.importorskip("skfem")
-from neurofuzzy.continuum_reference import ContinuumSolver  # noqa: E402
+from neurofuzzy.validation.continuum import ContinuumSolver  # noqa: E402
 
 E, RHO = 6000.0, 1000.0
 PROBE, RADIUS, FORCE = (0.02, 0.02, 0.03), 0.01, (0.0, 0.0, -0.05)

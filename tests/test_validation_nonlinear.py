@@ -1,4 +1,4 @@
-"""The nonlinear reference (:mod:`neurofuzzy.nonlinear_reference`) against closed forms, its
+"""The nonlinear reference (:mod:`neurofuzzy.validation.nonlinear`) against closed forms, its
 own convergence, energy, and the linear reference; the recordings of the probed block.
 
 Every check here is of code nobody here wrote (sfepy) or of formulas checked two ways: the
@@ -13,9 +13,9 @@ import pytest
 from scipy.integrate import quad
 
 from neurofuzzy.errors import InputError
-from neurofuzzy.nonlinear_reference import (NeoHookean, Prony, Yeoh, sls_creep, sls_relaxation,
+from neurofuzzy.validation.nonlinear import (NeoHookean, Prony, Yeoh, sls_creep, sls_relaxation,
                                             uniaxial_stress, uniaxial_stretch)
-from neurofuzzy.nonlinear_reference.closed_forms import prony_relaxation
+from neurofuzzy.validation.nonlinear.closed_forms import prony_relaxation
 
 #: the solver's tests need sfepy, which is not in the test extra: on Python 3.11 pip builds it
 #: from its source (about 7 minutes on 2 cores), too long for every CI run. The laws and the closed
@@ -160,11 +160,11 @@ def test_coupled_neo_hookean_term_follows_sfepys_conventions():
     from sfepy.terms import Term
     from sfepy.terms.terms_hyperelastic_base import HyperElasticBase
 
-    from neurofuzzy.nonlinear_reference import HyperelasticSolver
-    from neurofuzzy.nonlinear_reference._sfepy_terms import (CoupledNeoHookeanTLTerm,
+    from neurofuzzy.validation.nonlinear import HyperelasticSolver
+    from neurofuzzy.validation.nonlinear._sfepy_terms import (CoupledNeoHookeanTLTerm,
                                                              _symmetric_product, to_matrix,
                                                              to_voigt)
-    from neurofuzzy.nonlinear_reference._sfepy_setup import field_variables
+    from neurofuzzy.validation.nonlinear._sfepy_setup import field_variables
 
     class Uncoupled(CoupledNeoHookeanTLTerm):
         name = "dw_test_uncoupled"
@@ -236,7 +236,7 @@ def test_coupled_neo_hookean_term_follows_sfepys_conventions():
 def test_a_block_in_uniaxial_stress_follows_the_closed_form(material, order):
     """Compressed by 0.4 E and pulled by 0.3 E (dead loads), a block on symmetry planes
     deforms homogeneously: its stretches are the closed form's to the solver's tolerance."""
-    from neurofuzzy.nonlinear_reference import HyperelasticSolver
+    from neurofuzzy.validation.nonlinear import HyperelasticSolver
 
     solver = HyperelasticSolver(*cube(), material=material, density=RHO, fixed=SYMMETRY,
                                 order=order)
@@ -255,7 +255,7 @@ def test_creep_follows_the_standard_linear_solid():
     standard linear solid's closed form (the load ramped over the first step, as the update
     reads a step), at 33 % the instantaneous law (1 + g) Ψ at once and the long-term law Ψ
     at the end."""
-    from neurofuzzy.nonlinear_reference import HyperelasticSolver
+    from neurofuzzy.validation.nonlinear import HyperelasticSolver
 
     material, prony = NeoHookean(E, NU), Prony((0.5,), (0.05,))
     solver = HyperelasticSolver(*cube(1), material=material, density=RHO, fixed=SYMMETRY,
@@ -281,7 +281,7 @@ def test_creep_follows_the_standard_linear_solid():
 
 
 def probed_cube(material, **options):
-    from neurofuzzy.nonlinear_reference import HyperelasticSolver
+    from neurofuzzy.validation.nonlinear import HyperelasticSolver
 
     solver = HyperelasticSolver(*cube(2, 0.02), material=material, density=RHO,
                                 fixed=lambda x: x[2] < 1e-9, **options)
@@ -340,10 +340,10 @@ def test_small_strain_motion_is_the_linear_references():
     """At small strain (under 0.5 %) the neo-Hookean block with Kelvin–Voigt viscosity
     moves as scikit-fem's linear elastodynamics on the same quadratic mesh; the difference
     is the law's nonlinearity, proportional to the load."""
-    from neurofuzzy.continuum_reference import ContinuumSolver
+    from neurofuzzy.validation.continuum import ContinuumSolver
     from neurofuzzy.datasets import kuhn_block
-    from neurofuzzy.nonlinear_reference import HyperelasticSolver
-    from neurofuzzy.reference_data import BLOCK, marker_points
+    from neurofuzzy.validation.nonlinear import HyperelasticSolver
+    from neurofuzzy.validation.probed_block import BLOCK, marker_points
 
     mesh = kuhn_block((4, 4, 3), 0.01)
     options = dict(density=RHO, fixed=lambda x: x[2] < 1e-9)
@@ -366,7 +366,7 @@ def test_small_strain_motion_is_the_linear_references():
 
 @needs_sfepy
 def test_solver_refuses_bad_input():
-    from neurofuzzy.nonlinear_reference import HyperelasticSolver
+    from neurofuzzy.validation.nonlinear import HyperelasticSolver
 
     points, tetrahedra = cube(1)
     with pytest.raises(InputError, match="expected NeoHookean or Yeoh"):
@@ -395,8 +395,8 @@ def fine_static():
 
 @needs_sfepy
 def test_a_coarse_recording_is_imported_with_its_own_force():
-    from neurofuzzy.nonlinear_reference.recordings import small_strain_block
-    from neurofuzzy.reference_data import block_experiment, block_model
+    from neurofuzzy.validation.nonlinear.recordings import small_strain_block
+    from neurofuzzy.validation.probed_block import block_experiment, block_model
 
     recording = small_strain_block(cell=0.01, rest_frames=4, frames=8)
     assert recording.markers.positions.shape == (12, 148, 3)
@@ -417,9 +417,9 @@ def test_the_block_converges_under_refinement_to_a_finer_run():
     """Equilibrium under 0.7 N (27 % compression under the probe) at the markers: 1 cm and
     5 mm cells against 2.5 mm (18 % and 6.3 % of the motion; the slow convergence is the
     patch's edge, where the traction steps)."""
-    from neurofuzzy.nonlinear_reference.recordings import (LARGE_FORCE, block_solver,
+    from neurofuzzy.validation.nonlinear.recordings import (LARGE_FORCE, block_solver,
                                                            compressive_strain)
-    from neurofuzzy.reference_data import BLOCK
+    from neurofuzzy.validation.probed_block import BLOCK
 
     points, fine = fine_static()
     errors = {}
@@ -436,7 +436,7 @@ def test_the_block_converges_under_refinement_to_a_finer_run():
 @needs_sfepy
 @pytest.mark.slow
 def test_large_strain_recording_compresses_the_tissue_by_about_30_percent():
-    from neurofuzzy.nonlinear_reference.recordings import large_strain_block
+    from neurofuzzy.validation.nonlinear.recordings import large_strain_block
 
     recording = large_strain_block(rest_frames=5, frames=26)
     truth = recording.truth
@@ -456,9 +456,9 @@ def test_relaxing_block_creeps_as_the_standard_linear_solid():
     equilibrium to it, ε∞ · ε_SLS(t)/ε∞ (correspondence principle, 4 % strain), ringing
     about it at first (means over windows: measured 4.5 % off in 5–40 ms, under 0.4 %
     after)."""
-    from neurofuzzy.nonlinear_reference.recordings import (SMALL_FORCE, block_solver,
+    from neurofuzzy.validation.nonlinear.recordings import (SMALL_FORCE, block_solver,
                                                            compressive_strain, relaxing_block)
-    from neurofuzzy.reference_data import BLOCK
+    from neurofuzzy.validation.probed_block import BLOCK
 
     recording = relaxing_block(cell=0.01, rest_frames=0, frames=301, noise=0.0)
     strain = recording.truth["compressive_strain"]

@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .errors import InputError
-from .experiment import Experiment
-from .model import SpringMassModel
-from .simulation import Trajectory, internal_forces
+from ..errors import InputError
+from ..experiment import Experiment
+from ..model import SpringMassModel
+from ..simulation import Trajectory, internal_forces
 
 __all__ = ["reference_simulate", "reference_experiment"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 
-from ..errors import InputError
+from ...errors import InputError
 
 
 @contextlib.contextmanager

@@ -3,7 +3,7 @@
 The block of the documentation's continuum examples: 4 × 4 × 3 cm, bottom held, pushed on the top
 centre by a probe through a 1 cm contact patch; markers on the top (off the patch) and two
 sides on a 5 mm grid, recorded at 1 kHz with white noise. The motion comes from scikit-fem's
-quadratic tetrahedra (:class:`~neurofuzzy.continuum_reference.ContinuumSolver`: Kuhn cells of
+quadratic tetrahedra (:class:`~neurofuzzy.validation.continuum.ContinuumSolver`: Kuhn cells of
 ``cell`` metres, consistent mass, Newmark), optionally with a stiffer (or softer) sphere
 inside and with gravity nobody declared. :func:`block_model` and :func:`block_experiment`
 then build what a user of the toolkit would: a model meshed from the block's surface (voxels
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 __all__ = ["BLOCK", "Inclusion", "Recording", "probed_block", "mujoco_block", "marker_points",
            "block_model", "block_experiment", "five_tetrahedra_block"]
@@ -97,9 +97,9 @@ def probed_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
     """The block's markers, recorded for ``rest_frames`` frames at rest and then ``frames``
     frames while the probe pushes (from its first touch). With ``gravity`` the block is let go
     under its weight as the probe touches; with an ``inclusion`` the sphere is stiffer."""
-    from .continuum_reference import ContinuumSolver
-    from .datasets import kuhn_block
-    from .markers import MarkerData
+    from .continuum import ContinuumSolver
+    from ..mesh import kuhn_block
+    from ..markers import MarkerData
 
     size = np.array(BLOCK["size"])
     cells = np.round(size / cell).astype(int)
@@ -141,8 +141,8 @@ def block_model(*, pitch: float | None = None, tetgen: bool = False,
     (``max_edge``), elements from the rule base's tissue."""
     import trimesh
 
-    from .mesh import from_surface_tetra, from_trimesh, lattice_to_tetra
-    from .rules import initialize, resolve
+    from ..mesh import from_surface_tetra, from_trimesh, lattice_to_tetra
+    from ..rules import initialize, resolve
 
     surface = trimesh.creation.box(extents=BLOCK["size"])
     surface.apply_translation(np.array(BLOCK["size"]) / 2)
@@ -160,8 +160,8 @@ def block_experiment(recording: Recording, mesh):
     probe.csv``): markers embedded at their rest positions (the mean of the frames at rest),
     the probe's force (``recording.truth["force"]``, the block's 0.05 N if it names none)
     spread over its contact patch from the frame it touches."""
-    from .markers import markers_to_experiment
-    from .mesh import patch_loads
+    from ..markers import markers_to_experiment
+    from ..mesh import patch_loads
 
     force = recording.truth.get("force", BLOCK["force"])
     load = patch_loads(mesh, BLOCK["probe"], BLOCK["radius"], (0.0, 0.0, -force))
@@ -195,12 +195,12 @@ def mujoco_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
                  frames: int = 101, seed: int = 0, cell: float = 0.0025) -> Recording:
     """:func:`probed_block`'s recording made by MuJoCo (module docstring) on cubes of
     ``cell`` metres split in five."""
-    from .experiment import Experiment
-    from .export.mujoco import mjcf, simulate_mujoco
-    from .markers import MarkerData
-    from .mesh import from_tetra, patch_loads
-    from .model import SpringMassModel
-    from .observation import embed_points
+    from ..experiment import Experiment
+    from ..export.mujoco import mjcf, simulate_mujoco
+    from ..markers import MarkerData
+    from ..mesh import from_tetra, patch_loads
+    from ..model import SpringMassModel
+    from ..observation import embed_points
 
     points, tetrahedra = five_tetrahedra_block(cell)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
@@ -222,7 +222,7 @@ def mujoco_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
                                           node_region=np.zeros(mesh.n_nodes, np.intp),
                                           spring_region=np.zeros(mesh.n_springs, np.intp))
     if gravity:
-        from .effects import Gravity
+        from ..effects import Gravity
 
         truth_model = truth_model.with_effects(Gravity((0.0, 0.0, -9.81)))
     n_frames = rest_frames + frames

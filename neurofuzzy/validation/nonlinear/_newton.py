@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from ..errors import InputError
+from ...errors import InputError
 
 
 class Inverted(Exception):

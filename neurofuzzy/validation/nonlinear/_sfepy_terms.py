@@ -6,7 +6,7 @@ quadrature points, and assembles ``∫ S : δE dV`` and the tangent ``∫ (Bᵀ 
 Piola–Kirchhoff stress S and material tangent ℂ = ∂S/∂E at each point: a term supplies only
 those two. Both are given in sfepy's order ``(xx, yy, zz, xy, xz, yz)``, the tangent as plain
 components ``ℂ[I, J] = ℂ_ijkl`` (checked against sfepy's C neo-Hookean term to round-off,
-``tests/test_nonlinear_reference.py``).
+``tests/test_validation_nonlinear.py``).
 
 - :class:`CoupledNeoHookeanTLTerm`: the coupled neo-Hookean stress
   ``S = μ (I - C⁻¹) + λ ln J C⁻¹`` and tangent

@@ -1,6 +1,6 @@
 """Recordings of the probed block at large strain, made by sfepy, to validate against.
 
-The block of :mod:`neurofuzzy.reference_data` (4 × 4 × 3 cm, bottom held, 148 markers on
+The block of :mod:`neurofuzzy.validation.probed_block` (4 × 4 × 3 cm, bottom held, 148 markers on
 the top and two sides, 1 kHz, 20 µm noise, 30 frames at rest and 101 while the probe pushes
 through its 1 cm contact patch) with the material laws of :mod:`.materials` solved by
 :class:`~.solver.HyperelasticSolver` (quadratic tetrahedra on Kuhn cells of ``cell``
@@ -30,8 +30,8 @@ import time
 
 import numpy as np
 
-from ..errors import InputError
-from ..reference_data import BLOCK, Recording, marker_points
+from ...errors import InputError
+from ..probed_block import BLOCK, Recording, marker_points
 from .materials import NeoHookean, Prony, Yeoh
 
 __all__ = ["LARGE_FORCE", "SMALL_FORCE", "nonlinear_block", "large_strain_block",
@@ -50,7 +50,7 @@ def block_solver(*, law: str = "neo-hookean", poisson_ratio: float = 0.45,
     """The :class:`~.solver.HyperelasticSolver` of the block: Kuhn cells of ``cell`` m,
     E = 6 kPa, η = 2 Pa·s, 1050 kg/m³ (``reference_data.BLOCK``), bottom held. ``law`` is
     ``"neo-hookean"`` or ``"yeoh"`` (with C₂₀ = ``stiffening`` · C₁₀, C₃₀ = 0)."""
-    from ..datasets import kuhn_block
+    from ...mesh import kuhn_block
     from .solver import HyperelasticSolver
 
     size = np.array(BLOCK["size"])
@@ -87,7 +87,7 @@ def nonlinear_block(*, law: str = "neo-hookean", force: float = LARGE_FORCE,
     frames while the probe pushes with ``force`` N (held from its first touch), the block
     made of ``law`` (see :func:`block_solver`) with Kelvin–Voigt η = 2 Pa·s and, if given,
     the ``prony`` series on top."""
-    from ..markers import MarkerData
+    from ...markers import MarkerData
 
     if not (np.isfinite(force) and force > 0):
         raise InputError(f"must be a positive number of newtons, got {force!r}", key="force")
@@ -173,7 +173,7 @@ def stored(path) -> Recording:
     """A recording written by :func:`store`."""
     import json
 
-    from ..markers import MarkerData
+    from ...markers import MarkerData
 
     with np.load(path) as data:
         rest = data["rest_points"]
