@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .experiment import Experiment, simulate_experiment
-from .mesh import Mesh, bottom_layer, kuhn_block, lattice  # noqa: F401  (kuhn_block: datasets' since v0)
+from .mesh import Mesh, bottom_layer, kuhn_block, lattice  # noqa: F401  (kuhn_block re-exported)
 from .model import SpringMassModel
 
 __all__ = ["per_spring_cube", "kuhn_block", "CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
