@@ -186,7 +186,7 @@ def _element_arrays(model, dtype, h: float):
     """``(tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
     node_volume, Λ, H, node_strain, g, a, history)`` of the model's elements in the kernel's
     layout (the
-    constants of :class:`~neurofuzzy.forces.Materials`; empty when it has none;
+    constants of :class:`~neurofuzzy.forces.ElementConstants`; empty when it has none;
     ``node_strain`` is scratch space of the nodal volumetric form; ``g``, ``a = exp(-h/τ)``
     and ``history`` (n_elements, K, 6) the Prony terms of steps of ``h`` seconds and their
     internal variables, :mod:`neurofuzzy.forces.relaxation`)."""

@@ -4,7 +4,7 @@ once for the stepper (:class:`neurofuzzy._steppers.NumbaStepper`) and the sensit
 
 - constant forces (gravity, an unmodeled load): added to the loads;
 - a node drag ``-b v``;
-- inclusions of elements: extra element constants (:meth:`StiffInclusion.materials`);
+- inclusions of elements: extra element constants (:meth:`StiffInclusion.added_constants`);
 - strain stiffening of the elements: ``κ`` of :mod:`neurofuzzy.kernels.laws`.
 
 Every other effect takes the numpy path.
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..forces.tetra_geometry import Materials
+from ..forces.tetra_geometry import ElementConstants
 from .inclusions import SoftInclusion, StiffInclusion
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .stiffening import NonlinearStiffening
@@ -44,11 +44,11 @@ def kernel_effects(model) -> bool:
         or element_stiffening(effect) for effect in model.effects)
 
 
-def element_constants(model) -> tuple[Materials, dict[str, np.ndarray]]:
-    """The model's own element :class:`Materials` and the constants ``shear``,
+def element_constants(model) -> tuple[ElementConstants, dict[str, np.ndarray]]:
+    """The model's own element :class:`ElementConstants` and the constants ``shear``,
     ``shear_rate``, ``lam``, ``lam_rate`` (per element) with its inclusions' added."""
-    own = Materials.of(model)
-    parts = [own] + [effect.materials(model, effect.params[0])
+    own = ElementConstants.of(model)
+    parts = [own] + [effect.added_constants(model, effect.params[0])
                      for effect in model.effects if element_inclusion(effect)]
     return own, {key: sum(getattr(part, key) for part in parts)
                  for key in ("shear", "shear_rate", "lam", "lam_rate")}

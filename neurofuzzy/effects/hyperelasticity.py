@@ -22,7 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..forces import TETRAHEDRA, Materials
+from ..forces import TETRAHEDRA, ElementConstants
 from ..forces.laws import LAWS
 from .base import Effect, register
 
@@ -50,8 +50,8 @@ class Hyperelasticity(Effect):
         return model.replace(element_law=cls.switches_to)
 
     @staticmethod
-    def _pair(model) -> tuple[Materials, Materials]:
-        own = Materials.of(model)
+    def _pair(model) -> tuple[ElementConstants, ElementConstants]:
+        own = ElementConstants.of(model)
         return own, replace(own, law=np.full_like(own.law, NEO_HOOKEAN))
 
     def _difference(self, method, model, *args):

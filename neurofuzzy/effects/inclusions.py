@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..forces import TETRAHEDRA, Materials, tetrahedron_geometry
+from ..forces import TETRAHEDRA, ElementConstants, tetrahedron_geometry
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -81,48 +81,50 @@ class _Inclusion(SpringEffect):
         return state.stretch, np.ones_like(state.stretch)
 
     # -- elements -----------------------------------------------------------------------------
-    def materials(self, model, extra: float) -> Materials:
-        """The region's extra materials: Young's modulus ``extra`` on its elements, zero
+    def added_constants(self, model, extra: float) -> ElementConstants:
+        """The region's extra element constants: Young's modulus ``extra`` on its elements, zero
         elsewhere, the inclusion's Poisson's ratio, no viscosity, the elements' own law."""
         if not model.has_elements:
             raise InputError("an inclusion of elements needs a model with tetrahedral elements",
                              key="elements")
         modulus = np.zeros(model.mesh.n_tetrahedra)
         modulus[self.elements] = extra
-        return Materials.from_values(tetrahedron_geometry(model.mesh), modulus,
-                                     self.options["poisson_ratio"], np.zeros_like(modulus),
-                                     nodal=model.element_volumetric == "nodal",
-                                     law=model.element_law,
-                                     stiffening=model.element_stiffening)
+        return ElementConstants.from_values(tetrahedron_geometry(model.mesh), modulus,
+                                            self.options["poisson_ratio"],
+                                            np.zeros_like(modulus),
+                                            nodal=model.element_volumetric == "nodal",
+                                            law=model.element_law,
+                                            stiffening=model.element_stiffening)
 
     def force(self, model, positions, velocities):
         if not self.on_elements:
             return super().force(model, positions, velocities)
-        return TETRAHEDRA.force_of(self.materials(model, self.params[0]), positions, velocities)
+        return TETRAHEDRA.force_of(self.added_constants(model, self.params[0]), positions,
+                                   velocities)
 
     def parameter_jacobian(self, model, positions, velocities):
         if not self.on_elements:
             return super().parameter_jacobian(model, positions, velocities)
-        return TETRAHEDRA.force_of(self.materials(model, 1.0), positions,
+        return TETRAHEDRA.force_of(self.added_constants(model, 1.0), positions,
                                    velocities)[:, None, :]
 
     def state_jvp(self, model, positions, velocities, dp, dv):
         if not self.on_elements:
             return super().state_jvp(model, positions, velocities, dp, dv)
-        return TETRAHEDRA.state_jvp_of(self.materials(model, self.params[0]), positions,
+        return TETRAHEDRA.state_jvp_of(self.added_constants(model, self.params[0]), positions,
                                        velocities, dp, dv)
 
     def state_vjp(self, model, positions, velocities, cotangent):
         if not self.on_elements:
             return super().state_vjp(model, positions, velocities, cotangent)
-        return TETRAHEDRA.state_vjp_of(self.materials(model, self.params[0]), positions,
+        return TETRAHEDRA.state_vjp_of(self.added_constants(model, self.params[0]), positions,
                                        velocities, cotangent)
 
     def rest_matrices(self, model):
         """The region's extra stiffness at rest (elements; springs add none to the bound)."""
         if not self.on_elements:
             return None
-        return TETRAHEDRA.rest_matrices_of(self.materials(model, max(self.params[0], 0.0)))
+        return TETRAHEDRA.rest_matrices_of(self.added_constants(model, max(self.params[0], 0.0)))
 
     def relative(self, model) -> dict[str, float]:
         """The extra stiffness relative to the region's own (per spring group, or ``δ / E``)."""

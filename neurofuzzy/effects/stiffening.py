@@ -155,8 +155,8 @@ class NonlinearStiffening(SpringEffect):
         modulus ``μ``."""
         if not self.on_elements:
             return super().relative(model)
-        shear = model.element_youngs_modulus / (2.0 * (1.0 + model.element_poisson_ratio))
-        return {"kappa": float(self.params[0] / np.mean(shear))}
+        mu = model.element_youngs_modulus / (2.0 * (1.0 + model.element_poisson_ratio))
+        return {"kappa": float(self.params[0] / np.mean(mu))}
 
     def equation(self):
         if self.on_elements:

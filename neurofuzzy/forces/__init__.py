@@ -6,7 +6,7 @@
 - :class:`TetrahedronForce` (:data:`TETRAHEDRA`): linear tetrahedral finite elements with the
   material's E, ν and η (St. Venant–Kirchhoff, Kelvin–Voigt viscosity);
 - :class:`Incidence`: the node ↔ spring maps, one per mesh (:func:`incidence`);
-  :func:`tetrahedron_geometry` and :class:`Materials` the same for tetrahedra.
+  :func:`tetrahedron_geometry` and :class:`ElementConstants` the same for tetrahedra.
 
 The effects of :mod:`neurofuzzy.effects` are force terms too.
 """
@@ -15,9 +15,9 @@ from .assembly import Incidence, incidence
 from .base import ForceTerm
 from .springs import (SPRINGS, SpringForce, SpringState, central_jvp, central_vjp,
                       projected_laplacian)
-from .tetra_geometry import Materials, tetrahedron_geometry
+from .tetra_geometry import ElementConstants, tetrahedron_geometry
 from .tetrahedra import TETRAHEDRA, TetrahedronForce
 
 __all__ = ["ForceTerm", "SpringForce", "SPRINGS", "SpringState", "Incidence", "incidence",
            "central_jvp", "central_vjp", "projected_laplacian", "TetrahedronForce",
-           "TETRAHEDRA", "tetrahedron_geometry", "Materials"]
+           "TETRAHEDRA", "tetrahedron_geometry", "ElementConstants"]

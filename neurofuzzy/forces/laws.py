@@ -3,8 +3,8 @@ compiled laws of :mod:`neurofuzzy.kernels.laws` are tested against).
 
 A law gives the elastic second Piola–Kirchhoff stress of the Green strain ``G`` as
 ``S = 2μ D(G) + π N(G)`` with ``π`` the volumetric stress (``λ θ`` per element, or the node
-average: :class:`~neurofuzzy.forces.tetra_geometry.Materials`), ``θ(G)`` the law's volumetric
-strain and ``N = ∂θ/∂G``:
+average: :class:`~neurofuzzy.forces.tetra_geometry.ElementConstants`), ``θ(G)`` the law's
+volumetric strain and ``N = ∂θ/∂G``:
 
 ========================  ==================  ===========  ==============
 law                       ``D(G)``            ``θ(G)``     ``N(G)``

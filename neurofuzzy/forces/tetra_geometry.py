@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from ..errors import InputError
 
 __all__ = ["TetrahedronGeometry", "tetrahedron_geometry", "corner_forces", "lame_factors",
-           "Materials", "broadcast_per_element"]
+           "ElementConstants", "broadcast_per_element"]
 
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
@@ -128,7 +128,7 @@ def broadcast_per_element(values, like):
 
 
 @dataclass(frozen=True)
-class Materials:
+class ElementConstants:
     """Per-element constants of a model's elements (derived from E, ν, η), and the
     volumetric coupling.
 
@@ -158,7 +158,7 @@ class Materials:
     stiffening: np.ndarray
 
     @classmethod
-    def of(cls, model) -> Materials:
+    def of(cls, model) -> ElementConstants:
         """The materials of ``model``'s elements."""
         return cls.from_values(tetrahedron_geometry(model.mesh), model.element_youngs_modulus,
                                model.element_poisson_ratio, model.element_viscosity,
@@ -167,8 +167,8 @@ class Materials:
 
     @classmethod
     def from_values(cls, geometry: TetrahedronGeometry, youngs_modulus, poisson_ratio,
-                    viscosity, *, nodal: bool, law=None, stiffening=None) -> Materials:
-        """Materials from per-element E, ν, η (K,) arrays (E and η may be zero: an extra
+                    viscosity, *, nodal: bool, law=None, stiffening=None) -> ElementConstants:
+        """The constants from per-element E, ν, η (K,) arrays (E and η may be zero: an extra
         stiffness on part of a model, as an inclusion adds), law numbers (K,) (default
         St. Venant–Kirchhoff) and Yeoh's stiffening constants (K,) (default 0)."""
         E, eta = np.asarray(youngs_modulus, float), np.asarray(viscosity, float)

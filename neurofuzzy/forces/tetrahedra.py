@@ -60,18 +60,18 @@ import scipy.sparse as sp
 from ..errors import InputError
 from .base import ForceTerm
 from .laws import LawParts, law_parts
-from .tetra_geometry import (Materials, TetrahedronGeometry, broadcast_per_element,
+from .tetra_geometry import (ElementConstants, TetrahedronGeometry, broadcast_per_element,
                              corner_forces, lame_factors, tetrahedron_geometry)
 
 __all__ = ["TetrahedronForce", "TETRAHEDRA", "TetrahedronGeometry", "tetrahedron_geometry",
-           "lame_factors", "Materials"]
+           "lame_factors", "ElementConstants"]
 
 #: The elements' parameters, in the order of every per-element parameter dictionary.
 PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
 
 
-def _stateless(model) -> Materials:
-    """The materials of ``model``'s elements for the numpy path, which has no internal
+def _stateless(model) -> ElementConstants:
+    """The constants of ``model``'s elements for the numpy path, which has no internal
     variables: a model with Prony relaxation (:mod:`neurofuzzy.forces.relaxation`) runs in
     the compiled kernels only, and says so here rather than be simulated without it."""
     if model.n_relaxation_terms:
@@ -79,7 +79,7 @@ def _stateless(model) -> Materials:
                          "kernels simulate; the numpy path was asked for (an effect the kernels "
                          "do not compute, or backend='numpy')",
                          key="element_relaxation_moduli")
-    return Materials.of(model)
+    return ElementConstants.of(model)
 
 
 def _sym(matrix):
@@ -115,17 +115,17 @@ class TetrahedronForce(ForceTerm):
     name = "tetrahedra"
     parameters = {"youngs_modulus": "Pa", "poisson_ratio": "1", "viscosity": "Pa s"}
 
-    def _state(self, materials: Materials, positions, velocities) -> _State:
-        geometry = materials.geometry
+    def _state(self, constants: ElementConstants, positions, velocities) -> _State:
+        geometry = constants.geometry
         F = geometry.edges(positions) @ geometry.inverse_rest
         F_rate = geometry.edges(velocities) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
-        law = law_parts(materials.law, green, materials.stiffening)
+        law = law_parts(constants.law, green, constants.stiffening)
         theta_rate = np.trace(green_rate, axis1=1, axis2=2)
-        pressure, pressure_rate = materials.pressures(law.theta, theta_rate)
-        stress = (materials.shear[:, None, None] * law.D
-                  + materials.shear_rate[:, None, None] * green_rate
+        pressure, pressure_rate = constants.pressures(law.theta, theta_rate)
+        stress = (constants.shear[:, None, None] * law.D
+                  + constants.shear_rate[:, None, None] * green_rate
                   + pressure[:, None, None] * law.N
                   + pressure_rate[:, None, None] * np.eye(3))
         return _State(F, F_rate, green, green_rate, law.theta, theta_rate, law, pressure,
@@ -148,17 +148,17 @@ class TetrahedronForce(ForceTerm):
     def state_vjp(self, model, positions, velocities, cotangent):
         return self.state_vjp_of(_stateless(model), positions, velocities, cotangent)
 
-    # the same for any per-element materials (an inclusion's extra stiffness on part of a model)
-    def force_of(self, materials: Materials, positions, velocities):
-        """(n_nodes, 3) force of elements with the given :class:`Materials`."""
-        state = self._state(materials, positions, velocities)
-        return materials.geometry.scatter(
-            self._columns(materials.geometry, state.F @ state.stress), len(positions))
+    # the same for any per-element constants (an inclusion's extra stiffness on part of a model)
+    def force_of(self, constants: ElementConstants, positions, velocities):
+        """(n_nodes, 3) force of elements with the given :class:`ElementConstants`."""
+        state = self._state(constants, positions, velocities)
+        return constants.geometry.scatter(
+            self._columns(constants.geometry, state.F @ state.stress), len(positions))
 
-    def state_jvp_of(self, materials: Materials, positions, velocities, dp, dv):
-        """:meth:`state_jvp` of elements with the given :class:`Materials`."""
-        geometry = materials.geometry
-        state = self._state(materials, positions, velocities)
+    def state_jvp_of(self, constants: ElementConstants, positions, velocities, dp, dv):
+        """:meth:`state_jvp` of elements with the given :class:`ElementConstants`."""
+        geometry = constants.geometry
+        state = self._state(constants, positions, velocities)
         B = geometry.inverse_rest[:, None]
         dF = geometry.edges(dp) @ B                                  # (K, P, 3, 3)
         dF_rate = geometry.edges(dv) @ B
@@ -167,31 +167,31 @@ class TetrahedronForce(ForceTerm):
         d_green_rate = _sym(np.swapaxes(dF, -1, -2) @ F_rate + np.swapaxes(F, -1, -2) @ dF_rate)
         d_theta = _trace_product(state.law.N[:, None], d_green)      # (K, P)
         d_theta_rate = np.trace(d_green_rate, axis1=-2, axis2=-1)
-        d_pressure, d_pressure_rate = materials.pressures(d_theta, d_theta_rate)
-        d_stress = (broadcast_per_element(materials.shear, d_green) * state.law.dD(d_green)
-                    + broadcast_per_element(materials.shear_rate, d_green) * d_green_rate
+        d_pressure, d_pressure_rate = constants.pressures(d_theta, d_theta_rate)
+        d_stress = (broadcast_per_element(constants.shear, d_green) * state.law.dD(d_green)
+                    + broadcast_per_element(constants.shear_rate, d_green) * d_green_rate
                     + d_pressure[..., None, None] * state.law.N[:, None]
                     + broadcast_per_element(state.pressure, d_green) * state.law.dN(d_green)
                     + d_pressure_rate[..., None, None] * np.eye(3))
         d_piola = dF @ state.stress[:, None] + F @ d_stress
         return geometry.scatter(self._columns(geometry, d_piola), len(positions))
 
-    def state_vjp_of(self, materials: Materials, positions, velocities, cotangent):
-        """:meth:`state_vjp` of elements with the given :class:`Materials`."""
-        geometry = materials.geometry
-        state = self._state(materials, positions, velocities)
+    def state_vjp_of(self, constants: ElementConstants, positions, velocities, cotangent):
+        """:meth:`state_vjp` of elements with the given :class:`ElementConstants`."""
+        geometry = constants.geometry
+        state = self._state(constants, positions, velocities)
         B = geometry.inverse_rest
         # cotangent of [f1 f2 f3] (columns): λ_{n_j} - λ_{n_0}
         lam_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
         lam_stress = _sym(np.swapaxes(state.F, 1, 2) @ lam_piola)
         law = state.law
-        lam_theta = materials.pressure_transpose(_trace_product(lam_stress, law.N))[0]
-        lam_theta_rate = materials.pressure_transpose(np.trace(lam_stress, axis1=1,
+        lam_theta = constants.pressure_transpose(_trace_product(lam_stress, law.N))[0]
+        lam_theta_rate = constants.pressure_transpose(np.trace(lam_stress, axis1=1,
                                                                axis2=2))[1]
-        lam_green = (materials.shear[:, None, None] * law.dD(lam_stress)
+        lam_green = (constants.shear[:, None, None] * law.dD(lam_stress)
                      + state.pressure[:, None, None] * law.dN(lam_stress)
                      + lam_theta[:, None, None] * law.N)
-        lam_green_rate = (materials.shear_rate[:, None, None] * lam_stress
+        lam_green_rate = (constants.shear_rate[:, None, None] * lam_stress
                           + lam_theta_rate[:, None, None] * np.eye(3))
         F, F_rate = state.F, state.F_rate
         lam_F = lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
@@ -204,10 +204,10 @@ class TetrahedronForce(ForceTerm):
     # -- parameters ---------------------------------------------------------------------------
     def _unit_forces(self, model, positions, velocities):
         """Per-corner forces (K, 4, 3) per unit change of each element's shear part
-        (``2μ`` by ``E``, ``ν``, ``η``) and of its ``π``, with the materials and state."""
-        materials = _stateless(model)
-        geometry = materials.geometry
-        state = self._state(materials, positions, velocities)
+        (``2μ`` by ``E``, ``ν``, ``η``) and of its ``π``, with the constants and state."""
+        constants = _stateless(model)
+        geometry = constants.geometry
+        state = self._state(constants, positions, velocities)
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
                       model.element_viscosity)
         _, b, _, db = lame_factors(nu)
@@ -219,7 +219,7 @@ class TetrahedronForce(ForceTerm):
                     "pressure_rate": np.broadcast_to(np.eye(3), state.F.shape)}
         local = {name: corner_forces(self._columns(geometry, state.F @ stress))
                  for name, stress in stresses.items()}
-        return materials, state, local
+        return constants, state, local
 
     def lame_changes(self, model, directions):
         """``(dλ, d(λβ))`` (K, P) sparse for per-element parameter changes ``directions``."""
@@ -243,8 +243,8 @@ class TetrahedronForce(ForceTerm):
             nodal volumetric form an element's λ also moves its neighbours' forces.
         """
         directions = {name: sp.csr_matrix(directions[name]) for name in PARAMETERS}
-        materials, state, local = self._unit_forces(model, positions, velocities)
-        geometry = materials.geometry
+        constants, state, local = self._unit_forces(model, positions, velocities)
+        geometry = constants.geometry
         n_nodes = model.n_nodes
         total = None
         for name in PARAMETERS:
@@ -252,8 +252,8 @@ class TetrahedronForce(ForceTerm):
             total = part if total is None else total + part
         d_lam, d_lam_rate = self.lame_changes(model, directions)
         none = np.zeros_like(state.theta)
-        d_pressure = materials.pressure_of_constants(d_lam, 0 * d_lam_rate, state.theta, none)
-        d_pressure_rate = materials.pressure_of_constants(0 * d_lam, d_lam_rate, none,
+        d_pressure = constants.pressure_of_constants(d_lam, 0 * d_lam_rate, state.theta, none)
+        d_pressure_rate = constants.pressure_of_constants(0 * d_lam, d_lam_rate, none,
                                                           state.theta_rate)
         total = (total + geometry.corner_matrix(local["pressure"], n_nodes) @ d_pressure
                  + geometry.corner_matrix(local["pressure_rate"], n_nodes) @ d_pressure_rate)
@@ -264,13 +264,13 @@ class TetrahedronForce(ForceTerm):
         """Per-element gradients (n_elements,) of ``Σ cotangent · force`` with respect to
         every element's ``youngs_modulus``, ``poisson_ratio`` and ``viscosity`` (the adjoint
         of :meth:`parameter_jvp`)."""
-        materials, state, local = self._unit_forces(model, positions, velocities)
-        corners = cotangent[materials.geometry.nodes]                       # (K, 4, 3)
+        constants, state, local = self._unit_forces(model, positions, velocities)
+        corners = cotangent[constants.geometry.nodes]                       # (K, 4, 3)
         out = {name: np.einsum("ejk,ejk->e", corners, values)
                for name, values in local.items()}
-        g_lam = materials.constants_transpose(out.pop("pressure"), state.theta,
+        g_lam = constants.constants_transpose(out.pop("pressure"), state.theta,
                                               state.theta_rate)[0]
-        g_lam_rate = materials.constants_transpose(out.pop("pressure_rate"), state.theta,
+        g_lam_rate = constants.constants_transpose(out.pop("pressure_rate"), state.theta,
                                                    state.theta_rate)[1]
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
                       model.element_viscosity)
@@ -286,14 +286,14 @@ class TetrahedronForce(ForceTerm):
         shear constants ``shear`` (K,) (their own and any inclusion's): the stress is
         ``shear D(G; c)`` with ``D`` affine in ``c``, so ``∂S/∂ log c = c shear (D(G; 1) -
         D(G; 0))``; 0 on the other laws' elements."""
-        materials = _stateless(model)
-        geometry = materials.geometry
+        constants = _stateless(model)
+        geometry = constants.geometry
         F = geometry.edges(positions) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         ones = np.ones(len(green))
-        slope = (law_parts(materials.law, green, ones).D
-                 - law_parts(materials.law, green, 0 * ones).D)
-        stress = (materials.stiffening * shear)[:, None, None] * slope
+        slope = (law_parts(constants.law, green, ones).D
+                 - law_parts(constants.law, green, 0 * ones).D)
+        stress = (constants.stiffening * shear)[:, None, None] * slope
         return corner_forces(self._columns(geometry, F @ stress))
 
     def parameter_values(self, model):
@@ -321,26 +321,26 @@ class TetrahedronForce(ForceTerm):
         if model.n_relaxation_terms:
             instant = model.element_youngs_modulus * (
                 1.0 + model.element_relaxation_moduli.sum(axis=1))
-            return self.rest_matrices_of(Materials.of(model.replace(
+            return self.rest_matrices_of(ElementConstants.of(model.replace(
                 element_youngs_modulus=instant)))
-        return self.rest_matrices_of(Materials.of(model))
+        return self.rest_matrices_of(ElementConstants.of(model))
 
-    def rest_matrices_of(self, materials: Materials):
-        """:meth:`rest_matrices` of elements with the given :class:`Materials`."""
-        geometry = materials.geometry
+    def rest_matrices_of(self, constants: ElementConstants):
+        """:meth:`rest_matrices` of elements with the given :class:`ElementConstants`."""
+        geometry = constants.geometry
         n_nodes = len(geometry.node_volume)
         rows = (3 * geometry.nodes[:, :, None] + np.arange(3)).reshape(-1, 12)
         divergence = self._rest_divergence(geometry, n_nodes)              # (K, 3N)
         matrices = []
-        for shear, lam, node_lam in ((materials.shear, materials.lam, materials.node_lam),
-                                     (materials.shear_rate, materials.lam_rate,
-                                      materials.node_lam_rate)):
+        for shear, lam, node_lam in ((constants.shear, constants.lam, constants.node_lam),
+                                     (constants.shear_rate, constants.lam_rate,
+                                      constants.node_lam_rate)):
             blocks = self._rest_shear_blocks(geometry, shear)
             matrix = sp.csr_matrix(
                 (blocks.ravel(), (np.repeat(rows, 12, axis=1).ravel(),
                                   np.tile(rows, (1, 12)).ravel())),
                 shape=(3 * n_nodes, 3 * n_nodes))
-            if materials.nodal:
+            if constants.nodal:
                 averaged = geometry.average @ divergence
                 volumetric = averaged.T @ sp.diags(geometry.node_volume * node_lam) @ averaged
             else:
