@@ -36,8 +36,9 @@ is bound at import: the package is imported with ``neurofuzzy`` (it is light) an
 set to the function, so no later import of the package replaces it.
 """
 
-from importlib import import_module
 from typing import TYPE_CHECKING
+
+from .exports import lazy
 
 # name -> module; imported on first use (PEP 562), so ``import neurofuzzy`` and the command
 # line start fast and load scipy, trimesh or meshio only when a part needs them
@@ -76,17 +77,7 @@ _EXPORTS = {
 _ALIASES = {"shipped_rules": "shipped"}
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        module = import_module(f".{_EXPORTS[name]}", __name__)
-        value = getattr(module, _ALIASES.get(name, name))
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'neurofuzzy' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
 
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly

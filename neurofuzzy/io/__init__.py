@@ -12,8 +12,9 @@ module that only writes JSON or reads YAML (the rule studio, the rule parser) do
 simulator with them.
 """
 
-from importlib import import_module
 from typing import TYPE_CHECKING
+
+from ..exports import lazy
 
 _EXPORTS = {"load_experiment": "experiments", "save_experiment": "experiments",
             "load_model": "models", "save_model": "models", "load_fit_record": "models",
@@ -22,16 +23,7 @@ _EXPORTS = {"load_experiment": "experiments", "save_experiment": "experiments",
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        value = getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'neurofuzzy.io' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy(__name__, _EXPORTS)
 
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly
