@@ -112,3 +112,4 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     assert apart.rms_error_ == together.rms_error_
     assert together.n_cycles_ < apart.n_cycles_
     assert len(together.history_) == together.n_cycles_
+    assert together._last is None          # the last Jacobian is not kept with the result

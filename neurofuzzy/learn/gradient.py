@@ -247,6 +247,7 @@ class GradientLearner(Learner):
         self.parameter_names_ = parameters.names()
 
         assess(self, sensitivity, parameters, experiments, theta, method)
+        self._last = None       # its runs and Jacobian: not kept (nor pickled) with the result
         if self.prior is not None:
             self.regions_ = supported_regions(
                 regions_found(self.model_, self.prior), self.homogeneous_, experiments,
