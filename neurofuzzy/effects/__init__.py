@@ -32,7 +32,8 @@ relaxation             none of its own: the diagnosis gives every element     ``
 =====================  ====================================================  ===============
 """
 
-from .base import EFFECTS, Effect, effect_from_dict, effect_to_dict, register, term_kinds
+from .base import (EFFECTS, Effect, effect_from_dict, effect_to_dict, per_unit_mass_force,
+                   register, term_kinds)
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .inclusions import SoftInclusion, StiffInclusion
 from .springs import SpringEffect
@@ -43,4 +44,4 @@ from .relaxation import Relaxation
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
            "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "Relaxation", "EFFECTS", "register",
            "effect_to_dict",
-           "effect_from_dict", "term_kinds"]
+           "effect_from_dict", "term_kinds", "per_unit_mass_force"]

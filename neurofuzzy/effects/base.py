@@ -12,7 +12,7 @@ from ..errors import InputError, closest_name
 from ..forces import ForceTerm
 
 __all__ = ["Effect", "EFFECTS", "register", "effect_to_dict", "effect_from_dict",
-           "term_kinds"]
+           "term_kinds", "per_unit_mass_force"]
 
 #: Registry of effect classes by name.
 EFFECTS: dict[str, type[Effect]] = {}
@@ -184,3 +184,14 @@ def term_kinds() -> dict[str, type[ForceTerm]]:
     from ..forces import SpringForce, TetrahedronForce
 
     return {SpringForce.name: SpringForce, TetrahedronForce.name: TetrahedronForce, **EFFECTS}
+
+
+def per_unit_mass_force(model, positions, velocities) -> np.ndarray:
+    """(n_nodes, 3): the forces of ``model``'s effects that are proportional to node mass
+    (gravity). ``W F`` does not see them when the masses change, so a mass's derivative
+    leaves them out."""
+    force = np.zeros((model.n_nodes, 3))
+    for effect in model.effects:
+        if effect.per_unit_mass:
+            force += effect.force(model, positions, velocities)
+    return force

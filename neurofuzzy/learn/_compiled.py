@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..effects import NodeDrag
+from ..effects import NodeDrag, per_unit_mass_force
 from ..effects.compiled import (CONSTANT, element_constants, element_inclusion,
                                 element_stiffening, kernel_effects, kernel_values)
 from ..forces.tetra_geometry import lame_factors
@@ -68,12 +68,8 @@ class CompiledModel:
         column = np.full(model.n_nodes, -1, np.intp)
         column[parameters.free_nodes] = (parameters.blocks["log_mass"].start
                                          + np.arange(len(parameters.free_nodes)))
-        rest, still = model.mesh.rest_positions, np.zeros((model.n_nodes, 3))
-        unit = np.zeros((model.n_nodes, 3))
-        for effect in model.effects:
-            if effect.per_unit_mass:
-                unit += effect.force(model, rest, still)
-        return column, unit
+        return column, per_unit_mass_force(model, model.mesh.rest_positions,
+                                           np.zeros((model.n_nodes, 3)))
 
     @staticmethod
     def _elements(parameters, model, n_params, columns):

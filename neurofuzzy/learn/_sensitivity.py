@@ -21,7 +21,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import scipy.sparse as sp
 
-from ..effects import NonlinearStiffening
+from ..effects import NonlinearStiffening, per_unit_mass_force
 from ..effects.compiled import element_constants
 from ..errors import InputError
 from ..experiment import Experiment
@@ -210,7 +210,7 @@ class Sensitivity:
                                                           directions)
                             if mass_rows is not None:      # ∂(W F)/∂log m = -W F_inertial
                                 nodes = param.free_nodes
-                                inertial = force - self._per_unit_mass(model, p, v)
+                                inertial = force - per_unit_mass_force(model, p, v)
                                 d_force[nodes, mass_rows] -= inertial[nodes]
                             tp, tv = tp.copy(), tv.copy()
                             euler_update(tp, tv, d_force, (h * weight)[:, :, None], h)
@@ -329,7 +329,7 @@ class Sensitivity:
                 lam_force = h * weight * lam_vnew
                 if param.learn_masses:
                     nodes = param.free_nodes
-                    inertial = force - self._per_unit_mass(model, p, v)
+                    inertial = force - per_unit_mass_force(model, p, v)
                     grad[param.blocks["log_mass"].slice] -= np.einsum(
                         "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * inertial[nodes])
                 d_p, d_v, per_spring = SPRINGS.vjp(model, lam_force, state)
@@ -367,11 +367,3 @@ class Sensitivity:
         residuals[1:] = self._projected(residuals[1:], observation.seen[1:])
         return residuals
 
-    @staticmethod
-    def _per_unit_mass(model, p, v):
-        """Forces proportional to node mass (gravity): ``W·F`` does not depend on the mass."""
-        force = 0.0
-        for effect in model.effects:
-            if effect.per_unit_mass:
-                force = force + effect.force(model, p, v)
-        return force

@@ -137,6 +137,8 @@ class GradientLearner(Learner):
     """
 
     cycle_name = "simulation of the data"
+    #: the last simulation of the data during a fit (:class:`._passes.Last`), else None
+    _last = None
 
     def __init__(self, *, learn_masses: bool = False, learn_effects: bool = True,
                  substeps: int | str = 1, windows: Sequence[int] | None = None,
@@ -337,7 +339,7 @@ class GradientLearner(Learner):
         """:func:`._passes.jacobian`, counted as one simulation of the data (and one point
         of ``history_``: its runs carry the residuals at ``theta``); that of the last
         simulation when it computed it at ``theta`` (not counted again)."""
-        last = getattr(self, "_last", None)
+        last = self._last
         jacobian = (last.jacobian_of(columns) if last is not None
                     and last.at(theta, substeps, starts) else None)
         if jacobian is not None:
