@@ -110,7 +110,7 @@ class NumbaStepper:
     """The same step as one compiled loop (requires numba): springs, tetrahedral elements
     (with their Prony relaxation) and the effects the kernels compute
     (:mod:`neurofuzzy.effects.compiled`: constant forces, a node drag, inclusions and strain
-    stiffening of elements)."""
+    stiffening of springs and of elements)."""
 
     _kernel = None
     _frames_kernel = None
@@ -119,18 +119,20 @@ class NumbaStepper:
         if not compiled_terms_only(model):
             raise ValueError("the numba stepper steps springs, elements and the effects the "
                              "kernels compute (neurofuzzy.effects.compiled)")
-        from .effects.compiled import kernel_values
+        from .effects.compiled import kernel_values, spring_constants
 
         self.drag, constant, self.kappa = kernel_values(model)
         self.constant = constant.astype(dtype)
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        springs = np.flatnonzero((model.spring_stiffness != 0) | (model.spring_damping != 0))
+        stiffness, cubic = spring_constants(model)       # with the spring effects'
+        springs = np.flatnonzero((stiffness != 0) | (model.spring_damping != 0) | (cubic != 0))
         self.a = np.ascontiguousarray(model.mesh.springs[springs, 0])
         self.b = np.ascontiguousarray(model.mesh.springs[springs, 1])
-        self.stiffness = model.spring_stiffness[springs].astype(self.dtype)
+        self.stiffness = stiffness[springs].astype(self.dtype)
         self.damping = model.spring_damping[springs].astype(self.dtype)
         self.rest = model.spring_rest_length[springs].astype(self.dtype)
+        self.cubic = cubic[springs].astype(self.dtype)
         self.elements = _element_arrays(model, self.dtype, self.h)
         self.history = self.elements[-1]
         self.weight = model.node_inverse_mass.astype(self.dtype)
@@ -152,7 +154,8 @@ class NumbaStepper:
                  else np.ascontiguousarray(loads[:max(n_frames - 1, 1)], self.dtype))
         loads = loads + self.constant
         NumbaStepper._frames_kernel(pc, vc, self.a, self.b, self.stiffness, self.damping,
-                                    self.rest, *self.elements, self.dtype.type(self.kappa),
+                                    self.rest, self.cubic, *self.elements,
+                                    self.dtype.type(self.kappa),
                                     self.dtype.type(self.drag), self.weight, loads,
                                     self.dtype.type(self.h),
                                     int(n_frames), int(substeps), self.force, positions,
@@ -166,7 +169,7 @@ class NumbaStepper:
         load = (self.zero_load if load is None
                 else np.ascontiguousarray(load, dtype=self.dtype)) + self.constant
         NumbaStepper._kernel(pc, vc, self.a, self.b, self.stiffness, self.damping, self.rest,
-                             *self.elements, self.dtype.type(self.kappa),
+                             self.cubic, *self.elements, self.dtype.type(self.kappa),
                              self.dtype.type(self.drag), self.weight, load,
                              self.dtype.type(self.h),
                              int(n_steps), self.force)

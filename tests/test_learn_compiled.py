@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from neurofuzzy.datasets import kuhn_block, paper_cube_experiment, paper_cube_model
-from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, StiffInclusion,
-                                UnmodeledLoad)
+from neurofuzzy.effects import (Gravity, NodeDrag, NonlinearStiffening, SoftInclusion,
+                                StiffInclusion, UnmodeledLoad)
 from neurofuzzy.errors import InputError
 from neurofuzzy.experiment import Experiment, simulate_experiment
 from neurofuzzy.learn import Parameterization, Sensitivity
@@ -165,8 +165,8 @@ def test_split_columns_of_a_spring_model():
 
 
 def test_models_the_kernel_does_not_know_take_the_numpy_path():
-    model = paper_cube_model(tie="global").with_effects(
-        NonlinearStiffening.for_model(paper_cube_model(), [100.0, 50.0]))
+    # the kernels take one node drag: two take the numpy path
+    model = paper_cube_model(tie="global").with_effects(NodeDrag([0.01]), NodeDrag([0.02]))
     data = paper_cube_experiment(paper_cube_model(tie="global"))
     parameters = Parameterization(model)
     with pytest.raises(InputError, match="compiled path"):
@@ -202,6 +202,62 @@ def test_compiled_adjoint_of_springs_with_drag_and_gaps(starts):
     assert scale > 0
     assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * scale
     assert np.allclose(compiled[2].residuals, numpy_path[2].residuals, rtol=0, atol=1e-13)
+
+
+def _spring_effects_model():
+    """The cube in tie groups with a stiff inclusion, a soft one and strain stiffening per
+    spring group (the spring candidates of the diagnosis), and a node drag."""
+    base = paper_cube_model(tie="groups")
+    n_groups = len(np.unique(base.mesh.spring_group))
+    return base.with_effects(
+        StiffInclusion.for_model(base, 20.0, springs=np.arange(0, 40, 3)),
+        SoftInclusion.for_model(base, -8.0, springs=np.arange(50, 60)),
+        NonlinearStiffening.for_model(base, np.linspace(300.0, 600.0, n_groups)),
+        NodeDrag([0.02]))
+
+
+@pytest.mark.parametrize("starts", [(0,), (0, 20, 40)], ids=["whole", "windows"])
+def test_learned_spring_effects(starts):
+    """Spring inclusions and spring stiffening, their coefficients learned with the springs:
+    the compiled Jacobian is the numpy one, and so is the compiled adjoint's gradient."""
+    model = _spring_effects_model()
+    data = paper_cube_experiment(model)
+    assert_same(*both(model, data, 2, starts))
+    parameters = Parameterization(model)
+    assert len(parameters.effects) == 4
+    theta = parameters.initial() + np.random.default_rng(5).normal(0, 0.02, parameters.size)
+    sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
+                     for backend in ("numpy", "numba")]
+    assert not sensitivities[1].compiled_gradient      # the drag is learned: numpy adjoint
+    fixed_drag = Parameterization(model.replace(effects=model.effects[:3]))
+    sensitivities = [Sensitivity(fixed_drag, 0.01, backend=backend)
+                     for backend in ("numpy", "numba")]
+    assert sensitivities[1].compiled_gradient
+    theta = fixed_drag.initial() + np.random.default_rng(5).normal(0, 0.02, fixed_drag.size)
+    numpy_path, compiled = (s.gradient(theta, data, substeps=2, starts=starts)
+                            for s in sensitivities)
+    assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-12)
+    effects = slice(fixed_drag.blocks["effect:0"].start, fixed_drag.blocks["effect:2"].stop)
+    assert np.abs(numpy_path[1][effects]).min() > 0    # every coefficient has a gradient
+    scale = np.abs(numpy_path[1]).max()
+    assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * scale
+
+
+def test_stiffening_of_springs_learned_from_zero():
+    """The diagnosis starts a spring stiffening at κ = 0: the kernels still compute its
+    columns (the cubic basis), in the Jacobian and in the adjoint's gradient."""
+    base = paper_cube_model(tie="global")
+    model = base.with_effects(NonlinearStiffening.for_model(base, [0.0]))
+    data = paper_cube_experiment(model)
+    assert_same(*both(model, data, 2, shift=0.0))
+    parameters = Parameterization(model)
+    column = parameters.blocks["effect:0"].start
+    theta = parameters.initial() + 0.05
+    theta[column] = 0.0
+    numpy_path, compiled = (Sensitivity(parameters, 0.01, backend=backend).gradient(
+        theta, data, substeps=2) for backend in ("numpy", "numba"))
+    assert numpy_path[1][column] != 0
+    assert compiled[1][column] == pytest.approx(numpy_path[1][column], rel=1e-10)
 
 
 @pytest.mark.parametrize("law", LAWS)

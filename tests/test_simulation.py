@@ -197,3 +197,28 @@ def test_the_compiled_stepper_computes_the_kernels_effects_as_the_numpy_one():
         assert np.abs(runs[0].positions - mesh.rest_positions).max() > 1e-4      # it moved
         np.testing.assert_allclose(runs[1].positions, runs[0].positions, rtol=0, atol=1e-13)
         np.testing.assert_allclose(runs[1].velocities, runs[0].velocities, rtol=0, atol=1e-10)
+
+
+def test_the_compiled_stepper_computes_spring_effects_as_the_numpy_one(rng):
+    """Spring inclusions (extra stiffness, also on springs with none of their own) and spring
+    stiffening per group in the compiled loop: the trajectory of the numpy stepper."""
+    from neurofuzzy.effects import NonlinearStiffening, SoftInclusion, StiffInclusion
+
+    mesh = lattice((4, 3, 3), 0.01).with_fixed(np.arange(0, 36, 3))
+    stiffness = rng.uniform(20, 60, mesh.n_springs)
+    stiffness[:5] = 0.0                    # springs that only the inclusion makes pull
+    base = SpringMassModel(mesh, node_mass=rng.uniform(1e-4, 3e-4, mesh.n_nodes),
+                           spring_stiffness=stiffness,
+                           spring_damping=rng.uniform(0.005, 0.02, mesh.n_springs))
+    n_groups = len(np.unique(mesh.spring_group))
+    model = base.with_effects(
+        StiffInclusion.for_model(base, 15.0, springs=np.arange(12)),
+        SoftInclusion.for_model(base, -5.0, springs=np.arange(30, 40)),
+        NonlinearStiffening.for_model(base, rng.uniform(2e3, 5e3, n_groups)))
+    loads = rng.normal(0, 0.2, (40, mesh.n_nodes, 3))
+    runs = [simulate(model, dt=5e-4, n_frames=40, external_forces=loads, substeps=2,
+                     backend=backend) for backend in ("numpy", "numba")]
+    plain = simulate(base, dt=5e-4, n_frames=40, external_forces=loads, substeps=2)
+    assert np.abs(runs[0].positions - plain.positions).max() > 1e-5   # the effects act
+    np.testing.assert_allclose(runs[1].positions, runs[0].positions, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(runs[1].velocities, runs[0].velocities, rtol=0, atol=1e-11)

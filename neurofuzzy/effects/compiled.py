@@ -4,6 +4,9 @@ once for the stepper (:class:`neurofuzzy._steppers.NumbaStepper`) and the sensit
 
 - constant forces (gravity, an unmodeled load): added to the loads;
 - a node drag ``-b v``;
+- inclusions of springs: extra stiffness of their springs; strain stiffening of springs: the
+  κ of :func:`neurofuzzy.kernels.stepper.spring_state` (:func:`spring_constants`,
+  :func:`spring_columns`);
 - inclusions of elements: extra element constants (:meth:`StiffInclusion.added_constants`);
 - strain stiffening of the elements: ``κ`` of :mod:`neurofuzzy.kernels.laws`.
 
@@ -19,11 +22,30 @@ from .inclusions import SoftInclusion, StiffInclusion
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .stiffening import NonlinearStiffening
 
-__all__ = ["CONSTANT", "element_inclusion", "element_stiffening", "kernel_effects",
-           "element_constants", "kernel_values"]
+__all__ = ["CONSTANT", "STRETCH", "CLOSING", "CUBIC", "element_inclusion",
+           "element_stiffening", "spring_effect", "kernel_effects", "element_constants",
+           "kernel_values", "spring_constants", "spring_columns"]
 
 #: effects that are constant forces
 CONSTANT = (Gravity, UnmodeledLoad)
+
+
+#: the spring kernels' bases of a parameter's derivative of a spring's magnitude
+#: ``m = s x + c ẋ + κ x (x/L0)²`` (``x = l - L0``, ``ẋ`` the closing speed): ``x``, ``ẋ``,
+#: ``x (x/L0)²``
+STRETCH, CLOSING, CUBIC = 0, 1, 2
+
+
+def spring_effect(effect) -> bool:
+    """An inclusion or strain stiffening of springs (a coefficient per spring group)."""
+    return (isinstance(effect, (StiffInclusion, SoftInclusion, NonlinearStiffening))
+            and not effect.on_elements)
+
+
+def _basis(effect) -> int:
+    """The basis of a spring effect's coefficient: ``x`` (inclusions), ``x (x/L0)²``
+    (stiffening)."""
+    return CUBIC if isinstance(effect, NonlinearStiffening) else STRETCH
 
 
 def element_inclusion(effect) -> bool:
@@ -41,7 +63,7 @@ def kernel_effects(model) -> bool:
     stiffenings = sum(element_stiffening(effect) for effect in model.effects)
     return drags <= 1 and stiffenings <= 1 and all(
         isinstance(effect, (*CONSTANT, NodeDrag)) or element_inclusion(effect)
-        or element_stiffening(effect) for effect in model.effects)
+        or element_stiffening(effect) or spring_effect(effect) for effect in model.effects)
 
 
 def element_constants(model) -> tuple[ElementConstants, dict[str, np.ndarray]]:
@@ -67,3 +89,32 @@ def kernel_values(model) -> tuple[float, np.ndarray, float]:
         elif element_stiffening(effect):
             kappa = float(effect.params[0])
     return drag, constant, kappa
+
+
+def spring_constants(model) -> tuple[np.ndarray, np.ndarray]:
+    """``(stiffness, κ)`` per spring (n_springs,): the springs' own stiffness with the spring
+    inclusions' extra stiffness added, and the spring stiffening's κ (0 without)."""
+    stiffness = np.array(model.spring_stiffness, dtype=float)
+    cubic = np.zeros(model.n_springs)
+    for effect in model.effects:
+        if spring_effect(effect):
+            (cubic if _basis(effect) == CUBIC else stiffness)[:] += effect.per_spring(model)
+    return stiffness, cubic
+
+
+def spring_columns(model, columns: dict[int, int]):
+    """The derivatives of the springs' magnitudes by the learned spring effects'
+    coefficients, as ``(spring, column, basis, factor)`` arrays (factor 1): ``columns`` maps
+    the index of each learned effect in ``model.effects`` to its first parameter column."""
+    parts = []
+    for i, effect in enumerate(model.effects):
+        if spring_effect(effect) and i in columns:
+            selection = effect.selected(model)
+            index = effect.parameter_index(model, selection)
+            known = index >= 0
+            parts.append((selection[known], columns[i] + index[known],
+                          np.full(int(known.sum()), _basis(effect)), np.ones(int(known.sum()))))
+    if not parts:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0)
+    spring, column, basis, factor = (np.concatenate(part) for part in zip(*parts))
+    return spring.astype(np.intp), column.astype(np.intp), basis.astype(np.intp), factor

@@ -51,7 +51,8 @@ class SpringEffect(Effect):
 
     coefficient: ClassVar[str] = "k"
 
-    def _selection(self, model):
+    def selected(self, model) -> np.ndarray:
+        """The indices of the springs the effect acts on (all without ``springs``)."""
         springs = self.options.get("springs")
         return np.arange(model.n_springs) if springs is None else np.asarray(springs, int)
 
@@ -60,11 +61,28 @@ class SpringEffect(Effect):
         """``(g, dg_dl)`` per selected spring: magnitude and its length derivative per unit
         coefficient."""
 
+    def parameter_index(self, model, selection=None) -> np.ndarray:
+        """The index of each selected spring's coefficient in :attr:`params` (-1 for a
+        spring of a group without one); ``selection`` defaults to the effect's springs."""
+        if selection is None:
+            selection = self.selected(model)
+        group = model.mesh.spring_group[selection]
+        index = np.minimum(np.searchsorted(self.options["groups"], group), len(self.params) - 1)
+        known = np.asarray(self.options["groups"])[index] == group
+        return np.where(known, index, -1)
+
+    def per_spring(self, model) -> np.ndarray:
+        """(n_springs,) every spring's coefficient (0 off the selection)."""
+        selection = self.selected(model)
+        index = self.parameter_index(model, selection)
+        out = np.zeros(model.n_springs)
+        out[selection] = np.where(index >= 0, self.params[index], 0.0)
+        return out
+
     def magnitude(self, model, state, selection):
         """``(m, dm_dl, dm_dparams)`` of shapes (n,), (n,), (n_params, n)."""
-        index = np.searchsorted(self.options["groups"], model.mesh.spring_group[selection])
-        index = np.minimum(index, len(self.params) - 1)
-        known = np.asarray(self.options["groups"])[index] == model.mesh.spring_group[selection]
+        index = self.parameter_index(model, selection)
+        known = index >= 0
         coefficient = np.where(known, self.params[index], 0.0)
         g, dg = self.shape(model, state, selection)
         dm = np.zeros((len(self.params), len(selection)))
@@ -72,7 +90,7 @@ class SpringEffect(Effect):
         return coefficient * g, coefficient * dg, dm
 
     def _parts(self, model, positions, velocities):
-        selection = self._selection(model)
+        selection = self.selected(model)
         state = SPRINGS.state(model, positions, velocities).select(selection)
         return selection, state, self.magnitude(model, state, selection)
 
@@ -104,7 +122,7 @@ class SpringEffect(Effect):
 
     def relative(self, model) -> dict[str, float]:
         """Each coefficient relative to the mean stiffness of its group's selected springs."""
-        selection = self._selection(model)
+        selection = self.selected(model)
         out = {}
         for label, group, value in zip(self.labels, self.options["groups"], self.params):
             chosen = selection[model.mesh.spring_group[selection] == group]

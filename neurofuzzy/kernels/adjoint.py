@@ -3,14 +3,16 @@ models of springs and tetrahedral elements: two calls per experiment, no Python 
 
 :func:`sweep` runs semi-implicit Euler over the frames and keeps the state at the start of
 every substep; :func:`pull_back` runs the adjoint backwards over those states and sums, per
-spring, ``λ · ∂F/∂s_j`` and ``λ · ∂F/∂c_j``, and per element ``λ · ∂F`` by its four
-constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and ``λβ``; for the nodal volumetric form
-by the node averages of the last two). The caller turns them into the gradient by the
-parameters (``log s``, ``log c`` per tie group; for elements the same derivatives of the
-constants as the forward kernel). The arithmetic is that of the numpy reference path
+spring, ``λ · ∂F`` by its magnitude's bases (``x``, the closing speed, ``x (x/L0)²``), and
+per element ``λ · ∂F`` by its four constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and
+``λβ``; for the nodal volumetric form by the node averages of the last two). The caller
+turns them into the gradient by the parameters with the forward kernel's CSR (``log s``,
+``log c`` per tie group, the spring effects' coefficients; for elements the same
+derivatives of the constants as the forward kernel). The arithmetic is that of the numpy reference path
 (:meth:`neurofuzzy.forces.SpringForce.vjp`, :func:`~neurofuzzy.forces.springs.central_vjp`,
 :meth:`neurofuzzy.forces.TetrahedronForce.state_vjp` and ``parameter_vjp``; tested equal):
-springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, elements of each element's law
+springs ``f = (s x + c ((v_b - v_a)·u) + κ x (x/L0)²) u`` (``x = l - L0``, the spring
+effects' extra stiffness in ``s``, their stiffening ``κ``), elements of each element's law
 (:mod:`neurofuzzy.kernels.laws`), a node drag ``-drag v`` and constant loads.
 
 Imported only when numba is installed (module-level, ``cache=True``).
@@ -242,8 +244,8 @@ def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
 
 
 @numba.njit(cache=True, nogil=True)
-def sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, loads,
-          h, n_frames, substeps, start_index, start_p, start_v, positions, states_p, states_v,
+def sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag, weight,
+          loads, h, n_frames, substeps, start_index, start_p, start_v, positions, states_p, states_v,
           states_r, states_f):
     """Positions (n_frames, N, 3) and the state at the start of every substep
     (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
@@ -279,7 +281,7 @@ def sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, 
                 for k in range(3):
                     force[i, k] = load[i, k] - drag * v[i, k]
             for j in range(a.shape[0]):
-                _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
+                _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j], force)
             if has_elements:
                 _element_force(p, v, elements, relax_g, relax_decay, history, blank,
                                node_strain, force)
@@ -290,13 +292,14 @@ def sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, 
 
 
 @numba.njit(cache=True, nogil=True)
-def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
-              n_frames, substeps, start_index, states_p, states_v, states_r, states_f,
-              unit_mass_force, frame_adjoint, d_stiffness, d_damping, d_elements, g_relax,
+def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag,
+              weight, h, n_frames, substeps, start_index, states_p, states_v, states_r,
+              states_f, unit_mass_force, frame_adjoint, d_springs, d_elements, g_relax,
               g_mass):
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
-    ``Σ λ_F · ∂F/∂s_j`` to ``d_stiffness[j]`` and ``Σ λ_F · ∂F/∂c_j`` to ``d_damping[j]``
-    over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
+    ``Σ λ_F · ∂F/∂s_j``, ``Σ λ_F · ∂F/∂c_j`` and (when ``d_springs`` has a third row)
+    ``Σ λ_F · ∂F/∂κ_j`` to ``d_springs[:, j]`` (the bases of
+    :func:`.sensitivity._spring_tangents`) over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
     of the element constants to ``d_elements`` and of the Prony terms' ``log g``, ``log τ``
     to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
     cotangents run on across window starts, as their values do forwards). With the forces
@@ -306,6 +309,7 @@ def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, dr
     n_nodes = frame_adjoint.shape[1]
     g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
     has_elements = elements[0].shape[0] > 0
+    cubic_basis = d_springs.shape[0] > 2
     node_strain = np.zeros((n_nodes, 2))
     node_adjoint = np.zeros((n_nodes, 2))
     lam_p = np.zeros((n_nodes, 3))
@@ -341,8 +345,8 @@ def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, dr
                     d_v[i, k] = -drag * lam_force[i, k]
             for j in range(a.shape[0]):
                 ia, ib = a[j], b[j]
-                ux, uy, uz, length, closing, stretch, magnitude = spring_state(
-                    p, v, ia, ib, stiffness[j], damping[j], rest[j])
+                ux, uy, uz, length, closing, stretch, magnitude, slope = spring_state(
+                    p, v, ia, ib, stiffness[j], damping[j], rest[j], cubic[j])
                 wx = v[ib, 0] - v[ia, 0]
                 wy = v[ib, 1] - v[ia, 1]
                 wz = v[ib, 2] - v[ia, 2]
@@ -351,17 +355,17 @@ def pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, dr
                 fy = lam_force[ia, 1] - lam_force[ib, 1]
                 fz = lam_force[ia, 2] - lam_force[ib, 2]
                 along = ux * fx + uy * fy + uz * fz
-                d_stiffness[j] += stretch * along
-                d_damping[j] += closing * along
-                # central_vjp with ∂m/∂l = s, ∂m/∂c = c
+                d_springs[0, j] += stretch * along
+                d_springs[1, j] += closing * along
+                if cubic_basis:
+                    strain = stretch / rest[j]
+                    d_springs[2, j] += stretch * strain * strain * along
+                # central_vjp with ∂m/∂l = slope, ∂m/∂c = c
                 ratio = magnitude / length
                 rate = damping[j] * along / length
-                lx = stiffness[j] * along * ux + ratio * (fx - along * ux) \
-                    + rate * (wx - closing * ux)
-                ly = stiffness[j] * along * uy + ratio * (fy - along * uy) \
-                    + rate * (wy - closing * uy)
-                lz = stiffness[j] * along * uz + ratio * (fz - along * uz) \
-                    + rate * (wz - closing * uz)
+                lx = slope * along * ux + ratio * (fx - along * ux) + rate * (wx - closing * ux)
+                ly = slope * along * uy + ratio * (fy - along * uy) + rate * (wy - closing * uy)
+                lz = slope * along * uz + ratio * (fz - along * uz) + rate * (wz - closing * uz)
                 cv = damping[j] * along
                 # d = p_b - p_a: node b gets +λ_d, node a -λ_d
                 d_p[ia, 0] -= lx

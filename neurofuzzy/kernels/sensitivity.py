@@ -6,9 +6,10 @@ applied at every frame, so no Python runs per time step. The arithmetic is that 
 reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_templates`` and
 :meth:`neurofuzzy.forces.TetrahedronForce.state_jvp`, ``parameter_jvp``; tested equal):
 
-- springs ``f = (s (l - L0) + c ((v_b - v_a)·u)) u``, parameters ``log s`` and ``log c`` of
-  the spring's tie group (columns ``stiffness_column[j]``, ``damping_column[j]``, -1 when
-  not learned);
+- springs ``f = (s x + c ((v_b - v_a)·u) + κ x (x/L0)²) u`` (``x = l - L0``; ``s`` with the
+  spring inclusions' extra stiffness, ``κ`` the spring stiffening's), parameters ``log s``
+  and ``log c`` of the spring's tie group and the spring effects' coefficients (a CSR per
+  spring, :func:`_spring_tangents`);
 - tetrahedral elements of each element's law (:mod:`neurofuzzy.kernels.laws`; module
   :mod:`neurofuzzy.forces.tetrahedra`), parameters ``log E``, ``logit 2ν`` and ``log η`` of
   the element's tie group; the volumetric ``π``, ``π̇`` per element or from the node averages
@@ -35,20 +36,23 @@ from .tuples import (_differences, _dot, _edges, _edges_of_tangent, _full, _gree
 
 # -- springs -----------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
-def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
-                     damping_column, first, force, d_force, work):
+def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring_ptr,
+                     spring_column, spring_basis, spring_factor, first, force, d_force, work):
     """Spring forces into ``force`` and their tangents into ``d_force`` (N, 3, P), tangent
     ``q`` that of parameter ``first + q``; ``work`` (3, P) holds one spring's tangent
-    force."""
+    force. The parameters' derivatives of spring ``j``'s magnitude are the CSR entries
+    ``spring_ptr[j] .. spring_ptr[j + 1]``: ``factor · basis`` for parameter ``column``, basis
+    0 the stretch ``x``, 1 the closing speed, 2 ``x (x/L0)²`` (:func:`.stepper.spring_state`;
+    ``log s`` has the factor ``s``, an inclusion's ``k`` the factor 1)."""
     n_params = tp.shape[2]
     tx, ty, tz = work[0], work[1], work[2]     # the spring's tangent force
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]
-        ux, uy, uz, length, closing, stretch, magnitude = _spring(
-            p, v, ia, ib, stiffness[j], damping[j], rest[j], force)
+        ux, uy, uz, length, closing, stretch, magnitude, slope = _spring(
+            p, v, ia, ib, stiffness[j], damping[j], rest[j], cubic[j], force)
         if n_params == 0:
             continue
-        s, c = stiffness[j], damping[j]
+        c = damping[j]
         inverse = 1.0 / length
         wx = v[ib, 0] - v[ia, 0]
         wy = v[ib, 1] - v[ia, 1]
@@ -67,14 +71,23 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_col
             duz = (ddz - uz * dl) * inverse
             d_closing = ((vbx[q] - vax[q]) * ux + (vby[q] - vay[q]) * uy
                          + (vbz[q] - vaz[q]) * uz + wx * dux + wy * duy + wz * duz)
-            dm = s * dl + c * d_closing
+            dm = slope * dl + c * d_closing
             tx[q] = dm * ux + magnitude * dux
             ty[q] = dm * uy + magnitude * duy
             tz[q] = dm * uz + magnitude * duz
-        # the spring's own constants (∂f/∂log s, ∂f/∂log c), outside the vectorised loop
-        for column, extra in ((stiffness_column[j] - first, s * stretch),
-                              (damping_column[j] - first, c * closing)):
+        # the parameters of the spring's magnitude, outside the vectorised loop
+        for entry in range(spring_ptr[j], spring_ptr[j + 1]):
+            column = spring_column[entry] - first
             if 0 <= column < n_params:
+                basis = spring_basis[entry]
+                if basis == 0:
+                    extra = stretch
+                elif basis == 1:
+                    extra = closing
+                else:
+                    strain = stretch / rest[j]
+                    extra = stretch * strain * strain
+                extra *= spring_factor[entry]
                 tx[column] += extra * ux
                 ty[column] += extra * uy
                 tz[column] += extra * uz
@@ -246,15 +259,15 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
 
 # -- one experiment ----------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
-def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_column, tets,
-            inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
-            node_volume, node_lam, node_lam_rate, element_ptr, element_column, d_shear,
-            d_shear_rate, d_lam, d_lam_rate, d_node_lam, d_node_lam_rate, kappa, kappa_column,
-            stiffening_column, relax_g, relax_decay, relax_column, drag, drag_column,
-            force_direction, weight, mass_column, unit_mass_force, loads, h, n_frames, substeps,
-            first, width, start_index,
-            start_p, start_v,
-            rows_start, rows_node, rows_weight, seen, scale, tangents, positions, jacobian):
+def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_column,
+            spring_basis, spring_factor, tets, inverse_rest, volume, law, stiffening, shear,
+            shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
+            element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
+            d_node_lam_rate, kappa, kappa_column, stiffening_column, relax_g, relax_decay,
+            relax_column, drag, drag_column, force_direction, weight, mass_column,
+            unit_mass_force, loads, h, n_frames, substeps, first, width, start_index, start_p,
+            start_v, rows_start, rows_node, rows_weight, seen, scale, tangents, positions,
+            jacobian):
     """Positions (n_frames, N, 3) and, with ``tangents``, columns ``first .. first + width
     - 1`` of ``jacobian`` (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured
     (frame, row), 0 elsewhere (``width`` 0 without tangents; threads given disjoint columns
@@ -263,7 +276,8 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
     ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
-    inclusions of elements are in the element constants and their CSR columns; strain
+    inclusions and stiffening of springs are in ``stiffness`` and ``cubic`` and the springs'
+    CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element constants and their CSR columns; strain
     stiffening of the elements is ``kappa`` (its column ``kappa_column``). The elements' law
     constants ``stiffening`` (per element) have the columns ``stiffening_column``. Learned
     node masses: ``mass_column`` (N,) the column of each node's ``log m`` (-1 when not
@@ -306,8 +320,9 @@ def forward(p, v, a, b, stiffness, damping, rest, stiffness_column, damping_colu
                         out[q] = direction[q] - drag * speed[q]
                     if 0 <= drag_column - first < width:
                         out[drag_column - first] -= v[i, k]
-            _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, stiffness_column,
-                             damping_column, first, force, d_force, work)
+            _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring_ptr,
+                             spring_column, spring_basis, spring_factor, first, force, d_force,
+                             work)
             if tets.shape[0]:
                 _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
                                   shear, shear_rate, lam, lam_rate, nodal, node_volume,

@@ -17,10 +17,13 @@ from .relaxation import relax, relaxed_stress
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def spring_state(p, v, ia, ib, stiffness, damping, rest):
-    """The spring force of paper eqs. 3.4–3.6, once for every sweep: direction ``u``,
-    length ``l``, closing speed ``(v_b - v_a)·u``, stretch ``l - L0`` and the magnitude
-    ``s (l - L0) + c closing``, as ``(ux, uy, uz, length, closing, stretch, magnitude)``."""
+def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
+    """The spring force of paper eqs. 3.4–3.6 with the spring effects' strain stiffening,
+    once for every sweep: direction ``u``, length ``l``, closing speed ``(v_b - v_a)·u``,
+    stretch ``x = l - L0``, the magnitude ``m = s x + c closing + κ x (x/L0)²`` and its
+    length derivative ``s + 3 κ (x/L0)²``, as ``(ux, uy, uz, length, closing, stretch,
+    magnitude, slope)`` (``stiffness`` holds the spring inclusions' extra stiffness, ``cubic``
+    the stiffening's κ, 0 for none)."""
     dx = p[ib, 0] - p[ia, 0]
     dy = p[ib, 1] - p[ia, 1]
     dz = p[ib, 2] - p[ia, 2]
@@ -29,15 +32,21 @@ def spring_state(p, v, ia, ib, stiffness, damping, rest):
     closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
                + (v[ib, 2] - v[ia, 2]) * uz)
     stretch = length - rest
-    return ux, uy, uz, length, closing, stretch, stiffness * stretch + damping * closing
+    magnitude = stiffness * stretch + damping * closing
+    slope = stiffness
+    if cubic != 0.0:                   # most springs have none
+        strain = stretch / rest
+        magnitude += cubic * stretch * strain * strain
+        slope += 3.0 * cubic * strain * strain
+    return ux, uy, uz, length, closing, stretch, magnitude, slope
 
 
 @numba.njit(cache=True, nogil=True)
-def _spring(p, v, ia, ib, stiffness, damping, rest, force):
+def _spring(p, v, ia, ib, stiffness, damping, rest, cubic, force):
     """One spring's force ``m u`` (:func:`spring_state`) added to ``force`` (node a +,
     node b -); returns :func:`spring_state`'s values."""
-    ux, uy, uz, length, closing, stretch, magnitude = spring_state(p, v, ia, ib, stiffness,
-                                                                   damping, rest)
+    ux, uy, uz, length, closing, stretch, magnitude, slope = spring_state(
+        p, v, ia, ib, stiffness, damping, rest, cubic)
     fx, fy, fz = magnitude * ux, magnitude * uy, magnitude * uz
     force[ia, 0] += fx
     force[ia, 1] += fy
@@ -45,7 +54,7 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, force):
     force[ib, 0] -= fx
     force[ib, 1] -= fy
     force[ib, 2] -= fz
-    return ux, uy, uz, length, closing, stretch, magnitude
+    return ux, uy, uz, length, closing, stretch, magnitude, slope
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -178,17 +187,17 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, sh
 
 
 @numba.njit(cache=True, nogil=True)
-def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, stiffening,
-            shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-            node_strain, relax_g, relax_decay, history, kappa, drag, weight, load, h, n_steps,
-            force):
+def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
+            stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
+            node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, load,
+            h, n_steps, force):
     n_springs, n_nodes = a.shape[0], p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
             for k in range(3):
                 force[i, k] = load[i, k] - drag * v[i, k]
         for j in range(n_springs):
-            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], force)
+            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j], force)
         if tets.shape[0]:
             _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear,
                             shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
@@ -198,14 +207,14 @@ def advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, la
 
 
 @numba.njit(cache=True, nogil=True)
-def frames(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law, stiffening,
-           shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-           node_strain, relax_g, relax_decay, history, kappa, drag, weight, loads, h, n_frames,
-           substeps, force, positions, velocities):
+def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
+           stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
+           node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, loads,
+           h, n_frames, substeps, force, positions, velocities):
     positions[0] = p
     velocities[0] = v
     for t in range(1, n_frames):
-        advance(p, v, a, b, stiffness, damping, rest, tets, inverse_rest, volume, law,
+        advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
                 stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
                 node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight,
                 loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)

@@ -4,9 +4,10 @@ directions, the experiment's loads, window starts and observation operator laid 
 step).
 
 Used when numba is installed and every effect of the model is one the kernel knows: gravity
-and unmodeled loads (constant forces), a node drag, inclusions of elements (extra element
-constants) and strain stiffening of elements; node masses learned or fixed. Everything else
-takes the numpy reference path.
+and unmodeled loads (constant forces), a node drag, inclusions of springs (extra spring
+stiffness) and of elements (extra element constants), strain stiffening of springs and of
+elements; node masses learned or fixed. Everything else (the diagnosis' law-switch patches,
+a second drag) takes the numpy reference path.
 """
 
 from __future__ import annotations
@@ -15,8 +16,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..effects import NodeDrag, per_unit_mass_force
-from ..effects.compiled import (CONSTANT, element_constants, element_inclusion,
-                                element_stiffening, kernel_effects, kernel_values)
+from ..effects.compiled import (CLOSING, CONSTANT, STRETCH, element_constants,
+                                element_inclusion, element_stiffening, kernel_effects,
+                                kernel_values, spring_columns, spring_constants)
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
 from ..forces.relaxation import decay
@@ -36,27 +38,49 @@ class CompiledModel:
         self.model = model
         n_params = parameters.size
         blocks = parameters.blocks
-        springs = (np.arange(model.n_springs) if parameters.learn_springs else
-                   np.flatnonzero((model.spring_stiffness != 0) | (model.spring_damping != 0)))
-        tie = parameters.tied.tie[springs]
-        no_column = np.full(len(springs), -1, np.intp)
-        self.springs = (
-            np.ascontiguousarray(model.mesh.springs[springs, 0]),
-            np.ascontiguousarray(model.mesh.springs[springs, 1]),
-            model.spring_stiffness[springs].copy(), model.spring_damping[springs].copy(),
-            model.spring_rest_length[springs].copy(),
-            (blocks["log_stiffness"].start + tie).astype(np.intp)
-            if parameters.learn_springs else no_column,
-            (blocks["log_damping"].start + tie).astype(np.intp)
-            if parameters.learn_springs else no_column)
         # the model's effects are the parameterisation's, in order, when they are learned
         columns = {i: blocks[f"effect:{i}"].start for i in range(len(parameters.effects))}
+        self.springs = self._springs(parameters, model, columns)
         self.elements = self._elements(parameters, model, n_params, columns)
         self.relaxation = self._relaxation(parameters, model)
         self.effects = self._effects(model, n_params, columns)
         self.weight = model.node_inverse_mass
         self.masses = self._masses(parameters, model)
         self.n_params = n_params
+
+    @staticmethod
+    def _springs(parameters, model, columns):
+        """``(a, b, stiffness, damping, rest, κ, pointer, column, basis, factor)`` of the
+        springs the kernel steps (all when they are learned, else those with a force): their
+        constants with the spring effects' (:func:`~neurofuzzy.effects.compiled.
+        spring_constants`) and the CSR of their magnitudes' parameter derivatives
+        (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`)."""
+        stiffness, cubic = spring_constants(model)
+        effect_spring, *effect_entries = spring_columns(model, columns)
+        if parameters.learn_springs:
+            springs = np.arange(model.n_springs)
+        else:
+            active = (stiffness != 0) | (model.spring_damping != 0) | (cubic != 0)
+            active[effect_spring] = True
+            springs = np.flatnonzero(active)
+        local = np.full(model.n_springs, -1, np.intp)
+        local[springs] = np.arange(len(springs))
+        entries = [(local[effect_spring], *effect_entries)]
+        if parameters.learn_springs:            # ∂m/∂log s = s x, ∂m/∂log c = c ẋ
+            tie = parameters.tied.tie
+            for name, basis, values in (("log_stiffness", STRETCH, model.spring_stiffness),
+                                        ("log_damping", CLOSING, model.spring_damping)):
+                entries.append((springs, parameters.blocks[name].start + tie, np.full(
+                    len(springs), basis), np.asarray(values, float)))
+        spring, column, basis, factor = (np.concatenate(part) for part in zip(*entries))
+        order = np.lexsort((column, spring))
+        pointer = np.searchsorted(spring[order], np.arange(len(springs) + 1))
+        return (np.ascontiguousarray(model.mesh.springs[springs, 0]),
+                np.ascontiguousarray(model.mesh.springs[springs, 1]),
+                stiffness[springs], np.array(model.spring_damping[springs], float),
+                np.array(model.spring_rest_length[springs], float), cubic[springs],
+                pointer.astype(np.intp), column[order].astype(np.intp),
+                basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
 
     @staticmethod
     def _masses(parameters, model):

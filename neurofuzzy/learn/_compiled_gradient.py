@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..effects.compiled import CUBIC
 from ._compiled import CompiledModel
 from ._passes import Run
 
@@ -14,15 +15,15 @@ __all__ = ["compiled_gradient"]
 
 def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
-    models of springs and elements (relaxing or not) whose only effects are constant loads, a
-    node drag and inclusions of elements, none of them learned; node masses learned or
-    fixed."""
+    models of springs and elements (relaxing or not) whose effects are the kernels' but the
+    elements' strain stiffening, none learned but those of springs (inclusions, stiffening);
+    node masses learned or fixed (:attr:`~._sensitivity.Sensitivity.compiled_gradient`)."""
     from ..forces.relaxation import decay
     from ..kernels.adjoint import pull_back, sweep
 
     param = sensitivity.parameters
     compiled = CompiledModel(param, model)
-    a, b, stiffness, damping, rest = compiled.springs[:5]
+    a, b, stiffness, damping, rest, cubic, pointer, column, basis, factor = compiled.springs
     drag, _, _, constant = compiled.effects
     elements = compiled.elements[:13]       # the elements and their constants
     n_frames, observation = experiment.n_frames, experiment.observation
@@ -48,7 +49,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     mass_column, unit_mass_force = compiled.masses
     states_f = np.empty((steps if len(mass_column) else 0, sensitivity.n_nodes, 3))
     with np.errstate(over="ignore", invalid="ignore"):
-        sweep(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight,
+        sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag, weight,
               loads, h, n_frames, int(substeps), start_index, start_p, start_v, positions,
               states_p, states_v, states_r, states_f)
         scale = 1.0 / sensitivity.length_unit
@@ -63,25 +64,23 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     frame_adjoint = np.ascontiguousarray(np.moveaxis(observation.adjoint(
         np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
         sensitivity.n_nodes, n_frames, 3), 0, 1) * scale)
-    d_stiffness, d_damping = np.zeros(len(a)), np.zeros(len(a))
+    # the springs' λ · ∂F by the bases of their magnitudes (x, ẋ and, when learned, x (x/L0)²)
+    d_springs = np.zeros((3 if np.any(basis == CUBIC) else 2, len(a)))
     n_elements, nodal = len(elements[0]), elements[9]
     per_volumetric = sensitivity.n_nodes if nodal else n_elements   # λ, λβ: per node or element
     d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
                   np.zeros(per_volumetric), np.zeros(n_elements))
     g_relax = np.zeros(relax_column.shape)
     g_mass = np.zeros(sensitivity.n_nodes)
-    pull_back(a, b, stiffness, damping, rest, elements, relax_g, relax_decay, drag, weight, h,
-              n_frames, int(substeps), start_index, states_p, states_v, states_r, states_f,
-              unit_mass_force, frame_adjoint, d_stiffness, d_damping, d_elements, g_relax,
-              g_mass)
+    pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag,
+              weight, h, n_frames, int(substeps), start_index, states_p, states_v, states_r,
+              states_f, unit_mass_force, frame_adjoint, d_springs, d_elements, g_relax, g_mass)
     learned = mass_column >= 0                          # each free node's log m
     grad += np.bincount(mass_column[learned], g_mass[learned], param.size)
-    if param.learn_springs:
-        tie, n_ties = param.tied.tie, param.tied.n_ties
-        grad[param.blocks["log_stiffness"].slice] = np.bincount(
-            tie, stiffness * d_stiffness, n_ties)
-        grad[param.blocks["log_damping"].slice] = np.bincount(
-            tie, damping * d_damping, n_ties)
+    # the springs' parameters (log s, log c, the spring effects' coefficients), as in the
+    # forward kernel
+    spring = np.repeat(np.arange(len(a)), np.diff(pointer))
+    grad += np.bincount(column, factor * d_springs[basis, spring], param.size)
     if n_elements:
         # the constants' derivatives by the parameters, as in the forward kernel
         (pointer, column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,

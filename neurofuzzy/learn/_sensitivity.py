@@ -21,8 +21,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import scipy.sparse as sp
 
-from ..effects import NonlinearStiffening, per_unit_mass_force
-from ..effects.compiled import element_constants
+from ..effects import per_unit_mass_force
+from ..effects.compiled import element_constants, element_stiffening, spring_effect
 from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence, tetrahedron_geometry
@@ -84,11 +84,11 @@ class Sensitivity:
 
     @property
     def compiled_gradient(self) -> bool:
-        """Does :meth:`gradient` run in the compiled kernels (springs, elements, their
-        inclusions, constant loads and a node drag, masses learned or fixed; no effect
-        learned, no strain stiffening)?"""
-        return (self.compiled and not self.parameters.effects
-                and not any(isinstance(effect, NonlinearStiffening)
+        """Does :meth:`gradient` run in the compiled kernels (springs, elements, the effects
+        the kernels compute but the elements' strain stiffening; no effect learned but those
+        of springs; masses learned or fixed)?"""
+        return (self.compiled and all(spring_effect(effect) for effect in self.parameters.effects)
+                and not any(element_stiffening(effect)
                             for effect in self.parameters.base.effects))
 
     def _stiffening_forces(self, model, p, v):
