@@ -23,7 +23,7 @@ def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
     stretch ``x = l - L0``, the magnitude ``m = s x + c closing + κ x (x/L0)²`` and its
     length derivative ``s + 3 κ (x/L0)²``, as ``(ux, uy, uz, length, closing, stretch,
     magnitude, slope)`` (``stiffness`` holds the spring inclusions' extra stiffness, ``cubic``
-    the stiffening's κ, 0 for none)."""
+    the stiffening's κ, 0 for none: see :func:`_springs`)."""
     dx = p[ib, 0] - p[ia, 0]
     dy = p[ib, 1] - p[ia, 1]
     dz = p[ib, 2] - p[ia, 2]
@@ -34,7 +34,7 @@ def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
     stretch = length - rest
     magnitude = stiffness * stretch + damping * closing
     slope = stiffness
-    if cubic != 0.0:                   # most springs have none
+    if cubic != 0.0:                   # compiled away where the caller passes 0.0
         strain = stretch / rest
         magnitude += cubic * stretch * strain * strain
         slope += 3.0 * cubic * strain * strain
@@ -55,6 +55,18 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, cubic, force):
     force[ib, 1] -= fy
     force[ib, 2] -= fz
     return ux, uy, uz, length, closing, stretch, magnitude, slope
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _springs(p, v, a, b, stiffness, damping, rest, cubic, force):
+    """Every spring's force added to ``force``; ``cubic`` is empty when no spring stiffens,
+    and then ``κ = 0`` is compiled in (a loop that reads κ runs at 0.55 times the rate)."""
+    if cubic.shape[0]:
+        for j in range(a.shape[0]):
+            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j], force)
+    else:
+        for j in range(a.shape[0]):
+            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], 0.0, force)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -191,13 +203,12 @@ def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, vol
             stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
             node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, load,
             h, n_steps, force):
-    n_springs, n_nodes = a.shape[0], p.shape[0]
+    n_nodes = p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
             for k in range(3):
                 force[i, k] = load[i, k] - drag * v[i, k]
-        for j in range(n_springs):
-            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j], force)
+        _springs(p, v, a, b, stiffness, damping, rest, cubic, force)
         if tets.shape[0]:
             _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear,
                             shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
