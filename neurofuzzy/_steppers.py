@@ -132,8 +132,7 @@ class NumbaStepper:
         self.stiffness = stiffness[springs].astype(self.dtype)
         self.damping = model.spring_damping[springs].astype(self.dtype)
         self.rest = model.spring_rest_length[springs].astype(self.dtype)
-        # empty when no spring stiffens (the kernels then compile κ = 0 in)
-        self.cubic = (cubic[springs] if np.any(cubic) else np.zeros(0)).astype(self.dtype)
+        self.cubic = cubic[springs].astype(self.dtype)
         self.elements = _element_arrays(model, self.dtype, self.h)
         self.history = self.elements[-1]
         self.weight = model.node_inverse_mass.astype(self.dtype)

@@ -31,8 +31,8 @@ CONSTANT = (Gravity, UnmodeledLoad)
 
 
 #: the spring kernels' bases of a parameter's derivative of a spring's magnitude
-#: ``m = s x + c ẋ + κ x (x/L0)²`` (``x = l - L0``, ``ẋ`` the closing speed): ``x``, ``ẋ``,
-#: ``x (x/L0)²``
+#: ``m = s x + c ẋ + q x³`` (``x = l - L0``, ``ẋ`` the closing speed, ``q = κ / L0²``):
+#: ``x``, ``ẋ``, ``x³``
 STRETCH, CLOSING, CUBIC = 0, 1, 2
 
 
@@ -43,8 +43,8 @@ def spring_effect(effect) -> bool:
 
 
 def _basis(effect) -> int:
-    """The basis of a spring effect's coefficient: ``x`` (inclusions), ``x (x/L0)²``
-    (stiffening)."""
+    """The basis of a spring effect's coefficient: ``x`` (inclusions), ``x³`` (stiffening,
+    with the factor ``1 / L0²``)."""
     return CUBIC if isinstance(effect, NonlinearStiffening) else STRETCH
 
 
@@ -92,28 +92,36 @@ def kernel_values(model) -> tuple[float, np.ndarray, float]:
 
 
 def spring_constants(model) -> tuple[np.ndarray, np.ndarray]:
-    """``(stiffness, κ)`` per spring (n_springs,): the springs' own stiffness with the spring
-    inclusions' extra stiffness added, and the spring stiffening's κ (0 without)."""
+    """``(stiffness, q)`` per spring (n_springs,): the springs' own stiffness with the spring
+    inclusions' extra stiffness added, and the spring stiffening's ``q = κ / L0²`` (0
+    without), the coefficient of ``x³`` in :func:`neurofuzzy.kernels.stepper.spring_state`."""
     stiffness = np.array(model.spring_stiffness, dtype=float)
     cubic = np.zeros(model.n_springs)
     for effect in model.effects:
         if spring_effect(effect):
-            (cubic if _basis(effect) == CUBIC else stiffness)[:] += effect.per_spring(model)
+            if _basis(effect) == CUBIC:
+                cubic += effect.per_spring(model) / model.spring_rest_length**2
+            else:
+                stiffness += effect.per_spring(model)
     return stiffness, cubic
 
 
 def spring_columns(model, columns: dict[int, int]):
     """The derivatives of the springs' magnitudes by the learned spring effects'
-    coefficients, as ``(spring, column, basis, factor)`` arrays (factor 1): ``columns`` maps
-    the index of each learned effect in ``model.effects`` to its first parameter column."""
+    coefficients, as ``(spring, column, basis, factor)`` arrays (factor 1 for an inclusion's
+    ``x``, ``1 / L0²`` for a stiffening's ``x³``): ``columns`` maps the index of each
+    learned effect in ``model.effects`` to its first parameter column."""
     parts = []
     for i, effect in enumerate(model.effects):
         if spring_effect(effect) and i in columns:
             selection = effect.selected(model)
             index = effect.parameter_index(model, selection)
-            known = index >= 0
-            parts.append((selection[known], columns[i] + index[known],
-                          np.full(int(known.sum()), _basis(effect)), np.ones(int(known.sum()))))
+            springs = selection[index >= 0]
+            basis = _basis(effect)
+            factor = (1.0 / model.spring_rest_length[springs]**2 if basis == CUBIC
+                      else np.ones(len(springs)))
+            parts.append((springs, columns[i] + index[index >= 0],
+                          np.full(len(springs), basis), factor))
     if not parts:
         return np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0)
     spring, column, basis, factor = (np.concatenate(part) for part in zip(*parts))

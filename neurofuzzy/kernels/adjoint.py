@@ -3,7 +3,7 @@ models of springs and tetrahedral elements: two calls per experiment, no Python 
 
 :func:`sweep` runs semi-implicit Euler over the frames and keeps the state at the start of
 every substep; :func:`pull_back` runs the adjoint backwards over those states and sums, per
-spring, ``λ · ∂F`` by its magnitude's bases (``x``, the closing speed, ``x (x/L0)²``), and
+spring, ``λ · ∂F`` by its magnitude's bases (``x``, the closing speed, ``x³``), and
 per element ``λ · ∂F`` by its four constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and
 ``λβ``; for the nodal volumetric form by the node averages of the last two). The caller
 turns them into the gradient by the parameters with the forward kernel's CSR (``log s``,
@@ -11,8 +11,8 @@ turns them into the gradient by the parameters with the forward kernel's CSR (``
 derivatives of the constants as the forward kernel). The arithmetic is that of the numpy reference path
 (:meth:`neurofuzzy.forces.SpringForce.vjp`, :func:`~neurofuzzy.forces.springs.central_vjp`,
 :meth:`neurofuzzy.forces.TetrahedronForce.state_vjp` and ``parameter_vjp``; tested equal):
-springs ``f = (s x + c ((v_b - v_a)·u) + κ x (x/L0)²) u`` (``x = l - L0``, the spring
-effects' extra stiffness in ``s``, their stiffening ``κ``), elements of each element's law
+springs ``f = (s x + c ((v_b - v_a)·u) + q x³) u`` (``x = l - L0``, the spring effects'
+extra stiffness in ``s``, their stiffening ``q = κ / L0²``), elements of each element's law
 (:mod:`neurofuzzy.kernels.laws`), a node drag ``-drag v`` and constant loads.
 
 Imported only when numba is installed (module-level, ``cache=True``).
@@ -290,49 +290,6 @@ def sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay,
         positions[t] = p
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _spring_vjp(j, kappa, p, v, a, b, stiffness, damping, rest, lam_force, d_p, d_v,
-                d_springs):
-    """Spring ``j``'s part of :func:`pull_back` with the stiffening ``kappa``: ``λ_F · ∂f``
-    by its magnitude's bases into ``d_springs[:, j]``, by the state into ``d_p``, ``d_v``."""
-    ia, ib = a[j], b[j]
-    ux, uy, uz, length, closing, stretch, magnitude, slope = spring_state(
-        p, v, ia, ib, stiffness[j], damping[j], rest[j], kappa)
-    wx = v[ib, 0] - v[ia, 0]
-    wy = v[ib, 1] - v[ia, 1]
-    wz = v[ib, 2] - v[ia, 2]
-    # node a gets +f, node b -f: the cotangent of f is λ_a - λ_b
-    fx = lam_force[ia, 0] - lam_force[ib, 0]
-    fy = lam_force[ia, 1] - lam_force[ib, 1]
-    fz = lam_force[ia, 2] - lam_force[ib, 2]
-    along = ux * fx + uy * fy + uz * fz
-    d_springs[0, j] += stretch * along
-    d_springs[1, j] += closing * along
-    if d_springs.shape[0] > 2:      # a learned stiffening
-        strain = stretch / rest[j]
-        d_springs[2, j] += stretch * strain * strain * along
-    # central_vjp with ∂m/∂l = slope, ∂m/∂c = c
-    ratio = magnitude / length
-    rate = damping[j] * along / length
-    lx = slope * along * ux + ratio * (fx - along * ux) + rate * (wx - closing * ux)
-    ly = slope * along * uy + ratio * (fy - along * uy) + rate * (wy - closing * uy)
-    lz = slope * along * uz + ratio * (fz - along * uz) + rate * (wz - closing * uz)
-    cv = damping[j] * along
-    # d = p_b - p_a: node b gets +λ_d, node a -λ_d
-    d_p[ia, 0] -= lx
-    d_p[ia, 1] -= ly
-    d_p[ia, 2] -= lz
-    d_p[ib, 0] += lx
-    d_p[ib, 1] += ly
-    d_p[ib, 2] += lz
-    d_v[ia, 0] -= cv * ux
-    d_v[ia, 1] -= cv * uy
-    d_v[ia, 2] -= cv * uz
-    d_v[ib, 0] += cv * ux
-    d_v[ib, 1] += cv * uy
-    d_v[ib, 2] += cv * uz
-
-
 @numba.njit(cache=True, nogil=True)
 def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag,
               weight, h, n_frames, substeps, start_index, states_p, states_v, states_r,
@@ -341,8 +298,7 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
     ``Σ λ_F · ∂F/∂s_j``, ``Σ λ_F · ∂F/∂c_j`` and (when ``d_springs`` has a third row)
     ``Σ λ_F · ∂F/∂κ_j`` to ``d_springs[:, j]`` (the bases of
-    :func:`.sensitivity._spring_tangents`; ``cubic`` empty when no spring stiffens) over
-    every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
+    :func:`.sensitivity._spring_tangents`) over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
     of the element constants to ``d_elements`` and of the Prony terms' ``log g``, ``log τ``
     to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
     cotangents run on across window starts, as their values do forwards). With the forces
@@ -352,6 +308,7 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
     n_nodes = frame_adjoint.shape[1]
     g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
     has_elements = elements[0].shape[0] > 0
+    cubic_basis = d_springs.shape[0] > 2
     node_strain = np.zeros((n_nodes, 2))
     node_adjoint = np.zeros((n_nodes, 2))
     lam_p = np.zeros((n_nodes, 3))
@@ -385,14 +342,42 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
                 for k in range(3):
                     d_p[i, k] = 0.0
                     d_v[i, k] = -drag * lam_force[i, k]
-            if cubic.shape[0]:
-                for j in range(a.shape[0]):
-                    _spring_vjp(j, cubic[j], p, v, a, b, stiffness, damping, rest, lam_force,
-                                d_p, d_v, d_springs)
-            else:                      # no spring stiffens: κ = 0 compiled in
-                for j in range(a.shape[0]):
-                    _spring_vjp(j, 0.0, p, v, a, b, stiffness, damping, rest, lam_force, d_p,
-                                d_v, d_springs)
+            for j in range(a.shape[0]):
+                ia, ib = a[j], b[j]
+                ux, uy, uz, length, closing, stretch, magnitude, slope = spring_state(
+                    p, v, ia, ib, stiffness[j], damping[j], rest[j], cubic[j])
+                wx = v[ib, 0] - v[ia, 0]
+                wy = v[ib, 1] - v[ia, 1]
+                wz = v[ib, 2] - v[ia, 2]
+                # node a gets +f, node b -f: the cotangent of f is λ_a - λ_b
+                fx = lam_force[ia, 0] - lam_force[ib, 0]
+                fy = lam_force[ia, 1] - lam_force[ib, 1]
+                fz = lam_force[ia, 2] - lam_force[ib, 2]
+                along = ux * fx + uy * fy + uz * fz
+                d_springs[0, j] += stretch * along
+                d_springs[1, j] += closing * along
+                if cubic_basis:                  # a learned stiffening
+                    d_springs[2, j] += stretch * stretch * stretch * along
+                # central_vjp with ∂m/∂l = slope, ∂m/∂c = c
+                ratio = magnitude / length
+                rate = damping[j] * along / length
+                lx = slope * along * ux + ratio * (fx - along * ux) + rate * (wx - closing * ux)
+                ly = slope * along * uy + ratio * (fy - along * uy) + rate * (wy - closing * uy)
+                lz = slope * along * uz + ratio * (fz - along * uz) + rate * (wz - closing * uz)
+                cv = damping[j] * along
+                # d = p_b - p_a: node b gets +λ_d, node a -λ_d
+                d_p[ia, 0] -= lx
+                d_p[ia, 1] -= ly
+                d_p[ia, 2] -= lz
+                d_p[ib, 0] += lx
+                d_p[ib, 1] += ly
+                d_p[ib, 2] += lz
+                d_v[ia, 0] -= cv * ux
+                d_v[ia, 1] -= cv * uy
+                d_v[ia, 2] -= cv * uz
+                d_v[ib, 0] += cv * ux
+                d_v[ib, 1] += cv * uy
+                d_v[ib, 2] += cv * uz
             if has_elements:
                 _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate,
                              g_lam, g_lam_rate, g_stiffening, node_strain, node_adjoint,

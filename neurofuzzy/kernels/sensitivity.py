@@ -6,8 +6,8 @@ applied at every frame, so no Python runs per time step. The arithmetic is that 
 reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_templates`` and
 :meth:`neurofuzzy.forces.TetrahedronForce.state_jvp`, ``parameter_jvp``; tested equal):
 
-- springs ``f = (s x + c ((v_b - v_a)·u) + κ x (x/L0)²) u`` (``x = l - L0``; ``s`` with the
-  spring inclusions' extra stiffness, ``κ`` the spring stiffening's), parameters ``log s``
+- springs ``f = (s x + c ((v_b - v_a)·u) + q x³) u`` (``x = l - L0``; ``s`` with the
+  spring inclusions' extra stiffness, ``q = κ / L0²`` the spring stiffening's), parameters ``log s``
   and ``log c`` of the spring's tie group and the spring effects' coefficients (a CSR per
   spring, :func:`_spring_tangents`);
 - tetrahedral elements of each element's law (:mod:`neurofuzzy.kernels.laws`; module
@@ -42,80 +42,64 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
     ``q`` that of parameter ``first + q``; ``work`` (3, P) holds one spring's tangent
     force. The parameters' derivatives of spring ``j``'s magnitude are the CSR entries
     ``spring_ptr[j] .. spring_ptr[j + 1]``: ``factor · basis`` for parameter ``column``, basis
-    0 the stretch ``x``, 1 the closing speed, 2 ``x (x/L0)²`` (:func:`.stepper.spring_state`;
-    ``log s`` has the factor ``s``, an inclusion's ``k`` the factor 1). ``cubic`` is empty
-    when no spring stiffens (``κ = 0`` compiled in, as :func:`.stepper._springs`)."""
-    if cubic.shape[0]:
-        for j in range(a.shape[0]):
-            _spring_tangent(j, cubic[j], p, v, tp, tv, a, b, stiffness, damping, rest,
-                            spring_ptr, spring_column, spring_basis, spring_factor, first,
-                            force, d_force, work)
-    else:
-        for j in range(a.shape[0]):
-            _spring_tangent(j, 0.0, p, v, tp, tv, a, b, stiffness, damping, rest, spring_ptr,
-                            spring_column, spring_basis, spring_factor, first, force, d_force,
-                            work)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _spring_tangent(j, kappa, p, v, tp, tv, a, b, stiffness, damping, rest, spring_ptr,
-                    spring_column, spring_basis, spring_factor, first, force, d_force, work):
-    """Spring ``j`` of :func:`_spring_tangents` with the stiffening ``kappa``."""
+    0 the stretch ``x``, 1 the closing speed, 2 ``x³`` (:func:`.stepper.spring_state`;
+    ``log s`` has the factor ``s``, an inclusion's ``k`` the factor 1, a stiffening's ``κ``
+    the factor ``1 / L0²`` of basis 2, ``x³``)."""
     n_params = tp.shape[2]
     tx, ty, tz = work[0], work[1], work[2]     # the spring's tangent force
-    ia, ib = a[j], b[j]
-    ux, uy, uz, length, closing, stretch, magnitude, slope = _spring(
-        p, v, ia, ib, stiffness[j], damping[j], rest[j], kappa, force)
-    if n_params == 0:
-        return
-    c = damping[j]
-    inverse = 1.0 / length
-    wx = v[ib, 0] - v[ia, 0]
-    wy = v[ib, 1] - v[ia, 1]
-    wz = v[ib, 2] - v[ia, 2]
-    pax, pay, paz = tp[ia, 0], tp[ia, 1], tp[ia, 2]
-    pbx, pby, pbz = tp[ib, 0], tp[ib, 1], tp[ib, 2]
-    vax, vay, vaz = tv[ia, 0], tv[ia, 1], tv[ia, 2]
-    vbx, vby, vbz = tv[ib, 0], tv[ib, 1], tv[ib, 2]
-    for q in range(n_params):
-        ddx = pbx[q] - pax[q]
-        ddy = pby[q] - pay[q]
-        ddz = pbz[q] - paz[q]
-        dl = ux * ddx + uy * ddy + uz * ddz
-        dux = (ddx - ux * dl) * inverse
-        duy = (ddy - uy * dl) * inverse
-        duz = (ddz - uz * dl) * inverse
-        d_closing = ((vbx[q] - vax[q]) * ux + (vby[q] - vay[q]) * uy
-                     + (vbz[q] - vaz[q]) * uz + wx * dux + wy * duy + wz * duz)
-        dm = slope * dl + c * d_closing
-        tx[q] = dm * ux + magnitude * dux
-        ty[q] = dm * uy + magnitude * duy
-        tz[q] = dm * uz + magnitude * duz
-    # the parameters of the spring's magnitude, outside the vectorised loop
-    for entry in range(spring_ptr[j], spring_ptr[j + 1]):
-        column = spring_column[entry] - first
-        if 0 <= column < n_params:
-            basis = spring_basis[entry]
-            if basis == 0:
-                extra = stretch
-            elif basis == 1:
-                extra = closing
-            else:
-                strain = stretch / rest[j]
-                extra = stretch * strain * strain
-            extra *= spring_factor[entry]
-            tx[column] += extra * ux
-            ty[column] += extra * uy
-            tz[column] += extra * uz
-    fax, fay, faz = d_force[ia, 0], d_force[ia, 1], d_force[ia, 2]
-    fbx, fby, fbz = d_force[ib, 0], d_force[ib, 1], d_force[ib, 2]
-    for q in range(n_params):
-        fax[q] += tx[q]
-        fay[q] += ty[q]
-        faz[q] += tz[q]
-        fbx[q] -= tx[q]
-        fby[q] -= ty[q]
-        fbz[q] -= tz[q]
+    for j in range(a.shape[0]):
+        ia, ib = a[j], b[j]
+        ux, uy, uz, length, closing, stretch, magnitude, slope = _spring(
+            p, v, ia, ib, stiffness[j], damping[j], rest[j], cubic[j], force)
+        if n_params == 0:
+            continue
+        c = damping[j]
+        inverse = 1.0 / length
+        wx = v[ib, 0] - v[ia, 0]
+        wy = v[ib, 1] - v[ia, 1]
+        wz = v[ib, 2] - v[ia, 2]
+        pax, pay, paz = tp[ia, 0], tp[ia, 1], tp[ia, 2]
+        pbx, pby, pbz = tp[ib, 0], tp[ib, 1], tp[ib, 2]
+        vax, vay, vaz = tv[ia, 0], tv[ia, 1], tv[ia, 2]
+        vbx, vby, vbz = tv[ib, 0], tv[ib, 1], tv[ib, 2]
+        for q in range(n_params):
+            ddx = pbx[q] - pax[q]
+            ddy = pby[q] - pay[q]
+            ddz = pbz[q] - paz[q]
+            dl = ux * ddx + uy * ddy + uz * ddz
+            dux = (ddx - ux * dl) * inverse
+            duy = (ddy - uy * dl) * inverse
+            duz = (ddz - uz * dl) * inverse
+            d_closing = ((vbx[q] - vax[q]) * ux + (vby[q] - vay[q]) * uy
+                         + (vbz[q] - vaz[q]) * uz + wx * dux + wy * duy + wz * duz)
+            dm = slope * dl + c * d_closing
+            tx[q] = dm * ux + magnitude * dux
+            ty[q] = dm * uy + magnitude * duy
+            tz[q] = dm * uz + magnitude * duz
+        # the parameters of the spring's magnitude, outside the vectorised loop
+        for entry in range(spring_ptr[j], spring_ptr[j + 1]):
+            column = spring_column[entry] - first
+            if 0 <= column < n_params:
+                basis = spring_basis[entry]
+                if basis == 0:
+                    extra = stretch
+                elif basis == 1:
+                    extra = closing
+                else:
+                    extra = stretch * stretch * stretch
+                extra *= spring_factor[entry]
+                tx[column] += extra * ux
+                ty[column] += extra * uy
+                tz[column] += extra * uz
+        fax, fay, faz = d_force[ia, 0], d_force[ia, 1], d_force[ia, 2]
+        fbx, fby, fbz = d_force[ib, 0], d_force[ib, 1], d_force[ib, 2]
+        for q in range(n_params):
+            fax[q] += tx[q]
+            fay[q] += ty[q]
+            faz[q] += tz[q]
+            fbx[q] -= tx[q]
+            fby[q] -= ty[q]
+            fbz[q] -= tz[q]
 
 
 # -- tetrahedral elements ----------------------------------------------------------------------
@@ -293,8 +277,8 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     learned), constant forces already in ``loads`` with their parameter columns in
     ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
     inclusions and stiffening of springs are in ``stiffness`` and ``cubic`` and the springs'
-    CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element constants and their CSR columns; strain
-    stiffening of the elements is ``kappa`` (its column ``kappa_column``). The elements' law
+    CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element
+    constants and their CSR columns; strain stiffening of the elements is ``kappa`` (its column ``kappa_column``). The elements' law
     constants ``stiffening`` (per element) have the columns ``stiffening_column``. Learned
     node masses: ``mass_column`` (N,) the column of each node's ``log m`` (-1 when not
     learned; empty when no mass is), ``unit_mass_force`` (N, 3) the forces proportional to

@@ -20,10 +20,11 @@ from .relaxation import relax, relaxed_stress
 def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
     """The spring force of paper eqs. 3.4–3.6 with the spring effects' strain stiffening,
     once for every sweep: direction ``u``, length ``l``, closing speed ``(v_b - v_a)·u``,
-    stretch ``x = l - L0``, the magnitude ``m = s x + c closing + κ x (x/L0)²`` and its
-    length derivative ``s + 3 κ (x/L0)²``, as ``(ux, uy, uz, length, closing, stretch,
-    magnitude, slope)`` (``stiffness`` holds the spring inclusions' extra stiffness, ``cubic``
-    the stiffening's κ, 0 for none: see :func:`_springs`)."""
+    stretch ``x = l - L0``, the magnitude ``m = s x + c closing + q x³`` and its length
+    derivative ``s + 3 q x²``, as ``(ux, uy, uz, length, closing, stretch, magnitude,
+    slope)``: ``stiffness`` holds the spring inclusions' extra stiffness, ``cubic`` the
+    stiffening's ``q = κ / L0²`` (0 for none; with no division here, a spring without costs
+    what it did before the term existed)."""
     dx = p[ib, 0] - p[ia, 0]
     dy = p[ib, 1] - p[ia, 1]
     dz = p[ib, 2] - p[ia, 2]
@@ -32,12 +33,9 @@ def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
     closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
                + (v[ib, 2] - v[ia, 2]) * uz)
     stretch = length - rest
-    magnitude = stiffness * stretch + damping * closing
-    slope = stiffness
-    if cubic != 0.0:                   # compiled away where the caller passes 0.0
-        strain = stretch / rest
-        magnitude += cubic * stretch * strain * strain
-        slope += 3.0 * cubic * strain * strain
+    square = cubic * stretch * stretch
+    magnitude = (stiffness + square) * stretch + damping * closing
+    slope = stiffness + 3.0 * square
     return ux, uy, uz, length, closing, stretch, magnitude, slope
 
 
@@ -59,14 +57,9 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, cubic, force):
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _springs(p, v, a, b, stiffness, damping, rest, cubic, force):
-    """Every spring's force added to ``force``; ``cubic`` is empty when no spring stiffens,
-    and then ``κ = 0`` is compiled in (a loop that reads κ runs at 0.55 times the rate)."""
-    if cubic.shape[0]:
-        for j in range(a.shape[0]):
-            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j], force)
-    else:
-        for j in range(a.shape[0]):
-            _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], 0.0, force)
+    """Every spring's force added to ``force`` (:func:`_spring`)."""
+    for j in range(a.shape[0]):
+        _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j], force)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

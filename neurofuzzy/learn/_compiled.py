@@ -78,8 +78,7 @@ class CompiledModel:
         return (np.ascontiguousarray(model.mesh.springs[springs, 0]),
                 np.ascontiguousarray(model.mesh.springs[springs, 1]),
                 stiffness[springs], np.array(model.spring_damping[springs], float),
-                np.array(model.spring_rest_length[springs], float),
-                cubic[springs] if np.any(cubic) else np.zeros(0),    # empty: κ = 0 compiled in
+                np.array(model.spring_rest_length[springs], float), cubic[springs],
                 pointer.astype(np.intp), column[order].astype(np.intp),
                 basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
 

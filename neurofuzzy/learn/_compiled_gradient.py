@@ -64,7 +64,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     frame_adjoint = np.ascontiguousarray(np.moveaxis(observation.adjoint(
         np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(
         sensitivity.n_nodes, n_frames, 3), 0, 1) * scale)
-    # the springs' λ · ∂F by the bases of their magnitudes (x, ẋ and, when learned, x (x/L0)²)
+    # the springs' λ · ∂F by the bases of their magnitudes (x, ẋ and, when learned, x³)
     d_springs = np.zeros((3 if np.any(basis == CUBIC) else 2, len(a)))
     n_elements, nodal = len(elements[0]), elements[9]
     per_volumetric = sensitivity.n_nodes if nodal else n_elements   # λ, λβ: per node or element
