@@ -119,20 +119,20 @@ class NumbaStepper:
         if not compiled_terms_only(model):
             raise ValueError("the numba stepper steps springs, elements and the effects the "
                              "kernels compute (neurofuzzy.effects.compiled)")
-        from .effects.compiled import kernel_values, spring_constants
+        from .effects.compiled import kernel_values, spring_entries
 
         self.drag, constant, self.kappa = kernel_values(model)
         self.constant = constant.astype(dtype)
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        stiffness, cubic = spring_constants(model)       # with the spring effects'
-        springs = np.flatnonzero((stiffness != 0) | (model.spring_damping != 0) | (cubic != 0))
+        # the springs with a force, then those that stiffen once more (the spring effects')
+        springs, stiffness, damping, cubic, _ = spring_entries(model)
         self.a = np.ascontiguousarray(model.mesh.springs[springs, 0])
         self.b = np.ascontiguousarray(model.mesh.springs[springs, 1])
-        self.stiffness = stiffness[springs].astype(self.dtype)
-        self.damping = model.spring_damping[springs].astype(self.dtype)
+        self.stiffness = stiffness.astype(self.dtype)
+        self.damping = damping.astype(self.dtype)
         self.rest = model.spring_rest_length[springs].astype(self.dtype)
-        self.cubic = cubic[springs].astype(self.dtype)
+        self.cubic = cubic.astype(self.dtype)
         self.elements = _element_arrays(model, self.dtype, self.h)
         self.history = self.elements[-1]
         self.weight = model.node_inverse_mass.astype(self.dtype)

@@ -4,9 +4,9 @@ once for the stepper (:class:`neurofuzzy._steppers.NumbaStepper`) and the sensit
 
 - constant forces (gravity, an unmodeled load): added to the loads;
 - a node drag ``-b v``;
-- inclusions of springs: extra stiffness of their springs; strain stiffening of springs: the
-  κ of :func:`neurofuzzy.kernels.stepper.spring_state` (:func:`spring_constants`,
-  :func:`spring_columns`);
+- inclusions of springs: extra stiffness of their springs; strain stiffening of springs: a
+  second central force along each spring that stiffens, ``q x³`` of
+  :func:`neurofuzzy.kernels.stepper.spring_state` (:func:`spring_entries`);
 - inclusions of elements: extra element constants (:meth:`StiffInclusion.added_constants`);
 - strain stiffening of the elements: ``κ`` of :mod:`neurofuzzy.kernels.laws`.
 
@@ -24,7 +24,7 @@ from .stiffening import NonlinearStiffening
 
 __all__ = ["CONSTANT", "STRETCH", "CLOSING", "CUBIC", "element_inclusion",
            "element_stiffening", "spring_effect", "kernel_effects", "element_constants",
-           "kernel_values", "spring_constants", "spring_columns"]
+           "kernel_values", "spring_entries"]
 
 #: effects that are constant forces
 CONSTANT = (Gravity, UnmodeledLoad)
@@ -91,38 +91,53 @@ def kernel_values(model) -> tuple[float, np.ndarray, float]:
     return drag, constant, kappa
 
 
-def spring_constants(model) -> tuple[np.ndarray, np.ndarray]:
-    """``(stiffness, q)`` per spring (n_springs,): the springs' own stiffness with the spring
-    inclusions' extra stiffness added, and the spring stiffening's ``q = κ / L0²`` (0
-    without), the coefficient of ``x³`` in :func:`neurofuzzy.kernels.stepper.spring_state`."""
+def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring=False):
+    """The springs as the kernels step them (:func:`neurofuzzy.kernels.stepper._springs`):
+    the model's springs, then once more each spring that stiffens, with no stiffness or
+    damping of its own and its ``q = κ / L0²`` (a second central force along the same spring,
+    so that the springs that do not stiffen are stepped with ``q = 0`` compiled in).
+
+    ``columns`` maps the index of each learned effect in ``model.effects`` to its first
+    parameter column; ``every_spring`` keeps springs with no force (their own constants are
+    learned). Returns ``(spring, stiffness, damping, cubic, derivatives)``: per entry the
+    model's spring index, the stiffness (the spring inclusions' added) and the damping;
+    ``cubic`` the ``q`` of the last ``len(cubic)`` entries; ``derivatives`` the spring effects'
+    parameter derivatives of the entries' magnitudes as ``(entry, column, basis, factor)``
+    arrays (an inclusion's ``x`` with factor 1, a stiffening's ``x³`` with ``1 / L0²``).
+    """
+    columns = columns or {}
     stiffness = np.array(model.spring_stiffness, dtype=float)
     cubic = np.zeros(model.n_springs)
-    for effect in model.effects:
-        if spring_effect(effect):
-            if _basis(effect) == CUBIC:
-                cubic += effect.per_spring(model) / model.spring_rest_length**2
-            else:
-                stiffness += effect.per_spring(model)
-    return stiffness, cubic
-
-
-def spring_columns(model, columns: dict[int, int]):
-    """The derivatives of the springs' magnitudes by the learned spring effects'
-    coefficients, as ``(spring, column, basis, factor)`` arrays (factor 1 for an inclusion's
-    ``x``, ``1 / L0²`` for a stiffening's ``x³``): ``columns`` maps the index of each
-    learned effect in ``model.effects`` to its first parameter column."""
-    parts = []
+    stiffens = np.zeros(model.n_springs, bool)
+    keep = every_spring | (stiffness != 0) | (model.spring_damping != 0)
+    learned = []                           # (springs, column, basis, factor) per effect
     for i, effect in enumerate(model.effects):
-        if spring_effect(effect) and i in columns:
-            selection = effect.selected(model)
-            index = effect.parameter_index(model, selection)
-            springs = selection[index >= 0]
-            basis = _basis(effect)
-            factor = (1.0 / model.spring_rest_length[springs]**2 if basis == CUBIC
-                      else np.ones(len(springs)))
-            parts.append((springs, columns[i] + index[index >= 0],
-                          np.full(len(springs), basis), factor))
-    if not parts:
-        return np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0)
-    spring, column, basis, factor = (np.concatenate(part) for part in zip(*parts))
-    return spring.astype(np.intp), column.astype(np.intp), basis.astype(np.intp), factor
+        if not spring_effect(effect):
+            continue
+        selection = effect.selected(model)
+        index = effect.parameter_index(model, selection)
+        springs = selection[index >= 0]
+        if _basis(effect) == CUBIC:
+            cubic += effect.per_spring(model) / model.spring_rest_length**2
+            stiffens[springs] |= i in columns
+            factor = 1.0 / model.spring_rest_length[springs]**2
+        else:
+            stiffness += effect.per_spring(model)
+            keep[springs] |= i in columns
+            factor = np.ones(len(springs))
+        if i in columns:
+            learned.append((springs, columns[i] + index[index >= 0], _basis(effect), factor))
+    keep |= stiffness != 0
+    stiffens |= cubic != 0
+    plain, tail = np.flatnonzero(keep), np.flatnonzero(stiffens)
+    entry = np.full((2, model.n_springs), -1, np.intp)     # model spring → plain, tail entry
+    entry[0, plain] = np.arange(len(plain))
+    entry[1, tail] = len(plain) + np.arange(len(tail))
+    parts = [(entry[int(basis == CUBIC), springs], column, np.full(len(springs), basis),
+              factor) for springs, column, basis, factor in learned]
+    derivatives = tuple(np.concatenate([part[k] for part in parts]) if parts else
+                        np.zeros(0, float if k == 3 else np.intp) for k in range(4))
+    spring = np.concatenate([plain, tail])
+    zeros = np.zeros(len(tail))
+    return (spring, np.concatenate([stiffness[plain], zeros]),
+            np.concatenate([model.spring_damping[plain], zeros]), cubic[tail], derivatives)

@@ -309,6 +309,7 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
     g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
     has_elements = elements[0].shape[0] > 0
     cubic_basis = d_springs.shape[0] > 2
+    plain = a.shape[0] - cubic.shape[0]        # the last springs' q: cubic
     node_strain = np.zeros((n_nodes, 2))
     node_adjoint = np.zeros((n_nodes, 2))
     lam_p = np.zeros((n_nodes, 3))
@@ -345,7 +346,8 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
             for j in range(a.shape[0]):
                 ia, ib = a[j], b[j]
                 ux, uy, uz, length, closing, stretch, magnitude, slope = spring_state(
-                    p, v, ia, ib, stiffness[j], damping[j], rest[j], cubic[j])
+                    p, v, ia, ib, stiffness[j], damping[j], rest[j],
+                    cubic[j - plain] if j >= plain else 0.0)
                 wx = v[ib, 0] - v[ia, 0]
                 wy = v[ib, 1] - v[ia, 1]
                 wz = v[ib, 2] - v[ia, 2]

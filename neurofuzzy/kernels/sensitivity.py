@@ -44,13 +44,16 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
     ``spring_ptr[j] .. spring_ptr[j + 1]``: ``factor · basis`` for parameter ``column``, basis
     0 the stretch ``x``, 1 the closing speed, 2 ``x³`` (:func:`.stepper.spring_state`;
     ``log s`` has the factor ``s``, an inclusion's ``k`` the factor 1, a stiffening's ``κ``
-    the factor ``1 / L0²`` of basis 2, ``x³``)."""
+    the factor ``1 / L0²`` of basis 2, ``x³``). ``cubic`` holds the ``q`` of the last
+    springs, as in :func:`.stepper._springs`."""
     n_params = tp.shape[2]
     tx, ty, tz = work[0], work[1], work[2]     # the spring's tangent force
+    plain = a.shape[0] - cubic.shape[0]        # the last springs' q: cubic
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]
         ux, uy, uz, length, closing, stretch, magnitude, slope = _spring(
-            p, v, ia, ib, stiffness[j], damping[j], rest[j], cubic[j], force)
+            p, v, ia, ib, stiffness[j], damping[j], rest[j],
+            cubic[j - plain] if j >= plain else 0.0, force)
         if n_params == 0:
             continue
         c = damping[j]

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from ..effects import NodeDrag, per_unit_mass_force
 from ..effects.compiled import (CLOSING, CONSTANT, STRETCH, element_constants,
                                 element_inclusion, element_stiffening, kernel_effects,
-                                kernel_values, spring_columns, spring_constants)
+                                kernel_values, spring_entries)
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
 from ..forces.relaxation import decay
@@ -50,35 +50,25 @@ class CompiledModel:
 
     @staticmethod
     def _springs(parameters, model, columns):
-        """``(a, b, stiffness, damping, rest, κ, pointer, column, basis, factor)`` of the
-        springs the kernel steps (all when they are learned, else those with a force): their
-        constants with the spring effects' (:func:`~neurofuzzy.effects.compiled.
-        spring_constants`) and the CSR of their magnitudes' parameter derivatives
-        (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`)."""
-        stiffness, cubic = spring_constants(model)
-        effect_spring, *effect_entries = spring_columns(model, columns)
-        if parameters.learn_springs:
-            springs = np.arange(model.n_springs)
-        else:
-            active = (stiffness != 0) | (model.spring_damping != 0) | (cubic != 0)
-            active[effect_spring] = True
-            springs = np.flatnonzero(active)
-        local = np.full(model.n_springs, -1, np.intp)
-        local[springs] = np.arange(len(springs))
-        entries = [(local[effect_spring], *effect_entries)]
-        if parameters.learn_springs:            # ∂m/∂log s = s x, ∂m/∂log c = c ẋ
-            tie = parameters.tied.tie
+        """``(a, b, stiffness, damping, rest, q, pointer, column, basis, factor)`` of the
+        springs as the kernels step them (:func:`~neurofuzzy.effects.compiled.spring_entries`;
+        all springs when they are learned) and the CSR of their magnitudes' parameter
+        derivatives (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`)."""
+        spring, stiffness, damping, cubic, derivatives = spring_entries(
+            model, columns, every_spring=parameters.learn_springs)
+        entries = [derivatives]
+        if parameters.learn_springs:    # entry j is spring j: ∂m/∂log s = s x, ∂m/∂log c = c ẋ
+            own = np.arange(model.n_springs)
             for name, basis, values in (("log_stiffness", STRETCH, model.spring_stiffness),
                                         ("log_damping", CLOSING, model.spring_damping)):
-                entries.append((springs, parameters.blocks[name].start + tie, np.full(
-                    len(springs), basis), np.asarray(values, float)))
-        spring, column, basis, factor = (np.concatenate(part) for part in zip(*entries))
-        order = np.lexsort((column, spring))
-        pointer = np.searchsorted(spring[order], np.arange(len(springs) + 1))
-        return (np.ascontiguousarray(model.mesh.springs[springs, 0]),
-                np.ascontiguousarray(model.mesh.springs[springs, 1]),
-                stiffness[springs], np.array(model.spring_damping[springs], float),
-                np.array(model.spring_rest_length[springs], float), cubic[springs],
+                entries.append((own, parameters.blocks[name].start + parameters.tied.tie,
+                                np.full(len(own), basis), np.asarray(values, float)))
+        entry, column, basis, factor = (np.concatenate(part) for part in zip(*entries))
+        order = np.lexsort((column, entry))
+        pointer = np.searchsorted(entry[order], np.arange(len(spring) + 1))
+        return (np.ascontiguousarray(model.mesh.springs[spring, 0]),
+                np.ascontiguousarray(model.mesh.springs[spring, 1]), stiffness, damping,
+                np.array(model.spring_rest_length[spring], float), cubic,
                 pointer.astype(np.intp), column[order].astype(np.intp),
                 basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
 
