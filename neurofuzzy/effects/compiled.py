@@ -106,6 +106,12 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
     arrays (an inclusion's ``x`` with factor 1, a stiffening's ``x³`` with ``1 / L0²``).
     """
     columns = columns or {}
+    if not any(spring_effect(effect) for effect in model.effects):    # most models: quickly
+        plain = np.flatnonzero(every_spring | (model.spring_stiffness != 0)
+                               | (model.spring_damping != 0))
+        return (plain, np.asarray(model.spring_stiffness[plain], float),
+                np.asarray(model.spring_damping[plain], float), np.zeros(0),
+                (np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0)))
     stiffness = np.array(model.spring_stiffness, dtype=float)
     cubic = np.zeros(model.n_springs)
     stiffens = np.zeros(model.n_springs, bool)
