@@ -105,3 +105,49 @@ def test_two_effects_are_found_one_after_the_other(noise):
     assert found["gravity"].parameters["gz"] == pytest.approx(-9.81, rel=0.02)
     gap_first = result.effects[0].gap_before
     assert result.effects[-1].gap_after * 10 <= gap_first
+
+
+def test_the_inclusion_region_search_makes_the_moves_of_the_definition(monkeypatch):
+    """The region search scores every trial from one product (|c ± t_j|², (c ± t_j)·r); it
+    grows the region the definition does: from the best star, add or drop the neighbouring
+    spring that explains most of the residual (the explained share of the region's summed
+    template, recomputed from scratch here) while it gains at least REGION_GAIN."""
+    from types import SimpleNamespace
+
+    from neurofuzzy.diagnosis import candidates
+
+    model = paper_cube_model()
+    rng = np.random.default_rng(4)
+    n = 300
+    templates = rng.normal(size=(n, model.n_springs))
+    springs = model.mesh.springs
+    region_truth = np.flatnonzero((springs[:, 0] == 13) | (springs[:, 1] == 13))[:4]
+    target = templates[:, region_truth].sum(axis=1) * 3.0 + rng.normal(0, 0.5, n)
+    base = rng.normal(size=(n, 2))
+    monkeypatch.setattr(candidates, "spring_templates", lambda model, samples: templates)
+    found = candidates.inclusion_region(model, SimpleNamespace(force=target), set(), base)
+
+    basis = np.linalg.qr(base)[0]
+    t = templates - basis @ (basis.T @ templates)
+    r = target - basis @ (basis.T @ target)
+
+    def explained(region):
+        column = t[:, sorted(region)].sum(axis=1)
+        return (column @ r) ** 2 / (column @ column) / (r @ r)
+
+    stars = [set(np.flatnonzero((springs[:, 0] == k) | (springs[:, 1] == k)).tolist())
+             for k in range(model.n_nodes)]
+    region = max(stars, key=explained)
+    best = explained(region)
+    while True:
+        nodes = np.unique(springs[sorted(region)])
+        border = [j for j in np.flatnonzero(np.isin(springs, nodes).any(axis=1))
+                  if j not in region]
+        trials = [(explained(region | {j}), region | {j}) for j in border]
+        trials += [(explained(region - {j}), region - {j}) for j in region if len(region) > 1]
+        gain, moved = max(trials, key=lambda trial: trial[0])
+        if gain < best + candidates.REGION_GAIN:
+            break
+        region, best = moved, gain
+    assert found == sorted(region)
+    assert set(region_truth) <= set(found)

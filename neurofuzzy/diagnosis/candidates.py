@@ -122,10 +122,13 @@ def inclusion_region(model, samples, taken: set[int], base: np.ndarray) -> list[
     springs = model.mesh.springs
     allowed = np.ones(model.n_springs, bool)
     allowed[list(taken)] = False
-    allowed &= np.linalg.norm(templates, axis=0) > 0
+    rows = np.ascontiguousarray(templates.T)                       # (S, n): one per spring
+    square = np.einsum("ij,ij->i", rows, rows)                     # |t_j|²
+    along = rows @ target                                          # t_j · r
+    allowed &= square > 0
 
     def explained(region):
-        column = templates[:, region].sum(axis=1)
+        column = rows[region].sum(axis=0)
         norm2 = float(column @ column)
         return (column @ target) ** 2 / norm2 / total if norm2 > 0 else 0.0
 
@@ -140,11 +143,19 @@ def inclusion_region(model, samples, taken: set[int], base: np.ndarray) -> list[
         nodes = np.unique(springs[sorted(region)])
         border = [j for j in np.flatnonzero(allowed & np.isin(springs, nodes).any(axis=1))
                   if j not in region]
-        trials = [(explained(sorted(region | {j})), j) for j in border]
-        trials += [(explained(sorted(region - {j})), -j - 1) for j in region if len(region) > 1]
-        gain, move = max(trials, default=(best, None))
-        if move is None or gain < best + REGION_GAIN:
+        members = sorted(region) if len(region) > 1 else []
+        # the region's column c plus (or minus) one spring's: |c ± t_j|² and (c ± t_j)·r
+        # from c·t_j, |t_j|² and t_j·r, one product for every trial
+        column = rows[sorted(region)].sum(axis=0)
+        moves = np.array(border + members, dtype=int)
+        sign = np.r_[np.ones(len(border)), -np.ones(len(members))]
+        norm2 = (column @ column + 2 * sign * (rows[moves] @ column) + square[moves])
+        gains = np.where(norm2 > 0, (column @ target + sign * along[moves]) ** 2
+                         / np.where(norm2 > 0, norm2, 1.0) / total, 0.0)
+        if not len(moves) or gains.max() < best + REGION_GAIN:
             break
-        region = region | {move} if move >= 0 else region - {-move - 1}
-        best = gain
+        pick = int(np.argmax(gains))
+        move = int(moves[pick])
+        region = region | {move} if pick < len(border) else region - {move}
+        best = float(gains[pick])
     return sorted(region)
