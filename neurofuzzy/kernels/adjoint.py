@@ -3,12 +3,12 @@ models of springs and tetrahedral elements: two calls per experiment, no Python 
 
 :func:`sweep` runs semi-implicit Euler over the frames and keeps the state at the start of
 every substep; :func:`pull_back` runs the adjoint backwards over those states and sums, per
-spring, ``λ · ∂F`` by its magnitude's bases (``x``, the closing speed, ``x³``), and
-per element ``λ · ∂F`` by its four constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and
-``λβ``; for the nodal volumetric form by the node averages of the last two). The caller
-turns them into the gradient by the parameters with the forward kernel's CSR (``log s``,
-``log c`` per tie group, the spring effects' coefficients; for elements the same
-derivatives of the constants as the forward kernel). The arithmetic is that of the numpy reference path
+spring, ``λ · ∂F`` by its magnitude's bases (``x``, the closing speed, ``x³``), and per
+element ``λ · ∂F`` by its four constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and ``λβ``;
+for the nodal volumetric form by the node averages of the last two). The caller turns them
+into the gradient by the parameters with the forward kernel's CSR (``log s``, ``log c`` per
+tie group, the spring effects' coefficients; for elements the same derivatives of the
+constants as the forward kernel). The arithmetic is that of the numpy reference path
 (:meth:`neurofuzzy.forces.SpringForce.vjp`, :func:`~neurofuzzy.forces.springs.central_vjp`,
 :meth:`neurofuzzy.forces.TetrahedronForce.state_vjp` and ``parameter_vjp``; tested equal):
 springs ``f = (s x + c ((v_b - v_a)·u) + q x³) u`` (``x = l - L0``, the spring effects'

@@ -7,9 +7,9 @@ reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_tem
 :meth:`neurofuzzy.forces.TetrahedronForce.state_jvp`, ``parameter_jvp``; tested equal):
 
 - springs ``f = (s x + c ((v_b - v_a)·u) + q x³) u`` (``x = l - L0``; ``s`` with the
-  spring inclusions' extra stiffness, ``q = κ / L0²`` the spring stiffening's), parameters ``log s``
-  and ``log c`` of the spring's tie group and the spring effects' coefficients (a CSR per
-  spring, :func:`_spring_tangents`);
+  spring inclusions' extra stiffness, ``q = κ / L0²`` the spring stiffening's, a second
+  entry of the spring list), parameters ``log s`` and ``log c`` of the spring's tie group
+  and the spring effects' coefficients (a CSR per spring, :func:`_spring_tangents`);
 - tetrahedral elements of each element's law (:mod:`neurofuzzy.kernels.laws`; module
   :mod:`neurofuzzy.forces.tetrahedra`), parameters ``log E``, ``logit 2ν`` and ``log η`` of
   the element's tie group; the volumetric ``π``, ``π̇`` per element or from the node averages
