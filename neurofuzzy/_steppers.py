@@ -29,8 +29,8 @@ def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, step_weight,
     ``p += h v``.
 
     The numpy reference of the compiled :func:`neurofuzzy.kernels.integrator.euler_update`
-    (every numpy path takes this one: :func:`neurofuzzy.simulation.step`, the numpy stepper, the numpy
-    sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
+    (every numpy path takes this one: :func:`neurofuzzy.simulation.step`, the numpy stepper,
+    the numpy sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
 
     Parameters
     ----------

@@ -245,8 +245,8 @@ def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
 
 @numba.njit(cache=True, nogil=True)
 def sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag, weight,
-          loads, h, n_frames, substeps, start_index, start_p, start_v, positions, states_p, states_v,
-          states_r, states_f):
+          loads, h, n_frames, substeps, start_index, start_p, start_v, positions, states_p,
+          states_v, states_r, states_f):
     """Positions (n_frames, N, 3) and the state at the start of every substep
     (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
     substeps of a window's first frame are left unset), with the elements' Prony terms the
@@ -298,7 +298,8 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
     ``Σ λ_F · ∂F/∂s_j``, ``Σ λ_F · ∂F/∂c_j`` and (when ``d_springs`` has a third row)
     ``Σ λ_F · ∂F/∂κ_j`` to ``d_springs[:, j]`` (the bases of
-    :func:`.sensitivity._spring_tangents`) over every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
+    :func:`.sensitivity._spring_tangents`; ``cubic`` the ``q`` of the last springs) over
+    every substep (``λ_F = h W λ_v'``, the cotangent of the step's force), and those
     of the element constants to ``d_elements`` and of the Prony terms' ``log g``, ``log τ``
     to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
     cotangents run on across window starts, as their values do forwards). With the forces

@@ -281,11 +281,12 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
     inclusions and stiffening of springs are in ``stiffness`` and ``cubic`` and the springs'
     CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element
-    constants and their CSR columns; strain stiffening of the elements is ``kappa`` (its column ``kappa_column``). The elements' law
-    constants ``stiffening`` (per element) have the columns ``stiffening_column``. Learned
-    node masses: ``mass_column`` (N,) the column of each node's ``log m`` (-1 when not
-    learned; empty when no mass is), ``unit_mass_force`` (N, 3) the forces proportional to
-    the mass (gravity), which ``W F`` does not see: ``∂(W F)/∂log m = -W (F - F_unit)``.
+    constants and their CSR columns; strain stiffening of the elements is ``kappa`` (its
+    column ``kappa_column``). The elements' law constants ``stiffening`` (per element) have
+    the columns ``stiffening_column``. Learned node masses: ``mass_column`` (N,) the column
+    of each node's ``log m`` (-1 when not learned; empty when no mass is),
+    ``unit_mass_force`` (N, 3) the forces proportional to the mass (gravity), which ``W F``
+    does not see: ``∂(W F)/∂log m = -W (F - F_unit)``.
     """
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
