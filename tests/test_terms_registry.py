@@ -166,3 +166,27 @@ def test_the_compiled_sensitivities_equal_the_reference_wherever_they_run(model,
     assert np.allclose(runs[1].positions, runs[0].positions, rtol=0, atol=1e-14)
     scale = np.abs(runs[0].jacobian).max()
     assert np.abs(runs[1].jacobian - runs[0].jacobian).max() <= 1e-11 * scale
+
+
+@pytest.mark.parametrize("model, term", EXAMPLES)
+def test_the_compiled_adjoint_equals_the_reference_wherever_it_runs(model, term):
+    """Where the compiled kernels compute a model with this term, its adjoint's cost and
+    gradient (every parameter, the term's own learned) are the numpy adjoint's."""
+    with_term = model if term in model.force_terms else model.with_effects(term)
+    parameters = Parameterization(with_term)
+    if not compiled_possible(parameters, with_term):
+        pytest.skip(f"the compiled kernels do not compute {term.name} yet (numpy path)")
+    load = np.zeros((with_term.n_nodes, 3))
+    load[-1] = (0.0, 0.0, -0.01)
+    data = simulate_experiment(with_term, dt=2e-4, n_frames=6, external_forces=load,
+                               substeps="auto")
+    theta = parameters.initial() + 0.01
+    sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
+                     for backend in ("numpy", "numba")]
+    assert sensitivities[1].compiled_gradient
+    numpy_path, compiled = (s.gradient(theta, data, substeps=2) for s in sensitivities)
+    assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-10)
+    for name, block in parameters.blocks.items():   # each block to its own scale (κ: 1e-18)
+        want, got = numpy_path[1][block.slice], compiled[1][block.slice]
+        assert np.abs(got - want).max() <= 1e-9 * np.abs(want).max(), name
+    assert np.abs(numpy_path[1]).max() > 0

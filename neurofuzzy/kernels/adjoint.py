@@ -39,15 +39,17 @@ def _no_tangents(n_nodes):
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_force(p, v, elements, relax_g, relax_decay, history, blank, node_strain, force):
-    """Element forces into ``force`` and the relaxation's step of ``history`` (the forward
-    kernel's, without tangents; ``blank`` from :func:`_no_tangents`)."""
+def _element_force(p, v, elements, kappa, relax_g, relax_decay, history, blank, node_strain,
+                   force):
+    """Element forces into ``force`` (``kappa`` the strain stiffening, 0 for none) and the
+    relaxation's step of ``history`` (the forward kernel's, without tangents; ``blank`` from
+    :func:`_no_tangents`)."""
     (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
      node_volume, node_lam, node_lam_rate) = elements
     none, pointer, columns, empty, per_node, node_pairs, no_columns, no_tangents = blank
     _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, stiffening, shear,
                       shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                      pointer, columns, empty, empty, empty, empty, per_node, per_node, 0.0, -1,
+                      pointer, columns, empty, empty, empty, empty, per_node, per_node, kappa, -1,
                       columns, relax_g, relax_decay, no_columns, history, no_tangents, 0,
                       node_strain, node_pairs, force, none)
 
@@ -67,13 +69,13 @@ def _pull_columns(out, L, B, n0, n1, n2, n3):
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_lam,
-                 g_lam_rate, g_stiffening, node_strain, node_adjoint, relax_g, relax_decay,
-                 history, lam_history, g_relax):
+def _element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, g_shear, g_shear_rate, g_lam,
+                 g_lam_rate, g_stiffening, g_terms, node_strain, node_adjoint, relax_g,
+                 relax_decay, history, lam_history, g_relax):
     """``λ · ∂F/∂p`` into ``d_p``, ``λ · ∂F/∂v`` into ``d_v`` and ``λ · ∂F`` by every
     element's constants into ``g_*`` (per element, the law's stiffening constant's too; with
-    the nodal form ``g_lam`` and ``g_lam_rate`` are per node, by ``Λ`` and ``H``), for the
-    cotangent ``λ = lam_force``.
+    the nodal form ``g_lam`` and ``g_lam_rate`` are per node, by ``Λ`` and ``H``), and by the
+    strain stiffening ``kappa`` into ``g_terms[1]``, for the cotangent ``λ = lam_force``.
 
     With Prony terms (:mod:`.relaxation`; ``history`` the internal variables at the step's
     start) ``lam_history`` (n_elements, K, 6) holds the cotangents of the internal variables
@@ -118,7 +120,7 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
             pressure_rate = lam_rate[e] * theta_rate
         # the relaxed stress: its P = F S is the force's
         S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                         pressure_rate, 0.0, stiffening[e]),
+                                         pressure_rate, kappa, stiffening[e]),
                                   law[e], G, shear[e], pressure, stiffening[e], relax_g,
                                   history, e)
         S = _full(S6)
@@ -134,9 +136,10 @@ def _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate, g_l
         LP = (scale * LB[0], scale * LB[1], scale * LB[2], scale * LB[3], scale * LB[4],
               scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
-        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, _, l_stiffening = (
+        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, l_kappa, l_stiffening = (
             stress_vjp(law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate,
-                       0.0, stiffening[e]))
+                       kappa, stiffening[e]))
+        g_terms[1] += l_kappa
         if relax_g.shape[1]:
             # S = S_rest + Σ g (S_e + r), r' = a r - (1 - a) S_e: the elastic stress' own
             # cotangent, the internal variables' and the terms' constants'
@@ -244,8 +247,8 @@ def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
 
 
 @numba.njit(cache=True, nogil=True)
-def sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag, weight,
-          loads, h, n_frames, substeps, start_index, start_p, start_v, positions, states_p,
+def sweep(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay, drag,
+          weight, loads, h, n_frames, substeps, start_index, start_p, start_v, positions, states_p,
           states_v, states_r, states_f):
     """Positions (n_frames, N, 3) and the state at the start of every substep
     (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
@@ -282,7 +285,7 @@ def sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay,
                     force[i, k] = load[i, k] - drag * v[i, k]
             _springs(p, v, a, b, stiffness, damping, rest, cubic, force)
             if has_elements:
-                _element_force(p, v, elements, relax_g, relax_decay, history, blank,
+                _element_force(p, v, elements, kappa, relax_g, relax_decay, history, blank,
                                node_strain, force)
             if states_f.shape[0]:
                 states_f[step - 1] = force
@@ -291,10 +294,10 @@ def sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay,
 
 
 @numba.njit(cache=True, nogil=True)
-def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag,
-              weight, h, n_frames, substeps, start_index, states_p, states_v, states_r,
+def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
+              drag, weight, h, n_frames, substeps, start_index, states_p, states_v, states_r,
               states_f, unit_mass_force, frame_adjoint, d_springs, d_elements, g_relax,
-              g_mass):
+              g_mass, g_load, g_terms):
     """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
     ``Σ λ_F · ∂F/∂s_j``, ``Σ λ_F · ∂F/∂c_j`` and (when ``d_springs`` has a third row)
     ``Σ λ_F · ∂F/∂κ_j`` to ``d_springs[:, j]`` (the bases of
@@ -305,8 +308,12 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
     cotangents run on across window starts, as their values do forwards). With the forces
     ``states_f`` of :func:`sweep` (learned masses), ``Σ λ_F · ∂(W F)/∂log m / W`` into
     ``g_mass`` (N,): ``-λ_F · (F - F_unit)``, ``unit_mass_force`` the forces proportional to
-    the mass (gravity), which ``W F`` does not see."""
+    the mass (gravity), which ``W F`` does not see. The effects' cotangents: ``Σ λ_F`` per
+    node into ``g_load`` (N, 3; a constant force's direction takes it, empty when none is
+    learned), ``Σ λ_F · ∂F/∂drag = -Σ λ_F · v`` into ``g_terms[0]`` (when ``g_load`` is not
+    empty) and the elements' ``Σ λ_F · ∂F/∂κ`` into ``g_terms[1]``."""
     n_nodes = frame_adjoint.shape[1]
+    effects = g_load.shape[0] > 0
     g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
     has_elements = elements[0].shape[0] > 0
     cubic_basis = d_springs.shape[0] > 2
@@ -344,6 +351,11 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
                 for k in range(3):
                     d_p[i, k] = 0.0
                     d_v[i, k] = -drag * lam_force[i, k]
+            if effects:                # the constant forces' and the drag's parameters
+                for i in range(n_nodes):
+                    for k in range(3):
+                        g_load[i, k] += lam_force[i, k]
+                        g_terms[0] -= lam_force[i, k] * v[i, k]
             for j in range(a.shape[0]):
                 ia, ib = a[j], b[j]
                 ux, uy, uz, length, closing, stretch, magnitude, slope = spring_state(
@@ -382,9 +394,10 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_de
                 d_v[ib, 1] += cv * uy
                 d_v[ib, 2] += cv * uz
             if has_elements:
-                _element_vjp(p, v, elements, lam_force, d_p, d_v, g_shear, g_shear_rate,
-                             g_lam, g_lam_rate, g_stiffening, node_strain, node_adjoint,
-                             relax_g, relax_decay, states_r[step], lam_history, g_relax)
+                _element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, g_shear,
+                             g_shear_rate, g_lam, g_lam_rate, g_stiffening, g_terms,
+                             node_strain, node_adjoint, relax_g, relax_decay, states_r[step],
+                             lam_history, g_relax)
             for i in range(n_nodes):
                 for k in range(3):
                     lam_p[i, k] += d_p[i, k]

@@ -174,13 +174,15 @@ class CompiledModel:
 
     @staticmethod
     def _effects(model, n_params, columns):
-        """``(drag, drag_column, force_direction, constant_force)``: the values of
-        :func:`~neurofuzzy.effects.compiled.kernel_values` and the columns."""
+        """``(drag, drag_column, force_direction, constant_force, spans)``: the values of
+        :func:`~neurofuzzy.effects.compiled.kernel_values`, the columns, and the slices of
+        the learned constant forces' columns (those ``force_direction`` fills)."""
         drag, constant, _ = kernel_values(model)
         drag_column = -1
         # parameters last, as the kernel's tangents; np.zeros maps its pages lazily, so the
         # (N, 3, P) array of a model with thousands of parameters costs no memory until used
         direction = np.zeros((model.n_nodes, 3, n_params))
+        spans = []
         for i, effect in enumerate(model.effects):
             column = columns.get(i)
             if isinstance(effect, NodeDrag):
@@ -190,7 +192,8 @@ class CompiledModel:
                     span = slice(column, column + len(effect.params))
                     direction[:, :, span] = effect.parameter_jacobian(
                         model, None, None).transpose(0, 2, 1)
-        return drag, int(drag_column), direction, constant
+                    spans.append(span)
+        return drag, int(drag_column), direction, constant, spans
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
             columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None):
@@ -213,7 +216,7 @@ class CompiledModel:
         if jacobian is None:
             jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, self.n_params))
                         if tangents else np.zeros((0, 0, 3, 0)))
-        drag, drag_column, direction, constant = self.effects
+        drag, drag_column, direction, constant, _ = self.effects
         direction = np.ascontiguousarray(direction[:, :, first:first + width])
         # writable C-ordered copies: numba compiles one signature per array layout
         loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")

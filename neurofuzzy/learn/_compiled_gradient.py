@@ -15,17 +15,17 @@ __all__ = ["compiled_gradient"]
 
 def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
-    models of springs and elements (relaxing or not) whose effects are the kernels' but the
-    elements' strain stiffening, none learned but those of springs (inclusions, stiffening);
-    node masses learned or fixed (:attr:`~._sensitivity.Sensitivity.compiled_gradient`)."""
+    models of springs and elements (relaxing or not) whose effects the kernels compute
+    (:mod:`neurofuzzy.effects.compiled`), learned or not; node masses learned or fixed."""
     from ..forces.relaxation import decay
     from ..kernels.adjoint import pull_back, sweep
 
     param = sensitivity.parameters
     compiled = CompiledModel(param, model)
     a, b, stiffness, damping, rest, cubic, pointer, column, basis, factor = compiled.springs
-    drag, _, _, constant = compiled.effects
+    drag, drag_column, direction, constant, spans = compiled.effects
     elements = compiled.elements[:13]       # the elements and their constants
+    kappa, kappa_column = compiled.elements[-3:-1]      # their strain stiffening
     n_frames, observation = experiment.n_frames, experiment.observation
     frames = sorted(set(int(t) for t in starts) | {0})
     start_index = np.full(n_frames, -1, np.intp)
@@ -49,9 +49,9 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     mass_column, unit_mass_force = compiled.masses
     states_f = np.empty((steps if len(mass_column) else 0, sensitivity.n_nodes, 3))
     with np.errstate(over="ignore", invalid="ignore"):
-        sweep(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag, weight,
-              loads, h, n_frames, int(substeps), start_index, start_p, start_v, positions,
-              states_p, states_v, states_r, states_f)
+        sweep(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
+              drag, weight, loads, h, n_frames, int(substeps), start_index, start_p, start_v,
+              positions, states_p, states_v, states_r, states_f)
         scale = 1.0 / sensitivity.length_unit
         residuals = sensitivity._frame_residuals(observation, positions)
     run = Run(positions=positions, residuals=residuals[1:],
@@ -72,9 +72,21 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
                   np.zeros(per_volumetric), np.zeros(n_elements))
     g_relax = np.zeros(relax_column.shape)
     g_mass = np.zeros(sensitivity.n_nodes)
-    pull_back(a, b, stiffness, damping, rest, cubic, elements, relax_g, relax_decay, drag,
-              weight, h, n_frames, int(substeps), start_index, states_p, states_v, states_r,
-              states_f, unit_mass_force, frame_adjoint, d_springs, d_elements, g_relax, g_mass)
+    # the learned constant forces' and drag's cotangents (Σ λ_F per node; -Σ λ_F · v) and
+    # the elements' strain stiffening's
+    learned_effects = drag_column >= 0 or bool(spans)
+    g_load = np.zeros((sensitivity.n_nodes if learned_effects else 0, 3))
+    g_terms = np.zeros(2)
+    pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
+              drag, weight, h, n_frames, int(substeps), start_index, states_p, states_v,
+              states_r, states_f, unit_mass_force, frame_adjoint, d_springs, d_elements,
+              g_relax, g_mass, g_load, g_terms)
+    for span in spans:
+        grad[span] += np.einsum("nk,nkp->p", g_load, direction[:, :, span])
+    if drag_column >= 0:
+        grad[drag_column] += g_terms[0]
+    if kappa_column >= 0:
+        grad[kappa_column] += g_terms[1]
     learned = mass_column >= 0                          # each free node's log m
     grad += np.bincount(mass_column[learned], g_mass[learned], param.size)
     # the springs' parameters (log s, log c, the spring effects' coefficients), as in the

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..effects import per_unit_mass_force
-from ..effects.compiled import element_constants, element_stiffening, spring_effect
+from ..effects.compiled import element_constants
 from ..errors import InputError
 from ..experiment import Experiment
 from ..forces import SPRINGS, TETRAHEDRA, incidence, tetrahedron_geometry
@@ -84,12 +84,9 @@ class Sensitivity:
 
     @property
     def compiled_gradient(self) -> bool:
-        """Does :meth:`gradient` run in the compiled kernels (springs, elements, the effects
-        the kernels compute but the elements' strain stiffening; no effect learned but those
-        of springs; masses learned or fixed)?"""
-        return (self.compiled and all(spring_effect(effect) for effect in self.parameters.effects)
-                and not any(element_stiffening(effect)
-                            for effect in self.parameters.base.effects))
+        """Does :meth:`gradient` run in the compiled kernels? Wherever the forward passes do
+        (every effect the kernels compute, learned or not; masses learned or fixed)."""
+        return self.compiled
 
     def _stiffening_forces(self, model, p, v):
         """``(local, columns, block)``: the Yeoh elements' per-corner forces per unit
