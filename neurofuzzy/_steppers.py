@@ -246,13 +246,15 @@ def _frames(stepper, p, v, loads, n_frames, substeps):
 def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64, work: float = 0.0):
     """A stepper for ``model``: ``backend`` "numpy", "numba" or "auto".
 
-    ``"auto"`` takes numba when it is installed, the compiled loop computes every effect of the
-    model and the job is large enough (``work`` = springs × steps above 2·10⁷, an element
-    counting as ten springs) to repay its compilation, or the elements relax.
+    ``"auto"`` takes numba when the compiled loop computes every effect of the model and the
+    job is large enough to repay loading its cached machine code (about 0.3 s once per
+    process for element models): ``work`` = springs × steps of at least 5·10⁶, an element
+    counting as thirty springs (the numpy step's cost of one: 1.8·10⁶ element-steps/s against
+    4.6·10⁷ spring-steps/s at 10k), or the elements relax.
     """
     relaxing = model.n_relaxation_terms > 0      # internal variables: the compiled loop only
     if backend == "numba" or (backend == "auto" and compiled_terms_only(model)
-                              and (work >= 2e7 or relaxing) and numba_available()):
+                              and (work >= 5e6 or relaxing) and numba_available()):
         return NumbaStepper(model, h, dtype)
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"unknown backend {backend!r}")

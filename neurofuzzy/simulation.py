@@ -124,7 +124,8 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
         Raise :class:`UnstableTimeStepError` when ``h`` exceeds the stability bound.
     backend : {"auto", "numpy", "numba"}
         Inner loop: vectorised numpy, or the compiled loop when numba is installed
-        (``"auto"`` uses it for large jobs of models without effects).
+        (``"auto"`` uses it for jobs large enough to repay loading it, of models whose
+        effects it computes: :func:`neurofuzzy._steppers.make_stepper`).
     dtype : numpy dtype
         float64 (default) or float32 for the inner loop.
 
@@ -150,7 +151,7 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     v[model.mesh.fixed] = 0.0
     n_elements = model.mesh.n_tetrahedra if model.has_elements else 0
     stepper = make_stepper(model, dt / substeps, backend, dtype,
-                           work=(model.n_springs + 10 * n_elements) * n_frames * substeps)
+                           work=(model.n_springs + 30 * n_elements) * n_frames * substeps)
 
     with np.errstate(over="ignore", invalid="ignore"):
         positions, velocities = stepper.trajectory(p, v, forces, n_frames, substeps)
