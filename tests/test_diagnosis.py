@@ -151,3 +151,27 @@ def test_the_inclusion_region_search_makes_the_moves_of_the_definition(monkeypat
         region, best = moved, gain
     assert found == sorted(region)
     assert set(region_truth) <= set(found)
+
+
+def test_spring_templates_are_each_springs_force_at_its_two_nodes():
+    """The spring templates, built for all frames at once, are the stacked per-frame force
+    templates ``s_j (l - L0) u_j`` of every spring (the generic :func:`templates` of a
+    per-frame force, the definition)."""
+    from neurofuzzy.diagnosis.residuals import sample, spring_templates, templates
+    from neurofuzzy.forces import SPRINGS, incidence
+
+    model = paper_cube_model()
+    data = paper_cube_experiment(model).first_frames(60)
+    samples = sample(model.replace(spring_stiffness=model.spring_stiffness * 0.8), [data], 1)
+    maps = incidence(model.mesh)
+
+    def force_of(p, v):
+        force = model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
+            SPRINGS.state(model, p, v))["stiffness"]
+        return maps.group_sums(force, np.arange(model.n_springs), model.n_springs)
+
+    definition = templates(model, samples, force_of)
+    built = spring_templates(model, samples)
+    assert built.shape == definition.shape == (len(samples.force) * 3, model.n_springs)
+    assert np.abs(definition).max() > 0
+    np.testing.assert_allclose(built, definition, rtol=0, atol=1e-12 * np.abs(definition).max())

@@ -165,15 +165,26 @@ def model_templates(model, samples) -> np.ndarray:
 
 
 def spring_templates(model, samples) -> np.ndarray:
-    """(n, n_springs): every spring's own stiffness template ``s_j (l - L0) u``."""
-    maps = incidence(model.mesh)
-
-    def force_of(p, v):
-        force = model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
-            SPRINGS.state(model, p, v))["stiffness"]
-        return maps.group_sums(force, np.arange(model.n_springs), model.n_springs)
-
-    return templates(model, samples, force_of)
+    """(n, n_springs): every spring's own stiffness template ``s_j (l - L0) u`` (node a +,
+    node b -), in the rows of :func:`templates`; all frames at once, each spring written at
+    its two nodes only (a spring's column is zero elsewhere)."""
+    a, b = model.mesh.springs[:, 0], model.mesh.springs[:, 1]
+    spring = np.arange(model.n_springs)
+    blocks = []
+    for data in samples.experiment:
+        p = np.asarray(data["p"])                                       # (T, N, 3)
+        d = p[:, b] - p[:, a]
+        length = np.linalg.norm(d, axis=2)
+        magnitude = model.spring_stiffness * (length - model.spring_rest_length)
+        force = (magnitude / length)[..., None] * d                     # (T, S, 3)
+        row = np.full(model.n_nodes, -1)
+        row[data["rows"]] = np.arange(int(np.count_nonzero(data["rows"])))
+        out = np.zeros((len(p), int(np.count_nonzero(data["rows"])), 3, model.n_springs))
+        for node, sign in ((a, 1.0), (b, -1.0)):
+            seen = row[node] >= 0
+            out[:, row[node][seen], :, spring[seen]] += sign * force[:, seen].transpose(1, 0, 2)
+        blocks.append(out.reshape(-1, model.n_springs))
+    return np.concatenate(blocks, axis=0)
 
 
 def residual_analysis(model: SpringMassModel, experiments: Sequence[Experiment], *,
