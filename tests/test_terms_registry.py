@@ -147,10 +147,9 @@ def test_parameter_tangent_and_adjoint_match_central_differences(model, term):
                                 * np.abs(tangent).max())
 
 
-@pytest.mark.parametrize("model, term", EXAMPLES)
-def test_the_compiled_sensitivities_equal_the_reference_wherever_they_run(model, term):
-    """Where the compiled kernels compute a model with this term (springs, elements and the
-    effects they know), they compute what the numpy reference computes."""
+def _compiled_case(model, term):
+    """``(parameters, data, θ)`` of ``model`` with ``term`` learned, six frames under a load
+    on the last node; skips where the compiled kernels do not compute the term."""
     with_term = model if term in model.force_terms else model.with_effects(term)
     parameters = Parameterization(with_term)
     if not compiled_possible(parameters, with_term):
@@ -160,6 +159,14 @@ def test_the_compiled_sensitivities_equal_the_reference_wherever_they_run(model,
     data = simulate_experiment(with_term, dt=2e-4, n_frames=6, external_forces=load,
                                substeps="auto")
     theta = parameters.initial() + 0.01
+    return parameters, data, theta
+
+
+@pytest.mark.parametrize("model, term", EXAMPLES)
+def test_the_compiled_sensitivities_equal_the_reference_wherever_they_run(model, term):
+    """Where the compiled kernels compute a model with this term (springs, elements and the
+    effects they know), they compute what the numpy reference computes."""
+    parameters, data, theta = _compiled_case(model, term)
     runs = [Sensitivity(parameters, 0.01, backend=backend).run(theta, data, substeps=2,
                                                                tangents=True)
             for backend in ("numpy", "numba")]
@@ -172,15 +179,7 @@ def test_the_compiled_sensitivities_equal_the_reference_wherever_they_run(model,
 def test_the_compiled_adjoint_equals_the_reference_wherever_it_runs(model, term):
     """Where the compiled kernels compute a model with this term, its adjoint's cost and
     gradient (every parameter, the term's own learned) are the numpy adjoint's."""
-    with_term = model if term in model.force_terms else model.with_effects(term)
-    parameters = Parameterization(with_term)
-    if not compiled_possible(parameters, with_term):
-        pytest.skip(f"the compiled kernels do not compute {term.name} yet (numpy path)")
-    load = np.zeros((with_term.n_nodes, 3))
-    load[-1] = (0.0, 0.0, -0.01)
-    data = simulate_experiment(with_term, dt=2e-4, n_frames=6, external_forces=load,
-                               substeps="auto")
-    theta = parameters.initial() + 0.01
+    parameters, data, theta = _compiled_case(model, term)
     sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
                      for backend in ("numpy", "numba")]
     assert sensitivities[1].compiled_gradient
