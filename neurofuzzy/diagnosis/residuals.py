@@ -172,14 +172,12 @@ def spring_templates(model, samples) -> np.ndarray:
     spring = np.arange(model.n_springs)
     blocks = []
     for data in samples.experiment:
-        p = np.asarray(data["p"])                                       # (T, N, 3)
-        d = p[:, b] - p[:, a]
-        length = np.linalg.norm(d, axis=2)
-        magnitude = model.spring_stiffness * (length - model.spring_rest_length)
-        force = (magnitude / length)[..., None] * d                     # (T, S, 3)
+        force = np.stack([model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
+            SPRINGS.state(model, p, v))["stiffness"] for p, v in zip(data["p"], data["v"])])
+        n_rows = int(np.count_nonzero(data["rows"]))                    # force: (T, S, 3)
         row = np.full(model.n_nodes, -1)
-        row[data["rows"]] = np.arange(int(np.count_nonzero(data["rows"])))
-        out = np.zeros((len(p), int(np.count_nonzero(data["rows"])), 3, model.n_springs))
+        row[data["rows"]] = np.arange(n_rows)
+        out = np.zeros((len(force), n_rows, 3, model.n_springs))
         for node, sign in ((a, 1.0), (b, -1.0)):
             seen = row[node] >= 0
             out[:, row[node][seen], :, spring[seen]] += sign * force[:, seen].transpose(1, 0, 2)

@@ -106,16 +106,15 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
     arrays (an inclusion's ``x`` with factor 1, a stiffening's ``x³`` with ``1 / L0²``).
     """
     columns = columns or {}
+    keep = every_spring | (model.spring_stiffness != 0) | (model.spring_damping != 0)
     if not any(spring_effect(effect) for effect in model.effects):    # most models: quickly
-        plain = np.flatnonzero(every_spring | (model.spring_stiffness != 0)
-                               | (model.spring_damping != 0))
+        plain = np.flatnonzero(keep)
         return (plain, np.asarray(model.spring_stiffness[plain], float),
                 np.asarray(model.spring_damping[plain], float), np.zeros(0),
                 (np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0)))
     stiffness = np.array(model.spring_stiffness, dtype=float)
     cubic = np.zeros(model.n_springs)
     stiffens = np.zeros(model.n_springs, bool)
-    keep = every_spring | (stiffness != 0) | (model.spring_damping != 0)
     learned = []                           # (springs, column, basis, factor) per effect
     for i, effect in enumerate(model.effects):
         if not spring_effect(effect):
@@ -133,7 +132,7 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
             factor = np.ones(len(springs))
         if i in columns:
             learned.append((springs, columns[i] + index[index >= 0], _basis(effect), factor))
-    keep |= stiffness != 0
+    keep |= stiffness != 0                 # an inclusion's springs with no force of their own
     stiffens |= cubic != 0
     plain, tail = np.flatnonzero(keep), np.flatnonzero(stiffens)
     entry = np.full((2, model.n_springs), -1, np.intp)     # model spring → plain, tail entry
