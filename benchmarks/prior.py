@@ -24,7 +24,8 @@ from neurofuzzy.learn import auto_substeps
 from neurofuzzy.learn.prior import FuzzyPrior
 from neurofuzzy.learn.regions import regions_found
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.rules import initialize, resolve
+from neurofuzzy.rules import resolve
+from neurofuzzy.tissues import initialize
 
 RULES = resolve("liver")
 

@@ -41,7 +41,8 @@ from neurofuzzy.mesh import read_mesh, surface_nodes
 from neurofuzzy.pipeline import fit
 from neurofuzzy.validation.integrators import reference_simulate
 from neurofuzzy.report import fit_report
-from neurofuzzy.rules import initialize, load_rules, shipped
+from neurofuzzy.rules import load_rules, shipped
+from neurofuzzy.tissues import initialize
 
 CAPTURE_STEP = 1e-3          # s (a 1 kHz optical system)
 MARKER_NOISE = 2e-5          # m

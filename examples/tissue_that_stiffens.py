@@ -23,7 +23,8 @@ import numpy as np
 import neurofuzzy as nf
 from neurofuzzy.validation.nonlinear.recordings import stored
 from neurofuzzy.validation.probed_block import block_experiment, block_model
-from neurofuzzy.rules import load_rules, materials
+from neurofuzzy.rules import load_rules
+from neurofuzzy.tissues import materials
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORDING = ROOT / "tests" / "data" / "stiffening_block.npz"

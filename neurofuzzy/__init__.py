@@ -65,8 +65,8 @@ _EXPORTS = {
     "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "learn",
     "StartModel": "learn", "estimate_start": "learn", "FuzzyPrior": "learn.prior",
     "fit": "pipeline", "FitOutcome": "pipeline", "FitFailedError": "pipeline",
-    "load_rules": "rules", "initialize": "rules", "material_values": "rules",
-    "materials": "rules", "shipped_rules": "rules",
+    "load_rules": "rules", "shipped_rules": "rules",
+    "initialize": "tissues", "material_values": "tissues", "materials": "tissues",
     "diagnose": "diagnosis", "Diagnosis": "diagnosis",
     "fit_many": "batch", "Cohort": "batch", "read_manifest": "batch", "cohort_report": "batch",
     "fit_report": "report", "diagnosis_report": "report",
@@ -102,8 +102,9 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .pipeline import FitFailedError, FitOutcome, fit  # noqa: F401
     from .validation.integrators import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401
-    from .rules import initialize, load_rules, material_values, materials  # noqa: F401
+    from .rules import load_rules  # noqa: F401
     from .rules import shipped as shipped_rules  # noqa: F401
+    from .tissues import initialize, material_values, materials  # noqa: F401
     from .rulestudio import studio  # noqa: F401
     from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
 

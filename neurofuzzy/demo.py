@@ -180,7 +180,8 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     from .experiment import simulate_experiment
     from .learn import start_model
     from .report import diagnosis_report, fit_report
-    from .rules import initialize, load_rules, material_values, shipped
+    from .rules import load_rules, shipped
+    from .tissues import initialize, material_values
 
     out = Path(out)
     lines = []

@@ -131,6 +131,31 @@ def test_the_compiled_kernels_import_only_each_other():
             assert outside == [], name
 
 
+def test_the_rules_hold_words_only():
+    """DESIGN's layers: ``rules`` never imports the physics (models, forces, constants); what
+    joins a rule base to a model is :mod:`neurofuzzy.tissues`. The rules may read YAML through
+    the toolkit's safe loader and raise its errors."""
+    def words(module):
+        return module == "neurofuzzy.rules" or module.startswith("neurofuzzy.rules.")
+
+    allowed = {"neurofuzzy.errors", "neurofuzzy.io.safe_yaml"}
+    outside = {f"{name} imports {target}" for name in MODULES if words(name)
+               for target, _ in _imports(name) if not (words(target) or target in allowed)}
+    assert outside == set()
+
+
+def test_the_physics_does_not_read_words():
+    """The constants (material values ↔ term constants), the models and the terms import
+    no rule base; :mod:`neurofuzzy.tissues` uses a rule base through its methods."""
+    physics = ("neurofuzzy.constants", "neurofuzzy.model", "neurofuzzy.forces",
+               "neurofuzzy.effects", "neurofuzzy.kernels", "neurofuzzy.mesh",
+               "neurofuzzy.tissues")
+    readers = {name for name in MODULES if name.startswith(physics)
+               and any(t == "neurofuzzy.rules" or t.startswith("neurofuzzy.rules.")
+                       for t, _ in _imports(name))}
+    assert readers == set()
+
+
 def test_nothing_imports_the_command_line():
     users = [name for name in MODULES if not name.startswith("neurofuzzy.cli")
              and any(t.startswith("neurofuzzy.cli") for t, _ in _imports(name))]

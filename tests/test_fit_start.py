@@ -13,7 +13,8 @@ from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_model, save_experiment
 from neurofuzzy.learn import start_model
 from neurofuzzy.mesh import read_mesh
-from neurofuzzy.rules import initialize, load_rules, materials, shipped
+from neurofuzzy.rules import load_rules, shipped
+from neurofuzzy.tissues import initialize, materials
 
 SPACING = 0.01
 

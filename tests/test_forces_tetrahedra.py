@@ -317,7 +317,8 @@ def test_element_model_from_words_mesh_command_and_fit_start(tmp_path, capsys):
     from neurofuzzy.cli import main
     from neurofuzzy.io import save_experiment
     from neurofuzzy.mesh import read_mesh
-    from neurofuzzy.rules import initialize, load_rules, materials, shipped
+    from neurofuzzy.rules import load_rules, shipped
+    from neurofuzzy.tissues import initialize, materials
 
     points, tetrahedra = kuhn_block((2, 2, 2), 0.01)
     path = write_gmsh(tmp_path / "block.msh", points, tetrahedra,

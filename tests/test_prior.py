@@ -17,7 +17,8 @@ from neurofuzzy.noise import noise_level
 from neurofuzzy.learn.regions import describe_regions, regions_found
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
-from neurofuzzy.rules import initialize, resolve
+from neurofuzzy.rules import resolve
+from neurofuzzy.tissues import initialize
 
 from helpers import cli
 

@@ -189,8 +189,7 @@ def test_words_of_relaxation_make_a_relaxing_model_and_come_back(tmp_path):
     base's g and τ; the fitted values come back as words ("moderate", "quick"); a tissue that
     says nothing of relaxation gets none, and the words of the fit leave it out."""
     from helpers import FIRM, soft_tissue_rules
-    from neurofuzzy.rules import materials
-    from neurofuzzy.rules.physical import initialize
+    from neurofuzzy.tissues import initialize, materials
 
     rules = soft_tissue_rules(tmp_path / "r.yaml", "relaxing", {
         "creeping": f"{FIRM}, relaxation: relaxes, relaxation_speed: quickly", "plain": FIRM})

@@ -14,8 +14,11 @@ from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import save_experiment
 from neurofuzzy.mesh import lattice
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.rules import initialize, lattice_geometry, load_rules, material_values, shipped
-from neurofuzzy.constants import DEFAULT_POISSON_RATIO
+import neurofuzzy as nf
+import neurofuzzy.rules
+from neurofuzzy.constants import DEFAULT_POISSON_RATIO, lattice_geometry
+from neurofuzzy.rules import load_rules, shipped
+from neurofuzzy.tissues import initialize, material_values
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = ROOT / "rules"
@@ -57,6 +60,18 @@ def test_round_trip_from_words_to_a_model_and_back(path, elements):
         expected = {k: str(v) for k, v in words.items()
                     if elements or k != "compressibility"}
         assert {k: explained["words"][k] for k in expected} == expected, tissue
+
+
+@pytest.mark.parametrize("name", ["initialize", "material_values", "materials",
+                                  "element_model", "lattice_geometry"])
+def test_the_names_that_left_the_rules_say_where_they_went(name):
+    """The rule bases hold words only; what joins them to a model is neurofuzzy.tissues. The
+    old spelling names the new place (and nf.initialize & co. are the same functions)."""
+    with pytest.raises(AttributeError, match=f"rules.{name} has moved to neurofuzzy"):
+        getattr(neurofuzzy.rules, name)
+    with pytest.raises(AttributeError, match="has no attribute 'initialise'"):
+        neurofuzzy.rules.initialise
+    assert nf.initialize is initialize and nf.material_values is material_values
 
 
 def test_lattice_springs_from_youngs_modulus_give_that_modulus():

@@ -147,8 +147,7 @@ def test_words_of_stiffening_make_yeoh_elements_and_come_back(tmp_path):
     "strongly" for 8); a tissue that says nothing of it keeps the default law, and its words
     leave the quantity out."""
     from helpers import FIRM, soft_tissue_rules
-    from neurofuzzy.rules import materials
-    from neurofuzzy.rules.physical import initialize
+    from neurofuzzy.tissues import initialize, materials
 
     rules = soft_tissue_rules(tmp_path / "r.yaml", "stiffening", {
         "hardening": f"{FIRM}, stiffening: strongly", "plain": FIRM})

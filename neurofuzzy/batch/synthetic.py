@@ -71,7 +71,8 @@ def synthetic_cohort(folder, *, groups: dict | None = None, per_group: int = 3,
     from ..experiment import simulate_experiment
     from ..io import save_experiment
     from ..mesh import bottom_layer, lattice
-    from ..rules import initialize, materials, resolve
+    from ..rules import resolve
+    from ..tissues import initialize, materials
 
     groups = {"healthy": "liver", "fibrotic": "fibrotic_liver"} if groups is None else groups
     folder = Path(folder)

@@ -21,7 +21,7 @@ from ..io.writing import atomic_write
 
 __all__ = ["QUANTITIES", "COLUMNS", "TABLE_NAME", "table_rows", "write_table"]
 
-#: the learned material quantities of a region (the keys of :func:`~neurofuzzy.rules.materials`)
+#: the learned material quantities of a region (the keys of :func:`~neurofuzzy.tissues.materials`)
 QUANTITIES = ("youngs_modulus", "poisson_ratio", "viscosity", "density")
 COLUMNS = ("id", "group", "status", "region", "tissue", *QUANTITIES,
            *(f"{q}_word" for q in QUANTITIES), "rms_error", "noise_rms", "noise_ratio",

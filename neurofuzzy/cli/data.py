@@ -65,7 +65,7 @@ def mesh(args) -> int:
     from ..mesh.files import SURFACE_SUFFIXES
     from ..plausibility import check_body_size
     from ..rules import resolve as load_rule_base
-    from ..rules import initialize
+    from ..tissues import initialize
 
     source = Path(args.mesh)
     positive(args.pitch, "--pitch")

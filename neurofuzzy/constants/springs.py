@@ -1,6 +1,6 @@
 """Spring homogenisation: Young's modulus, viscosity and density ↔ spring constants, spring
 viscosities and node masses on a lattice or tetrahedral mesh (the physics of the rule bases'
-spring models; :func:`neurofuzzy.rules.initialize` uses it).
+spring models; :func:`neurofuzzy.initialize` uses it).
 
 Spring constants from Young's modulus. For a lattice of cubic cells (edge ``a``) with springs on
 the cell edges and the four body diagonals of every cell, the affine strain energy of the

@@ -102,7 +102,7 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
 
     ``learner.to_dict()`` plus ``method``, ``tie``, ``start`` (where the start came from),
     ``experiments`` (the files) and, when the start has a rule base or tissues, ``materials``
-    (per region E, ν, η, ρ and words; :func:`~neurofuzzy.rules.materials`), and after a
+    (per region E, ν, η, ρ and words; :func:`~neurofuzzy.tissues.materials`), and after a
     fit with a prior ``regions_found`` (:func:`~.regions.regions_found`), ``regions_rest``
     and ``regions_found_words``.
 
@@ -123,7 +123,7 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     if learner.model_.has_elements:
         result["material_law"] = learner.model_.law_names()
     if start.rules is not None or any(start.model.region_tissues):
-        from ..rules import materials
+        from ..tissues import materials
 
         result["materials"] = materials(learner.model_, start.rules, start.tissue)
     if getattr(learner, "prior", None) is not None:

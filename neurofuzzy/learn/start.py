@@ -187,7 +187,7 @@ def _start_model(experiments, *, model, rules, tissue, tie, elements, progress) 
     check_experiments(_topology_model(first), experiments)
     tie = tie or "groups"
     if rules is not None:
-        from ..rules import initialize
+        from ..tissues import initialize
 
         if not tissue:
             raise InputError("a rule base needs a tissue (--tissue NAME)", key="tissue")

@@ -11,7 +11,7 @@
   array named ``region`` or ``tissue``).
 
 The regions of a :class:`MeshFile` are node masks and tetrahedron masks; either can be handed
-to :func:`neurofuzzy.rules.initialize` once they are named after tissues
+to :func:`neurofuzzy.initialize` once they are named after tissues
 (:meth:`MeshFile.tissue_regions`). Tetrahedron masks are exact at interfaces. trimesh, meshio and tetgen are imported only when a file
 needs them. Every failure is an :class:`~neurofuzzy.errors.InputError` naming the file.
 """
@@ -87,12 +87,12 @@ class MeshFile:
 
     def tissue_regions(self, tissue_of: Mapping[str, str], *,
                        of: Literal["nodes", "tetrahedra"] = "nodes") -> dict[str, np.ndarray]:
-        """Rename regions to tissues, for :func:`neurofuzzy.rules.initialize`.
+        """Rename regions to tissues, for :func:`neurofuzzy.initialize`.
 
         Parameters
         ----------
         tissue_of : dict of region name → tissue name
-            Regions left out take the default ``tissue`` of :func:`~neurofuzzy.rules.initialize`;
+            Regions left out take the default ``tissue`` of :func:`~neurofuzzy.tissues.initialize`;
             several regions may map to the same tissue (their masks are joined).
         of : {"nodes", "tetrahedra"}
             Node masks, for ``initialize(..., regions=...)``, or tetrahedron masks, for

@@ -173,7 +173,7 @@ def _relative(target, folder: Path) -> str:
 
 def _words_sections(rules, region, tissue, start, fitted):
     """Sections and JSON of one region: words, start and learned values, labels, plots."""
-    from ..rules import material_values
+    from ..tissues import material_values
 
     plt = pyplot()
     springs, nodes = start.region_springs(region), start.region_nodes(region)

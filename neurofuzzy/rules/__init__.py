@@ -1,24 +1,38 @@
-"""Fuzzy rule bases: medical words in, model parameters out, words back.
+"""Fuzzy rule bases: medical words in, material values out, words back. Words only: nothing
+here imports the physics.
 
 - :func:`load_rules` reads and validates a YAML rule base (format: ``rules/README.md``;
   :mod:`.parser`), :func:`resolve` also takes the name of a shipped one;
 - :meth:`RuleBase.infer` / :meth:`RuleBase.tissue` turn words into material values
   (scikit-fuzzy membership functions, vectorised over many descriptions);
-- :func:`initialize` makes a start model of a lattice mesh from a tissue;
-- :meth:`RuleBase.describe` and :meth:`RuleBase.explain` turn numbers back into words;
-- :func:`material_values` reads the material values a (fitted) model stands for.
+- :meth:`RuleBase.describe` and :meth:`RuleBase.explain` turn numbers back into words.
+
+The start model of a mesh from a tissue (:func:`neurofuzzy.initialize`) and the values and
+words a fitted model stands for (:func:`neurofuzzy.material_values`,
+:func:`neurofuzzy.materials`) join the words to the physics in :mod:`neurofuzzy.tissues`.
 """
 
 from ..errors import RuleFileDeprecationWarning
 from .parser import load_rules
-from .materials import materials
-from .physical import element_model, initialize, lattice_geometry, material_values
 from .rulebase import RuleBase
 from .terms import QUANTITIES, Label, RuleBaseError
 
-__all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "resolve", "initialize",
-           "lattice_geometry", "material_values", "materials", "element_model", "QUANTITIES",
+__all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "resolve", "QUANTITIES",
            "RuleFileDeprecationWarning", "shipped"]
+
+#: names this package held before the words and the physics were parted, and where they are
+MOVED = {"initialize": "neurofuzzy.initialize (neurofuzzy.tissues)",
+         "material_values": "neurofuzzy.material_values (neurofuzzy.tissues)",
+         "materials": "neurofuzzy.materials (neurofuzzy.tissues)",
+         "element_model": "neurofuzzy.tissues.element_model",
+         "lattice_geometry": "neurofuzzy.constants.lattice_geometry"}
+
+
+def __getattr__(name: str):
+    if name in MOVED:
+        raise AttributeError(f"neurofuzzy.rules.{name} has moved to {MOVED[name]}; the rule "
+                             "bases hold words only")
+    raise AttributeError(f"module 'neurofuzzy.rules' has no attribute {name!r}")
 
 
 def shipped(name: str):

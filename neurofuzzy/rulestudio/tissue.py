@@ -12,7 +12,8 @@ import time
 import numpy as np
 
 from ..errors import InputError, UnstableTimeStepError
-from ..rules import RuleBase, initialize
+from ..rules import RuleBase
+from ..tissues import initialize
 from .view import QUANTITY_UNITS
 
 __all__ = ["tissue_view", "poke", "BLOCK", "default_force"]

@@ -142,7 +142,8 @@ def block_model(*, pitch: float | None = None, tetgen: bool = False,
     import trimesh
 
     from ..mesh import from_surface_tetra, from_trimesh, lattice_to_tetra
-    from ..rules import initialize, resolve
+    from ..rules import resolve
+    from ..tissues import initialize
 
     surface = trimesh.creation.box(extents=BLOCK["size"])
     surface.apply_translation(np.array(BLOCK["size"]) / 2)

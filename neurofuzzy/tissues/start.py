@@ -1,24 +1,21 @@
-"""A rule base's tissues ↔ a model: :func:`initialize` (the start model of a mesh from the
-tissues' inferred values, a spring network or tetrahedral elements), :func:`material_values`
-(the values a fitted model stands for, per output of the rule base) and :func:`element_model`.
+"""A rule base's tissues → a start model: :func:`initialize` (the start model of a mesh from the
+tissues' inferred values, a spring network or tetrahedral elements) and :func:`element_model`.
 The physics of the mapping (spring homogenisation, element models) is
-:mod:`neurofuzzy.constants`; this module reads the rule base's outputs and tissues."""
+:mod:`neurofuzzy.constants`; this module reads the rule base's outputs and tissues (a
+:class:`~neurofuzzy.rules.RuleBase`, used through its methods: nothing of the rules is
+imported, so the words never depend on the physics)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ..constants import (DEFAULT_POISSON_RATIO, SPRING_POISSON_RATIO, LatticeGeometry,
-                         TetraGeometry, element_values, lattice_geometry, spring_geometry,
-                         spring_material_values, tetra_geometry, volume_shares)
+from ..constants import DEFAULT_POISSON_RATIO, spring_geometry, volume_shares
 from ..constants import element_model as build_element_model
+from ..errors import InputError
 from ..mesh import Mesh
 from ..model import SpringMassModel
 
-__all__ = ["initialize", "material_values", "element_model", "LatticeGeometry",
-           "lattice_geometry", "TetraGeometry", "tetra_geometry", "spring_geometry",
-           "SPRING_POISSON_RATIO"]
+__all__ = ["initialize", "element_model"]
 
 
 def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | None = None,
@@ -48,7 +45,7 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
     elements : bool, optional
         Build tetrahedral finite elements (the mesh needs tetrahedra) whose parameters are the
         tissue's Young's modulus, Poisson's ratio and viscosity themselves, with masses lumped
-        from density (:func:`neurofuzzy.rules.materials.element_model`); the springs get zero
+        from density (:func:`element_model`); the springs get zero
         stiffness. ``False``: the spring network of the module docstring (which locks
         Poisson's ratio at 1/4, so an incompressible tissue reads back "compressible").
         Default: elements when the mesh has tetrahedra, as ``neurofuzzy mesh`` and ``fit``.
@@ -150,27 +147,6 @@ def _spring_value(quantities, material, direct, factor, source):
         return np.full(factor.shape, quantities[direct])
     raise InputError(f"the rule base has no output for {material} or {direct}", source=source,
                      key="outputs")
-
-
-def material_values(rules, model: SpringMassModel, springs=None, nodes=None,
-                    elements=None) -> dict:
-    """The material quantities a model's parameters stand for, per output variable of
-    ``rules``.
-
-    Spring models: medians over the given springs and nodes (default all; springs with both
-    ends fixed are left out, their values are never learned); Poisson's ratio is the 1/4 a
-    spring network is locked to. Element models: the elements' own E, ν, η (medians over
-    ``elements``, default all) and the density of their lumped masses.
-    """
-    if model.has_elements:
-        chosen = (np.ones(model.mesh.n_tetrahedra, bool) if elements is None
-                  else np.isin(np.arange(model.mesh.n_tetrahedra), elements))
-        by_quantity = element_values(model, chosen)
-        return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
-                if variable.quantity in by_quantity}
-    by_quantity = spring_material_values(model, springs, nodes)
-    return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
-            if variable.quantity in by_quantity}
 
 
 #: the quantities of a Prony term's words

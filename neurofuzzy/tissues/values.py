@@ -1,16 +1,15 @@
 """Material values and words per region of a model (:func:`materials`): the physics of the
-values is :mod:`neurofuzzy.constants`, the words the rule base's."""
+values is :mod:`neurofuzzy.constants`, the words the rule base's (used through its methods)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..constants import (DEFAULT_POISSON_RATIO, SPRING_POISSON_RATIO, element_values,
-                         spring_geometry)
+from ..constants import (SPRING_POISSON_RATIO, element_values, spring_geometry,
+                         spring_material_values)
 from ..model import SpringMassModel
-from .physical import material_values
 
-__all__ = ["materials", "DEFAULT_POISSON_RATIO", "SPRING_POISSON_RATIO"]
+__all__ = ["materials", "material_values"]
 
 def materials(model: SpringMassModel, rules=None, tissue: str | None = None) -> dict:
     """The material values every region of ``model`` stands for, with words.
@@ -68,3 +67,22 @@ def _element_materials(model: SpringMassModel, rules, tissue) -> dict:
     return out
 
 
+def material_values(rules, model: SpringMassModel, springs=None, nodes=None,
+                    elements=None) -> dict:
+    """The material quantities a model's parameters stand for, per output variable of
+    ``rules``.
+
+    Spring models: medians over the given springs and nodes (default all; springs with both
+    ends fixed are left out, their values are never learned); Poisson's ratio is the 1/4 a
+    spring network is locked to. Element models: the elements' own E, ν, η (medians over
+    ``elements``, default all) and the density of their lumped masses.
+    """
+    if model.has_elements:
+        chosen = (np.ones(model.mesh.n_tetrahedra, bool) if elements is None
+                  else np.isin(np.arange(model.mesh.n_tetrahedra), elements))
+        by_quantity = element_values(model, chosen)
+        return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
+                if variable.quantity in by_quantity}
+    by_quantity = spring_material_values(model, springs, nodes)
+    return {name: by_quantity[variable.quantity] for name, variable in rules.outputs.items()
+            if variable.quantity in by_quantity}
