@@ -28,7 +28,7 @@ FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-
 def fitted(rules, truth_tissue: str, specimen: str, group: str) -> dict:
     """A fit-many record of a lattice of ``truth_tissue`` fitted from 'liver'."""
     import neurofuzzy as nf
-    from neurofuzzy.learn.run import fit_summary
+    from neurofuzzy.pipeline.learners import fit_summary
 
     from neurofuzzy.mesh import lattice_to_tetra
 

@@ -62,7 +62,7 @@ _EXPORTS = {
     "read_markers": "markers", "markers_to_experiment": "markers",
     "EmbeddedMarkers": "observation", "Observation": "observation",
     "embed_points": "observation",
-    "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "learn",
+    "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "pipeline",
     "StartModel": "learn", "estimate_start": "learn", "FuzzyPrior": "learn.prior",
     "fit": "pipeline", "FitOutcome": "pipeline", "FitFailedError": "pipeline",
     "load_rules": "rules", "shipped_rules": "rules",
@@ -91,15 +91,14 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .export import export, export_paraview  # noqa: F401
     from .forces import SPRINGS, TETRAHEDRA, ForceTerm, SpringForce, TetrahedronForce  # noqa: F401
     from .io import load_experiment, load_model, save_experiment, save_model  # noqa: F401
-    from .learn import (GradientLearner, PaperLearner, StartModel,  # noqa: F401
-                        estimate_start, start_model)
+    from .learn import GradientLearner, PaperLearner, StartModel, estimate_start  # noqa: F401
     from .markers import markers_to_experiment, read_markers  # noqa: F401
     from .mesh import (Mesh, bottom_layer, from_surface_tetra, from_tetra,  # noqa: F401
                        from_trimesh, lattice, surface_nodes)
     from .mesh import MeshFile, read_mesh  # noqa: F401
     from .model import SpringMassModel  # noqa: F401
     from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
-    from .pipeline import FitFailedError, FitOutcome, fit  # noqa: F401
+    from .pipeline import FitFailedError, FitOutcome, fit, start_model  # noqa: F401
     from .validation.integrators import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401
     from .rules import load_rules  # noqa: F401

@@ -178,7 +178,7 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
     from .diagnosis import diagnose
     from .effects import Gravity
     from .experiment import simulate_experiment
-    from .learn import start_model
+    from .pipeline import start_model
     from .report import diagnosis_report, fit_report
     from .rules import load_rules, shipped
     from .tissues import initialize, material_values

@@ -156,6 +156,19 @@ def test_the_physics_does_not_read_words():
     assert readers == set()
 
 
+def test_the_learners_read_no_files_and_choose_no_start():
+    """DESIGN: "the learner never reads files". Model files, experiments and the start of a fit
+    (a model file, a rule base's tissue) are the pipeline's (:mod:`neurofuzzy.pipeline`); the
+    learners get objects. (``learn`` formats its results with ``io.writing.json_safe`` and the
+    prior loads a rule base given by name through ``rules.resolve``: words, not physics.)"""
+    allowed_io = {"neurofuzzy.io.writing"}
+    found = {f"{name} imports {target}" for name in MODULES if name.startswith("neurofuzzy.learn")
+             for target, _ in _imports(name)
+             if (target.startswith("neurofuzzy.io") and target not in allowed_io)
+             or target.startswith(("neurofuzzy.pipeline", "neurofuzzy.tissues"))}
+    assert found == set()
+
+
 def test_nothing_imports_the_command_line():
     users = [name for name in MODULES if not name.startswith("neurofuzzy.cli")
              and any(t.startswith("neurofuzzy.cli") for t, _ in _imports(name))]

@@ -56,7 +56,7 @@ def probe(model, n_frames=60, dt=1e-3, touch=5):
 
 def test_a_fitted_element_model_runs_in_mujoco_as_in_neurofuzzy(tmp_path):
     """The issue's check: fit, save with the fit's record, export the file, run MuJoCo."""
-    from neurofuzzy.learn.run import fit_record
+    from neurofuzzy.pipeline.learners import fit_record
 
     truth = block_model()
     data = nf.simulate_experiment(truth, dt=1e-3, n_frames=60, external_forces=probe(truth),

@@ -11,7 +11,7 @@ from neurofuzzy.cli import main
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_model, save_experiment
-from neurofuzzy.learn import start_model
+from neurofuzzy.pipeline import start_model
 from neurofuzzy.mesh import read_mesh
 from neurofuzzy.rules import load_rules, shipped
 from neurofuzzy.tissues import initialize, materials
@@ -96,6 +96,18 @@ def test_fit_start_learns_each_region_and_says_it_in_words(organ, capsys):
     words = {r["region"]: {q["quantity"]: q for q in r["quantities"]} for r in twin["regions"]}
     assert words["liver"]["youngs_modulus"]["label_before"] == "firm"
     assert words["liver"]["youngs_modulus"]["label_after"] == "hard"
+
+
+def test_start_model_is_the_pipelines():
+    """Where a fit starts is the pipeline's choice (it reads model files and rule bases); the
+    learners' own start is the equation-error estimate. The old spelling says where it went."""
+    import neurofuzzy as nf
+    import neurofuzzy.learn
+
+    assert nf.start_model is start_model
+    with pytest.raises(AttributeError, match="learn.start_model has moved to neurofuzzy"):
+        neurofuzzy.learn.start_model
+    assert callable(neurofuzzy.learn.estimate_start)
 
 
 def test_start_model_refuses_a_model_of_another_object(organ):

@@ -7,7 +7,7 @@ import math
 
 from ..errors import InputError
 from ..learn.prior import parse_prior
-from ..learn.run import METHODS
+from ..pipeline.learners import METHODS
 
 __all__ = ["fit_options"]
 

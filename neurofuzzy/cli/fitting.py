@@ -1,7 +1,7 @@
 """``neurofuzzy fit`` and ``neurofuzzy diagnose``: experiments and a start in, a fitted model,
 a report and JSON out. The fit is the library's one pipeline (:func:`neurofuzzy.pipeline.fit`:
 start, prior, learner, outcome check, summary); the start policy of ``diagnose`` is the
-library's :func:`~neurofuzzy.learn.start_model`."""
+library's :func:`~neurofuzzy.pipeline.start_model`."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ __all__ = ["fit", "diagnose"]
 def _start(args, progress: bool):
     """The experiments named on the command line and the start of their diagnosis."""
     from ..io import load_experiment
-    from ..learn import start_model
+    from ..pipeline import start_model
     from ..plausibility import check_fit_inputs
     from .common import rule_base_for
 
@@ -120,7 +120,7 @@ def diagnose(args) -> int:
     from ..diagnosis import diagnose as run_diagnosis
     from ..errors import InputError
     from ..io import save_model
-    from ..learn.run import make_prior
+    from ..pipeline.learners import make_prior
     from ..report import diagnosis_report
 
     progress = not args.quiet   # on stderr: --json output on stdout stays one object

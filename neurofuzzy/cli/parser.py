@@ -322,7 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _start_options(command) -> None:
-    """Where a fit starts (:func:`neurofuzzy.learn.start_model`), shared by fit and diagnose."""
+    """Where a fit starts (:func:`neurofuzzy.pipeline.start_model`), shared by fit and diagnose."""
     command.add_argument("--start", metavar="MODEL.yaml",
                          help="start from a model file (written by 'neurofuzzy mesh' or a "
                               "previous fit), keeping its regions, tissues, masses and tie "

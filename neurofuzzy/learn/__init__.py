@@ -4,7 +4,8 @@
 - :class:`Parameterization` (the free parameters as one vector) and :class:`Sensitivity`
   (simulation with exact forward sensitivities and the adjoint): the derivative machinery
   behind the gradient learner, for tests and for users who build their own optimiser;
-- :func:`start_model`: where a fit starts (a model file, a rule base, or the data alone);
+- :func:`estimate_start`: start values from the data alone (equation error); where a fit
+  starts (a model file, a rule base or the data) is :func:`neurofuzzy.pipeline.start_model`;
 - :class:`GradientLearner`: exact gradients of the discrete simulator with Gauss–Newton or
   L-BFGS and multiple shooting.
 
@@ -19,8 +20,16 @@ from .gradient import GradientLearner
 from .steps import auto_substeps
 from .identifiability import Identifiability
 from .paper import PaperLearner
-from .start import StartModel, estimate_start, start_model
+from .start import StartModel, estimate_start
 
 __all__ = ["Learner", "PaperLearner", "GradientLearner", "Identifiability", "auto_substeps",
-           "StartModel", "start_model", "estimate_start", "Parameterization",
+           "StartModel", "estimate_start", "Parameterization",
            "Sensitivity", "Run", "element_directions"]
+
+
+def __getattr__(name: str):
+    if name == "start_model":
+        raise AttributeError("neurofuzzy.learn.start_model has moved to "
+                             "neurofuzzy.start_model (neurofuzzy.pipeline): where a fit starts "
+                             "is the fit pipeline's choice")
+    raise AttributeError(f"module 'neurofuzzy.learn' has no attribute {name!r}")

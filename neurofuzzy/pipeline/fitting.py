@@ -30,15 +30,15 @@ class FitOutcome:
     learner : Learner
         The fitted learner (history, standard errors, lack of fit …).
     start : StartModel
-        Where the fit started (:func:`~neurofuzzy.learn.start_model`).
+        Where the fit started (:func:`~.start.start_model`).
     prior : FuzzyPrior or None
         The rule base as a prior, when the fit used one.
     experiments : list of Experiment
         The load cases that were fitted.
     summary : dict
-        The object of ``neurofuzzy fit --json`` (:func:`~neurofuzzy.learn.run.fit_summary`).
+        The object of ``neurofuzzy fit --json`` (:func:`~.learners.fit_summary`).
     record : dict
-        What a fitted model file keeps of the fit (:func:`~neurofuzzy.learn.run.fit_record`).
+        What a fitted model file keeps of the fit (:func:`~.learners.fit_record`).
     """
 
     model: object
@@ -77,11 +77,11 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
     Python.
 
-    1. the start (:func:`~neurofuzzy.learn.start_model`: ``start``, else ``rules`` and
+    1. the start (:func:`~.start.start_model`: ``start``, else ``rules`` and
        ``tissue``, else the equation-error estimate), checked against the data
        (:func:`~neurofuzzy.plausibility.check_fit_inputs`);
-    2. the prior (:func:`~neurofuzzy.learn.run.make_prior`) and the learner
-       (:func:`~neurofuzzy.learn.run.make_learner`);
+    2. the prior (:func:`~.learners.make_prior`) and the learner
+       (:func:`~.learners.make_learner`);
     3. the fit; a learner's own failure is re-raised as :class:`FitFailedError` with its
        likely cause;
     4. the outcome check (:func:`~.outcome.check_outcome`): a fit whose simulation diverges or
@@ -113,10 +113,10 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         Prony relaxation of the elements to fit (a number of terms, or their start values;
         default the start model's own, else none); see :mod:`neurofuzzy.forces.relaxation`.
     prior : {"default", "auto", "off"} or float
-        See :func:`~neurofuzzy.learn.run.make_prior`.
+        See :func:`~.learners.make_prior`.
     method : {"gradient", "paper"}
     cycles, learn_masses, substeps, learning_rate, mass_learning_rate, mesh_check
-        The learner's options (:func:`~neurofuzzy.learn.run.make_learner`).
+        The learner's options (:func:`~.learners.make_learner`).
     names : sequence of str, optional
         How the summary names the experiments (default: their files).
     progress : bool
@@ -133,8 +133,8 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     FitFailedError
         The fit ran but failed (diverged, or worse than a model that never moves).
     """
-    from ..learn import start_model
-    from ..learn.run import fit_record, fit_summary, make_learner, make_prior
+    from .learners import fit_record, fit_summary, make_learner, make_prior
+    from .start import start_model
     from ..plausibility import check_fit_inputs
 
     experiments = _experiments(experiments)

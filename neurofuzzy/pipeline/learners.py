@@ -1,15 +1,15 @@
-"""One fit as ``neurofuzzy fit`` does it: the learner its options choose (:func:`make_learner`)
-and the summary it prints with ``--json`` (:func:`fit_summary`).
-
-Shared by the ``fit`` command and by ``fit-many``, whose every specimen is the same fit; the
-start comes from :func:`~neurofuzzy.learn.start_model`.
+"""The choices of one fit as ``neurofuzzy fit`` makes them: the learner its options choose
+(:func:`make_learner`), the rule base as a prior (:func:`make_prior`), and what it reports:
+the summary of ``--json`` (:func:`fit_summary`) and the fit record a model file keeps
+(:func:`fit_record`). Used by :func:`~neurofuzzy.pipeline.fit` (so by the command and by
+every specimen of ``fit-many``); the start comes from :func:`~.start.start_model`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ._base import Learner
+from ..learn import Learner
 
 __all__ = ["METHODS", "make_learner", "make_prior", "fit_summary", "fit_record"]
 
@@ -39,7 +39,7 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         Gradient method only: the rule base as a prior (:func:`make_prior`).
     mesh_check : bool
         Gradient method only: refit on the mesh refined once and widen the intervals
-        (:mod:`.mesh_check`).
+        (:mod:`neurofuzzy.learn.mesh_check`).
     progress : bool
         Report progress on stderr.
 
@@ -57,7 +57,7 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
     if cycles is not None and not (isinstance(cycles, int) and cycles >= 1):
         raise InputError(f"got {cycles!r}; expected a positive integer", key="cycles")
     if method == "paper":
-        from .paper import PaperLearner
+        from ..learn import PaperLearner
 
         if prior is not None:
             raise InputError("the paper's learner takes no prior; use the gradient method or "
@@ -68,7 +68,7 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
                              "gradient method", key="mesh_check")
         return PaperLearner(learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
                             cycles=cycles or 100, learn_masses=learn_masses, progress=progress)
-    from .gradient import GradientLearner
+    from ..learn import GradientLearner
 
     return GradientLearner(learn_masses=learn_masses, substeps=substeps,
                            max_iterations=cycles or 100, prior=prior, mesh_check=mesh_check,
@@ -76,14 +76,15 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
 
 
 def make_prior(start, prior="default", *, tie: str | None = None, method: str = "gradient"):
-    """The prior of ``neurofuzzy fit --prior PRIOR`` (a :class:`~.prior.FuzzyPrior` or None).
+    """The prior of ``neurofuzzy fit --prior PRIOR``
+    (a :class:`~neurofuzzy.learn.prior.FuzzyPrior` or None).
 
     ``"default"`` is ``"auto"`` for a fit of every spring or element (``tie="none"``) of a
     start with a rule base (``start.rules``), else off; ``"off"``; ``"auto"`` (weight by the
     discrepancy principle) or a weight ``α`` need the rule base.
     """
     from ..errors import InputError
-    from .prior import FuzzyPrior, parse_prior
+    from ..learn.prior import FuzzyPrior, parse_prior
 
     if prior == "default":
         prior = ("auto" if start.rules is not None and tie == "none" and method == "gradient"
@@ -103,15 +104,15 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     ``learner.to_dict()`` plus ``method``, ``tie``, ``start`` (where the start came from),
     ``experiments`` (the files) and, when the start has a rule base or tissues, ``materials``
     (per region E, ν, η, ρ and words; :func:`~neurofuzzy.tissues.materials`), and after a
-    fit with a prior ``regions_found`` (:func:`~.regions.regions_found`), ``regions_rest``
-    and ``regions_found_words``.
+    fit with a prior ``regions_found`` (:func:`~neurofuzzy.learn.regions.regions_found`),
+    ``regions_rest`` and ``regions_found_words``.
 
     Parameters
     ----------
     learner : Learner
         Fitted.
     start : StartModel
-        The start of the fit (:func:`~neurofuzzy.learn.start_model`).
+        The start of the fit (:func:`~.start.start_model`).
     method, tie : str
         As given to the fit (``tie`` "model" when the start model's own tying was kept).
     experiments : sequence of str
@@ -127,7 +128,7 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
 
         result["materials"] = materials(learner.model_, start.rules, start.tissue)
     if getattr(learner, "prior", None) is not None:
-        from .regions import describe_regions, regions_found
+        from ..learn.regions import describe_regions, regions_found
 
         found = learner.regions_ or regions_found(learner.model_, learner.prior)
         result.update(regions_found=found["regions"], regions_rest=found["rest"],
