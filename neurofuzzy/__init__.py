@@ -8,7 +8,7 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - physics: :class:`SpringMassModel`, the force terms (:class:`ForceTerm`, :class:`SpringForce`,
   :data:`SPRINGS`, :class:`TetrahedronForce`, :data:`TETRAHEDRA`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
   :class:`StiffInclusion`, :class:`SoftInclusion`, :class:`NonlinearStiffening`,
-  :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`,
+  :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`, :class:`State`,
   :func:`stability_limit`, :func:`reference_simulate`
 - data: :class:`Experiment`, :func:`simulate_experiment`, :func:`reference_experiment`,
   :func:`check_experiments`, :func:`simulate_like`, :func:`rms_error`,
@@ -53,7 +53,8 @@ _EXPORTS = {
     "Effect": "effects", "EFFECTS": "effects", "Gravity": "effects", "NodeDrag": "effects",
     "StiffInclusion": "effects", "SoftInclusion": "effects",
     "NonlinearStiffening": "effects", "UnmodeledLoad": "effects",
-    "Trajectory": "simulation", "simulate": "simulation", "stability_limit": "simulation",
+    "Trajectory": "simulation", "State": "simulation", "simulate": "simulation",
+    "stability_limit": "simulation",
     "reference_simulate": "validation.integrators",
     "reference_experiment": "validation.integrators",
     "Experiment": "experiment", "simulate_experiment": "experiment",
@@ -105,7 +106,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .rules import shipped as shipped_rules  # noqa: F401
     from .tissues import initialize, material_values, materials  # noqa: F401
     from .rulestudio import studio  # noqa: F401
-    from .simulation import Trajectory, simulate, stability_limit  # noqa: F401
+    from .simulation import State, Trajectory, simulate, stability_limit  # noqa: F401
 
 from .version import __version__  # noqa: E402, F401  (the package's version, public)
 

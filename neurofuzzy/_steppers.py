@@ -78,14 +78,18 @@ class NumpyStepper:
         self.fixed = model.mesh.fixed
         self.other_terms = model.force_terms[1:]          # elements and effects
 
-    def trajectory(self, p, v, loads, n_frames: int, substeps: int):
-        """Frames 0..n_frames-1 from ``(p, v)``; ``loads[t]`` acts from frame t to t + 1
-        (a single row ``loads[0]`` is held for all frames; ``None`` means no load).
+    def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
+        """Frames 0..n_frames-1 from ``(p, v)`` and the relaxation's internal variables
+        ``internal`` (n_elements, K, 6); ``loads[t]`` acts from frame t to t + 1 (a single row
+        ``loads[0]`` is held for all frames; ``None`` means no load).
 
-        Returns ``(positions, velocities)`` of shape (n_frames, n_nodes, 3); stops early (the
-        rest NaN) when the state stops being finite.
+        Returns ``(positions, velocities, internal)``: the frames, of shape (n_frames,
+        n_nodes, 3), and the internal variables after the last one; stops early (the rest
+        NaN) when the state stops being finite. (This stepper computes no relaxation: the
+        numpy force refuses a relaxing model, and ``internal`` is returned as it came.)
         """
-        return _frames(self, p, v, loads, n_frames, substeps)
+        positions, velocities = _frames(self, p, v, loads, n_frames, substeps)
+        return positions, velocities, np.array(internal, dtype=float)
 
     def advance(self, p: np.ndarray, v: np.ndarray, load: np.ndarray | None, n_steps: int):
         """``n_steps`` steps from ``(p, v)``, written back into ``p`` and ``v``."""
@@ -142,14 +146,15 @@ class NumbaStepper:
         if NumbaStepper._kernel is None:
             NumbaStepper._kernel, NumbaStepper._frames_kernel = _compile()
 
-    def trajectory(self, p, v, loads, n_frames: int, substeps: int):
-        """As :meth:`NumpyStepper.trajectory`, all frames in one compiled call."""
+    def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
+        """As :meth:`NumpyStepper.trajectory`, all frames in one compiled call, the
+        relaxation's internal variables carried from ``internal``."""
         positions = np.empty((n_frames, p.shape[0], 3), dtype=self.dtype)
         velocities = np.empty_like(positions)
         pc = np.array(p, dtype=self.dtype)
         vc = np.array(v, dtype=self.dtype)
         vc[self.fixed] = 0.0
-        self.history[...] = 0.0             # relaxation starts from rest, as the state does
+        self.history[...] = internal        # relaxation continues from the given state
         loads = (np.zeros((1, p.shape[0], 3), dtype=self.dtype) if loads is None
                  else np.ascontiguousarray(loads[:max(n_frames - 1, 1)], self.dtype))
         loads = loads + self.constant
@@ -160,7 +165,8 @@ class NumbaStepper:
                                     self.dtype.type(self.h),
                                     int(n_frames), int(substeps), self.force, positions,
                                     velocities)
-        return positions.astype(float, copy=False), velocities.astype(float, copy=False)
+        return (positions.astype(float, copy=False), velocities.astype(float, copy=False),
+                self.history.astype(float))
 
     def advance(self, p: np.ndarray, v: np.ndarray, load: np.ndarray | None, n_steps: int):
         pc = np.ascontiguousarray(p, dtype=self.dtype)

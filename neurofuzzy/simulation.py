@@ -35,6 +35,7 @@ from .errors import InputError, UnstableTimeStepError
 from .model import SpringMassModel
 
 __all__ = [
+    "State",
     "Trajectory",
     "StabilityLimit",
     "internal_forces",
@@ -52,6 +53,38 @@ __all__ = [
 STABILITY_SAFETY = 0.9
 
 
+@dataclass(frozen=True, eq=False)
+class State:
+    """The state of a model at one instant: what a simulation continues from.
+
+    Attributes
+    ----------
+    positions, velocities : (n_nodes, 3) float
+    internal : (n_tetrahedra, K, 6) float
+        The internal variables of the elements' Prony relaxation (K terms,
+        :mod:`neurofuzzy.forces.relaxation`): per element and term the ``rᵢ`` of
+        ``S = S_rest + Σᵢ gᵢ (S_e + rᵢ)``, six entries of a symmetric stress (Pa), zero for a
+        model at rest; (0, 0, 6) or (n_tetrahedra, 0, 6) for a model that does not relax. A
+        relaxing model's positions and velocities alone do not say where it is: the same
+        shape recently loaded pushes back harder than after it has relaxed.
+    """
+
+    positions: np.ndarray
+    velocities: np.ndarray
+    internal: np.ndarray
+
+    @classmethod
+    def at_rest(cls, model: SpringMassModel) -> State:
+        """The model at its rest positions, not moving, nothing relaxed."""
+        return cls(np.array(model.mesh.rest_positions, dtype=float),
+                   np.zeros((model.n_nodes, 3)), _no_internal(model))
+
+
+def _no_internal(model: SpringMassModel) -> np.ndarray:
+    n_elements = model.mesh.n_tetrahedra if model.has_elements else 0
+    return np.zeros((n_elements, model.n_relaxation_terms, 6))
+
+
 @dataclass(frozen=True)
 class Trajectory:
     """Recorded frames of a simulation.
@@ -64,16 +97,30 @@ class Trajectory:
         Time between recorded frames.
     substeps : int
         Integration steps per recorded frame.
+    final_internal : (n_tetrahedra, K, 6) float or None
+        The relaxation's internal variables after the last frame (:class:`State`); None
+        when the trajectory does not know them (a trajectory from another solver).
     """
 
     positions: np.ndarray
     velocities: np.ndarray
     dt: float
     substeps: int = 1
+    final_internal: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
         return self.positions.shape[0]
+
+    @property
+    def final_state(self) -> State:
+        """The :class:`State` after the last frame, to continue the simulation from
+        (``simulate(..., initial_state=trajectory.final_state)``)."""
+        if self.final_internal is None:
+            raise InputError("this trajectory does not carry the internal variables of its "
+                             "last frame (it was not made by simulate)", key="final_state")
+        return State(self.positions[-1].copy(), self.velocities[-1].copy(),
+                     self.final_internal.copy())
 
 
 def internal_forces(model: SpringMassModel, positions: np.ndarray,
@@ -87,7 +134,16 @@ def internal_forces(model: SpringMassModel, positions: np.ndarray,
 
 def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, h: float,
          external_force: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """One semi-implicit Euler step of length ``h`` (eqs. 3.1–3.3); returns ``(p, v)``."""
+    """One semi-implicit Euler step of length ``h`` (eqs. 3.1–3.3); returns ``(p, v)``.
+
+    Positions and velocities are the whole state of models that do not relax; a relaxing
+    model (Prony terms) also carries internal variables: step it with :func:`simulate` and a
+    :class:`State` (``initial_state=...``, continued from ``Trajectory.final_state``)."""
+    if model.n_relaxation_terms:
+        raise InputError("this model's elements relax (Prony terms), whose internal variables "
+                         "positions and velocities do not hold; step it with simulate(model, "
+                         "..., initial_state=state), continuing from trajectory.final_state",
+                         key="model")
     force = internal_forces(model, positions, velocities)
     if external_force is not None:
         force = force + external_force
@@ -101,6 +157,7 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
              external_forces: np.ndarray | None = None,
              initial_positions: np.ndarray | None = None,
              initial_velocities: np.ndarray | None = None,
+             initial_state: State | None = None,
              substeps: int | str = 1, check_stability: bool = True,
              backend: str = "auto", dtype=np.float64) -> Trajectory:
     """Simulate ``n_frames`` recorded frames, frame 0 being the initial state.
@@ -116,7 +173,11 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
         Applied load; constant, or per frame, where ``external_forces[t]`` acts from frame
         ``t`` to ``t + 1`` (the last frame's row is unused).
     initial_positions, initial_velocities : (n_nodes, 3) float, optional
-        Start state (default: rest positions, at rest).
+        Start state (default: rest positions, at rest), with nothing relaxed.
+    initial_state : State, optional
+        Start state with the relaxation's internal variables, e.g. the
+        :attr:`Trajectory.final_state` of a previous run: a run continued from it equals one
+        run through (instead of ``initial_positions``, ``initial_velocities``).
     substeps : int or "auto"
         Integration steps per frame (``h = dt / substeps``); ``"auto"`` picks the fewest that
         are stable.
@@ -146,22 +207,30 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     substeps = int(substeps)
 
     forces = _frame_forces(external_forces, n_frames, n_nodes)
-    p = _state(initial_positions, model.mesh.rest_positions, n_nodes, "initial_positions")
-    v = _state(initial_velocities, np.zeros((n_nodes, 3)), n_nodes, "initial_velocities")
+    if initial_state is not None:
+        if initial_positions is not None or initial_velocities is not None:
+            raise InputError("give initial_state or initial_positions/initial_velocities, "
+                             "not both", key="initial_state")
+        p, v, internal = _start_state(model, initial_state)
+    else:
+        p = _state(initial_positions, model.mesh.rest_positions, n_nodes, "initial_positions")
+        v = _state(initial_velocities, np.zeros((n_nodes, 3)), n_nodes, "initial_velocities")
+        internal = _no_internal(model)
     v[model.mesh.fixed] = 0.0
     n_elements = model.mesh.n_tetrahedra if model.has_elements else 0
     stepper = make_stepper(model, dt / substeps, backend, dtype,
                            work=(model.n_springs + 30 * n_elements) * n_frames * substeps)
 
     with np.errstate(over="ignore", invalid="ignore"):
-        positions, velocities = stepper.trajectory(p, v, forces, n_frames, substeps)
+        positions, velocities, internal = stepper.trajectory(p, v, forces, n_frames, substeps,
+                                                             internal)
     bad = ~np.isfinite(positions).all(axis=(1, 2))
     if bad.any():
         raise UnstableTimeStepError(
             f"the simulation diverged at frame {int(np.argmax(bad))} (positions became NaN or "
             "infinite); reduce the time step or the stiffness, or raise substeps")
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
-                      substeps=substeps)
+                      substeps=substeps, final_internal=internal)
 
 
 #: most integration steps per frame a caller may ask for
@@ -211,6 +280,25 @@ def _state(value, default: np.ndarray, n_nodes: int, key: str) -> np.ndarray:
     if not np.all(np.isfinite(state)):
         raise InputError("contains NaN or infinite values", key=key)
     return state
+
+
+def _start_state(model: SpringMassModel, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``initial_state`` checked against ``model``: copies of its arrays."""
+    if not isinstance(state, State):
+        raise InputError(f"got {type(state).__name__}; expected a State (e.g. "
+                         "trajectory.final_state)", key="initial_state")
+    n_nodes = model.n_nodes
+    p = _state(state.positions, None, n_nodes, "initial_state.positions")
+    v = _state(state.velocities, None, n_nodes, "initial_state.velocities")
+    expected = _no_internal(model).shape
+    internal = np.array(state.internal, dtype=float)
+    if internal.shape != expected and not (internal.size == 0 and expected[1] == 0):
+        raise InputError(f"got internal variables of shape {internal.shape}; this model "
+                         f"needs {expected} (n_tetrahedra, Prony terms, 6): a state of "
+                         "another model?", key="initial_state.internal")
+    if not np.all(np.isfinite(internal)):
+        raise InputError("contains NaN or infinite values", key="initial_state.internal")
+    return p, v, internal.reshape(expected)
 
 
 # -- stability ------------------------------------------------------------------------------

@@ -242,3 +242,79 @@ def test_auto_compiles_jobs_that_repay_loading_the_kernels():
     assert isinstance(make_stepper(cube, 1e-3, work=86 * 250), NumpyStepper)
     two_drags = block.with_effects(NodeDrag([0.01]), NodeDrag([0.02]))
     assert isinstance(make_stepper(two_drags, 2e-4, work=1e9), NumpyStepper)
+
+
+def _relaxing_block():
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = SpringMassModel.continuum(mesh, youngs_modulus=5e3, poisson_ratio=0.45,
+                                      viscosity=1.0, density=1000.0)
+    load = np.zeros((mesh.n_nodes, 3))
+    load[-1] = (0.0, 0.0, -0.05)
+    return model.replace(element_relaxation_moduli=[0.5], element_relaxation_times=[0.02]), load
+
+
+@pytest.mark.parametrize("relaxes", [True, False])
+def test_a_run_continued_from_its_final_state_is_the_run_through(cube_model, relaxes):
+    """A run in two halves, the second from the first's ``final_state``, equals the whole
+    run (bit for bit: the same steps). For a relaxing model the internal variables are part
+    of the state: continuing from positions and velocities alone restarts the relaxation and
+    moves the loaded corner by more than a tenth of its motion."""
+    from neurofuzzy.simulation import State
+
+    if relaxes:
+        model, load = _relaxing_block()
+        options = dict(dt=1e-3, external_forces=load, substeps="auto")
+    else:
+        model, load = cube_model, np.zeros((cube_model.n_nodes, 3))
+        load[13] = (0.0, 0.0, -0.05)
+        options = dict(dt=0.01, external_forces=load, substeps="auto")
+    whole = simulate(model, n_frames=41, **options)
+    first = simulate(model, n_frames=21, **options)
+    second = simulate(model, n_frames=21, initial_state=first.final_state, **options)
+    np.testing.assert_array_equal(second.positions, whole.positions[20:])
+    np.testing.assert_array_equal(second.final_internal, whole.final_internal)
+    assert isinstance(first.final_state, State)
+    if relaxes:
+        assert np.abs(whole.final_internal).max() > 100.0          # Pa: the terms relaxed
+        forgetful = simulate(model, n_frames=21, initial_positions=first.positions[-1],
+                             initial_velocities=first.velocities[-1], **options)
+        motion = np.abs(whole.positions[-1] - model.mesh.rest_positions).max()
+        assert np.abs(forgetful.positions[-1] - whole.positions[-1]).max() > 0.1 * motion
+        at_rest = State.at_rest(model)
+        np.testing.assert_array_equal(simulate(model, n_frames=5, initial_state=at_rest,
+                                               **options).positions,
+                                      simulate(model, n_frames=5, **options).positions)
+    else:
+        assert whole.final_internal.size == 0
+
+
+def test_a_state_of_another_model_or_a_step_without_one_is_refused(cube_model):
+    from neurofuzzy.simulation import State
+    from neurofuzzy.validation.integrators import reference_simulate
+
+    model, load = _relaxing_block()
+    state = State.at_rest(model)
+    with pytest.raises(InputError, match="not both"):
+        simulate(model, dt=1e-3, n_frames=3, initial_state=state,
+                 initial_positions=model.mesh.rest_positions)
+    wrong = State(state.positions, state.velocities, np.zeros((model.mesh.n_tetrahedra, 2, 6)))
+    with pytest.raises(InputError, match=r"needs \(48, 1, 6\).*another model"):
+        simulate(model, dt=1e-3, n_frames=3, initial_state=wrong, substeps="auto")
+    bad = State(state.positions, state.velocities, np.full_like(state.internal, np.nan))
+    with pytest.raises(InputError, match="NaN"):
+        simulate(model, dt=1e-3, n_frames=3, initial_state=bad, substeps="auto")
+    with pytest.raises(InputError, match="expected a State"):
+        simulate(model, dt=1e-3, n_frames=3, initial_state=(state.positions, state.velocities))
+    with pytest.raises(InputError, match=r"needs \(0, 0, 6\).*another model"):
+        simulate(cube_model, dt=0.01, n_frames=3, initial_state=state, substeps="auto")
+    elsewhere = State(state.positions[:-1], state.velocities[:-1], state.internal)
+    with pytest.raises(InputError, match="initial_state.positions.*expected \\(n_nodes, 3\\)"):
+        simulate(model, dt=1e-3, n_frames=3, initial_state=elsewhere, substeps="auto")
+    with pytest.raises(InputError, match="relax.*initial_state"):
+        step(model, state.positions, state.velocities, 1e-4)
+    other = reference_simulate(cube_model, dt=0.01, n_frames=3)
+    with pytest.raises(InputError, match="internal variables"):
+        other.final_state
