@@ -7,7 +7,8 @@ strain and equals its numpy form (:mod:`neurofuzzy.forces.laws`) at large strain
 import numpy as np
 import pytest
 
-from neurofuzzy.forces.laws import LAWS, law_number, law_numbers, law_parts
+from neurofuzzy.forces.laws import (LAWS, STIFFENING_CONSTANT, law_number, law_numbers,
+                                   law_parts, stiffens)
 from neurofuzzy.errors import InputError
 from neurofuzzy.kernels.laws import elastic, stress, stress_jvp, stress_vjp, volumetric
 
@@ -58,6 +59,17 @@ def test_the_generated_derivatives_of_the_law_are_its_derivatives(law, kappa):
     got = (_inner(LG, dG) + _inner(LGd, dGd)
            + sum(l * dc for l, dc in zip(cotangents, d.values())))
     assert got == pytest.approx(want, rel=1e-9)
+
+
+@pytest.mark.parametrize("law", LAW_NUMBERS)
+def test_the_laws_with_a_constant_of_their_own_are_the_ones_named(law):
+    """The toolkit reads an element's ``element_stiffening`` (learns it, writes it, says it in
+    words) where :data:`STIFFENING_CONSTANT` names its law: exactly the laws whose compiled
+    stress depends on it."""
+    G, Gd = (0.1, -0.05, 0.08, 0.03, -0.02, 0.04), (0.0,) * 6
+    one, other = (np.array(stress(law, G, Gd, 4e3, 0.0, 700.0, 0.0, 0.0, c)) for c in (0.5, 2.0))
+    assert (not np.allclose(one, other, rtol=1e-12, atol=0.0)) == (law in STIFFENING_CONSTANT)
+    assert stiffens(np.array([law]))[0] == (law in STIFFENING_CONSTANT)
 
 
 @pytest.mark.parametrize("law", LAW_NUMBERS)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..forces.laws import YEOH
 from ..model import SpringMassModel
 
 __all__ = ["DEFAULT_POISSON_RATIO", "element_model", "element_values", "region_density"]
@@ -65,9 +64,9 @@ def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, floa
         times = np.exp((weights * np.log(model.element_relaxation_times[chosen])).sum(axis=1))
         values["relaxation_modulus"] = float(np.median(total))
         values["relaxation_time"] = float(np.median(times))
-    yeoh = chosen & (model.element_law == YEOH)
-    if np.any(yeoh):
-        values["strain_stiffening"] = float(np.median(model.element_stiffening[yeoh]))
+    stiffening = chosen & model.element_stiffens
+    if np.any(stiffening):
+        values["strain_stiffening"] = float(np.median(model.element_stiffening[stiffening]))
     return values
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..forces.laws import LAWS, YEOH
+from ..forces.laws import LAWS
 
 __all__ = ["Exported", "Prepared", "MaterialGroup", "prepare", "material_groups",
            "region_densities", "load_components", "time_step"]
@@ -176,7 +176,7 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
     values = np.column_stack([model.element_youngs_modulus, model.element_poisson_ratio,
                               model.element_viscosity / model.element_youngs_modulus,
                               model.element_relaxation_moduli, model.element_relaxation_times,
-                              np.where(model.element_law == YEOH, model.element_stiffening,
+                              np.where(model.element_stiffens, model.element_stiffening,
                                        0.0)])
     terms = model.n_relaxation_terms
     rounded = _significant(values, 12)         # equal values, up to the last bits, share

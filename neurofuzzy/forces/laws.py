@@ -53,8 +53,19 @@ LAWS = ("st-venant-kirchhoff", "neo-hookean", "yeoh")
 #: Short names accepted for the laws.
 ALIASES = {"svk": "st-venant-kirchhoff", "stvk": "st-venant-kirchhoff",
            "neohookean": "neo-hookean", "nh": "neo-hookean"}
-#: The law whose elements carry a stiffening constant (``element_stiffening``).
+#: Yeoh's law, whose elements carry a stiffening constant (``element_stiffening``).
 YEOH = LAWS.index("yeoh")
+#: The laws whose elements carry their own stiffening constant (``element_stiffening``,
+#: learned as ``log_stiffening``), with its name: a law added with a constant is named here
+#: once, and the learner, files, exports, words and report treat its elements' constant as
+#: Yeoh's (elements of the other laws keep theirs unused).
+STIFFENING_CONSTANT = {YEOH: "C20/C10"}
+
+
+def stiffens(law) -> np.ndarray:
+    """bool, the shape of ``law`` (law numbers): which elements' law has its own stiffening
+    constant (:data:`STIFFENING_CONSTANT`)."""
+    return np.isin(law, tuple(STIFFENING_CONSTANT))
 #: Yeoh's ``C₂₀/C₁₀`` of an element when none is given: in uniaxial stress (ν = 0.45) 1.65
 #: times as stiff as neo-Hookean at 30 % compression, 2.2 times at 40 %, 1.35 times at 30 %
 #: extension

@@ -11,7 +11,7 @@ import yaml
 
 from . import safe_yaml
 from ..errors import InputError, closest_name
-from ..forces.laws import LAWS, YEOH
+from ..forces.laws import LAWS
 from ..mesh import Mesh
 from ..model import SpringMassModel
 from .safe_yaml import kind_of
@@ -66,7 +66,7 @@ def model_to_dict(model: SpringMassModel) -> dict:
         if any(number != 0 for number in model.element_law):
             # one word when every element has the same law, else one per element
             data["elements"]["law"] = laws[0] if len(set(laws)) == 1 else laws
-        if np.any(model.element_law == YEOH):
+        if np.any(model.element_stiffens):
             # Yeoh's C20/C10 per element (unused on the other laws' elements)
             data["elements"]["stiffening"] = model.element_stiffening.tolist()
         if model.n_relaxation_terms:

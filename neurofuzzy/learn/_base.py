@@ -6,7 +6,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..forces.laws import YEOH
 from ..model import SpringMassModel
 
 __all__ = ["Learner", "TiedSprings"]
@@ -113,7 +112,7 @@ class Learner:
             elements["elements"].update(
                 relaxation_moduli=model.element_relaxation_moduli.tolist(),
                 relaxation_times=model.element_relaxation_times.tolist())
-        if np.any(model.element_law == YEOH):     # Yeoh's C20/C10, per element
+        if np.any(model.element_stiffens):        # Yeoh's C20/C10, per element
             elements["elements"].update(stiffening=model.element_stiffening.tolist())
         return {
             **elements,

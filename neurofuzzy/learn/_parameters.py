@@ -28,7 +28,6 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import SpringMassModel
-from ..forces.laws import YEOH
 from ._base import TiedSprings
 
 __all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions",
@@ -49,7 +48,7 @@ SMALLEST_STIFFENING = 1e-3
 def stiffening_groups(model) -> np.ndarray:
     """The element tie groups that hold Yeoh elements, ascending (one ``log_stiffening``
     parameter each)."""
-    return np.unique(model.element_tie[model.element_law == YEOH])
+    return np.unique(model.element_tie[model.element_stiffens])
 
 
 def stiffening_columns(parameters, model) -> np.ndarray:
@@ -60,7 +59,7 @@ def stiffening_columns(parameters, model) -> np.ndarray:
     columns = np.full(model.mesh.n_tetrahedra, -1, np.intp)
     block = parameters.blocks.get("log_stiffening")
     if block is not None:
-        yeoh = model.element_law == YEOH
+        yeoh = model.element_stiffens
         columns[yeoh] = block.start + np.searchsorted(stiffening_groups(model),
                                                       model.element_tie[yeoh])
     return columns
@@ -142,7 +141,7 @@ class Parameterization:
                 elements, model.element_relaxation_times, model.n_element_ties)
             # Yeoh's C20/C10: a shared value per tie group with Yeoh elements, their ratios
             self.stiffening_groups = stiffening_groups(model)
-            yeoh = model.element_law == YEOH
+            yeoh = model.element_stiffens
             shared = np.ones(model.n_element_ties)
             for group in self.stiffening_groups:
                 members = yeoh & (model.element_tie == group)
@@ -245,7 +244,7 @@ class Parameterization:
             shared[self.stiffening_groups] = np.exp(np.clip(
                 theta[self.blocks["log_stiffening"].slice], -LOG_LIMIT, LOG_LIMIT))
             # the other laws' elements keep their (unused) value
-            values["element_stiffening"] = np.where(self.base.element_law == YEOH,
+            values["element_stiffening"] = np.where(self.base.element_stiffens,
                                                     shared[tie] * self.stiffening_ratio,
                                                     self.base.element_stiffening)
         return values

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import InputError, closest_name
-from ..forces.laws import LAWS, YEOH
+from ..forces.laws import LAWS, STIFFENING_CONSTANT, stiffens
 from ..forces.relaxation import relaxation_fields
 from ..mesh import Mesh
 from .elements import VOLUMETRIC, element_values
@@ -314,6 +314,13 @@ class SpringMassModel:
         return self.element_relaxation_moduli.shape[1] if self.has_elements else 0
 
     @property
+    def element_stiffens(self) -> np.ndarray:
+        """(n_tetrahedra,) bool: the elements whose law has its own stiffening constant
+        (``element_stiffening``, :data:`~neurofuzzy.forces.laws.STIFFENING_CONSTANT`; Yeoh's
+        C₂₀/C₁₀); empty without elements."""
+        return stiffens(self.element_law) if self.has_elements else np.zeros(0, bool)
+
+    @property
     def force_terms(self) -> tuple:
         """Every force term of the model: its springs, its tetrahedral elements (if any),
         then its effects (each a :class:`~neurofuzzy.forces.ForceTerm`)."""
@@ -362,10 +369,11 @@ class SpringMassModel:
                          f" Pa, Poisson's ratio {describe(self.element_poisson_ratio)}, "
                          f"viscosity {describe(self.element_viscosity)} Pa s")
             lines.append(f"  material law: {self.law_names()}")
-            yeoh = self.element_law == YEOH
-            if yeoh.any():
-                lines.append(f"  Yeoh stiffening C20/C10: "
-                             f"{describe(self.element_stiffening[yeoh])}")
+            for law, name in STIFFENING_CONSTANT.items():
+                own = self.element_law == law
+                if own.any():
+                    lines.append(f"  {LAWS[law].capitalize()} stiffening {name}: "
+                                 f"{describe(self.element_stiffening[own])}")
             for k in range(self.n_relaxation_terms):
                 lines.append(f"  relaxation term {k + 1}: relative modulus "
                              f"{describe(self.element_relaxation_moduli[:, k])}, time "

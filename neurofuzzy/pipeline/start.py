@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..experiment import Experiment, check_experiments, duration
-from ..forces.laws import LAWS, YEOH
+from ..forces.laws import LAWS
 from ..forces.relaxation import relaxation_fields, start_terms
 from ..learn import StartModel, estimate_start
 from ..model import SpringMassModel, tie_index
@@ -95,7 +95,7 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     if not changes:
         return begun
     changed = begun.model.replace(**changes)
-    yeoh = changed.element_law == YEOH
+    yeoh = changed.element_stiffens
     if stiffening is not None and not yeoh.any():
         raise InputError(f"a stiffening ({stiffening!r}) is Yeoh's C20/C10; this start has no "
                          "Yeoh elements (add --law yeoh)", key="--stiffening")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..forces.laws import DEFAULT_STIFFENING, LAWS, YEOH, uniaxial_stress
+from ..forces.laws import DEFAULT_STIFFENING, LAWS, STIFFENING_CONSTANT, uniaxial_stress
 from .html import figure_html
 
 __all__ = ["law_section"]
@@ -30,15 +30,16 @@ def law_section(plt, model) -> tuple[str, str] | None:
         nu = float(np.median(model.element_poisson_ratio[chosen]))
         laws = np.unique(model.element_law[chosen])
         own = LAWS[int(laws[0])] if len(laws) == 1 else None
-        yeoh = chosen & (model.element_law == YEOH)
-        c = float(np.median(model.element_stiffening[yeoh])) if yeoh.any() \
+        stiffening = chosen & model.element_stiffens
+        c = float(np.median(model.element_stiffening[stiffening])) if stiffening.any() \
             else DEFAULT_STIFFENING
         for number, law in enumerate(LAWS):
             fitted = law == own
             curve = uniaxial_stress(law, E, nu, 1.0 + STRAINS, c)
-            style = "-" if fitted else (":" if number == YEOH else "--")
+            constant = STIFFENING_CONSTANT.get(number)
+            style = "-" if fitted else (":" if constant else "--")
             ax.plot(100 * STRAINS, curve / 1e3, style, color=f"C{r % 10}",
-                    label=f"{name}: {law}" + (f" (C20/C10 {c:.3g})" if number == YEOH else "")
+                    label=f"{name}: {law}" + (f" ({constant} {c:.3g})" if constant else "")
                     + (" (fitted)" if fitted else ""))
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.axvline(0.0, color="0.6", lw=0.8)
