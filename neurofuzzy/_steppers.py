@@ -18,6 +18,8 @@ numpy stepper, which adds the effect forces at every step.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 __all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
@@ -118,28 +120,24 @@ class NumbaStepper:
 
     _kernel = None
     _frames_kernel = None
+    #: per model (weakly: gone with it), the kernel's arrays of its constants per step and
+    #: dtype: models are immutable, and a run continued in pieces (``initial_state``) or a
+    #: real-time loop calls ``simulate`` on one model again and again
+    _prepared = weakref.WeakKeyDictionary()
 
     def __init__(self, model, h: float, dtype=np.float64):
         if not compiled_terms_only(model):
             raise ValueError("the numba stepper steps springs, elements and the effects the "
                              "kernels compute (neurofuzzy.effects.compiled)")
-        from .effects.compiled import kernel_values, spring_entries
-
-        self.drag, constant, self.kappa = kernel_values(model)
-        self.constant = constant.astype(dtype)
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        # the springs with a force, then those that stiffen once more (the spring effects')
-        springs, stiffness, damping, cubic, _ = spring_entries(model)
-        self.a = np.ascontiguousarray(model.mesh.springs[springs, 0])
-        self.b = np.ascontiguousarray(model.mesh.springs[springs, 1])
-        self.stiffness = stiffness.astype(self.dtype)
-        self.damping = damping.astype(self.dtype)
-        self.rest = model.spring_rest_length[springs].astype(self.dtype)
-        self.cubic = cubic.astype(self.dtype)
-        self.elements = _element_arrays(model, self.dtype, self.h)
-        self.history = self.elements[-1]
-        self.weight = model.node_inverse_mass.astype(self.dtype)
+        (self.drag, self.kappa, self.constant, self.a, self.b, self.stiffness, self.damping,
+         self.rest, self.cubic, elements, self.weight) = _prepared(model, self.h, self.dtype)
+        # scratch space of this stepper (the kernels write only these, the state and the
+        # force; the constants above are shared by every stepper of the model)
+        self.node_strain = np.zeros_like(elements[13])
+        self.history = np.zeros_like(elements[16])
+        self.elements = (*elements[:13], self.node_strain, *elements[14:16], self.history)
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
         self.zero_load = np.zeros((model.n_nodes, 3), dtype=self.dtype)
@@ -181,6 +179,30 @@ class NumbaStepper:
                              int(n_steps), self.force)
         p[...] = pc
         v[...] = vc
+
+
+def _prepared(model, h: float, dtype: np.dtype) -> tuple:
+    """``(drag, κ, constant force, a, b, stiffness, damping, rest, cubic, element arrays,
+    W)`` of ``model`` in the kernel's layout for steps of ``h`` (cached per model: the last
+    few steps and dtypes)."""
+    cache = NumbaStepper._prepared.setdefault(model, {})
+    key = (h, dtype.str)
+    if key not in cache:
+        from .effects.compiled import kernel_values, spring_entries
+
+        drag, constant, kappa = kernel_values(model)
+        # the springs with a force, then those that stiffen once more (the spring effects')
+        springs, stiffness, damping, cubic, _ = spring_entries(model)
+        arrays = (drag, kappa, constant.astype(dtype),
+                  np.ascontiguousarray(model.mesh.springs[springs, 0]),
+                  np.ascontiguousarray(model.mesh.springs[springs, 1]),
+                  stiffness.astype(dtype), damping.astype(dtype),
+                  model.spring_rest_length[springs].astype(dtype), cubic.astype(dtype),
+                  _element_arrays(model, dtype, h), model.node_inverse_mass.astype(dtype))
+        while len(cache) >= 4:                          # a learner tries many steps: keep few
+            cache.pop(next(iter(cache)))
+        cache[key] = arrays
+    return cache[key]
 
 
 def compiled_terms_only(model) -> bool:
