@@ -28,7 +28,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import SpringMassModel
-from ._base import TiedSprings
+from ._base import TieGroups
 
 __all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions",
            "stiffening_columns"]
@@ -79,7 +79,7 @@ def element_directions(model) -> dict[str, sp.csr_matrix]:
             for block, name in enumerate(factors)}
 
 
-def _split_terms(elements: TiedSprings, values: np.ndarray, ties: int):
+def _split_terms(elements: TieGroups, values: np.ndarray, ties: int):
     """``(shared (K, ties), [ratios (n,)] * K)`` of per-element values (n, K) of K terms."""
     pairs = [elements.split(values[:, k]) for k in range(values.shape[1])]
     return (np.array([pair[0] for pair in pairs]).reshape(-1, ties),
@@ -113,7 +113,7 @@ class Parameterization:
     def __init__(self, model: SpringMassModel, *, learn_masses: bool = False,
                  learn_effects: bool = True):
         self.base = model
-        self.tied = TiedSprings.of(model)
+        self.tied = TieGroups.of(model)
         self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.spring_stiffness)
         self.damping_shared, self.damping_ratio = self.tied.split(model.spring_damping)
         self.learn_springs = not (model.has_elements and not np.any(model.spring_stiffness)
@@ -125,7 +125,7 @@ class Parameterization:
                                  "their logarithm); give a rough positive guess", key=key)
         if model.has_elements:
             self.element_tie = model.element_tie
-            elements = TiedSprings(model.element_tie, model.n_element_ties)
+            elements = TieGroups(model.element_tie, model.n_element_ties)
             self.modulus_shared, self.modulus_ratio = elements.split(
                 model.element_youngs_modulus)
             self.viscosity_shared, self.viscosity_ratio = elements.split(

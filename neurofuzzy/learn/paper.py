@@ -36,7 +36,7 @@ from ..model import SpringMassModel
 from ..forces import SPRINGS, incidence
 from ..progress import Progress
 from ..simulation import euler_update
-from ._base import Learner, TiedSprings
+from ._base import Learner, TieGroups
 from .lack_of_fit import model_lack_of_fit
 
 __all__ = ["PaperLearner"]
@@ -207,7 +207,7 @@ class _LearningState:
 
     def __init__(self, model: SpringMassModel):
         self.base = model
-        self.tied = TiedSprings.of(model)
+        self.tied = TieGroups.of(model)
         self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.spring_stiffness)
         self.damping_shared, self.damping_ratio = self.tied.split(model.spring_damping)
         free = model.mesh.free

@@ -26,7 +26,7 @@ from scipy.optimize import lsq_linear
 from ..experiment import Experiment, check_experiments
 from ..forces import SPRINGS, incidence
 from ..model import SpringMassModel
-from ._base import TiedSprings
+from ._base import TieGroups
 
 __all__ = ["StartModel", "estimate_start"]
 
@@ -96,7 +96,7 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
     experiments = check_experiments(model, experiments)
     if not all(e.complete for e in experiments):
         return StartModel(model, "defaults", "some free nodes are unobserved or have gaps")
-    tied = TiedSprings.of(model)
+    tied = TieGroups.of(model)
     s_ratio = tied.split(model.spring_stiffness)[1] if np.all(model.spring_stiffness > 0) \
         else np.ones(model.n_springs)
     c_ratio = tied.split(model.spring_damping)[1] if np.all(model.spring_damping > 0) \
