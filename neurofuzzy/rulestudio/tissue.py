@@ -88,7 +88,9 @@ def poke(rules: RuleBase, tissue: str, force: float | None = None) -> dict:
         ``time`` (n_frames,) s; ``depth`` (n_frames,) m, how far the probe's patch sank;
         ``positions`` (n_frames, n_nodes, 3) m; ``triangles`` (n_faces, 3) of the surface;
         ``fixed`` node indices; ``probe`` (point, radius, force, frames pushed); ``material``
-        (E, ν, η, density of the elements); ``substeps``, ``seconds``, ``warning``.
+        (E, ν, η, density of the elements, and ``relaxation_modulus`` Σg and
+        ``relaxation_time`` τ when the tissue's words make it relax); ``substeps``,
+        ``seconds``, ``warning``.
     """
     from ..mesh import patch_weights, surface_triangles
     from ..simulation import simulate, stability_limit
@@ -101,6 +103,9 @@ def poke(rules: RuleBase, tissue: str, force: float | None = None) -> dict:
                 "viscosity": float(model.element_viscosity[0]),
                 "density": float(model.node_mass.sum() / np.prod(
                     np.ptp(mesh.rest_positions, axis=0)))}
+    if model.n_relaxation_terms:              # a tissue whose words say it relaxes
+        material.update(relaxation_modulus=float(model.element_relaxation_moduli[0].sum()),
+                        relaxation_time=float(model.element_relaxation_times[0, 0]))
     if force is None:
         force = default_force(material["youngs_modulus"])
     force = float(force)
@@ -123,8 +128,10 @@ def poke(rules: RuleBase, tissue: str, force: float | None = None) -> dict:
                          "frame)", key="block")
     warning = None
     try:
+        # the simulator's own choice: numpy for this small block (25 ms, no kernels to load),
+        # the compiled kernels for a tissue whose words make it relax (its internal variables)
         trajectory = simulate(model, dt=BLOCK["dt"], n_frames=n, external_forces=loads,
-                              substeps=substeps, backend="numpy",
+                              substeps=substeps,
                               check_stability=False)      # substeps chosen from the limit above
         positions = trajectory.positions
     except UnstableTimeStepError:

@@ -110,7 +110,9 @@ async function loadTissue() {
     $("block-info").className = result.warning ? "note warn" : "note";
     $("block-info").textContent = (result.warning ? result.warning + " — " : "") +
       `${result.positions[0].length} nodes, 108 tetrahedra: E ${quantityText(m.youngs_modulus, "Pa")}, ν ${m.poisson_ratio.toFixed(3)}, ` +
-      `η ${quantityText(m.viscosity, "Pa s")}, ρ ${quantityText(m.density, "kg/m^3")}; deepest ${(Math.max(...result.depth) * 1000).toFixed(3)} mm; ` +
+      `η ${quantityText(m.viscosity, "Pa s")}, ρ ${quantityText(m.density, "kg/m^3")}` +
+      (m.relaxation_modulus !== undefined ? `, relaxes by g ${m.relaxation_modulus.toPrecision(2)} over τ ${quantityText(m.relaxation_time, "s")}` : "") +
+      `; deepest ${(Math.max(...result.depth) * 1000).toFixed(3)} mm; ` +
       `computed in ${(result.seconds * 1000).toFixed(0)} ms`;
   } catch (error) {
     if (id !== tissueRequest) return;
