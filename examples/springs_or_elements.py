@@ -90,7 +90,7 @@ def fit_elements(mesh, data):
     # volumetric form is their exact discretisation
     start = nf.SpringMassModel.continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.35,
                                          viscosity=1.0, density=RHO, volumetric="element")
-    learner = nf.GradientLearner(substeps="auto").fit(start, data)
+    learner = nf.fit(data, start=start).learner          # the checked fit of `neurofuzzy fit`
     model = learner.model_
     return (float(np.median(model.element_youngs_modulus)),
             float(np.median(model.element_poisson_ratio)),
@@ -102,7 +102,7 @@ def fit_springs(mesh, data):
     start = nf.SpringMassModel(mesh, node_mass=data.node_mass,
                                spring_stiffness=3000.0 * factor,
                                spring_damping=1.0 * factor).tied("global")
-    learner = nf.GradientLearner(substeps="auto").fit(start, data)
+    learner = nf.fit(data, start=start).learner          # the checked fit of `neurofuzzy fit`
     model = learner.model_
     return (float(np.median(model.spring_stiffness / factor)), 0.25,
             float(np.median(model.spring_damping / factor)), learner)
