@@ -15,7 +15,8 @@ from neurofuzzy.diagnosis.loop import MIN_SHRINK, _refit, _to_refit, gap
 from neurofuzzy.diagnosis.trajectory import TrajectoryEvidence
 from neurofuzzy.learn import GradientLearner
 from neurofuzzy.validation.nonlinear.recordings import stored
-from neurofuzzy.validation.probed_block import block_experiment, block_model
+from neurofuzzy.validation.probed_block import (BLOCK, block_experiment, block_model,
+                                               graded_block)
 
 DATA = Path(__file__).parent / "data"
 
@@ -41,6 +42,29 @@ def test_the_stored_recordings_are_the_probed_block_at_large_and_small_strain():
     assert 0.04 < small.truth["compressive_strain_peak"] < 0.07
     at_rest = large.markers.positions[:large.touch] - large.rest_points
     assert np.std(at_rest) == pytest.approx(large.truth["noise"], rel=0.05)
+
+
+def test_the_graded_block_is_fine_under_the_probe_and_coarse_elsewhere():
+    """The graded mesh of the probe benchmark: conforming Kuhn cells filling the block
+    (volumes sum to it, none inverted), ``fine`` wide within 1 cm of the probe in x and y and
+    in the top centimetre, never wider than 5 mm, and a start model of it with the bottom held."""
+    from neurofuzzy.forces import tetrahedron_geometry
+    from neurofuzzy.mesh import from_tetra
+
+    points, tetrahedra = graded_block(0.0025)
+    mesh = from_tetra(points, tetrahedra)
+    volume = tetrahedron_geometry(mesh).volume
+    assert volume.min() > 0 and volume.sum() == pytest.approx(np.prod(BLOCK["size"]))
+    for axis, (low, high) in enumerate(((0.01, 0.03), (0.01, 0.03), (0.02, 0.03))):
+        coordinates = np.unique(points[:, axis])
+        widths, middle = np.diff(coordinates), coordinates[:-1]
+        inside = (middle >= low - 1e-12) & (middle < high - 1e-12)
+        assert np.allclose(widths[inside], 0.0025) and widths.max() <= 0.005 + 1e-12
+        assert widths[~inside].min() > 0.0025
+    model = block_model(graded=0.0025)
+    assert model.mesh.n_tetrahedra == len(tetrahedra)
+    assert np.all(model.mesh.rest_positions[model.mesh.fixed, 2] < 1e-9)
+    assert (~model.mesh.free).sum() == len(np.unique(points[:, 0])) ** 2
 
 
 @pytest.mark.slow

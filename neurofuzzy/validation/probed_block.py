@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InputError
 
 __all__ = ["BLOCK", "Inclusion", "Recording", "probed_block", "mujoco_block", "marker_points",
-           "block_model", "block_experiment", "five_tetrahedra_block"]
+           "block_model", "graded_block", "block_experiment", "five_tetrahedra_block"]
 
 #: The block and its probe (SI units).
 BLOCK = {"size": (0.04, 0.04, 0.03), "probe": (0.02, 0.02, 0.03), "force": 0.05,
@@ -135,25 +135,60 @@ def probed_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
 
 
 def block_model(*, pitch: float | None = None, tetgen: bool = False,
-                max_edge: float | None = None, rules: str = "liver", tissue: str = "liver"):
+                max_edge: float | None = None, graded: float | None = None,
+                rules: str = "liver", tissue: str = "liver"):
     """The start model a user builds for the block: ``neurofuzzy mesh block.stl --fix-bottom
     --rules RULES --tissue TISSUE`` with voxels of ``pitch`` (default 4 mm cells) or TetGen
-    (``max_edge``), elements from the rule base's tissue."""
+    (``max_edge``), elements from the rule base's tissue; or (``graded``) a block of Kuhn
+    cells ``graded`` metres wide under the probe (the top centimetre within 1 cm of the
+    probe's axis, in x and y), widening by 1.4 per cell to at most 5 mm towards the sides and
+    the bottom, as a mesher's size field would grade it (:func:`graded_block`)."""
     import trimesh
 
-    from ..mesh import from_surface_tetra, from_trimesh, lattice_to_tetra
+    from ..mesh import from_surface_tetra, from_tetra, from_trimesh, lattice_to_tetra
     from ..rules import resolve
     from ..tissues import initialize
 
     surface = trimesh.creation.box(extents=BLOCK["size"])
     surface.apply_translation(np.array(BLOCK["size"]) / 2)
-    if tetgen:
+    if graded:
+        mesh = from_tetra(*graded_block(graded))
+    elif tetgen:
         mesh = from_surface_tetra(surface, max_edge=max_edge)
     else:
         mesh = lattice_to_tetra(from_trimesh(surface, pitch or 0.004), bounds=surface.bounds)
     z = mesh.rest_positions[:, 2]
     mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
     return initialize(resolve(rules), mesh, tissue, elements=True)
+
+
+def graded_block(fine: float, growth: float = 1.4, coarse: float = 0.005):
+    """``(points, tetrahedra)`` of the block in Kuhn cells ``fine`` metres wide under the
+    probe (x and y within 1 cm of its axis, the top centimetre), each next cell outwards
+    ``growth`` times wider up to ``coarse`` (the last ones stretched to fill the block)."""
+    from ..mesh import kuhn_block
+
+    (sx, sy, sz), (px, py, _), reach = BLOCK["size"], BLOCK["probe"], BLOCK["radius"]
+
+    def widening(length):               # cell ends from the fine zone outwards
+        sizes, size = [], fine
+        while sum(sizes) < length - 1e-12:
+            size = min(size * growth, coarse)
+            sizes.append(size)
+        return np.cumsum(np.array(sizes) * length / sum(sizes))
+
+    def axis(low, high, end):
+        inner = np.linspace(low, high, int(round((high - low) / fine)) + 1)
+        ends = [low - widening(low)[::-1], inner]
+        if end > high:
+            ends.append(high + widening(end - high))
+        return np.unique(np.round(np.concatenate([[0.0], *ends, [end]]), 12).clip(0.0, end))
+
+    xs, ys = axis(px - reach, px + reach, sx), axis(py - reach, py + reach, sy)
+    zs = axis(sz - reach, sz, sz)
+    grid, tetrahedra = kuhn_block((len(xs) - 1, len(ys) - 1, len(zs) - 1), 1.0)
+    index = grid.astype(int)
+    return np.column_stack([xs[index[:, 0]], ys[index[:, 1]], zs[index[:, 2]]]), tetrahedra
 
 
 def block_experiment(recording: Recording, mesh):
