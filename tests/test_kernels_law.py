@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from neurofuzzy.forces.laws import (LAWS, STIFFENING_CONSTANT, law_number, law_numbers,
-                                   law_parts, stiffens)
+                                   law_parts, stiffening_slope, stiffens)
 from neurofuzzy.errors import InputError
 from neurofuzzy.kernels.laws import elastic, stress, stress_jvp, stress_vjp, volumetric
 
@@ -101,16 +101,37 @@ def test_every_law_is_linear_elasticity_at_small_strain(law, stiffening):
 
 
 @pytest.mark.parametrize("law", LAW_NUMBERS)
-def test_the_compiled_law_is_the_numpy_law(law):
-    """At 30 % compression and shear, the kernels' stress is the numpy reference's."""
+def test_the_numpy_path_takes_its_law_from_the_compiled_one(law):
+    """``law_parts`` (the numpy force path's law) is the compiled law written once: at 30 %
+    compression and shear its ``shear D + π N`` and ``θ`` are the kernel's stress, its ``dD``
+    and ``dN`` of a batch of symmetric directions (K, P, 3, 3) are the central differences of
+    ``D`` and ``N``, and ``∂D/∂c`` (``stiffening_slope``) that of ``D`` in the law's constant;
+    St. Venant–Kirchhoff's parts are ``G``, ``I``, ``tr G`` exactly."""
+    rng = np.random.default_rng(law)
     F = np.array([[1.0, 0.2, 0.0], [0.05, 1.0, 0.1], [0.0, 0.0, 0.7]])
     G = 0.5 * (F.T @ F - np.eye(3))
-    parts = law_parts(np.array([law]), G[None], [0.8])
+    c = 0.8
+    parts = law_parts(np.array([law, law]), np.stack([G, 0.5 * G]), [c, c])
     shear, pressure = 4e3, 2e3
-    want = shear * parts.D[0] + pressure * parts.N[0]
-    got, theta = elastic(law, _six(G), shear, pressure, 0.8)
-    assert np.allclose(_full(got), want, rtol=1e-12)
-    assert theta == pytest.approx(parts.theta[0], rel=1e-12)
+    got, theta = elastic(law, _six(G), shear, pressure, c)
+    assert np.allclose(shear * parts.D[0] + pressure * parts.N[0], _full(got), rtol=1e-12)
+    assert parts.theta[0] == pytest.approx(theta, rel=1e-12)
+    X = rng.normal(size=(2, 3, 3, 3))
+    X = 0.5 * (X + np.swapaxes(X, -1, -2))
+    eps = 1e-6
+    for p in range(3):
+        ahead = law_parts(np.array([law, law]), np.stack([G, 0.5 * G]) + eps * X[:, p], [c, c])
+        behind = law_parts(np.array([law, law]), np.stack([G, 0.5 * G]) - eps * X[:, p], [c, c])
+        for name, slope in (("D", parts.dD(X)[:, p]), ("N", parts.dN(X)[:, p])):
+            central = (getattr(ahead, name) - getattr(behind, name)) / (2 * eps)
+            assert np.allclose(slope, central, rtol=1e-6, atol=1e-8), name
+    by_constant = (law_parts(np.array([law]), G[None], [c + eps]).D
+                   - law_parts(np.array([law]), G[None], [c - eps]).D) / (2 * eps)
+    assert np.allclose(stiffening_slope(np.array([law]), G[None], [c]), by_constant,
+                       rtol=1e-6, atol=1e-9)
+    if LAWS[law] == "st-venant-kirchhoff":
+        assert np.array_equal(parts.D[0], G) and np.array_equal(parts.N[0], np.eye(3))
+        assert parts.theta[0] == np.trace(G)
 
 
 def test_the_neo_hookean_law_is_bonet_and_wood_s():

@@ -1,5 +1,7 @@
-"""The tetrahedral elements' material laws, by name, and their numpy form (the oracle the
-compiled laws of :mod:`neurofuzzy.kernels.laws` are tested against).
+"""The tetrahedral elements' material laws, by name, and their parts for the numpy force path
+(:func:`law_parts`), computed by the compiled laws of :mod:`neurofuzzy.kernels.laws`: each law
+is written once, there (the tests check it against closed forms, Bonet & Wood's stress, a Yeoh
+solid written apart and central differences).
 
 A law gives the elastic second Piola–Kirchhoff stress of the Green strain ``G`` as
 ``S = 2μ D(G) + π N(G)`` with ``π`` the volumetric stress (``λ θ`` per element, or the node
@@ -28,14 +30,12 @@ write it, ``Ψ = C₁₀ (Ī₁ - 3) + C₂₀ (Ī₁ - 3)² + K/2 (J - 1)²`` (
 bulk modulus ``K = λ + 2μ/3``: ``D = ½ (1 + 2c (Ī₁ - 3)) J^(-2/3) (I - I₁/3 C⁻¹) + θ/3 N``
 (the shear's share of ``K``). At small strain it is linear elasticity with the same E and ν
 for every ``c``; it stiffens with strain as ``c`` grows. Why Yeoh for tissue:
-:class:`neurofuzzy.validation.nonlinear.Yeoh`. Its ``dD`` and ``dN`` here are complex-step
-derivatives of ``D`` and ``N`` (the kernels generate theirs from their own stress function
-alike); ``D`` is affine in ``c``, so the force's derivative by ``c`` is that of
-``D(G; 1) - D(G; 0)`` (:meth:`~neurofuzzy.forces.TetrahedronForce.stiffening_forces`).
+:class:`neurofuzzy.validation.nonlinear.Yeoh`.
 
-The derivatives ``dD`` and ``dN`` along a change ``dG`` are self-adjoint linear maps (the
-second derivatives of an energy), so the same function serves the forward and the reverse
-derivative.
+``dD``, ``dN`` (along a change ``dG``) and ``∂D/∂c`` (:func:`stiffening_slope`) are the
+kernels' complex-step derivatives of the law. ``dD`` and ``dN`` are self-adjoint linear maps
+(the second derivatives of an energy), so the same function serves the forward and the
+reverse derivative.
 """
 
 from __future__ import annotations
@@ -136,7 +136,7 @@ def stiffening_array(value, n: int) -> np.ndarray:
 @dataclass(frozen=True)
 class LawParts:
     """``D``, ``N`` (K, 3, 3), ``θ`` (K,) of every element and the maps ``dD``, ``dN`` of a
-    change (K, ..., 3, 3) of ``G`` (self-adjoint: also the reverse derivatives)."""
+    symmetric change (K, ..., 3, 3) of ``G`` (self-adjoint: also the reverse derivatives)."""
 
     D: np.ndarray
     N: np.ndarray
@@ -145,100 +145,51 @@ class LawParts:
     dN: Callable[[np.ndarray], np.ndarray]
 
 
-def _per_element(values: np.ndarray, like: np.ndarray) -> np.ndarray:
-    """(K, 1, ..., 1, 3, 3) view of (K, 3, 3) ``values`` against (K, ..., 3, 3) ``like``."""
-    return values.reshape(values.shape[:1] + (1,) * (like.ndim - 3) + values.shape[1:])
-
-
-def _adjugate(C: np.ndarray) -> np.ndarray:
-    """(K, 3, 3) adjugates (transposed cofactors) of (K, 3, 3) matrices."""
-    rows = [[1, 2], [0, 2], [0, 1]]
-    out = np.empty_like(C)
-    for i in range(3):
-        for j in range(3):
-            minor = C[:, rows[j]][:, :, rows[i]]
-            out[:, i, j] = (-1) ** (i + j) * (minor[:, 0, 0] * minor[:, 1, 1]
-                                              - minor[:, 0, 1] * minor[:, 1, 0])
-    return out
-
-
-#: the complex step of the Yeoh law's derivatives (:func:`_yeoh_parts`)
-STEP = 1e-30
-
-
-def _yeoh_parts(G: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(D, N, θ)`` of the Yeoh law for Green strains (..., 3, 3) (real or complex) and
-    stiffening constants broadcast against them (..., 1, 1): ``C⁻¹`` as the adjugate (rows the
-    cross products of ``C``'s columns) over ``det C``."""
-    C = np.eye(3) + 2.0 * G
-    c0, c1, c2 = C[..., :, 0], C[..., :, 1], C[..., :, 2]
-    adjugate = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=-2)
-    det = np.sum(c0 * adjugate[..., 0, :], axis=-1)[..., None, None]
-    inverse = adjugate / det
-    j = np.sqrt(det)
-    j23 = det ** (-1.0 / 3.0)
-    i1 = np.trace(C, axis1=-2, axis2=-1)[..., None, None]
-    theta = j - 1.0
-    N = j * inverse
-    D = 0.5 * (1.0 + 2.0 * c * (j23 * i1 - 3.0)) * j23 * (np.eye(3) - i1 / 3.0 * inverse) \
-        + theta / 3.0 * N
-    return D, N, theta[..., 0, 0]
-
-
 def law_parts(law: np.ndarray, G: np.ndarray, stiffening=None) -> LawParts:
-    """:class:`LawParts` of (K, 3, 3) Green strains for per-element law numbers (K,) and
-    Yeoh's stiffening constants (K,) (default 0). The Yeoh law's ``dD`` and ``dN`` are its
-    complex-step derivatives (``Im D(G + i h X) / h``: exact to round-off)."""
+    """:class:`LawParts` of (K, 3, 3) symmetric Green strains for per-element law numbers (K,)
+    and the laws' own stiffening constants (K,) (default 0), computed by the compiled laws
+    themselves (:func:`neurofuzzy.kernels.laws.law_arrays` and
+    :func:`~neurofuzzy.kernels.laws.law_slopes`): a law is written once, and its derivatives
+    are the complex-step ones the kernels generate from it. An element squeezed flat gives NaN
+    (the run diverges and says so)."""
+    from ..kernels.laws import law_arrays
+
     K = len(G)
-    law = np.asarray(law)
-    eye = np.broadcast_to(np.eye(3), G.shape)
-    neo = law == LAWS.index("neo-hookean")
-    yeoh = law == YEOH
-    if not (neo.any() or yeoh.any()):
-        return LawParts(G, eye, np.trace(G, axis1=1, axis2=2), lambda X: X,
-                        lambda X: np.zeros_like(X))
-    C = np.where(neo[:, None, None], eye + 2.0 * G, eye)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # the adjugate over the determinant: an element squeezed flat gives inf/NaN (the run
-        # diverges and says so), where np.linalg.inv would raise
-        det = np.linalg.det(C)
-        inverse = np.where(neo[:, None, None], _adjugate(C) / det[:, None, None], eye)
-        log_j = 0.5 * np.log(det)
-    D = np.where(neo[:, None, None], 0.5 * (eye - inverse), G)
-    N = inverse
-    theta = np.where(neo, log_j, np.trace(G, axis1=1, axis2=2))
-    c = np.broadcast_to(np.asarray(0.0 if stiffening is None else stiffening, float), (K,))
-    c = c.reshape(K, 1, 1)
-    if yeoh.any():
-        with np.errstate(invalid="ignore", divide="ignore"):
-            yeoh_D, yeoh_N, yeoh_theta = _yeoh_parts(np.where(yeoh[:, None, None], G, 0.0), c)
-        D = np.where(yeoh[:, None, None], yeoh_D, D)
-        N = np.where(yeoh[:, None, None], yeoh_N, N)
-        theta = np.where(yeoh, yeoh_theta, theta)
-    neo_mask = neo.reshape(K, 1, 1)
-    yeoh_mask = yeoh.reshape(K, 1, 1)
+    law, strains, c = _compiled_arguments(law, G, stiffening)
+    D, N, theta = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty(K)
+    law_arrays(law, strains, c, D, N, theta)
+    dtype = G.dtype
+    return LawParts(D[:, 0].astype(dtype, copy=False), N[:, 0].astype(dtype, copy=False),
+                    theta.astype(dtype, copy=False),
+                    lambda X: _slopes(law, strains, c, X, 1.0, 0.0),
+                    lambda X: _slopes(law, strains, c, X, 0.0, 1.0))
 
-    def on(mask, X):
-        return _per_element(np.broadcast_to(mask, (K, 3, 3)), X)
 
-    def sandwich(X):
-        """``C⁻¹ X C⁻¹`` on the neo-Hookean elements, 0 elsewhere."""
-        inv = _per_element(inverse, X)
-        return np.where(on(neo_mask, X), inv @ X @ inv, 0.0)
+def stiffening_slope(law: np.ndarray, G: np.ndarray, stiffening) -> np.ndarray:
+    """(K, 3, 3): ``∂D/∂c`` of every element at its Green strain ``G`` (K, 3, 3), ``c`` the
+    law's own constant (:data:`STIFFENING_CONSTANT`; zero for the laws without one), exact
+    (the compiled law's complex-step derivative)."""
+    law, strains, c = _compiled_arguments(law, G, stiffening)
+    return _slopes(law, strains, c, np.zeros_like(G), 1.0, 0.0, constant=1.0)
 
-    def yeoh_slope(X, part):
-        """The Yeoh elements' derivative of ``D`` (part 0) or ``N`` (part 1) along X."""
-        if not yeoh.any():
-            return np.zeros_like(X)
-        lifted = _per_element(np.where(yeoh_mask, G, 0.0), X) + 1j * STEP * X
-        with np.errstate(invalid="ignore", divide="ignore"):
-            slope = _yeoh_parts(lifted, _per_element(c, X))[part].imag / STEP
-        return np.where(on(yeoh_mask, X), slope, 0.0)
 
-    return LawParts(D, N, theta,
-                    lambda X: np.where(on(neo_mask, X), sandwich(X),
-                                       np.where(on(yeoh_mask, X), yeoh_slope(X, 0), X)),
-                    lambda X: -2.0 * sandwich(X) + yeoh_slope(X, 1))
+def _compiled_arguments(law, G, stiffening):
+    """``law``, ``G`` and the constants as the compiled laws take them."""
+    K = len(G)
+    return (np.ascontiguousarray(law, np.intp),
+            np.ascontiguousarray(np.asarray(G, float).reshape(K, 1, 3, 3)),
+            np.ascontiguousarray(np.broadcast_to(
+                np.asarray(0.0 if stiffening is None else stiffening, float), (K,))))
+
+
+def _slopes(law, strains, c, X, shear, pressure, constant=0.0):
+    """The law's slopes along symmetric directions ``X`` (K, ..., 3, 3)."""
+    from ..kernels.laws import law_slopes
+
+    directions = np.ascontiguousarray(np.asarray(X, float).reshape(len(law), -1, 3, 3))
+    out = np.empty_like(directions)
+    law_slopes(law, strains, c, directions, shear, pressure, constant, out)
+    return out.reshape(X.shape).astype(X.dtype, copy=False)
 
 
 def uniaxial_stress(law, youngs_modulus: float, poisson_ratio: float, stretches,

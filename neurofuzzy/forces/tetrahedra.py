@@ -59,7 +59,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from .base import ForceTerm
-from .laws import LawParts, law_parts
+from .laws import LawParts, law_parts, stiffening_slope
 from .tetra_geometry import (ElementConstants, TetrahedronGeometry, broadcast_per_element,
                              corner_forces, lame_factors, tetrahedron_geometry)
 
@@ -284,15 +284,14 @@ class TetrahedronForce(ForceTerm):
         """Per-corner forces (K, 4, 3) per unit change of every Yeoh element's ``log c``
         (its stiffening constant, :mod:`neurofuzzy.forces.laws`), for the elements' total
         shear constants ``shear`` (K,) (their own and any inclusion's): the stress is
-        ``shear D(G; c)`` with ``D`` affine in ``c``, so ``∂S/∂ log c = c shear (D(G; 1) -
-        D(G; 0))``; 0 on the other laws' elements."""
+        ``shear D(G; c)``, so ``∂S/∂ log c = c shear ∂D/∂c`` (the compiled law's exact
+        derivative, :func:`~neurofuzzy.forces.laws.stiffening_slope`); 0 on the other laws'
+        elements."""
         constants = _stateless(model)
         geometry = constants.geometry
         F = geometry.edges(positions) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
-        ones = np.ones(len(green))
-        slope = (law_parts(constants.law, green, ones).D
-                 - law_parts(constants.law, green, 0 * ones).D)
+        slope = stiffening_slope(constants.law, green, constants.stiffening)
         stress = (constants.stiffening * shear)[:, None, None] * slope
         return corner_forces(self._columns(geometry, F @ stress))
 

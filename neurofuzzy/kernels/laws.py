@@ -229,3 +229,49 @@ def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa
                                              0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
     return (LG, LGd, _inner(LS, unit_shear), _inner(LS, Gd), _inner(LS, N),
             LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G), l_stiffening)
+
+
+# -- the laws over arrays: the numpy path's law (neurofuzzy.forces.laws.law_parts) ----------
+@numba.njit(cache=True, nogil=True, inline="always")
+def _entries(M, e, m):
+    """Six entries of the symmetric 3×3 matrix ``M[e, m]``."""
+    return (M[e, m, 0, 0], M[e, m, 1, 1], M[e, m, 2, 2], M[e, m, 0, 1], M[e, m, 0, 2],
+            M[e, m, 1, 2])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _write(out, e, m, S):
+    """The symmetric 3×3 matrix of six entries ``S`` into ``out[e, m]``."""
+    out[e, m, 0, 0], out[e, m, 1, 1], out[e, m, 2, 2] = S[0], S[1], S[2]
+    out[e, m, 0, 1] = out[e, m, 1, 0] = S[3]
+    out[e, m, 0, 2] = out[e, m, 2, 0] = S[4]
+    out[e, m, 1, 2] = out[e, m, 2, 1] = S[5]
+
+
+@numba.njit(cache=True, nogil=True)
+def law_arrays(law, G, stiffening, D, N, theta):
+    """Fill ``D``, ``N`` (K, 1, 3, 3) and ``θ`` (K,) of K elements of laws ``law`` (K,) at
+    symmetric Green strains ``G`` (K, 1, 3, 3) with their constants ``stiffening`` (K,):
+    ``D`` the law's stress of unit shear constant, ``N`` of unit ``π`` (``S = shear D + π
+    N``), ``θ`` its volumetric strain."""
+    for e in range(law.shape[0]):
+        g = _entries(G, e, 0)
+        d, t = elastic(law[e], g, 1.0, 0.0, stiffening[e])
+        _write(D, e, 0, d)
+        _write(N, e, 0, elastic(law[e], g, 0.0, 1.0, stiffening[e])[0])
+        theta[e] = t
+
+
+@numba.njit(cache=True, nogil=True)
+def law_slopes(law, G, stiffening, X, shear, pressure, constant, out):
+    """``out[e, m]`` (K, M, 3, 3): the derivative of the law's stress ``shear D + π N`` of
+    element ``e`` at ``G[e, 0]`` along the symmetric ``X[e, m]`` plus ``constant`` times its
+    derivative by the law's own constant, from :func:`stress_jvp` (``dD``: shear 1, π 0;
+    ``dN``: shear 0, π 1; ``∂D/∂c``: shear 1, ``X`` 0, constant 1)."""
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for e in range(law.shape[0]):
+        g = _entries(G, e, 0)
+        for m in range(X.shape[1]):
+            _write(out, e, m, stress_jvp(law[e], g, zero, _entries(X, e, m), zero, shear, 0.0,
+                                         pressure, 0.0, 0.0, stiffening[e], 0.0, 0.0, 0.0,
+                                         0.0, 0.0, constant))
