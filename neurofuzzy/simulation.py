@@ -184,9 +184,9 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     check_stability : bool
         Raise :class:`UnstableTimeStepError` when ``h`` exceeds the stability bound.
     backend : {"auto", "numpy", "numba"}
-        Inner loop: vectorised numpy, or the compiled loop when numba is installed
-        (``"auto"`` uses it for jobs large enough to repay loading it, of models whose
-        effects it computes: :func:`neurofuzzy._steppers.make_stepper`).
+        Inner loop: the compiled loop (``"auto"``: whenever it computes every effect of the
+        model, :func:`neurofuzzy._steppers.make_stepper`; its first use in a process loads
+        the kernels, about 0.3 s) or vectorised numpy, the reference of the tests.
     dtype : numpy dtype
         float64 (default) or float32 for the inner loop.
 
@@ -217,9 +217,7 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
         v = _state(initial_velocities, np.zeros((n_nodes, 3)), n_nodes, "initial_velocities")
         internal = _no_internal(model)
     v[model.mesh.fixed] = 0.0
-    n_elements = model.mesh.n_tetrahedra if model.has_elements else 0
-    stepper = make_stepper(model, dt / substeps, backend, dtype,
-                           work=(model.n_springs + 30 * n_elements) * n_frames * substeps)
+    stepper = make_stepper(model, dt / substeps, backend, dtype)
 
     with np.errstate(over="ignore", invalid="ignore"):
         positions, velocities, internal = stepper.trajectory(p, v, forces, n_frames, substeps,

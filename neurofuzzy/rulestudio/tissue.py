@@ -128,8 +128,8 @@ def poke(rules: RuleBase, tissue: str, force: float | None = None) -> dict:
                          "frame)", key="block")
     warning = None
     try:
-        # the simulator's own choice: numpy for this small block (25 ms, no kernels to load),
-        # the compiled kernels for a tissue whose words make it relax (its internal variables)
+        # the compiled kernels (8-10 ms a poke; the first in a process loads them, 0.3 s):
+        # every law, and a tissue whose words make it relax (its internal variables)
         trajectory = simulate(model, dt=BLOCK["dt"], n_frames=n, external_forces=loads,
                               substeps=substeps,
                               check_stability=False)      # substeps chosen from the limit above
