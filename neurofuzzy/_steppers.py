@@ -18,6 +18,7 @@ numpy stepper, which adds the effect forces at every step.
 
 from __future__ import annotations
 
+import threading
 import weakref
 
 import numpy as np
@@ -124,6 +125,7 @@ class NumbaStepper:
     #: dtype: models are immutable, and a run continued in pieces (``initial_state``) or a
     #: real-time loop calls ``simulate`` on one model again and again
     _prepared = weakref.WeakKeyDictionary()
+    _prepared_lock = threading.Lock()       # load cases and fit-many's workers run in threads
 
     def __init__(self, model, h: float, dtype=np.float64):
         if not compiled_terms_only(model):
@@ -185,24 +187,27 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
     """``(drag, κ, constant force, a, b, stiffness, damping, rest, cubic, element arrays,
     W)`` of ``model`` in the kernel's layout for steps of ``h`` (cached per model: the last
     few steps and dtypes)."""
-    cache = NumbaStepper._prepared.setdefault(model, {})
     key = (h, dtype.str)
-    if key not in cache:
-        from .effects.compiled import kernel_values, spring_entries
+    with NumbaStepper._prepared_lock:
+        cache = NumbaStepper._prepared.setdefault(model, {})
+        if key in cache:
+            return cache[key]
+    from .effects.compiled import kernel_values, spring_entries
 
-        drag, constant, kappa = kernel_values(model)
-        # the springs with a force, then those that stiffen once more (the spring effects')
-        springs, stiffness, damping, cubic, _ = spring_entries(model)
-        arrays = (drag, kappa, constant.astype(dtype),
-                  np.ascontiguousarray(model.mesh.springs[springs, 0]),
-                  np.ascontiguousarray(model.mesh.springs[springs, 1]),
-                  stiffness.astype(dtype), damping.astype(dtype),
-                  model.spring_rest_length[springs].astype(dtype), cubic.astype(dtype),
-                  _element_arrays(model, dtype, h), model.node_inverse_mass.astype(dtype))
+    drag, constant, kappa = kernel_values(model)
+    # the springs with a force, then those that stiffen once more (the spring effects')
+    springs, stiffness, damping, cubic, _ = spring_entries(model)
+    arrays = (drag, kappa, constant.astype(dtype),
+              np.ascontiguousarray(model.mesh.springs[springs, 0]),
+              np.ascontiguousarray(model.mesh.springs[springs, 1]),
+              stiffness.astype(dtype), damping.astype(dtype),
+              model.spring_rest_length[springs].astype(dtype), cubic.astype(dtype),
+              _element_arrays(model, dtype, h), model.node_inverse_mass.astype(dtype))
+    with NumbaStepper._prepared_lock:
         while len(cache) >= 4:                          # a learner tries many steps: keep few
             cache.pop(next(iter(cache)))
         cache[key] = arrays
-    return cache[key]
+    return arrays
 
 
 def compiled_terms_only(model) -> bool:
