@@ -174,7 +174,8 @@ def spring_templates(model, samples) -> np.ndarray:
     for data in samples.experiment:
         force = np.stack([model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
             SPRINGS.state(model, p, v))["stiffness"] for p, v in zip(data["p"], data["v"])])
-        n_rows = int(np.count_nonzero(data["rows"]))                    # force: (T, S, 3)
+        # force: (frames, springs, 3)
+        n_rows = int(np.count_nonzero(data["rows"]))
         row = np.full(model.n_nodes, -1)
         row[data["rows"]] = np.arange(n_rows)
         out = np.zeros((len(force), n_rows, 3, model.n_springs))

@@ -152,6 +152,8 @@ def law_parts(law: np.ndarray, G: np.ndarray, stiffening=None) -> LawParts:
     :func:`~neurofuzzy.kernels.laws.law_slopes`): a law is written once, and its derivatives
     are the complex-step ones the kernels generate from it. An element squeezed flat gives NaN
     (the run diverges and says so)."""
+    # imported on use, here and in _slopes: the model imports this module for the laws'
+    # names, and numba should load only when a law is evaluated
     from ..kernels.laws import law_arrays
 
     K = len(G)
