@@ -143,6 +143,10 @@ class NumbaStepper:
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
         self.zero_load = np.zeros((model.n_nodes, 3), dtype=self.dtype)
+        # one run from the given state: no window starts, no substep states kept
+        none = np.zeros((0, model.n_nodes, 3), dtype=self.dtype)
+        self.no_windows = (np.zeros(0, np.intp), none, none, none, none,
+                           np.zeros((0,) + self.history.shape[1:] , dtype=self.dtype), none)
         if NumbaStepper._kernel is None:
             NumbaStepper._kernel, NumbaStepper._frames_kernel = _compile()
 
@@ -164,7 +168,7 @@ class NumbaStepper:
                                     self.dtype.type(self.drag), self.weight, loads,
                                     self.dtype.type(self.h),
                                     int(n_frames), int(substeps), self.force, positions,
-                                    velocities)
+                                    velocities, *self.no_windows)
         return (positions.astype(float, copy=False), velocities.astype(float, copy=False),
                 self.history.astype(float))
 

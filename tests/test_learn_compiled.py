@@ -315,3 +315,28 @@ def test_the_kernels_use_no_more_threads_than_numba_is_allowed(monkeypatch):
     assert cores() == (os.cpu_count() or 1)
     monkeypatch.delenv("NUMBA_NUM_THREADS")
     assert cores() == (os.cpu_count() or 1)
+
+
+def test_the_adjoints_forward_sweep_is_simulates_run():
+    """The adjoint's forward sweep is the stepper's own driver (``kernels.stepper.frames``,
+    keeping every substep's state): from rest, without windows, the positions a gradient is
+    taken at are those ``simulate`` computes for the same model, bit for bit, a relaxing
+    element model (the internal variables) included."""
+    from neurofuzzy.simulation import simulate
+
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = SpringMassModel.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
+                                      viscosity=2.0, density=1000.0, law="neo-hookean",
+                                      relaxation=((0.5, 0.02),))
+    top = mesh.rest_positions[:, 2] > 0.02 - 1e-9
+    load = np.zeros((mesh.n_nodes, 3))
+    load[top, 2] = -0.02 / top.sum()
+    data = simulate_experiment(model, dt=2e-3, n_frames=30, external_forces=load, substeps=4)
+    parameters = Parameterization(model)
+    theta = parameters.initial() + 0.05
+    loss, gradient, run = Sensitivity(parameters, 0.01).gradient(theta, data, substeps=4)
+    assert loss > 0 and np.all(np.isfinite(gradient))
+    reference = simulate(parameters.model(theta), dt=2e-3, n_frames=30, external_forces=load,
+                         substeps=4)
+    assert np.abs(reference.positions - reference.positions[0]).max() > 1e-4
+    assert np.array_equal(run.positions, reference.positions)

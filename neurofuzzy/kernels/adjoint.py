@@ -1,8 +1,9 @@
 """Compiled discrete adjoint (numba) of :meth:`neurofuzzy.learn.Sensitivity.gradient` for
 models of springs and tetrahedral elements: two calls per experiment, no Python per time step.
 
-:func:`sweep` runs semi-implicit Euler over the frames and keeps the state at the start of
-every substep; :func:`pull_back` runs the adjoint backwards over those states and sums, per
+:func:`neurofuzzy.kernels.stepper.frames` (the driver of every forward run) runs
+semi-implicit Euler over the frames and keeps the state at the start of every substep;
+:func:`pull_back` runs the adjoint backwards over those states and sums, per
 spring, ``λ · ∂F`` by its magnitude's bases (``x``, the closing speed, ``x³``), and per
 element ``λ · ∂F`` by its four constants (shear ``2μ``, its rate ``2μβ``, ``λ`` and ``λβ``;
 for the nodal volumetric form by the node averages of the last two). The caller turns them
@@ -21,37 +22,11 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
-from .integrator import euler_update, euler_update_transpose
-from .stepper import _springs, spring_state
-from .sensitivity import _element_tangents
+from .integrator import euler_update_transpose
+from .stepper import spring_state
 from .tuples import _edges, _full, _green, _mul, _sym_dot, _sym_t_mul
 from .laws import stress, stress_vjp, volumetric
 from .relaxation import relaxed_stress
-
-
-@numba.njit(cache=True, nogil=True)
-def _no_tangents(n_nodes):
-    """Empty tangent and parameter arrays for :func:`_element_force` (made once per sweep;
-    with no tangents the kernel reads none of them)."""
-    return (np.zeros((n_nodes, 3, 0)), np.zeros(1, np.intp), np.zeros(0, np.intp),
-            np.zeros(0), np.zeros((n_nodes, 0)), np.zeros((n_nodes, 0, 2)),
-            np.zeros((0, 0, 2), np.intp), np.zeros((0, 0, 6, 0)))
-
-
-@numba.njit(cache=True, nogil=True)
-def _element_force(p, v, elements, kappa, relax_g, relax_decay, history, blank, node_strain,
-                   force):
-    """Element forces into ``force`` (``kappa`` the strain stiffening, 0 for none) and the
-    relaxation's step of ``history`` (the forward kernel's, without tangents; ``blank`` from
-    :func:`_no_tangents`)."""
-    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
-     node_volume, node_lam, node_lam_rate) = elements
-    none, pointer, columns, empty, per_node, node_pairs, no_columns, no_tangents = blank
-    _element_tangents(p, v, none, none, tets, inverse_rest, volume, law, stiffening, shear,
-                      shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                      pointer, columns, empty, empty, empty, empty, per_node, per_node, kappa, -1,
-                      columns, relax_g, relax_decay, no_columns, history, no_tangents, 0,
-                      node_strain, node_pairs, force, none)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -247,53 +222,6 @@ def _relaxation_vjp(LS, S_el, g, decay, history, lam_history, g_relax, e):
 
 
 @numba.njit(cache=True, nogil=True)
-def sweep(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay, drag,
-          weight, loads, h, n_frames, substeps, start_index, start_p, start_v, positions, states_p,
-          states_v, states_r, states_f):
-    """Positions (n_frames, N, 3) and the state at the start of every substep
-    (``states_p``, ``states_v``: ((n_frames - 1) · substeps, N, 3), in time order; the
-    substeps of a window's first frame are left unset), with the elements' Prony terms the
-    internal variables in ``states_r`` (steps, n_elements, K, 6; carried over window
-    starts, as the forward kernel does) and, when ``states_f`` is not empty (learned
-    masses), every substep's force."""
-    n_nodes = start_p.shape[1]
-    p = start_p[0].copy()
-    v = start_v[0].copy()
-    force = np.empty((n_nodes, 3))
-    node_strain = np.zeros((n_nodes, 2))
-    has_elements = elements[0].shape[0] > 0
-    blank = _no_tangents(n_nodes)
-    history = np.zeros((elements[0].shape[0], relax_g.shape[1], 6))
-    step = 0
-    for t in range(n_frames):
-        if start_index[t] >= 0:
-            p[:] = start_p[start_index[t]]
-            v[:] = start_v[start_index[t]]
-            positions[t] = p
-            if t > 0:
-                step += substeps
-            continue
-        load = loads[min(t - 1, loads.shape[0] - 1)]
-        for _ in range(substeps):
-            states_p[step] = p
-            states_v[step] = v
-            if relax_g.shape[1]:
-                states_r[step] = history
-            step += 1
-            for i in range(n_nodes):
-                for k in range(3):
-                    force[i, k] = load[i, k] - drag * v[i, k]
-            _springs(p, v, a, b, stiffness, damping, rest, cubic, force)
-            if has_elements:
-                _element_force(p, v, elements, kappa, relax_g, relax_decay, history, blank,
-                               node_strain, force)
-            if states_f.shape[0]:
-                states_f[step - 1] = force
-            euler_update(p, v, force, weight, h)
-        positions[t] = p
-
-
-@numba.njit(cache=True, nogil=True)
 def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
               drag, weight, h, n_frames, substeps, start_index, states_p, states_v, states_r,
               states_f, unit_mass_force, frame_adjoint, d_springs, d_elements, g_relax,
@@ -306,7 +234,7 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
     of the element constants to ``d_elements`` and of the Prony terms' ``log g``, ``log τ``
     to ``g_relax`` (n_elements, K, 2) (see :func:`_element_vjp`; the internal variables'
     cotangents run on across window starts, as their values do forwards). With the forces
-    ``states_f`` of :func:`sweep` (learned masses), ``Σ λ_F · ∂(W F)/∂log m / W`` into
+    ``states_f`` of the forward sweep (learned masses), ``Σ λ_F · ∂(W F)/∂log m / W`` into
     ``g_mass`` (N,): ``-λ_F · (F - F_unit)``, ``unit_mass_force`` the forces proportional to
     the mass (gravity), which ``W F`` does not see. The effects' cotangents: ``Σ λ_F`` per
     node into ``g_load`` (N, 3; a constant force's direction takes it, empty when none is

@@ -251,17 +251,59 @@ def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, vol
 def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
            stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
            node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, loads,
-           h, n_frames, substeps, force, positions, velocities):
-    positions[0] = p
-    velocities[0] = v
-    for t in range(1, n_frames):
-        advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
-                stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
-                node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight,
-                loads[min(t - 1, loads.shape[0] - 1)], h, substeps, force)
-        if not np.isfinite(p.sum()):
-            positions[t:] = np.nan
-            velocities[t:] = np.nan
-            return
+           h, n_frames, substeps, force, positions, velocities, start_index, start_p, start_v,
+           states_p, states_v, states_r, states_f):
+    """The frames of a run, ``substeps`` steps of :func:`advance` each: the one driver of the
+    forward run of :func:`neurofuzzy.simulate` and of the adjoint's forward sweep
+    (:mod:`neurofuzzy.kernels.adjoint`).
+
+    Positions (and, when ``velocities`` is not empty, velocities) of every frame into
+    ``positions`` (n_frames, N, 3); ``loads[t - 1]`` acts from frame ``t - 1`` to ``t`` (the
+    last load on); a run that leaves the finite numbers is NaN from there on. ``history``
+    (the relaxation's internal variables) is carried through and left at its last value.
+
+    ``start_index`` (n_frames,) int, empty for one run from ``p``, ``v``: frames ``t`` with
+    ``start_index[t] >= 0`` start a window from the state ``start_p``, ``start_v`` of that
+    index (the learners' windows; frame 0 is always one); the internal variables go on.
+    ``states_p``, ``states_v`` ((n_frames - 1) substeps, N, 3; empty: none kept) receive the
+    state at the start of every substep in time order (a window's first frame's left unset),
+    ``states_r`` the internal variables there and ``states_f`` (when not empty) every
+    substep's force: what the adjoint's backward sweep runs over.
+    """
+    windows = start_index.shape[0] > 0
+    keep = states_p.shape[0] > 0
+    step = 0
+    for t in range(n_frames):
+        if windows and start_index[t] >= 0:
+            p[:] = start_p[start_index[t]]
+            v[:] = start_v[start_index[t]]
+            if t > 0:
+                step += substeps
+        elif t > 0:
+            load = loads[min(t - 1, loads.shape[0] - 1)]
+            if keep:
+                for _ in range(substeps):
+                    states_p[step] = p
+                    states_v[step] = v
+                    if relax_g.shape[1]:
+                        states_r[step] = history
+                    advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest,
+                            volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+                            node_volume, node_lam, node_lam_rate, node_strain, relax_g,
+                            relax_decay, history, kappa, drag, weight, load, h, 1, force)
+                    if states_f.shape[0]:
+                        states_f[step] = force      # the step's force (advance leaves it)
+                    step += 1
+            else:
+                advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume,
+                        law, stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume,
+                        node_lam, node_lam_rate, node_strain, relax_g, relax_decay, history,
+                        kappa, drag, weight, load, h, substeps, force)
+            if not np.isfinite(p.sum()):
+                positions[t:] = np.nan
+                if velocities.shape[0]:
+                    velocities[t:] = np.nan
+                return
         positions[t] = p
-        velocities[t] = v
+        if velocities.shape[0]:
+            velocities[t] = v

@@ -18,7 +18,8 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     models of springs and elements (relaxing or not) whose effects the kernels compute
     (:mod:`neurofuzzy.effects.compiled`), learned or not; node masses learned or fixed."""
     from ..forces.relaxation import decay
-    from ..kernels.adjoint import pull_back, sweep
+    from ..kernels.adjoint import pull_back
+    from ..kernels.stepper import frames as sweep
 
     param = sensitivity.parameters
     compiled = CompiledModel(param, model)
@@ -48,10 +49,16 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     # every substep's force when masses are learned (empty otherwise)
     mass_column, unit_mass_force = compiled.masses
     states_f = np.empty((steps if len(mass_column) else 0, sensitivity.n_nodes, 3))
+    # the forward sweep: simulate's driver, from every window's start, keeping the substeps'
+    # states (the relaxation's internal variables from rest, carried over window starts)
+    history = np.zeros((len(elements[0]), relax_g.shape[1], 6))
     with np.errstate(over="ignore", invalid="ignore"):
-        sweep(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
-              drag, weight, loads, h, n_frames, int(substeps), start_index, start_p, start_v,
-              positions, states_p, states_v, states_r, states_f)
+        sweep(start_p[0].copy(), start_v[0].copy(), a, b, stiffness, damping, rest, cubic,
+              *elements, np.zeros((sensitivity.n_nodes, 2)), relax_g, relax_decay, history,
+              kappa, drag, weight, loads, h, n_frames, int(substeps),
+              np.empty((sensitivity.n_nodes, 3)), positions,
+              np.empty((0, sensitivity.n_nodes, 3)), start_index, start_p, start_v, states_p,
+              states_v, states_r, states_f)
         scale = 1.0 / sensitivity.length_unit
         residuals = sensitivity._frame_residuals(observation, positions)
     run = Run(positions=positions, residuals=residuals[1:],
