@@ -318,10 +318,10 @@ def test_the_kernels_use_no_more_threads_than_numba_is_allowed(monkeypatch):
 
 
 def test_the_adjoints_forward_sweep_is_simulates_run():
-    """The adjoint's forward sweep is the stepper's own driver (``kernels.stepper.frames``,
-    keeping every substep's state): from rest, without windows, the positions a gradient is
-    taken at are those ``simulate`` computes for the same model, bit for bit, a relaxing
-    element model (the internal variables) included."""
+    """The adjoint's forward sweep and a run without tangents are the stepper's own driver
+    (``kernels.stepper.frames``, the first keeping every substep's state): from rest,
+    without windows, their positions are those ``simulate`` computes for the same model, bit
+    for bit, a relaxing element model (the internal variables) included."""
     from neurofuzzy.simulation import simulate
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
@@ -340,3 +340,7 @@ def test_the_adjoints_forward_sweep_is_simulates_run():
                          substeps=4)
     assert np.abs(reference.positions - reference.positions[0]).max() > 1e-4
     assert np.array_equal(run.positions, reference.positions)
+    alone = Sensitivity(parameters, 0.01).run(theta, data, substeps=4)
+    assert alone.jacobian is None
+    assert np.array_equal(alone.positions, reference.positions)
+    assert np.array_equal(alone.residuals, run.residuals)

@@ -80,7 +80,9 @@ def test_the_first_trial_is_not_taken_with_its_jacobian_when_it_should_end_the_f
 def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     """A per-region element fit: with the trial steps' Jacobians, the same model, standard
     errors and lack of fit from fewer simulations of the data (the standard errors take the
-    last Jacobian instead of one more pass)."""
+    last Jacobian instead of one more pass). The same to round-off: a trial step without its
+    Jacobian is a run of the stepper's driver, whose St. Venant–Kirchhoff loop adds the
+    volumetric stresses in another order than the sensitivities' (3e-16 of E here)."""
     from neurofuzzy.experiment import simulate_experiment
     from neurofuzzy.learn import GradientLearner, gradient
     from neurofuzzy.learn.steps import auto_substeps
@@ -107,9 +109,10 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     apart, together = fits[0], fits[gradient.SPECULATE_COST]
     assert together.model_.element_youngs_modulus[0] == pytest.approx(6000.0, rel=1e-6)
     for name in ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity"):
-        assert np.array_equal(getattr(apart.model_, name), getattr(together.model_, name))
+        assert np.allclose(getattr(apart.model_, name), getattr(together.model_, name),
+                           rtol=1e-12, atol=0)
     assert np.allclose(apart.std_errors_, together.std_errors_, rtol=1e-9)
-    assert apart.rms_error_ == together.rms_error_
+    assert apart.rms_error_ == pytest.approx(together.rms_error_, rel=1e-12)
     assert together.n_cycles_ < apart.n_cycles_
     assert len(together.history_) == together.n_cycles_
     assert together._last is None          # the last Jacobian is not kept with the result

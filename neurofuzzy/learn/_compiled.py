@@ -1,7 +1,8 @@
 """The compiled path of :meth:`neurofuzzy.learn.Sensitivity.run`: the model, its parameter
 directions, the experiment's loads, window starts and observation operator laid out for
-:func:`neurofuzzy.kernels.sensitivity.forward` (one call per experiment, no Python per time
-step).
+:func:`neurofuzzy.kernels.sensitivity.forward` (runs with tangents) and
+:func:`neurofuzzy.kernels.stepper.frames` (runs of the state alone, and the adjoint's forward
+sweep): one call per experiment, no Python per time step.
 
 Used when numba is installed and every effect of the model is one the kernel knows: gravity
 and unmodeled loads (constant forces), a node drag, inclusions of springs (extra spring
@@ -202,20 +203,17 @@ class CompiledModel:
         Jacobian, written into ``jacobian`` (the state is simulated whole either way)."""
         from ..kernels.sensitivity import forward
 
+        if not tangents:        # the state alone: the stepper's driver, the faster sweep
+            return self.frames(experiment, states, substeps=substeps)[0], None
         first, stop = columns if columns is not None else (0, self.n_params)
-        width = stop - first if tangents else 0
+        width = stop - first
         n_frames, n_nodes = experiment.n_frames, self.model.n_nodes
-        start_index = np.full(n_frames, -1, np.intp)
-        frames = sorted(states)
-        start_index[frames] = np.arange(len(frames))
-        start_p = np.stack([states[t][0] for t in frames]).astype(float)
-        start_v = np.stack([states[t][1] for t in frames]).astype(float)
+        start_index, start_p, start_v = _windows(n_frames, states)
         observation = experiment.observation
         operator = observation.operator.tocsr()
         positions = np.empty((n_frames, n_nodes, 3))
         if jacobian is None:
-            jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, self.n_params))
-                        if tangents else np.zeros((0, 0, 3, 0)))
+            jacobian = np.empty((n_frames - 1, observation.n_rows, 3, self.n_params))
         drag, drag_column, direction, constant, _ = self.effects
         direction = np.ascontiguousarray(direction[:, :, first:first + width])
         # writable C-ordered copies: numba compiles one signature per array layout
@@ -230,5 +228,48 @@ class CompiledModel:
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
                     operator.data.astype(float),
                     np.array(observation.seen, dtype=bool, order="C"), float(scale),
-                    bool(tangents), positions, jacobian)
-        return positions, (jacobian if tangents else None)
+                    True, positions, jacobian)
+        return positions, jacobian
+
+    def frames(self, experiment, states, *, substeps: int, keep: bool = False):
+        """``(positions, kept)``: the positions (n_frames, N, 3) of one experiment by the
+        stepper's driver (:func:`neurofuzzy.kernels.stepper.frames`), every window from its
+        state in ``states`` (frame → ``(p, v)``; the relaxation's internal variables from rest,
+        carried over window starts). With ``keep``, ``kept`` is what the adjoint's backward
+        sweep runs over: the state at the start of every substep, the internal variables
+        there and, when masses are learned, every substep's force (``(states_p, states_v,
+        states_r, states_f)``, empty arrays for what is not kept); else None."""
+        from ..kernels.stepper import frames
+
+        n_frames, n_nodes = experiment.n_frames, self.model.n_nodes
+        start_index, start_p, start_v = _windows(n_frames, states)
+        elements = self.elements[:13]
+        relax_g, times, _ = self.relaxation
+        n_relaxing = len(elements[0]) if relax_g.shape[1] else 0
+        steps = (n_frames - 1) * substeps if keep else 0
+        kept = (np.empty((steps, n_nodes, 3)), np.empty((steps, n_nodes, 3)),
+                np.empty((steps if n_relaxing else 0, n_relaxing, relax_g.shape[1], 6)),
+                np.empty((steps if len(self.masses[0]) else 0, n_nodes, 3)))
+        loads = np.array(experiment.forces_per_frame() + self.effects[3], dtype=float,
+                         order="C")
+        h = experiment.dt / substeps
+        positions = np.empty((n_frames, n_nodes, 3))
+        with np.errstate(over="ignore", invalid="ignore"):
+            frames(start_p[0].copy(), start_v[0].copy(), *self.springs[:6], *elements,
+                   np.zeros((n_nodes, 2)), relax_g, decay(times, h),
+                   np.zeros((len(elements[0]), relax_g.shape[1], 6)), self.elements[-3],
+                   self.effects[0], np.ascontiguousarray(self.weight, dtype=float), loads, h,
+                   n_frames, int(substeps), np.empty((n_nodes, 3)), positions,
+                   np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept)
+        return positions, (kept if keep else None)
+
+
+def _windows(n_frames: int, states) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(start_index, start_p, start_v)`` of the kernels: for every frame the index of the
+    window starting there (-1: none), and the windows' start states in frame order."""
+    start_index = np.full(n_frames, -1, np.intp)
+    frames = sorted(states)
+    start_index[frames] = np.arange(len(frames))
+    start_p = np.stack([states[t][0] for t in frames]).astype(float)
+    start_v = np.stack([states[t][1] for t in frames]).astype(float)
+    return start_index, start_p, start_v

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..effects.compiled import CUBIC
+from ..forces.relaxation import decay
 from ._compiled import CompiledModel
 from ._passes import Run
 
@@ -17,9 +18,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
     models of springs and elements (relaxing or not) whose effects the kernels compute
     (:mod:`neurofuzzy.effects.compiled`), learned or not; node masses learned or fixed."""
-    from ..forces.relaxation import decay
     from ..kernels.adjoint import pull_back
-    from ..kernels.stepper import frames as sweep
 
     param = sensitivity.parameters
     compiled = CompiledModel(param, model)
@@ -28,37 +27,19 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     elements = compiled.elements[:13]       # the elements and their constants
     kappa, kappa_column = compiled.elements[-3:-1]      # their strain stiffening
     n_frames, observation = experiment.n_frames, experiment.observation
-    frames = sorted(set(int(t) for t in starts) | {0})
+    starts = set(int(t) for t in starts) | {0}
     start_index = np.full(n_frames, -1, np.intp)
-    start_index[frames] = np.arange(len(frames))
-    states = [sensitivity._window_state(experiment, t) for t in frames]
-    start_p = np.array([s[0] for s in states], dtype=float, order="C")
-    start_v = np.array([s[1] for s in states], dtype=float, order="C")
-    loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
+    start_index[sorted(starts)] = np.arange(len(starts))
+    # the forward sweep (simulate's driver), keeping every substep's state
+    positions, (states_p, states_v, states_r, states_f) = compiled.frames(
+        experiment, {t: sensitivity._window_state(experiment, t) for t in starts},
+        substeps=substeps, keep=True)
     h = experiment.dt / substeps
-    steps = (n_frames - 1) * substeps
-    positions = np.empty((n_frames, sensitivity.n_nodes, 3))
-    states_p = np.empty((steps, sensitivity.n_nodes, 3))
-    states_v = np.empty((steps, sensitivity.n_nodes, 3))
     weight = np.ascontiguousarray(compiled.weight, dtype=float)
     relax_g, times, relax_column = compiled.relaxation
     relax_decay = decay(times, h)
-    # the internal variables at every substep (empty without relaxation)
-    states_r = np.empty((steps, relax_g.shape[0] if relax_g.shape[1] else 0,
-                         relax_g.shape[1], 6))
-    # every substep's force when masses are learned (empty otherwise)
     mass_column, unit_mass_force = compiled.masses
-    states_f = np.empty((steps if len(mass_column) else 0, sensitivity.n_nodes, 3))
-    # the forward sweep: simulate's driver, from every window's start, keeping the substeps'
-    # states (the relaxation's internal variables from rest, carried over window starts)
-    history = np.zeros((len(elements[0]), relax_g.shape[1], 6))
     with np.errstate(over="ignore", invalid="ignore"):
-        sweep(start_p[0].copy(), start_v[0].copy(), a, b, stiffness, damping, rest, cubic,
-              *elements, np.zeros((sensitivity.n_nodes, 2)), relax_g, relax_decay, history,
-              kappa, drag, weight, loads, h, n_frames, int(substeps),
-              np.empty((sensitivity.n_nodes, 3)), positions,
-              np.empty((0, sensitivity.n_nodes, 3)), start_index, start_p, start_v, states_p,
-              states_v, states_r, states_f)
         scale = 1.0 / sensitivity.length_unit
         residuals = sensitivity._frame_residuals(observation, positions)
     run = Run(positions=positions, residuals=residuals[1:],
