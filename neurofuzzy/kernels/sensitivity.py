@@ -269,12 +269,11 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             d_node_lam_rate, kappa, kappa_column, stiffening_column, relax_g, relax_decay,
             relax_column, drag, drag_column, force_direction, weight, mass_column,
             unit_mass_force, loads, h, n_frames, substeps, first, width, start_index, start_p,
-            start_v, rows_start, rows_node, rows_weight, seen, scale, tangents, positions,
-            jacobian):
-    """Positions (n_frames, N, 3) and, with ``tangents``, columns ``first .. first + width
-    - 1`` of ``jacobian`` (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured
-    (frame, row), 0 elsewhere (``width`` 0 without tangents; threads given disjoint columns
-    of one array split an experiment's Jacobian).
+            start_v, rows_start, rows_node, rows_weight, seen, scale, positions, jacobian):
+    """Positions (n_frames, N, 3) and columns ``first .. first + width - 1`` of ``jacobian``
+    (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured (frame, row), 0
+    elsewhere (threads given disjoint columns of one array split an experiment's Jacobian).
+    A run of the state alone takes the faster :func:`neurofuzzy.kernels.stepper.frames`.
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
@@ -311,7 +310,7 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             tp[:] = 0.0
             tv[:] = 0.0
             positions[t] = p
-            if t > 0 and tangents:
+            if t > 0:
                 jacobian[t - 1, :, :, first:first + width] = 0.0
             continue
         load = loads[min(t - 1, loads.shape[0] - 1)]
@@ -345,19 +344,18 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)
             euler_update(tp_flat, tv_flat, d_force_flat, weight, h)
         positions[t] = p
-        if tangents:
-            for row in range(n_rows):
-                out = jacobian[t - 1, row]
+        for row in range(n_rows):
+            out = jacobian[t - 1, row]
+            for k in range(3):
+                target = out[k]
+                for q in range(width):
+                    target[first + q] = 0.0
+            if not seen[t, row]:
+                continue
+            for entry in range(rows_start[row], rows_start[row + 1]):
+                node = rows_node[entry]
+                w = rows_weight[entry] * scale
                 for k in range(3):
-                    target = out[k]
+                    target, source = out[k], tp[node, k]
                     for q in range(width):
-                        target[first + q] = 0.0
-                if not seen[t, row]:
-                    continue
-                for entry in range(rows_start[row], rows_start[row + 1]):
-                    node = rows_node[entry]
-                    w = rows_weight[entry] * scale
-                    for k in range(3):
-                        target, source = out[k], tp[node, k]
-                        for q in range(width):
-                            target[first + q] += w * source[q]
+                        target[first + q] += w * source[q]

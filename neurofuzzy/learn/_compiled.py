@@ -228,7 +228,7 @@ class CompiledModel:
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
                     operator.data.astype(float),
                     np.array(observation.seen, dtype=bool, order="C"), float(scale),
-                    True, positions, jacobian)
+                    positions, jacobian)
         return positions, jacobian
 
     def frames(self, experiment, states, *, substeps: int, keep: bool = False):
