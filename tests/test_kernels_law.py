@@ -2,13 +2,14 @@
 of :data:`neurofuzzy.forces.laws.LAWS`: the derivatives generated from the one function by
 complex step against central differences of that function (forward) and by the dot-product
 test (reverse); ``∂θ/∂G`` is the stress of unit pressure; the law is linear elasticity at small
-strain and equals its numpy form (:mod:`neurofuzzy.forces.laws`) at large strain."""
+strain, and the numpy force path's stress (:class:`neurofuzzy.forces.laws.ElementStress`) is
+the compiled one with its derivatives."""
 
 import numpy as np
 import pytest
 
-from neurofuzzy.forces.laws import (LAWS, STIFFENING_CONSTANT, law_number, law_numbers,
-                                   law_parts, stiffening_slope, stiffens)
+from neurofuzzy.forces.laws import (LAWS, STIFFENING_CONSTANT, ElementStress, law_number,
+                                   law_numbers, stiffening_slope, stiffens)
 from neurofuzzy.errors import InputError
 from neurofuzzy.kernels.laws import elastic, stress, stress_jvp, stress_vjp, volumetric
 
@@ -100,38 +101,73 @@ def test_every_law_is_linear_elasticity_at_small_strain(law, stiffening):
     assert np.allclose(S, linear, rtol=1e-5, atol=1e-12 * lam)
 
 
+def _symmetric(rng, shape):
+    X = rng.normal(size=shape + (3, 3))
+    return 0.5 * (X + np.swapaxes(X, -1, -2))
+
+
 @pytest.mark.parametrize("law", LAW_NUMBERS)
-def test_the_numpy_path_takes_its_law_from_the_compiled_one(law):
-    """``law_parts`` (the numpy force path's law) is the compiled law written once: at 30 %
-    compression and shear its ``shear D + π N`` and ``θ`` are the kernel's stress, its ``dD``
-    and ``dN`` of a batch of symmetric directions (K, P, 3, 3) are the central differences of
-    ``D`` and ``N``, and ``∂D/∂c`` (``stiffening_slope``) that of ``D`` in the law's constant;
-    St. Venant–Kirchhoff's parts are ``G``, ``I``, ``tr G`` exactly."""
+def test_the_numpy_path_takes_its_stress_from_the_compiled_one(law):
+    """``ElementStress`` (the numpy force path's stress) is the compiled ``stress`` written
+    once: at 30 % compression and shear its ``S`` and ``θ`` are the kernel's; its forward
+    derivative along strain and volumetric-stress changes is the central difference of ``S``,
+    its reverse one the adjoint of that (dot-product test), its partials those by the four
+    constants; ``∂D/∂c`` (``stiffening_slope``) is the central difference in the law's
+    constant; St. Venant–Kirchhoff's partials are ``G``, ``Ġ``, ``I``, ``I`` and its ``N``,
+    ``θ`` exactly ``I``, ``tr G``."""
     rng = np.random.default_rng(law)
     F = np.array([[1.0, 0.2, 0.0], [0.05, 1.0, 0.1], [0.0, 0.0, 0.7]])
-    G = 0.5 * (F.T @ F - np.eye(3))
-    c = 0.8
-    parts = law_parts(np.array([law, law]), np.stack([G, 0.5 * G]), [c, c])
-    shear, pressure = 4e3, 2e3
-    got, theta = elastic(law, _six(G), shear, pressure, c)
-    assert np.allclose(shear * parts.D[0] + pressure * parts.N[0], _full(got), rtol=1e-12)
-    assert parts.theta[0] == pytest.approx(theta, rel=1e-12)
-    X = rng.normal(size=(2, 3, 3, 3))
-    X = 0.5 * (X + np.swapaxes(X, -1, -2))
+    G = np.stack([0.5 * (F.T @ F - np.eye(3)), 0.25 * (F.T @ F - np.eye(3))])
+    Gd = _symmetric(rng, (2,))
+    laws, c = np.array([law, law]), [0.8, 0.8]
+    constants = dict(shear=np.array([4e3, 3e3]), shear_rate=np.array([2.0, 1.0]),
+                     pressure=np.array([2e3, -1e3]), pressure_rate=np.array([5.0, -3.0]))
+
+    def at(G, Gd, **changed):
+        return ElementStress.at(laws, G, Gd, stiffening=c, **{**constants, **changed})
+
+    point = at(G, Gd)
+    S = point.stress()
+    for e in range(2):
+        want = stress(law, _six(G[e]), _six(Gd[e]), *(constants[k][e] for k in (
+            "shear", "shear_rate", "pressure", "pressure_rate")), 0.0, c[e])
+        assert np.allclose(S[e], _full(want), rtol=1e-12, atol=0)
+        assert point.theta[e] == pytest.approx(volumetric(law, _six(G[e]))[0], rel=1e-12)
+    dG, dGd = _symmetric(rng, (2, 3)), _symmetric(rng, (2, 3))
+    d_pressure, d_pressure_rate = rng.normal(size=(2, 3)) * 1e3, rng.normal(size=(2, 3))
+    slope = point.jvp(dG, dGd, d_pressure, d_pressure_rate)
     eps = 1e-6
     for p in range(3):
-        ahead = law_parts(np.array([law, law]), np.stack([G, 0.5 * G]) + eps * X[:, p], [c, c])
-        behind = law_parts(np.array([law, law]), np.stack([G, 0.5 * G]) - eps * X[:, p], [c, c])
-        for name, slope in (("D", parts.dD(X)[:, p]), ("N", parts.dN(X)[:, p])):
-            central = (getattr(ahead, name) - getattr(behind, name)) / (2 * eps)
-            assert np.allclose(slope, central, rtol=1e-6, atol=1e-8), name
-    by_constant = (law_parts(np.array([law]), G[None], [c + eps]).D
-                   - law_parts(np.array([law]), G[None], [c - eps]).D) / (2 * eps)
-    assert np.allclose(stiffening_slope(np.array([law]), G[None], [c]), by_constant,
+        def moved(sign):
+            return at(G + sign * eps * dG[:, p], Gd + sign * eps * dGd[:, p],
+                      pressure=constants["pressure"] + sign * eps * d_pressure[:, p],
+                      pressure_rate=constants["pressure_rate"]
+                      + sign * eps * d_pressure_rate[:, p]).stress()
+        central = (moved(1) - moved(-1)) / (2 * eps)
+        assert np.allclose(slope[:, p], central, rtol=1e-6, atol=1e-6 * np.abs(S).max())
+    LS = _symmetric(rng, (2,))
+    LG, LGd, l_pressure, l_pressure_rate = point.vjp(LS)
+    forward = np.einsum("eij,epij->ep", LS, slope)
+    backward = (np.einsum("epij,eij->ep", dG, LG) + np.einsum("epij,eij->ep", dGd, LGd)
+                + l_pressure[:, None] * d_pressure + l_pressure_rate[:, None] * d_pressure_rate)
+    assert np.allclose(forward, backward, rtol=1e-10)
+    for name, partial in point.partials().items():
+        central = (at(G, Gd, **{name: constants[name] + 1.0}).stress()
+                   - at(G, Gd, **{name: constants[name] - 1.0}).stress()) / 2.0
+        assert np.allclose(partial, central, rtol=1e-9, atol=1e-12), name
+    by_constant = (ElementStress.at(laws[:1], G[:1], Gd[:1], 1.0, 0.0, 0.0, 0.0,
+                                    [c[0] + eps]).stress()
+                   - ElementStress.at(laws[:1], G[:1], Gd[:1], 1.0, 0.0, 0.0, 0.0,
+                                      [c[0] - eps]).stress()) / (2 * eps)
+    assert np.allclose(stiffening_slope(laws[:1], G[:1], c[:1]), by_constant,
                        rtol=1e-6, atol=1e-9)
     if LAWS[law] == "st-venant-kirchhoff":
-        assert np.array_equal(parts.D[0], G) and np.array_equal(parts.N[0], np.eye(3))
-        assert parts.theta[0] == np.trace(G)
+        by, unit = point.partials(), np.broadcast_to(np.eye(3), G.shape)
+        for name, want in (("shear", G), ("shear_rate", Gd), ("pressure", unit),
+                           ("pressure_rate", unit)):     # complex step: to round-off
+            assert np.allclose(by[name], want, rtol=1e-15, atol=1e-15), name
+        assert np.array_equal(point.N, np.broadcast_to(np.eye(3), G.shape))
+        assert np.array_equal(point.theta, np.trace(G, axis1=1, axis2=2))
 
 
 def test_the_neo_hookean_law_is_bonet_and_wood_s():
@@ -189,5 +225,5 @@ def test_an_element_squeezed_flat_gives_nan_not_an_exception():
     flat = (-0.5, 0.0, 0.0, 0.0, 0.0, 0.0)                   # C = diag(0, 1, 1)
     S, theta = elastic(law_number("neo-hookean"), flat, 4e3, 1e3, 0.0)
     assert np.all(np.isnan(S)) and np.isnan(theta)
-    parts = law_parts(np.array([1]), _full(flat)[None])
-    assert not np.all(np.isfinite(parts.N)) and not np.isfinite(parts.theta[0])
+    theta, N = ElementStress.strains(np.array([1]), _full(flat)[None])
+    assert not np.all(np.isfinite(N)) and not np.isfinite(theta[0])

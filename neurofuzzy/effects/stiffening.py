@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..forces import TETRAHEDRA, tetrahedron_geometry
-from ..forces.laws import DEFAULT_STIFFENING, LAWS
+from ..forces.laws import DEFAULT_STIFFENING, LAWS, ElementStress
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -111,10 +111,17 @@ class NonlinearStiffening(SpringEffect):
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         return geometry, F, green
 
+    def _stress(self, model, green, kappa) -> ElementStress:
+        """The elements' stress of the effect alone, ``2κ (G:G) G`` (every other constant
+        0), from the compiled stress the kernels step with (:mod:`neurofuzzy.kernels.laws`)."""
+        none = np.zeros(len(green))
+        return ElementStress.at(model.element_law, green, np.zeros_like(green), none, none,
+                                none, none, model.element_stiffening,
+                                (none, np.zeros_like(green)), kappa=kappa)
+
     def _element_force(self, model, positions, kappa):
         geometry, F, green = self._strain(model, positions)
-        squared = np.einsum("kij,kij->k", green, green)
-        stress = 2.0 * kappa * squared[:, None, None] * green
+        stress = self._stress(model, green, kappa).stress()
         return geometry.scatter(TETRAHEDRA._columns(geometry, F @ stress), len(positions))
 
     def force(self, model, positions, velocities):
@@ -131,15 +138,12 @@ class NonlinearStiffening(SpringEffect):
         if not self.on_elements:
             return super().state_jvp(model, positions, velocities, dp, dv)
         geometry, F, green = self._strain(model, positions)
-        kappa = self.params[0]
-        squared = np.einsum("kij,kij->k", green, green)[:, None, None, None]
+        at = self._stress(model, green, self.params[0])
         dF = geometry.edges(dp) @ geometry.inverse_rest[:, None]          # (K, P, 3, 3)
-        F, green = F[:, None], green[:, None]
-        d_green = _sym(np.swapaxes(F, -1, -2) @ dF)
-        inner = np.einsum("kpij,kpij->kp", green, d_green)[..., None, None]
-        stress = 2.0 * kappa * squared * green
-        d_stress = 2.0 * kappa * (2.0 * inner * green + squared * d_green)
-        d_piola = dF @ stress + F @ d_stress
+        d_green = _sym(np.swapaxes(F[:, None], -1, -2) @ dF)
+        none = np.zeros(d_green.shape[:2])
+        d_stress = at.jvp(d_green, np.zeros_like(d_green), none, none)
+        d_piola = dF @ at.stress()[:, None] + F[:, None] @ d_stress
         return geometry.scatter(TETRAHEDRA._columns(geometry, d_piola), len(positions))
 
     def state_vjp(self, model, positions, velocities, cotangent):

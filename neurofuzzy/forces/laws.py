@@ -1,7 +1,8 @@
-"""The tetrahedral elements' material laws, by name, and their parts for the numpy force path
-(:func:`law_parts`), computed by the compiled laws of :mod:`neurofuzzy.kernels.laws`: each law
-is written once, there (the tests check it against closed forms, Bonet & Wood's stress, a Yeoh
-solid written apart and central differences).
+"""The tetrahedral elements' material laws, by name, and their stress for the numpy force path
+(:class:`ElementStress`), computed by the compiled stress of :mod:`neurofuzzy.kernels.laws`:
+each law, and the Kelvin–Voigt and volumetric stresses around it, is written once, there (the
+tests check it against closed forms, Bonet & Wood's stress, a Yeoh solid written apart and
+central differences).
 
 A law gives the elastic second Piola–Kirchhoff stress of the Green strain ``G`` as
 ``S = 2μ D(G) + π N(G)`` with ``π`` the volumetric stress (``λ θ`` per element, or the node
@@ -32,16 +33,14 @@ bulk modulus ``K = λ + 2μ/3``: ``D = ½ (1 + 2c (Ī₁ - 3)) J^(-2/3) (I - I�
 for every ``c``; it stiffens with strain as ``c`` grows. Why Yeoh for tissue:
 :class:`neurofuzzy.validation.nonlinear.Yeoh`.
 
-``dD``, ``dN`` (along a change ``dG``) and ``∂D/∂c`` (:func:`stiffening_slope`) are the
-kernels' complex-step derivatives of the law. ``dD`` and ``dN`` are self-adjoint linear maps
-(the second derivatives of an energy), so the same function serves the forward and the
-reverse derivative.
+The derivatives of the stress (:meth:`ElementStress.jvp`, :meth:`ElementStress.vjp`,
+:meth:`ElementStress.partials`) and ``∂D/∂c`` (:func:`stiffening_slope`) are the kernels'
+complex-step derivatives of it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -134,37 +133,128 @@ def stiffening_array(value, n: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class LawParts:
-    """``D``, ``N`` (K, 3, 3), ``θ`` (K,) of every element and the maps ``dD``, ``dN`` of a
-    symmetric change (K, ..., 3, 3) of ``G`` (self-adjoint: also the reverse derivatives)."""
+class ElementStress:
+    """The elements' second Piola–Kirchhoff stress at one state, and its derivatives, for the
+    numpy force path: every number comes from the compiled :func:`neurofuzzy.kernels.laws.stress`
+    (each element's law with Kelvin–Voigt viscosity and the volumetric stresses, written once),
+    over arrays (:func:`~neurofuzzy.kernels.laws.stress_arrays` and its neighbours).
 
-    D: np.ndarray
-    N: np.ndarray
+    Attributes
+    ----------
+    law : (K,) int
+    G, Gd : (K, 1, 3, 3) float
+        Green strain and its rate (symmetric).
+    shear, shear_rate, pressure, pressure_rate, stiffening : (K,) float
+        ``2μ``, ``2μβ``, ``π``, ``π̇`` and the law's own constant of every element.
+    kappa : float
+        The strain stiffening ``κ`` of the ``nonlinear_stiffening`` effect (0: none).
+    theta : (K,) float
+        The law's volumetric strain ``θ(G)``.
+    N : (K, 3, 3) float
+        Its gradient ``∂θ/∂G`` (the stress of unit ``π``).
+    """
+
+    law: np.ndarray
+    G: np.ndarray
+    Gd: np.ndarray
+    shear: np.ndarray
+    shear_rate: np.ndarray
+    pressure: np.ndarray
+    pressure_rate: np.ndarray
+    stiffening: np.ndarray
     theta: np.ndarray
-    dD: Callable[[np.ndarray], np.ndarray]
-    dN: Callable[[np.ndarray], np.ndarray]
+    N: np.ndarray
+    kappa: float = 0.0
+
+    @classmethod
+    def strains(cls, law: np.ndarray, G: np.ndarray, stiffening=None):
+        """``(θ, N)`` of every element's law at its Green strain ``G`` (K, 3, 3): what the
+        volumetric stresses ``π``, ``π̇`` (the caller's) are formed from. An element
+        squeezed flat gives NaN (the run diverges and says so)."""
+        # imported on use, here and below: the model imports this module for the laws'
+        # names, and numba should load only when a law is evaluated
+        from ..kernels.laws import law_arrays
+
+        K = len(G)
+        law, strains, c = _compiled_arguments(law, G, stiffening)
+        D, N, theta = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty(K)
+        law_arrays(law, strains, c, D, N, theta)
+        return theta.astype(G.dtype, copy=False), N[:, 0].astype(G.dtype, copy=False)
+
+    @classmethod
+    def at(cls, law, G, Gd, shear, shear_rate, pressure, pressure_rate, stiffening=None,
+           volumetric=None, kappa: float = 0.0):
+        """The stress of elements of laws ``law`` (K,) at ``G``, ``Gd`` (K, 3, 3) with
+        their constants (K,) and the strain stiffening ``kappa``; ``volumetric`` is ``(θ,
+        N)`` from :meth:`strains` when the caller has it."""
+        theta, N = volumetric if volumetric is not None else cls.strains(law, G, stiffening)
+        law, G6, c = _compiled_arguments(law, G, stiffening)
+        K = len(law)
+
+        def per_element(x):
+            return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), (K,)))
+
+        return cls(law, G6, np.ascontiguousarray(np.asarray(Gd, float).reshape(K, 1, 3, 3)),
+                   per_element(shear), per_element(shear_rate), per_element(pressure),
+                   per_element(pressure_rate), c, theta, N, float(kappa))
+
+    def stress(self) -> np.ndarray:
+        """(K, 3, 3): ``S``."""
+        from ..kernels.laws import stress_arrays
+
+        out = np.empty_like(self.G)
+        stress_arrays(self.law, self.G, self.Gd, self.shear, self.shear_rate, self.pressure,
+                      self.pressure_rate, self.kappa, self.stiffening, out)
+        return out[:, 0].astype(self.N.dtype, copy=False)
+
+    def jvp(self, dG, dGd, d_pressure, d_pressure_rate) -> np.ndarray:
+        """(K, P, 3, 3): ``dS`` along P symmetric strain changes ``dG``, ``dGd`` (K, P, 3, 3)
+        with the volumetric stresses' changes ``d_pressure``, ``d_pressure_rate`` (K, P)."""
+        from ..kernels.laws import stress_jvp_arrays
+
+        K, P = dG.shape[:2]
+        out = np.empty((K, P, 3, 3))
+        stress_jvp_arrays(self.law, self.G, self.Gd, _batch(dG, K), _batch(dGd, K),
+                          self.shear, self.shear_rate, self.pressure, self.pressure_rate,
+                          self.kappa, self.stiffening, _batch(d_pressure, K),
+                          _batch(d_pressure_rate, K), out)
+        return out.astype(self.N.dtype, copy=False)
+
+    def vjp(self, LS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(L_G, L_Ġ, l_π, l_π̇)`` for the symmetric cotangent ``LS`` (K, 3, 3) of ``S``:
+        (K, 3, 3) twice and (K,) twice (``π``, ``π̇`` held; their own dependence on the
+        strains is the caller's)."""
+        from ..kernels.laws import stress_vjp_arrays
+
+        K = len(self.law)
+        LG, LGd, l_pressure = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty((K, 2))
+        stress_vjp_arrays(self.law, self.G, self.Gd, _batch(LS, K), self.shear,
+                          self.shear_rate, self.pressure, self.pressure_rate, self.kappa,
+                          self.stiffening, LG, LGd, l_pressure)
+        dtype = self.N.dtype
+        return (LG[:, 0].astype(dtype, copy=False), LGd[:, 0].astype(dtype, copy=False),
+                l_pressure[:, 0].astype(dtype, copy=False),
+                l_pressure[:, 1].astype(dtype, copy=False))
+
+    def partials(self) -> dict[str, np.ndarray]:
+        """``∂S`` (K, 3, 3) by each of ``shear``, ``shear_rate``, ``pressure`` and
+        ``pressure_rate`` (``S`` is linear in each, and the strain stiffening's term depends
+        on none of them)."""
+        from ..kernels.laws import stress_partials
+
+        out = np.empty((len(self.law), 4, 3, 3))
+        stress_partials(self.law, self.G, self.Gd, self.shear, self.shear_rate, self.pressure,
+                        self.pressure_rate, self.stiffening, out)
+        out = out.astype(self.N.dtype, copy=False)
+        return {name: out[:, k] for k, name in enumerate(("shear", "shear_rate", "pressure",
+                                                           "pressure_rate"))}
 
 
-def law_parts(law: np.ndarray, G: np.ndarray, stiffening=None) -> LawParts:
-    """:class:`LawParts` of (K, 3, 3) symmetric Green strains for per-element law numbers (K,)
-    and the laws' own stiffening constants (K,) (default 0), computed by the compiled laws
-    themselves (:func:`neurofuzzy.kernels.laws.law_arrays` and
-    :func:`~neurofuzzy.kernels.laws.law_slopes`): a law is written once, and its derivatives
-    are the complex-step ones the kernels generate from it. An element squeezed flat gives NaN
-    (the run diverges and says so)."""
-    # imported on use, here and in _slopes: the model imports this module for the laws'
-    # names, and numba should load only when a law is evaluated
-    from ..kernels.laws import law_arrays
-
-    K = len(G)
-    law, strains, c = _compiled_arguments(law, G, stiffening)
-    D, N, theta = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty(K)
-    law_arrays(law, strains, c, D, N, theta)
-    dtype = G.dtype
-    return LawParts(D[:, 0].astype(dtype, copy=False), N[:, 0].astype(dtype, copy=False),
-                    theta.astype(dtype, copy=False),
-                    lambda X: _slopes(law, strains, c, X, 1.0, 0.0),
-                    lambda X: _slopes(law, strains, c, X, 0.0, 1.0))
+def _batch(x, K: int) -> np.ndarray:
+    """``x`` (K, ...) as the compiled functions' contiguous float (K, P, ...) arrays."""
+    x = np.asarray(x, float)
+    return np.ascontiguousarray(x.reshape((K, -1) + x.shape[-2:]) if x.ndim > 2
+                                else x.reshape(K, -1))
 
 
 def stiffening_slope(law: np.ndarray, G: np.ndarray, stiffening) -> np.ndarray:
@@ -209,8 +299,10 @@ def uniaxial_stress(law, youngs_modulus: float, poisson_ratio: float, stretches,
 
     def stress(axial, lateral):
         G = np.diag([0.5 * (axial**2 - 1), 0.5 * (lateral**2 - 1), 0.5 * (lateral**2 - 1)])
-        parts = law_parts(np.array([number]), G[None], [stiffening])
-        return 2 * mu * parts.D[0] + lam * parts.theta[0] * parts.N[0]
+        law, c = np.array([number]), [stiffening]
+        theta, N = ElementStress.strains(law, G[None], c)
+        return ElementStress.at(law, G[None], np.zeros((1, 3, 3)), 2 * mu, 0.0, lam * theta,
+                                0.0, c, (theta, N)).stress()[0]
 
     out = []
     for axial in np.atleast_1d(np.asarray(stretches, float)):

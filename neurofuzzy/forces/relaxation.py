@@ -29,7 +29,8 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["MAX_TERMS", "relaxation_arrays", "relaxation_fields", "start_terms", "decay", "relaxed_stress", "relaxation_update"]
+__all__ = ["MAX_TERMS", "relaxation_arrays", "relaxation_fields", "start_terms", "decay",
+           "relaxed_stress", "relaxation_update"]
 
 #: The most Prony terms an element can carry.
 MAX_TERMS = 3

@@ -46,8 +46,12 @@ derivative of a polar decomposition. SVK softens under strong compression (beyon
 far past the strains of palpation and probing; where a probe compresses tissue by more, the
 neo-Hookean law (the same E, ν and η at small strain) does not soften.
 
-Everything is vectorised over elements (``einsum`` on (n_elements, 3, 3) arrays, sparse
-matrices for the node averages).
+The stress ``S`` itself (each element's law, the Kelvin–Voigt stress and the volumetric
+stresses ``π``, ``π̇``) and its derivatives are not written here: they come from the compiled
+:func:`neurofuzzy.kernels.laws.stress`, the one the kernels step with, over arrays
+(:class:`~neurofuzzy.forces.laws.ElementStress`). This module forms ``F``, ``G``, the
+volumetric strains and their node averages, and the forces from ``S``, vectorised over
+elements (batched (n_elements, 3, 3) products, sparse matrices for the node averages).
 """
 
 from __future__ import annotations
@@ -59,7 +63,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from .base import ForceTerm
-from .laws import LawParts, law_parts, stiffening_slope
+from .laws import ElementStress, stiffening_slope
 from .tetra_geometry import (ElementConstants, TetrahedronGeometry, broadcast_per_element,
                              corner_forces, lame_factors, tetrahedron_geometry)
 
@@ -99,9 +103,7 @@ class _State:
     green_rate: np.ndarray
     theta: np.ndarray
     theta_rate: np.ndarray
-    law: LawParts                # D, N, θ and their derivatives of every element's law
-    pressure: np.ndarray         # π (elastic) and π̇ (viscous), (K,) each
-    pressure_rate: np.ndarray
+    at: ElementStress            # S's arguments (π, π̇ included) and its derivatives
     stress: np.ndarray           # S
 
 
@@ -121,15 +123,13 @@ class TetrahedronForce(ForceTerm):
         F_rate = geometry.edges(velocities) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
-        law = law_parts(constants.law, green, constants.stiffening)
+        theta, N = ElementStress.strains(constants.law, green, constants.stiffening)
         theta_rate = np.trace(green_rate, axis1=1, axis2=2)
-        pressure, pressure_rate = constants.pressures(law.theta, theta_rate)
-        stress = (constants.shear[:, None, None] * law.D
-                  + constants.shear_rate[:, None, None] * green_rate
-                  + pressure[:, None, None] * law.N
-                  + pressure_rate[:, None, None] * np.eye(3))
-        return _State(F, F_rate, green, green_rate, law.theta, theta_rate, law, pressure,
-                      pressure_rate, stress)
+        pressure, pressure_rate = constants.pressures(theta, theta_rate)
+        at = ElementStress.at(constants.law, green, green_rate, constants.shear,
+                              constants.shear_rate, pressure, pressure_rate,
+                              constants.stiffening, (theta, N))
+        return _State(F, F_rate, green, green_rate, theta, theta_rate, at, at.stress())
 
     @staticmethod
     def _columns(geometry, first_piola: np.ndarray) -> np.ndarray:
@@ -137,7 +137,8 @@ class TetrahedronForce(ForceTerm):
         inverse_transpose = np.swapaxes(geometry.inverse_rest, 1, 2)
         if first_piola.ndim == 4:
             inverse_transpose = inverse_transpose[:, None]
-        return -broadcast_per_element(geometry.volume, first_piola) * (first_piola @ inverse_transpose)
+        return (-broadcast_per_element(geometry.volume, first_piola)
+                * (first_piola @ inverse_transpose))
 
     def force(self, model, positions, velocities):
         return self.force_of(_stateless(model), positions, velocities)
@@ -165,14 +166,10 @@ class TetrahedronForce(ForceTerm):
         F, F_rate = state.F[:, None], state.F_rate[:, None]
         d_green = _sym(np.swapaxes(F, -1, -2) @ dF)
         d_green_rate = _sym(np.swapaxes(dF, -1, -2) @ F_rate + np.swapaxes(F, -1, -2) @ dF_rate)
-        d_theta = _trace_product(state.law.N[:, None], d_green)      # (K, P)
+        d_theta = _trace_product(state.at.N[:, None], d_green)       # (K, P)
         d_theta_rate = np.trace(d_green_rate, axis1=-2, axis2=-1)
         d_pressure, d_pressure_rate = constants.pressures(d_theta, d_theta_rate)
-        d_stress = (broadcast_per_element(constants.shear, d_green) * state.law.dD(d_green)
-                    + broadcast_per_element(constants.shear_rate, d_green) * d_green_rate
-                    + d_pressure[..., None, None] * state.law.N[:, None]
-                    + broadcast_per_element(state.pressure, d_green) * state.law.dN(d_green)
-                    + d_pressure_rate[..., None, None] * np.eye(3))
+        d_stress = state.at.jvp(d_green, d_green_rate, d_pressure, d_pressure_rate)
         d_piola = dF @ state.stress[:, None] + F @ d_stress
         return geometry.scatter(self._columns(geometry, d_piola), len(positions))
 
@@ -184,15 +181,12 @@ class TetrahedronForce(ForceTerm):
         # cotangent of [f1 f2 f3] (columns): λ_{n_j} - λ_{n_0}
         lam_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
         lam_stress = _sym(np.swapaxes(state.F, 1, 2) @ lam_piola)
-        law = state.law
-        lam_theta = constants.pressure_transpose(_trace_product(lam_stress, law.N))[0]
-        lam_theta_rate = constants.pressure_transpose(np.trace(lam_stress, axis1=1,
-                                                               axis2=2))[1]
-        lam_green = (constants.shear[:, None, None] * law.dD(lam_stress)
-                     + state.pressure[:, None, None] * law.dN(lam_stress)
-                     + lam_theta[:, None, None] * law.N)
-        lam_green_rate = (constants.shear_rate[:, None, None] * lam_stress
-                          + lam_theta_rate[:, None, None] * np.eye(3))
+        lam_green, lam_green_rate, lam_pressure, lam_pressure_rate = state.at.vjp(lam_stress)
+        # π and π̇ through the volumetric strains θ(G) and θ̇ = tr Ġ
+        lam_theta = constants.pressure_transpose(lam_pressure)[0]
+        lam_theta_rate = constants.pressure_transpose(lam_pressure_rate)[1]
+        lam_green = lam_green + lam_theta[:, None, None] * state.at.N
+        lam_green_rate = lam_green_rate + lam_theta_rate[:, None, None] * np.eye(3)
         F, F_rate = state.F, state.F_rate
         lam_F = lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
         lam_F_rate = F @ lam_green_rate
@@ -211,12 +205,12 @@ class TetrahedronForce(ForceTerm):
         E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
                       model.element_viscosity)
         _, b, _, db = lame_factors(nu)
-        stresses = {"youngs_modulus": 2 * b[:, None, None] * state.law.D,
-                    "viscosity": 2 * b[:, None, None] * state.green_rate,
+        by = state.at.partials()                # ∂S by 2μ, 2μβ, π, π̇ (S is linear in each)
+        stresses = {"youngs_modulus": 2 * b[:, None, None] * by["shear"],
+                    "viscosity": 2 * b[:, None, None] * by["shear_rate"],
                     "poisson_ratio": 2 * db[:, None, None] * (
-                        E[:, None, None] * state.law.D + eta[:, None, None] * state.green_rate),
-                    "pressure": state.law.N,
-                    "pressure_rate": np.broadcast_to(np.eye(3), state.F.shape)}
+                        E[:, None, None] * by["shear"] + eta[:, None, None] * by["shear_rate"]),
+                    "pressure": by["pressure"], "pressure_rate": by["pressure_rate"]}
         local = {name: corner_forces(self._columns(geometry, state.F @ stress))
                  for name, stress in stresses.items()}
         return constants, state, local
