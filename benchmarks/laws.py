@@ -39,6 +39,7 @@ DATA = {"large strain": ROOT / "tests" / "data" / "neo_hookean_block_large_strai
 MESHES = {"vox 7.5 mm": {"pitch": 0.0075}, "vox 5 mm": {"pitch": 0.005},
           "TetGen 8 mm": {"tetgen": True, "max_edge": 0.008},
           "vox 3.3 mm": {"pitch": 0.01 / 3}, "vox 2.5 mm": {"pitch": 0.0025},
+          "vox 1.7 mm": {"pitch": 0.01 / 6},
           # Kuhn cells of 2.5 / 1.7 mm under the probe, widening to 3.7-5 mm elsewhere
           "graded 2.5 mm": {"graded": 0.0025}, "graded 1.7 mm": {"graded": 0.01 / 6}}
 #: the meshes of a default run (vox 2.5 mm, 18,432 tetrahedra, takes 10 minutes a fit)
