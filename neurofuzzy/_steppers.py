@@ -146,7 +146,7 @@ class NumbaStepper:
         # one run from the given state: no window starts, no substep states kept
         none = np.zeros((0, model.n_nodes, 3), dtype=self.dtype)
         self.no_windows = (np.zeros(0, np.intp), none, none, none, none,
-                           np.zeros((0,) + self.history.shape[1:] , dtype=self.dtype), none)
+                           np.zeros((0,) + self.history.shape, dtype=self.dtype), none)
         if NumbaStepper._kernel is None:
             NumbaStepper._kernel, NumbaStepper._frames_kernel = _compile()
 
