@@ -248,13 +248,15 @@ def _element_arrays(model, dtype, h: float):
                     geometry.average @ total["lam_rate"]) if nodal else (np.zeros(n_nodes),) * 3)
     return (np.array(geometry.nodes, np.intp, order="C"),
             np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
-            np.ascontiguousarray(materials.law, np.intp),
-            np.ascontiguousarray(model.element_stiffening, dtype),
+            # copies of the model's (read-only) arrays: a read-only argument is another type to
+            # numba, and the learners pass writable ones (one compiled driver for both)
+            np.array(materials.law, np.intp, order="C"),
+            np.array(model.element_stiffening, dtype, order="C"),
             *(np.asarray(total[key], dtype) for key in ("shear", "shear_rate", "lam",
                                                        "lam_rate")),
             nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
             np.zeros((n_nodes, 2), dtype),
-            np.ascontiguousarray(model.element_relaxation_moduli, dtype),
+            np.array(model.element_relaxation_moduli, dtype, order="C"),
             np.ascontiguousarray(decay(model.element_relaxation_times, h), dtype),
             np.zeros((model.mesh.n_tetrahedra, model.n_relaxation_terms, 6), dtype))
 

@@ -138,8 +138,10 @@ class CompiledModel:
             node_values = (np.zeros(n_nodes),) * 3
         return (np.array(geometry.nodes, np.intp, order="C"),
                 np.ascontiguousarray(geometry.inverse_rest), geometry.volume,
-                np.ascontiguousarray(own.law, np.intp),
-                np.ascontiguousarray(model.element_stiffening, float),
+                # writable copies of the model's read-only arrays: a read-only argument is
+                # another type to numba, and simulate's stepper passes writable ones
+                np.array(own.law, np.intp, order="C"),
+                np.array(model.element_stiffening, float, order="C"),
                 *(np.ascontiguousarray(total[key], float)
                   for key in ("shear", "shear_rate", "lam", "lam_rate")),
                 own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
@@ -161,8 +163,8 @@ class CompiledModel:
                 ties = model.n_element_ties
                 columns[:, :, side] = (block.start + np.arange(k)[None, :] * ties
                                        + model.element_tie[:, None])
-        return (np.ascontiguousarray(model.element_relaxation_moduli, float),
-                np.ascontiguousarray(model.element_relaxation_times, float), columns)
+        return (np.array(model.element_relaxation_moduli, float, order="C"),
+                np.array(model.element_relaxation_times, float, order="C"), columns)
 
     @staticmethod
     def _stiffening(model, columns):
