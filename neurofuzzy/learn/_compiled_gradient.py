@@ -8,7 +8,7 @@ import numpy as np
 
 from ..effects.compiled import CUBIC
 from ..forces.relaxation import decay
-from ._compiled import CompiledModel
+from ._compiled import CompiledModel, _windows
 from ._passes import Run
 
 __all__ = ["compiled_gradient"]
@@ -23,17 +23,16 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     param = sensitivity.parameters
     compiled = CompiledModel(param, model)
     a, b, stiffness, damping, rest, cubic, pointer, column, basis, factor = compiled.springs
-    drag, drag_column, direction, constant, spans = compiled.effects
+    drag, drag_column, direction, _, spans = compiled.effects
     elements = compiled.elements[:13]       # the elements and their constants
     kappa, kappa_column = compiled.elements[-3:-1]      # their strain stiffening
     n_frames, observation = experiment.n_frames, experiment.observation
-    starts = set(int(t) for t in starts) | {0}
-    start_index = np.full(n_frames, -1, np.intp)
-    start_index[sorted(starts)] = np.arange(len(starts))
+    states = {t: sensitivity._window_state(experiment, t)
+              for t in set(int(t) for t in starts) | {0}}
+    start_index = _windows(n_frames, states)[0]
     # the forward sweep (simulate's driver), keeping every substep's state
     positions, (states_p, states_v, states_r, states_f) = compiled.frames(
-        experiment, {t: sensitivity._window_state(experiment, t) for t in starts},
-        substeps=substeps, keep=True)
+        experiment, states, substeps=substeps, keep=True)
     h = experiment.dt / substeps
     weight = np.ascontiguousarray(compiled.weight, dtype=float)
     relax_g, times, relax_column = compiled.relaxation
