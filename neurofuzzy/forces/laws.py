@@ -167,18 +167,19 @@ class ElementStress:
     kappa: float = 0.0
 
     @classmethod
-    def strains(cls, law: np.ndarray, G: np.ndarray, stiffening=None):
+    def strains(cls, law: np.ndarray, G: np.ndarray):
         """``(θ, N)`` of every element's law at its Green strain ``G`` (K, 3, 3): what the
-        volumetric stresses ``π``, ``π̇`` (the caller's) are formed from. An element
-        squeezed flat gives NaN (the run diverges and says so)."""
+        volumetric stresses ``π``, ``π̇`` (the caller's) are formed from (the kernels'
+        :func:`~neurofuzzy.kernels.laws.volumetric`; no law's ``θ`` depends on its own
+        constant). An element squeezed flat gives NaN (the run diverges and says so)."""
         # imported on use, here and below: the model imports this module for the laws'
         # names, and numba should load only when a law is evaluated
-        from ..kernels.laws import law_arrays
+        from ..kernels.laws import volumetric_arrays
 
         K = len(G)
-        law, strains, c = _compiled_arguments(law, G, stiffening)
-        D, N, theta = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty(K)
-        law_arrays(law, strains, c, D, N, theta)
+        law, strains, _ = _compiled_arguments(law, G, None)
+        N, theta = np.empty((K, 1, 3, 3)), np.empty(K)
+        volumetric_arrays(law, strains, theta, N)
         return theta.astype(G.dtype, copy=False), N[:, 0].astype(G.dtype, copy=False)
 
     @classmethod
@@ -187,7 +188,7 @@ class ElementStress:
         """The stress of elements of laws ``law`` (K,) at ``G``, ``Gd`` (K, 3, 3) with
         their constants (K,) and the strain stiffening ``kappa``; ``volumetric`` is ``(θ,
         N)`` from :meth:`strains` when the caller has it."""
-        theta, N = volumetric if volumetric is not None else cls.strains(law, G, stiffening)
+        theta, N = volumetric if volumetric is not None else cls.strains(law, G)
         law, G6, c = _compiled_arguments(law, G, stiffening)
         K = len(law)
 
@@ -261,8 +262,12 @@ def stiffening_slope(law: np.ndarray, G: np.ndarray, stiffening) -> np.ndarray:
     """(K, 3, 3): ``∂D/∂c`` of every element at its Green strain ``G`` (K, 3, 3), ``c`` the
     law's own constant (:data:`STIFFENING_CONSTANT`; zero for the laws without one), exact
     (the compiled law's complex-step derivative)."""
+    from ..kernels.laws import stiffening_slopes
+
     law, strains, c = _compiled_arguments(law, G, stiffening)
-    return _slopes(law, strains, c, np.zeros_like(G), 1.0, 0.0, constant=1.0)
+    out = np.empty_like(strains)
+    stiffening_slopes(law, strains, c, out)
+    return out[:, 0].astype(np.asarray(G).dtype, copy=False)
 
 
 def _compiled_arguments(law, G, stiffening):
@@ -272,16 +277,6 @@ def _compiled_arguments(law, G, stiffening):
             np.ascontiguousarray(np.asarray(G, float).reshape(K, 1, 3, 3)),
             np.ascontiguousarray(np.broadcast_to(
                 np.asarray(0.0 if stiffening is None else stiffening, float), (K,))))
-
-
-def _slopes(law, strains, c, X, shear, pressure, constant=0.0):
-    """The law's slopes along symmetric directions ``X`` (K, ..., 3, 3)."""
-    from ..kernels.laws import law_slopes
-
-    directions = np.ascontiguousarray(np.asarray(X, float).reshape(len(law), -1, 3, 3))
-    out = np.empty_like(directions)
-    law_slopes(law, strains, c, directions, shear, pressure, constant, out)
-    return out.reshape(X.shape).astype(X.dtype, copy=False)
 
 
 def uniaxial_stress(law, youngs_modulus: float, poisson_ratio: float, stretches,
@@ -300,7 +295,7 @@ def uniaxial_stress(law, youngs_modulus: float, poisson_ratio: float, stretches,
     def stress(axial, lateral):
         G = np.diag([0.5 * (axial**2 - 1), 0.5 * (lateral**2 - 1), 0.5 * (lateral**2 - 1)])
         law, c = np.array([number]), [stiffening]
-        theta, N = ElementStress.strains(law, G[None], c)
+        theta, N = ElementStress.strains(law, G[None])
         return ElementStress.at(law, G[None], np.zeros((1, 3, 3)), 2 * mu, 0.0, lam * theta,
                                 0.0, c, (theta, N)).stress()[0]
 

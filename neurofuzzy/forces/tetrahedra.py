@@ -123,7 +123,7 @@ class TetrahedronForce(ForceTerm):
         F_rate = geometry.edges(velocities) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
-        theta, N = ElementStress.strains(constants.law, green, constants.stiffening)
+        theta, N = ElementStress.strains(constants.law, green)
         theta_rate = np.trace(green_rate, axis1=1, axis2=2)
         pressure, pressure_rate = constants.pressures(theta, theta_rate)
         at = ElementStress.at(constants.law, green, green_rate, constants.shear,

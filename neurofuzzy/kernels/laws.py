@@ -249,32 +249,24 @@ def _write(out, e, m, S):
 
 
 @numba.njit(cache=True, nogil=True)
-def law_arrays(law, G, stiffening, D, N, theta):
-    """Fill ``D``, ``N`` (K, 1, 3, 3) and ``θ`` (K,) of K elements of laws ``law`` (K,) at
-    symmetric Green strains ``G`` (K, 1, 3, 3) with their constants ``stiffening`` (K,):
-    ``D`` the law's stress of unit shear constant, ``N`` of unit ``π`` (``S = shear D + π
-    N``), ``θ`` its volumetric strain."""
+def volumetric_arrays(law, G, theta, N):
+    """:func:`volumetric` of K elements of laws ``law`` (K,) at symmetric Green strains ``G``
+    (K, 1, 3, 3): ``θ`` into ``theta`` (K,), ``∂θ/∂G`` into ``N`` (K, 1, 3, 3)."""
     for e in range(law.shape[0]):
-        g = _entries(G, e, 0)
-        d, t = elastic(law[e], g, 1.0, 0.0, stiffening[e])
-        _write(D, e, 0, d)
-        _write(N, e, 0, elastic(law[e], g, 0.0, 1.0, stiffening[e])[0])
+        t, n = volumetric(law[e], _entries(G, e, 0))
         theta[e] = t
+        _write(N, e, 0, n)
 
 
 @numba.njit(cache=True, nogil=True)
-def law_slopes(law, G, stiffening, X, shear, pressure, constant, out):
-    """``out[e, m]`` (K, M, 3, 3): the derivative of the law's stress ``shear D + π N`` of
-    element ``e`` at ``G[e, 0]`` along the symmetric ``X[e, m]`` plus ``constant`` times its
-    derivative by the law's own constant, from :func:`stress_jvp` (``dD``: shear 1, π 0;
-    ``dN``: shear 0, π 1; ``∂D/∂c``: shear 1, ``X`` 0, constant 1)."""
+def stiffening_slopes(law, G, stiffening, out):
+    """``out[e, 0]`` (K, 1, 3, 3): the derivative of element ``e``'s stress of unit shear
+    constant by the law's own constant (:func:`stress_jvp` along ``stiffening``)."""
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for e in range(law.shape[0]):
-        g = _entries(G, e, 0)
-        for m in range(X.shape[1]):
-            _write(out, e, m, stress_jvp(law[e], g, zero, _entries(X, e, m), zero, shear, 0.0,
-                                         pressure, 0.0, 0.0, stiffening[e], 0.0, 0.0, 0.0,
-                                         0.0, 0.0, constant))
+        _write(out, e, 0, stress_jvp(law[e], _entries(G, e, 0), zero, zero, zero, 1.0, 0.0,
+                                     0.0, 0.0, 0.0, stiffening[e], 0.0, 0.0, 0.0, 0.0, 0.0,
+                                     1.0))
 
 
 @numba.njit(cache=True, nogil=True)

@@ -281,24 +281,21 @@ def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volu
                 step += substeps
         elif t > 0:
             load = loads[min(t - 1, loads.shape[0] - 1)]
-            if keep:
-                for _ in range(substeps):
+            # substeps at once, or (keeping every substep's state) one at a time
+            at_once = 1 if keep else substeps
+            for _ in range(substeps // at_once):
+                if keep:
                     states_p[step] = p
                     states_v[step] = v
                     if relax_g.shape[1]:
                         states_r[step] = history
-                    advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest,
-                            volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
-                            node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                            relax_decay, history, kappa, drag, weight, load, h, 1, force)
-                    if states_f.shape[0]:
-                        states_f[step] = force      # the step's force (advance leaves it)
-                    step += 1
-            else:
                 advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume,
                         law, stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume,
                         node_lam, node_lam_rate, node_strain, relax_g, relax_decay, history,
-                        kappa, drag, weight, load, h, substeps, force)
+                        kappa, drag, weight, load, h, at_once, force)
+                if states_f.shape[0]:               # (kept only with the states)
+                    states_f[step] = force          # the step's force (advance leaves it)
+                step += 1
             if not np.isfinite(p.sum()):
                 positions[t:] = np.nan
                 if velocities.shape[0]:
