@@ -26,30 +26,35 @@ import numpy as np
 __all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
 
 
-def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, step_weight,
-                 h: float) -> None:
+def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, weight: np.ndarray,
+                 h: float, *, component_major: bool = False) -> None:
     """The semi-implicit Euler update, in place (eqs. 3.2, 3.1): ``v += h W F``, then
-    ``p += h v``.
-
-    The numpy reference of the compiled :func:`neurofuzzy.kernels.integrator.euler_update`
-    (every numpy path takes this one: :func:`neurofuzzy.simulation.step`, the numpy stepper,
-    the numpy sensitivities and adjoint, the paper's learner). Linear, so it also advances tangents.
+    ``p += h v``: the compiled :func:`neurofuzzy.kernels.integrator.euler_update` (the one
+    update of the package) for the numpy paths (:func:`neurofuzzy.simulation.step`, the numpy
+    stepper, the numpy sensitivities, the paper's learner). Linear, so it also advances
+    tangents.
 
     Parameters
     ----------
     p, v : ndarray
-        Positions and velocities (or their tangents), updated in place.
+        Positions and velocities (n_nodes, 3) or their tangents (n_nodes, P, 3), node-major,
+        or with ``component_major`` (3, n_nodes); updated in place.
     force : ndarray
         The force (or its tangent) at the start of the step, the shape of ``v`` (not changed).
-    step_weight : ndarray
-        ``h W`` (``W = 1/m``, zero at fixed nodes), shaped to broadcast against ``force``:
-        (n_nodes, 1) for node-major (n_nodes, 3) arrays, (n_nodes,) for component-major
-        (3, n_nodes) ones, (n_nodes, 1, 1) for tangents (n_nodes, P, 3).
+    weight : ndarray
+        ``W = 1/m`` (n_nodes,) (any shape of n_nodes entries), zero at fixed nodes.
     h : float
         Step length (s).
     """
-    v += step_weight * force
-    p += h * v
+    from .kernels.integrator import euler_update as update   # on use, as the forces'
+
+    if component_major:
+        p, v, force = p.T, v.T, force.T
+    n = p.shape[0]
+    rows_p, rows_v = p.reshape(n, -1), v.reshape(n, -1)
+    if not (np.shares_memory(rows_p, p) and np.shares_memory(rows_v, v)):
+        raise ValueError("euler_update updates in place: p and v must be contiguous per node")
+    update(rows_p, rows_v, force.reshape(n, -1), np.ascontiguousarray(weight).reshape(n), h)
 
 
 def numba_available() -> bool:
@@ -77,7 +82,7 @@ class NumpyStepper:
             self.incidence = self.incidence.with_dtype(self.dtype)
         self.coefficients = tuple(values.astype(self.dtype) for values in (
             model.spring_stiffness, model.spring_damping, model.spring_rest_length))
-        self.step_weight = (self.h * model.node_inverse_mass).astype(self.dtype)
+        self.weight = model.node_inverse_mass.astype(self.dtype)
         self.fixed = model.mesh.fixed
         self.other_terms = model.force_terms[1:]          # elements and effects
 
@@ -108,7 +113,7 @@ class NumpyStepper:
                 force += load_t
             for term in self.other_terms:
                 force += term.force(self.model, pt.T, vt.T).T
-            euler_update(pt, vt, force, self.step_weight, h)
+            euler_update(pt, vt, force, self.weight, h, component_major=True)
         p[...] = pt.T
         v[...] = vt.T
 

@@ -149,7 +149,7 @@ def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, 
         force = force + external_force
     p, v = np.array(positions, dtype=float), np.array(velocities, dtype=float)
     v[model.mesh.fixed] = 0.0
-    euler_update(p, v, force, h * model.node_inverse_mass[:, None], h)
+    euler_update(p, v, force, model.node_inverse_mass, h)
     return p, v
 
 

@@ -122,3 +122,34 @@ def test_group_sums_split_the_net_force_by_group():
     groups = MODEL.mesh.spring_group
     split = maps.group_sums(per_spring, groups, int(groups.max()) + 1)
     assert np.allclose(split.sum(axis=1), SPRINGS.force(MODEL, p, v))
+
+
+def test_the_spring_magnitude_is_one_law_with_its_own_derivatives():
+    """kernels/springs.py: ``∂m/∂l`` and the partials by s, c, q are the central
+    differences of the magnitude, and the numpy springs and shapes take their values from it."""
+    from neurofuzzy.kernels.springs import CLOSING, CUBIC, STRETCH, magnitudes, partials
+
+    rng = np.random.default_rng(11)
+    n = 20
+    x, xdot = rng.normal(0, 2e-3, n), rng.normal(0, 1e-2, n)
+    s, c, q = rng.uniform(10, 100, n), rng.uniform(0.1, 1, n), rng.uniform(1e5, 1e6, n)
+    value, slope = magnitudes(x, xdot, stiffness=s, damping=c, cubic=q)
+    np.testing.assert_allclose(value, s * x + c * xdot + q * x**3, rtol=1e-13)
+    h = 1e-7
+    step = magnitudes(x + h, xdot, stiffness=s, damping=c, cubic=q)[0]
+    back = magnitudes(x - h, xdot, stiffness=s, damping=c, cubic=q)[0]
+    np.testing.assert_allclose(slope, (step - back) / (2 * h), rtol=1e-6)
+    for basis, name in ((STRETCH, "stiffness"), (CLOSING, "damping"), (CUBIC, "cubic")):
+        constants = {"stiffness": s, "damping": c, "cubic": q}
+        up = magnitudes(x, xdot, **{**constants, name: constants[name] + 1.0})[0]
+        down = magnitudes(x, xdot, **{**constants, name: constants[name] - 1.0})[0]
+        np.testing.assert_allclose(partials(basis, x, xdot), (up - down) / 2, rtol=1e-6,
+                                   atol=1e-18)
+    model = paper_cube_model()
+    p = model.mesh.rest_positions * 1.01
+    v = rng.normal(0, 1e-3, p.shape)
+    state = SPRINGS.state(model, p, v)
+    np.testing.assert_array_equal(
+        SPRINGS.magnitude(model, state),
+        magnitudes(state.stretch, state.closing_speed, stiffness=model.spring_stiffness,
+                   damping=model.spring_damping)[0])

@@ -42,6 +42,6 @@ from .hyperelasticity import Hyperelasticity
 from .relaxation import Relaxation
 
 __all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
-           "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "Relaxation", "EFFECTS", "register",
-           "effect_to_dict",
-           "effect_from_dict", "term_kinds", "per_unit_mass_force"]
+           "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "Relaxation", "EFFECTS",
+           "register", "effect_to_dict", "effect_from_dict", "term_kinds",
+           "per_unit_mass_force"]

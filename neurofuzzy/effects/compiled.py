@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..forces.tetra_geometry import ElementConstants
+from ..kernels.springs import CLOSING, CUBIC, STRETCH
 from .inclusions import SoftInclusion, StiffInclusion
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .stiffening import NonlinearStiffening
@@ -30,10 +31,6 @@ __all__ = ["CONSTANT", "STRETCH", "CLOSING", "CUBIC", "element_inclusion",
 CONSTANT = (Gravity, UnmodeledLoad)
 
 
-#: the spring kernels' bases of a parameter's derivative of a spring's magnitude
-#: ``m = s x + c ẋ + q x³`` (``x = l - L0``, ``ẋ`` the closing speed, ``q = κ / L0²``):
-#: ``x``, ``ẋ``, ``x³``
-STRETCH, CLOSING, CUBIC = 0, 1, 2
 
 
 def spring_effect(effect) -> bool:

@@ -78,7 +78,11 @@ class _Inclusion(SpringEffect):
         return (-1, -2, 1) if self.on_elements else (0, -2, 1)
 
     def shape(self, model, state, selection):
-        return state.stretch, np.ones_like(state.stretch)
+        """``(x, 1)``: the magnitude of a unit extra stiffness
+        (:func:`neurofuzzy.kernels.springs.magnitude`)."""
+        from ..kernels.springs import magnitudes   # on use, as the springs' own
+
+        return magnitudes(state.stretch, stiffness=1.0)
 
     # -- elements -----------------------------------------------------------------------------
     def added_constants(self, model, extra: float) -> ElementConstants:

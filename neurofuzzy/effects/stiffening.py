@@ -83,8 +83,11 @@ class NonlinearStiffening(SpringEffect):
         return (-1, -2, 1) if self.on_elements else (0, -2, 1)
 
     def shape(self, model, state, selection):
-        rest2 = model.spring_rest_length[selection] ** 2
-        return state.stretch**3 / rest2, 3 * state.stretch**2 / rest2
+        """``(x³ / L0², 3 x² / L0²)``: the magnitude of a unit κ, ``q = κ / L0²``
+        (:func:`neurofuzzy.kernels.springs.magnitude`)."""
+        from ..kernels.springs import magnitudes   # on use, as the springs' own
+
+        return magnitudes(state.stretch, cubic=model.spring_rest_length[selection] ** -2.0)
 
     @classmethod
     def examples(cls, model):

@@ -105,9 +105,17 @@ class SpringForce(ForceTerm):
 
     def magnitude(self, model, state: SpringState, stiffness=None, damping=None) -> np.ndarray:
         """(n_springs,) ``m = s (l - L0) + c (v_b - v_a)·u`` (eq. 3.4)."""
+        return self.magnitude_and_slope(model, state, stiffness, damping)[0]
+
+    def magnitude_and_slope(self, model, state: SpringState, stiffness=None, damping=None):
+        """``(m, ∂m/∂l)``, each (n_springs,): the compiled
+        :func:`neurofuzzy.kernels.springs.magnitude` over arrays, with the model's constants
+        or ``stiffness`` / ``damping`` (n_springs,) instead."""
+        from ..kernels.springs import magnitudes   # on use: numba loads when a force is
+
         s = model.spring_stiffness if stiffness is None else stiffness
         c = model.spring_damping if damping is None else damping
-        return s * state.stretch + c * state.closing_speed
+        return magnitudes(state.stretch, state.closing_speed, stiffness=s, damping=c)
 
     def force(self, model, positions, velocities):
         """(n_nodes, 3) net spring force on every node (eq. 3.4 summed as in eq. 3.3)."""
@@ -142,16 +150,18 @@ class SpringForce(ForceTerm):
         Returns ``{"stiffness": (l - L0) u, "damping": ((v_b - v_a)·u) u}``, each
         (n_springs, 3); node a gets ``+``, node b ``-`` (:meth:`Incidence.accumulate`).
         """
+        from ..kernels.springs import CLOSING, STRETCH, partials
+
         u = state.direction
-        return {"stiffness": state.stretch[:, None] * u,
-                "damping": state.closing_speed[:, None] * u}
+        return {name: partials(basis, state.stretch, state.closing_speed)[:, None] * u
+                for name, basis in (("stiffness", STRETCH), ("damping", CLOSING))}
 
     def state_jvp(self, model, positions, velocities, dp, dv, state=None):
         maps = incidence(model.mesh)
         state = self.state(model, positions, velocities) if state is None else state
-        s, c = model.spring_stiffness, model.spring_damping
-        df = central_jvp(state, self.magnitude(model, state), s, c, maps.difference(dp),
-                         maps.difference(dv))
+        # ∂m/∂c is the damping (m is linear in the closing speed)
+        df = central_jvp(state, *self.magnitude_and_slope(model, state), model.spring_damping,
+                         maps.difference(dp), maps.difference(dv))
         return maps.accumulate(df)
 
     def state_vjp(self, model, positions, velocities, cotangent, state=None):
@@ -165,14 +175,17 @@ class SpringForce(ForceTerm):
         Returns ``(λ_p, λ_v, {"stiffness": (n_springs,), "damping": (n_springs,)})``: the
         pull-backs to positions and velocities and ``λ · ∂F/∂s_j``, ``λ · ∂F/∂c_j``.
         """
+        from ..kernels.springs import CLOSING, STRETCH, partials
+
         maps = incidence(model.mesh)
-        s, c = model.spring_stiffness, model.spring_damping
         lam_f = -maps.difference(cotangent)                 # λ_a - λ_b per spring
-        lam_d, lam_dv = central_vjp(state, self.magnitude(model, state), s, c, lam_f)
+        lam_d, lam_dv = central_vjp(state, *self.magnitude_and_slope(model, state),
+                                    model.spring_damping, lam_f)
         # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
         along = np.einsum("ij,ij->i", state.direction, lam_f)
         return (-maps.accumulate(lam_d), -maps.accumulate(lam_dv),
-                {"stiffness": state.stretch * along, "damping": state.closing_speed * along})
+                {name: partials(basis, state.stretch, state.closing_speed) * along
+                 for name, basis in (("stiffness", STRETCH), ("damping", CLOSING))})
 
     # -- the springs' own parameters -------------------------------------------------------
     def parameter_values(self, model):

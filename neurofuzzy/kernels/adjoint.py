@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from .integrator import euler_update_transpose
+from .springs import CLOSING, CUBIC, STRETCH, partial
 from .stepper import spring_state
 from .tuples import _edges, _full, _green, _mul, _sym_dot, _sym_t_mul
 from .laws import stress, stress_vjp, volumetric
@@ -297,10 +298,10 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
                 fy = lam_force[ia, 1] - lam_force[ib, 1]
                 fz = lam_force[ia, 2] - lam_force[ib, 2]
                 along = ux * fx + uy * fy + uz * fz
-                d_springs[0, j] += stretch * along
-                d_springs[1, j] += closing * along
+                d_springs[0, j] += partial(STRETCH, stretch, closing) * along
+                d_springs[1, j] += partial(CLOSING, stretch, closing) * along
                 if cubic_basis:                  # a learned stiffening
-                    d_springs[2, j] += stretch * stretch * stretch * along
+                    d_springs[2, j] += partial(CUBIC, stretch, closing) * along
                 # central_vjp with ∂m/∂l = slope, ∂m/∂c = c
                 ratio = magnitude / length
                 rate = damping[j] * along / length

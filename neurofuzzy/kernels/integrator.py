@@ -9,8 +9,8 @@ One step of length ``h`` with the forces ``F`` evaluated at the start of the ste
 :mod:`neurofuzzy.kernels.sensitivity` and :mod:`neurofuzzy.kernels.adjoint`) and, because the
 update is linear, its tangents (``(n_nodes, 3 P)``: ``tv' = tv + h W dF``, ``tp' = tp + h tv'``,
 the forward sensitivities). :func:`euler_update_transpose` is its adjoint, the backward sweep
-of :mod:`neurofuzzy.kernels.adjoint`. The numpy reference of the same update is
-:func:`neurofuzzy.simulation.euler_update`.
+of :mod:`neurofuzzy.kernels.adjoint`. The numpy paths call the same update over their arrays
+through :func:`neurofuzzy.simulation.euler_update`.
 """
 
 import numba

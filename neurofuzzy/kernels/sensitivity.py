@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from .integrator import euler_update
+from .springs import partial
 from .stepper import _spring
 from .laws import stress, stress_jvp, volumetric
 from .relaxation import relax, relaxation_tangent, relaxed_stress
@@ -42,7 +43,7 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
     ``q`` that of parameter ``first + q``; ``work`` (3, P) holds one spring's tangent
     force. The parameters' derivatives of spring ``j``'s magnitude are the CSR entries
     ``spring_ptr[j] .. spring_ptr[j + 1]``: ``factor · basis`` for parameter ``column``, basis
-    0 the stretch ``x``, 1 the closing speed, 2 ``x³`` (:func:`.stepper.spring_state`;
+    0 the stretch ``x``, 1 the closing speed, 2 ``x³`` (:func:`.springs.partial`;
     ``log s`` has the factor ``s``, an inclusion's ``k`` the factor 1, a stiffening's ``κ``
     the factor ``1 / L0²`` of basis 2, ``x³``). ``cubic`` holds the ``q`` of the last
     springs, as in :func:`.stepper._springs`."""
@@ -83,14 +84,7 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
         for entry in range(spring_ptr[j], spring_ptr[j + 1]):
             column = spring_column[entry] - first
             if 0 <= column < n_params:
-                basis = spring_basis[entry]
-                if basis == 0:
-                    extra = stretch
-                elif basis == 1:
-                    extra = closing
-                else:
-                    extra = stretch * stretch * stretch
-                extra *= spring_factor[entry]
+                extra = spring_factor[entry] * partial(spring_basis[entry], stretch, closing)
                 tx[column] += extra * ux
                 ty[column] += extra * uy
                 tz[column] += extra * uz

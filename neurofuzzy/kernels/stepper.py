@@ -14,16 +14,17 @@ import numpy as np
 from .integrator import euler_update
 from .laws import ST_VENANT_KIRCHHOFF, stress, volumetric
 from .relaxation import relax, relaxed_stress
+from .springs import magnitude
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
     """The spring force of paper eqs. 3.4–3.6 with the spring effects' strain stiffening,
     once for every sweep: direction ``u``, length ``l``, closing speed ``(v_b - v_a)·u``,
-    stretch ``x = l - L0``, the magnitude ``m = s x + c closing + q x³`` and its length
-    derivative ``s + 3 q x²``, as ``(ux, uy, uz, length, closing, stretch, magnitude,
-    slope)``: ``stiffness`` holds the spring inclusions' extra stiffness, ``cubic`` the
-    stiffening's ``q = κ / L0²`` (0 for none)."""
+    stretch ``x = l - L0``, the magnitude ``m`` and its length derivative
+    (:func:`neurofuzzy.kernels.springs.magnitude`), as ``(ux, uy, uz, length, closing,
+    stretch, magnitude, slope)``: ``stiffness`` holds the spring inclusions' extra
+    stiffness, ``cubic`` the stiffening's ``q = κ / L0²`` (0 for none)."""
     dx = p[ib, 0] - p[ia, 0]
     dy = p[ib, 1] - p[ia, 1]
     dz = p[ib, 2] - p[ia, 2]
@@ -32,13 +33,8 @@ def spring_state(p, v, ia, ib, stiffness, damping, rest, cubic):
     closing = ((v[ib, 0] - v[ia, 0]) * ux + (v[ib, 1] - v[ia, 1]) * uy
                + (v[ib, 2] - v[ia, 2]) * uz)
     stretch = length - rest
-    magnitude = stiffness * stretch + damping * closing
-    slope = stiffness
-    if cubic != 0.0:                   # compiled away where the caller passes 0.0
-        square = cubic * stretch * stretch
-        magnitude += square * stretch
-        slope += 3.0 * square
-    return ux, uy, uz, length, closing, stretch, magnitude, slope
+    value, slope = magnitude(stiffness, damping, cubic, stretch, closing)
+    return ux, uy, uz, length, closing, stretch, value, slope
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

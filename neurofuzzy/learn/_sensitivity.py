@@ -210,9 +210,9 @@ class Sensitivity:
                                 inertial = force - per_unit_mass_force(model, p, v)
                                 d_force[nodes, mass_rows] -= inertial[nodes]
                             tp, tv = tp.copy(), tv.copy()
-                            euler_update(tp, tv, d_force, (h * weight)[:, :, None], h)
+                            euler_update(tp, tv, d_force, weight, h)
                         p, v = p.copy(), v.copy()
-                        euler_update(p, v, force, h * weight, h)
+                        euler_update(p, v, force, weight, h)
                     if tangents:
                         jacobian[t - 1] = (observation.apply(tp).transpose(0, 2, 1)
                                            / self.length_unit * seen[t][:, None, None])
@@ -289,7 +289,7 @@ class Sensitivity:
                     states.append((t, p, v))
                     force = self._force(model, p, v, SPRINGS.state(model, p, v)) + loads[t - 1]
                     p, v = p.copy(), v.copy()
-                    euler_update(p, v, force, h * weight, h)
+                    euler_update(p, v, force, weight, h)
                 positions[t] = p
         scale = 1.0 / self.length_unit
         with np.errstate(over="ignore", invalid="ignore"):

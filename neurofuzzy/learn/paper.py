@@ -171,7 +171,7 @@ class PaperLearner(Learner):
                 force += effect.force(model, p, v)
             force += loads[t - 1]
             p_new, v = p.copy(), v.copy()
-            euler_update(p_new, v, force, h * w[:, None], h)
+            euler_update(p_new, v, force, w, h)
             # 2. error E(t) (eqs. 2.2, 2.3) and 3. error rates (3.7–3.9, 3.14)
             e = np.where(tracked[t][:, None], targets[t] - p_new, 0.0)
             error += 0.5 * float(np.sum(e * e)) / length_unit**2
