@@ -18,6 +18,7 @@ numpy stepper, which adds the effect forces at every step.
 
 from __future__ import annotations
 
+import functools
 import threading
 import weakref
 
@@ -46,15 +47,23 @@ def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, weight: np.nda
     h : float
         Step length (s).
     """
-    from .kernels.integrator import euler_update as update   # on use, as the forces'
-
     if component_major:
         p, v, force = p.T, v.T, force.T
-    n = p.shape[0]
-    rows_p, rows_v = p.reshape(n, -1), v.reshape(n, -1)
-    if not (np.shares_memory(rows_p, p) and np.shares_memory(rows_v, v)):
-        raise ValueError("euler_update updates in place: p and v must be contiguous per node")
-    update(rows_p, rows_v, force.reshape(n, -1), np.ascontiguousarray(weight).reshape(n), h)
+    if p.ndim != 2:                                      # tangents (n_nodes, P, 3)
+        n = p.shape[0]
+        rows_p, rows_v = p.reshape(n, -1), v.reshape(n, -1)
+        if not (np.may_share_memory(rows_p, p) and np.may_share_memory(rows_v, v)):
+            raise ValueError("euler_update updates in place: tangents must be contiguous")
+        p, v, force = rows_p, rows_v, force.reshape(n, -1)
+    _compiled_update()(p, v, force, weight if weight.ndim == 1 else weight.reshape(-1), h)
+
+
+@functools.cache
+def _compiled_update():
+    """The compiled update, imported on first use (numba loads when a model is stepped)."""
+    from .kernels.integrator import euler_update
+
+    return euler_update
 
 
 def numba_available() -> bool:

@@ -104,14 +104,18 @@ class SpringForce(ForceTerm):
         return SpringState(d, dv, length, length - rest, closing)
 
     def magnitude(self, model, state: SpringState, stiffness=None, damping=None) -> np.ndarray:
-        """(n_springs,) ``m = s (l - L0) + c (v_b - v_a)·u`` (eq. 3.4)."""
-        return self.magnitude_and_slope(model, state, stiffness, damping)[0]
+        """(n_springs,) ``m = s (l - L0) + c (v_b - v_a)·u`` (eq. 3.4), the compiled
+        :func:`neurofuzzy.kernels.springs.magnitude` over arrays."""
+        from ..kernels.springs import values   # on use: numba loads when a force is
+
+        s = model.spring_stiffness if stiffness is None else stiffness
+        c = model.spring_damping if damping is None else damping
+        return values(state.stretch, state.closing_speed, stiffness=s, damping=c)
 
     def magnitude_and_slope(self, model, state: SpringState, stiffness=None, damping=None):
-        """``(m, ∂m/∂l)``, each (n_springs,): the compiled
-        :func:`neurofuzzy.kernels.springs.magnitude` over arrays, with the model's constants
-        or ``stiffness`` / ``damping`` (n_springs,) instead."""
-        from ..kernels.springs import magnitudes   # on use: numba loads when a force is
+        """``(m, ∂m/∂l)``, each (n_springs,), with the model's constants or ``stiffness`` /
+        ``damping`` (n_springs,) instead."""
+        from ..kernels.springs import magnitudes
 
         s = model.spring_stiffness if stiffness is None else stiffness
         c = model.spring_damping if damping is None else damping
