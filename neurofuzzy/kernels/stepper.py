@@ -145,7 +145,10 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, sh
                                  b22)
             G, Gd = _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11,
                            g12, g20, g21, g22)
-            theta = volumetric(law[e], G)[0]
+            if plain:   # θ = tr G: the off-diagonal strains and the law's dispatch compile away
+                theta = volumetric(ST_VENANT_KIRCHHOFF, G)[0]
+            else:
+                theta = volumetric(law[e], G)[0]
             theta_rate = Gd[0] + Gd[1] + Gd[2]
             corner = 0.25 * volume[e]
             node_strain[n0, 0] += corner * theta
@@ -186,7 +189,10 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, sh
                 pressure_rate = 0.25 * (node_strain[n0, 1] + node_strain[n1, 1]
                                         + node_strain[n2, 1] + node_strain[n3, 1])
         else:
-            pressure = lam[e] * volumetric(law[e], G)[0]
+            if plain:
+                pressure = lam[e] * volumetric(ST_VENANT_KIRCHHOFF, G)[0]
+            else:
+                pressure = lam[e] * volumetric(law[e], G)[0]
             pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
         if plain:                       # the same law, its number a constant of the loop
             S = stress(ST_VENANT_KIRCHHOFF, G, Gd, shear[e], shear_rate[e], pressure,
