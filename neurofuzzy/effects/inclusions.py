@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..forces import TETRAHEDRA, ElementConstants, tetrahedron_geometry
+from ..forces.springs import spring_law
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -80,9 +81,7 @@ class _Inclusion(SpringEffect):
     def shape(self, model, state, selection):
         """``(x, 1)``: the magnitude of a unit extra stiffness
         (:func:`neurofuzzy.kernels.springs.magnitude`)."""
-        from ..kernels.springs import magnitudes   # on use, as the springs' own
-
-        return magnitudes(state.stretch, stiffness=1.0)
+        return spring_law().magnitudes(state.stretch, stiffness=1.0)
 
     # -- elements -----------------------------------------------------------------------------
     def added_constants(self, model, extra: float) -> ElementConstants:

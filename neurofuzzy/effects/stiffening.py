@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import InputError
 from ..forces import TETRAHEDRA, tetrahedron_geometry
 from ..forces.laws import DEFAULT_STIFFENING, LAWS, ElementStress
+from ..forces.springs import spring_law
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -85,9 +86,8 @@ class NonlinearStiffening(SpringEffect):
     def shape(self, model, state, selection):
         """``(x³ / L0², 3 x² / L0²)``: the magnitude of a unit κ, ``q = κ / L0²``
         (:func:`neurofuzzy.kernels.springs.magnitude`)."""
-        from ..kernels.springs import magnitudes   # on use, as the springs' own
-
-        return magnitudes(state.stretch, cubic=model.spring_rest_length[selection] ** -2.0)
+        return spring_law().magnitudes(state.stretch,
+                                       cubic=model.spring_rest_length[selection] ** -2.0)
 
     @classmethod
     def examples(cls, model):

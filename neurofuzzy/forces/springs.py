@@ -20,6 +20,7 @@ derivatives use.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,7 @@ import scipy.sparse as sp
 from .assembly import Incidence, incidence
 from .base import ForceTerm
 
-__all__ = ["SpringState", "SpringForce", "SPRINGS", "central_jvp", "central_vjp"]
+__all__ = ["SpringState", "SpringForce", "SPRINGS", "central_jvp", "central_vjp", "spring_law"]
 
 
 @dataclass(frozen=True)
@@ -106,20 +107,17 @@ class SpringForce(ForceTerm):
     def magnitude(self, model, state: SpringState, stiffness=None, damping=None) -> np.ndarray:
         """(n_springs,) ``m = s (l - L0) + c (v_b - v_a)·u`` (eq. 3.4), the compiled
         :func:`neurofuzzy.kernels.springs.magnitude` over arrays."""
-        from ..kernels.springs import values   # on use: numba loads when a force is
-
         s = model.spring_stiffness if stiffness is None else stiffness
         c = model.spring_damping if damping is None else damping
-        return values(state.stretch, state.closing_speed, stiffness=s, damping=c)
+        return spring_law().values(state.stretch, state.closing_speed, stiffness=s, damping=c)
 
     def magnitude_and_slope(self, model, state: SpringState, stiffness=None, damping=None):
         """``(m, ∂m/∂l)``, each (n_springs,), with the model's constants or ``stiffness`` /
         ``damping`` (n_springs,) instead."""
-        from ..kernels.springs import magnitudes
-
         s = model.spring_stiffness if stiffness is None else stiffness
         c = model.spring_damping if damping is None else damping
-        return magnitudes(state.stretch, state.closing_speed, stiffness=s, damping=c)
+        return spring_law().magnitudes(state.stretch, state.closing_speed, stiffness=s,
+                                       damping=c)
 
     def force(self, model, positions, velocities):
         """(n_nodes, 3) net spring force on every node (eq. 3.4 summed as in eq. 3.3)."""
@@ -154,11 +152,10 @@ class SpringForce(ForceTerm):
         Returns ``{"stiffness": (l - L0) u, "damping": ((v_b - v_a)·u) u}``, each
         (n_springs, 3); node a gets ``+``, node b ``-`` (:meth:`Incidence.accumulate`).
         """
-        from ..kernels.springs import CLOSING, STRETCH, partials
-
-        u = state.direction
-        return {name: partials(basis, state.stretch, state.closing_speed)[:, None] * u
-                for name, basis in (("stiffness", STRETCH), ("damping", CLOSING))}
+        law, u = spring_law(), state.direction
+        return {"stiffness": law.partials(law.STRETCH, state.stretch)[:, None] * u,
+                "damping": law.partials(law.CLOSING, state.stretch,
+                                        state.closing_speed)[:, None] * u}
 
     def state_jvp(self, model, positions, velocities, dp, dv, state=None):
         maps = incidence(model.mesh)
@@ -179,17 +176,16 @@ class SpringForce(ForceTerm):
         Returns ``(λ_p, λ_v, {"stiffness": (n_springs,), "damping": (n_springs,)})``: the
         pull-backs to positions and velocities and ``λ · ∂F/∂s_j``, ``λ · ∂F/∂c_j``.
         """
-        from ..kernels.springs import CLOSING, STRETCH, partials
-
-        maps = incidence(model.mesh)
+        law, maps = spring_law(), incidence(model.mesh)
         lam_f = -maps.difference(cotangent)                 # λ_a - λ_b per spring
         lam_d, lam_dv = central_vjp(state, *self.magnitude_and_slope(model, state),
                                     model.spring_damping, lam_f)
         # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
         along = np.einsum("ij,ij->i", state.direction, lam_f)
         return (-maps.accumulate(lam_d), -maps.accumulate(lam_dv),
-                {name: partials(basis, state.stretch, state.closing_speed) * along
-                 for name, basis in (("stiffness", STRETCH), ("damping", CLOSING))})
+                {"stiffness": law.partials(law.STRETCH, state.stretch) * along,
+                 "damping": law.partials(law.CLOSING, state.stretch, state.closing_speed)
+                 * along})
 
     # -- the springs' own parameters -------------------------------------------------------
     def parameter_values(self, model):
@@ -230,6 +226,16 @@ class SpringForce(ForceTerm):
 
 #: The spring term every model carries.
 SPRINGS = SpringForce()
+
+
+@functools.cache
+def spring_law():
+    """:mod:`neurofuzzy.kernels.springs`, the spring's force law, imported on first use
+    (numba loads when a force is evaluated, not when the package is imported; an import
+    statement in every call would cost the paper learner's 86-spring steps a few per cent)."""
+    from ..kernels import springs
+
+    return springs
 
 
 def projected_laplacian(springs: np.ndarray, direction: np.ndarray, constants: np.ndarray,
