@@ -5,8 +5,9 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - topology: :class:`Mesh`, :func:`lattice`, :func:`from_trimesh`, :func:`from_tetra`,
   :func:`from_surface_tetra`, :func:`bottom_layer`, :func:`surface_nodes`; mesh files:
   :func:`read_mesh`, :class:`MeshFile`
-- physics: :class:`SpringMassModel`, the force terms (:class:`ForceTerm`, :class:`SpringForce`,
-  :data:`SPRINGS`, :class:`TetrahedronForce`, :data:`TETRAHEDRA`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
+- physics: :class:`Model` (a mesh, node masses and force terms; :class:`SpringMassModel` is
+  its former name), the force terms (:class:`ForceTerm`, :class:`Springs`,
+  :class:`Tetrahedra`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
   :class:`StiffInclusion`, :class:`SoftInclusion`, :class:`NonlinearStiffening`,
   :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`, :class:`State`,
   :func:`stability_limit`, :func:`reference_simulate`
@@ -47,9 +48,8 @@ _EXPORTS = {
     "Mesh": "mesh", "bottom_layer": "mesh", "from_surface_tetra": "mesh", "from_tetra": "mesh",
     "from_trimesh": "mesh", "lattice": "mesh", "surface_nodes": "mesh",
     "MeshFile": "mesh", "read_mesh": "mesh",
-    "SpringMassModel": "model",
-    "ForceTerm": "forces", "SpringForce": "forces", "SPRINGS": "forces",
-    "TetrahedronForce": "forces", "TETRAHEDRA": "forces",
+    "Model": "model", "SpringMassModel": "model",
+    "ForceTerm": "forces", "Springs": "forces", "Tetrahedra": "forces",
     "Effect": "effects", "EFFECTS": "effects", "Gravity": "effects", "NodeDrag": "effects",
     "StiffInclusion": "effects", "SoftInclusion": "effects",
     "NonlinearStiffening": "effects", "UnmodeledLoad": "effects",
@@ -90,14 +90,14 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .experiment import (Experiment, check_experiments, rms_error,  # noqa: F401
                              simulate_experiment, simulate_like)
     from .export import export, export_paraview  # noqa: F401
-    from .forces import SPRINGS, TETRAHEDRA, ForceTerm, SpringForce, TetrahedronForce  # noqa: F401
+    from .forces import ForceTerm, Springs, Tetrahedra  # noqa: F401
     from .io import load_experiment, load_model, save_experiment, save_model  # noqa: F401
     from .learn import GradientLearner, PaperLearner, StartModel, estimate_start  # noqa: F401
     from .markers import markers_to_experiment, read_markers  # noqa: F401
     from .mesh import (Mesh, bottom_layer, from_surface_tetra, from_tetra,  # noqa: F401
                        from_trimesh, lattice, surface_nodes)
     from .mesh import MeshFile, read_mesh  # noqa: F401
-    from .model import SpringMassModel  # noqa: F401
+    from .model import Model, SpringMassModel  # noqa: F401
     from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
     from .pipeline import FitFailedError, FitOutcome, fit, start_model  # noqa: F401
     from .validation.integrators import reference_experiment, reference_simulate  # noqa: F401

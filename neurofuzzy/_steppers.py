@@ -77,23 +77,24 @@ def numba_available() -> bool:
 
 class NumpyStepper:
     """Semi-implicit Euler steps on component-major state arrays (3, n_nodes), through the
-    spring term's own force (:meth:`~neurofuzzy.forces.SpringForce.force_components`)."""
+    spring term's own force (:meth:`~neurofuzzy.forces.Springs.force_components`)."""
 
     def __init__(self, model, h: float, dtype=np.float64):
-        from .forces import SPRINGS, incidence
+        from .forces import incidence
 
         self.model = model
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        self.springs = SPRINGS
+        self.springs = springs = model.springs
         self.incidence = incidence(model.mesh)
         if self.dtype != np.float64:
             self.incidence = self.incidence.with_dtype(self.dtype)
-        self.coefficients = tuple(values.astype(self.dtype) for values in (
-            model.spring_stiffness, model.spring_damping, model.spring_rest_length))
+        self.coefficients = None if springs is None else tuple(
+            values.astype(self.dtype)
+            for values in (springs.stiffness, springs.damping, springs.rest_length))
         self.weight = model.node_inverse_mass.astype(self.dtype)
         self.fixed = model.mesh.fixed
-        self.other_terms = model.force_terms[1:]          # elements and effects
+        self.other_terms = model.force_terms[springs is not None:]   # elements and effects
 
     def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
         """Frames 0..n_frames-1 from ``(p, v)`` and the relaxation's internal variables
@@ -116,8 +117,10 @@ class NumpyStepper:
         vt[:, self.fixed] = 0.0
         load_t = None if load is None else np.ascontiguousarray(load.T, dtype=self.dtype)
         for _ in range(n_steps):
-            force = self.springs.force_components(self.model, pt, vt, incidence_=self.incidence,
-                                                  coefficients=self.coefficients)
+            force = (np.zeros_like(pt) if self.springs is None else
+                     self.springs.force_components(self.model, pt, vt,
+                                                   incidence_=self.incidence,
+                                                   coefficients=self.coefficients))
             if load_t is not None:
                 force += load_t
             for term in self.other_terms:

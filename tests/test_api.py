@@ -95,10 +95,10 @@ def test_the_pipeline_through_nf(tmp_path):
 
 
 def test_force_terms_and_effects_are_reachable():
-    assert nf.SPRINGS is nf.SpringMassModel.force_terms.fget(
-        nf.SpringMassModel.uniform(nf.lattice((2, 2, 2)), stiffness=1.0, damping=0.1,
-                                   total_mass=1.0))[0]
-    assert isinstance(nf.SPRINGS, nf.SpringForce) and issubclass(nf.SpringForce, nf.ForceTerm)
+    model = nf.Model.uniform(nf.lattice((2, 2, 2)), stiffness=1.0, damping=0.1, total_mass=1.0)
+    assert model.force_terms == (model.springs,) and nf.SpringMassModel is nf.Model
+    assert isinstance(model.springs, nf.Springs) and issubclass(nf.Springs, nf.ForceTerm)
+    assert issubclass(nf.Tetrahedra, nf.ForceTerm) and model.elements is None
     for cls in (nf.Gravity, nf.NodeDrag, nf.StiffInclusion, nf.SoftInclusion,
                 nf.NonlinearStiffening, nf.UnmodeledLoad):
         assert issubclass(cls, nf.Effect) and nf.EFFECTS[cls.name] is cls

@@ -158,7 +158,7 @@ def test_spring_templates_are_each_springs_force_at_its_two_nodes():
     templates ``s_j (l - L0) u_j`` of every spring (the generic :func:`templates` of a
     per-frame force, the definition)."""
     from neurofuzzy.diagnosis.residuals import sample, spring_templates, templates
-    from neurofuzzy.forces import SPRINGS, incidence
+    from neurofuzzy.forces import incidence
 
     model = paper_cube_model()
     data = paper_cube_experiment(model).first_frames(60)
@@ -166,8 +166,8 @@ def test_spring_templates_are_each_springs_force_at_its_two_nodes():
     maps = incidence(model.mesh)
 
     def force_of(p, v):
-        force = model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
-            SPRINGS.state(model, p, v))["stiffness"]
+        force = model.spring_stiffness[:, None] * model.springs.parameter_templates(
+            model.springs.state(model, p, v))["stiffness"]
         return maps.group_sums(force, np.arange(model.n_springs), model.n_springs)
 
     definition = templates(model, samples, force_of)

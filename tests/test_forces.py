@@ -12,11 +12,11 @@ import pytest
 from neurofuzzy.datasets import paper_cube_model
 from neurofuzzy.effects import (EFFECTS, Gravity, NodeDrag, NonlinearStiffening, StiffInclusion,
                                 UnmodeledLoad)
-from neurofuzzy.forces import SPRINGS, ForceTerm, incidence
+from neurofuzzy.forces import ForceTerm, incidence
 from neurofuzzy.simulation import internal_forces
 
 MODEL = paper_cube_model(stiffness={"edge": 60.0, "diagonal": 35.0})
-TERMS = [SPRINGS, Gravity([0.1, -0.2, -9.0]), NodeDrag([0.01]),
+TERMS = [MODEL.springs, Gravity([0.1, -0.2, -9.0]), NodeDrag([0.01]),
          StiffInclusion.for_model(MODEL, [30.0, 20.0], springs=[0, 1, 2, 54, 55]),
          NonlinearStiffening.for_model(MODEL, [100.0, 50.0]),
          UnmodeledLoad([0.01, 0.02, -0.03], node=20)]
@@ -79,16 +79,16 @@ def test_spring_parameter_templates_and_vjp_match_finite_differences():
     p, v = state(6)
     rng = np.random.default_rng(7)
     cotangent = rng.normal(size=(MODEL.n_nodes, 3))
-    spring_state = SPRINGS.state(MODEL, p, v)
-    templates = SPRINGS.parameter_templates(spring_state)
-    _, _, per_spring = SPRINGS.vjp(MODEL, cotangent, spring_state)
+    spring_state = MODEL.springs.state(MODEL, p, v)
+    templates = MODEL.springs.parameter_templates(spring_state)
+    _, _, per_spring = MODEL.springs.vjp(MODEL, cotangent, spring_state)
     maps = incidence(MODEL.mesh)
     for name, field in (("stiffness", "spring_stiffness"), ("damping", "spring_damping")):
         for j in (0, 40, 85):
             values = getattr(MODEL, field).copy()
             values[j] *= 1.001
             changed = MODEL.replace(**{field: values})
-            numeric = (SPRINGS.force(changed, p, v) - SPRINGS.force(MODEL, p, v)) / (
+            numeric = (changed.springs.force(changed, p, v) - MODEL.springs.force(MODEL, p, v)) / (
                 0.001 * getattr(MODEL, field)[j])
             single = np.zeros((MODEL.n_springs, 3))
             single[j] = templates[name][j]
@@ -98,18 +98,18 @@ def test_spring_parameter_templates_and_vjp_match_finite_differences():
 
 def test_spring_forces_balance_and_vanish_at_rest():
     p, v = state(8)
-    force = SPRINGS.force(MODEL, p, v)
+    force = MODEL.springs.force(MODEL, p, v)
     assert np.allclose(force.sum(axis=0), 0.0, atol=1e-12)
     torque = np.cross(p, force).sum(axis=0)
     assert np.abs(torque).max() < 1e-10 * np.abs(force).max()
     rest = MODEL.mesh.rest_positions
-    assert np.abs(SPRINGS.force(MODEL, rest, np.zeros_like(rest))).max() < 1e-12
+    assert np.abs(MODEL.springs.force(MODEL, rest, np.zeros_like(rest))).max() < 1e-12
 
 
 def test_internal_forces_are_the_sum_of_the_model_terms():
     model = MODEL.with_effects(*TERMS[1:])
     p, v = state(9)
-    assert model.force_terms[0] is SPRINGS
+    assert model.force_terms[0] is model.springs is MODEL.springs
     expected = sum(term.force(model, p, v) for term in TERMS)
     assert np.allclose(internal_forces(model, p, v), expected)
 
@@ -117,11 +117,11 @@ def test_internal_forces_are_the_sum_of_the_model_terms():
 def test_group_sums_split_the_net_force_by_group():
     p, v = state(10)
     maps = incidence(MODEL.mesh)
-    spring_state = SPRINGS.state(MODEL, p, v)
-    per_spring = (SPRINGS.magnitude(MODEL, spring_state)[:, None] * spring_state.direction)
+    spring_state = MODEL.springs.state(MODEL, p, v)
+    per_spring = (MODEL.springs.magnitude(MODEL, spring_state)[:, None] * spring_state.direction)
     groups = MODEL.mesh.spring_group
     split = maps.group_sums(per_spring, groups, int(groups.max()) + 1)
-    assert np.allclose(split.sum(axis=1), SPRINGS.force(MODEL, p, v))
+    assert np.allclose(split.sum(axis=1), MODEL.springs.force(MODEL, p, v))
 
 
 def test_the_spring_magnitude_is_one_law_with_its_own_derivatives():
@@ -148,8 +148,8 @@ def test_the_spring_magnitude_is_one_law_with_its_own_derivatives():
     model = paper_cube_model()
     p = model.mesh.rest_positions * 1.01
     v = rng.normal(0, 1e-3, p.shape)
-    state = SPRINGS.state(model, p, v)
+    state = model.springs.state(model, p, v)
     np.testing.assert_array_equal(
-        SPRINGS.magnitude(model, state),
+        model.springs.magnitude(model, state),
         magnitudes(state.stretch, state.closing_speed, stiffness=model.spring_stiffness,
                    damping=model.spring_damping)[0])

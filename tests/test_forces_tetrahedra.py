@@ -7,7 +7,6 @@ from helpers import assert_gradient_exact
 
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.errors import InputError
-from neurofuzzy.forces import TETRAHEDRA
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import SpringMassModel
@@ -47,7 +46,7 @@ def test_stiffness_at_rest_is_scikit_fem_linear_elasticity_to_round_off():
     moduli, ratios = rng.uniform(2e3, 2e4, mesh.n_tetrahedra), rng.uniform(0.1, 0.49,
                                                                            mesh.n_tetrahedra)
     model = continuum(mesh, youngs_modulus=moduli, poisson_ratio=ratios, volumetric="element")
-    stiffness, _ = TETRAHEDRA.rest_matrices(model)
+    stiffness, _ = model.elements.rest_matrices(model)
     fem = skfem.MeshTet(mesh.rest_positions.T.copy(), mesh.tetrahedra.T.copy())
     basis = skfem.Basis(fem, skfem.ElementVector(skfem.ElementTetP1()))
     reference = None
@@ -71,7 +70,7 @@ def test_uniaxial_stress_with_lateral_contraction_is_exact(volumetric):
     strain = 1e-7
     x = mesh.rest_positions
     displaced = x + strain * x * np.array([1.0, -NU, -NU])
-    force = TETRAHEDRA.force(model, displaced, np.zeros_like(x))
+    force = model.elements.force(model, displaced, np.zeros_like(x))
     end = np.isclose(x[:, 0], 0.03)
     start = np.isclose(x[:, 0], 0.0)
     area = 0.02 * 0.02
@@ -90,28 +89,28 @@ def test_rigid_motion_gives_no_force_and_rotated_states_rotated_forces(volumetri
     rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0],
                          [0, 0, 1.0]])
     moved = x @ rotation.T + [0.3, -0.1, 0.2]
-    assert np.abs(TETRAHEDRA.force(model, moved, np.zeros_like(x))).max() < 1e-9
+    assert np.abs(model.elements.force(model, moved, np.zeros_like(x))).max() < 1e-9
     p, v = state(model, 2)
-    rotated = TETRAHEDRA.force(model, p @ rotation.T, v @ rotation.T)
-    assert np.allclose(rotated, TETRAHEDRA.force(model, p, v) @ rotation.T, atol=1e-12)
+    rotated = model.elements.force(model, p @ rotation.T, v @ rotation.T)
+    assert np.allclose(rotated, model.elements.force(model, p, v) @ rotation.T, atol=1e-12)
 
 
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])
 def test_forces_balance_and_state_derivatives_are_exact(volumetric):
     model = continuum(block(jitter=0.2), volumetric=volumetric)
     p, v = state(model, 3)
-    force = TETRAHEDRA.force(model, p, v)
+    force = model.elements.force(model, p, v)
     assert np.allclose(force.sum(axis=0), 0.0, atol=1e-12 * np.abs(force).max())
     rng = np.random.default_rng(4)
     dp, dv = rng.normal(size=(2, model.n_nodes, 2, 3))
-    jvp = TETRAHEDRA.state_jvp(model, p, v, dp, dv)
+    jvp = model.elements.state_jvp(model, p, v, dp, dv)
     eps = 1e-7
     for k in range(2):
-        numeric = (TETRAHEDRA.force(model, p + eps * dp[:, k], v + eps * dv[:, k])
-                   - TETRAHEDRA.force(model, p - eps * dp[:, k], v - eps * dv[:, k])) / (2 * eps)
+        numeric = (model.elements.force(model, p + eps * dp[:, k], v + eps * dv[:, k])
+                   - model.elements.force(model, p - eps * dp[:, k], v - eps * dv[:, k])) / (2 * eps)
         assert np.abs(jvp[:, k] - numeric).max() <= 1e-6 * np.abs(numeric).max()
     cotangent = rng.normal(size=(model.n_nodes, 3))
-    lam_p, lam_v = TETRAHEDRA.state_vjp(model, p, v, cotangent)
+    lam_p, lam_v = model.elements.state_vjp(model, p, v, cotangent)
     forward = np.sum(jvp[:, 0] * cotangent)
     assert forward == pytest.approx(np.sum(lam_p * dp[:, 0]) + np.sum(lam_v * dv[:, 0]),
                                     rel=1e-10)
@@ -137,16 +136,17 @@ def test_parameter_derivatives_match_finite_differences(volumetric):
     for name, step in (("youngs_modulus", 1.0), ("poisson_ratio", 1e-6), ("viscosity", 1e-4)):
         directions = {other: (unit if other == name else zero)
                       for other in ("youngs_modulus", "poisson_ratio", "viscosity")}
-        jvp = TETRAHEDRA.parameter_jvp(model, p, v, directions)
+        jvp = model.elements.parameter_jvp(model, p, v, directions)
         assert jvp.shape == (model.n_nodes, 3, 3)
         for column, element in enumerate(chosen):
             values = getattr(model, f"element_{name}").copy()
             plus, minus = values.copy(), values.copy()
             plus[element] += step
             minus[element] -= step
-            numeric = (TETRAHEDRA.force(model.replace(**{f"element_{name}": plus}), p, v)
-                       - TETRAHEDRA.force(model.replace(**{f"element_{name}": minus}), p, v)
-                       ) / (2 * step)
+            above = model.replace(**{f"element_{name}": plus})
+            below = model.replace(**{f"element_{name}": minus})
+            numeric = (above.elements.force(above, p, v)
+                       - below.elements.force(below, p, v)) / (2 * step)
             assert np.allclose(jvp[:, column], numeric, rtol=1e-5,
                                atol=1e-7 * np.abs(numeric).max())
             outside = ~np.isin(np.arange(model.n_nodes), mesh.tetrahedra[element])
@@ -156,9 +156,9 @@ def test_parameter_derivatives_match_finite_differences(volumetric):
             else:
                 assert moved_outside > 1e-3          # the node averages reach the neighbours
     cotangent = rng.normal(size=(model.n_nodes, 3))
-    gradients = TETRAHEDRA.parameter_vjp(model, p, v, cotangent)
+    gradients = model.elements.parameter_vjp(model, p, v, cotangent)
     directions = {name: rng.normal(size=(k, 2)) for name in gradients}
-    forward = np.einsum("npk,nk->p", TETRAHEDRA.parameter_jvp(model, p, v, directions),
+    forward = np.einsum("npk,nk->p", model.elements.parameter_jvp(model, p, v, directions),
                         cotangent)
     backward = sum(directions[name].T @ gradients[name] for name in gradients)
     assert np.allclose(forward, backward, rtol=1e-10)
@@ -169,13 +169,13 @@ def test_stiffness_at_rest_is_the_force_derivative(volumetric):
     """The assembled rest matrices (used for the stability bound) are -∂f/∂x and -∂f/∂v at
     rest, for the non-local nodal form too."""
     model = continuum(block(jitter=0.2), volumetric=volumetric)
-    stiffness, damping = TETRAHEDRA.rest_matrices(model)
+    stiffness, damping = model.elements.rest_matrices(model)
     rng = np.random.default_rng(10)
     dp, dv = rng.normal(size=(2, model.n_nodes, 1, 3))
     rest, still = model.mesh.rest_positions, np.zeros((model.n_nodes, 3))
-    jvp = TETRAHEDRA.state_jvp(model, rest, still, dp, np.zeros_like(dv))[:, 0].ravel()
+    jvp = model.elements.state_jvp(model, rest, still, dp, np.zeros_like(dv))[:, 0].ravel()
     assert np.allclose(-stiffness @ dp[:, 0].ravel(), jvp, atol=1e-12 * np.abs(jvp).max())
-    jvp = TETRAHEDRA.state_jvp(model, rest, still, np.zeros_like(dp), dv)[:, 0].ravel()
+    jvp = model.elements.state_jvp(model, rest, still, np.zeros_like(dp), dv)[:, 0].ravel()
     assert np.allclose(-damping @ dv[:, 0].ravel(), jvp, atol=1e-12 * np.abs(jvp).max())
     assert abs(stiffness - stiffness.T).max() < 1e-12 * abs(stiffness).max()   # an energy
 
@@ -245,8 +245,8 @@ def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
     loaded = load_model(save_model(model, tmp_path / "m.yaml"))
     assert loaded.has_elements and loaded.element_volumetric == "nodal"
     assert np.array_equal(loaded.element_youngs_modulus, model.element_youngs_modulus)
-    assert np.allclose(loaded.force_terms[1].force(loaded, *state(model, 6)),
-                       TETRAHEDRA.force(model, *state(model, 6)))
+    assert np.allclose(loaded.elements.force(loaded, *state(model, 6)),
+                       model.elements.force(model, *state(model, 6)))
     with pytest.raises(InputError, match=r"element_poisson_ratio: element 0 has Poisson's ratio "
                                          r"0.5; it must lie in \(0, 0.5\), strictly"):
         model.replace(element_poisson_ratio=np.full(48, 0.5))

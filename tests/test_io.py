@@ -112,10 +112,10 @@ def test_failed_write_leaves_the_old_file(tmp_path, cube_model):
     path = save_model(cube_model, tmp_path / "m.yaml")
     before = path.read_text()
 
-    class Broken(SpringMassModel):
-        pass
+    from neurofuzzy.effects import Gravity
 
-    broken = cube_model.replace(effects=(object(),))      # cannot be serialised
+    # an effect whose option cannot be written as YAML
+    broken = cube_model.with_effects(Gravity([0.0, 0.0, -9.81], unwritable=object()))
     with pytest.raises(Exception):
         save_model(broken, path)
     assert path.read_text() == before

@@ -7,7 +7,6 @@ import pytest
 
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.errors import InputError
-from neurofuzzy.forces import TETRAHEDRA
 from neurofuzzy.forces.relaxation import (decay, relaxation_arrays, relaxation_update,
                                           relaxed_stress)
 from neurofuzzy.io import load_model, save_model
@@ -138,7 +137,7 @@ def test_the_numpy_path_refuses_a_relaxing_model():
     model = _block()
     rest = model.mesh.rest_positions
     with pytest.raises(InputError, match="relax"):
-        TETRAHEDRA.force(model, rest, np.zeros_like(rest))
+        model.elements.force(model, rest, np.zeros_like(rest))
     with pytest.raises(InputError, match="relax"):
         simulate(model, dt=0.002, n_frames=3, substeps=12, backend="numpy")
 

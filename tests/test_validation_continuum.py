@@ -8,7 +8,6 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from neurofuzzy.datasets import kuhn_block
-from neurofuzzy.forces import TETRAHEDRA
 from neurofuzzy.mesh import from_tetra, patch_loads
 from neurofuzzy.model import SpringMassModel
 from neurofuzzy.observation import embed_points
@@ -38,7 +37,7 @@ def our_static(shape, spacing, poisson_ratio, volumetric, points):
     mesh = from_tetra(*kuhn_block(shape, spacing)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=poisson_ratio,
                                       viscosity=1.0, density=RHO, volumetric=volumetric)
-    stiffness, _ = TETRAHEDRA.rest_matrices(model)
+    stiffness, _ = model.elements.rest_matrices(model)
     free = np.setdiff1d(np.arange(3 * mesh.n_nodes),
                         (3 * mesh.fixed[:, None] + np.arange(3)).ravel())
     loads = patch_loads(mesh, PROBE, RADIUS, FORCE).ravel()

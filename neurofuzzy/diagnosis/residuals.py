@@ -11,7 +11,8 @@ from scipy.signal import savgol_filter
 
 from ..errors import InputError
 from ..experiment import Experiment, simulate_like
-from ..forces import SPRINGS, TETRAHEDRA, incidence
+from ..forces import incidence
+from ..forces.springs import parameter_templates, spring_state
 from ..learn import element_directions
 from ..model import SpringMassModel
 from ..noise import marker_noise
@@ -149,16 +150,18 @@ def model_templates(model, samples) -> np.ndarray:
     """Templates of the model's own tied parameters (their log-derivatives): spring stiffness
     and viscosity, and for element models every element tie group's E, ν and η."""
     maps = incidence(model.mesh)
-    directions = element_directions(model) if model.has_elements else None
+    springs, elements = model.springs, model.elements
+    directions = None if elements is None else element_directions(model)
 
     def force_of(p, v):
-        per_unit = SPRINGS.parameter_templates(SPRINGS.state(model, p, v))
-        columns = [maps.group_sums(values[:, None] * per_unit[name], model.spring_tie,
-                                   model.n_ties)
-                   for name, values in (("stiffness", model.spring_stiffness),
-                                        ("damping", model.spring_damping))]
-        if model.has_elements:
-            columns.append(TETRAHEDRA.parameter_jvp(model, p, v, directions))
+        columns = []
+        if springs is not None:
+            per_unit = springs.parameter_templates(springs.state(model, p, v))
+            columns += [maps.group_sums(getattr(springs, name)[:, None] * per_unit[name],
+                                        springs.tie, springs.n_ties)
+                        for name in ("stiffness", "damping")]
+        if elements is not None:
+            columns.append(elements.parameter_jvp(model, p, v, directions))
         return np.concatenate(columns, axis=1)
 
     return templates(model, samples, force_of)
@@ -170,10 +173,11 @@ def spring_templates(model, samples) -> np.ndarray:
     its two nodes only (a spring's column is zero elsewhere)."""
     a, b = model.mesh.springs[:, 0], model.mesh.springs[:, 1]
     spring = np.arange(model.n_springs)
+    stiffness = model.spring_stiffness
     blocks = []
     for data in samples.experiment:
-        force = np.stack([model.spring_stiffness[:, None] * SPRINGS.parameter_templates(
-            SPRINGS.state(model, p, v))["stiffness"] for p, v in zip(data["p"], data["v"])])
+        force = np.stack([stiffness[:, None] * parameter_templates(
+            spring_state(model, p, v))["stiffness"] for p, v in zip(data["p"], data["v"])])
         # force: (frames, springs, 3)
         n_rows = int(np.count_nonzero(data["rows"]))
         row = np.full(model.n_nodes, -1)

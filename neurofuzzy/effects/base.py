@@ -111,6 +111,13 @@ class Effect(ForceTerm):
         effects = tuple(effect if e is self else e for e in model.effects)
         return (model.replace(effects=effects) if effects != model.effects else model), effect
 
+    def blocks(self, model, *, index: int = 0):
+        """Its raw parameters, the block ``effect:index``
+        (:class:`~neurofuzzy.forces.blocks.EffectBlocks`)."""
+        from ..forces.blocks import EffectBlocks
+
+        return EffectBlocks(self, index)
+
     def parameter_jvp(self, model, positions, velocities, directions) -> np.ndarray:
         """(n_nodes, P, 3) from :meth:`parameter_jacobian` and ``directions["params"]``
         (n_params, P)."""
@@ -181,9 +188,9 @@ def term_kinds() -> dict[str, type[ForceTerm]]:
     """Every kind of force term a model can carry, by name: the springs, the tetrahedral
     elements and every registered effect (:func:`register`). The registry test
     (``tests/test_terms_registry.py``) checks each on its :meth:`ForceTerm.examples`."""
-    from ..forces import SpringForce, TetrahedronForce
+    from ..forces import Springs, Tetrahedra
 
-    return {SpringForce.name: SpringForce, TetrahedronForce.name: TetrahedronForce, **EFFECTS}
+    return {Springs.name: Springs, Tetrahedra.name: Tetrahedra, **EFFECTS}
 
 
 def per_unit_mass_force(model, positions, velocities) -> np.ndarray:

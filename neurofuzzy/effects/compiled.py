@@ -66,7 +66,7 @@ def kernel_effects(model) -> bool:
 def element_constants(model) -> tuple[ElementConstants, dict[str, np.ndarray]]:
     """The model's own element :class:`ElementConstants` and the constants ``shear``,
     ``shear_rate``, ``lam``, ``lam_rate`` (per element) with its inclusions' added."""
-    own = ElementConstants.of(model)
+    own = model.elements.constants(model)
     parts = [own] + [effect.added_constants(model, effect.params[0])
                      for effect in model.effects if element_inclusion(effect)]
     return own, {key: sum(getattr(part, key) for part in parts)

@@ -22,7 +22,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..forces import TETRAHEDRA, ElementConstants
+from ..forces import ElementConstants
+from ..forces.element_forces import element_force, element_state_jvp, element_state_vjp
 from ..forces.laws import LAWS
 from .base import Effect, register
 
@@ -51,28 +52,27 @@ class Hyperelasticity(Effect):
 
     @staticmethod
     def _pair(model) -> tuple[ElementConstants, ElementConstants]:
-        own = ElementConstants.of(model)
+        own = model.elements.constants(model)
         return own, replace(own, law=np.full_like(own.law, NEO_HOOKEAN))
 
-    def _difference(self, method, model, *args):
+    def _difference(self, function, model, *args):
         own, target = self._pair(model)
-        return (getattr(TETRAHEDRA, method)(target, *args)
-                - getattr(TETRAHEDRA, method)(own, *args))
+        return function(target, *args) - function(own, *args)
 
     def force(self, model, positions, velocities):
-        return self.params[0] * self._difference("force_of", model, positions, velocities)
+        return self.params[0] * self._difference(element_force, model, positions, velocities)
 
     def parameter_jacobian(self, model, positions, velocities):
-        return self._difference("force_of", model, positions, velocities)[:, None, :]
+        return self._difference(element_force, model, positions, velocities)[:, None, :]
 
     def state_jvp(self, model, positions, velocities, dp, dv):
-        return self.params[0] * self._difference("state_jvp_of", model, positions, velocities,
+        return self.params[0] * self._difference(element_state_jvp, model, positions, velocities,
                                                  dp, dv)
 
     def state_vjp(self, model, positions, velocities, cotangent):
         own, target = self._pair(model)
-        lam_p, lam_v = TETRAHEDRA.state_vjp_of(target, positions, velocities, cotangent)
-        own_p, own_v = TETRAHEDRA.state_vjp_of(own, positions, velocities, cotangent)
+        lam_p, lam_v = element_state_vjp(target, positions, velocities, cotangent)
+        own_p, own_v = element_state_vjp(own, positions, velocities, cotangent)
         return self.params[0] * (lam_p - own_p), self.params[0] * (lam_v - own_v)
 
     @classmethod

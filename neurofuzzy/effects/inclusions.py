@@ -16,7 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..forces import TETRAHEDRA, ElementConstants, tetrahedron_geometry
+from ..forces import ElementConstants, tetrahedron_geometry
+from ..forces.element_forces import (element_force, element_rest_matrices, element_state_jvp,
+                                     element_state_vjp)
 from ..forces.springs import spring_law
 from .base import Effect, register
 from .springs import SpringEffect
@@ -102,32 +104,32 @@ class _Inclusion(SpringEffect):
     def force(self, model, positions, velocities):
         if not self.on_elements:
             return super().force(model, positions, velocities)
-        return TETRAHEDRA.force_of(self.added_constants(model, self.params[0]), positions,
+        return element_force(self.added_constants(model, self.params[0]), positions,
                                    velocities)
 
     def parameter_jacobian(self, model, positions, velocities):
         if not self.on_elements:
             return super().parameter_jacobian(model, positions, velocities)
-        return TETRAHEDRA.force_of(self.added_constants(model, 1.0), positions,
+        return element_force(self.added_constants(model, 1.0), positions,
                                    velocities)[:, None, :]
 
     def state_jvp(self, model, positions, velocities, dp, dv):
         if not self.on_elements:
             return super().state_jvp(model, positions, velocities, dp, dv)
-        return TETRAHEDRA.state_jvp_of(self.added_constants(model, self.params[0]), positions,
+        return element_state_jvp(self.added_constants(model, self.params[0]), positions,
                                        velocities, dp, dv)
 
     def state_vjp(self, model, positions, velocities, cotangent):
         if not self.on_elements:
             return super().state_vjp(model, positions, velocities, cotangent)
-        return TETRAHEDRA.state_vjp_of(self.added_constants(model, self.params[0]), positions,
+        return element_state_vjp(self.added_constants(model, self.params[0]), positions,
                                        velocities, cotangent)
 
     def rest_matrices(self, model):
         """The region's extra stiffness at rest (elements; springs add none to the bound)."""
         if not self.on_elements:
             return None
-        return TETRAHEDRA.rest_matrices_of(self.added_constants(model, max(self.params[0], 0.0)))
+        return element_rest_matrices(self.added_constants(model, max(self.params[0], 0.0)))
 
     def relative(self, model) -> dict[str, float]:
         """The extra stiffness relative to the region's own (per spring group, or ``δ / E``)."""

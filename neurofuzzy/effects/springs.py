@@ -8,7 +8,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..forces import SPRINGS, central_jvp, central_vjp, incidence
+from ..forces import central_jvp, central_vjp, incidence
+from ..forces.springs import spring_state
 from .base import Effect
 
 __all__ = ["SpringEffect"]
@@ -91,7 +92,7 @@ class SpringEffect(Effect):
 
     def _parts(self, model, positions, velocities):
         selection = self.selected(model)
-        state = SPRINGS.state(model, positions, velocities).select(selection)
+        state = spring_state(model, positions, velocities).select(selection)
         return selection, state, self.magnitude(model, state, selection)
 
     def _scatter(self, model, selection, per_spring):

@@ -21,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..forces import TETRAHEDRA, tetrahedron_geometry
+from ..forces import tetrahedron_geometry
+from ..forces.element_forces import columns
 from ..forces.laws import DEFAULT_STIFFENING, LAWS, ElementStress
 from ..forces.springs import spring_law
 from .base import Effect, register
@@ -118,14 +119,14 @@ class NonlinearStiffening(SpringEffect):
         """The elements' stress of the effect alone, ``2κ (G:G) G`` (every other constant
         0), from the compiled stress the kernels step with (:mod:`neurofuzzy.kernels.laws`)."""
         none = np.zeros(len(green))
-        return ElementStress.at(model.element_law, green, np.zeros_like(green), none, none,
-                                none, none, model.element_stiffening,
+        return ElementStress.at(model.elements.law, green, np.zeros_like(green), none, none,
+                                none, none, model.elements.stiffening,
                                 (none, np.zeros_like(green)), kappa=kappa)
 
     def _element_force(self, model, positions, kappa):
         geometry, F, green = self._strain(model, positions)
         stress = self._stress(model, green, kappa).stress()
-        return geometry.scatter(TETRAHEDRA._columns(geometry, F @ stress), len(positions))
+        return geometry.scatter(columns(geometry, F @ stress), len(positions))
 
     def force(self, model, positions, velocities):
         if not self.on_elements:
@@ -147,7 +148,7 @@ class NonlinearStiffening(SpringEffect):
         none = np.zeros(d_green.shape[:2])
         d_stress = at.jvp(d_green, np.zeros_like(d_green), none, none)
         d_piola = dF @ at.stress()[:, None] + F[:, None] @ d_stress
-        return geometry.scatter(TETRAHEDRA._columns(geometry, d_piola), len(positions))
+        return geometry.scatter(columns(geometry, d_piola), len(positions))
 
     def state_vjp(self, model, positions, velocities, cotangent):
         if not self.on_elements:

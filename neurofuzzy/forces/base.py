@@ -1,7 +1,7 @@
 """The interface every force of a model implements: :class:`ForceTerm`.
 
 A model's internal force is a sum of terms, ``F(p, v) = Σ_terms F_term(p, v; θ_term)``: its
-springs (:class:`~neurofuzzy.forces.springs.SpringForce`) and every effect it carries
+springs (:class:`~neurofuzzy.forces.springs.Springs`) and every effect it carries
 (:mod:`neurofuzzy.effects`). The stepper, the sensitivities and the adjoint, the paper's
 learner, the equation-error start and the diagnosis see only this interface, so a new effect
 or element is one new class plus its tests.
@@ -13,7 +13,7 @@ Conventions (shapes first, node-major tangents):
 - tangents ``dp``, ``dv`` and their images : (n_nodes, P, 3) float, P directions at once;
 - ``parameter_jacobian`` : (n_nodes, n_params, 3) float, for terms with a few parameters
   (effects); terms with one parameter per spring or element give per-entity templates
-  instead (:meth:`~neurofuzzy.forces.springs.SpringForce.parameter_templates`).
+  instead (:meth:`~neurofuzzy.forces.springs.Springs.parameter_templates`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,9 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["ForceTerm"]
+from ..errors import InputError
+
+__all__ = ["ForceTerm", "vector", "region_index"]
 
 
 class ForceTerm(ABC):
@@ -42,6 +44,30 @@ class ForceTerm(ABC):
     name: ClassVar[str]
     unit: ClassVar[tuple[int, int, int]] = (0, 0, 0)
     per_unit_mass: ClassVar[bool] = False
+
+    def bound(self, model) -> ForceTerm:
+        """This term checked against ``model`` (its mesh and regions), with defaults filled
+        in: what :class:`~neurofuzzy.model.Model` keeps. Terms whose values do not depend on
+        the model (the effects) return themselves."""
+        return self
+
+    def _bound_to(self, model) -> bool:
+        """True when this term was checked for ``model``'s mesh and regions already (a model
+        made from another, ``model.replace(...)``, keeps its other terms as they are)."""
+        mesh, regions = getattr(self, "_checked_for", (None, None))
+        return mesh is model.mesh and regions == model.region_names
+
+    def _checked(self, model):
+        """Mark this (new, checked) term as bound to ``model``'s mesh and regions; returns
+        it."""
+        object.__setattr__(self, "_checked_for", (model.mesh, model.region_names))
+        return self
+
+    def blocks(self, model, *, index: int = 0):
+        """What a learner may change of this term: its parameter blocks
+        (:class:`~neurofuzzy.forces.blocks.TermBlocks`); ``index`` numbers the model's
+        effects (their blocks are ``effect:index``)."""
+        raise NotImplementedError(f"{type(self).__name__} has no learnable parameters")
 
     @abstractmethod
     def force(self, model, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
@@ -93,3 +119,29 @@ class ForceTerm(ABC):
 def _columns(directions: dict) -> int:
     """P, the number of directions of a parameter-direction dictionary."""
     return next(iter(directions.values())).shape[1] if directions else 0
+
+
+def vector(value, n: int, key: str, size_name: str) -> np.ndarray:
+    """(n,) float from a number or an array; :class:`InputError` naming ``key`` otherwise."""
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("expected numbers", key=key) from None
+    if array.ndim == 0:
+        array = np.full(n, float(array))
+    if array.shape != (n,):
+        raise InputError(f"got shape {array.shape}; expected ({size_name},) = ({n},)", key=key)
+    if not np.all(np.isfinite(array)):
+        raise InputError("contains NaN or infinite values", key=key)
+    return array
+
+
+def region_index(value, n: int, n_regions: int, key: str, size_name: str) -> np.ndarray:
+    """(n,) int region indices in ``0..n_regions-1`` (default all 0); :class:`InputError`
+    naming ``key`` otherwise."""
+    index = np.zeros(n, np.intp) if value is None else np.asarray(value)
+    if index.shape != (n,) or not np.issubdtype(index.dtype, np.integer) or (
+            n and (index.min() < 0 or index.max() >= n_regions)):
+        raise InputError(f"expected ({size_name},) = ({n},) integers in "
+                         f"0..{n_regions - 1}, one region index each", key=key)
+    return index.astype(np.intp)

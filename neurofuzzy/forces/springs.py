@@ -21,15 +21,16 @@ derivatives use.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
 
+from ..errors import InputError
 from .assembly import Incidence, incidence
-from .base import ForceTerm
+from .base import ForceTerm, region_index, vector
 
-__all__ = ["SpringState", "SpringForce", "SPRINGS", "central_jvp", "central_vjp", "spring_law"]
+__all__ = ["SpringState", "Springs", "spring_state", "parameter_templates", "central_jvp", "central_vjp", "spring_law"]
 
 
 @dataclass(frozen=True)
@@ -74,17 +75,93 @@ class SpringState:
                            self.closing_speed[springs])
 
 
-class SpringForce(ForceTerm):
-    """The springs of a model: stiffness ``s`` (N/m) and damping ``c`` (N·s/m) per spring.
+@dataclass(frozen=True, eq=False)
+class Springs(ForceTerm):
+    """The springs of a model: per spring of its mesh the stiffness ``s`` (N/m), the damping
+    ``c`` (N·s/m), the rest length ``L0`` (m), the tie group and the region.
 
-    Stateless: the spring constants are read from the model
-    (``model.spring_stiffness``, ``model.spring_damping``, ``model.spring_rest_length``), the
-    topology from ``model.mesh``. :data:`SPRINGS` is the one instance.
+    A term of :class:`~neurofuzzy.model.Model` (``model.springs``); its topology is the
+    model's ``mesh.springs``. Give the values as numbers (every spring) or (n_springs,)
+    arrays; the model checks them against its mesh (:meth:`bound`) and keeps read-only
+    (n_springs,) arrays.
+
+    Parameters
+    ----------
+    stiffness, damping : float or (n_springs,) float
+        ``s ≥ 0`` and ``c ≥ 0`` of every spring.
+    rest_length : (n_springs,) float, optional
+        ``L0 > 0`` (default: the mesh's rest lengths).
+    tie : (n_springs,) int, optional
+        Tie group of every spring (default one group per spring); springs of one group are
+        learned by one common factor (:meth:`~neurofuzzy.model.Model.tied`).
+    region : (n_springs,) int, optional
+        The model region of every spring (default 0).
     """
+
+    stiffness: np.ndarray
+    damping: np.ndarray
+    rest_length: np.ndarray | None = None
+    tie: np.ndarray | None = None
+    region: np.ndarray | None = None
 
     name = "springs"
     #: parameter names and units per spring
     parameters = {"stiffness": "N/m", "damping": "N s/m"}
+
+    def bound(self, model) -> Springs:
+        """This term checked against ``model``'s mesh and regions, as read-only (n_springs,)
+        arrays with the defaults filled in.
+
+        Raises
+        ------
+        InputError
+            A value of the wrong shape, NaN, negative (or a rest length not positive), a tie
+            group that is not an integer, a region outside the model's; the key names the
+            model field (``spring_stiffness`` …).
+        """
+        if self._bound_to(model):
+            return self
+        mesh = model.mesh
+        n = mesh.n_springs
+        values = {"stiffness": vector(self.stiffness, n, "spring_stiffness", "n_springs"),
+                  "damping": vector(self.damping, n, "spring_damping", "n_springs"),
+                  "rest_length": (mesh.rest_lengths if self.rest_length is None else
+                                  vector(self.rest_length, n, "spring_rest_length", "n_springs"))}
+        if np.any(values["rest_length"] <= 0):
+            raise InputError("must be positive", key="spring_rest_length")
+        for name in ("stiffness", "damping"):
+            if np.any(values[name] < 0):
+                raise InputError("must not be negative", key=f"spring_{name}")
+        if self.tie is None:
+            tie = np.arange(n, dtype=np.intp)
+        else:
+            tie = np.asarray(self.tie)
+            if tie.shape != (n,) or not np.issubdtype(tie.dtype, np.integer):
+                raise InputError(f"got {tie.dtype} of shape {tie.shape}; expected int of shape "
+                                 f"({n},)", key="spring_tie")
+            tie = np.unique(tie, return_inverse=True)[1].astype(np.intp)  # 0..n_ties-1
+        values["tie"] = tie
+        values["region"] = region_index(self.region, n, len(model.region_names),
+                                        "spring_region", "n_springs")
+        for value in values.values():
+            value.setflags(write=False)
+        return replace(self, **values)._checked(model)
+
+    @property
+    def n_ties(self) -> int:
+        """The number of tie groups."""
+        return int(self.tie.max()) + 1 if len(self.tie) else 0
+
+    def replace(self, **changes) -> Springs:
+        """A copy with some fields changed (checked again when it joins a model)."""
+        return replace(self, **changes)
+
+    def blocks(self, model, *, index: int = 0):
+        """``log_stiffness`` and ``log_damping`` of every tie group
+        (:class:`~neurofuzzy.forces.blocks.SpringBlocks`)."""
+        from .blocks import SpringBlocks
+
+        return SpringBlocks(self, model.mesh)
 
     # -- geometry and force -------------------------------------------------------------
     def state(self, model, positions: np.ndarray, velocities: np.ndarray,
@@ -96,26 +173,22 @@ class SpringForce(ForceTerm):
                          incidence_: Incidence | None = None,
                          rest_length: np.ndarray | None = None) -> SpringState:
         """:class:`SpringState` at component-major ``(positions, velocities)`` (3, n_nodes)."""
-        maps = incidence(model.mesh) if incidence_ is None else incidence_
-        d = maps.difference_components(positions_t)
-        dv = maps.difference_components(velocities_t)
-        length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        closing = (dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2]) / length
-        rest = model.spring_rest_length if rest_length is None else rest_length
-        return SpringState(d, dv, length, length - rest, closing)
+        return spring_state_components(model.mesh, positions_t, velocities_t,
+                                       self.rest_length if rest_length is None else rest_length,
+                                       incidence_)
 
     def magnitude(self, model, state: SpringState, stiffness=None, damping=None) -> np.ndarray:
         """(n_springs,) ``m = s (l - L0) + c (v_b - v_a)·u`` (eq. 3.4), the compiled
         :func:`neurofuzzy.kernels.springs.magnitude` over arrays."""
-        s = model.spring_stiffness if stiffness is None else stiffness
-        c = model.spring_damping if damping is None else damping
+        s = self.stiffness if stiffness is None else stiffness
+        c = self.damping if damping is None else damping
         return spring_law().values(state.stretch, state.closing_speed, stiffness=s, damping=c)
 
     def magnitude_and_slope(self, model, state: SpringState, stiffness=None, damping=None):
         """``(m, ∂m/∂l)``, each (n_springs,), with the model's constants or ``stiffness`` /
         ``damping`` (n_springs,) instead."""
-        s = model.spring_stiffness if stiffness is None else stiffness
-        c = model.spring_damping if damping is None else damping
+        s = self.stiffness if stiffness is None else stiffness
+        c = self.damping if damping is None else damping
         return spring_law().magnitudes(state.stretch, state.closing_speed, stiffness=s,
                                        damping=c)
 
@@ -147,21 +220,15 @@ class SpringForce(ForceTerm):
 
     # -- derivatives ----------------------------------------------------------------------
     def parameter_templates(self, state: SpringState) -> dict[str, np.ndarray]:
-        """Per-spring force (on node a) per unit of each per-spring parameter.
-
-        Returns ``{"stiffness": (l - L0) u, "damping": ((v_b - v_a)·u) u}``, each
-        (n_springs, 3); node a gets ``+``, node b ``-`` (:meth:`Incidence.accumulate`).
-        """
-        law, u = spring_law(), state.direction
-        return {"stiffness": law.partials(law.STRETCH, state.stretch)[:, None] * u,
-                "damping": law.partials(law.CLOSING, state.stretch,
-                                        state.closing_speed)[:, None] * u}
+        """Per-spring force per unit of each per-spring parameter
+        (:func:`parameter_templates`)."""
+        return parameter_templates(state)
 
     def state_jvp(self, model, positions, velocities, dp, dv, state=None):
         maps = incidence(model.mesh)
         state = self.state(model, positions, velocities) if state is None else state
         # ∂m/∂c is the damping (m is linear in the closing speed)
-        df = central_jvp(state, *self.magnitude_and_slope(model, state), model.spring_damping,
+        df = central_jvp(state, *self.magnitude_and_slope(model, state), self.damping,
                          maps.difference(dp), maps.difference(dv))
         return maps.accumulate(df)
 
@@ -179,7 +246,7 @@ class SpringForce(ForceTerm):
         law, maps = spring_law(), incidence(model.mesh)
         lam_f = -maps.difference(cotangent)                 # λ_a - λ_b per spring
         lam_d, lam_dv = central_vjp(state, *self.magnitude_and_slope(model, state),
-                                    model.spring_damping, lam_f)
+                                    self.damping, lam_f)
         # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
         along = np.einsum("ij,ij->i", state.direction, lam_f)
         return (-maps.accumulate(lam_d), -maps.accumulate(lam_dv),
@@ -190,11 +257,12 @@ class SpringForce(ForceTerm):
     # -- the springs' own parameters -------------------------------------------------------
     def parameter_values(self, model):
         """``{"stiffness": s, "damping": c}``, each (n_springs,)."""
-        return {"stiffness": model.spring_stiffness, "damping": model.spring_damping}
+        return {"stiffness": self.stiffness, "damping": self.damping}
 
     def with_parameter_values(self, model, values):
-        return model.replace(spring_stiffness=values["stiffness"],
-                             spring_damping=values["damping"]), self
+        springs = self.replace(stiffness=values["stiffness"], damping=values["damping"])
+        model = model.with_term(springs)
+        return model, model.springs
 
     def parameter_jvp(self, model, positions, velocities, directions):
         """(n_nodes, P, 3): ``Σ_j (ds_j (l - L0) + dc_j closing) u`` at both ends (node a +,
@@ -212,7 +280,8 @@ class SpringForce(ForceTerm):
     @classmethod
     def examples(cls, model):
         """The model's own springs, when they pull (spring networks)."""
-        return [(model, SPRINGS)] if np.any(model.spring_stiffness) else []
+        springs = model.springs
+        return [(model, springs)] if springs is not None and np.any(springs.stiffness) else []
 
     def rest_matrices(self, model):
         """``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` at rest for ``k = s`` and ``k = c``."""
@@ -221,11 +290,41 @@ class SpringForce(ForceTerm):
             mesh.springs[:, 0]]
         direction /= np.linalg.norm(direction, axis=1)[:, None]
         return tuple(projected_laplacian(mesh.springs, direction, constants, model.n_nodes)
-                     for constants in (model.spring_stiffness, model.spring_damping))
+                     for constants in (self.stiffness, self.damping))
 
 
-#: The spring term every model carries.
-SPRINGS = SpringForce()
+
+def parameter_templates(state: SpringState) -> dict[str, np.ndarray]:
+    """Per-spring force (on node a) per unit of each per-spring parameter.
+
+    Returns ``{"stiffness": (l - L0) u, "damping": ((v_b - v_a)·u) u}``, each (n_springs, 3);
+    node a gets ``+``, node b ``-`` (:meth:`Incidence.accumulate`).
+    """
+    law, u = spring_law(), state.direction
+    return {"stiffness": law.partials(law.STRETCH, state.stretch)[:, None] * u,
+            "damping": law.partials(law.CLOSING, state.stretch,
+                                    state.closing_speed)[:, None] * u}
+
+
+def spring_state(model, positions: np.ndarray, velocities: np.ndarray) -> SpringState:
+    """:class:`SpringState` of every spring of ``model``'s mesh at node-major ``(positions,
+    velocities)`` (n_nodes, 3), from the springs' rest lengths (the mesh's for a model without
+    springs: the spring effects act along the mesh's springs of an element model too)."""
+    rest = model.mesh.rest_lengths if model.springs is None else model.springs.rest_length
+    return spring_state_components(model.mesh, positions.T, velocities.T, rest)
+
+
+def spring_state_components(mesh, positions_t: np.ndarray, velocities_t: np.ndarray,
+                            rest_length: np.ndarray,
+                            incidence_: Incidence | None = None) -> SpringState:
+    """:class:`SpringState` of ``mesh``'s springs at component-major ``(positions,
+    velocities)`` (3, n_nodes) for rest lengths ``rest_length`` (n_springs,)."""
+    maps = incidence(mesh) if incidence_ is None else incidence_
+    d = maps.difference_components(positions_t)
+    dv = maps.difference_components(velocities_t)
+    length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    closing = (dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2]) / length
+    return SpringState(d, dv, length, length - rest_length, closing)
 
 
 @functools.cache

@@ -158,12 +158,13 @@ class ElementConstants:
     stiffening: np.ndarray
 
     @classmethod
-    def of(cls, model) -> ElementConstants:
-        """The materials of ``model``'s elements."""
-        return cls.from_values(tetrahedron_geometry(model.mesh), model.element_youngs_modulus,
-                               model.element_poisson_ratio, model.element_viscosity,
-                               nodal=model.element_volumetric == "nodal",
-                               law=model.element_law, stiffening=model.element_stiffening)
+    def of(cls, elements, mesh) -> ElementConstants:
+        """The constants of the :class:`~neurofuzzy.forces.Tetrahedra` ``elements`` on
+        ``mesh``."""
+        return cls.from_values(tetrahedron_geometry(mesh), elements.youngs_modulus,
+                               elements.poisson_ratio, elements.viscosity,
+                               nodal=elements.volumetric == "nodal", law=elements.law,
+                               stiffening=elements.stiffening)
 
     @classmethod
     def from_values(cls, geometry: TetrahedronGeometry, youngs_modulus, poisson_ratio,

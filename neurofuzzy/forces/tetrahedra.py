@@ -1,7 +1,7 @@
 """Linear tetrahedral finite elements: St. Venant–Kirchhoff (or neo-Hookean) elasticity with
 Kelvin–Voigt viscosity, parameterised by the material's own Young's modulus ``E`` (Pa),
 Poisson's ratio ``ν`` and viscosity ``η`` (Pa·s) per element, and each element's law
-(``model.element_law``, :mod:`neurofuzzy.forces.laws`; written below for St. Venant–Kirchhoff,
+(``law``, :mod:`neurofuzzy.forces.laws`; written below for St. Venant–Kirchhoff,
 whose ``D(G) = G``, ``N = I``, ``θ = tr G``: another law puts its ``2μ D(G) + π N(G)`` in place
 of ``2μ G + π I`` and its ``θ(G)`` in place of ``tr G``; the viscous part is the same).
 
@@ -19,7 +19,7 @@ with the Lamé constants ``λ = E a``, ``μ = E b`` (``a = ν/((1+ν)(1-2ν))``,
 (a Rayleigh stiffness-proportional damping).
 
 The volumetric part ``π`` (the stress of the Lamé ``λ``) comes in two forms
-(``model.element_volumetric``):
+(``volumetric``):
 
 - ``"element"``: ``π_e = λ_e (θ_e + β_e θ̇_e)``, the textbook linear tetrahedron (its
   stiffness at rest is scikit-fem's linear-elasticity matrix to round-off). Nearly
@@ -49,161 +49,212 @@ neo-Hookean law (the same E, ν and η at small strain) does not soften.
 The stress ``S`` itself (each element's law, the Kelvin–Voigt stress and the volumetric
 stresses ``π``, ``π̇``) and its derivatives are not written here: they come from the compiled
 :func:`neurofuzzy.kernels.laws.stress`, the one the kernels step with, over arrays
-(:class:`~neurofuzzy.forces.laws.ElementStress`). This module forms ``F``, ``G``, the
+(:class:`~neurofuzzy.forces.laws.ElementStress`). :mod:`neurofuzzy.forces.element_forces` forms ``F``, ``G``, the
 volumetric strains and their node averages, and the forces from ``S``, vectorised over
-elements (batched (n_elements, 3, 3) products, sparse matrices for the node averages).
+elements (batched (n_elements, 3, 3) products, sparse matrices for the node averages); this
+module holds the term: the elements' values, checked, and the force's derivatives by them.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import InputError
-from .base import ForceTerm
-from .laws import ElementStress, stiffening_slope
-from .tetra_geometry import (ElementConstants, TetrahedronGeometry, broadcast_per_element,
-                             corner_forces, lame_factors, tetrahedron_geometry)
+from ..errors import InputError, closest_name
+from .base import ForceTerm, region_index, vector
+from .element_forces import (columns, element_force, element_rest_matrices, element_state,
+                             element_state_jvp, element_state_vjp)
+from .laws import LAWS, law_numbers, stiffening_array, stiffening_slope, stiffens
+from .relaxation import relaxation_arrays
+from .tetra_geometry import (ElementConstants, TetrahedronGeometry, corner_forces,
+                             lame_factors, tetrahedron_geometry)
 
-__all__ = ["TetrahedronForce", "TETRAHEDRA", "TetrahedronGeometry", "tetrahedron_geometry",
+__all__ = ["Tetrahedra", "VOLUMETRIC", "TetrahedronGeometry", "tetrahedron_geometry",
            "lame_factors", "ElementConstants"]
 
 #: The elements' parameters, in the order of every per-element parameter dictionary.
 PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
+#: How tetrahedral elements form their volumetric stress (module docstring).
+VOLUMETRIC: tuple[str, ...] = ("nodal", "element")
 
 
-def _stateless(model) -> ElementConstants:
-    """The constants of ``model``'s elements for the numpy path, which has no internal
-    variables: a model with Prony relaxation (:mod:`neurofuzzy.forces.relaxation`) runs in
-    the compiled kernels only, and says so here rather than be simulated without it."""
-    if model.n_relaxation_terms:
-        raise InputError("this model's elements relax (Prony terms), which only the compiled "
-                         "kernels simulate; the numpy path was asked for (an effect the kernels "
-                         "do not compute, or backend='numpy')",
-                         key="element_relaxation_moduli")
-    return ElementConstants.of(model)
+@dataclass(frozen=True, eq=False)
+class Tetrahedra(ForceTerm):
+    """The tetrahedral finite elements of a model (``model.elements``; the elements are
+    ``model.mesh.tetrahedra``): per element its Young's modulus, Poisson's ratio, viscosity,
+    material law and the law's constants, tie group and region.
 
+    Give values as numbers (every element) or (n_tetrahedra,) arrays; the model checks them
+    against its mesh (:meth:`bound`) and keeps read-only arrays.
 
-def _sym(matrix):
-    return 0.5 * (matrix + np.swapaxes(matrix, -1, -2))
+    Parameters
+    ----------
+    youngs_modulus, poisson_ratio, viscosity : float or (n_tetrahedra,) float
+        E (Pa, > 0), ν in (0, 0.5) and η (Pa·s, ≥ 0) of every element.
+    tie : (n_tetrahedra,) int, optional
+        Tie group of every element (default: one group per region); tied elements are
+        learned as one E, ν and η (E and η keep their start ratios).
+    region : (n_tetrahedra,) int, optional
+        The model region of every element (default 0).
+    volumetric : {"nodal", "element"}
+        How the volumetric stress is formed (module docstring): averaged over the
+        tetrahedra around every node (the default; free of volumetric locking for nearly
+        incompressible tissue) or per element (the textbook linear tetrahedron).
+    law : str, int or (n_tetrahedra,) of them, optional
+        Every element's material law (:mod:`neurofuzzy.forces.laws`):
+        ``"st-venant-kirchhoff"`` (the default), ``"neo-hookean"`` or ``"yeoh"``; stored as
+        law numbers.
+    stiffening : float or (n_tetrahedra,) float, optional
+        Yeoh's ``C₂₀/C₁₀`` (dimensionless, ≥ 0) of every element with the ``"yeoh"`` law
+        (default :data:`~neurofuzzy.forces.laws.DEFAULT_STIFFENING`); the other laws leave
+        theirs unused (an element switched to Yeoh's law later starts from it).
+    relaxation_moduli, relaxation_times : (K,) or (n_tetrahedra, K) float, optional
+        Prony-series relaxation (:mod:`neurofuzzy.forces.relaxation`, 1–3 terms): relative
+        moduli ``gᵢ ≥ 0`` (of the long-term modulus E) and times ``τᵢ > 0`` (s), for all
+        elements or per element; both or neither. Stored as (n_tetrahedra, K), K = 0 without
+        relaxation.
+    """
 
-
-def _trace_product(x, y):
-    """``tr(xᵀ y)`` over the last two axes."""
-    return np.einsum("...ij,...ij->...", x, y)
-
-
-@dataclass(frozen=True)
-class _State:
-    F: np.ndarray
-    F_rate: np.ndarray
-    green: np.ndarray
-    green_rate: np.ndarray
-    theta: np.ndarray
-    theta_rate: np.ndarray
-    at: ElementStress            # S's arguments (π, π̇ included) and its derivatives
-    stress: np.ndarray           # S
-
-
-class TetrahedronForce(ForceTerm):
-    """The tetrahedral elements of a model (stateless, like the springs: the parameters are
-    the model's ``element_youngs_modulus``, ``element_poisson_ratio`` and
-    ``element_viscosity``, the elements ``model.mesh.tetrahedra``, the volumetric form
-    ``model.element_volumetric``, the law of every element ``model.element_law``).
-    :data:`TETRAHEDRA` is the one instance."""
+    youngs_modulus: np.ndarray
+    poisson_ratio: np.ndarray
+    viscosity: np.ndarray
+    tie: np.ndarray | None = None
+    region: np.ndarray | None = None
+    volumetric: str = "nodal"
+    law: np.ndarray | None = None
+    stiffening: np.ndarray | None = None
+    relaxation_moduli: np.ndarray | None = None
+    relaxation_times: np.ndarray | None = None
 
     name = "tetrahedra"
     parameters = {"youngs_modulus": "Pa", "poisson_ratio": "1", "viscosity": "Pa s"}
 
-    def _state(self, constants: ElementConstants, positions, velocities) -> _State:
-        geometry = constants.geometry
-        F = geometry.edges(positions) @ geometry.inverse_rest
-        F_rate = geometry.edges(velocities) @ geometry.inverse_rest
-        green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
-        green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
-        theta, N = ElementStress.strains(constants.law, green)
-        theta_rate = np.trace(green_rate, axis1=1, axis2=2)
-        pressure, pressure_rate = constants.pressures(theta, theta_rate)
-        at = ElementStress.at(constants.law, green, green_rate, constants.shear,
-                              constants.shear_rate, pressure, pressure_rate,
-                              constants.stiffening, (theta, N))
-        return _State(F, F_rate, green, green_rate, theta, theta_rate, at, at.stress())
+    def bound(self, model) -> Tetrahedra:
+        """This term checked against ``model``'s mesh and regions, as read-only arrays with
+        the defaults filled in.
 
-    @staticmethod
-    def _columns(geometry, first_piola: np.ndarray) -> np.ndarray:
-        """``-V P Bᵀ`` for per-element ``P`` ((K, 3, 3) or (K, P, 3, 3))."""
-        inverse_transpose = np.swapaxes(geometry.inverse_rest, 1, 2)
-        if first_piola.ndim == 4:
-            inverse_transpose = inverse_transpose[:, None]
-        return (-broadcast_per_element(geometry.volume, first_piola)
-                * (first_piola @ inverse_transpose))
+        Raises
+        ------
+        InputError
+            A value missing, of the wrong shape or impossible; the message names the first
+            bad element, its region and tissue, the key the model field
+            (``element_youngs_modulus`` …).
+        """
+        if self._bound_to(model):
+            return self
+        n = model.mesh.n_tetrahedra
+        if n == 0:
+            raise InputError("element parameters need a mesh with tetrahedra",
+                             key="element_youngs_modulus")
+        out = {name: vector(getattr(self, name), n, f"element_{name}", "n_tetrahedra")
+               for name in PARAMETERS}
+        out["region"] = region_index(self.region, n, len(model.region_names),
+                                     "element_region", "n_tetrahedra")
+        tie = out["region"] if self.tie is None else np.asarray(self.tie)
+        if tie.shape != (n,) or not np.issubdtype(tie.dtype, np.integer):
+            raise InputError(f"expected ({n},) integers, one tie group per element",
+                             key="element_tie")
+        out["tie"] = np.unique(tie, return_inverse=True)[1].astype(np.intp)
+        out["law"] = law_numbers(self.law, n)
+        out["stiffening"] = stiffening_array(self.stiffening, n)
+        out["relaxation_moduli"], out["relaxation_times"] = relaxation_arrays(
+            self.relaxation_moduli, self.relaxation_times, n)
+        if self.volumetric not in VOLUMETRIC:
+            hint = closest_name(str(self.volumetric), VOLUMETRIC)
+            raise InputError(f"got {self.volumetric!r}; expected one of {list(VOLUMETRIC)}"
+                             + (f" (did you mean {hint!r}?)" if hint else ""),
+                             key="element_volumetric")
+        nu = out["poisson_ratio"]
+        for name, bad, rule in (
+                ("youngs_modulus", out["youngs_modulus"] <= 0,
+                 "Young's modulus {:g} Pa; it must be positive (Pa)"),
+                ("poisson_ratio", (nu <= 0) | (nu >= 0.5),
+                 "Poisson's ratio {:g}; it must lie in (0, 0.5), strictly: 0.5 is a "
+                 "perfectly incompressible solid, which elements cannot represent"),
+                ("viscosity", out["viscosity"] < 0,
+                 "viscosity {:g} Pa s; it must not be negative (Pa s)")):
+            if np.any(bad):
+                first = int(np.flatnonzero(bad)[0])
+                more = f" ({int(bad.sum())} elements in all)" if bad.sum() > 1 else ""
+                raise InputError(f"element {first}{_where(model, out['region'][first])} has "
+                                 + rule.format(out[name][first]) + more,
+                                 key=f"element_{name}")
+        for value in out.values():
+            value = np.asarray(value)
+            if value.flags.writeable:
+                value.setflags(write=False)
+        return replace(self, **out)._checked(model)
 
+    def replace(self, **changes) -> Tetrahedra:
+        """A copy with some fields changed (checked again when it joins a model)."""
+        return replace(self, **changes)
+
+    def blocks(self, model, *, index: int = 0):
+        """E, ν, η, the Prony terms and Yeoh's constant of every tie group
+        (:class:`~neurofuzzy.forces.blocks.ElementBlocks`)."""
+        from .blocks import ElementBlocks
+
+        return ElementBlocks(self)
+
+    # -- what the values say ------------------------------------------------------------------
+    @property
+    def n_ties(self) -> int:
+        """The number of tie groups."""
+        return int(self.tie.max()) + 1 if len(self.tie) else 0
+
+    @property
+    def n_relaxation_terms(self) -> int:
+        """How many Prony terms the elements carry (0: no relaxation)."""
+        return self.relaxation_moduli.shape[1]
+
+    @property
+    def stiffens(self) -> np.ndarray:
+        """(n_tetrahedra,) bool: the elements whose law has its own stiffening constant
+        (:data:`~neurofuzzy.forces.laws.STIFFENING_CONSTANT`; Yeoh's C₂₀/C₁₀)."""
+        return stiffens(self.law)
+
+    def law_names(self) -> str:
+        """The material laws in words: one name, or each with its element count."""
+        numbers, counts = np.unique(self.law, return_counts=True)
+        if len(numbers) == 1:
+            return LAWS[int(numbers[0])]
+        return ", ".join(f"{LAWS[int(n)]} ({int(c)} elements)" for n, c in zip(numbers, counts))
+
+    def constants(self, model) -> ElementConstants:
+        """The elements' constants on ``model``'s mesh (numpy path)."""
+        return ElementConstants.of(self, model.mesh)
+
+    def _stateless(self, model) -> ElementConstants:
+        """The constants for the numpy path, which has no internal variables: elements with
+        Prony relaxation (:mod:`neurofuzzy.forces.relaxation`) run in the compiled kernels
+        only, and say so here rather than be simulated without it."""
+        if self.n_relaxation_terms:
+            raise InputError("this model's elements relax (Prony terms), which only the "
+                             "compiled kernels simulate; the numpy path was asked for (an "
+                             "effect the kernels do not compute, or backend='numpy')",
+                             key="element_relaxation_moduli")
+        return self.constants(model)
+
+    # -- force and state derivatives ------------------------------------------------------------
     def force(self, model, positions, velocities):
-        return self.force_of(_stateless(model), positions, velocities)
+        return element_force(self._stateless(model), positions, velocities)
 
     def state_jvp(self, model, positions, velocities, dp, dv):
-        return self.state_jvp_of(_stateless(model), positions, velocities, dp, dv)
+        return element_state_jvp(self._stateless(model), positions, velocities, dp, dv)
 
     def state_vjp(self, model, positions, velocities, cotangent):
-        return self.state_vjp_of(_stateless(model), positions, velocities, cotangent)
-
-    # the same for any per-element constants (an inclusion's extra stiffness on part of a model)
-    def force_of(self, constants: ElementConstants, positions, velocities):
-        """(n_nodes, 3) force of elements with the given :class:`ElementConstants`."""
-        state = self._state(constants, positions, velocities)
-        return constants.geometry.scatter(
-            self._columns(constants.geometry, state.F @ state.stress), len(positions))
-
-    def state_jvp_of(self, constants: ElementConstants, positions, velocities, dp, dv):
-        """:meth:`state_jvp` of elements with the given :class:`ElementConstants`."""
-        geometry = constants.geometry
-        state = self._state(constants, positions, velocities)
-        B = geometry.inverse_rest[:, None]
-        dF = geometry.edges(dp) @ B                                  # (K, P, 3, 3)
-        dF_rate = geometry.edges(dv) @ B
-        F, F_rate = state.F[:, None], state.F_rate[:, None]
-        d_green = _sym(np.swapaxes(F, -1, -2) @ dF)
-        d_green_rate = _sym(np.swapaxes(dF, -1, -2) @ F_rate + np.swapaxes(F, -1, -2) @ dF_rate)
-        d_theta = _trace_product(state.at.N[:, None], d_green)       # (K, P)
-        d_theta_rate = np.trace(d_green_rate, axis1=-2, axis2=-1)
-        d_pressure, d_pressure_rate = constants.pressures(d_theta, d_theta_rate)
-        d_stress = state.at.jvp(d_green, d_green_rate, d_pressure, d_pressure_rate)
-        d_piola = dF @ state.stress[:, None] + F @ d_stress
-        return geometry.scatter(self._columns(geometry, d_piola), len(positions))
-
-    def state_vjp_of(self, constants: ElementConstants, positions, velocities, cotangent):
-        """:meth:`state_vjp` of elements with the given :class:`ElementConstants`."""
-        geometry = constants.geometry
-        state = self._state(constants, positions, velocities)
-        B = geometry.inverse_rest
-        # cotangent of [f1 f2 f3] (columns): λ_{n_j} - λ_{n_0}
-        lam_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
-        lam_stress = _sym(np.swapaxes(state.F, 1, 2) @ lam_piola)
-        lam_green, lam_green_rate, lam_pressure, lam_pressure_rate = state.at.vjp(lam_stress)
-        # π and π̇ through the volumetric strains θ(G) and θ̇ = tr Ġ
-        lam_theta = constants.pressure_transpose(lam_pressure)[0]
-        lam_theta_rate = constants.pressure_transpose(lam_pressure_rate)[1]
-        lam_green = lam_green + lam_theta[:, None, None] * state.at.N
-        lam_green_rate = lam_green_rate + lam_theta_rate[:, None, None] * np.eye(3)
-        F, F_rate = state.F, state.F_rate
-        lam_F = lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
-        lam_F_rate = F @ lam_green_rate
-        # the adjoint of ``edges`` is ``scatter``: column j to node j+1, minus the sum to node 0
-        n_nodes = len(positions)
-        return (geometry.scatter(lam_F @ np.swapaxes(B, 1, 2), n_nodes),
-                geometry.scatter(lam_F_rate @ np.swapaxes(B, 1, 2), n_nodes))
+        return element_state_vjp(self._stateless(model), positions, velocities, cotangent)
 
     # -- parameters ---------------------------------------------------------------------------
     def _unit_forces(self, model, positions, velocities):
         """Per-corner forces (K, 4, 3) per unit change of each element's shear part
         (``2μ`` by ``E``, ``ν``, ``η``) and of its ``π``, with the constants and state."""
-        constants = _stateless(model)
+        constants = self._stateless(model)
         geometry = constants.geometry
-        state = self._state(constants, positions, velocities)
-        E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
-                      model.element_viscosity)
+        state = element_state(constants, positions, velocities)
+        E, nu, eta = self.youngs_modulus, self.poisson_ratio, self.viscosity
         _, b, _, db = lame_factors(nu)
         by = state.at.partials()                # ∂S by 2μ, 2μβ, π, π̇ (S is linear in each)
         stresses = {"youngs_modulus": 2 * b[:, None, None] * by["shear"],
@@ -211,14 +262,13 @@ class TetrahedronForce(ForceTerm):
                     "poisson_ratio": 2 * db[:, None, None] * (
                         E[:, None, None] * by["shear"] + eta[:, None, None] * by["shear_rate"]),
                     "pressure": by["pressure"], "pressure_rate": by["pressure_rate"]}
-        local = {name: corner_forces(self._columns(geometry, state.F @ stress))
+        local = {name: corner_forces(columns(geometry, state.F @ stress))
                  for name, stress in stresses.items()}
         return constants, state, local
 
     def lame_changes(self, model, directions):
         """``(dλ, d(λβ))`` (K, P) sparse for per-element parameter changes ``directions``."""
-        E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
-                      model.element_viscosity)
+        E, nu, eta = self.youngs_modulus, self.poisson_ratio, self.viscosity
         a, _, da, _ = lame_factors(nu)
         d_lam = (sp.diags(a) @ directions["youngs_modulus"]
                  + sp.diags(E * da) @ directions["poisson_ratio"])
@@ -266,8 +316,7 @@ class TetrahedronForce(ForceTerm):
                                               state.theta_rate)[0]
         g_lam_rate = constants.constants_transpose(out.pop("pressure_rate"), state.theta,
                                                    state.theta_rate)[1]
-        E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
-                      model.element_viscosity)
+        E, nu, eta = self.youngs_modulus, self.poisson_ratio, self.viscosity
         a, _, da, _ = lame_factors(nu)
         out["youngs_modulus"] = out["youngs_modulus"] + a * g_lam
         out["poisson_ratio"] = out["poisson_ratio"] + da * (E * g_lam + eta * g_lam_rate)
@@ -281,88 +330,45 @@ class TetrahedronForce(ForceTerm):
         ``shear D(G; c)``, so ``∂S/∂ log c = c shear ∂D/∂c`` (the compiled law's exact
         derivative, :func:`~neurofuzzy.forces.laws.stiffening_slope`); 0 on the other laws'
         elements."""
-        constants = _stateless(model)
+        constants = self._stateless(model)
         geometry = constants.geometry
         F = geometry.edges(positions) @ geometry.inverse_rest
         green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
         slope = stiffening_slope(constants.law, green, constants.stiffening)
         stress = (constants.stiffening * shear)[:, None, None] * slope
-        return corner_forces(self._columns(geometry, F @ stress))
+        return corner_forces(columns(geometry, F @ stress))
 
     def parameter_values(self, model):
         """``{"youngs_modulus", "poisson_ratio", "viscosity"}``, each (n_elements,)."""
-        return {"youngs_modulus": model.element_youngs_modulus,
-                "poisson_ratio": model.element_poisson_ratio,
-                "viscosity": model.element_viscosity}
+        return {name: getattr(self, name) for name in PARAMETERS}
 
     def with_parameter_values(self, model, values):
-        return model.replace(element_youngs_modulus=values["youngs_modulus"],
-                             element_poisson_ratio=values["poisson_ratio"],
-                             element_viscosity=values["viscosity"]), self
+        model = model.with_term(self.replace(**{name: values[name] for name in PARAMETERS}))
+        return model, model.elements
 
     @classmethod
     def examples(cls, model):
         """The model's own elements (element models)."""
-        return [(model, TETRAHEDRA)] if model.has_elements else []
+        return [] if model.elements is None else [(model, model.elements)]
 
     # -- the stability bound ------------------------------------------------------------------
     def rest_matrices(self, model):
-        """``(K, C)``: ``-∂f/∂x`` and ``-∂f/∂v`` at rest, assembled (3N, 3N): the shear part
-        element by element, the volumetric part ``Dᵀ W D`` from the rest divergence ``D``
-        (and, for the nodal form, its node averages). Elements that relax (Prony terms) are
-        ``1 + Σ gᵢ`` times stiffer at once than their long-term E, and so in the bound."""
-        if model.n_relaxation_terms:
-            instant = model.element_youngs_modulus * (
-                1.0 + model.element_relaxation_moduli.sum(axis=1))
-            return self.rest_matrices_of(ElementConstants.of(model.replace(
-                element_youngs_modulus=instant)))
-        return self.rest_matrices_of(ElementConstants.of(model))
-
-    def rest_matrices_of(self, constants: ElementConstants):
-        """:meth:`rest_matrices` of elements with the given :class:`ElementConstants`."""
-        geometry = constants.geometry
-        n_nodes = len(geometry.node_volume)
-        rows = (3 * geometry.nodes[:, :, None] + np.arange(3)).reshape(-1, 12)
-        divergence = self._rest_divergence(geometry, n_nodes)              # (K, 3N)
-        matrices = []
-        for shear, lam, node_lam in ((constants.shear, constants.lam, constants.node_lam),
-                                     (constants.shear_rate, constants.lam_rate,
-                                      constants.node_lam_rate)):
-            blocks = self._rest_shear_blocks(geometry, shear)
-            matrix = sp.csr_matrix(
-                (blocks.ravel(), (np.repeat(rows, 12, axis=1).ravel(),
-                                  np.tile(rows, (1, 12)).ravel())),
-                shape=(3 * n_nodes, 3 * n_nodes))
-            if constants.nodal:
-                averaged = geometry.average @ divergence
-                volumetric = averaged.T @ sp.diags(geometry.node_volume * node_lam) @ averaged
-            else:
-                volumetric = divergence.T @ sp.diags(geometry.volume * lam) @ divergence
-            matrices.append(sp.csr_matrix(matrix + volumetric))
-        return tuple(matrices)
-
-    @staticmethod
-    def _rest_divergence(geometry, n_nodes) -> sp.csr_matrix:
-        """(K, 3N): ``∂θ_e/∂x`` at rest (``F = I``: the rows of ``B``, node 0 minus their
-        sum)."""
-        local = np.concatenate([-geometry.inverse_rest.sum(axis=1, keepdims=True),
-                                geometry.inverse_rest], axis=1)             # (K, 4, 3)
-        return geometry.corner_matrix(local, n_nodes).T.tocsr()
-
-    @staticmethod
-    def _rest_shear_blocks(geometry, shear) -> np.ndarray:
-        """(K, 12, 12): the element stiffness at rest of ``S = shear · G`` (``-∂f/∂x``)."""
-        K = len(geometry.nodes)
-        tangent = np.zeros((K, 12, 4, 3))
-        index = np.arange(12)
-        tangent[:, index, index // 3, index % 3] = 1.0
-        d_edges = np.swapaxes(tangent[:, :, 1:] - tangent[:, :, :1], -1, -2)   # (K, 12, 3, 3)
-        d_piola = shear[:, None, None, None] * _sym(d_edges @ geometry.inverse_rest[:, None])
-        columns = -geometry.volume[:, None, None, None] * (
-            d_piola @ np.swapaxes(geometry.inverse_rest, 1, 2)[:, None])
-        local = corner_forces(columns)                                       # (K, 4, 12, 3)
-        return -np.moveaxis(local, 2, 1).reshape(K, 12, 12).transpose(0, 2, 1)
+        """``(K, C)``: ``-∂f/∂x`` and ``-∂f/∂v`` at rest, assembled (3N, 3N)
+        (:func:`~neurofuzzy.forces.element_forces.element_rest_matrices`). Elements that
+        relax (Prony terms) are ``1 + Σ gᵢ`` times stiffer at once than their long-term E,
+        and so in the bound."""
+        elements = self
+        if self.n_relaxation_terms:
+            elements = self.replace(youngs_modulus=self.youngs_modulus * (
+                1.0 + self.relaxation_moduli.sum(axis=1)))
+        return element_rest_matrices(ElementConstants.of(elements, model.mesh))
 
 
-#: The tetrahedral-element term of element models.
-TETRAHEDRA = TetrahedronForce()
+def _where(model, region: int) -> str:
+    """" (region 'tumour', tissue 'tumour')" for messages; "" for a one-region model."""
+    names = tuple(str(name) for name in model.region_names)
+    tissues = tuple(model.region_tissues or (None,) * len(names))
+    if len(names) == 1 and tissues[0] is None:
+        return ""
+    tissue = tissues[region] if region < len(tissues) else None
+    return f" (region {names[region]!r}" + (f", tissue {tissue!r})" if tissue else ")")

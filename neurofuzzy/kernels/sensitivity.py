@@ -3,8 +3,8 @@
 One call runs a whole experiment: every frame and substep of semi-implicit Euler for the
 state and its tangents along every parameter direction, with the observation operator
 applied at every frame, so no Python runs per time step. The arithmetic is that of the numpy
-reference path (:meth:`neurofuzzy.forces.SpringForce.state_jvp`, ``parameter_templates`` and
-:meth:`neurofuzzy.forces.TetrahedronForce.state_jvp`, ``parameter_jvp``; tested equal):
+reference path (:meth:`neurofuzzy.forces.Springs.state_jvp`, ``parameter_templates`` and
+:meth:`neurofuzzy.forces.Tetrahedra.state_jvp`, ``parameter_jvp``; tested equal):
 
 - springs ``f = (s x + c ((v_b - v_a)·u) + q x³) u`` (``x = l - L0``; ``s`` with the
   spring inclusions' extra stiffness, ``q = κ / L0²`` the spring stiffening's, a second

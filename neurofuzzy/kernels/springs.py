@@ -1,7 +1,7 @@
 """The spring's force law, written once: the magnitude of paper eq. 3.4 with the spring effects'
 strain stiffening, and its partial derivatives. Every spring force in the package takes its
 magnitude from here: the compiled sweeps (:func:`neurofuzzy.kernels.stepper.spring_state`) per
-spring, the numpy reference (:class:`neurofuzzy.forces.SpringForce`, the stiff inclusion's and
+spring, the numpy reference (:class:`neurofuzzy.forces.Springs`, the stiff inclusion's and
 the stiffening's shapes) over arrays through :func:`magnitudes`.
 
 A spring of stretch ``x = l - L0`` whose ends separate at speed ``ẋ`` pulls them together

@@ -1,7 +1,7 @@
 """Compiled inner loops (numba) of :class:`neurofuzzy._steppers.NumbaStepper`.
 
 Module-level so that ``cache=True`` keeps the machine code between runs. The arithmetic is that
-of :class:`neurofuzzy.forces.SpringForce` and :class:`neurofuzzy.forces.TetrahedronForce`
+of :class:`neurofuzzy.forces.Springs` and :class:`neurofuzzy.forces.Tetrahedra`
 (tested equal); the elements' stress is that of :mod:`neurofuzzy.kernels.laws` (each element's
 law, ``S = S_law(G; 2μ, π) + 2μβ Ġ + π̇ I``) with ``π = λ θ``, ``π̇ = λβ tr Ġ`` (per element)
 or the means of the node-averaged ``Λ θ̄`` and ``H θ̄̇`` over the element's corners (nodal

@@ -2,44 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 
 import numpy as np
 
+from ..forces.blocks import TieGroups
 from ..model import SpringMassModel
 
 __all__ = ["Learner", "TieGroups"]
-
-
-@dataclass(frozen=True)
-class TieGroups:
-    """Map between per-member values (springs, or elements) and the shared values of their
-    tie groups.
-
-    A tied group shares one value ``shared[k]``; member ``j`` gets ``shared[tie[j]] * ratio[j]``
-    where ``ratio`` keeps the proportions the members started with (1 for equal starts).
-    :meth:`of` ties a model's springs; the elements' ties are
-    ``TieGroups(model.element_tie, model.n_element_ties)``.
-    """
-
-    tie: np.ndarray
-    n_ties: int
-
-    @classmethod
-    def of(cls, model: SpringMassModel) -> TieGroups:
-        return cls(model.spring_tie, model.n_ties)
-
-    def split(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(shared, ratio)`` with ``shared`` the group means of ``values``."""
-        count = np.bincount(self.tie, minlength=self.n_ties)
-        shared = np.bincount(self.tie, values, self.n_ties) / np.maximum(count, 1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(shared[self.tie] > 0, values / shared[self.tie], 1.0)
-        return shared, ratio
-
-    def reduce(self, per_member: np.ndarray, ratio: np.ndarray) -> np.ndarray:
-        """Chain rule: derivative by ``shared`` from derivatives by per-member values."""
-        return np.bincount(self.tie, per_member * ratio, self.n_ties)
 
 
 class Learner:

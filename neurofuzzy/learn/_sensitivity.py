@@ -25,7 +25,7 @@ from ..effects import per_unit_mass_force
 from ..effects.compiled import element_constants
 from ..errors import InputError
 from ..experiment import Experiment
-from ..forces import SPRINGS, TETRAHEDRA, incidence, tetrahedron_geometry
+from ..forces import incidence, tetrahedron_geometry
 from ..observation import remove_offsets
 from ..simulation import euler_update
 from ._compiled import CompiledModel, compiled_possible
@@ -70,7 +70,9 @@ class Sensitivity:
         self.n_nodes = model.n_nodes
         self.incidence = incidence(model.mesh)
         # (n_ties * n_nodes, n_springs): spring j into the block of its tie group
-        self.tie_incidence = self.incidence.grouped(parameters.tied.tie, parameters.tied.n_ties)
+        self.tie_incidence = (self.incidence.grouped(parameters.tied.tie,
+                                                     parameters.tied.n_ties)
+                              if parameters.learn_springs else None)
         if model.has_elements:         # the three element blocks lie side by side
             self.element_slice = slice(parameters.blocks[ELEMENT_BLOCKS[0]].start,
                                        parameters.blocks[ELEMENT_BLOCKS[-1]].stop)
@@ -96,15 +98,23 @@ class Sensitivity:
         if block is None:
             return None, None, None
         shear = element_constants(model)[1]["shear"]
-        return (TETRAHEDRA.stiffening_forces(model, p, v, shear),
+        return (model.elements.stiffening_forces(model, p, v, shear),
                 stiffening_columns(self.parameters, model), block)
 
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod
+    def _spring_state(model, p, v):
+        """The springs' :class:`~neurofuzzy.forces.SpringState` at ``(p, v)`` (None without
+        springs): computed once per substep for the force and its derivatives."""
+        return None if model.springs is None else model.springs.state(model, p, v)
+
+    @staticmethod
     def _force(model, p, v, state) -> np.ndarray:
         """(N, 3) every force term (no external load), the springs from ``state``."""
-        force = SPRINGS.force_of_state(model, state)
-        for term in model.force_terms[1:]:              # elements (fixed here) and effects
+        springs = model.springs
+        force = np.zeros((model.n_nodes, 3)) if springs is None else springs.force_of_state(
+            model, state)
+        for term in model.force_terms[springs is not None:]:   # elements and effects
             force += term.force(model, p, v)
         return force
 
@@ -112,11 +122,13 @@ class Sensitivity:
         """(N, P, 3): ``∂F/∂p · tp + ∂F/∂v · tv + ∂F/∂θ`` for every parameter direction
         (``directions``: :func:`element_directions` of ``model``, for element models)."""
         param = self.parameters
-        d_force = SPRINGS.state_jvp(model, p, v, tp, tv, state)
-        for term in model.force_terms[1:]:
+        springs = model.springs
+        d_force = (np.zeros_like(tp) if springs is None
+                   else springs.state_jvp(model, p, v, tp, tv, state))
+        for term in model.force_terms[springs is not None:]:
             d_force += term.state_jvp(model, p, v, tp, tv)
         if param.learn_springs:
-            templates = SPRINGS.parameter_templates(state)
+            templates = springs.parameter_templates(state)
             n_ties = param.tied.n_ties
             for name, values in (("log_stiffness", model.spring_stiffness),
                                  ("log_damping", model.spring_damping)):
@@ -125,7 +137,8 @@ class Sensitivity:
                     self.tie_incidence @ per_spring).reshape(n_ties, self.n_nodes, 3
                                                              ).transpose(1, 0, 2)
         if model.has_elements:
-            d_force[:, self.element_slice] += TETRAHEDRA.parameter_jvp(model, p, v, directions)
+            d_force[:, self.element_slice] += model.elements.parameter_jvp(model, p, v,
+                                                                           directions)
             local, columns, block = self._stiffening_forces(model, p, v)
             if block is not None:
                 yeoh = np.flatnonzero(columns >= 0)
@@ -200,7 +213,7 @@ class Sensitivity:
                         continue
                 else:
                     for _ in range(substeps):
-                        state = SPRINGS.state(model, p, v)
+                        state = self._spring_state(model, p, v)
                         force = self._force(model, p, v, state) + loads[t - 1]
                         if tangents:
                             d_force = self._force_tangent(model, state, p, v, tp, tv,
@@ -287,7 +300,8 @@ class Sensitivity:
                     continue
                 for _ in range(substeps):
                     states.append((t, p, v))
-                    force = self._force(model, p, v, SPRINGS.state(model, p, v)) + loads[t - 1]
+                    force = self._force(model, p, v, self._spring_state(model, p, v)
+                                        ) + loads[t - 1]
                     p, v = p.copy(), v.copy()
                     euler_update(p, v, force, weight, h)
                 positions[t] = p
@@ -317,7 +331,7 @@ class Sensitivity:
             for _ in range(substeps):
                 index -= 1
                 _, p, v = states[index]
-                state = SPRINGS.state(model, p, v)
+                state = self._spring_state(model, p, v)
                 force = self._force(model, p, v, state) + loads[t - 1]
                 # p' = p + h v'
                 lam_vnew = lam_v + h * lam_p
@@ -329,14 +343,18 @@ class Sensitivity:
                     inertial = force - per_unit_mass_force(model, p, v)
                     grad[param.blocks["log_mass"].slice] -= np.einsum(
                         "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * inertial[nodes])
-                d_p, d_v, per_spring = SPRINGS.vjp(model, lam_force, state)
+                springs = model.springs
+                if springs is None:
+                    d_p, d_v = np.zeros_like(lam_force), np.zeros_like(lam_force)
+                else:
+                    d_p, d_v, per_spring = springs.vjp(model, lam_force, state)
                 if param.learn_springs:
                     for name, values in (("log_stiffness", model.spring_stiffness),
                                          ("log_damping", model.spring_damping)):
                         grad[param.blocks[name].slice] += np.bincount(
                             tie, values * per_spring[name[4:]], n_ties)
                 if model.has_elements:
-                    per_element = TETRAHEDRA.parameter_vjp(model, p, v, lam_force)
+                    per_element = model.elements.parameter_vjp(model, p, v, lam_force)
                     for name, direction in directions.items():
                         grad[self.element_slice] += direction.T @ per_element[name]
                     local, columns, block = self._stiffening_forces(model, p, v)
@@ -349,7 +367,7 @@ class Sensitivity:
                     jac = effect.parameter_jacobian(model, p, v)
                     grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,
                                                                          lam_force)
-                for term in model.force_terms[1:]:
+                for term in model.force_terms[springs is not None:]:
                     e_p, e_v = term.state_vjp(model, p, v, lam_force)
                     d_p += e_p
                     d_v += e_v

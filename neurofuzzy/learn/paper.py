@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, require_node_observations, rms_error
 from ..model import SpringMassModel
-from ..forces import SPRINGS, incidence
+from ..forces import incidence
 from ..progress import Progress
 from ..simulation import euler_update
 from ._base import Learner, TieGroups
@@ -160,13 +160,14 @@ class PaperLearner(Learner):
         p = experiment.initial_positions()
         v = experiment.initial_velocities()
         counter, error = 0, 0.0
+        springs = model.springs
         for t in range(1, experiment.n_frames):
             s, c, w = state.stiffness(), state.damping(), state.inverse_mass
             # 1. propagate one step (eqs. 3.1–3.6)
-            geometry = SPRINGS.state(model, p, v)
-            templates = SPRINGS.parameter_templates(geometry)
+            geometry = springs.state(model, p, v)
+            templates = springs.parameter_templates(geometry)
             o_s, o_c = templates["stiffness"], templates["damping"]
-            force = SPRINGS.force_of_state(model, geometry, s, c)
+            force = springs.force_of_state(model, geometry, s, c)
             for effect in state.effects:
                 force += effect.force(model, p, v)
             force += loads[t - 1]
@@ -207,7 +208,7 @@ class _LearningState:
 
     def __init__(self, model: SpringMassModel):
         self.base = model
-        self.tied = TieGroups.of(model)
+        self.tied = TieGroups.of(model.springs.tie)
         self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.spring_stiffness)
         self.damping_shared, self.damping_ratio = self.tied.split(model.spring_damping)
         free = model.mesh.free

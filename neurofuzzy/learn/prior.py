@@ -210,17 +210,12 @@ class PriorTerms:
             if block is None:
                 continue
             if name in ("log_stiffness", "log_damping"):
-                tie, region = parameters.tied.tie, model.spring_region
-                factor = _spring_factor(model)
-                ratio = (parameters.stiffness_ratio if name == "log_stiffness"
-                         else parameters.damping_ratio)
-                offset_items = np.log(ratio / factor)
+                tie, region = model.springs.tie, model.springs.region
+                offset_items = np.log(parameters.ratio(name) / _spring_factor(model))
             else:
-                tie, region = model.element_tie, model.element_region
-                ratio = {"log_youngs_modulus": parameters.modulus_ratio,
-                         "logit_poisson_ratio": np.ones(model.mesh.n_tetrahedra),
-                         "log_viscosity": parameters.viscosity_ratio}[name]
-                offset_items = np.log(ratio)
+                tie, region = model.elements.tie, model.elements.region
+                ratio = parameters.ratio(name)          # (ν has no ratios: one per group)
+                offset_items = np.log(np.ones(len(tie)) if ratio is None else ratio)
             n_groups = block.stop - block.start
             counts = np.bincount(tie, minlength=n_groups)
             offset = np.bincount(tie, offset_items, n_groups) / np.maximum(counts, 1)
@@ -327,10 +322,10 @@ def _neighbour_pairs(model, parameters, row_keys) -> np.ndarray:
         if name not in parameters.blocks:
             continue
         if name in ("log_stiffness", "log_damping"):
-            tie, region = parameters.tied.tie, model.spring_region
+            tie, region = model.springs.tie, model.springs.region
             a, b = _springs_sharing_a_node(model.mesh)
         else:
-            tie, region = model.element_tie, model.element_region
+            tie, region = model.elements.tie, model.elements.region
             a, b = _elements_sharing_a_face(model.mesh.tetrahedra)
         same = (region[a] == region[b]) & (tie[a] != tie[b])
         for i, j in zip(tie[a[same]], tie[b[same]]):

@@ -24,7 +24,8 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from ..experiment import Experiment, check_experiments
-from ..forces import SPRINGS, incidence
+from ..forces import incidence
+from ..forces.springs import parameter_templates, spring_state
 from ..model import SpringMassModel
 from ._base import TieGroups
 
@@ -96,7 +97,7 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
     experiments = check_experiments(model, experiments)
     if not all(e.complete for e in experiments):
         return StartModel(model, "defaults", "some free nodes are unobserved or have gaps")
-    tied = TieGroups.of(model)
+    tied = TieGroups.of(model.spring_tie)
     s_ratio = tied.split(model.spring_stiffness)[1] if np.all(model.spring_stiffness > 0) \
         else np.ones(model.n_springs)
     c_ratio = tied.split(model.spring_damping)[1] if np.all(model.spring_damping > 0) \
@@ -151,7 +152,7 @@ def _solve(model, experiments, tie, s_ratio, c_ratio, estimate_mass):
         accel = (p[1:] - p[:-1]) / (h * h) - v[:-1] / h          # (T-1, N, 3)
         per_frame = []                 # (F, 2K, 3) per frame: node force of every tie group
         for t in range(len(accel)):
-            templates = SPRINGS.parameter_templates(SPRINGS.state(model, p[t], v[t]))
+            templates = parameter_templates(spring_state(model, p[t], v[t]))
             per_frame.append(np.concatenate([
                 maps.group_sums(templates[name] * ratio[:, None], tie, n_ties)[free]
                 for name, ratio in (("stiffness", s_ratio), ("damping", c_ratio))], axis=1))

@@ -9,6 +9,7 @@ from typing import Literal
 import numpy as np
 
 from ..errors import InputError
+from ..forces.base import vector
 from ..mesh import Mesh
 
 __all__ = ["Tie", "TIES", "tie_index", "PerSpring", "vector", "per_spring", "describe"]
@@ -45,21 +46,6 @@ def describe(values: np.ndarray) -> str:
     if np.isclose(lo, hi, rtol=1e-9, atol=0):
         return f"{lo:.6g}"
     return f"{float(np.median(values)):.6g} (median; {lo:.4g} .. {hi:.4g})"
-
-
-def vector(value, n: int, key: str, size_name: str) -> np.ndarray:
-    """(n,) float from a number or an array; :class:`InputError` naming ``key`` otherwise."""
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError("expected numbers", key=key) from None
-    if array.ndim == 0:
-        array = np.full(n, float(array))
-    if array.shape != (n,):
-        raise InputError(f"got shape {array.shape}; expected ({size_name},) = ({n},)", key=key)
-    if not np.all(np.isfinite(array)):
-        raise InputError("contains NaN or infinite values", key=key)
-    return array
 
 
 def per_spring(mesh: Mesh, value: PerSpring, key: str) -> np.ndarray:

@@ -1,0 +1,167 @@
+"""The numpy forces of tetrahedral elements with given :class:`ElementConstants`, and their
+state derivatives: the model's own elements (:class:`~neurofuzzy.forces.tetrahedra.Tetrahedra`)
+and an inclusion's or a law switch's constants on part of a model (:mod:`neurofuzzy.effects`)
+go through these functions (the equations are in :mod:`neurofuzzy.forces.tetrahedra`).
+
+The stress ``S`` and its derivatives come from the compiled law
+(:class:`~neurofuzzy.forces.laws.ElementStress`); this module forms ``F``, ``G``, the
+volumetric strains and the forces ``-V P Bᵀ``, vectorised over elements (batched (K, 3, 3)
+products).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .laws import ElementStress
+from .tetra_geometry import ElementConstants, broadcast_per_element, corner_forces
+
+__all__ = ["ElementState", "element_state", "columns", "element_force", "element_state_jvp",
+           "element_state_vjp", "element_rest_matrices"]
+
+
+def _sym(matrix):
+    return 0.5 * (matrix + np.swapaxes(matrix, -1, -2))
+
+
+def _trace_product(x, y):
+    """``tr(xᵀ y)`` over the last two axes."""
+    return np.einsum("...ij,...ij->...", x, y)
+
+
+@dataclass(frozen=True)
+class ElementState:
+    """The elements' kinematics and stress at one state (K elements)."""
+
+    F: np.ndarray
+    F_rate: np.ndarray
+    green: np.ndarray
+    green_rate: np.ndarray
+    theta: np.ndarray
+    theta_rate: np.ndarray
+    at: ElementStress            # S's arguments (π, π̇ included) and its derivatives
+    stress: np.ndarray           # S
+
+
+def element_state(constants: ElementConstants, positions, velocities) -> ElementState:
+    """``F``, ``Ḟ``, ``G``, ``Ġ``, ``θ``, ``θ̇`` and ``S`` of every element."""
+    geometry = constants.geometry
+    F = geometry.edges(positions) @ geometry.inverse_rest
+    F_rate = geometry.edges(velocities) @ geometry.inverse_rest
+    green = 0.5 * (np.swapaxes(F, 1, 2) @ F - np.eye(3))
+    green_rate = _sym(np.swapaxes(F, 1, 2) @ F_rate)
+    theta, N = ElementStress.strains(constants.law, green)
+    theta_rate = np.trace(green_rate, axis1=1, axis2=2)
+    pressure, pressure_rate = constants.pressures(theta, theta_rate)
+    at = ElementStress.at(constants.law, green, green_rate, constants.shear,
+                          constants.shear_rate, pressure, pressure_rate,
+                          constants.stiffening, (theta, N))
+    return ElementState(F, F_rate, green, green_rate, theta, theta_rate, at, at.stress())
+
+
+def columns(geometry, first_piola: np.ndarray) -> np.ndarray:
+    """``-V P Bᵀ`` for per-element ``P`` ((K, 3, 3) or (K, P, 3, 3)): the forces on an
+    element's nodes 1–3 as columns (node 0 gets minus their sum)."""
+    inverse_transpose = np.swapaxes(geometry.inverse_rest, 1, 2)
+    if first_piola.ndim == 4:
+        inverse_transpose = inverse_transpose[:, None]
+    return (-broadcast_per_element(geometry.volume, first_piola)
+            * (first_piola @ inverse_transpose))
+
+
+def element_force(constants: ElementConstants, positions, velocities) -> np.ndarray:
+    """(n_nodes, 3) force of elements with the given constants."""
+    state = element_state(constants, positions, velocities)
+    return constants.geometry.scatter(
+        columns(constants.geometry, state.F @ state.stress), len(positions))
+
+
+def element_state_jvp(constants: ElementConstants, positions, velocities, dp, dv):
+    """(n_nodes, P, 3): ``∂F/∂p · dp + ∂F/∂v · dv`` of the elements' force."""
+    geometry = constants.geometry
+    state = element_state(constants, positions, velocities)
+    B = geometry.inverse_rest[:, None]
+    dF = geometry.edges(dp) @ B                                  # (K, P, 3, 3)
+    dF_rate = geometry.edges(dv) @ B
+    F, F_rate = state.F[:, None], state.F_rate[:, None]
+    d_green = _sym(np.swapaxes(F, -1, -2) @ dF)
+    d_green_rate = _sym(np.swapaxes(dF, -1, -2) @ F_rate + np.swapaxes(F, -1, -2) @ dF_rate)
+    d_theta = _trace_product(state.at.N[:, None], d_green)       # (K, P)
+    d_theta_rate = np.trace(d_green_rate, axis1=-2, axis2=-1)
+    d_pressure, d_pressure_rate = constants.pressures(d_theta, d_theta_rate)
+    d_stress = state.at.jvp(d_green, d_green_rate, d_pressure, d_pressure_rate)
+    d_piola = dF @ state.stress[:, None] + F @ d_stress
+    return geometry.scatter(columns(geometry, d_piola), len(positions))
+
+
+def element_state_vjp(constants: ElementConstants, positions, velocities, cotangent):
+    """``((∂F/∂p)ᵀ λ, (∂F/∂v)ᵀ λ)`` of the elements' force, each (n_nodes, 3)."""
+    geometry = constants.geometry
+    state = element_state(constants, positions, velocities)
+    B = geometry.inverse_rest
+    # cotangent of [f1 f2 f3] (columns): λ_{n_j} - λ_{n_0}
+    lam_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
+    lam_stress = _sym(np.swapaxes(state.F, 1, 2) @ lam_piola)
+    lam_green, lam_green_rate, lam_pressure, lam_pressure_rate = state.at.vjp(lam_stress)
+    # π and π̇ through the volumetric strains θ(G) and θ̇ = tr Ġ
+    lam_theta = constants.pressure_transpose(lam_pressure)[0]
+    lam_theta_rate = constants.pressure_transpose(lam_pressure_rate)[1]
+    lam_green = lam_green + lam_theta[:, None, None] * state.at.N
+    lam_green_rate = lam_green_rate + lam_theta_rate[:, None, None] * np.eye(3)
+    F, F_rate = state.F, state.F_rate
+    lam_F = lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
+    lam_F_rate = F @ lam_green_rate
+    # the adjoint of ``edges`` is ``scatter``: column j to node j+1, minus the sum to node 0
+    n_nodes = len(positions)
+    return (geometry.scatter(lam_F @ np.swapaxes(B, 1, 2), n_nodes),
+            geometry.scatter(lam_F_rate @ np.swapaxes(B, 1, 2), n_nodes))
+
+
+def element_rest_matrices(constants: ElementConstants):
+    """``(K, C)``: ``-∂f/∂x`` and ``-∂f/∂v`` at rest, assembled (3N, 3N): the shear part
+    element by element, the volumetric part ``Dᵀ W D`` from the rest divergence ``D`` (and,
+    for the nodal form, its node averages)."""
+    geometry = constants.geometry
+    n_nodes = len(geometry.node_volume)
+    rows = (3 * geometry.nodes[:, :, None] + np.arange(3)).reshape(-1, 12)
+    divergence = _rest_divergence(geometry, n_nodes)                      # (K, 3N)
+    matrices = []
+    for shear, lam, node_lam in ((constants.shear, constants.lam, constants.node_lam),
+                                 (constants.shear_rate, constants.lam_rate,
+                                  constants.node_lam_rate)):
+        blocks = _rest_shear_blocks(geometry, shear)
+        matrix = sp.csr_matrix(
+            (blocks.ravel(), (np.repeat(rows, 12, axis=1).ravel(),
+                              np.tile(rows, (1, 12)).ravel())),
+            shape=(3 * n_nodes, 3 * n_nodes))
+        if constants.nodal:
+            averaged = geometry.average @ divergence
+            volumetric = averaged.T @ sp.diags(geometry.node_volume * node_lam) @ averaged
+        else:
+            volumetric = divergence.T @ sp.diags(geometry.volume * lam) @ divergence
+        matrices.append(sp.csr_matrix(matrix + volumetric))
+    return tuple(matrices)
+
+
+def _rest_divergence(geometry, n_nodes) -> sp.csr_matrix:
+    """(K, 3N): ``∂θ_e/∂x`` at rest (``F = I``: the rows of ``B``, node 0 minus their sum)."""
+    local = np.concatenate([-geometry.inverse_rest.sum(axis=1, keepdims=True),
+                            geometry.inverse_rest], axis=1)                 # (K, 4, 3)
+    return geometry.corner_matrix(local, n_nodes).T.tocsr()
+
+
+def _rest_shear_blocks(geometry, shear) -> np.ndarray:
+    """(K, 12, 12): the element stiffness at rest of ``S = shear · G`` (``-∂f/∂x``)."""
+    K = len(geometry.nodes)
+    tangent = np.zeros((K, 12, 4, 3))
+    index = np.arange(12)
+    tangent[:, index, index // 3, index % 3] = 1.0
+    d_edges = np.swapaxes(tangent[:, :, 1:] - tangent[:, :, :1], -1, -2)   # (K, 12, 3, 3)
+    d_piola = shear[:, None, None, None] * _sym(d_edges @ geometry.inverse_rest[:, None])
+    forces = -geometry.volume[:, None, None, None] * (
+        d_piola @ np.swapaxes(geometry.inverse_rest, 1, 2)[:, None])
+    local = corner_forces(forces)                                            # (K, 4, 12, 3)
+    return -np.moveaxis(local, 2, 1).reshape(K, 12, 12).transpose(0, 2, 1)
