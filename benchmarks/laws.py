@@ -82,7 +82,7 @@ def diagnosis(recording, mesh: str, mesh_check: bool = False,
     began = time.perf_counter()
     result = diagnose(start, experiment, mesh_check=mesh_check)
     refined = result.mesh or {}
-    found = {"answer": result.names, "law": result.model_.law_names(),
+    found = {"answer": result.names, "law": result.model_.elements.law_names(),
              "ratio_before": result.rms_before / result.noise_rms,
              "ratio_after": result.rms_after / result.noise_rms,
              "refined_elements": refined.get("elements"), "ratio_refined": refined.get("ratio"),
@@ -104,7 +104,8 @@ def confirm(recording, mesh: str, result) -> dict:
     began = time.perf_counter()
     fitted = GradientLearner(substeps="auto").fit(model, experiment)
     return {"confirm_mesh": mesh, "confirm_elements": model.mesh.n_tetrahedra,
-            "confirm_law": fitted.model_.law_names(), "ratio_confirmed": fitted.lack_of_fit_.ratio,
+            "confirm_law": fitted.model_.elements.law_names(),
+            "ratio_confirmed": fitted.lack_of_fit_.ratio,
             "confirm_explained": fitted.lack_of_fit_.explained,
             "confirm_seconds": time.perf_counter() - began}
 

@@ -69,7 +69,7 @@ def diagnosis(recording, mesh: str) -> dict:
     began = time.perf_counter()
     result = diagnose(start, block_experiment(recording, start.mesh), mesh_check=False)
     model = result.model_
-    return {"answer": result.names, "law": model.law_names(),
+    return {"answer": result.names, "law": model.elements.law_names(),
             "prony": [model.element_relaxation_moduli[0].tolist(),
                       model.element_relaxation_times[0].tolist()],
             "ratio_before": result.rms_before / result.noise_rms,

@@ -54,7 +54,7 @@ def main(argv=None):
     experiment = block_experiment(recording, start.mesh)
     said = rules.tissue("stiffening_liver")
     print(f"the words give: E {said['youngs_modulus']:.0f} Pa, C20/C10 "
-          f"{said['strain_stiffening']:.2f} (law {start.law_names()})")
+          f"{said['strain_stiffening']:.2f} (law {start.elements.law_names()})")
     print(f"the truth:      E {truth['youngs_modulus']:.0f} Pa, C20/C10 "
           f"{truth['c20'] / truth['c10']:.2f} ({truth['law']} by {truth['solver']})")
     print(f"{'law':<21}{'E (Pa)':>9}{'nu':>7}{'C20/C10':>9}{'RMS/noise':>11}{'s':>5}  words")

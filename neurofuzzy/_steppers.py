@@ -214,6 +214,7 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
         if key in cache:
             return cache[key]
     from .effects.compiled import kernel_values, spring_entries
+    from .forces.springs import spring_constants
 
     drag, constant, kappa = kernel_values(model)
     # the springs with a force, then those that stiffen once more (the spring effects')
@@ -222,7 +223,7 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
               np.ascontiguousarray(model.mesh.springs[springs, 0]),
               np.ascontiguousarray(model.mesh.springs[springs, 1]),
               stiffness.astype(dtype), damping.astype(dtype),
-              model.spring_rest_length[springs].astype(dtype), cubic.astype(dtype),
+              spring_constants(model)[2][springs].astype(dtype), cubic.astype(dtype),
               _element_arrays(model, dtype, h), model.node_inverse_mass.astype(dtype))
     with NumbaStepper._prepared_lock:
         while len(cache) >= 4:                          # a learner tries many steps: keep few
@@ -247,7 +248,7 @@ def _element_arrays(model, dtype, h: float):
     ``node_strain`` is scratch space of the nodal volumetric form; ``g``, ``a = exp(-h/τ)``
     and ``history`` (n_elements, K, 6) the Prony terms of steps of ``h`` seconds and their
     internal variables, :mod:`neurofuzzy.forces.relaxation`)."""
-    if not model.has_elements:
+    if model.elements is None:
         empty = np.zeros(0, dtype)
         return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty,
                 np.zeros(0, np.intp), empty, empty, empty, empty, empty, False, empty, empty,
@@ -268,13 +269,13 @@ def _element_arrays(model, dtype, h: float):
             # copies of the model's (read-only) arrays: a read-only argument is another type to
             # numba, and the learners pass writable ones (one compiled driver for both)
             np.array(materials.law, np.intp, order="C"),
-            np.array(model.element_stiffening, dtype, order="C"),
+            np.array(model.elements.stiffening, dtype, order="C"),
             *(np.asarray(total[key], dtype) for key in ("shear", "shear_rate", "lam",
                                                        "lam_rate")),
             nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
             np.zeros((n_nodes, 2), dtype),
-            np.array(model.element_relaxation_moduli, dtype, order="C"),
-            np.ascontiguousarray(decay(model.element_relaxation_times, h), dtype),
+            np.array(model.elements.relaxation_moduli, dtype, order="C"),
+            np.ascontiguousarray(decay(model.elements.relaxation_times, h), dtype),
             np.zeros((model.mesh.n_tetrahedra, model.n_relaxation_terms, 6), dtype))
 
 

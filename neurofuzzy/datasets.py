@@ -12,7 +12,7 @@ import numpy as np
 
 from .experiment import Experiment, simulate_experiment
 from .mesh import Mesh, bottom_layer, kuhn_block, lattice  # noqa: F401  (kuhn_block re-exported)
-from .model import SpringMassModel
+from .model import Model
 
 __all__ = ["per_spring_cube", "kuhn_block", "CUBE", "paper_cube_mesh", "paper_cube_model", "paper_cube_experiment",
            "top_centre_node", "corner_node", "point_load", "push_and_pull"]
@@ -37,9 +37,9 @@ def paper_cube_mesh() -> Mesh:
         where=bottom_layer)
 
 
-def paper_cube_model(*, stiffness=None, damping=None, total_mass=None, tie="none") -> SpringMassModel:
+def paper_cube_model(*, stiffness=None, damping=None, total_mass=None, tie="none") -> Model:
     """The cube with the built-in ("true") parameters, or with the ones given."""
-    return SpringMassModel.uniform(
+    return Model.uniform(
         paper_cube_mesh(),
         stiffness=CUBE["stiffness"] if stiffness is None else stiffness,
         damping=CUBE["damping"] if damping is None else damping,
@@ -73,14 +73,14 @@ def push_and_pull(mesh: Mesh) -> list[np.ndarray]:
             point_load(mesh, corner_node(mesh), (0.15, 0.05, 0.0))]
 
 
-def paper_cube_experiment(model: SpringMassModel | None = None, *, force=None, node=None,
+def paper_cube_experiment(model: Model | None = None, *, force=None, node=None,
                           noise: float = 0.0, seed: int = 0, n_frames: int | None = None,
                           substeps: int = 1, source: str = "paper-cube") -> Experiment:
     """Simulate the paper's load case: a constant force on the top centre node from rest.
 
     Parameters
     ----------
-    model : SpringMassModel, optional
+    model : Model, optional
         The true model (default :func:`paper_cube_model`).
     force : (3,) float, optional
         The load (default ``CUBE["force"]``).
@@ -107,18 +107,18 @@ def per_spring_cube(seed: int = 0, spread: float = 0.3):
 
     Returns
     -------
-    base : SpringMassModel
+    base : Model
         The cube with the built-in (uniform) values: a start model.
-    truth : SpringMassModel
+    truth : Model
     experiments : list of Experiment
     """
     from .validation.integrators import reference_experiment
 
     rng = np.random.default_rng(seed)
     base = paper_cube_model()
-    truth = base.replace(
-        spring_stiffness=CUBE["stiffness"] * rng.uniform(1 - spread, 1 + spread, base.n_springs),
-        spring_damping=CUBE["damping"] * rng.uniform(1 - spread, 1 + spread, base.n_springs))
+    truth = base.with_springs(
+        stiffness=CUBE["stiffness"] * rng.uniform(1 - spread, 1 + spread, base.n_springs),
+        damping=CUBE["damping"] * rng.uniform(1 - spread, 1 + spread, base.n_springs))
     experiments = [reference_experiment(truth, dt=CUBE["dt"], n_frames=CUBE["n_frames"],
                                         external_forces=load, method="rk4", substeps=10)
                    for load in push_and_pull(base.mesh)]

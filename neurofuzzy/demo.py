@@ -78,9 +78,10 @@ def paper_experiments(*, cycles: int = 100, seed: int = 7, progress: bool = Fals
     def factors(n):
         return np.exp(rng.uniform(np.log(0.2), np.log(5.0), n))
 
-    random_start = truth.replace(
-        spring_stiffness=truth.spring_stiffness * factors(truth.n_springs),
-        spring_damping=truth.spring_damping * factors(truth.n_springs),
+    springs = truth.springs
+    random_start = truth.with_term(springs.replace(
+        stiffness=springs.stiffness * factors(truth.n_springs),
+        damping=springs.damping * factors(truth.n_springs))).replace(
         node_mass=truth.node_mass * factors(truth.n_nodes))
     setups = {
         1: (random_start, dict(learning_rate=0.01, mass_learning_rate=0.1, learn_masses=True)),
@@ -100,14 +101,14 @@ def paper_experiments(*, cycles: int = 100, seed: int = 7, progress: bool = Fals
             learner.fit(start, data)
             fitted = learner.model_
             # E in network units (mean spring length) → edge lengths, as the paper reports it
-            history = learner.history_ * (np.mean(truth.spring_rest_length)
-                                          / CUBE["edge_length"]) ** 2
+            history = learner.history_ * (truth.length_unit / CUBE["edge_length"]) ** 2
             runs.append(CubeRun(
                 experiment=number, learner=name, error_history=np.asarray(history),
                 final_error=float(history[-1]), cycles=learner.n_cycles_,
                 seconds=time.perf_counter() - started,
-                stiffness_error=_relative_error(fitted.spring_stiffness, truth.spring_stiffness),
-                damping_error=_relative_error(fitted.spring_damping, truth.spring_damping),
+                stiffness_error=_relative_error(fitted.springs.stiffness,
+                                                truth.springs.stiffness),
+                damping_error=_relative_error(fitted.springs.damping, truth.springs.damping),
                 mass_error=_relative_error(fitted.node_mass[truth.mesh.free],
                                            truth.node_mass[truth.mesh.free]),
                 rms_initial=learner.rms_error_initial_, rms_final=learner.rms_error_))

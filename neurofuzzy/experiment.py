@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
 from .mesh.core import check_coordinates
-from .model import SpringMassModel
+from .model import Model
 from .observation import EmbeddedMarkers, Observation, remove_offsets
 from .simulation import simulate
 
@@ -240,7 +240,22 @@ class Experiment:
         return Observation(operator, self.positions[:, rows], self.tracked_frames()[:, rows])
 
 
-def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
+def model_truth(model) -> dict[str, np.ndarray]:
+    """The ground truth a synthetic experiment records of the model that made it: every
+    term's own parameters (``true_stiffness``, ``true_damping`` of the springs,
+    ``true_youngs_modulus`` … of the elements, ``true_<effect>`` of an effect's parameters)
+    and ``true_masses``."""
+    truth = {}
+    for term in model.terms:
+        values = term.parameter_values(model)
+        if set(values) == {"params"}:
+            values = {term.name: values["params"]}
+        truth.update({f"true_{name}": np.asarray(value) for name, value in values.items()})
+    truth["true_masses"] = model.node_mass
+    return truth
+
+
+def simulate_experiment(model: Model, *, dt: float, n_frames: int,
                         external_forces: np.ndarray | None = None, substeps: int | str = 1,
                         noise: float = 0.0, seed: int | None = 0,
                         observed: np.ndarray | None = None,
@@ -249,7 +264,7 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
         The "true" model; its parameters are stored as ``truth``.
     dt, n_frames, external_forces, substeps
         As in :func:`neurofuzzy.simulation.simulate`.
@@ -272,12 +287,10 @@ def simulate_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
         positions[:, model.mesh.fixed] = trajectory.positions[:, model.mesh.fixed]
     if observed is not None:
         positions[:, ~np.asarray(observed, bool)] = np.nan
-    truth = {"true_stiffness": model.spring_stiffness, "true_damping": model.spring_damping,
-             "true_masses": model.node_mass}
     return Experiment(mesh=model.mesh, dt=dt, positions=positions,
                       external_forces=external_forces, observed=observed,
-                      node_mass=model.node_mass if with_masses else None, truth=truth,
-                      source=source)
+                      node_mass=model.node_mass if with_masses else None,
+                      truth=model_truth(model), source=source)
 
 
 def duration(experiments) -> float:
@@ -286,7 +299,7 @@ def duration(experiments) -> float:
     return max(e.dt * (e.n_frames - 1) for e in experiments)
 
 
-def check_experiments(model: SpringMassModel,
+def check_experiments(model: Model,
                       experiments: Experiment | Sequence[Experiment], *,
                       model_source: str | None = None) -> list[Experiment]:
     """Return ``experiments`` as a list after checking they describe ``model``'s object
@@ -310,7 +323,7 @@ def check_experiments(model: SpringMassModel,
         if not np.array_equal(mesh.fixed, model.mesh.fixed):
             raise InputError(f"its fixed nodes differ from those of {the_model}",
                              source=experiment.source, key="fixed")
-        if model.has_elements and mesh.tetrahedra is not None and not np.array_equal(
+        if model.elements is not None and mesh.tetrahedra is not None and not np.array_equal(
                 mesh.tetrahedra, model.mesh.tetrahedra):
             raise InputError(f"its tetrahedra differ from the elements of {the_model}",
                              source=experiment.source, key="tetrahedra")
@@ -327,7 +340,7 @@ def require_node_observations(experiments: Sequence[Experiment], why: str) -> No
                          source=embedded.source, key="markers")
 
 
-def simulate_like(model: SpringMassModel, experiment: Experiment,
+def simulate_like(model: Model, experiment: Experiment,
                   substeps: int = 1) -> np.ndarray:
     """(n_frames, n_nodes, 3): ``model`` run freely under ``experiment``'s load and start."""
     return simulate(model, dt=experiment.dt, n_frames=experiment.n_frames,
@@ -336,7 +349,7 @@ def simulate_like(model: SpringMassModel, experiment: Experiment,
                     substeps=substeps, check_stability=False).positions
 
 
-def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
+def rms_error(model: Model, experiments: Experiment | Sequence[Experiment], *,
               substeps: int = 1, offsets: bool = False) -> float:
     """Root-mean-square distance between free simulation and measurement, per marker.
 
@@ -357,7 +370,7 @@ def rms_error(model: SpringMassModel, experiments: Experiment | Sequence[Experim
     return float(value) if np.isfinite(value) else float("inf")
 
 
-def model_errors(model: SpringMassModel, experiments: Sequence[Experiment], *,
+def model_errors(model: Model, experiments: Sequence[Experiment], *,
                  substeps: int = 1, offsets: bool = False) -> list[np.ndarray] | None:
     """Per experiment, (n_frames - 1, n_rows, 3) simulated minus measured (m) at frames 1
     onwards for every measured row (zero where not measured), as :func:`rms_error` counts

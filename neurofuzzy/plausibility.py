@@ -240,7 +240,7 @@ def check_recording(markers, mesh, *, dt: float | None, model=None,
     mesh : Mesh
     dt : float or None
         The step the recording is resampled to (None: its capture period).
-    model : SpringMassModel, optional
+    model : Model, optional
         The model it will be fitted with (its stable step).
     topology : str, optional
         The file of ``mesh``, for messages.

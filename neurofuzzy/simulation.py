@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 
 from ._steppers import euler_update, make_stepper, numba_available
 from .errors import InputError, UnstableTimeStepError
-from .model import SpringMassModel
+from .model import Model
 
 __all__ = [
     "State",
@@ -74,14 +74,14 @@ class State:
     internal: np.ndarray
 
     @classmethod
-    def at_rest(cls, model: SpringMassModel) -> State:
+    def at_rest(cls, model: Model) -> State:
         """The model at its rest positions, not moving, nothing relaxed."""
         return cls(np.array(model.mesh.rest_positions, dtype=float),
                    np.zeros((model.n_nodes, 3)), _no_internal(model))
 
 
-def _no_internal(model: SpringMassModel) -> np.ndarray:
-    n_elements = model.mesh.n_tetrahedra if model.has_elements else 0
+def _no_internal(model: Model) -> np.ndarray:
+    n_elements = model.mesh.n_tetrahedra if model.elements is not None else 0
     return np.zeros((n_elements, model.n_relaxation_terms, 6))
 
 
@@ -123,7 +123,7 @@ class Trajectory:
                      self.final_internal.copy())
 
 
-def internal_forces(model: SpringMassModel, positions: np.ndarray,
+def internal_forces(model: Model, positions: np.ndarray,
                     velocities: np.ndarray) -> np.ndarray:
     """(n_nodes, 3) the sum of every force term of the model (springs and effects)."""
     force = np.zeros_like(positions, dtype=float)
@@ -132,7 +132,7 @@ def internal_forces(model: SpringMassModel, positions: np.ndarray,
     return force
 
 
-def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, h: float,
+def step(model: Model, positions: np.ndarray, velocities: np.ndarray, h: float,
          external_force: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One semi-implicit Euler step of length ``h`` (eqs. 3.1–3.3); returns ``(p, v)``.
 
@@ -153,7 +153,7 @@ def step(model: SpringMassModel, positions: np.ndarray, velocities: np.ndarray, 
     return p, v
 
 
-def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
+def simulate(model: Model, *, dt: float, n_frames: int,
              external_forces: np.ndarray | None = None,
              initial_positions: np.ndarray | None = None,
              initial_velocities: np.ndarray | None = None,
@@ -164,7 +164,7 @@ def simulate(model: SpringMassModel, *, dt: float, n_frames: int,
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
     dt : float
         Time between recorded frames.
     n_frames : int
@@ -280,7 +280,7 @@ def _state(value, default: np.ndarray, n_nodes: int, key: str) -> np.ndarray:
     return state
 
 
-def _start_state(model: SpringMassModel, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _start_state(model: Model, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``initial_state`` checked against ``model``: copies of its arrays."""
     if not isinstance(state, State):
         raise InputError(f"got {type(state).__name__}; expected a State (e.g. "
@@ -319,7 +319,7 @@ class StabilityLimit:
     max_step: float
 
 
-def stability_limit(model: SpringMassModel) -> StabilityLimit:
+def stability_limit(model: Model) -> StabilityLimit:
     """Bound the stiffest mode of ``model`` at rest (see the module docstring)."""
     free = model.mesh.free
     matrices = [term.rest_matrices(model) for term in model.force_terms]
@@ -341,7 +341,7 @@ def stability_limit(model: SpringMassModel) -> StabilityLimit:
     return StabilityLimit(float(np.sqrt(omega2)), float(gamma), float(STABILITY_SAFETY * h))
 
 
-def check_time_step(model: SpringMassModel, dt: float, substeps: int = 1) -> None:
+def check_time_step(model: Model, dt: float, substeps: int = 1) -> None:
     """Raise :class:`UnstableTimeStepError` if ``dt / substeps`` is above the stable step."""
     limit = stability_limit(model)
     h = dt / substeps
@@ -354,7 +354,7 @@ def check_time_step(model: SpringMassModel, dt: float, substeps: int = 1) -> Non
             f"substeps >= {need} (or 'auto'), a smaller dt, or softer springs / heavier nodes")
 
 
-def required_substeps(model: SpringMassModel, dt: float) -> int:
+def required_substeps(model: Model, dt: float) -> int:
     """Fewest integration steps per frame of length ``dt`` that are stable."""
     limit = stability_limit(model)
     return max(1, int(np.ceil(dt / limit.max_step)))

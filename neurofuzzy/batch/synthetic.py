@@ -87,8 +87,9 @@ def synthetic_cohort(folder, *, groups: dict | None = None, per_group: int = 3,
         for index in range(per_group):
             ident = f"{group}-{index + 1:02d}"
             stiffness, damping = np.exp(rng.normal(0.0, spread, 2))
-            model = base.replace(spring_stiffness=base.spring_stiffness * stiffness,
-                                 spring_damping=base.spring_damping * damping)
+            springs = base.springs
+            model = base.with_term(springs.replace(stiffness=springs.stiffness * stiffness,
+                                                   damping=springs.damping * damping))
             experiment = simulate_experiment(model, dt=dt, n_frames=n_frames,
                                              external_forces=load, noise=noise,
                                              seed=int(rng.integers(2**31)),

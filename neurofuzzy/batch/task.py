@@ -153,7 +153,7 @@ def fit_quality(model, experiments, substeps: int = 1, *, lack_of_fit=None) -> d
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
         The fitted model.
     experiments : sequence of Experiment
     substeps : int

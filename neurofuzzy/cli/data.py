@@ -121,8 +121,8 @@ def mesh(args) -> int:
                          key="--tissue")
     model = initialize(rule_base, mesh, args.tissue, elements=args.elements == "tetra",
                        **regions).tied(args.tie)
-    if model.has_elements:
-        model = model.replace(element_law=args.law)
+    if model.elements is not None:
+        model = model.with_elements(law=args.law)
     elif args.law != LAWS[0]:
         raise InputError(f"a material law ({args.law!r}) is one of tetrahedral elements; "
                          "this model is a spring network (--elements springs)", key="--law")

@@ -10,8 +10,10 @@ from .elements import DEFAULT_POISSON_RATIO, element_model, element_values, regi
 from .springs import (SPRING_POISSON_RATIO, LatticeGeometry, TetraGeometry, lattice_geometry,
                       spring_geometry, spring_material_values, tetra_geometry,
                       tetrahedron_edge_springs, volume_shares)
+from .values import MATERIAL_VALUES, material_term, quantities, region_quantities
 
 __all__ = ["DEFAULT_POISSON_RATIO", "element_model", "element_values", "region_density",
            "SPRING_POISSON_RATIO", "LatticeGeometry", "TetraGeometry", "lattice_geometry",
            "spring_geometry", "spring_material_values", "tetra_geometry",
-           "tetrahedron_edge_springs", "volume_shares"]
+           "tetrahedron_edge_springs", "volume_shares", "MATERIAL_VALUES", "material_term",
+           "quantities", "region_quantities"]

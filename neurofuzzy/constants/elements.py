@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..model import SpringMassModel
+from ..model import Model
 
 __all__ = ["DEFAULT_POISSON_RATIO", "element_model", "element_values", "region_density"]
 
@@ -16,8 +16,7 @@ __all__ = ["DEFAULT_POISSON_RATIO", "element_model", "element_values", "region_d
 DEFAULT_POISSON_RATIO = 0.45
 
 
-def element_model(mesh, names, per_tissue: dict, element_tissue, *, spring_region,
-                  node_region) -> SpringMassModel:
+def element_model(mesh, names, per_tissue: dict, element_tissue, *, node_region) -> Model:
     """An element model of ``mesh``: every tetrahedron takes the E (Pa), ν, η (Pa·s) and
     density (kg/m³) of its tissue.
 
@@ -31,20 +30,20 @@ def element_model(mesh, names, per_tissue: dict, element_tissue, *, spring_regio
         ``youngs_modulus``, ``poisson_ratio``, ``viscosity`` and ``density`` of every tissue.
     element_tissue : (n_tetrahedra,) int
         Index into ``names`` of every tetrahedron's tissue.
-    spring_region, node_region : (n_springs,), (n_nodes,) int
-        The region of every spring and node.
+    node_region : (n_nodes,) int
+        The region of every node.
     """
     if mesh.tetrahedra is None:
         raise InputError("element models need a mesh with tetrahedra (a volume mesh, or "
                          "--tetra for a surface)", key="elements")
-    model = SpringMassModel.continuum(
+    model = Model.continuum(
         mesh, **{key: np.asarray(value)[element_tissue] for key, value in per_tissue.items()})
     return model.replace(region_names=tuple(names), region_tissues=tuple(names),
-                         spring_region=spring_region, node_region=node_region,
-                         element_region=element_tissue)
+                         node_region=node_region,
+                         terms=(model.elements.replace(region=element_tissue),))
 
 
-def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, float]:
+def element_values(model: Model, chosen: np.ndarray) -> dict[str, float]:
     """E, ν, η (medians) and density of the elements ``chosen`` (bool mask) of an element
     model, by quantity; for elements that relax (Prony terms, E the long-term modulus) also
     ``relaxation_modulus``, the relative modulus that relaxes away in all (``Σ gᵢ``: the
@@ -52,21 +51,21 @@ def element_values(model: SpringMassModel, chosen: np.ndarray) -> dict[str, floa
     mean weighted by their moduli (geometric; τ itself for one term), medians over the
     elements; for Yeoh elements ``strain_stiffening``, the median of their ``C₂₀/C₁₀``."""
     values = {
-        "youngs_modulus": float(np.median(model.element_youngs_modulus[chosen])),
-        "poisson_ratio": float(np.median(model.element_poisson_ratio[chosen])),
-        "viscosity": float(np.median(model.element_viscosity[chosen])),
+        "youngs_modulus": float(np.median(model.elements.youngs_modulus[chosen])),
+        "poisson_ratio": float(np.median(model.elements.poisson_ratio[chosen])),
+        "viscosity": float(np.median(model.elements.viscosity[chosen])),
         "density": region_density(model, chosen),
     }
     if model.n_relaxation_terms:
-        g = model.element_relaxation_moduli[chosen]
+        g = model.elements.relaxation_moduli[chosen]
         total = g.sum(axis=1)
         weights = g / np.where(total > 0, total, 1.0)[:, None]
-        times = np.exp((weights * np.log(model.element_relaxation_times[chosen])).sum(axis=1))
+        times = np.exp((weights * np.log(model.elements.relaxation_times[chosen])).sum(axis=1))
         values["relaxation_modulus"] = float(np.median(total))
         values["relaxation_time"] = float(np.median(times))
-    stiffening = chosen & model.element_stiffens
+    stiffening = chosen & model.elements.stiffens
     if np.any(stiffening):
-        values["strain_stiffening"] = float(np.median(model.element_stiffening[stiffening]))
+        values["strain_stiffening"] = float(np.median(model.elements.stiffening[stiffening]))
     return values
 
 

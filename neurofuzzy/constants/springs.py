@@ -200,12 +200,13 @@ def spring_material_values(model, springs=None, nodes=None) -> dict[str, float]:
         np.asarray(springs), np.flatnonzero(moving))
     nodes = np.flatnonzero(model.mesh.free) if nodes is None else np.asarray(nodes)
     factor = geometry.spring_factor[springs]
+    stiffness, damping = model.springs.stiffness[springs], model.springs.damping[springs]
     return {
-        "youngs_modulus": float(np.median(model.spring_stiffness[springs] / factor)),
+        "youngs_modulus": float(np.median(stiffness / factor)),
         "poisson_ratio": SPRING_POISSON_RATIO,
-        "stiffness": float(np.median(model.spring_stiffness[springs])),
-        "viscosity": float(np.median(model.spring_damping[springs] / factor)),
-        "damping": float(np.median(model.spring_damping[springs])),
+        "stiffness": float(np.median(stiffness)),
+        "viscosity": float(np.median(damping / factor)),
+        "damping": float(np.median(damping)),
         "density": float(np.sum(model.node_mass[nodes]) / np.sum(geometry.node_volume[nodes])),
         "node_mass": float(np.median(model.node_mass[nodes])),
     }

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..effects import EFFECTS
-from ..model import SpringMassModel
+from ..model import Model
 from .residuals import (Residuals, Samples, model_templates, orthonormal, residual_analysis,
                         spring_templates)
 from .scoring import Candidate, initial_params, score_candidates
@@ -25,7 +25,7 @@ class TakenByEffects:
     """What a model's effects already have (for :meth:`~neurofuzzy.effects.Effect.propose`):
     their names and the nodes, springs and elements located effects use."""
 
-    model: SpringMassModel
+    model: Model
 
     @property
     def present(self) -> set[str]:
@@ -51,7 +51,7 @@ class Evidence(TakenByEffects):
     use and the inclusion region search; for the diagnosis the candidates' scores and start
     parameters."""
 
-    model: SpringMassModel
+    model: Model
     samples: Samples
     base: np.ndarray
     analysis: Residuals | None = None

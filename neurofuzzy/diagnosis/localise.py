@@ -59,7 +59,7 @@ def localise(model, experiments, prior, *, findings=(), substeps="auto",
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
         The diagnosis's start model (regions and tissues as the prior knows them).
     experiments : sequence of Experiment
     prior : FuzzyPrior
@@ -74,7 +74,7 @@ def localise(model, experiments, prior, *, findings=(), substeps="auto",
     learner = GradientLearner(substeps=substeps, prior=prior, progress=progress)
     learner.fit(start, experiments)
     found = learner.regions_ or regions_found(learner.model_, prior)
-    kind = "elements" if learner.model_.has_elements else "springs"
+    kind = "elements" if learner.model_.elements is not None else "springs"
     covered = [i for entry in found["regions"] for i in entry[kind]]
     overlap = [float(np.isin(getattr(finding, kind), covered).mean())
                if len(getattr(finding, kind)) else 0.0 for finding in findings]

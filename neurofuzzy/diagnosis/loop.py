@@ -12,7 +12,7 @@ from ..experiment import Experiment, check_experiments, duration
 from ..forces import tetrahedron_geometry
 from ..learn import GradientLearner
 from ..learn.lack_of_fit import length_text
-from ..model import SpringMassModel
+from ..model import Model
 from ..progress import note
 from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
@@ -78,7 +78,7 @@ class Diagnosis:
     ----------
     effects : list of Finding
         Effects found, in the order found (empty when the answer is ``none``).
-    model_ : SpringMassModel
+    model_ : Model
         The final model, with the effects, refitted.
     rms_before, rms_after : float
         RMS trajectory error of the fitted model without and with the effects.
@@ -101,7 +101,7 @@ class Diagnosis:
     """
 
     effects: list
-    model_: SpringMassModel
+    model_: Model
     rms_before: float
     rms_after: float
     noise_rms: float
@@ -157,14 +157,14 @@ class Diagnosis:
             "localisation": self.localisation.to_dict() if self.localisation else None})
 
 
-def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
+def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
              max_effects: int = 3, substeps: int | str = "auto", prior=None,
              mesh_check: bool = True, progress: bool = False) -> Diagnosis:
     """Find, name and add the effects the model lacks (see the module docstring).
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
         Start model (topology, tying, masses, start values); it is fitted first.
     experiments : Experiment or sequence of Experiment
     max_effects : int
@@ -188,7 +188,7 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
     experiments = check_experiments(model, experiments)
     # one-step residual forces need measured nodes; element models and embedded markers are
     # diagnosed from the free-run marker error (trajectory space)
-    in_trajectory_space = model.has_elements or any(e.markers is not None
+    in_trajectory_space = model.elements is not None or any(e.markers is not None
                                                      for e in experiments)
 
     def say(message):
@@ -256,7 +256,7 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
         current, rms, steps = refit.model_, refit.rms_error_, refit.substeps_
         verdict = refit.lack_of_fit_
     mesh = None
-    if not verdict.explained and model.has_elements and mesh_check:
+    if not verdict.explained and model.elements is not None and mesh_check:
         say("diagnose: the misfit is above the noise; refitting on the mesh refined once to "
             "see how much of it is the mesh's")
         mesh = _mesh_share(current, experiments, substeps, verdict)
@@ -264,7 +264,7 @@ def diagnose(model: SpringMassModel, experiments: Experiment | Sequence[Experime
     inclusions = [f for f in findings if f.name in INCLUSIONS]
     if prior is not None and inclusions:
         say("diagnose: locating the inclusion item by item (a fit of every "
-            f"{'element' if model.has_elements else 'spring'} with the rule base as a prior)")
+            f"{'spring' if model.elements is None else 'element'} with the rule base as a prior)")
         localisation = localise(model, experiments, prior, findings=inclusions,
                                 substeps=substeps, progress=progress)
         say(f"diagnose: {localisation.words}")

@@ -12,9 +12,9 @@ from scipy.signal import savgol_filter
 from ..errors import InputError
 from ..experiment import Experiment, simulate_like
 from ..forces import incidence
-from ..forces.springs import parameter_templates, spring_state
+from ..forces.springs import parameter_templates, spring_constants, spring_state
 from ..learn import element_directions
-from ..model import SpringMassModel
+from ..model import Model
 from ..noise import marker_noise
 from ..simulation import internal_forces
 
@@ -90,7 +90,7 @@ class Samples:
     marker_noise: float
 
 
-def sample(model: SpringMassModel, experiments, substeps: int) -> Samples:
+def sample(model: Model, experiments, substeps: int) -> Samples:
     per_experiment, forces, floors, noises = [], [], [], []
     rng = np.random.default_rng(0)
     for experiment in experiments:
@@ -173,7 +173,7 @@ def spring_templates(model, samples) -> np.ndarray:
     its two nodes only (a spring's column is zero elsewhere)."""
     a, b = model.mesh.springs[:, 0], model.mesh.springs[:, 1]
     spring = np.arange(model.n_springs)
-    stiffness = model.spring_stiffness
+    stiffness = spring_constants(model)[0]
     blocks = []
     for data in samples.experiment:
         force = np.stack([stiffness[:, None] * parameter_templates(
@@ -190,7 +190,7 @@ def spring_templates(model, samples) -> np.ndarray:
     return np.concatenate(blocks, axis=0)
 
 
-def residual_analysis(model: SpringMassModel, experiments: Sequence[Experiment], *,
+def residual_analysis(model: Model, experiments: Sequence[Experiment], *,
                       substeps: int = 1) -> Residuals:
     """Residual forces, trajectory errors, localisation and noise floor of a fitted model.
 

@@ -80,7 +80,7 @@ class TrajectoryEvidence(TakenByEffects):
 
     Attributes
     ----------
-    model : SpringMassModel
+    model : Model
         The fitted model.
     residual : (n,) float
         Marker (or tracked node) errors at every measured frame, in units of ``length_unit``.
@@ -104,7 +104,7 @@ class TrajectoryEvidence(TakenByEffects):
     def of(cls, model, experiments, substeps: int, noise: float) -> TrajectoryEvidence:
         """The evidence of ``model`` fitted to ``experiments`` at ``substeps``, with the
         marker noise per coordinate ``noise`` (m) of its lack of fit."""
-        length = float(np.mean(model.spring_rest_length))
+        length = model.length_unit
         evidence = cls(model, list(experiments), int(substeps), length)
         evidence.residual, columns = evidence._sensitivities([])
         evidence.base = columns[0]
@@ -149,7 +149,7 @@ class TrajectoryEvidence(TakenByEffects):
     def element_region(self, taken: set[int]) -> list[int]:
         """The elements of the ball that explains most of the residual the model's own
         parameters leave (module docstring: a scan, then a finer one around the best)."""
-        if not self.model.has_elements:
+        if self.model.elements is None:
             return []
         geometry = tetrahedron_geometry(self.model.mesh)
         centroids = self.model.mesh.rest_positions[geometry.nodes].mean(axis=1)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import ElementConstants
 from ..kernels.springs import CLOSING, CUBIC, STRETCH
 from .inclusions import SoftInclusion, StiffInclusion
@@ -103,13 +104,14 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
     arrays (an inclusion's ``x`` with factor 1, a stiffening's ``x³`` with ``1 / L0²``).
     """
     columns = columns or {}
-    keep = every_spring | (model.spring_stiffness != 0) | (model.spring_damping != 0)
+    own_stiffness, damping, rest_length = spring_constants(model)
+    keep = every_spring | (own_stiffness != 0) | (damping != 0)
     if not any(spring_effect(effect) for effect in model.effects):    # most models: quickly
         plain = np.flatnonzero(keep)
-        return (plain, np.asarray(model.spring_stiffness[plain], float),
-                np.asarray(model.spring_damping[plain], float), np.zeros(0),
+        return (plain, np.asarray(own_stiffness[plain], float),
+                np.asarray(damping[plain], float), np.zeros(0),
                 (np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0)))
-    stiffness = np.array(model.spring_stiffness, dtype=float)
+    stiffness = np.array(own_stiffness, dtype=float)
     cubic = np.zeros(model.n_springs)
     stiffens = np.zeros(model.n_springs, bool)
     learned = []                           # (springs, column, basis, factor) per effect
@@ -120,9 +122,9 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
         index = effect.parameter_index(model, selection)
         springs = selection[index >= 0]
         if _basis(effect) == CUBIC:
-            cubic += effect.per_spring(model) / model.spring_rest_length**2
+            cubic += effect.per_spring(model) / rest_length**2
             stiffens[springs] |= i in columns
-            factor = 1.0 / model.spring_rest_length[springs]**2
+            factor = 1.0 / rest_length[springs]**2
         else:
             stiffness += effect.per_spring(model)
             keep[springs] |= i in columns
@@ -142,4 +144,4 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
     spring = np.concatenate([plain, tail])
     zeros = np.zeros(len(tail))
     return (spring, np.concatenate([stiffness[plain], zeros]),
-            np.concatenate([model.spring_damping[plain], zeros]), cubic[tail], derivatives)
+            np.concatenate([damping[plain], zeros]), cubic[tail], derivatives)

@@ -48,7 +48,7 @@ class Hyperelasticity(Effect):
     def switch(cls, model, duration: float):
         """``model`` with neo-Hookean elements (what the diagnosis refits when the candidate
         wins; ``duration`` unused)."""
-        return model.replace(element_law=cls.switches_to)
+        return model.with_elements(law=cls.switches_to)
 
     @staticmethod
     def _pair(model) -> tuple[ElementConstants, ElementConstants]:
@@ -78,13 +78,13 @@ class Hyperelasticity(Effect):
     @classmethod
     def examples(cls, model) -> list:
         """Half way to neo-Hookean on element models."""
-        return [(model, cls([0.5]))] if model.has_elements else []
+        return [(model, cls([0.5]))] if model.elements is not None else []
 
     @classmethod
     def propose(cls, model, evidence) -> list:
         """One candidate on element models with St. Venant–Kirchhoff elements."""
-        if (cls.name in evidence.present or not model.has_elements
-                or not np.any(model.element_law == LAWS.index("st-venant-kirchhoff"))):
+        if (cls.name in evidence.present or model.elements is None
+                or not np.any(model.elements.law == LAWS.index("st-venant-kirchhoff"))):
             return []          # neo-Hookean or Yeoh elements already stiffen
         return [cls([0.0])]
 

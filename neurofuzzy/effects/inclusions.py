@@ -19,7 +19,7 @@ from ..errors import InputError
 from ..forces import ElementConstants, tetrahedron_geometry
 from ..forces.element_forces import (element_force, element_rest_matrices, element_state_jvp,
                                      element_state_vjp)
-from ..forces.springs import spring_law
+from ..forces.springs import spring_constants, spring_law
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -52,7 +52,7 @@ class _Inclusion(SpringEffect):
     @classmethod
     def of_elements(cls, model, elements, extra: float = 0.0):
         """The inclusion of ``elements`` of ``model`` at their own Poisson's ratio (median)."""
-        nu = float(np.median(model.element_poisson_ratio[np.asarray(elements, int)]))
+        nu = float(np.median(model.elements.poisson_ratio[np.asarray(elements, int)]))
         return cls([extra], elements=elements, poisson_ratio=nu)
 
     @property
@@ -65,7 +65,7 @@ class _Inclusion(SpringEffect):
     @classmethod
     def examples(cls, model):
         """Half the springs (spring networks) or half the elements (element models)."""
-        if model.has_elements:
+        if model.elements is not None:
             elements = np.arange(model.mesh.n_tetrahedra // 2)
             return [(model, cls.of_elements(model, elements, cls._sign * 1e3))]
         springs = np.arange(model.n_springs // 2)
@@ -89,7 +89,7 @@ class _Inclusion(SpringEffect):
     def added_constants(self, model, extra: float) -> ElementConstants:
         """The region's extra element constants: Young's modulus ``extra`` on its elements, zero
         elsewhere, the inclusion's Poisson's ratio, no viscosity, the elements' own law."""
-        if not model.has_elements:
+        if model.elements is None:
             raise InputError("an inclusion of elements needs a model with tetrahedral elements",
                              key="elements")
         modulus = np.zeros(model.mesh.n_tetrahedra)
@@ -97,9 +97,9 @@ class _Inclusion(SpringEffect):
         return ElementConstants.from_values(tetrahedron_geometry(model.mesh), modulus,
                                             self.options["poisson_ratio"],
                                             np.zeros_like(modulus),
-                                            nodal=model.element_volumetric == "nodal",
-                                            law=model.element_law,
-                                            stiffening=model.element_stiffening)
+                                            nodal=model.elements.volumetric == "nodal",
+                                            law=model.elements.law,
+                                            stiffening=model.elements.stiffening)
 
     def force(self, model, positions, velocities):
         if not self.on_elements:
@@ -135,7 +135,7 @@ class _Inclusion(SpringEffect):
         """The extra stiffness relative to the region's own (per spring group, or ``δ / E``)."""
         if not self.on_elements:
             return super().relative(model)
-        own = float(np.mean(model.element_youngs_modulus[self.elements]))
+        own = float(np.mean(model.elements.youngs_modulus[self.elements]))
         return {self.labels[0]: float(self.params[0] / own)}
 
     def equation(self):
@@ -157,7 +157,7 @@ class StiffInclusion(_Inclusion):
         """The compact region (of springs, or of elements for element models) that best
         explains the residual (the diagnosis names it soft_inclusion when the fitted extra
         stiffness comes out negative)."""
-        if model.has_elements and not np.any(model.spring_stiffness):
+        if model.elements is not None and not np.any(spring_constants(model)[0]):
             region = evidence.element_region(evidence.taken_elements)
             return [cls.of_elements(model, region)] if region else []
         region = evidence.inclusion_region(evidence.taken_springs)

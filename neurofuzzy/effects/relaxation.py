@@ -38,13 +38,13 @@ class Relaxation(Effect):
     def switch(model, duration: float):
         """``model`` whose elements relax: one Prony term, g = 0.5 and τ a fifth of the
         recording's ``duration`` (s), for the refit to start from."""
-        return model.replace(**relaxation_fields([(START_RELATIVE_MODULUS,
+        return model.with_elements(**relaxation_fields([(START_RELATIVE_MODULUS,
                                                    max(float(duration), 1e-6) / 5.0)]))
 
     def switched_values(self, model) -> dict[str, float]:
         """The refitted elements' relative modulus g and time τ (s) (medians)."""
-        return {"relaxation_modulus": float(np.median(model.element_relaxation_moduli)),
-                "relaxation_time": float(np.median(model.element_relaxation_times))}
+        return {"relaxation_modulus": float(np.median(model.elements.relaxation_moduli)),
+                "relaxation_time": float(np.median(model.elements.relaxation_times))}
 
     def force(self, model, positions, velocities):
         raise InputError("relaxation is a change of the elements' material (a Prony term with "
@@ -62,7 +62,7 @@ class Relaxation(Effect):
     @classmethod
     def propose(cls, model, evidence) -> list:
         """One candidate on element models whose elements do not relax yet."""
-        if (cls.name in evidence.present or not model.has_elements
+        if (cls.name in evidence.present or model.elements is None
                 or model.n_relaxation_terms):
             return []
         return [cls([0.0])]

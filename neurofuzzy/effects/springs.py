@@ -9,7 +9,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..forces import central_jvp, central_vjp, incidence
-from ..forces.springs import spring_state
+from ..forces.springs import spring_constants, spring_state
 from .base import Effect
 
 __all__ = ["SpringEffect"]
@@ -127,5 +127,5 @@ class SpringEffect(Effect):
         out = {}
         for label, group, value in zip(self.labels, self.options["groups"], self.params):
             chosen = selection[model.mesh.spring_group[selection] == group]
-            out[label] = float(value / np.mean(model.spring_stiffness[chosen]))
+            out[label] = float(value / np.mean(spring_constants(model)[0][chosen]))
         return out

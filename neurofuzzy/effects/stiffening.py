@@ -24,7 +24,7 @@ from ..errors import InputError
 from ..forces import tetrahedron_geometry
 from ..forces.element_forces import columns
 from ..forces.laws import DEFAULT_STIFFENING, LAWS, ElementStress
-from ..forces.springs import spring_law
+from ..forces.springs import spring_constants, spring_law
 from .base import Effect, register
 from .springs import SpringEffect
 
@@ -67,13 +67,13 @@ class NonlinearStiffening(SpringEffect):
 
     def switched_values(self, model) -> dict[str, float]:
         """Yeoh's C₂₀/C₁₀ of the refitted elements (the median)."""
-        return {"stiffening": float(np.median(model.element_stiffening))}
+        return {"stiffening": float(np.median(model.elements.stiffening))}
 
     @staticmethod
     def switch(model, duration: float):
         """``model`` with Yeoh elements of the default C₂₀/C₁₀ (what the diagnosis refits
         when the entry wins on an element model; ``duration`` unused)."""
-        return model.replace(element_law="yeoh", element_stiffening=DEFAULT_STIFFENING)
+        return model.with_elements(law="yeoh", stiffening=DEFAULT_STIFFENING)
 
     @property
     def labels(self):
@@ -88,12 +88,12 @@ class NonlinearStiffening(SpringEffect):
         """``(x³ / L0², 3 x² / L0²)``: the magnitude of a unit κ, ``q = κ / L0²``
         (:func:`neurofuzzy.kernels.springs.magnitude`)."""
         return spring_law().magnitudes(state.stretch,
-                                       cubic=model.spring_rest_length[selection] ** -2.0)
+                                       cubic=spring_constants(model)[2][selection] ** -2.0)
 
     @classmethod
     def examples(cls, model):
         """κ = 3 kPa on elements; κ = 400 N/m per spring group on springs."""
-        if model.has_elements:
+        if model.elements is not None:
             return [(model, cls([3e3], on="elements"))]
         return [(model, cls.for_model(model, 400.0))]
 
@@ -103,8 +103,8 @@ class NonlinearStiffening(SpringEffect):
         neo-Hookean elements the switch to Yeoh's law (module docstring), none on others."""
         if cls.name in evidence.present:
             return []
-        if model.has_elements and not np.any(model.spring_stiffness):
-            neo_hookean = np.all(model.element_law == LAWS.index("neo-hookean"))
+        if model.elements is not None and not np.any(spring_constants(model)[0]):
+            neo_hookean = np.all(model.elements.law == LAWS.index("neo-hookean"))
             return [cls([0.0], on="elements")] if neo_hookean else []
         return [cls.for_model(model, [0.0])]
 
@@ -163,7 +163,7 @@ class NonlinearStiffening(SpringEffect):
         modulus ``μ``."""
         if not self.on_elements:
             return super().relative(model)
-        mu = model.element_youngs_modulus / (2.0 * (1.0 + model.element_poisson_ratio))
+        mu = model.elements.youngs_modulus / (2.0 * (1.0 + model.elements.poisson_ratio))
         return {"kappa": float(self.params[0] / np.mean(mu))}
 
     def equation(self):

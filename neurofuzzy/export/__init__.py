@@ -49,7 +49,7 @@ def export(model, to: str, path, *, experiment=None, fit: dict | None = None,
 
     Parameters
     ----------
-    model : SpringMassModel or path
+    model : Model or path
         The model, or a model file (YAML); a file's ``fit:`` record is read when ``fit`` is
         not given.
     to : {"mujoco", "sofa", "febio", "vtu"}

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..forces import Springs
+from ..forces.springs import spring_constants
 from ..forces.laws import LAWS
 
 __all__ = ["Exported", "Prepared", "MaterialGroup", "prepare", "material_groups",
@@ -54,7 +56,7 @@ class Prepared:
 
     Attributes
     ----------
-    model : SpringMassModel
+    model : Model
         The model without effects; inclusions folded into the spring stiffness or the
         elements' Young's modulus.
     gravity : (3,) float
@@ -78,9 +80,9 @@ def prepare(model) -> Prepared:
     """Fold a model's effects into what simulators can take (see :class:`Prepared`)."""
     gravity, drag = np.zeros(3), 0.0
     load = np.zeros((model.n_nodes, 3))
-    stiffness = np.array(model.spring_stiffness, dtype=float)
-    modulus = (None if not model.has_elements
-               else np.array(model.element_youngs_modulus, dtype=float))
+    stiffness = np.array(spring_constants(model)[0], dtype=float)
+    modulus = (None if model.elements is None
+               else np.array(model.elements.youngs_modulus, dtype=float))
     notes = []
     for effect in model.effects:
         name, params = effect.name, np.asarray(effect.params, float)
@@ -93,7 +95,7 @@ def prepare(model) -> Prepared:
         elif name in ("stiff_inclusion", "soft_inclusion") and "elements" in effect.options:
             elements = np.asarray(effect.options["elements"], int)
             modulus[elements] += params[0]
-            nu = model.element_poisson_ratio[elements]
+            nu = model.elements.poisson_ratio[elements]
             exact = np.allclose(nu, effect.options["poisson_ratio"], rtol=1e-9, atol=0)
             notes.append(f"{name} of {len(elements)} elements folded into their Young's "
                          f"modulus (E + {params[0]:.4g} Pa)" + (
@@ -116,10 +118,13 @@ def prepare(model) -> Prepared:
         stiffness = np.maximum(stiffness, 0.0)
         if modulus is not None:
             modulus = np.maximum(modulus, 1e-12 * float(np.max(modulus)))
-    changes = {"effects": (), "spring_stiffness": stiffness}
+    terms = []
+    if model.springs is not None or np.any(stiffness):   # (spring inclusions of an element model)
+        springs = model.springs or Springs(stiffness=0.0, damping=0.0)
+        terms.append(springs.replace(stiffness=stiffness))
     if modulus is not None:
-        changes["element_youngs_modulus"] = modulus
-    return Prepared(model.replace(**changes), gravity, drag, load, notes)
+        terms.append(model.elements.replace(youngs_modulus=modulus))
+    return Prepared(model.replace(terms=tuple(terms)), gravity, drag, load, notes)
 
 
 @dataclass(frozen=True)
@@ -173,18 +178,18 @@ def material_groups(model, max_groups: int = 256) -> tuple[list[MaterialGroup], 
     volume = tetrahedron_geometry(model.mesh).volume
     # E, ν, β, then the Prony terms' g and τ and Yeoh's C20/C10 (grouped alike: equal values
     # share a group)
-    values = np.column_stack([model.element_youngs_modulus, model.element_poisson_ratio,
-                              model.element_viscosity / model.element_youngs_modulus,
-                              model.element_relaxation_moduli, model.element_relaxation_times,
-                              np.where(model.element_stiffens, model.element_stiffening,
+    values = np.column_stack([model.elements.youngs_modulus, model.elements.poisson_ratio,
+                              model.elements.viscosity / model.elements.youngs_modulus,
+                              model.elements.relaxation_moduli, model.elements.relaxation_times,
+                              np.where(model.elements.stiffens, model.elements.stiffening,
                                        0.0)])
     terms = model.n_relaxation_terms
     rounded = _significant(values, 12)         # equal values, up to the last bits, share
     # the parts to group: each region, split by law when it holds several (never mixed)
-    laws = [np.unique(model.element_law[model.element_region == r])
+    laws = [np.unique(model.elements.law[model.elements.region == r])
             for r in range(len(model.region_names))]
-    parts_of = [(r, law, np.flatnonzero((model.element_region == r)
-                                        & (model.element_law == law)))
+    parts_of = [(r, law, np.flatnonzero((model.elements.region == r)
+                                        & (model.elements.law == law)))
                 for r in range(len(model.region_names)) for law in laws[r]]
     regions = [elements for _, _, elements in parts_of]
     distinct = [len(np.unique(rounded[e], axis=0)) if len(e) else 0 for e in regions]
@@ -243,7 +248,7 @@ def region_densities(model) -> tuple[np.ndarray, float]:
     """Density per region (kg/m³) whose lumped masses best match the node masses.
 
     Every node carries a quarter of each of its tetrahedra's mass (as
-    :meth:`~neurofuzzy.model.SpringMassModel.continuum` builds them), so the node masses are
+    :meth:`~neurofuzzy.model.Model.continuum` builds them), so the node masses are
     linear in the regions' densities; they are solved for by least squares. Returns the
     densities (n_regions,) and the largest relative difference between a node's mass and the
     mass the densities give it (0 for models built from densities).
@@ -254,7 +259,7 @@ def region_densities(model) -> tuple[np.ndarray, float]:
 
     geometry = tetrahedron_geometry(model.mesh)
     n_regions = len(model.region_names)
-    corner_region = np.repeat(model.element_region, 4)
+    corner_region = np.repeat(model.elements.region, 4)
     per_corner = sp.csr_matrix((np.repeat(geometry.volume / 4, 4),
                                 (np.arange(corner_region.size), corner_region)),
                                shape=(corner_region.size, n_regions))

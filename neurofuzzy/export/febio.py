@@ -47,6 +47,7 @@ from __future__ import annotations
 import numpy as np
 from xml.sax.saxutils import quoteattr
 
+from ..forces.springs import spring_constants
 from ..forces.laws import LAWS
 from .base import load_components, material_groups, prepare, region_densities, time_step
 from .metadata import header_lines, volumetric_note
@@ -68,8 +69,8 @@ def feb(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     """
     prepared = prepare(model)
     runs = prepared.model
-    if runs.has_elements:
-        runs = runs.replace(element_volumetric="element")
+    if runs.elements is not None:
+        runs = runs.with_elements(volumetric="element")
     h, steps = time_step(runs, experiment, substeps)
     notes = list(prepared.notes)
     if prepared.node_drag:
@@ -78,16 +79,17 @@ def feb(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     if note:
         notes.append(note)
     mesh = runs.mesh
-    springs = np.flatnonzero(runs.spring_stiffness > 0)
-    if np.any(runs.spring_damping[springs] > 0) or np.any(runs.spring_damping > 0):
+    stiffness, damping, rest_length = spring_constants(runs)
+    springs = np.flatnonzero(stiffness > 0)
+    if np.any(damping > 0):
         notes.append("spring damping is not exported: FEBio's discrete springs have none")
     rest = np.linalg.norm(np.diff(mesh.rest_positions[mesh.springs[springs]], axis=1), axis=-1)
-    if springs.size and not np.allclose(rest.ravel(), runs.spring_rest_length[springs],
+    if springs.size and not np.allclose(rest.ravel(), rest_length[springs],
                                         rtol=1e-9, atol=0):
         notes.append("FEBio's springs rest at their initial length; ours with another rest "
                      "length start pre-stressed in neurofuzzy but not in FEBio")
     groups, densities = [], None
-    if runs.has_elements:
+    if runs.elements is not None:
         groups, merged = material_groups(runs, max_materials)
         notes += merged
         densities, mismatch = region_densities(runs)
@@ -245,7 +247,7 @@ def _spring_sets(springs, runs) -> list[np.ndarray]:
     """Springs grouped by equal stiffness (one FEBio discrete material each)."""
     if not springs.size:
         return []
-    _, inverse = np.unique(runs.spring_stiffness[springs], return_inverse=True)
+    _, inverse = np.unique(spring_constants(runs)[0][springs], return_inverse=True)
     return [springs[inverse.ravel() == k] for k in range(inverse.max() + 1)]
 
 
@@ -256,7 +258,8 @@ def _discrete(springs, runs) -> list[str]:
     out = ["  <Discrete>"]
     for k, members in enumerate(sets, start=1):
         out.append(f'    <discrete_material id="{k}" name="spring_{k}" type="linear spring">'
-                   f"<E>{float(runs.spring_stiffness[members[0]])!r}</E></discrete_material>")
+                   f"<E>{float(spring_constants(runs)[0][members[0]])!r}</E>"
+                   "</discrete_material>")
     out += [f'    <discrete dmat="{k}" discrete_set="springs_{k}"/>'
             for k in range(1, len(sets) + 1)]
     out.append("  </Discrete>")

@@ -28,24 +28,35 @@ def region_values(model) -> dict:
         nodes = model.node_region == index
         entry = {"tissue": model.region_tissues[index], "nodes": int(nodes.sum()),
                  "node_mass_kg": float(model.node_mass[nodes].sum())}
-        if model.has_elements:
-            chosen = model.element_region == index
-            E, nu, eta = (model.element_youngs_modulus[chosen],
-                          model.element_poisson_ratio[chosen], model.element_viscosity[chosen])
+        if model.elements is not None:
+            chosen = model.elements.region == index
+            E, nu, eta = (model.elements.youngs_modulus[chosen],
+                          model.elements.poisson_ratio[chosen], model.elements.viscosity[chosen])
             if chosen.any():
                 entry.update(elements=int(chosen.sum()),
                              youngs_modulus_Pa=float(np.median(E)),
                              poisson_ratio=float(np.median(nu)),
                              viscosity_Pa_s=float(np.median(eta)),
                              damping_time_s=float(np.median(eta / E)))
-        springs = model.spring_region == index
-        if springs.any() and (np.any(model.spring_stiffness[springs])
-                              or np.any(model.spring_damping[springs])):
+        springs = _region_springs(model, index)
+        if springs is not None:
             entry.update(springs=int(springs.sum()),
-                         stiffness_N_per_m=float(np.median(model.spring_stiffness[springs])),
-                         damping_N_s_per_m=float(np.median(model.spring_damping[springs])))
+                         stiffness_N_per_m=float(np.median(model.springs.stiffness[springs])),
+                         damping_N_s_per_m=float(np.median(model.springs.damping[springs])))
         out[name] = entry
     return out
+
+
+def _region_springs(model, index: int) -> np.ndarray | None:
+    """(n_springs,) bool: the springs of region ``index``, when the model has springs there
+    that pull or damp (None otherwise)."""
+    springs = model.springs
+    if springs is None:
+        return None
+    chosen = springs.region == index
+    if chosen.any() and (np.any(springs.stiffness[chosen]) or np.any(springs.damping[chosen])):
+        return chosen
+    return None
 
 
 def _region_lines(model) -> list[str]:
@@ -55,22 +66,21 @@ def _region_lines(model) -> list[str]:
         nodes = model.node_region == index
         head = f"region {name}" + (f" ({tissue})" if tissue and tissue != name else "")
         parts = [f"{int(nodes.sum())} nodes, mass {model.node_mass[nodes].sum():.6g} kg"]
-        if model.has_elements:
-            chosen = model.element_region == index
+        if model.elements is not None:
+            chosen = model.elements.region == index
             if chosen.any():
-                E = model.element_youngs_modulus[chosen]
-                eta = model.element_viscosity[chosen]
+                E = model.elements.youngs_modulus[chosen]
+                eta = model.elements.viscosity[chosen]
                 parts += [f"{int(chosen.sum())} tetrahedra",
                           f"Young's modulus E = {_value(E, 'Pa')}",
-                          f"Poisson's ratio = {_value(model.element_poisson_ratio[chosen], '')}",
+                          f"Poisson's ratio = {_value(model.elements.poisson_ratio[chosen], '')}",
                           f"viscosity eta = {_value(eta, 'Pa s')}",
                           f"damping time eta/E = {_value(eta / E, 's')}"]
-        springs = model.spring_region == index
-        if springs.any() and (np.any(model.spring_stiffness[springs])
-                              or np.any(model.spring_damping[springs])):
+        springs = _region_springs(model, index)
+        if springs is not None:
             parts += [f"{int(springs.sum())} springs",
-                      f"stiffness = {_value(model.spring_stiffness[springs], 'N/m')}",
-                      f"damping = {_value(model.spring_damping[springs], 'N s/m')}"]
+                      f"stiffness = {_value(model.springs.stiffness[springs], 'N/m')}",
+                      f"damping = {_value(model.springs.damping[springs], 'N s/m')}"]
         lines.append(f"{head}: " + "; ".join(parts))
     return lines
 
@@ -104,18 +114,18 @@ def fit_lines(fit: dict | None) -> list[str]:
 def volumetric_note(model, target: str, experiment=None, steps: int | None = None) -> str | None:
     """What running a model with the nodal volumetric form as textbook elements changes.
 
-    Every target's tetrahedron is the textbook one (``element_volumetric="element"``). For a
+    Every target's tetrahedron is the textbook one (``Tetrahedra(volumetric="element")``). For a
     model with the nodal form the note says so and, with an experiment, measures it: both
     forms simulated by our own stepper under the experiment's load, the RMS distance of the
     free nodes over all frames and the peak motion.
     """
-    if not model.has_elements or model.element_volumetric != "nodal":
+    if model.elements is None or model.elements.volumetric != "nodal":
         return None
     text = (f"{target}'s tetrahedra are the textbook linear element (our "
-            "element_volumetric='element'); this model was fitted with the nodal volumetric "
+            "volumetric='element'); this model was fitted with the nodal volumetric "
             "form (averaged over the tetrahedra around each node), which is softer for nearly "
             "incompressible tissue")
-    return text + _measured(model, model.replace(element_volumetric="element"), "forms",
+    return text + _measured(model, model.with_elements(volumetric="element"), "forms",
                             experiment, steps)
 
 
@@ -124,25 +134,25 @@ def law_note(model, target: str, element: str, experiment=None,
     """What running a model with neo-Hookean (or other non-SVK) elements as a target's
     St. Venant–Kirchhoff-like ``element`` changes: said, and with an experiment measured as in
     :func:`volumetric_note` (both laws simulated by our own stepper under its load)."""
-    if not model.has_elements or not np.any(model.element_law != 0):
+    if model.elements is None or not np.any(model.elements.law != 0):
         return None
-    text = (f"the elements' material law ({model.law_names()}) is written as {target}'s "
+    text = (f"the elements' material law ({model.elements.law_names()}) is written as {target}'s "
             f"{element}: the same E, nu and eta at small strain, but it softens under strong "
             "compression where the fitted law stiffens")
-    return text + _measured(model, model.replace(element_law=0), "laws", experiment, steps)
+    return text + _measured(model, model.with_elements(law=0), "laws", experiment, steps)
 
 
 def relaxation_note(model, target: str, experiment=None, steps: int | None = None) -> str | None:
     """What dropping the elements' Prony relaxation changes (``target`` has no such element):
     said, and measured as in :func:`law_note`."""
-    if not model.has_elements or not model.n_relaxation_terms:
+    if model.elements is None or not model.n_relaxation_terms:
         return None
     text = (f"the elements relax ({model.n_relaxation_terms} Prony term(s), relative modulus "
-            f"{float(model.element_relaxation_moduli.sum(axis=1).max()):.3g} at most), which "
+            f"{float(model.elements.relaxation_moduli.sum(axis=1).max()):.3g} at most), which "
             f"{target}'s elements cannot: written at their long-term E, so they are softer at "
             "first than the fitted model and do not creep")
-    return text + _measured(model, model.replace(element_relaxation_moduli=None,
-                                                 element_relaxation_times=None),
+    return text + _measured(model, model.with_elements(relaxation_moduli=None,
+                                                       relaxation_times=None),
                             "models", experiment, steps)
 
 
@@ -176,8 +186,8 @@ def metadata(model, *, target: str, fit: dict | None, notes, experiment=None,
     block = {"generator": f"neurofuzzy {__version__}", "target": target,
              "units": "SI: m, kg, s, N, Pa (stiffness N/m, damping N s/m, viscosity Pa s)",
              "regions": region_values(model),
-             "volumetric_form": model.element_volumetric if model.has_elements else None,
-             "material_law": model.law_names() if model.has_elements else None,
+             "volumetric_form": model.elements.volumetric if model.elements is not None else None,
+             "material_law": model.elements.law_names() if model.elements is not None else None,
              "lack_of_fit": (fit or {}).get("lack_of_fit") or "not recorded",
              "fit": {k: v for k, v in (fit or {}).items() if k != "lack_of_fit"} or None,
              "notes": list(notes)}

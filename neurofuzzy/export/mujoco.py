@@ -7,7 +7,7 @@ written out). Fixed nodes are vertices of the world body. Elements become ``<fle
 with ``<elasticity young poisson damping>``: MuJoCo's flex elasticity is St. Venant–Kirchhoff
 on linear tetrahedra, its force a quadratic form in the edges' squared-length changes
 (``engine_passive.c``, ``mj_flexPassiveStretch``; the metric from ``user_mesh.cc``,
-``ComputeStiffness``) that equals our textbook element (``element_volumetric="element"``) to
+``ComputeStiffness``) that equals our textbook element (``Tetrahedra(volumetric="element")``) to
 round-off, and its ``damping`` the Rayleigh factor β = η/E applied to the rate of the
 squared lengths, as our Kelvin–Voigt viscosity is; the rate is a backward difference over one
 time step, ``(l² - (l - l̇ h)²) / h = 2 l l̇ - h l̇²``, so damping differs from ours by the
@@ -35,6 +35,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ..errors import InputError
+from ..forces.springs import spring_constants
 from .base import material_groups, prepare, time_step
 from .metadata import (header_lines, law_note, metadata, relaxation_note,
                        volumetric_note)
@@ -56,7 +57,7 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
     experiment : Experiment, optional
         Sets the time step (``experiment.dt / substeps``) and lets the header measure what
         the volumetric form changes.
@@ -76,8 +77,8 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     """
     prepared = prepare(model)
     runs = prepared.model
-    if runs.has_elements:
-        runs = runs.replace(element_volumetric="element")
+    if runs.elements is not None:
+        runs = runs.with_elements(volumetric="element")
     h, steps = time_step(runs, experiment, substeps)
     notes = list(prepared.notes)
     if np.any(prepared.constant_load):
@@ -90,7 +91,7 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         if note:
             notes.append(note)
     groups = []
-    if runs.has_elements:
+    if runs.elements is not None:
         groups, merged = material_groups(runs, max_materials)
         notes += merged
         notes.append(f"{len(groups)} flex(es), one per region and material; a flex has one "
@@ -103,7 +104,8 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     rest = np.asarray(mesh.rest_positions, dtype=float)
     fixed = np.zeros(runs.n_nodes, bool)
     fixed[mesh.fixed] = True
-    springs = np.flatnonzero((runs.spring_stiffness > 0) | (runs.spring_damping > 0))
+    spring_stiffness, spring_damping, spring_rest = spring_constants(runs)
+    springs = np.flatnonzero((spring_stiffness > 0) | (spring_damping > 0))
     with_site = np.zeros(runs.n_nodes, bool)
     with_site[mesh.springs[springs].ravel()] = True
 
@@ -142,9 +144,8 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         out.append("  <tendon>")
         for j in springs:
             a, b = mesh.springs[j]
-            stiffness, damping, rest = (float(runs.spring_stiffness[j]),
-                                        float(runs.spring_damping[j]),
-                                        float(runs.spring_rest_length[j]))
+            stiffness, damping, rest = (float(spring_stiffness[j]), float(spring_damping[j]),
+                                        float(spring_rest[j]))
             out.append(f'    <spatial name="spring{j}" stiffness="{stiffness!r}" '
                        f'damping="{damping!r}" springlength="{rest!r}" width="{width!r}">'
                        f'<site site="node{a}"/><site site="node{b}"/></spatial>')

@@ -61,6 +61,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from ..forces.springs import spring_constants
 from ..errors import InputError, closest_name
 
 __all__ = ["FORMATS", "export_paraview"]
@@ -80,7 +81,7 @@ def export_paraview(directory: str | os.PathLike, model, experiment=None, *, sim
     ----------
     directory : path
         Where the files go; created if missing.
-    model : SpringMassModel
+    model : Model
         Topology and parameters (stiffness, damping, rest length per spring; mass per node).
     experiment : Experiment, optional
         The measurement: ``positions`` (n_frames, n_nodes, 3) with NaN where a node is not
@@ -297,7 +298,8 @@ def _series(model, experiment, frames: _Frames, keep: np.ndarray) -> dict:
     fixed[mesh.fixed] = 1
 
     a, b = np.asarray(mesh.springs).T
-    rest_length = np.asarray(model.spring_rest_length, dtype=float)
+    stiffness, damping, rest_length = (np.asarray(values, dtype=float)
+                                       for values in spring_constants(model))
 
     def strain(positions):                                              # (K, S)
         length = np.linalg.norm(positions[:, b] - positions[:, a], axis=-1)
@@ -322,8 +324,7 @@ def _series(model, experiment, frames: _Frames, keep: np.ndarray) -> dict:
             "observed": seen.astype(np.int32),
             "external_force": forces,
         },
-        "cell_static": {"stiffness": np.asarray(model.spring_stiffness, dtype=float),
-                        "damping": np.asarray(model.spring_damping, dtype=float),
+        "cell_static": {"stiffness": stiffness, "damping": damping,
                         "rest_length": rest_length,
                         "spring_group": np.asarray(mesh.spring_group, dtype=np.int32)},
         "cell_frames": {"strain": strain(simulated),

@@ -20,7 +20,7 @@ and plugin against a table taken from those sources):
 
 What SOFA does differently: its tetrahedron is corotational linear elasticity, equal to our
 St. Venant–Kirchhoff element at small strain (both exact under rigid rotation, they part at
-large strain), and the textbook per-element one (our ``element_volumetric="element"``); the
+large strain), and the textbook per-element one (our ``Tetrahedra(volumetric="element")``); the
 Rayleigh damping factor is one per solver, so regions with different η/E share their
 volume-weighted mean; the implicit Euler integrator damps numerically where our semi-implicit
 Euler does not. The scene was not run here (SOFA is not installable with pip).
@@ -32,6 +32,7 @@ import json
 
 import numpy as np
 
+from ..forces.springs import spring_constants
 from .base import load_components, prepare, time_step
 from .metadata import (header_lines, law_note, metadata, relaxation_note,
                        volumetric_note)
@@ -72,8 +73,8 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     """
     prepared = prepare(model)
     runs = prepared.model
-    if runs.has_elements:
-        runs = runs.replace(element_volumetric="element")
+    if runs.elements is not None:
+        runs = runs.with_elements(volumetric="element")
     h, steps = time_step(runs, experiment, substeps)
     notes = list(prepared.notes)
     if prepared.node_drag:
@@ -86,13 +87,14 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         if note:
             notes.append(note)
     mesh = runs.mesh
-    elements = runs.has_elements
+    elements = runs.elements is not None
+    stiffness, damping, rest_length = spring_constants(runs)
     beta = 0.0
     if elements:
         from ..forces import tetrahedron_geometry
 
         volume = tetrahedron_geometry(mesh).volume
-        ratio = runs.element_viscosity / runs.element_youngs_modulus
+        ratio = runs.elements.viscosity / runs.elements.youngs_modulus
         beta = float(volume @ ratio / volume.sum())
         if not np.allclose(ratio, beta, rtol=1e-9, atol=0):
             notes.append(f"Rayleigh stiffness damping is one value per solver in SOFA: the "
@@ -101,10 +103,10 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         notes.append("SOFA's TetrahedronFEMForceField is corotational linear elasticity "
                      "(method 'large'): equal to our St. Venant-Kirchhoff element at small "
                      "strain, not at large strain")
-        if beta > 0 and np.any(runs.spring_stiffness > 0):
+        if beta > 0 and np.any(stiffness > 0):
             notes.append("the solver's Rayleigh damping also damps the springs (beta times "
                          "their stiffness), which neurofuzzy does not")
-    springs = np.flatnonzero((runs.spring_stiffness > 0) | (runs.spring_damping > 0))
+    springs = np.flatnonzero((stiffness > 0) | (damping > 0))
     load_nodes, load = _load(prepared, experiment)
 
     block = metadata(model, target="sofa", fit=fit, notes=notes, experiment=experiment,
@@ -118,9 +120,8 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     used += ["SpringForceField"] if springs.size else []
     used += ["ConstantForceField"] if load_nodes.size else []
     plugins = sorted({PLUGINS[name] for name in used})
-    spring_rows = np.column_stack([mesh.springs[springs], runs.spring_stiffness[springs],
-                                   runs.spring_damping[springs],
-                                   runs.spring_rest_length[springs]])
+    spring_rows = np.column_stack([mesh.springs[springs], stiffness[springs], damping[springs],
+                                   rest_length[springs]])
     spring_text = " ".join(f"{int(a)} {int(b)} {k!r} {c!r} {rest!r}"
                            for a, b, k, c, rest in spring_rows.tolist())
     frame_dt = experiment.dt if experiment is not None else h
@@ -135,11 +136,11 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
              f"FIXED = {_array(mesh.fixed, False)}"]
     if elements:
         lines += [f"TETRAHEDRA = {_array(mesh.tetrahedra, False)}",
-                  f"YOUNGS_MODULUS = {_uniform_or_list(runs.element_youngs_modulus)}   # Pa",
-                  f"POISSON_RATIO = {_uniform_or_list(runs.element_poisson_ratio)}",
+                  f"YOUNGS_MODULUS = {_uniform_or_list(runs.elements.youngs_modulus)}   # Pa",
+                  f"POISSON_RATIO = {_uniform_or_list(runs.elements.poisson_ratio)}",
                   f"RAYLEIGH_STIFFNESS = {beta!r}   # s, eta / E",
                   f"REGION_NAMES = {json.dumps(list(runs.region_names))}",
-                  f"ELEMENT_REGION = {_array(runs.element_region, False)}   # index into "
+                  f"ELEMENT_REGION = {_array(runs.elements.region, False)}   # index into "
                   "REGION_NAMES (information: SOFA takes E and nu per element)"]
     else:
         lines += [f"EDGES = {_array(mesh.springs, False)}", "RAYLEIGH_STIFFNESS = 0.0"]

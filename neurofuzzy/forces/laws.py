@@ -46,7 +46,7 @@ import numpy as np
 
 from ..errors import InputError, closest_name
 
-#: The laws by name; a law's number (``model.element_law``) is its position here, the same in
+#: The laws by name; a law's number (``model.elements.law``) is its position here, the same in
 #: the compiled kernels (:mod:`neurofuzzy.kernels.laws`, checked by the tests).
 LAWS = ("st-venant-kirchhoff", "neo-hookean", "yeoh")
 #: Short names accepted for the laws.

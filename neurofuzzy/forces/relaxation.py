@@ -83,8 +83,8 @@ def relaxation_arrays(moduli, times, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def relaxation_fields(terms) -> dict:
-    """The model fields of Prony ``terms``, a sequence of ``(g, τ)`` pairs (empty for
-    none, or None)."""
+    """The elements' fields (:class:`~neurofuzzy.forces.Tetrahedra`) of Prony ``terms``, a
+    sequence of ``(g, τ)`` pairs (empty for none, or None)."""
     if terms is None or len(terms) == 0:
         return {}
     try:
@@ -92,7 +92,7 @@ def relaxation_fields(terms) -> dict:
     except (TypeError, ValueError):
         raise InputError(f"got {terms!r}; expected (g, τ) pairs, e.g. [(0.5, 0.05)]",
                          key="relaxation") from None
-    return {"element_relaxation_moduli": pairs[:, 0], "element_relaxation_times": pairs[:, 1]}
+    return {"relaxation_moduli": pairs[:, 0], "relaxation_times": pairs[:, 1]}
 
 
 #: A fit's start for each relative modulus when none is given: half the long-term stiffness

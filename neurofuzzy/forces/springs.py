@@ -30,7 +30,8 @@ from ..errors import InputError
 from .assembly import Incidence, incidence
 from .base import ForceTerm, region_index, vector
 
-__all__ = ["SpringState", "Springs", "spring_state", "parameter_templates", "central_jvp", "central_vjp", "spring_law"]
+__all__ = ["SpringState", "Springs", "spring_state", "spring_constants", "parameter_templates",
+           "central_jvp", "central_vjp", "spring_law"]
 
 
 @dataclass(frozen=True)
@@ -306,12 +307,24 @@ def parameter_templates(state: SpringState) -> dict[str, np.ndarray]:
                                     state.closing_speed)[:, None] * u}
 
 
+def spring_constants(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(stiffness, damping, rest_length)``, each (n_springs,), of every spring of ``model``'s
+    mesh: its springs' values, or none (zero stiffness and damping, the mesh's rest lengths)
+    for a model without springs, whose mesh springs the spring effects and the exports may
+    still use."""
+    springs = model.springs
+    if springs is not None:
+        return springs.stiffness, springs.damping, springs.rest_length
+    none = np.zeros(model.n_springs)
+    return none, none, model.mesh.rest_lengths
+
+
 def spring_state(model, positions: np.ndarray, velocities: np.ndarray) -> SpringState:
     """:class:`SpringState` of every spring of ``model``'s mesh at node-major ``(positions,
     velocities)`` (n_nodes, 3), from the springs' rest lengths (the mesh's for a model without
     springs: the spring effects act along the mesh's springs of an element model too)."""
-    rest = model.mesh.rest_lengths if model.springs is None else model.springs.rest_length
-    return spring_state_components(model.mesh, positions.T, velocities.T, rest)
+    return spring_state_components(model.mesh, positions.T, velocities.T,
+                                   spring_constants(model)[2])
 
 
 def spring_state_components(mesh, positions_t: np.ndarray, velocities_t: np.ndarray,

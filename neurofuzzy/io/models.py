@@ -13,7 +13,8 @@ from . import safe_yaml
 from ..errors import InputError, closest_name
 from ..forces.laws import LAWS
 from ..mesh import Mesh
-from ..model import SpringMassModel
+from ..forces import Springs, Tetrahedra
+from ..model import Model
 from .safe_yaml import kind_of
 from .writing import atomic_write
 
@@ -25,7 +26,7 @@ MODEL_FORMAT = "neurofuzzy-model/1"
 MAX_MODEL_FILE_BYTES = 64 * 2**20
 
 
-def model_to_dict(model: SpringMassModel) -> dict:
+def model_to_dict(model: Model) -> dict:
     """Plain-Python (YAML/JSON-ready) description of a model; exact round trip."""
     from ..effects import effect_to_dict
 
@@ -37,42 +38,49 @@ def model_to_dict(model: SpringMassModel) -> dict:
             "mass": model.node_mass.tolist(),
             "fixed": mesh.fixed.tolist(),
         },
-        "springs": {
-            "nodes": mesh.springs.tolist(),
-            "group": mesh.spring_group.tolist(),
-            "group_names": list(mesh.group_names),
-            "stiffness": model.spring_stiffness.tolist(),
-            "damping": model.spring_damping.tolist(),
-            "rest_length": model.spring_rest_length.tolist(),
-            "tie": model.spring_tie.tolist(),
-        },
+        "springs": {"nodes": mesh.springs.tolist(), "group": mesh.spring_group.tolist(),
+                    "group_names": list(mesh.group_names), **_springs_to_dict(model)},
         "effects": [effect_to_dict(effect) for effect in model.effects],
     }
     if len(model.region_names) > 1 or model.region_tissues[0] is not None:
         data["regions"] = {"names": list(model.region_names),
                            "tissues": list(model.region_tissues)}
         data["nodes"]["region"] = model.node_region.tolist()
-        data["springs"]["region"] = model.spring_region.tolist()
+        if model.springs is not None:
+            data["springs"]["region"] = model.springs.region.tolist()
     if mesh.tetrahedra is not None:
         data["tetrahedra"] = mesh.tetrahedra.tolist()
-    if model.has_elements:
-        data["elements"] = {"youngs_modulus": model.element_youngs_modulus.tolist(),
-                            "poisson_ratio": model.element_poisson_ratio.tolist(),
-                            "viscosity": model.element_viscosity.tolist(),
-                            "tie": model.element_tie.tolist(),
-                            "region": model.element_region.tolist(),
-                            "volumetric": model.element_volumetric}
-        laws = [LAWS[number] for number in model.element_law]
-        if any(number != 0 for number in model.element_law):
-            # one word when every element has the same law, else one per element
-            data["elements"]["law"] = laws[0] if len(set(laws)) == 1 else laws
-        if np.any(model.element_stiffens):
-            # Yeoh's C20/C10 per element (unused on the other laws' elements)
-            data["elements"]["stiffening"] = model.element_stiffening.tolist()
-        if model.n_relaxation_terms:
-            # Prony terms: one [g, ...] and one [τ, ...] row per element
-            data["elements"]["relaxation_moduli"] = model.element_relaxation_moduli.tolist()
-            data["elements"]["relaxation_times"] = model.element_relaxation_times.tolist()
+    if model.elements is not None:
+        data["elements"] = _elements_to_dict(model.elements)
+    return data
+
+
+def _springs_to_dict(model: Model) -> dict:
+    springs = model.springs
+    if springs is None:
+        # a model without springs (elements): the mesh's springs exert no force
+        none = [0.0] * model.n_springs
+        return {"stiffness": none, "damping": none}
+    return {"stiffness": springs.stiffness.tolist(), "damping": springs.damping.tolist(),
+            "rest_length": springs.rest_length.tolist(), "tie": springs.tie.tolist()}
+
+
+def _elements_to_dict(elements) -> dict:
+    data = {"youngs_modulus": elements.youngs_modulus.tolist(),
+            "poisson_ratio": elements.poisson_ratio.tolist(),
+            "viscosity": elements.viscosity.tolist(), "tie": elements.tie.tolist(),
+            "region": elements.region.tolist(), "volumetric": elements.volumetric}
+    laws = [LAWS[number] for number in elements.law]
+    if any(number != 0 for number in elements.law):
+        # one word when every element has the same law, else one per element
+        data["law"] = laws[0] if len(set(laws)) == 1 else laws
+    if np.any(elements.stiffens):
+        # Yeoh's C20/C10 per element (unused on the other laws' elements)
+        data["stiffening"] = elements.stiffening.tolist()
+    if elements.n_relaxation_terms:
+        # Prony terms: one [g, ...] and one [τ, ...] row per element
+        data["relaxation_moduli"] = elements.relaxation_moduli.tolist()
+        data["relaxation_times"] = elements.relaxation_times.tolist()
     return data
 
 
@@ -169,7 +177,7 @@ def _line_of(mapping, key) -> int | None:
     return line_of(key) if line_of is not None else None
 
 
-def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
+def model_from_dict(data: dict, source: str = "<model>") -> Model:
     """Inverse of :func:`model_to_dict`."""
     check_model_dict(data, source)
     try:
@@ -184,7 +192,7 @@ def model_from_dict(data: dict, source: str = "<model>") -> SpringMassModel:
                          source=source) from None
 
 
-def _model_from_checked_dict(data: dict, source: str) -> SpringMassModel:
+def _model_from_checked_dict(data: dict, source: str) -> Model:
     from ..effects import effect_from_dict
 
     try:
@@ -193,32 +201,42 @@ def _model_from_checked_dict(data: dict, source: str) -> SpringMassModel:
                     spring_group=springs.get("group"),
                     group_names=tuple(springs.get("group_names", ())),
                     fixed=nodes.get("fixed", []), tetrahedra=data.get("tetrahedra"))
-        return SpringMassModel(
-            mesh, node_mass=nodes["mass"], spring_stiffness=springs["stiffness"],
-            spring_damping=springs["damping"], spring_rest_length=springs.get("rest_length"),
-            spring_tie=np.asarray(springs["tie"]) if "tie" in springs else None,
-            effects=tuple(effect_from_dict(e, source) for e in data.get("effects") or ()),
-            **_regions_from_dict(data, nodes, springs, source), **_elements_from_dict(data))
+        elements = _elements_from_dict(data)
+        terms = [] if elements is None else [elements]
+        if elements is None or np.any(springs["stiffness"]) or np.any(springs["damping"]):
+            # (an element model's springs without stiffness and damping are no term)
+            terms.insert(0, Springs(
+                stiffness=springs["stiffness"], damping=springs["damping"],
+                rest_length=springs.get("rest_length"),
+                tie=np.asarray(springs["tie"]) if "tie" in springs else None,
+                region=np.asarray(springs["region"]) if "region" in springs else None))
+        terms += [effect_from_dict(e, source) for e in data.get("effects") or ()]
+        return Model(mesh, nodes["mass"], terms, **_regions_from_dict(data, nodes, source))
     except KeyError as error:
         raise InputError(f"missing key {error.args[0]!r}", source=source) from None
 
 
-def _elements_from_dict(data: dict) -> dict:
+def _elements_from_dict(data: dict) -> Tetrahedra | None:
     elements = data.get("elements")
     if elements is None:
-        return {}
+        return None
     if not isinstance(elements, dict):
         raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
                          key="elements")
-    values = {f"element_{key}": elements.get(key)
-              for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
-                          "law", "relaxation_moduli", "relaxation_times", "stiffening")}
+    missing = [key for key in ("youngs_modulus", "poisson_ratio", "viscosity")
+               if elements.get(key) is None]
+    if missing:
+        raise InputError("give all three of element_youngs_modulus, element_poisson_ratio "
+                         "and element_viscosity, or none", key=f"element_{missing[0]}")
     # files written before the nodal volumetric form existed hold per-element elements
-    values["element_volumetric"] = elements.get("volumetric", "element")
-    return values
+    return Tetrahedra(**{key: elements.get(key)
+                         for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie",
+                                     "region", "law", "relaxation_moduli", "relaxation_times",
+                                     "stiffening")},
+                      volumetric=elements.get("volumetric", "element"))
 
 
-def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> dict:
+def _regions_from_dict(data: dict, nodes: dict, source: str) -> dict:
     regions = data.get("regions")
     if regions is None:
         return {}
@@ -226,11 +244,10 @@ def _regions_from_dict(data: dict, nodes: dict, springs: dict, source: str) -> d
         raise InputError("expected 'names: [...]' (and optionally 'tissues: [...]')",
                          source=source, key="regions")
     return {"region_names": tuple(regions["names"]), "region_tissues": regions.get("tissues"),
-            "spring_region": np.asarray(springs.get("region", np.zeros(0, int))),
             "node_region": np.asarray(nodes.get("region", np.zeros(0, int)))}
 
 
-def save_model(model: SpringMassModel, path: str | os.PathLike, *,
+def save_model(model: Model, path: str | os.PathLike, *,
                fit: dict | None = None) -> Path:
     """Write ``model`` as YAML (atomically); :func:`load_model` reads it back exactly.
 
@@ -244,12 +261,12 @@ def save_model(model: SpringMassModel, path: str | os.PathLike, *,
         data["fit"] = dict(fit)
     text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
     with atomic_write(path, "w") as handle:
-        handle.write("# neurofuzzy spring-mass model; load with neurofuzzy.io.load_model\n")
+        handle.write("# neurofuzzy model; load with neurofuzzy.io.load_model\n")
         handle.write(text)
     return path
 
 
-def load_model(path: str | os.PathLike) -> SpringMassModel:
+def load_model(path: str | os.PathLike) -> Model:
     """Read a model written by :func:`save_model`.
 
     Raises

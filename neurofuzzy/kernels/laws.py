@@ -46,7 +46,7 @@ Symmetric 3×3 matrices are tuples of six entries ``(00, 11, 22, 01, 02, 12)``.
 import numba
 import numpy as np
 
-#: Law numbers, as stored per element (``model.element_law``): name → number.
+#: Law numbers, as stored per element (``model.elements.law``): name → number.
 LAWS = {"st-venant-kirchhoff": 0, "neo-hookean": 1, "yeoh": 2}
 ST_VENANT_KIRCHHOFF = LAWS["st-venant-kirchhoff"]
 NEO_HOOKEAN = LAWS["neo-hookean"]

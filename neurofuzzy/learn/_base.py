@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..forces.blocks import TieGroups
-from ..model import SpringMassModel
+from ..forces.springs import spring_constants
+from ..model import Model
 
 __all__ = ["Learner", "TieGroups"]
 
@@ -18,7 +19,7 @@ class Learner:
 
     Attributes set by ``fit`` (one meaning per name across learners)
     ------------------------------------------------------------------
-    model_ : SpringMassModel
+    model_ : Model
         The fitted model.
     history_ : (n_cycles,) float ndarray
         The paper's error ``E`` (eq. 2.2: ``½ Σ |p - o|²`` over frames and measured nodes,
@@ -76,20 +77,22 @@ class Learner:
     def to_dict(self) -> dict:
         """JSON-ready summary of the fitted model and the fit."""
         model = self.model_
-        elements = {} if not model.has_elements else {"elements": {
-            "youngs_modulus": model.element_youngs_modulus.tolist(),
-            "poisson_ratio": model.element_poisson_ratio.tolist(),
-            "viscosity": model.element_viscosity.tolist()}}
-        if model.n_relaxation_terms:              # Prony terms, per element: [g, ...], [τ, ...]
-            elements["elements"].update(
-                relaxation_moduli=model.element_relaxation_moduli.tolist(),
-                relaxation_times=model.element_relaxation_times.tolist())
-        if np.any(model.element_stiffens):        # Yeoh's C20/C10, per element
-            elements["elements"].update(stiffening=model.element_stiffening.tolist())
+        elements = {}
+        if model.elements is not None:
+            term = model.elements
+            elements = {"elements": {"youngs_modulus": term.youngs_modulus.tolist(),
+                                     "poisson_ratio": term.poisson_ratio.tolist(),
+                                     "viscosity": term.viscosity.tolist()}}
+            if term.n_relaxation_terms:           # Prony terms, per element: [g, ...], [τ, ...]
+                elements["elements"].update(relaxation_moduli=term.relaxation_moduli.tolist(),
+                                            relaxation_times=term.relaxation_times.tolist())
+            if np.any(term.stiffens):             # Yeoh's C20/C10, per element
+                elements["elements"].update(stiffening=term.stiffening.tolist())
         return {
             **elements,
-            "stiffness": model.spring_stiffness.tolist(),
-            "damping": model.spring_damping.tolist(),
+            # the springs' constants (none for an element model: zeros, as before terms)
+            "stiffness": spring_constants(model)[0].tolist(),
+            "damping": spring_constants(model)[1].tolist(),
             "node_mass": model.node_mass.tolist(),
             "effects": [{"name": e.name, "parameters": e.params.tolist()} for e in model.effects],
             "rms_error": self.rms_error_,

@@ -20,6 +20,7 @@ from ..effects import NodeDrag, per_unit_mass_force
 from ..effects.compiled import (CLOSING, CONSTANT, STRETCH, element_constants,
                                 element_inclusion, element_stiffening, kernel_effects,
                                 kernel_values, spring_entries)
+from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
 from ..forces.relaxation import decay
@@ -60,8 +61,8 @@ class CompiledModel:
         entries = [derivatives]
         if parameters.learn_springs:    # entry j is spring j: ∂m/∂log s = s x, ∂m/∂log c = c ẋ
             own = np.arange(model.n_springs)
-            for name, basis, values in (("log_stiffness", STRETCH, model.spring_stiffness),
-                                        ("log_damping", CLOSING, model.spring_damping)):
+            for name, basis, values in (("log_stiffness", STRETCH, model.springs.stiffness),
+                                        ("log_damping", CLOSING, model.springs.damping)):
                 entries.append((own, parameters.blocks[name].start + parameters.tied.tie,
                                 np.full(len(own), basis), np.asarray(values, float)))
         entry, column, basis, factor = (np.concatenate(part) for part in zip(*entries))
@@ -69,7 +70,7 @@ class CompiledModel:
         pointer = np.searchsorted(entry[order], np.arange(len(spring) + 1))
         return (np.ascontiguousarray(model.mesh.springs[spring, 0]),
                 np.ascontiguousarray(model.mesh.springs[spring, 1]), stiffness, damping,
-                np.array(model.spring_rest_length[spring], float), cubic,
+                np.array(spring_constants(model)[2][spring], float), cubic,
                 pointer.astype(np.intp), column[order].astype(np.intp),
                 basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
 
@@ -91,7 +92,7 @@ class CompiledModel:
         """Element constants (the model's plus its inclusions') and the CSR of their
         derivatives by the parameters, with the node averages' derivatives."""
         n_nodes = model.n_nodes
-        if not model.has_elements:
+        if model.elements is None:
             empty, none = np.zeros(0), np.zeros(0, np.intp)
             return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), empty, none,
                     *(empty,) * 5, False,
@@ -100,12 +101,12 @@ class CompiledModel:
         own, total = element_constants(model)
         geometry = own.geometry
         # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
-        E, nu, eta = (model.element_youngs_modulus, model.element_poisson_ratio,
-                      model.element_viscosity)
+        E, nu, eta = (model.elements.youngs_modulus, model.elements.poisson_ratio,
+                      model.elements.viscosity)
         a, b, da, db = lame_factors(nu)
         logistic = nu * (1.0 - 2.0 * nu)                     # dν/d logit (2ν)
         first = parameters.blocks[ELEMENT_BLOCKS[0]].start
-        ties, tie = model.n_element_ties, model.element_tie
+        ties, tie = model.elements.n_ties, model.elements.tie
         index = np.arange(model.mesh.n_tetrahedra)
         zero = np.zeros_like(E)
         entries = [(index, first + tie, 2 * b * E, zero, a * E, zero),
@@ -141,7 +142,7 @@ class CompiledModel:
                 # writable copies of the model's read-only arrays: a read-only argument is
                 # another type to numba, and simulate's stepper passes writable ones
                 np.array(own.law, np.intp, order="C"),
-                np.array(model.element_stiffening, float, order="C"),
+                np.array(model.elements.stiffening, float, order="C"),
                 *(np.ascontiguousarray(total[key], float)
                   for key in ("shear", "shear_rate", "lam", "lam_rate")),
                 own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
@@ -153,18 +154,18 @@ class CompiledModel:
     def _relaxation(parameters, model):
         """``(g, τ, columns)`` of the elements' Prony terms: (n_elements, K) each and the
         (n_elements, K, 2) columns of ``log g``, ``log τ`` (-1 when not learned)."""
-        if not model.has_elements:
+        if model.elements is None:
             return np.zeros((0, 0)), np.ones((0, 0)), np.zeros((0, 0, 2), np.intp)
         n, k = model.mesh.n_tetrahedra, model.n_relaxation_terms
         columns = np.full((n, k, 2), -1, np.intp)
         for side, name in enumerate(RELAXATION_BLOCKS):
             block = parameters.blocks.get(name)
             if block is not None:
-                ties = model.n_element_ties
+                ties = model.elements.n_ties
                 columns[:, :, side] = (block.start + np.arange(k)[None, :] * ties
-                                       + model.element_tie[:, None])
-        return (np.array(model.element_relaxation_moduli, float, order="C"),
-                np.array(model.element_relaxation_times, float, order="C"), columns)
+                                       + model.elements.tie[:, None])
+        return (np.array(model.elements.relaxation_moduli, float, order="C"),
+                np.array(model.elements.relaxation_times, float, order="C"), columns)
 
     @staticmethod
     def _stiffening(model, columns):

@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from ..forces import Springs, Tetrahedra
 from ..forces.blocks import (ELEMENT_BLOCKS, RELAXATION_BLOCKS, ElementBlocks, SpringBlocks,
                              TieGroups)
-from ..model import SpringMassModel
+from ..model import Model
 
 __all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions",
            "stiffening_columns"]
@@ -89,7 +89,7 @@ class Parameterization:
         Include the parameters of the model's effects.
     """
 
-    def __init__(self, model: SpringMassModel, *, learn_masses: bool = False,
+    def __init__(self, model: Model, *, learn_masses: bool = False,
                  learn_effects: bool = True):
         self.base = model
         self.free_nodes = np.flatnonzero(model.mesh.free)
@@ -153,7 +153,7 @@ class Parameterization:
     def _values(self, blocks, theta) -> dict[str, np.ndarray]:
         return {name: theta[self.blocks[name].slice] for name, _ in blocks.sizes}
 
-    def model(self, theta: np.ndarray) -> SpringMassModel:
+    def model(self, theta: np.ndarray) -> Model:
         """The model with parameter vector ``theta``."""
         terms = list(self.base.terms)
         for position, blocks in self.terms.items():

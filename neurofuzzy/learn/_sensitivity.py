@@ -73,7 +73,7 @@ class Sensitivity:
         self.tie_incidence = (self.incidence.grouped(parameters.tied.tie,
                                                      parameters.tied.n_ties)
                               if parameters.learn_springs else None)
-        if model.has_elements:         # the three element blocks lie side by side
+        if model.elements is not None:         # the three element blocks lie side by side
             self.element_slice = slice(parameters.blocks[ELEMENT_BLOCKS[0]].start,
                                        parameters.blocks[ELEMENT_BLOCKS[-1]].stop)
 
@@ -130,13 +130,13 @@ class Sensitivity:
         if param.learn_springs:
             templates = springs.parameter_templates(state)
             n_ties = param.tied.n_ties
-            for name, values in (("log_stiffness", model.spring_stiffness),
-                                 ("log_damping", model.spring_damping)):
+            for name, values in (("log_stiffness", springs.stiffness),
+                                 ("log_damping", springs.damping)):
                 per_spring = values[:, None] * templates[name[4:]]     # ∂f/∂log θ
                 d_force[:, param.blocks[name].slice] += (
                     self.tie_incidence @ per_spring).reshape(n_ties, self.n_nodes, 3
                                                              ).transpose(1, 0, 2)
-        if model.has_elements:
+        if model.elements is not None:
             d_force[:, self.element_slice] += model.elements.parameter_jvp(model, p, v,
                                                                            directions)
             local, columns, block = self._stiffening_forces(model, p, v)
@@ -193,7 +193,7 @@ class Sensitivity:
         blocks = param.blocks
         mass_rows = (np.arange(blocks["log_mass"].start, blocks["log_mass"].stop)
                      if param.learn_masses else None)
-        directions = element_directions(model) if model.has_elements and tangents else None
+        directions = element_directions(model) if model.elements is not None and tangents else None
 
         positions = np.empty((n_frames, self.n_nodes, 3))
         jacobian = (np.empty((n_frames - 1, observation.n_rows, 3, n_params)) if tangents
@@ -321,7 +321,7 @@ class Sensitivity:
         index = len(states)
         n_ties = param.tied.n_ties
         tie = param.tied.tie
-        directions = element_directions(model) if model.has_elements else None
+        directions = element_directions(model) if model.elements is not None else None
         for t in range(n_frames - 1, 0, -1):
             if t in starts:
                 lam_p[:] = 0.0
@@ -349,11 +349,11 @@ class Sensitivity:
                 else:
                     d_p, d_v, per_spring = springs.vjp(model, lam_force, state)
                 if param.learn_springs:
-                    for name, values in (("log_stiffness", model.spring_stiffness),
-                                         ("log_damping", model.spring_damping)):
+                    for name, values in (("log_stiffness", springs.stiffness),
+                                         ("log_damping", springs.damping)):
                         grad[param.blocks[name].slice] += np.bincount(
                             tie, values * per_spring[name[4:]], n_ties)
-                if model.has_elements:
+                if model.elements is not None:
                     per_element = model.elements.parameter_vjp(model, p, v, lam_force)
                     for name, direction in directions.items():
                         grad[self.element_slice] += direction.T @ per_element[name]

@@ -20,7 +20,7 @@ from scipy.optimize import minimize
 
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, rms_error
-from ..model import SpringMassModel
+from ..model import Model
 from ..simulation import check_substeps
 from ..progress import Progress, note
 from ._base import Learner
@@ -158,7 +158,7 @@ class GradientLearner(Learner):
         self.mesh_check = mesh_check
         self.progress = progress
 
-    def fit(self, model: SpringMassModel,
+    def fit(self, model: Model,
             experiments: Experiment | Sequence[Experiment]) -> GradientLearner:
         """Learn ``model``'s parameters from ``experiments``; returns ``self``."""
         experiments = check_experiments(model, experiments)
@@ -167,7 +167,7 @@ class GradientLearner(Learner):
                              key="method")
         auto = check_substeps(self.substeps) == "auto"
         offsets = self.offsets_ = fits_offsets(self.offsets, experiments)
-        if self.mesh_check and not model.has_elements:
+        if self.mesh_check and model.elements is None:
             raise InputError("the mesh check refines tetrahedral elements; a spring network's "
                              "constants belong to its mesh", key="mesh_check")
         started = time.perf_counter()
@@ -186,7 +186,7 @@ class GradientLearner(Learner):
                               / (1 if auto and discrete else initial_steps))
         parameters = Parameterization(model, learn_masses=self.learn_masses,
                                       learn_effects=self.learn_effects)
-        sensitivity = Sensitivity(parameters, float(np.mean(model.spring_rest_length)),
+        sensitivity = Sensitivity(parameters, model.length_unit,
                                   offsets=offsets)
         method = self._method(parameters, experiments)
         theta = parameters.initial()

@@ -72,7 +72,7 @@ def refine_model(model):
     """``(refined model, refinement)``: ``model`` on its mesh refined once, every child
     element with its parent's E, ν, η, region and tie group, masses lumped again from the
     densities the old lumping implies."""
-    if not model.has_elements:
+    if model.elements is None:
         raise InputError("the mesh check refines tetrahedral elements; a spring network's "
                          "constants belong to its mesh and do not carry over", key="mesh_check")
     refinement = refine(model.mesh)
@@ -88,18 +88,14 @@ def refine_model(model):
     node_region = np.concatenate([model.node_region,
                                   model.node_region[refinement.edge_nodes[:, 0]]])
     effects = tuple(_refined_effect(effect, parent) for effect in model.effects)
-    fine_model = type(model)(
-        refinement.mesh, node_mass=mass, spring_stiffness=0.0, spring_damping=0.0,
-        effects=effects, region_names=model.region_names, region_tissues=model.region_tissues,
-        node_region=node_region, spring_region=np.zeros(refinement.mesh.n_springs, np.intp),
-        element_youngs_modulus=model.element_youngs_modulus[parent],
-        element_poisson_ratio=model.element_poisson_ratio[parent],
-        element_viscosity=model.element_viscosity[parent],
-        element_tie=model.element_tie[parent], element_region=model.element_region[parent],
-        element_volumetric=model.element_volumetric, element_law=model.element_law[parent],
-        element_relaxation_moduli=model.element_relaxation_moduli[parent],
-        element_relaxation_times=model.element_relaxation_times[parent],
-        element_stiffening=model.element_stiffening[parent])
+    elements = model.elements
+    fine_elements = elements.replace(**{
+        name: getattr(elements, name)[parent]
+        for name in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region", "law",
+                     "relaxation_moduli", "relaxation_times", "stiffening")})
+    fine_model = type(model)(refinement.mesh, mass, (fine_elements, *effects),
+                             region_names=model.region_names,
+                             region_tissues=model.region_tissues, node_region=node_region)
     return fine_model, refinement
 
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, require_node_observations, rms_error
-from ..model import SpringMassModel
+from ..model import Model
 from ..forces import incidence
 from ..progress import Progress
 from ..simulation import euler_update
@@ -90,7 +90,7 @@ class PaperLearner(Learner):
         self.learn_effects = learn_effects
         self.progress = progress
 
-    def fit(self, model: SpringMassModel,
+    def fit(self, model: Model,
             experiments: Experiment | Sequence[Experiment]) -> PaperLearner:
         """Learn ``model``'s parameters from ``experiments``; returns ``self``."""
         for name in ("learning_rate", "mass_learning_rate"):
@@ -103,7 +103,7 @@ class PaperLearner(Learner):
         if int(self.cycles) < 1:
             raise InputError(f"got {self.cycles}; expected >= 1", key="cycles")
         experiments = check_experiments(model, experiments)
-        if model.has_elements:
+        if model.elements is not None or model.springs is None:
             raise InputError("the paper's learner learns spring networks (eqs. 3.7-3.22); fit "
                              "a model with tetrahedral elements with the gradient learner",
                              key="method")
@@ -141,7 +141,7 @@ class PaperLearner(Learner):
         """One complete propagation through ``experiment`` with immediate updates; returns E."""
         model = state.base
         maps = incidence(model.mesh)
-        rest_length = model.spring_rest_length
+        rest_length = model.springs.rest_length
         h = experiment.dt
         length_unit, mass_unit = state.length_unit, state.mass_unit
         # Update scale U_θ² h² / L² of every parameter class (module docstring).
@@ -206,14 +206,14 @@ class PaperLearner(Learner):
 class _LearningState:
     """The weights while they are being learned: tied spring values, inverse masses, effects."""
 
-    def __init__(self, model: SpringMassModel):
+    def __init__(self, model: Model):
         self.base = model
         self.tied = TieGroups.of(model.springs.tie)
-        self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.spring_stiffness)
-        self.damping_shared, self.damping_ratio = self.tied.split(model.spring_damping)
+        self.stiffness_shared, self.stiffness_ratio = self.tied.split(model.springs.stiffness)
+        self.damping_shared, self.damping_ratio = self.tied.split(model.springs.damping)
         free = model.mesh.free
         self.inverse_mass = np.where(free, 1.0 / model.node_mass, 0.0)
-        self.length_unit = float(np.mean(model.spring_rest_length))
+        self.length_unit = model.length_unit
         self.mass_unit = float(np.mean(model.node_mass[free])) if free.any() else 1.0
         # Parameters stay positive: never below a small fraction of where they started.
         self.stiffness_floor = 1e-4 * np.maximum(self.stiffness_shared, 1e-12)
@@ -246,10 +246,9 @@ class _LearningState:
             unit = effect.parameter_units(length_unit, h, mass_unit)
             self.effects[index] = effect.with_params(effect.params + rate * unit**2 * gradient)
 
-    def model(self) -> SpringMassModel:
+    def model(self) -> Model:
         free = self.base.mesh.free
         mass = self.base.node_mass.copy()
         mass[free] = 1.0 / self.inverse_mass[free]
-        return self.base.replace(spring_stiffness=self.stiffness(),
-                                 spring_damping=self.damping(), node_mass=mass,
-                                 effects=tuple(self.effects))
+        springs = self.base.springs.replace(stiffness=self.stiffness(), damping=self.damping())
+        return self.base.replace(terms=(springs, *self.effects), node_mass=mass)

@@ -82,7 +82,7 @@ class FuzzyPrior:
     Parameters
     ----------
     rules : RuleBase, path or shipped name
-    model : SpringMassModel
+    model : Model
         Its regions' tissues (``region_tissues``), or ``tissue`` for regions without one.
     tissue : str, optional
     weight : "auto" or float

@@ -41,24 +41,26 @@ MAX_TESTED = 10
 def homogeneous_start(model):
     """``model`` with one tie group per region (elements) or per spring group and region
     (springs), every group at the median of its items' values."""
-    if model.has_elements and not np.any(model.spring_stiffness):
-        region = model.element_region
-        values = {}
-        for key in ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity"):
-            per_item = getattr(model, key).copy()
-            for r in np.unique(region):
-                per_item[region == r] = np.median(per_item[region == r])
-            values[key] = per_item
-        return model.replace(element_tie=region, **values)
-    tied = model.tied("groups")
+    if model.elements is not None and model.springs is None:
+        elements = model.elements
+        return model.with_term(elements.replace(
+            tie=elements.region, **_medians(elements, elements.region,
+                                            ("youngs_modulus", "poisson_ratio", "viscosity"))))
+    springs = model.tied("groups").springs
+    return model.with_term(springs.replace(**_medians(springs, springs.tie,
+                                                      ("stiffness", "damping"))))
+
+
+def _medians(term, groups: np.ndarray, names) -> dict[str, np.ndarray]:
+    """Every member's value of the fields ``names`` of ``term`` replaced by the median of its
+    group's."""
     values = {}
-    for key in ("spring_stiffness", "spring_damping"):
-        per_item = getattr(model, key).copy()
-        for group in np.unique(tied.spring_tie):
-            members = tied.spring_tie == group
-            per_item[members] = np.median(per_item[members])
-        values[key] = per_item
-    return tied.replace(**values)
+    for name in names:
+        per_item = np.array(getattr(term, name))
+        for group in np.unique(groups):
+            per_item[groups == group] = np.median(per_item[groups == group])
+        values[name] = per_item
+    return values
 
 
 def homogeneous_fit(learner, model, experiments):
@@ -87,14 +89,10 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
             continue
         base = current.model_
         items = np.asarray(region.get("elements", region.get("springs")), dtype=int)
-        if "elements" in region:
-            tie = base.element_tie.copy()
-            tie[items] = tie.max() + 1
-            model, extra = base.replace(element_tie=tie), 3
-        else:
-            tie = base.spring_tie.copy()
-            tie[items] = tie.max() + 1
-            model, extra = base.replace(spring_tie=tie), 2
+        term, extra = (base.elements, 3) if "elements" in region else (base.springs, 2)
+        tie = term.tie.copy()
+        tie[items] = tie.max() + 1
+        model = base.with_term(term.replace(tie=tie))
         refit = type(homogeneous)(**options).fit(model, experiments)
         rms0, rms1 = current.rms_error_, refit.rms_error_
         gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))

@@ -37,13 +37,13 @@ _QUANTITIES = ("youngs_modulus", "viscosity", "poisson_ratio")
 def item_values(model) -> tuple[str, dict[str, np.ndarray]]:
     """``("elements", {quantity: per element})`` for element models, else ``("springs",
     {quantity: the E and η every spring stands for})``."""
-    if model.has_elements:
-        return "elements", {"youngs_modulus": model.element_youngs_modulus,
-                            "poisson_ratio": model.element_poisson_ratio,
-                            "viscosity": model.element_viscosity}
+    if model.elements is not None:
+        return "elements", {"youngs_modulus": model.elements.youngs_modulus,
+                            "poisson_ratio": model.elements.poisson_ratio,
+                            "viscosity": model.elements.viscosity}
     factor = _spring_factor(model)
-    return "springs", {"youngs_modulus": model.spring_stiffness / factor,
-                       "viscosity": model.spring_damping / factor}
+    return "springs", {"youngs_modulus": model.springs.stiffness / factor,
+                       "viscosity": model.springs.damping / factor}
 
 
 def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
@@ -52,7 +52,7 @@ def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
     prior : FuzzyPrior
     min_nodes : float
         Regions smaller than this many nodes' share of the mesh (volume for elements, springs
@@ -70,14 +70,14 @@ def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
     """
     kind, values = item_values(model)
     if kind == "elements":
-        item_region = model.element_region
+        item_region = model.elements.region
         a, b = _elements_sharing_a_face(model.mesh.tetrahedra)
         points = model.mesh.rest_positions[model.mesh.tetrahedra]
         centres = points.mean(axis=1)
         weights = tetrahedron_geometry(model.mesh).volume
         item_nodes = model.mesh.tetrahedra
     else:
-        item_region = model.spring_region
+        item_region = model.springs.region
         a, b = _springs_sharing_a_node(model.mesh)
         points = model.mesh.rest_positions[model.mesh.springs]
         centres, weights = points.mean(axis=1), np.ones(len(points))

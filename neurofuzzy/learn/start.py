@@ -26,7 +26,7 @@ from scipy.optimize import lsq_linear
 from ..experiment import Experiment, check_experiments
 from ..forces import incidence
 from ..forces.springs import parameter_templates, spring_state
-from ..model import SpringMassModel
+from ..model import Model
 from ._base import TieGroups
 
 __all__ = ["StartModel", "estimate_start"]
@@ -43,7 +43,7 @@ class StartModel:
 
     Attributes
     ----------
-    model : SpringMassModel
+    model : Model
     how : {"model", "rules", "equation error", "defaults"}
         A model given (file or object), a rule base's tissue, the equation-error estimate from
         the data, or the given model unchanged because the data could not say.
@@ -55,7 +55,7 @@ class StartModel:
         Its tissue (one-tissue starts).
     """
 
-    model: SpringMassModel
+    model: Model
     how: str
     reason: str
     rules: object = None
@@ -71,7 +71,7 @@ class StartModel:
                 "tissue": self.tissue}
 
 
-def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Experiment], *,
+def estimate_start(model: Model, experiments: Experiment | Sequence[Experiment], *,
                    estimate_mass: bool = False) -> StartModel:
     """Start model whose tied spring constants (and, optionally, uniform mass) fit the data.
 
@@ -82,7 +82,7 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
         Topology, tying and masses; its spring values are the fallback.
     experiments : Experiment or sequence of Experiment
     estimate_mass : bool
@@ -97,10 +97,14 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
     experiments = check_experiments(model, experiments)
     if not all(e.complete for e in experiments):
         return StartModel(model, "defaults", "some free nodes are unobserved or have gaps")
-    tied = TieGroups.of(model.spring_tie)
-    s_ratio = tied.split(model.spring_stiffness)[1] if np.all(model.spring_stiffness > 0) \
+    springs = model.springs
+    if springs is None:
+        return StartModel(model, "defaults", "the model has no springs (the equation-error "
+                                             "estimate is of spring constants)")
+    tied = TieGroups.of(springs.tie)
+    s_ratio = tied.split(springs.stiffness)[1] if np.all(springs.stiffness > 0) \
         else np.ones(model.n_springs)
-    c_ratio = tied.split(model.spring_damping)[1] if np.all(model.spring_damping > 0) \
+    c_ratio = tied.split(springs.damping)[1] if np.all(springs.damping > 0) \
         else np.ones(model.n_springs)
     shared = _solve(model, experiments, np.zeros(model.n_springs, dtype=np.intp), s_ratio,
                     c_ratio, estimate_mass)
@@ -121,15 +125,16 @@ def estimate_start(model: SpringMassModel, experiments: Experiment | Sequence[Ex
                 values[plausible] = estimate[plausible]
             if estimate_mass and grouped[2] is not None and grouped[2] > 0:
                 mass = grouped[2]
-    changes = {"spring_stiffness": stiffness[tied.tie] * s_ratio,
-               "spring_damping": damping[tied.tie] * c_ratio}
+    model = model.with_term(springs.replace(stiffness=stiffness[tied.tie] * s_ratio,
+                                            damping=damping[tied.tie] * c_ratio))
+    changes = {}
     if estimate_mass:
         if not (mass is not None and mass > 0):
             return StartModel(model, "defaults", "the mass estimate was not positive")
         node_mass = model.node_mass.copy()
         node_mass[model.mesh.free] = mass
         changes["node_mass"] = node_mass
-    return StartModel(model.replace(**changes), "equation error", reason)
+    return StartModel(model.replace(**changes) if changes else model, "equation error", reason)
 
 
 def _solve(model, experiments, tie, s_ratio, c_ratio, estimate_mass):

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..experiment import Experiment
-from ..model import SpringMassModel
+from ..model import Model
 from ..simulation import stability_limit
 
 __all__ = ["auto_substeps", "stable_start", "stable_at_one_step", "fits_offsets",
@@ -19,7 +19,7 @@ __all__ = ["auto_substeps", "stable_start", "stable_at_one_step", "fits_offsets"
 #: frequency by about ``(hω)²/24`` and its damping by about ``hγ/2``.
 AUTO_STEP_OMEGA = 0.15
 
-def stable_start(model: SpringMassModel, h: float) -> SpringMassModel:
+def stable_start(model: Model, h: float) -> Model:
     """Scale all spring constants down until steps of ``h`` are stable (a start that blows up
     gives the optimiser nothing to work with); unchanged when already stable."""
     limit = stability_limit(model)
@@ -27,12 +27,14 @@ def stable_start(model: SpringMassModel, h: float) -> SpringMassModel:
         return model
     # h² ω² + 2 h γ scales linearly in a common factor of stiffness and viscosity
     factor = 0.8 * (limit.max_step / h) ** 2
-    changes = {"spring_stiffness": model.spring_stiffness * factor,
-               "spring_damping": model.spring_damping * factor}
-    if model.has_elements:
-        changes.update(element_youngs_modulus=model.element_youngs_modulus * factor,
-                       element_viscosity=model.element_viscosity * factor)
-    return model.replace(**changes)
+    springs, elements = model.springs, model.elements
+    if springs is not None:
+        model = model.with_term(springs.replace(stiffness=springs.stiffness * factor,
+                                                damping=springs.damping * factor))
+    if elements is not None:
+        model = model.with_term(elements.replace(youngs_modulus=elements.youngs_modulus * factor,
+                                                 viscosity=elements.viscosity * factor))
+    return model
 
 
 def fits_offsets(option: bool | str, experiments: Sequence[Experiment]) -> bool:
@@ -44,7 +46,7 @@ def fits_offsets(option: bool | str, experiments: Sequence[Experiment]) -> bool:
     raise InputError(f"got {option!r}; expected True, False or 'auto'", key="offsets")
 
 
-def auto_substeps(model: SpringMassModel, dt: float) -> int:
+def auto_substeps(model: Model, dt: float) -> int:
     """Substeps per frame so that ``h·ω_max <= AUTO_STEP_OMEGA`` and the step is stable.
 
     Element models take twice the stability bound instead: a mesh's stiffest modes are
@@ -55,13 +57,13 @@ def auto_substeps(model: SpringMassModel, dt: float) -> int:
     """
     limit = stability_limit(model)
     by_stability = dt / limit.max_step
-    if model.has_elements:
+    if model.elements is not None:
         return max(1, int(np.ceil(2.0 * by_stability)))
     by_accuracy = limit.omega_max * dt / AUTO_STEP_OMEGA
     return max(1, int(np.ceil(max(by_accuracy, by_stability))))
 
 
-def stable_at_one_step(model: SpringMassModel, experiments: Sequence[Experiment]) -> bool:
+def stable_at_one_step(model: Model, experiments: Sequence[Experiment]) -> bool:
     """Is one step per frame (the paper's network) stable for ``model`` on every
     experiment?"""
     limit = stability_limit(model).max_step

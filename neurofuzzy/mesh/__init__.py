@@ -1,7 +1,7 @@
 """Topology of a spring-mass network: nodes, springs, spring groups and fixed nodes.
 
 A :class:`Mesh` says what is connected to what and what is held in place; it carries no
-physical parameters (those live in :class:`neurofuzzy.model.SpringMassModel`).
+physical parameters (those live in :class:`neurofuzzy.model.Model`).
 
 Builders
 --------

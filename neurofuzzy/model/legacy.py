@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..forces import Springs, Tetrahedra
 
-__all__ = ["FLAT", "terms_from_fields", "terms_with_fields", "flat_value"]
+__all__ = ["FLAT", "DERIVED", "terms_from_fields", "terms_with_fields", "flat_value"]
 
 #: flat field → (the term's kind, its field)
 FLAT = {
@@ -24,6 +24,15 @@ FLAT = {
        for name in ("youngs_modulus", "poisson_ratio", "viscosity", "tie", "region",
                     "volumetric", "law", "stiffening", "relaxation_moduli",
                     "relaxation_times")},
+}
+#: what models before terms computed from those fields: name → its value on a model
+DERIVED = {
+    "has_elements": lambda model: model.elements is not None,
+    "n_ties": lambda model: 0 if model.springs is None else model.springs.n_ties,
+    "n_element_ties": lambda model: 0 if model.elements is None else model.elements.n_ties,
+    "element_stiffens": lambda model: (np.zeros(0, bool) if model.elements is None
+                                       else model.elements.stiffens),
+    "law_names": lambda model: model.elements.law_names,
 }
 #: the element fields without which there are no elements
 _ELEMENT_VALUES = ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity")
@@ -86,7 +95,9 @@ def terms_with_fields(model, fields: dict) -> tuple:
 
 def flat_value(model, name: str):
     """``model.<name>`` for a flat field: the term's value, or what a model without that term
-    reads as."""
+    reads as; or a value :data:`DERIVED` from them."""
+    if name in DERIVED:
+        return DERIVED[name](model)
     kind, field = FLAT[name]
     term = getattr(model, kind)
     if term is not None:

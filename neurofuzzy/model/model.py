@@ -144,6 +144,20 @@ class Model:
             return self.replace(terms=(term, *kept))
         return self.replace(terms=self.terms + (term,))
 
+    def with_springs(self, **changes) -> Model:
+        """A copy whose springs have some fields changed (``model.with_springs(stiffness=s)``);
+        :class:`InputError` for a model without springs."""
+        if self.springs is None:
+            raise InputError("this model has no springs", key="springs")
+        return self.with_term(self.springs.replace(**changes))
+
+    def with_elements(self, **changes) -> Model:
+        """A copy whose elements have some fields changed (``model.with_elements(law=
+        "neo-hookean")``); :class:`InputError` for a model without elements."""
+        if self.elements is None:
+            raise InputError("this model has no tetrahedral elements", key="elements")
+        return self.with_term(self.elements.replace(**changes))
+
     def with_effects(self, *effects) -> Model:
         """A copy that carries ``effects`` in addition to those it has."""
         return self.replace(terms=self.terms + tuple(effects))
@@ -237,8 +251,8 @@ class Model:
             poisson_ratio=np.broadcast_to(poisson_ratio, (n,)),
             viscosity=np.broadcast_to(viscosity, (n,)), volumetric=volumetric, law=law,
             stiffening=stiffening,
-            relaxation_moduli=relaxation.get("element_relaxation_moduli"),
-            relaxation_times=relaxation.get("element_relaxation_times"))
+            relaxation_moduli=relaxation.get("relaxation_moduli"),
+            relaxation_times=relaxation.get("relaxation_times"))
         return cls(mesh, node_mass, (elements,))
 
     def tied(self, tie: Tie) -> Model:
@@ -293,31 +307,16 @@ class Model:
         return self.mesh.n_springs
 
     @property
-    def has_elements(self) -> bool:
-        """True when the model carries tetrahedral finite elements."""
-        return self.elements is not None
-
-    @property
-    def n_ties(self) -> int:
-        """The springs' tie groups (0 without springs)."""
-        return 0 if self.springs is None else self.springs.n_ties
-
-    @property
-    def n_element_ties(self) -> int:
-        """The elements' tie groups (0 without elements)."""
-        return 0 if self.elements is None else self.elements.n_ties
-
-    @property
     def n_relaxation_terms(self) -> int:
         """How many Prony terms the elements carry (0: no relaxation, or no elements)."""
         return 0 if self.elements is None else self.elements.n_relaxation_terms
 
     @property
-    def element_stiffens(self) -> np.ndarray:
-        """(n_tetrahedra,) bool: the elements whose law has its own stiffening constant
-        (:data:`~neurofuzzy.forces.laws.STIFFENING_CONSTANT`; Yeoh's C₂₀/C₁₀); empty
-        without elements."""
-        return np.zeros(0, bool) if self.elements is None else self.elements.stiffens
+    def length_unit(self) -> float:
+        """The mean rest length of the springs (the mesh's springs for a model without
+        springs): the unit of the learners' errors (the paper's E, eq. 2.2)."""
+        rest = self.mesh.rest_lengths if self.springs is None else self.springs.rest_length
+        return float(np.mean(rest))
 
     @property
     def node_inverse_mass(self) -> np.ndarray:
@@ -333,10 +332,6 @@ class Model:
         return {name: float(values[groups == g].mean())
                 for g, name in enumerate(self.mesh.group_names) if np.any(groups == g)}
 
-    def law_names(self) -> str:
-        """The elements' material laws in words: one name, or each with its element count."""
-        return self.elements.law_names()
-
     def summary(self) -> str:
         """Short human-readable description of the parameters."""
         springs, elements = self.springs, self.elements
@@ -347,7 +342,8 @@ class Model:
                          f"{elements.n_ties} tie group(s)")
         if pulls or elements is None:
             parts.append(f"{self.n_springs} springs" + (
-                "" if elements is not None else f", {self.n_ties} tie group(s)"))
+                "" if elements is not None else
+                f", {0 if springs is None else springs.n_ties} tie group(s)"))
         lines = [f"Model: {', '.join(parts)}", f"  node mass: {describe(self.node_mass)}"]
         if elements is not None:
             lines.append(f"  elements: Young's modulus {describe(elements.youngs_modulus)}"
@@ -383,7 +379,7 @@ class Model:
 
     def __getattr__(self, name):
         # the flat fields of models before terms (spring_stiffness, element_law, …)
-        if name in legacy.FLAT:
+        if name in legacy.FLAT or name in legacy.DERIVED:
             return legacy.flat_value(self, name)
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 

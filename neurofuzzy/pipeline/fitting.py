@@ -25,7 +25,7 @@ class FitOutcome:
 
     Attributes
     ----------
-    model : SpringMassModel
+    model : Model
         The fitted model (``learner.model_``).
     learner : Learner
         The fitted learner (history, standard errors, lack of fit …).
@@ -93,7 +93,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     experiments : Experiment, path or sequence of them
         Load cases of one object; paths are read with
         :func:`~neurofuzzy.io.load_experiment`.
-    start : SpringMassModel or path, optional
+    start : Model or path, optional
         A start model (its regions, tissues, masses and tie groups are kept).
     rules : RuleBase, path or shipped name, optional
         The rule base: start values with ``tissue``, words for the summary, the prior.
@@ -147,7 +147,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
                      model_source=start if isinstance(start, str | os.PathLike) else None,
                      physical=begun.how in ("model", "rules"))
     require_motion(experiments)
-    if mesh_check and not begun.model.has_elements:
+    if mesh_check and begun.model.elements is None:
         raise InputError("refines tetrahedral elements; this fit's model is a spring network "
                          "(give a model or experiment with tetrahedra, or --elements tetra)",
                          key="--mesh-check")

@@ -121,8 +121,8 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     result = learner.to_dict()
     result.update(method=method, tie=tie, start=start.to_dict(),
                   experiments=[str(p) for p in experiments])
-    if learner.model_.has_elements:
-        result["material_law"] = learner.model_.law_names()
+    if learner.model_.elements is not None:
+        result["material_law"] = learner.model_.elements.law_names()
     if start.rules is not None or any(start.model.region_tissues):
         from ..tissues import materials
 

@@ -16,21 +16,22 @@ from ..experiment import Experiment, check_experiments, duration
 from ..forces.laws import LAWS
 from ..forces.relaxation import relaxation_fields, start_terms
 from ..learn import StartModel, estimate_start
-from ..model import SpringMassModel, tie_index
+from ..forces import Springs
+from ..model import Model, tie_index
 from ..progress import note
 
 __all__ = ["start_model"]
 
 
 def start_model(experiments: Experiment | Sequence[Experiment], *,
-                model: SpringMassModel | str | os.PathLike | None = None,
+                model: Model | str | os.PathLike | None = None,
                 rules=None, tissue: str | None = None, tie: str | None = None,
                 elements: bool | None = None, law: str | None = None,
                 relaxation=None, stiffening: float | None = None,
                 progress: bool = False) -> StartModel:
     """The start of a fit of ``experiments``: the policy of ``neurofuzzy fit``.
 
-    1. ``model`` (a :class:`SpringMassModel` or a model file, e.g. written by
+    1. ``model`` (a :class:`Model` or a model file, e.g. written by
        ``neurofuzzy mesh`` or a previous fit): used as it is, with its regions, tissues, masses
        and tie groups (``tie`` re-ties it within its regions); ``rules`` then only lends the
        words for the report (each region's tissue, or ``tissue`` for regions without one);
@@ -44,7 +45,7 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     ----------
     experiments : Experiment or sequence of Experiment
         Load cases of one object (one topology).
-    model : SpringMassModel or path, optional
+    model : Model or path, optional
     rules : RuleBase, path or name of a shipped rule base (``"liver"``), optional
     tissue : str, optional
         With ``rules``: the tissue of the whole object.
@@ -82,32 +83,32 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     for value, key, words in ((law, "--law", f"a material law ({law!r})"),
                               (relaxation, "--relaxation", "relaxation (Prony terms)"),
                               (stiffening, "--stiffening", "a stiffening (Yeoh's C20/C10)")):
-        if value is not None and not begun.model.has_elements:
+        if value is not None and begun.model.elements is None:
             raise InputError(f"{words} is one of tetrahedral elements; this start is a spring "
                              "network (give a model or experiment with tetrahedra, or "
                              "--elements tetra)", key=key)
     if law is not None:
-        changes["element_law"] = law
+        changes["law"] = law
     if stiffening is not None:
-        changes["element_stiffening"] = stiffening
+        changes["stiffening"] = stiffening
     if relaxation is not None:
         changes.update(relaxation_fields(start_terms(relaxation, duration(experiments))))
     if not changes:
         return begun
-    changed = begun.model.replace(**changes)
-    yeoh = changed.element_stiffens
+    changed = begun.model.with_elements(**changes)
+    yeoh = changed.elements.stiffens
     if stiffening is not None and not yeoh.any():
         raise InputError(f"a stiffening ({stiffening!r}) is Yeoh's C20/C10; this start has no "
                          "Yeoh elements (add --law yeoh)", key="--stiffening")
     if law is not None:
-        note(progress, f"material law: {LAWS[int(changed.element_law[0])]}")
+        note(progress, f"material law: {LAWS[int(changed.elements.law[0])]}")
     if (law is not None or stiffening is not None) and yeoh.any():
         note(progress, "Yeoh stiffening C20/C10: "
-             f"{float(np.mean(changed.element_stiffening[yeoh])):.3g}")
+             f"{float(np.mean(changed.elements.stiffening[yeoh])):.3g}")
     if relaxation is not None:
         note(progress, "relaxation: " + ", ".join(
-            f"g {g:.3g}, tau {t:.3g} s" for g, t in zip(changed.element_relaxation_moduli[0],
-                                                        changed.element_relaxation_times[0])))
+            f"g {g:.3g}, tau {t:.3g} s" for g, t in zip(changed.elements.relaxation_moduli[0],
+                                                        changed.elements.relaxation_times[0])))
     return replace(begun, model=changed)
 
 
@@ -120,10 +121,10 @@ def _start_model(experiments, *, model, rules, tissue, tie, elements, progress) 
     if model is not None:
         from ..io import load_model
 
-        given = model if isinstance(model, SpringMassModel) else load_model(model)
-        source = "the given model" if isinstance(model, SpringMassModel) else str(model)
+        given = model if isinstance(model, Model) else load_model(model)
+        source = "the given model" if isinstance(model, Model) else str(model)
         check_experiments(given, experiments, model_source=None if isinstance(
-            model, SpringMassModel) else source)
+            model, Model) else source)
         given = given if tie is None else given.tied(tie)
         rule_base = None if rules is None else _rules(rules)
         if tissue is not None:
@@ -151,9 +152,8 @@ def _start_model(experiments, *, model, rules, tissue, tie, elements, progress) 
     if estimate_mass:
         note(progress, f"neurofuzzy: note: {first.source} gives no 'masses'; estimating one "
                        "mass per node from the data")
-    guess = SpringMassModel(first.mesh, node_mass=1.0 if estimate_mass else first.node_mass,
-                            spring_stiffness=1.0, spring_damping=1.0,
-                            spring_tie=tie_index(first.mesh, tie))
+    guess = Model(first.mesh, 1.0 if estimate_mass else first.node_mass,
+                  (Springs(stiffness=1.0, damping=1.0, tie=tie_index(first.mesh, tie)),))
     start = estimate_start(guess, experiments, estimate_mass=estimate_mass)
     if estimate_mass and not start.used:
         raise InputError(f"gives no 'masses', and they cannot be estimated here ({start.reason}"
@@ -182,12 +182,11 @@ def _check_tissue(rule_base, tissue: str) -> None:
         raise unknown_tissue(rule_base, tissue)
 
 
-def _topology_model(experiment: Experiment) -> SpringMassModel:
+def _topology_model(experiment: Experiment) -> Model:
     """A placeholder model with the experiment's topology (for the topology checks)."""
-    return SpringMassModel(experiment.mesh, node_mass=1.0, spring_stiffness=1.0,
-                           spring_damping=1.0)
+    return Model(experiment.mesh, 1.0, (Springs(stiffness=1.0, damping=1.0),))
 
 
-def _single_tissue(model: SpringMassModel) -> str | None:
+def _single_tissue(model: Model) -> str | None:
     tissues = set(model.region_tissues)
     return tissues.pop() if len(tissues) == 1 else None

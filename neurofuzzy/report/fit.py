@@ -137,7 +137,7 @@ def prior_section(plt, learner, data) -> tuple[str, str]:
     kind, values = item_values(model)
     items = model.mesh.tetrahedra if kind == "elements" else model.mesh.springs
     centres = model.mesh.rest_positions[items].mean(axis=1)
-    region = model.element_region if kind == "elements" else model.spring_region
+    region = model.elements.region if kind == "elements" else model.springs.region
     centre = np.array([prior.sets[k]["youngs_modulus"].centre for k in region])
     figure = plt.figure(figsize=(6, 5))
     ax = figure.add_subplot(projection="3d")

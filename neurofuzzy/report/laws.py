@@ -19,19 +19,19 @@ STRAINS = np.linspace(-0.35, 0.25, 61)
 
 def law_section(plt, model) -> tuple[str, str] | None:
     """``(title, html)`` for an element model, None for a spring network."""
-    if not model.has_elements:
+    if model.elements is None:
         return None
     figure, ax = plt.subplots(figsize=(6.5, 3.6))
     for r, name in enumerate(model.region_names):
-        chosen = model.element_region == r
+        chosen = model.elements.region == r
         if not chosen.any():
             continue
-        E = float(np.median(model.element_youngs_modulus[chosen]))
-        nu = float(np.median(model.element_poisson_ratio[chosen]))
-        laws = np.unique(model.element_law[chosen])
+        E = float(np.median(model.elements.youngs_modulus[chosen]))
+        nu = float(np.median(model.elements.poisson_ratio[chosen]))
+        laws = np.unique(model.elements.law[chosen])
         own = LAWS[int(laws[0])] if len(laws) == 1 else None
-        stiffening = chosen & model.element_stiffens
-        c = float(np.median(model.element_stiffening[stiffening])) if stiffening.any() \
+        stiffening = chosen & model.elements.stiffens
+        c = float(np.median(model.elements.stiffening[stiffening])) if stiffening.any() \
             else DEFAULT_STIFFENING
         for number, law in enumerate(LAWS):
             fitted = law == own
@@ -47,7 +47,7 @@ def law_section(plt, model) -> tuple[str, str] | None:
     ax.set_ylabel("nominal stress (kPa)")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    text = (f"<p>Material law of the elements: {model.law_names()}. The curves are the "
+    text = (f"<p>Material law of the elements: {model.elements.law_names()}. The curves are the "
             "uniaxial stress of each region's fitted E and ν (the median of its elements) "
             "under its law (solid) and under the other laws (dashed, Yeoh's dotted, same "
             "colour): the same slope at rest, apart under strong compression, where St. "
@@ -64,16 +64,16 @@ def _relaxation(plt, model) -> str:
     if not model.n_relaxation_terms:
         return ""
     figure, ax = plt.subplots(figsize=(6.5, 3.2))
-    longest = float(np.max(model.element_relaxation_times[np.isfinite(
-        model.element_relaxation_times)], initial=1.0))
+    longest = float(np.max(model.elements.relaxation_times[np.isfinite(
+        model.elements.relaxation_times)], initial=1.0))
     t = np.linspace(0.0, 4.0 * longest, 200)
     for r, name in enumerate(model.region_names):
-        chosen = model.element_region == r
+        chosen = model.elements.region == r
         if not chosen.any():
             continue
-        E = float(np.median(model.element_youngs_modulus[chosen]))
-        g = np.median(model.element_relaxation_moduli[chosen], axis=0)
-        tau = np.median(model.element_relaxation_times[chosen], axis=0)
+        E = float(np.median(model.elements.youngs_modulus[chosen]))
+        g = np.median(model.elements.relaxation_moduli[chosen], axis=0)
+        tau = np.median(model.elements.relaxation_times[chosen], axis=0)
         modulus = E * (1.0 + np.sum(g[:, None] * np.exp(-t[None, :] / tau[:, None]), axis=0))
         ax.plot(1e3 * t, modulus / 1e3, color=f"C{r % 10}",
                 label=f"{name}: g {', '.join(f'{x:.3g}' for x in g)}, "

@@ -98,14 +98,14 @@ def poke(rules: RuleBase, tissue: str, force: float | None = None) -> dict:
     started = time.perf_counter()
     mesh = _mesh()
     model = initialize(rules, mesh, tissue, elements=True)
-    material = {"youngs_modulus": float(model.element_youngs_modulus[0]),
-                "poisson_ratio": float(model.element_poisson_ratio[0]),
-                "viscosity": float(model.element_viscosity[0]),
+    material = {"youngs_modulus": float(model.elements.youngs_modulus[0]),
+                "poisson_ratio": float(model.elements.poisson_ratio[0]),
+                "viscosity": float(model.elements.viscosity[0]),
                 "density": float(model.node_mass.sum() / np.prod(
                     np.ptp(mesh.rest_positions, axis=0)))}
     if model.n_relaxation_terms:              # a tissue whose words say it relaxes
-        material.update(relaxation_modulus=float(model.element_relaxation_moduli[0].sum()),
-                        relaxation_time=float(model.element_relaxation_times[0, 0]))
+        material.update(relaxation_modulus=float(model.elements.relaxation_moduli[0].sum()),
+                        relaxation_time=float(model.elements.relaxation_times[0, 0]))
     if force is None:
         force = default_force(material["youngs_modulus"])
     force = float(force)

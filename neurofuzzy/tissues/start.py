@@ -12,15 +12,16 @@ import numpy as np
 from ..constants import DEFAULT_POISSON_RATIO, spring_geometry, volume_shares
 from ..constants import element_model as build_element_model
 from ..errors import InputError
+from ..forces import Springs
 from ..mesh import Mesh
-from ..model import SpringMassModel
+from ..model import Model
 
 __all__ = ["initialize", "element_model"]
 
 
 def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | None = None,
                tetrahedron_regions: dict | None = None,
-               elements: bool | None = None) -> SpringMassModel:
+               elements: bool | None = None) -> Model:
     """The start model of ``mesh`` from a rule base's tissue(s).
 
     Parameters
@@ -52,10 +53,10 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
 
     Returns
     -------
-    SpringMassModel
+    Model
         One material region per tissue (``region_names`` and ``region_tissues`` are the tissue
         names; a spring shared by tissues belongs to the one holding most of its volume), tied
-        by spring group within each region; re-tie with :meth:`SpringMassModel.tied`. The
+        by spring group within each region; re-tie with :meth:`Model.tied`. The
         inferred values are ``rules.tissue(name)``.
     """
     if tissue is None and not regions and not tetrahedron_regions:
@@ -86,7 +87,6 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
         tet_index = (_index_of(tet_tissue, names) if tetrahedron_regions else
                      np.argmax(node_share[mesh.tetrahedra].sum(axis=1), axis=1))
         return element_model(rules, mesh, names, values, tet_index,
-                             spring_region=np.argmax(spring_share, axis=1),
                              node_region=np.argmax(node_share, axis=1)).tied("groups")
     stiffness = np.zeros(mesh.n_springs)
     damping = np.zeros(mesh.n_springs)
@@ -104,11 +104,10 @@ def initialize(rules, mesh: Mesh, tissue: str | None = None, *, regions: dict | 
         else:
             raise InputError("the rule base has no output for density or node_mass",
                              source=rules.source, key="outputs")
-    model = SpringMassModel(mesh, node_mass=mass, spring_stiffness=stiffness,
-                            spring_damping=damping, region_names=tuple(names),
-                            region_tissues=tuple(names),
-                            spring_region=np.argmax(spring_share, axis=1),
-                            node_region=np.argmax(node_share, axis=1))
+    springs = Springs(stiffness=stiffness, damping=damping,
+                      region=np.argmax(spring_share, axis=1))
+    model = Model(mesh, mass, (springs,), region_names=tuple(names), region_tissues=tuple(names),
+                  node_region=np.argmax(node_share, axis=1))
     return model.tied("groups")
 
 
@@ -164,8 +163,7 @@ def _inputs_of(rules, *quantities) -> set[str]:
             for group in rule.antecedent for clause in group}
 
 
-def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
-                  node_region) -> SpringMassModel:
+def element_model(rules, mesh, names, values, element_tissue, *, node_region) -> Model:
     """An element model of ``mesh``: every tetrahedron takes E, ν, η and density of its
     tissue (``element_tissue`` indexes ``names``; ``values[name]`` are the tissue's inferred
     outputs). ν comes from an output of quantity ``poisson_ratio`` where the rule base has
@@ -203,16 +201,15 @@ def element_model(rules, mesh, names, values, element_tissue, *, spring_region,
                     and STIFFENING in quantities)
         stiffening.append(quantities[STIFFENING] if stiffens else None)
     model = build_element_model(mesh, names, per_tissue, element_tissue,
-                                spring_region=spring_region, node_region=node_region)
+                                node_region=node_region)
     if any(value is not None for value in stiffening):
         yeoh = np.array([value is not None for value in stiffening])
         c = np.array([0.0 if value is None else value for value in stiffening])
         laws = np.where(yeoh, "yeoh", "st-venant-kirchhoff")
-        model = model.replace(element_law=laws[element_tissue],
-                              element_stiffening=c[element_tissue])
+        model = model.with_elements(law=laws[element_tissue], stiffening=c[element_tissue])
     if not any(relaxation):
         return model
     g = np.array([0.0 if r is None else r[0] for r in relaxation])
     tau = np.array([1.0 if r is None else r[1] for r in relaxation])
-    return model.replace(element_relaxation_moduli=g[element_tissue][:, None],
-                         element_relaxation_times=tau[element_tissue][:, None])
+    return model.with_elements(relaxation_moduli=g[element_tissue][:, None],
+                               relaxation_times=tau[element_tissue][:, None])

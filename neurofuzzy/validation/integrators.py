@@ -16,21 +16,21 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import InputError
-from ..experiment import Experiment
-from ..model import SpringMassModel
+from ..experiment import Experiment, model_truth
+from ..model import Model
 from ..simulation import Trajectory, internal_forces
 
 __all__ = ["reference_simulate", "reference_experiment"]
 
 
-def reference_simulate(model: SpringMassModel, *, dt: float, n_frames: int,
+def reference_simulate(model: Model, *, dt: float, n_frames: int,
                        external_forces: np.ndarray | None = None, method: str = "rk4",
                        substeps: int = 10, rtol: float = 1e-10, atol: float = 1e-13) -> Trajectory:
     """Integrate ``M p'' = F(p, p') + f_ext`` from rest and sample it every ``dt``.
 
     Parameters
     ----------
-    model : SpringMassModel
+    model : Model
     dt, n_frames : float, int
         Frame spacing and count (frame 0 is the rest state).
     external_forces : (n_nodes, 3) or (n_frames, n_nodes, 3) float, optional
@@ -81,7 +81,7 @@ def reference_simulate(model: SpringMassModel, *, dt: float, n_frames: int,
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt), substeps=substeps)
 
 
-def reference_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
+def reference_experiment(model: Model, *, dt: float, n_frames: int,
                          external_forces: np.ndarray | None = None, method: str = "rk4",
                          substeps: int = 10, source: str = "<reference>") -> Experiment:
     """Like :func:`neurofuzzy.experiment.simulate_experiment`, made by a reference integrator."""
@@ -90,6 +90,4 @@ def reference_experiment(model: SpringMassModel, *, dt: float, n_frames: int,
                                     substeps=substeps)
     return Experiment(mesh=model.mesh, dt=dt, positions=trajectory.positions,
                       external_forces=external_forces, node_mass=model.node_mass,
-                      truth={"true_stiffness": model.spring_stiffness,
-                             "true_damping": model.spring_damping,
-                             "true_masses": model.node_mass}, source=source)
+                      truth=model_truth(model), source=source)

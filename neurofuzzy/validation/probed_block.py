@@ -235,7 +235,7 @@ def mujoco_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
     from ..export.mujoco import mjcf, simulate_mujoco
     from ..markers import MarkerData
     from ..mesh import from_tetra, patch_loads
-    from ..model import SpringMassModel
+    from ..model import Model
     from ..observation import embed_points
 
     points, tetrahedra = five_tetrahedra_block(cell)
@@ -247,16 +247,15 @@ def mujoco_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
         inside = inclusion.inside(centroids)
         modulus[inside] *= inclusion.contrast
         region[inside] = 1
-    truth_model = SpringMassModel.continuum(mesh, youngs_modulus=modulus,
+    truth_model = Model.continuum(mesh, youngs_modulus=modulus,
                                             poisson_ratio=poisson_ratio,
                                             viscosity=BLOCK["viscosity"] * modulus
                                             / BLOCK["youngs_modulus"],
                                             density=BLOCK["density"], volumetric="element")
     if inclusion is not None:
-        truth_model = truth_model.replace(region_names=("block", "inclusion"),
-                                          region_tissues=(None, None), element_region=region,
-                                          node_region=np.zeros(mesh.n_nodes, np.intp),
-                                          spring_region=np.zeros(mesh.n_springs, np.intp))
+        truth_model = truth_model.replace(
+            region_names=("block", "inclusion"), region_tissues=(None, None),
+            terms=(truth_model.elements.replace(region=region),))
     if gravity:
         from ..effects import Gravity
 
