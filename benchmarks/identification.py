@@ -31,8 +31,8 @@ from neurofuzzy.learn import GradientLearner, auto_substeps
 
 
 def _errors(fitted, truth, moving):
-    stiffness = np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]
-    damping = np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]
+    stiffness = np.abs(fitted.springs.stiffness / truth.springs.stiffness - 1)[moving]
+    damping = np.abs(fitted.springs.damping / truth.springs.damping - 1)[moving]
     return float(np.median(stiffness)), float(np.median(damping))
 
 
@@ -67,7 +67,7 @@ def _finite_differences(start, data, substeps):
     n = start.n_springs
 
     def model(x):
-        return start.replace(spring_stiffness=np.exp(x[:n]), spring_damping=np.exp(x[n:]))
+        return start.with_springs(stiffness=np.exp(x[:n]), damping=np.exp(x[n:]))
 
     def residuals(x):
         calls[0] += 1
@@ -80,7 +80,7 @@ def _finite_differences(start, data, substeps):
         error = (run.positions - data.positions)[1:, tracked] / CUBE["edge_length"]
         return np.where(np.isfinite(error), error, 1e3).ravel()
 
-    x0 = np.log(np.concatenate([start.spring_stiffness, start.spring_damping]))
+    x0 = np.log(np.concatenate([start.springs.stiffness, start.springs.damping]))
     began = time.perf_counter()
     solution = least_squares(residuals, x0, x_scale="jac")
     return model(solution.x), time.perf_counter() - began, calls[0]
@@ -128,13 +128,13 @@ def bench_large_elements(results):
     from neurofuzzy.experiment import simulate_experiment
     from neurofuzzy.learn import Parameterization, Sensitivity
     from neurofuzzy.mesh import from_tetra
-    from neurofuzzy.model import SpringMassModel
+    from neurofuzzy.model import Model
 
     mesh = from_tetra(*kuhn_block((12, 12, 12), 0.0025)).with_fixed(
         where=lambda p: p[:, 2] < 1e-9)
 
     def block(modulus, ratio, viscosity):
-        return SpringMassModel.continuum(mesh, youngs_modulus=modulus, poisson_ratio=ratio,
+        return Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=ratio,
                                          viscosity=viscosity, density=1050.0)
 
     top = np.flatnonzero(mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9)
@@ -148,8 +148,8 @@ def bench_large_elements(results):
     learner = GradientLearner(substeps=substeps).fit(block(4000.0, 0.4, 3.0), data)
     seconds = time.perf_counter() - began
     fitted = learner.model_
-    found = (float(fitted.element_youngs_modulus[0]), float(fitted.element_poisson_ratio[0]),
-             float(fitted.element_viscosity[0]))
+    found = (float(fitted.elements.youngs_modulus[0]), float(fitted.elements.poisson_ratio[0]),
+             float(fitted.elements.viscosity[0]))
     results["large_elements_per_region"] = {
         "tetrahedra": mesh.n_tetrahedra, "nodes": mesh.n_nodes, "seconds": seconds,
         "simulations": learner.n_cycles_, "substeps": learner.substeps_,

@@ -62,9 +62,9 @@ def homogeneous(data, mesh, nu) -> dict:
     began = time.perf_counter()
     fitted = GradientLearner(substeps="auto", mesh_check=True).fit(start.tied("global"),
                                                                    experiment)
-    values = {"youngs_modulus": float(fitted.model_.element_youngs_modulus[0]),
-              "poisson_ratio": float(fitted.model_.element_poisson_ratio[0]),
-              "viscosity": float(fitted.model_.element_viscosity[0])}
+    values = {"youngs_modulus": float(fitted.model_.elements.youngs_modulus[0]),
+              "poisson_ratio": float(fitted.model_.elements.poisson_ratio[0]),
+              "viscosity": float(fitted.model_.elements.viscosity[0])}
     truth = {**TRUE, "poisson_ratio": nu}
     plain_intervals = _intervals_without_mesh(fitted)
     out = {"ratio": fitted.lack_of_fit_.ratio, "explained": fitted.lack_of_fit_.explained,

@@ -53,19 +53,19 @@ LAWS = ("st-venant-kirchhoff", "neo-hookean", "yeoh")
 
 def fit(recording, mesh: str, law: str) -> dict:
     """A global fit (one E, ν, η) of the block with ``law`` on ``mesh``."""
-    start = block_model(**MESHES[mesh]).tied("global").replace(element_law=law)
+    start = block_model(**MESHES[mesh]).tied("global").with_elements(law=law)
     experiment = block_experiment(recording, start.mesh)
     began = time.perf_counter()
     fitted = GradientLearner(substeps="auto").fit(start, experiment)
     model, truth = fitted.model_, recording.truth
-    E, nu, eta = (float(model.element_youngs_modulus[0]), float(model.element_poisson_ratio[0]),
-                  float(model.element_viscosity[0]))
+    E, nu, eta = (float(model.elements.youngs_modulus[0]), float(model.elements.poisson_ratio[0]),
+                  float(model.elements.viscosity[0]))
     mu, bulk = E / (2 * (1 + nu)), E / (3 * (1 - 2 * nu))
     return {"youngs_modulus": E / truth["youngs_modulus"] - 1,
             "poisson_ratio": nu - truth["poisson_ratio"], "viscosity": eta / truth["viscosity"] - 1,
             "shear_modulus": mu / truth["shear_modulus"] - 1,
             "bulk_modulus": bulk / truth["bulk_modulus"] - 1,
-            "stiffening": (float(model.element_stiffening[0]) if law == "yeoh" else None),
+            "stiffening": (float(model.elements.stiffening[0]) if law == "yeoh" else None),
             "stiffening_truth": (truth["c20"] / truth["c10"] if truth.get("c10") else 0.0),
             "ratio": fitted.lack_of_fit_.ratio, "explained": fitted.lack_of_fit_.explained,
             "seconds": time.perf_counter() - began}

@@ -82,14 +82,14 @@ def bench_elements(quick: bool) -> dict:
     inside = np.all((centres > low) & (centres < high), axis=1)
     base = initialize(RULES, mesh, "liver", elements=True)
     modulus = np.where(inside, 25000.0, 5000.0)
-    truth = base.replace(element_youngs_modulus=modulus,
-                         element_viscosity=np.full(mesh.n_tetrahedra, 2.0))
+    truth = base.with_elements(youngs_modulus=modulus,
+                               viscosity=np.full(mesh.n_tetrahedra, 2.0))
     substeps = auto_substeps(truth, 2e-3)
     data = _cases(truth, noise=1e-5, frames=21, dt=2e-3, force=0.03, substeps=substeps,
                   directions=((0, 0, -1.0), (1.0, 0, 0), (0, 1.0, 0)))
     start = base.tied("none")
     result = _compare("elements", modulus, start, data, inside,
-                      lambda m: m.element_youngs_modulus, substeps=substeps, windows=(),
+                      lambda m: m.elements.youngs_modulus, substeps=substeps, windows=(),
                       max_iterations=40)
     result.update(tetrahedra=mesh.n_tetrahedra, inclusion=int(inside.sum()),
                   parameters=3 * mesh.n_tetrahedra)
@@ -109,14 +109,14 @@ def bench_springs(quick: bool) -> dict:
     middle = mesh.rest_positions[mesh.springs].mean(axis=1)
     centre = mesh.rest_positions.max(axis=0) * [0.5, 0.5, 0.7]
     inside = np.linalg.norm(middle - centre, axis=1) < 0.25 * mesh.rest_positions[:, 0].max()
-    stiffness = np.where(inside, 5.0, 1.0) * 1.3 * base.spring_stiffness
-    truth = base.replace(spring_stiffness=stiffness)
+    stiffness = np.where(inside, 5.0, 1.0) * 1.3 * base.springs.stiffness
+    truth = base.with_springs(stiffness=stiffness)
     substeps = auto_substeps(truth, 1e-3)
     data = _cases(truth, noise=1e-5, frames=31, dt=1e-3, force=0.05, substeps=substeps,
                   directions=((0, 0, -1.0), (1.0, 0, 0)))
     start = base.tied("none")
     result = _compare("springs", stiffness, start, data, inside,
-                      lambda m: m.spring_stiffness, substeps=substeps, windows=(),
+                      lambda m: m.springs.stiffness, substeps=substeps, windows=(),
                       method="lbfgs", max_iterations=60)
     result.update(springs=mesh.n_springs, inclusion=int(inside.sum()),
                   parameters=2 * mesh.n_springs)

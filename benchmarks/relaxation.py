@@ -42,24 +42,24 @@ START = (0.5, 0.06)
 
 def fit(recording, mesh: str, law: str, relaxing: bool) -> dict:
     """A global fit (one E, ν, η and, when ``relaxing``, g and τ) of the block."""
-    start = block_model(pitch=MESHES[mesh]).tied("global").replace(element_law=law)
+    start = block_model(pitch=MESHES[mesh]).tied("global").with_elements(law=law)
     if relaxing:
-        start = start.replace(element_relaxation_moduli=[START[0]],
-                              element_relaxation_times=[START[1]])
+        start = start.with_elements(relaxation_moduli=[START[0]],
+                                    relaxation_times=[START[1]])
     experiment = block_experiment(recording, start.mesh)
     began = time.perf_counter()
     fitted = GradientLearner(substeps="auto").fit(start, experiment)
     model, truth = fitted.model_, recording.truth
-    row = {"youngs_modulus": float(model.element_youngs_modulus[0]) / truth["youngs_modulus"] - 1,
-           "poisson_ratio": float(model.element_poisson_ratio[0]) - truth["poisson_ratio"],
-           "viscosity": float(model.element_viscosity[0]) / truth["viscosity"] - 1,
+    row = {"youngs_modulus": float(model.elements.youngs_modulus[0]) / truth["youngs_modulus"] - 1,
+           "poisson_ratio": float(model.elements.poisson_ratio[0]) - truth["poisson_ratio"],
+           "viscosity": float(model.elements.viscosity[0]) / truth["viscosity"] - 1,
            "relative_modulus": None, "relaxation_time": None,
            "ratio": fitted.lack_of_fit_.ratio, "seconds": time.perf_counter() - began}
     if relaxing:
         prony = truth["prony"]
-        row["relative_modulus"] = (float(model.element_relaxation_moduli[0, 0])
+        row["relative_modulus"] = (float(model.elements.relaxation_moduli[0, 0])
                                    - prony["relative_moduli"][0])
-        row["relaxation_time"] = (float(model.element_relaxation_times[0, 0])
+        row["relaxation_time"] = (float(model.elements.relaxation_times[0, 0])
                                   / prony["times"][0] - 1)
     return row
 
@@ -70,8 +70,8 @@ def diagnosis(recording, mesh: str) -> dict:
     result = diagnose(start, block_experiment(recording, start.mesh), mesh_check=False)
     model = result.model_
     return {"answer": result.names, "law": model.elements.law_names(),
-            "prony": [model.element_relaxation_moduli[0].tolist(),
-                      model.element_relaxation_times[0].tolist()],
+            "prony": [model.elements.relaxation_moduli[0].tolist(),
+                      model.elements.relaxation_times[0].tolist()],
             "ratio_before": result.rms_before / result.noise_rms,
             "ratio_after": result.rms_after / result.noise_rms,
             "seconds": time.perf_counter() - began}

@@ -47,7 +47,8 @@ from neurofuzzy.datasets import (CUBE, kuhn_block, paper_cube_experiment,  # noq
 from neurofuzzy.experiment import simulate_experiment  # noqa: E402
 from neurofuzzy.learn import GradientLearner, PaperLearner, estimate_start  # noqa: E402
 from neurofuzzy.mesh import bottom_layer, from_tetra, from_trimesh, lattice  # noqa: E402
-from neurofuzzy.model import SpringMassModel  # noqa: E402
+from neurofuzzy.forces import Springs  # noqa: E402
+from neurofuzzy.model import Model  # noqa: E402
 from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -112,7 +113,7 @@ def bench_simulation(results, quick):
     rows, table = [], {}
     for shape in shapes:
         mesh = lattice(shape, 0.01).with_fixed(where=bottom_layer)
-        model = SpringMassModel.uniform(mesh, stiffness=50.0, damping=0.02, node_mass=3e-4)
+        model = Model.uniform(mesh, stiffness=50.0, damping=0.02, node_mass=3e-4)
         load = np.zeros((mesh.n_nodes, 3))
         load[-1] = (0, 0, -0.1)
         # a real-time simulator records (renders) every few steps: 10 steps per frame here
@@ -148,7 +149,7 @@ def bench_elements(results, quick):
     for shape in shapes:
         points, tetrahedra = kuhn_block(shape, 0.03 / max(shape))
         mesh = from_tetra(points, tetrahedra).with_fixed(where=bottom_layer)
-        model = SpringMassModel.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
+        model = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
                                           viscosity=2.0, density=1000.0)
         load = np.zeros((mesh.n_nodes, 3))
         load[-1] = (0, 0, -1e-3)
@@ -187,13 +188,13 @@ def bench_laws(results, quick):
 
     points, tetrahedra = kuhn_block((12, 12, 12), 0.03 / 12)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=bottom_layer)
-    models = {law: SpringMassModel.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
+    models = {law: Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
                                              viscosity=2.0, density=1000.0, law=law)
               for law in LAWS}
     # SVK with one Prony term (internal variables per element; stiffer at once by 1 + g, so
     # the step below is stable for it too)
-    models["st-venant-kirchhoff + 1 Prony term"] = models[LAWS[0]].replace(
-        element_relaxation_moduli=[0.5], element_relaxation_times=[0.05])
+    models["st-venant-kirchhoff + 1 Prony term"] = models[LAWS[0]].with_elements(
+        relaxation_moduli=[0.5], relaxation_times=[0.05])
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0, 0, -1e-3)
     h = stability_limit(models["st-venant-kirchhoff + 1 Prony term"]).max_step
@@ -223,8 +224,8 @@ def bench_tied_fit(results):
                              tie="global")
 
     def accurate(model):
-        return (abs(model.spring_stiffness[0] / CUBE["stiffness"] - 1) < 1e-3
-                and abs(model.spring_damping[0] / CUBE["damping"] - 1) < 1e-3)
+        return (abs(model.springs.stiffness[0] / CUBE["stiffness"] - 1) < 1e-3
+                and abs(model.springs.damping[0] / CUBE["damping"] - 1) < 1e-3)
 
     # paper's learner: one cycle at a time (its state is the weights) to find the cycle count
     model, paper_cycles = start, None
@@ -242,8 +243,8 @@ def bench_tied_fit(results):
 
     def residuals(x):
         calls[0] += 1
-        trial = start.replace(spring_stiffness=np.full(86, np.exp(x[0])),
-                              spring_damping=np.full(86, np.exp(x[1])))
+        trial = start.with_springs(stiffness=np.full(86, np.exp(x[0])),
+                                   damping=np.full(86, np.exp(x[1])))
         try:
             run = simulate(trial, dt=data.dt, n_frames=data.n_frames,
                            external_forces=data.external_forces, check_stability=False)
@@ -251,10 +252,10 @@ def bench_tied_fit(results):
             return np.full(int(tracked.sum()) * 3 * (data.n_frames - 1), 1e3)
         return ((run.positions - data.positions)[1:, tracked] / CUBE["edge_length"]).ravel()
 
-    x0 = np.log([start.spring_stiffness[0], start.spring_damping[0]])
+    x0 = np.log([start.springs.stiffness[0], start.springs.damping[0]])
     fd_time, solution = timed(lambda: least_squares(residuals, x0))
-    fd_model = start.replace(spring_stiffness=np.full(86, np.exp(solution.x[0])),
-                             spring_damping=np.full(86, np.exp(solution.x[1])))
+    fd_model = start.with_springs(stiffness=np.full(86, np.exp(solution.x[0])),
+                                  damping=np.full(86, np.exp(solution.x[1])))
 
     ours_time, ours = timed(lambda: GradientLearner().fit(start, data))
 
@@ -273,8 +274,8 @@ def bench_tied_fit(results):
         "fit_cycles_pipeline": pipe.n_cycles_ + 1, "fit_seconds_pipeline": pipe_time,
         "fit_speedup_vs_fd_lsq": fd_time / ours_time,
         "fit_speedup_vs_fd_lsq_pipeline": fd_time / pipe_time,
-        "fit_accuracy": {name: {"stiffness": abs(m.spring_stiffness[0] / 50 - 1),
-                                "damping": abs(m.spring_damping[0] / 0.02 - 1)}
+        "fit_accuracy": {name: {"stiffness": abs(m.springs.stiffness[0] / 50 - 1),
+                                "damping": abs(m.springs.damping[0] / 0.02 - 1)}
                          for name, m in (("paper", paper.model_), ("fd_lsq", fd_model),
                                          ("gradient", ours.model_), ("pipeline", pipe.model_))},
     })
@@ -296,9 +297,9 @@ def _large_fit(quick):
     mesh = from_trimesh(surface, pitch=0.0039 if not quick else 0.007)
     mesh = mesh.with_fixed(where=bottom_layer)
     rng = np.random.default_rng(1)
-    truth = SpringMassModel(mesh, node_mass=np.full(mesh.n_nodes, 1e-4),
-                            spring_stiffness=50 * rng.uniform(0.8, 1.2, mesh.n_springs),
-                            spring_damping=np.full(mesh.n_springs, 0.05))
+    truth = Model(mesh, np.full(mesh.n_nodes, 1e-4),
+                  (Springs(stiffness=50 * rng.uniform(0.8, 1.2, mesh.n_springs),
+                           damping=np.full(mesh.n_springs, 0.05)),))
     top = np.flatnonzero(mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9)
     frames = 60 if not quick else 30
     loads = []
@@ -312,14 +313,14 @@ def _large_fit(quick):
                                     substeps="auto") for load in loads]
 
     data = record(truth)
-    start = truth.replace(spring_stiffness=np.full(mesh.n_springs, 50.0))
+    start = truth.with_springs(stiffness=np.full(mesh.n_springs, 50.0))
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     learner = GradientLearner(method="lbfgs", windows=(), max_iterations=60 if not quick else 15,
                               substeps=1)
     seconds, learner = timed(lambda: learner.fit(start, data))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    error_before = np.median(np.abs(start.spring_stiffness / truth.spring_stiffness - 1))
-    error_after = np.median(np.abs(learner.model_.spring_stiffness / truth.spring_stiffness - 1))
+    error_before = np.median(np.abs(start.springs.stiffness / truth.springs.stiffness - 1))
+    error_after = np.median(np.abs(learner.model_.springs.stiffness / truth.springs.stiffness - 1))
     per_spring = {"springs": mesh.n_springs, "nodes": mesh.n_nodes,
                   "parameters": 2 * mesh.n_springs, "seconds": seconds,
                   "cycles": learner.n_cycles_, "peak_rss_mb": peak, "rss_before_mb": rss_before,
@@ -327,16 +328,16 @@ def _large_fit(quick):
                   "median_stiffness_error_start": float(error_before),
                   "median_stiffness_error_end": float(error_after)}
     # per region: one stiffness and one viscosity per spring group (4 parameters), LM
-    uniform = truth.replace(spring_stiffness=np.full(mesh.n_springs, 50.0))
-    start = uniform.replace(spring_stiffness=np.full(mesh.n_springs, 35.0),
-                            spring_damping=np.full(mesh.n_springs, 0.08)).tied("groups")
+    uniform = truth.with_springs(stiffness=np.full(mesh.n_springs, 50.0))
+    start = uniform.with_springs(stiffness=np.full(mesh.n_springs, 35.0),
+                                 damping=np.full(mesh.n_springs, 0.08)).tied("groups")
     seconds, learner = timed(lambda: GradientLearner(substeps="auto").fit(start,
                                                                           record(uniform)))
     per_region = {"springs": mesh.n_springs, "load_cases": len(loads),
                   "parameters": len(learner.parameter_names_), "seconds": seconds,
                   "cycles": learner.n_cycles_,
                   "max_stiffness_error": float(np.max(np.abs(
-                      learner.model_.spring_stiffness / 50.0 - 1)))}
+                      learner.model_.springs.stiffness / 50.0 - 1)))}
     return per_spring, per_region
 
 
@@ -369,17 +370,17 @@ def bench_diagnose(results):
     from neurofuzzy.learn import auto_substeps
 
     springs = lattice((5, 5, 4), spacing=0.01).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    spring_truth = SpringMassModel(springs, node_mass=np.full(springs.n_nodes, 1e-3),
-                                   spring_stiffness=np.full(springs.n_springs, 50.0),
-                                   spring_damping=np.full(springs.n_springs, 0.05))
+    spring_truth = Model(springs, np.full(springs.n_nodes, 1e-3),
+                         (Springs(stiffness=np.full(springs.n_springs, 50.0),
+                                  damping=np.full(springs.n_springs, 0.05)),))
     tetra = from_tetra(*kuhn_block((4, 4, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
 
     def continuum(modulus):
-        return SpringMassModel.continuum(tetra, youngs_modulus=modulus, poisson_ratio=0.3,
+        return Model.continuum(tetra, youngs_modulus=modulus, poisson_ratio=0.3,
                                          viscosity=2.0, density=1050.0)
 
     cases = [(f"{springs.n_springs} springs", spring_truth,
-              spring_truth.replace(spring_stiffness=np.full(springs.n_springs, 35.0))
+              spring_truth.with_springs(stiffness=np.full(springs.n_springs, 35.0))
               .tied("global"), 0.2, 4, 1e-6),
              (f"{tetra.n_tetrahedra} tetrahedra", continuum(6000.0), continuum(4200.0), 0.05,
               None, 5e-6)]

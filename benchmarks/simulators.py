@@ -60,24 +60,24 @@ def block_mesh(folder: Path):
 
 
 def models(folder: Path, quick: bool) -> list[tuple[str, object]]:
-    block = nf.SpringMassModel.continuum(block_mesh(folder), **BLOCK_FIT)
+    block = nf.Model.continuum(block_mesh(folder), **BLOCK_FIT)
     centre = np.array([0.015, 0.02, 0.02])
     inside = np.linalg.norm(block.mesh.rest_positions[block.mesh.tetrahedra].mean(axis=1)
                             - centre, axis=1) < 0.0075
     node_region = np.zeros(block.n_nodes, int)
     node_region[np.unique(block.mesh.tetrahedra[inside])] = 1
     tumour = block.replace(
-        element_region=inside.astype(int), region_names=("block", "inclusion"),
-        region_tissues=(None, None), node_region=node_region,
-        spring_region=node_region[block.mesh.springs[:, 0]],
-        element_youngs_modulus=np.where(inside, 5, 1) * block.element_youngs_modulus)
+        region_names=("block", "inclusion"), region_tissues=(None, None),
+        node_region=node_region, terms=(block.elements.replace(
+            region=inside.astype(int),
+            youngs_modulus=np.where(inside, 5, 1) * block.elements.youngs_modulus),))
     out = [("paper cube, 86 springs", paper_cube_model()),
            (f"continuum block, {block.mesh.n_tetrahedra} tetrahedra", block),
            ("block + stiff inclusion (2 regions)", tumour)]
     if not quick:
         points, tetrahedra = kuhn_block((12, 12, 12), 0.03 / 12)
         mesh = nf.from_tetra(points, tetrahedra).with_fixed(where=nf.bottom_layer)
-        out.append(("block, 10,368 tetrahedra", nf.SpringMassModel.continuum(
+        out.append(("block, 10,368 tetrahedra", nf.Model.continuum(
             mesh, youngs_modulus=6e3, poisson_ratio=0.45, viscosity=2.0, density=1000.0)))
     return out
 

@@ -150,8 +150,8 @@ def main(argv):
                out / "report.html", files=files, title="neurofuzzy: organ from surface markers")
 
     print(f"\n{'':<22}{'start (liver)':>14}{'fitted':>12}{'truth':>12}{'error':>9}")
-    for name, values in (("stiffness", lambda m: m.spring_stiffness),
-                         ("viscosity", lambda m: m.spring_damping)):
+    for name, values in (("stiffness", lambda m: m.springs.stiffness),
+                         ("viscosity", lambda m: m.springs.damping)):
         for group, true in truth.group_values(values(truth)).items():
             first = start.group_values(values(start))[group]
             got = fitted.group_values(values(fitted))[group]

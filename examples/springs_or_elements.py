@@ -88,24 +88,24 @@ def top_centre(mesh):
 def fit_elements(mesh, data):
     # the data are scikit-fem's linear tetrahedra on this very mesh: the textbook per-element
     # volumetric form is their exact discretisation
-    start = nf.SpringMassModel.continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.35,
+    start = nf.Model.continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.35,
                                          viscosity=1.0, density=RHO, volumetric="element")
     learner = nf.fit(data, start=start).learner          # the checked fit of `neurofuzzy fit`
     model = learner.model_
-    return (float(np.median(model.element_youngs_modulus)),
-            float(np.median(model.element_poisson_ratio)),
-            float(np.median(model.element_viscosity)), learner)
+    return (float(np.median(model.elements.youngs_modulus)),
+            float(np.median(model.elements.poisson_ratio)),
+            float(np.median(model.elements.viscosity)), learner)
 
 
 def fit_springs(mesh, data):
     factor = tetra_geometry(mesh).spring_factor                # k = E * factor (van Gelder)
-    start = nf.SpringMassModel(mesh, node_mass=data.node_mass,
-                               spring_stiffness=3000.0 * factor,
-                               spring_damping=1.0 * factor).tied("global")
+    start = nf.Model(mesh, data.node_mass,
+                     (nf.Springs(stiffness=3000.0 * factor, damping=1.0 * factor),)
+                     ).tied("global")
     learner = nf.fit(data, start=start).learner          # the checked fit of `neurofuzzy fit`
     model = learner.model_
-    return (float(np.median(model.spring_stiffness / factor)), 0.25,
-            float(np.median(model.spring_damping / factor)), learner)
+    return (float(np.median(model.springs.stiffness / factor)), 0.25,
+            float(np.median(model.springs.damping / factor)), learner)
 
 
 def main(argv):

@@ -60,13 +60,13 @@ def main(argv=None):
     print(f"{'law':<21}{'E (Pa)':>9}{'nu':>7}{'C20/C10':>9}{'RMS/noise':>11}{'s':>5}  words")
     for law in ("st-venant-kirchhoff", "neo-hookean", "yeoh"):
         began = time.perf_counter()
-        fitted = nf.fit(experiment, start=start.replace(element_law=law), tie="global")
+        fitted = nf.fit(experiment, start=start.with_elements(law=law), tie="global")
         model = fitted.model
         [region] = materials(model, rules, "stiffening_liver").values()
         words = region["labels"]
-        stiffening = (f"{np.median(model.element_stiffening):.2f}" if law == "yeoh" else "")
-        print(f"{law:<21}{np.median(model.element_youngs_modulus):>9.0f}"
-              f"{np.median(model.element_poisson_ratio):>7.3f}{stiffening:>9}"
+        stiffening = (f"{np.median(model.elements.stiffening):.2f}" if law == "yeoh" else "")
+        print(f"{law:<21}{np.median(model.elements.youngs_modulus):>9.0f}"
+              f"{np.median(model.elements.poisson_ratio):>7.3f}{stiffening:>9}"
               f"{fitted.learner.lack_of_fit_.ratio:>10.2f}x"
               f"{time.perf_counter() - began:>5.0f}  youngs_modulus {words['youngs_modulus']}"
               + (f", strain_stiffening {words['strain_stiffening']}" if law == "yeoh" else ""))

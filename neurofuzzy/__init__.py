@@ -5,8 +5,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - topology: :class:`Mesh`, :func:`lattice`, :func:`from_trimesh`, :func:`from_tetra`,
   :func:`from_surface_tetra`, :func:`bottom_layer`, :func:`surface_nodes`; mesh files:
   :func:`read_mesh`, :class:`MeshFile`
-- physics: :class:`Model` (a mesh, node masses and force terms; :class:`SpringMassModel` is
-  its former name), the force terms (:class:`ForceTerm`, :class:`Springs`,
+- physics: :class:`Model` (a mesh, node masses and force terms; ``SpringMassModel``, its
+  former name, is deprecated), the force terms (:class:`ForceTerm`, :class:`Springs`,
   :class:`Tetrahedra`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
   :class:`StiffInclusion`, :class:`SoftInclusion`, :class:`NonlinearStiffening`,
   :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`, :class:`State`,
@@ -48,7 +48,7 @@ _EXPORTS = {
     "Mesh": "mesh", "bottom_layer": "mesh", "from_surface_tetra": "mesh", "from_tetra": "mesh",
     "from_trimesh": "mesh", "lattice": "mesh", "surface_nodes": "mesh",
     "MeshFile": "mesh", "read_mesh": "mesh",
-    "Model": "model", "SpringMassModel": "model",
+    "Model": "model",
     "ForceTerm": "forces", "Springs": "forces", "Tetrahedra": "forces",
     "Effect": "effects", "EFFECTS": "effects", "Gravity": "effects", "NodeDrag": "effects",
     "StiffInclusion": "effects", "SoftInclusion": "effects",
@@ -78,7 +78,15 @@ _EXPORTS = {
 _ALIASES = {"shipped_rules": "shipped"}
 
 
-__getattr__, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
+_exported, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
+
+
+def __getattr__(name: str):
+    if name == "SpringMassModel":          # the model's name before terms (deprecated)
+        from . import model
+
+        return model.SpringMassModel
+    return _exported(name)
 
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly
@@ -97,7 +105,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .mesh import (Mesh, bottom_layer, from_surface_tetra, from_tetra,  # noqa: F401
                        from_trimesh, lattice, surface_nodes)
     from .mesh import MeshFile, read_mesh  # noqa: F401
-    from .model import Model, SpringMassModel  # noqa: F401
+    from .model import Model  # noqa: F401
     from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
     from .pipeline import FitFailedError, FitOutcome, fit, start_model  # noqa: F401
     from .validation.integrators import reference_experiment, reference_simulate  # noqa: F401

@@ -80,7 +80,7 @@ def test_the_pipeline_through_nf(tmp_path):
     assert paper.history_.shape == (3,)
 
     model_file = nf.save_model(learner.model_, tmp_path / "fitted.yaml")
-    assert isinstance(nf.load_model(model_file), nf.SpringMassModel)
+    assert isinstance(nf.load_model(model_file), nf.Model)
     report = nf.fit_report(start, learner, tmp_path / "report.html")
     assert "fibrotic" not in report.read_text() and "liver" in report.read_text()
     files = nf.export_paraview(tmp_path / "pv", learner.model_, data, every=40)
@@ -96,7 +96,7 @@ def test_the_pipeline_through_nf(tmp_path):
 
 def test_force_terms_and_effects_are_reachable():
     model = nf.Model.uniform(nf.lattice((2, 2, 2)), stiffness=1.0, damping=0.1, total_mass=1.0)
-    assert model.force_terms == (model.springs,) and nf.SpringMassModel is nf.Model
+    assert model.force_terms == (model.springs,) and nf.Model is nf.Model
     assert isinstance(model.springs, nf.Springs) and issubclass(nf.Springs, nf.ForceTerm)
     assert issubclass(nf.Tetrahedra, nf.ForceTerm) and model.elements is None
     for cls in (nf.Gravity, nf.NodeDrag, nf.StiffInclusion, nf.SoftInclusion,
@@ -137,7 +137,7 @@ def test_meshes_and_markers_through_nf(tmp_path):
     assert nf.from_surface_tetra(box, max_edge=0.01).n_tetrahedra > 0
 
     mesh = voxels.with_fixed(where=nf.bottom_layer)
-    model = nf.SpringMassModel.uniform(mesh, stiffness=50.0, damping=0.02, total_mass=0.008)
+    model = nf.Model.uniform(mesh, stiffness=50.0, damping=0.02, total_mass=0.008)
     load = np.zeros((27, 3))
     load[22] = (0.0, 0.0, -0.1)
     data = nf.simulate_experiment(model, dt=1e-3, n_frames=20, external_forces=load)

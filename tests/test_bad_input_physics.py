@@ -321,9 +321,7 @@ def test_a_model_of_another_object_names_the_model_file(block, files_cube, tmp_p
             names=["cube.npz", "has 27 nodes; the model", "block.yaml has 100"],
             folder=tmp_path)
     cube = load_model(files_cube["model"])
-    big = save_model(cube.replace(mesh=replace(cube.mesh,
-                                               rest_positions=cube.mesh.rest_positions * 10),
-                                  spring_rest_length=None), tmp_path / "big.yaml")
+    big = save_model(_scaled(cube, 10), tmp_path / "big.yaml")
     refused(capsys, ["fit", files_cube["npz"], "--start", big, "--quiet"],
             names=["cube.npz", "big.yaml spans 0.2 m", "10 times apart"], folder=tmp_path)
 
@@ -415,9 +413,19 @@ def test_markers_in_one_corner_of_a_mesh_in_another_unit_are_refused(block, tmp_
     from neurofuzzy.io import load_model, save_model
 
     model = load_model(block["model"])
-    big = save_model(model.replace(mesh=replace(model.mesh, rest_positions=60
-                                                * model.mesh.rest_positions),
-                                   spring_rest_length=None), tmp_path / "big.yaml")
+    big = save_model(_scaled(model, 60), tmp_path / "big.yaml")
     refused(capsys, ["import", block["markers"], "--topology", big, "--out", tmp_path / "t.npz"],
             names=["markers.csv", "the markers span", "of the mesh", "big.yaml",
                    "sit in one corner of it"], folder=tmp_path)
+
+
+def _scaled(model, factor):
+    """``model`` on its mesh scaled by ``factor`` (the springs at the new mesh's rest lengths)."""
+    from dataclasses import replace
+
+    from neurofuzzy.forces import Springs
+
+    terms = tuple(term.replace(rest_length=None) if isinstance(term, Springs) else term
+                  for term in model.terms)
+    return model.replace(mesh=replace(model.mesh, rest_positions=factor
+                                      * model.mesh.rest_positions), terms=terms)

@@ -34,7 +34,7 @@ def test_fit_json_has_the_promised_keys(cube_file, tmp_path, capsys):
     assert np.allclose(result["stiffness"], CUBE["stiffness"], rtol=1e-6)
     assert np.allclose(result["damping"], CUBE["damping"], rtol=1e-6)
     assert result["rms_error"] < 1e-6 * result["rms_error_initial"] + 1e-15
-    assert np.allclose(load_model(out).spring_stiffness, result["stiffness"])
+    assert np.allclose(load_model(out).springs.stiffness, result["stiffness"])
     assert "gradient fit" in captured.err   # progress on stderr, also with --json
 
 
@@ -106,7 +106,7 @@ def test_simulate_then_fit_round_trip(tmp_path):
     result = run_cli("fit", data, "--tie", "groups", "--out", fitted, "--json")
     assert result.returncode == 0, result.stderr
     model = load_model(fitted)
-    assert np.allclose(model.spring_stiffness, 50.0, rtol=1e-6)
+    assert np.allclose(model.springs.stiffness, 50.0, rtol=1e-6)
 
 
 def test_never_writes_over_an_input(cube_file):

@@ -162,11 +162,11 @@ def test_spring_templates_are_each_springs_force_at_its_two_nodes():
 
     model = paper_cube_model()
     data = paper_cube_experiment(model).first_frames(60)
-    samples = sample(model.replace(spring_stiffness=model.spring_stiffness * 0.8), [data], 1)
+    samples = sample(model.with_springs(stiffness=model.springs.stiffness * 0.8), [data], 1)
     maps = incidence(model.mesh)
 
     def force_of(p, v):
-        force = model.spring_stiffness[:, None] * model.springs.parameter_templates(
+        force = model.springs.stiffness[:, None] * model.springs.parameter_templates(
             model.springs.state(model, p, v))["stiffness"]
         return maps.group_sums(force, np.arange(model.n_springs), model.n_springs)
 

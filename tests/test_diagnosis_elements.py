@@ -10,7 +10,7 @@ from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.effects import Gravity, StiffInclusion
 from neurofuzzy.experiment import Experiment, simulate_experiment
 from neurofuzzy.mesh import from_tetra, patch_loads
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.observation import EmbeddedMarkers, embed_points
 from neurofuzzy.simulation import stability_limit
 
@@ -22,7 +22,7 @@ DT, FRAMES = 1e-3, 61
 
 def block(youngs_modulus=E):
     mesh = from_tetra(*kuhn_block(SHAPE, CELL)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    return SpringMassModel.continuum(mesh, youngs_modulus=youngs_modulus, poisson_ratio=NU,
+    return Model.continuum(mesh, youngs_modulus=youngs_modulus, poisson_ratio=NU,
                                      viscosity=ETA, density=RHO)
 
 
@@ -102,13 +102,13 @@ def test_hidden_strain_stiffening_switches_the_law_to_yeoh_s():
     strain (Yeoh, C20 = 8 C10), diagnosed from a neo-Hookean start: the diagnosis names
     nonlinear_stiffening, makes the elements Yeoh's (not a force patch: no effect added) and
     recovers C20/C10; on neo-Hookean data it names none."""
-    truth = block().replace(element_law="yeoh", element_stiffening=8.0)
-    neo_hookean = start().replace(element_law="neo-hookean")
+    truth = block().with_elements(law="yeoh", stiffening=8.0)
+    neo_hookean = start().with_elements(law="neo-hookean")
     result = diagnose(neo_hookean, measured(truth, force=0.3))
     assert result.names == ["nonlinear_stiffening"]
-    assert set(result.model_.element_law) == {2} and not result.model_.effects
+    assert set(result.model_.elements.law) == {2} and not result.model_.effects
     assert result.effects[0].parameters["stiffening"] == pytest.approx(8.0, rel=0.1)
     assert result.rms_after < 1.5 * result.noise_rms
-    plain = diagnose(neo_hookean, measured(block().replace(element_law="neo-hookean"),
+    plain = diagnose(neo_hookean, measured(block().with_elements(law="neo-hookean"),
                                            force=0.3))
     assert plain.names == ["none"]

@@ -35,7 +35,7 @@ def test_the_vocabulary_is_registered():
 def test_effect_derivatives_are_exact(index, cube_experiment):
     rng = np.random.default_rng(index)
     effect = all_effects(TRUTH)[index]
-    model = TRUTH.replace(spring_stiffness=TRUTH.spring_stiffness * rng.uniform(0.8, 1.2, 86))
+    model = TRUTH.with_springs(stiffness=TRUTH.springs.stiffness * rng.uniform(0.8, 1.2, 86))
     parameters = Parameterization(model.with_effects(effect), learn_masses=True)
     sensitivity = Sensitivity(parameters, CUBE["edge_length"])
     theta = parameters.initial()
@@ -103,10 +103,10 @@ def test_both_learners_fit_effect_parameters():
 def _element_block():
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.mesh import from_tetra
-    from neurofuzzy.model import SpringMassModel
+    from neurofuzzy.model import Model
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    return SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+    return Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
                                      viscosity=2.0, density=1000.0)
 
 
@@ -115,16 +115,16 @@ def test_an_element_inclusion_is_extra_youngs_modulus_on_its_region(volumetric, 
     """Its force is exactly the model's own with E + δ on the region's elements (and the same
     viscosity), for both volumetric forms; derivatives are exact; it round-trips."""
 
-    model = _element_block().replace(element_volumetric=volumetric)
+    model = _element_block().with_elements(volumetric=volumetric)
     region = [0, 1, 5, 9]
     inclusion = StiffInclusion.of_elements(model, region, 2500.0)
     assert inclusion.options["poisson_ratio"] == pytest.approx(0.45)
     p = model.mesh.rest_positions + rng.normal(0, 2e-4, (model.n_nodes, 3))
     v = rng.normal(0, 1e-2, (model.n_nodes, 3))
-    stiffer = model.element_youngs_modulus.copy()
+    stiffer = model.elements.youngs_modulus.copy()
     stiffer[region] += 2500.0
     both = model.elements.force(model, p, v) + inclusion.force(model, p, v)
-    stiffened = model.replace(element_youngs_modulus=stiffer)
+    stiffened = model.with_elements(youngs_modulus=stiffer)
     assert np.allclose(both, stiffened.elements.force(stiffened, p, v), rtol=0,
                        atol=1e-12 * np.abs(both).max())
     jacobian = inclusion.parameter_jacobian(model, p, v)

@@ -81,7 +81,7 @@ def test_organ_surface_markers_example_and_the_tutorial_commands(tmp_path, metho
     run("fit", "trial.npz", "--start", "organ.yaml", "--rules", "liver", "--out", "cli.yaml",
         "--report", "fit.html", "--export", "cli-paraview", "--quiet")
     by_cli, by_api = load_model(tmp_path / "cli.yaml"), load_model(tmp_path / "fitted.yaml")
-    assert np.allclose(by_cli.spring_stiffness, by_api.spring_stiffness, rtol=1e-3)
+    assert np.allclose(by_cli.springs.stiffness, by_api.springs.stiffness, rtol=1e-3)
     assert "hard" in (tmp_path / "fit.html").read_text()
     assert (tmp_path / "cli-paraview" / "trial.pvd").exists()
 
@@ -148,7 +148,7 @@ def test_the_pipeline_recovers_the_continuum_through_mesh_import_fit(tmp_path):
     def rms(a, b):
         return np.sqrt(np.mean(np.sum((a[:, free] - b[:, free]) ** 2, axis=-1)))
 
-    element = nf.simulate_like(model.replace(element_volumetric="element"), data, steps)
+    element = nf.simulate_like(model.with_elements(volumetric="element"), data, steps)
     assert rms(theirs, element) < 1e-6                   # the 1 µm; measured 6e-10 m
     nodal = nf.simulate_like(model, data, steps)         # the default form, as fitted
     stated = float(re.search(r"differ by ([0-9.e+-]+) m RMS", text).group(1))

@@ -54,13 +54,13 @@ def test_vtu_frames_hold_the_simulation_and_the_model(tmp_path, model, experimen
         mesh = meshio.read(written["vtu"][t])
         np.testing.assert_allclose(mesh.points, simulated[t])
         np.testing.assert_array_equal(mesh.cells_dict["line"], model.mesh.springs)
-        np.testing.assert_allclose(mesh.cell_data["stiffness"][0], model.spring_stiffness)
-        np.testing.assert_allclose(mesh.cell_data["damping"][0], model.spring_damping)
+        np.testing.assert_allclose(mesh.cell_data["stiffness"][0], model.springs.stiffness)
+        np.testing.assert_allclose(mesh.cell_data["damping"][0], model.springs.damping)
         np.testing.assert_array_equal(mesh.cell_data["spring_group"][0], model.mesh.spring_group)
         a, b = model.mesh.springs.T
         length = np.linalg.norm(simulated[t, b] - simulated[t, a], axis=1)
         np.testing.assert_allclose(mesh.cell_data["strain"][0],
-                                   length / model.spring_rest_length - 1, atol=1e-12)
+                                   length / model.springs.rest_length - 1, atol=1e-12)
         data = mesh.point_data
         np.testing.assert_allclose(data["displacement_simulated"], simulated[t] - rest,
                                    atol=1e-15)
@@ -128,7 +128,7 @@ def test_xdmf_time_series_reads_back(tmp_path, model, experiment):
             np.testing.assert_allclose(point_data["displacement_simulated"],
                                        simulated[k] - model.mesh.rest_positions, atol=1e-15)
             assert np.isnan(point_data["measured"][UNOBSERVED]).all()
-            np.testing.assert_allclose(cell_data["stiffness"][0], model.spring_stiffness)
+            np.testing.assert_allclose(cell_data["stiffness"][0], model.springs.stiffness)
 
 
 def test_model_alone_is_one_frame_at_rest(tmp_path, model):
@@ -230,7 +230,7 @@ def test_tetrahedra_join_the_vtu_files(tmp_path, model):
     written = export_paraview(tmp_path, model.replace(mesh=mesh))
     vtu = meshio.read(written["vtu"][0])
     np.testing.assert_array_equal(vtu.cells_dict["tetra"], tets)
-    np.testing.assert_allclose(vtu.cell_data["stiffness"][0], model.spring_stiffness)
+    np.testing.assert_allclose(vtu.cell_data["stiffness"][0], model.springs.stiffness)
     assert np.isnan(vtu.cell_data["stiffness"][1]).all()
     assert (vtu.cell_data["spring_group"][1] == -1).all()
     with meshio.xdmf.TimeSeriesReader(written["xdmf"]) as reader:

@@ -113,17 +113,17 @@ FEBIO_ENUMS = {"analysis": {"STATIC", "DYNAMIC"}, "interpolate": {"LINEAR", "STE
 def two_regions():
     points, tetrahedra = kuhn_block((3, 3, 2), 0.01)
     mesh = nf.from_tetra(points, tetrahedra).with_fixed(where=nf.bottom_layer)
-    model = nf.SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.3,
-                                         viscosity=2.0, density=1050.0)
+    model = nf.Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.3, viscosity=2.0,
+                               density=1050.0)
     inside = points[tetrahedra].mean(axis=1)[:, 0] > 0.015
     node_region = np.zeros(mesh.n_nodes, int)
     node_region[np.unique(tetrahedra[inside])] = 1
-    return model.replace(element_region=inside.astype(int), region_names=("liver", "tumour"),
-                         region_tissues=("liver", "tumour"), node_region=node_region,
-                         spring_region=node_region[mesh.springs[:, 0]],
-                         element_youngs_modulus=np.where(inside, 24000.0, 6000.0),
-                         element_poisson_ratio=np.where(inside, 0.45, 0.3),
-                         element_viscosity=np.where(inside, 12.0, 2.0))
+    elements = model.elements.replace(region=inside.astype(int),
+                                      youngs_modulus=np.where(inside, 24000.0, 6000.0),
+                                      poisson_ratio=np.where(inside, 0.45, 0.3),
+                                      viscosity=np.where(inside, 12.0, 2.0))
+    return model.replace(region_names=("liver", "tumour"), region_tissues=("liver", "tumour"),
+                         node_region=node_region, terms=(elements,))
 
 
 def pressed(model, n_frames=30):
@@ -203,22 +203,22 @@ def test_the_sofa_scene_uses_sofa_components_as_sofa_defines_them(tmp_path, monk
     assert np.array_equal(dofs["position"], model.mesh.rest_positions)
     assert np.array_equal(made["DiagonalMass"].fields["vertexMass"], model.node_mass)
     assert made["FixedProjectiveConstraint"].fields["indices"] == model.mesh.fixed.tolist()
-    if model.has_elements:
+    if model.elements is not None:
         fem = made["TetrahedronFEMForceField"].fields
         assert np.array_equal(made["TetrahedronSetTopologyContainer"].fields["tetrahedra"],
                               model.mesh.tetrahedra)
-        assert np.array_equal(fem["youngModulus"], model.element_youngs_modulus)
-        assert np.array_equal(fem["poissonRatio"], model.element_poisson_ratio)
+        assert np.array_equal(fem["youngModulus"], model.elements.youngs_modulus)
+        assert np.array_equal(fem["poissonRatio"], model.elements.poisson_ratio)
         assert any("merged into their volume-weighted mean" in n for n in exported.notes)
         scene = runpy.run_path(str(exported.path))
         assert scene["REGION_NAMES"] == ["liver", "tumour"]
-        assert scene["ELEMENT_REGION"] == model.element_region.tolist()
+        assert scene["ELEMENT_REGION"] == model.elements.region.tolist()
     else:
         rows = np.array(made["SpringForceField"].fields["spring"].split(), float).reshape(-1, 5)
         assert np.array_equal(rows[:, :2].astype(int), model.mesh.springs)
-        assert np.array_equal(rows[:, 2], model.spring_stiffness)
-        assert np.array_equal(rows[:, 3], model.spring_damping)
-        assert np.array_equal(rows[:, 4], model.spring_rest_length)
+        assert np.array_equal(rows[:, 2], model.springs.stiffness)
+        assert np.array_equal(rows[:, 3], model.springs.damping)
+        assert np.array_equal(rows[:, 4], model.springs.rest_length)
     # the controller holds frame t's load from t to t + 1
     load = made["ConstantForceField"]
     curve = next(o for o in root.objects if not isinstance(o, _Object))
@@ -311,7 +311,7 @@ def test_the_febio_file_follows_febio_4_and_holds_the_model_and_its_load(tmp_pat
     times = (np.arange(data.n_frames - 1) + 1) * data.dt
     applied = febio_load(root, times, model.n_nodes)
     assert np.allclose(applied, data.forces_per_frame()[:-1], rtol=0, atol=1e-15)
-    if model.has_elements:
+    if model.elements is not None:
         assert root.findtext("./Control/analysis") == "DYNAMIC"
         check_febio_materials(root, model)
     else:
@@ -325,7 +325,7 @@ def test_the_febio_file_follows_febio_4_and_holds_the_model_and_its_load(tmp_pat
             for pair in springs[discrete.get("discrete_set")]:
                 found[pair] = stiffness[int(discrete.get("dmat"))]
         assert found == {tuple(pair): k for pair, k in zip(model.mesh.springs.tolist(),
-                                                            model.spring_stiffness)}
+                                                            model.springs.stiffness)}
         assert any("discrete springs have none" in note for note in exported.notes)
 
 
@@ -341,16 +341,16 @@ def check_febio_materials(root, model):
     for part in root.iter("Elements"):
         elements = np.array([[int(i) - 1 for i in e.text.split(",")] for e in part.iter("elem")])
         region = model.region_names.index(part.get("name"))
-        rows = {tuple(t) for t in model.mesh.tetrahedra[model.element_region == region].tolist()}
+        rows = {tuple(t) for t in model.mesh.tetrahedra[model.elements.region == region].tolist()}
         assert {tuple(t) for t in elements.tolist()} == rows
         material = materials[part.get("name")]
         assert material.get("type") == "solid mixture"
         elastic, viscous = material.findall("solid")
         E, nu = float(elastic.findtext("E")), float(elastic.findtext("v"))
-        chosen = model.element_region == region
-        assert E == model.element_youngs_modulus[chosen][0]
-        assert nu == model.element_poisson_ratio[chosen][0]
-        beta = model.element_viscosity[chosen][0] / E
+        chosen = model.elements.region == region
+        assert E == model.elements.youngs_modulus[chosen][0]
+        assert nu == model.elements.poisson_ratio[chosen][0]
+        beta = model.elements.viscosity[chosen][0] / E
         assert float(viscous.findtext("mu")) == pytest.approx(beta * E / (2 * (1 + nu)))
         assert float(viscous.findtext("kappa")) == pytest.approx(beta * E / (3 * (1 - 2 * nu)))
         density = float(material.findtext("density"))
@@ -421,7 +421,7 @@ def test_exports_carry_the_elements_law(tmp_path):
     laws becomes two materials, never mixed); SOFA and MuJoCo, which have no such element in
     what we write, say so in the file's notes with the difference measured."""
     model = two_regions()
-    model = model.replace(element_law=(model.element_region == 1).astype(int))
+    model = model.with_elements(law=(model.elements.region == 1).astype(int))
     data = pressed(model)
     root = ET.parse(nf.export(model, to="febio", path=tmp_path / "t.feb",
                               experiment=data).path).getroot()
@@ -429,7 +429,7 @@ def test_exports_carry_the_elements_law(tmp_path):
     kinds = {m.get("name"): m.find("solid").get("type")
              for m in root.findall("./Material/material")}
     assert kinds == {"liver": "isotropic elastic", "tumour": "neo-Hookean"}
-    mixed = model.replace(element_law=np.arange(model.mesh.n_tetrahedra) % 2)
+    mixed = model.with_elements(law=np.arange(model.mesh.n_tetrahedra) % 2)
     root = ET.parse(nf.export(mixed, to="febio", path=tmp_path / "m.feb").path).getroot()
     kinds = {m.get("name"): m.find("solid").get("type")
              for m in root.findall("./Material/material")}
@@ -454,9 +454,9 @@ def test_exports_carry_the_elements_relaxation(tmp_path):
     elastic part; the same convention as ours); SOFA and MuJoCo, which have no such element,
     say so in the notes with the difference measured."""
     model = two_regions()
-    relaxing = model.replace(element_relaxation_moduli=(model.element_region == 1) * 0.5,
-                             element_relaxation_times=np.full(model.mesh.n_tetrahedra, 0.05),
-                             element_law=(model.element_region == 1).astype(int))
+    relaxing = model.with_elements(relaxation_moduli=(model.elements.region == 1) * 0.5,
+                                   relaxation_times=np.full(model.mesh.n_tetrahedra, 0.05),
+                                   law=(model.elements.region == 1).astype(int))
     data = pressed(relaxing)
     solids = _febio_solids(relaxing, tmp_path / "r.feb", data)
     tumour = solids["tumour"]
@@ -464,7 +464,7 @@ def test_exports_carry_the_elements_relaxation(tmp_path):
     assert float(tumour.find("g1").text) == 0.5 and float(tumour.find("t1").text) == 0.05
     assert tumour.find("elastic").get("type") == "neo-Hookean"
     assert float(tumour.find("elastic/E").text) == float(
-        relaxing.element_youngs_modulus[relaxing.element_region == 1][0])
+        relaxing.elements.youngs_modulus[relaxing.elements.region == 1][0])
     assert solids["liver"].get("type") == "viscoelastic"          # g = 0: no relaxation
     assert float(solids["liver"].find("g1").text) == 0.0
     for target, suffix in (("sofa", ".py"), ("mujoco", ".xml")):
@@ -479,14 +479,14 @@ def test_exports_carry_yeoh_elements(tmp_path):
     modulus k with Abaqus' volumetric energy, ours); SOFA and MuJoCo say in their notes that
     the law is dropped, with the difference measured."""
     model = two_regions()
-    yeoh = model.replace(element_law=np.where(model.element_region == 1, 2, 0),
-                         element_stiffening=1.5)
+    yeoh = model.with_elements(law=np.where(model.elements.region == 1, 2, 0),
+                               stiffening=1.5)
     data = pressed(yeoh)
     solids = _febio_solids(yeoh, tmp_path / "y.feb", data)
     tumour = solids["tumour"]
     assert tumour.get("type") == "Yeoh" and solids["liver"].get("type") == "isotropic elastic"
-    E = float(yeoh.element_youngs_modulus[yeoh.element_region == 1][0])
-    nu = float(yeoh.element_poisson_ratio[yeoh.element_region == 1][0])
+    E = float(yeoh.elements.youngs_modulus[yeoh.elements.region == 1][0])
+    nu = float(yeoh.elements.poisson_ratio[yeoh.elements.region == 1][0])
     c10 = float(tumour.find("c1").text)
     assert c10 == pytest.approx(E / (4 * (1 + nu)), rel=1e-12)
     assert float(tumour.find("c2").text) == pytest.approx(1.5 * c10, rel=1e-12)

@@ -29,19 +29,19 @@ def block_model(volumetric="element", regions=False, nu=0.35):
     'tumour' half with another Poisson's ratio."""
     points, tetrahedra = kuhn_block((3, 3, 2), 0.01)
     mesh = nf.from_tetra(points, tetrahedra).with_fixed(where=nf.bottom_layer)
-    model = nf.SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=nu,
+    model = nf.Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=nu,
                                          viscosity=2.0, density=1050.0, volumetric=volumetric)
     if regions:
         inside = points[tetrahedra].mean(axis=1)[:, 0] > 0.015
         node_region = np.zeros(mesh.n_nodes, int)
         node_region[np.unique(tetrahedra[inside])] = 1
-        model = model.replace(
-            element_region=inside.astype(int), region_names=("liver", "tumour"),
-            region_tissues=("liver", "tumour"), node_region=node_region,
-            spring_region=node_region[mesh.springs[:, 0]],
-            element_youngs_modulus=np.where(inside, 24000.0, 6000.0),
-            element_poisson_ratio=np.where(inside, 0.45, nu),
-            element_viscosity=np.where(inside, 12.0, 2.0))
+        elements = model.elements.replace(region=inside.astype(int),
+                                          youngs_modulus=np.where(inside, 24000.0, 6000.0),
+                                          poisson_ratio=np.where(inside, 0.45, nu),
+                                          viscosity=np.where(inside, 12.0, 2.0))
+        model = model.replace(region_names=("liver", "tumour"),
+                              region_tissues=("liver", "tumour"), node_region=node_region,
+                              terms=(elements,))
     return model
 
 
@@ -61,7 +61,7 @@ def test_a_fitted_element_model_runs_in_mujoco_as_in_neurofuzzy(tmp_path):
     truth = block_model()
     data = nf.simulate_experiment(truth, dt=1e-3, n_frames=60, external_forces=probe(truth),
                                   substeps="auto", noise=2e-6, seed=1, source="trial.npz")
-    start = truth.replace(element_youngs_modulus=truth.element_youngs_modulus * 0.7)
+    start = truth.with_elements(youngs_modulus=truth.elements.youngs_modulus * 0.7)
     learner = nf.GradientLearner(substeps="auto").fit(start, data)
     assert learner.lack_of_fit_.explained
     nf.save_model(learner.model_, tmp_path / "fitted.yaml", fit=fit_record(learner, ["trial.npz"]))
@@ -108,7 +108,7 @@ def test_the_nodal_form_differs_by_what_the_header_states():
     theirs = simulate_mujoco(text, data)
     measured = rms(theirs, nf.simulate_like(model, data, steps), free)
     assert measured == pytest.approx(stated, rel=5e-3)          # the header's 3 digits
-    element = nf.simulate_like(model.replace(element_volumetric="element"), data, steps)
+    element = nf.simulate_like(model.with_elements(volumetric="element"), data, steps)
     assert rms(theirs, element, free) < ELEMENT_TOLERANCE
     assert measured > 10 * ELEMENT_TOLERANCE                     # a real difference at ν 0.45
 
@@ -138,7 +138,7 @@ def test_gravity_and_an_inclusion_are_folded_into_the_export():
 def test_more_materials_than_allowed_are_binned_and_said():
     model = block_model()
     rng = np.random.default_rng(0)
-    model = model.replace(element_youngs_modulus=rng.uniform(4000, 8000, model.mesh.n_tetrahedra))
+    model = model.with_elements(youngs_modulus=rng.uniform(4000, 8000, model.mesh.n_tetrahedra))
     data = nf.simulate_experiment(model, dt=1e-3, n_frames=30, external_forces=probe(model, 30),
                                   substeps=2)
     text, notes = _mjcf(model, data, substeps=2, max_materials=4)

@@ -67,8 +67,8 @@ def test_the_model_file_keeps_regions_tissues_and_ties(organ):
     assert model.region_names == ("liver", "tumour")
     assert model.region_tissues == ("liver", "tumour")
     assert model.region_nodes("tumour").size > 0 and model.region_springs("tumour").size > 0
-    for k in range(model.n_ties):     # tie groups never span two regions
-        assert len(np.unique(model.spring_region[model.spring_tie == k])) == 1
+    for k in range(model.springs.n_ties):     # tie groups never span two regions
+        assert len(np.unique(model.springs.region[model.springs.tie == k])) == 1
 
 
 @pytest.mark.slow

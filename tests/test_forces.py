@@ -83,13 +83,13 @@ def test_spring_parameter_templates_and_vjp_match_finite_differences():
     templates = MODEL.springs.parameter_templates(spring_state)
     _, _, per_spring = MODEL.springs.vjp(MODEL, cotangent, spring_state)
     maps = incidence(MODEL.mesh)
-    for name, field in (("stiffness", "spring_stiffness"), ("damping", "spring_damping")):
+    for name in ("stiffness", "damping"):
         for j in (0, 40, 85):
-            values = getattr(MODEL, field).copy()
+            values = getattr(MODEL.springs, name).copy()
             values[j] *= 1.001
-            changed = MODEL.replace(**{field: values})
+            changed = MODEL.with_springs(**{name: values})
             numeric = (changed.springs.force(changed, p, v) - MODEL.springs.force(MODEL, p, v)) / (
-                0.001 * getattr(MODEL, field)[j])
+                0.001 * getattr(MODEL.springs, name)[j])
             single = np.zeros((MODEL.n_springs, 3))
             single[j] = templates[name][j]
             assert np.allclose(maps.accumulate(single), numeric, rtol=1e-6, atol=1e-12)
@@ -151,5 +151,5 @@ def test_the_spring_magnitude_is_one_law_with_its_own_derivatives():
     state = model.springs.state(model, p, v)
     np.testing.assert_array_equal(
         model.springs.magnitude(model, state),
-        magnitudes(state.stretch, state.closing_speed, stiffness=model.spring_stiffness,
-                   damping=model.spring_damping)[0])
+        magnitudes(state.stretch, state.closing_speed, stiffness=model.springs.stiffness,
+                   damping=model.springs.damping)[0])

@@ -7,9 +7,10 @@ from helpers import assert_gradient_exact
 
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.errors import InputError
+from neurofuzzy.forces import Springs
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.simulation import simulate, stability_limit
 
@@ -28,7 +29,7 @@ def block(shape=(2, 2, 2), spacing=0.01, jitter=0.0, seed=0):
 def continuum(mesh, **options):
     values = dict(youngs_modulus=E, poisson_ratio=NU, viscosity=ETA, density=RHO)
     values.update(options)
-    return SpringMassModel.continuum(mesh, **values)
+    return Model.continuum(mesh, **values)
 
 
 def state(model, seed, size=1e-3, speed=1e-2):
@@ -139,12 +140,12 @@ def test_parameter_derivatives_match_finite_differences(volumetric):
         jvp = model.elements.parameter_jvp(model, p, v, directions)
         assert jvp.shape == (model.n_nodes, 3, 3)
         for column, element in enumerate(chosen):
-            values = getattr(model, f"element_{name}").copy()
+            values = getattr(model.elements, name).copy()
             plus, minus = values.copy(), values.copy()
             plus[element] += step
             minus[element] -= step
-            above = model.replace(**{f"element_{name}": plus})
-            below = model.replace(**{f"element_{name}": minus})
+            above = model.with_elements(**{name: plus})
+            below = model.with_elements(**{name: minus})
             numeric = (above.elements.force(above, p, v)
                        - below.elements.force(below, p, v)) / (2 * step)
             assert np.allclose(jvp[:, column], numeric, rtol=1e-5,
@@ -226,7 +227,8 @@ def test_fast_steppers_step_elements_as_the_reference_step(backend, volumetric):
     model = continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
                       poisson_ratio=rng.uniform(0.2, 0.48, k), viscosity=rng.uniform(1, 5, k),
                       volumetric=volumetric)
-    model = model.replace(spring_stiffness=np.where(np.arange(mesh.n_springs) % 3 == 0, 5.0, 0.0))
+    model = model.with_term(Springs(stiffness=np.where(np.arange(mesh.n_springs) % 3 == 0, 5.0,
+                                                       0.0), damping=0.0))
     loads = rng.normal(0, 1e-3, (20, mesh.n_nodes, 3))
     dt, substeps = 2e-4, 3
     fast = simulate(model, dt=dt, n_frames=20, external_forces=loads, substeps=substeps,
@@ -243,17 +245,17 @@ def test_fast_steppers_step_elements_as_the_reference_step(backend, volumetric):
 def test_element_models_round_trip_and_bad_values_are_refused(tmp_path):
     model = continuum(block(), youngs_modulus=np.linspace(1e3, 2e3, 48))
     loaded = load_model(save_model(model, tmp_path / "m.yaml"))
-    assert loaded.has_elements and loaded.element_volumetric == "nodal"
-    assert np.array_equal(loaded.element_youngs_modulus, model.element_youngs_modulus)
+    assert loaded.elements is not None and loaded.elements.volumetric == "nodal"
+    assert np.array_equal(loaded.elements.youngs_modulus, model.elements.youngs_modulus)
     assert np.allclose(loaded.elements.force(loaded, *state(model, 6)),
                        model.elements.force(model, *state(model, 6)))
     with pytest.raises(InputError, match=r"element_poisson_ratio: element 0 has Poisson's ratio "
                                          r"0.5; it must lie in \(0, 0.5\), strictly"):
-        model.replace(element_poisson_ratio=np.full(48, 0.5))
+        model.with_elements(poisson_ratio=np.full(48, 0.5))
     with pytest.raises(InputError, match="all three"):
-        model.replace(element_viscosity=None)
+        model.with_elements(viscosity=None)
     with pytest.raises(InputError, match="did you mean 'nodal'"):
-        model.replace(element_volumetric="nodes")
+        model.with_elements(volumetric="nodes")
 
 
 def _element_data(truth, frames=80):
@@ -277,16 +279,16 @@ def test_element_parameter_gradients_are_exact(volumetric):
     truth = continuum(mesh, viscosity=20.0, volumetric=volumetric)
     (data, _), steps = _element_data(truth, frames=12)
     rng = np.random.default_rng(8)
-    start = truth.replace(element_youngs_modulus=truth.element_youngs_modulus * 1.2,
-                          element_poisson_ratio=np.full(mesh.n_tetrahedra, 0.4),
-                          element_tie=rng.integers(0, 2, mesh.n_tetrahedra))
+    start = truth.with_elements(youngs_modulus=truth.elements.youngs_modulus * 1.2,
+                                poisson_ratio=np.full(mesh.n_tetrahedra, 0.4),
+                                tie=rng.integers(0, 2, mesh.n_tetrahedra))
     parameters = Parameterization(start)
     assert parameters.names() == [f"{q}[element group {k}]" for q in
                                   ("youngs_modulus", "poisson_ratio", "viscosity")
                                   for k in (0, 1)]
     sensitivity = Sensitivity(parameters, 0.01)
     theta = parameters.initial()
-    assert np.allclose(parameters.model(theta).element_poisson_ratio, 0.4)
+    assert np.allclose(parameters.model(theta).elements.poisson_ratio, 0.4)
     assert_gradient_exact(sensitivity, theta, data, steps)
 
 
@@ -300,9 +302,9 @@ def test_gradient_learner_recovers_youngs_modulus_poisson_ratio_and_viscosity():
     start = continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.3, viscosity=40.0)
     learner = GradientLearner(substeps=steps).fit(start, experiments)
     fitted = learner.model_
-    assert fitted.element_youngs_modulus == pytest.approx(E, rel=1e-6)
-    assert fitted.element_poisson_ratio == pytest.approx(NU, rel=1e-6)
-    assert fitted.element_viscosity == pytest.approx(20.0, rel=1e-5)
+    assert fitted.elements.youngs_modulus == pytest.approx(E, rel=1e-6)
+    assert fitted.elements.poisson_ratio == pytest.approx(NU, rel=1e-6)
+    assert fitted.elements.viscosity == pytest.approx(20.0, rel=1e-5)
     assert learner.parameter_names_[0] == "youngs_modulus[all elements]"
 
 
@@ -327,7 +329,7 @@ def test_element_model_from_words_mesh_command_and_fit_start(tmp_path, capsys):
                  "tetra", "--fix-below", "0.001", "--out", str(tmp_path / "block.yaml")]) == 0
     model = load_model(tmp_path / "block.yaml")
     rules = load_rules(shipped("liver"))
-    assert model.has_elements and model.element_youngs_modulus == pytest.approx(
+    assert model.elements is not None and model.elements.youngs_modulus == pytest.approx(
         rules.tissue("liver")["youngs_modulus"])
     mesh = read_mesh(path).mesh.with_fixed(where=lambda p: p[:, 2] <= 0.001)
     truth = initialize(rules, mesh, "fibrotic_liver", elements=True)

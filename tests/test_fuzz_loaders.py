@@ -274,11 +274,11 @@ def test_a_point_force_is_refused_or_arrives_whole_on_free_nodes(tmp_path, cube_
 def element_model_text(tmp_path_factory):
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.mesh import from_tetra
-    from neurofuzzy.model import SpringMassModel
+    from neurofuzzy.model import Model
 
     points, tetrahedra = kuhn_block((2, 1, 1), 0.01)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    model = SpringMassModel.continuum(mesh, youngs_modulus=np.linspace(4e3, 6e3, 12),
+    model = Model.continuum(mesh, youngs_modulus=np.linspace(4e3, 6e3, 12),
                                       poisson_ratio=0.45, viscosity=2.0, density=1050.0)
     return save_model(model, tmp_path_factory.mktemp("elements") / "m.yaml").read_bytes()
 
@@ -294,9 +294,9 @@ def test_mutated_element_model_files_load_within_physics_or_raise_our_error(
     except NeurofuzzyError as error:
         assert str(path) in str(error), str(error)
         return
-    if model.has_elements:                          # what loads is physically possible
-        assert np.all((model.element_poisson_ratio > 0) & (model.element_poisson_ratio < 0.5))
-        assert np.all(model.element_youngs_modulus > 0) and np.all(model.element_viscosity >= 0)
+    if model.elements is not None:                          # what loads is physically possible
+        assert np.all((model.elements.poisson_ratio > 0) & (model.elements.poisson_ratio < 0.5))
+        assert np.all(model.elements.youngs_modulus > 0) and np.all(model.elements.viscosity >= 0)
     assert np.all(model.node_mass > 0)
 
 

@@ -3,7 +3,7 @@ import pytest
 
 from neurofuzzy.errors import InputError
 from neurofuzzy.io import load_experiment, load_model, save_experiment, save_model
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 
 
 def _write(path, **arrays):
@@ -32,12 +32,12 @@ def test_experiment_round_trip(tmp_path, cube_experiment):
 
 
 def test_model_yaml_round_trip_is_exact(tmp_path, rng, cube_model):
-    model = cube_model.replace(spring_stiffness=rng.uniform(1, 100, 86) / 3.0,
-                               spring_damping=rng.uniform(0, 1, 86) / 7.0).tied("groups")
+    model = cube_model.with_springs(stiffness=rng.uniform(1, 100, 86) / 3.0,
+                                    damping=rng.uniform(0, 1, 86) / 7.0).tied("groups")
     loaded = load_model(save_model(model, tmp_path / "m.yaml"))
-    for key in ("node_mass", "spring_stiffness", "spring_damping", "spring_rest_length",
-                "spring_tie"):
-        assert np.array_equal(getattr(loaded, key), getattr(model, key)), key
+    assert np.array_equal(loaded.node_mass, model.node_mass)
+    for key in ("stiffness", "damping", "rest_length", "tie"):
+        assert np.array_equal(getattr(loaded.springs, key), getattr(model.springs, key)), key
     assert np.array_equal(loaded.mesh.rest_positions, model.mesh.rest_positions)
     assert loaded.mesh.group_names == model.mesh.group_names
 
@@ -51,7 +51,7 @@ def test_a_model_file_keeps_the_record_of_its_fit(tmp_path, cube_model):
                               "verdict": "residual 2.1x the noise"}}
     path = save_model(cube_model, tmp_path / "m.yaml", fit=record)
     assert load_fit_record(path) == record
-    assert np.array_equal(load_model(path).spring_stiffness, cube_model.spring_stiffness)
+    assert np.array_equal(load_model(path).springs.stiffness, cube_model.springs.stiffness)
     assert load_fit_record(save_model(cube_model, tmp_path / "plain.yaml")) is None
     (tmp_path / "bad.yaml").write_text(path.read_text().replace("fit:\n", "fit: 3\nx:\n"))
     with pytest.raises(InputError, match=r"bad\.yaml.*fit"):

@@ -51,8 +51,8 @@ def test_remove_offsets_takes_out_each_rows_mean_over_its_measured_frames():
 def test_gradients_with_fitted_offsets_are_exact(backend):
     truth = element_block()
     experiment, steps = markers_from_frame_zero(truth, frames=20, n_markers=8)
-    start = truth.replace(element_youngs_modulus=np.full(truth.mesh.n_tetrahedra, 8000.0),
-                          element_poisson_ratio=np.full(truth.mesh.n_tetrahedra, 0.35))
+    start = truth.with_elements(youngs_modulus=np.full(truth.mesh.n_tetrahedra, 8000.0),
+                                poisson_ratio=np.full(truth.mesh.n_tetrahedra, 0.35))
     parameters = Parameterization(start)
     sensitivity = Sensitivity(parameters, 0.01, backend=backend, offsets=True)
     _, _, run = assert_gradient_exact(sensitivity, parameters.initial(), experiment, steps)
@@ -70,7 +70,7 @@ def test_the_exact_model_reaches_the_noise_when_the_load_starts_at_frame_zero():
     assert 0.9 < fitted.lack_of_fit_.ratio < 1.1
     assert copied.lack_of_fit_.ratio > 1.3
     assert fitted.lack_of_fit_.explained and not copied.lack_of_fit_.explained
-    assert fitted.model_.element_youngs_modulus[0] == pytest.approx(6000.0, rel=0.02)
+    assert fitted.model_.elements.youngs_modulus[0] == pytest.approx(6000.0, rel=0.02)
 
 
 def test_a_model_that_misses_an_effect_says_so_with_where_and_when():
@@ -99,7 +99,7 @@ def test_standard_errors_widen_with_correlated_residuals():
     for data, wider in ((experiment, True), (exact, False)):
         learner = GradientLearner(substeps=steps).fit(truth, data)
         parameters = Parameterization(learner.model_)
-        sensitivity = Sensitivity(parameters, float(np.mean(truth.spring_rest_length)),
+        sensitivity = Sensitivity(parameters, truth.length_unit,
                                   offsets=True)
         run = sensitivity.run(parameters.initial(), data, substeps=steps, tangents=True)
         plain = analyse(parameters, parameters.initial(), run.jacobian.reshape(-1, 3),

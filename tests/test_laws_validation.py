@@ -23,7 +23,7 @@ DATA = Path(__file__).parent / "data"
 
 def _moduli(model, recording):
     """Errors of E and μ (relative) and ν (absolute) of a globally tied element model."""
-    E, nu = float(model.element_youngs_modulus[0]), float(model.element_poisson_ratio[0])
+    E, nu = float(model.elements.youngs_modulus[0]), float(model.elements.poisson_ratio[0])
     return {"E": E / recording.truth["youngs_modulus"] - 1,
             "mu": E / (2 * (1 + nu)) / recording.truth["shear_modulus"] - 1,
             "nu": nu - recording.truth["poisson_ratio"]}
@@ -87,7 +87,7 @@ def test_at_large_strain_the_diagnosis_switches_to_neo_hookean_which_recovers_th
     tried = _to_refit(ranked, evidence, verdict, svk.rms_error_, lambda message: None)
     candidate = next(c for c in tried if c.name == "hyperelasticity")
     neo = _refit(candidate, svk.model_, evidence, [experiment], "auto", staged=False)
-    assert set(neo.model_.element_law) == {1} and not neo.model_.effects
+    assert set(neo.model_.elements.law) == {1} and not neo.model_.effects
     moduli = _moduli(neo.model_, recording)
     assert abs(moduli["mu"]) < 0.03 and abs(moduli["E"]) < 0.06 and abs(moduli["nu"]) < 0.08
     assert neo.lack_of_fit_.ratio < 0.5 * verdict.ratio
@@ -102,7 +102,7 @@ def test_at_small_strain_the_diagnosis_keeps_svk(start):
     result = diagnose(start, block_experiment(recording, start.mesh), mesh_check=False,
                       max_effects=1)
     assert "hyperelasticity" not in result.names
-    assert set(result.model_.element_law) == {0}
+    assert set(result.model_.elements.law) == {0}
     assert result.lack_of_fit.ratio < 1.6
 
 
@@ -118,13 +118,13 @@ def test_on_yeoh_data_yeoh_s_law_fits_best_and_is_the_stiffening_candidate(start
     assert recording.truth["law"] == "Yeoh" and recording.truth["c20"] == recording.truth["c10"]
     experiment = block_experiment(recording, start.mesh)
     fits = {law: GradientLearner(substeps="auto").fit(
-                start.replace(element_law=law), experiment)
+                start.with_elements(law=law), experiment)
             for law in ("st-venant-kirchhoff", "neo-hookean", "yeoh")}
     ratios = {law: fit.lack_of_fit_.ratio for law, fit in fits.items()}
     assert ratios["yeoh"] < ratios["neo-hookean"] < 0.7 * ratios["st-venant-kirchhoff"]
     yeoh = fits["yeoh"].model_
     assert abs(_moduli(yeoh, recording)["E"]) < 0.07
-    assert 1.0 < yeoh.element_stiffening[0] < 2.0
+    assert 1.0 < yeoh.elements.stiffening[0] < 2.0
     neo = fits["neo-hookean"]
     evidence = TrajectoryEvidence.of(neo.model_, [experiment], neo.substeps_,
                                      neo.lack_of_fit_.noise_per_coordinate)

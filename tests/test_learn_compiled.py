@@ -10,7 +10,7 @@ from neurofuzzy.errors import InputError
 from neurofuzzy.experiment import Experiment, simulate_experiment
 from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.observation import EmbeddedMarkers, embed_points
 from neurofuzzy.simulation import stability_limit
 
@@ -55,12 +55,12 @@ LAWS = ["st-venant-kirchhoff", "neo-hookean", "yeoh", "mixed"]
 def test_elements_in_tie_groups_seen_through_embedded_markers(volumetric, law):
     mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     rng = np.random.default_rng(0)
-    truth = SpringMassModel.continuum(
+    truth = Model.continuum(
         mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra), poisson_ratio=0.45,
         viscosity=2.0, density=1000.0, volumetric=volumetric,
         law=_laws(law, rng, mesh.n_tetrahedra),
-        stiffening=rng.uniform(0.5, 2.0, mesh.n_tetrahedra)).replace(
-        element_tie=rng.integers(0, 3, mesh.n_tetrahedra))
+        stiffening=rng.uniform(0.5, 2.0, mesh.n_tetrahedra)).with_elements(
+        tie=rng.integers(0, 3, mesh.n_tetrahedra))
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0.0, 0.01, -0.05)
     steps = int(np.ceil(1e-3 / stability_limit(truth).max_step))
@@ -85,7 +85,7 @@ def test_learned_effects_of_element_models(volumetric):
     stiffening, all learned with the elements' own parameters: the kernel's effect columns
     equal the numpy path's."""
     mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    model = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+    model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
                                       viscosity=2.0, density=1000.0, volumetric=volumetric)
     model = model.with_effects(Gravity([0.1, 0.0, -9.81]), UnmodeledLoad([0.0, 0.002, 0.0],
                                                                        node=mesh.n_nodes - 2),
@@ -116,7 +116,7 @@ def test_learned_masses_with_gravity(kind):
     else:
         mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(
             where=lambda p: p[:, 2] < 1e-9)
-        model = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+        model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
                                           viscosity=2.0, density=1000.0)
         load = np.zeros((mesh.n_nodes, 3))
         load[-1] = (0.0, 0.01, -0.05)
@@ -264,12 +264,12 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, 
     drag, seen through embedded markers with a gap."""
     mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     rng = np.random.default_rng(3)
-    model = SpringMassModel.continuum(
+    model = Model.continuum(
         mesh, youngs_modulus=rng.uniform(4e3, 8e3, mesh.n_tetrahedra),
         poisson_ratio=rng.uniform(0.3, 0.45, mesh.n_tetrahedra), viscosity=2.0,
         density=1000.0, volumetric=volumetric, law=_laws(law, rng, mesh.n_tetrahedra),
-        stiffening=rng.uniform(0.5, 2.0, mesh.n_tetrahedra)).replace(
-        element_tie=rng.integers(0, 4, mesh.n_tetrahedra)).with_effects(
+        stiffening=rng.uniform(0.5, 2.0, mesh.n_tetrahedra)).with_elements(
+        tie=rng.integers(0, 4, mesh.n_tetrahedra)).with_effects(
         StiffInclusion([3000.0], elements=[3, 4, 10, 11], poisson_ratio=0.4),
         NodeDrag([0.05]))
     load = np.zeros((mesh.n_nodes, 3))
@@ -325,7 +325,7 @@ def test_the_adjoints_forward_sweep_is_simulates_run():
     from neurofuzzy.simulation import simulate
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    model = SpringMassModel.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
+    model = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
                                       viscosity=2.0, density=1000.0, law="neo-hookean",
                                       relaxation=((0.5, 0.02),))
     top = mesh.rest_positions[:, 2] > 0.02 - 1e-9

@@ -10,9 +10,9 @@ from neurofuzzy.validation.integrators import reference_experiment
 
 def _perturbed(rng):
     truth = paper_cube_model()
-    return truth.replace(spring_stiffness=truth.spring_stiffness * rng.uniform(0.7, 1.4, 86),
-                         spring_damping=truth.spring_damping * rng.uniform(0.7, 1.4, 86),
-                         node_mass=truth.node_mass * rng.uniform(0.8, 1.2, 27))
+    return truth.with_springs(stiffness=truth.springs.stiffness * rng.uniform(0.7, 1.4, 86),
+                              damping=truth.springs.damping * rng.uniform(0.7, 1.4, 86)
+                              ).replace(node_mass=truth.node_mass * rng.uniform(0.8, 1.2, 27))
 
 
 @pytest.mark.parametrize("substeps, starts", [(1, (0,)), (3, (0, 90, 180))])
@@ -75,11 +75,11 @@ def test_every_identifiable_spring_and_mass_from_one_load_case(rng, cube_experim
     assert both_fixed <= unidentifiable
     # they keep their start values instead of wandering off
     both = sorted(both_fixed)
-    assert np.allclose(fitted.spring_stiffness[both], start.spring_stiffness[both], rtol=1e-12)
+    assert np.allclose(fitted.springs.stiffness[both], start.springs.stiffness[both], rtol=1e-12)
     known = np.setdiff1d(np.arange(86), sorted(unidentifiable))
     assert len(known) >= 60
-    assert np.allclose(fitted.spring_stiffness[known], truth.spring_stiffness[known], rtol=1e-6)
-    assert np.allclose(fitted.spring_damping[known], truth.spring_damping[known], rtol=1e-6)
+    assert np.allclose(fitted.springs.stiffness[known], truth.springs.stiffness[known], rtol=1e-6)
+    assert np.allclose(fitted.springs.damping[known], truth.springs.damping[known], rtol=1e-6)
     free = truth.mesh.free
     assert np.allclose(fitted.node_mass[free], truth.node_mass[free], rtol=1e-6)
     assert learner.rms_error_ < 1e-9 * CUBE["edge_length"]
@@ -93,7 +93,7 @@ def test_tied_fit_reports_standard_errors(cube_experiment):
                                         "damping[edge]", "damping[diagonal]"]
     errors = learner.std_errors_
     assert np.all(np.isfinite(errors)) and np.all(errors > 0)
-    fitted = learner.model_.group_values(learner.model_.spring_stiffness)
+    fitted = learner.model_.group_values(learner.model_.springs.stiffness)
     # the truth lies within a few standard errors (relative, since parameters are logs)
     assert abs(np.log(fitted["edge"] / 50.0)) < 5 * errors[0] + 1e-3
     assert abs(np.log(fitted["diagonal"] / 50.0)) < 5 * errors[1] + 1e-3
@@ -108,8 +108,8 @@ def test_groups_recovered_within_two_percent_from_a_different_integrator():
     start = paper_cube_model(stiffness=45.0, damping=0.03, tie="groups")
     learner = GradientLearner(substeps="auto").fit(start, data)
     fitted = learner.model_
-    stiffness = fitted.group_values(fitted.spring_stiffness)
-    damping = fitted.group_values(fitted.spring_damping)
+    stiffness = fitted.group_values(fitted.springs.stiffness)
+    damping = fitted.group_values(fitted.springs.damping)
     assert stiffness["edge"] == pytest.approx(60.0, rel=0.02)
     assert stiffness["diagonal"] == pytest.approx(35.0, rel=0.02)
     assert damping["edge"] == pytest.approx(0.02, rel=0.02)
@@ -121,7 +121,7 @@ def test_auto_substeps_keeps_one_step_for_our_own_data(cube_experiment):
     start = paper_cube_model(stiffness=55.0, damping=0.025, tie="global")
     learner = GradientLearner(substeps="auto").fit(start, cube_experiment)
     assert learner.substeps_ == 1 and not learner.extrapolated_
-    assert learner.model_.spring_stiffness[0] == pytest.approx(50.0, rel=1e-9)
+    assert learner.model_.springs.stiffness[0] == pytest.approx(50.0, rel=1e-9)
 
 
 @pytest.mark.slow
@@ -132,8 +132,8 @@ def test_every_spring_from_two_load_cases_of_rk4_data():
     learner = GradientLearner(substeps="auto").fit(base, data)
     moving = base.mesh.free[base.mesh.springs].any(axis=1)
     fitted = learner.model_
-    assert np.median(np.abs(fitted.spring_stiffness / truth.spring_stiffness - 1)[moving]) < 0.01
-    assert np.median(np.abs(fitted.spring_damping / truth.spring_damping - 1)[moving]) < 0.01
+    assert np.median(np.abs(fitted.springs.stiffness / truth.springs.stiffness - 1)[moving]) < 0.01
+    assert np.median(np.abs(fitted.springs.damping / truth.springs.damping - 1)[moving]) < 0.01
 
 
 @pytest.mark.parametrize("method", ["lm", "lbfgs"])

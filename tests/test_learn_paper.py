@@ -13,8 +13,8 @@ def test_tied_constants_are_recovered_within_a_tenth_of_a_percent(cube_experimen
                              tie="global")
     learner = PaperLearner(learning_rate=0.1, cycles=100).fit(start, cube_experiment)
     fitted = learner.model_
-    assert np.allclose(fitted.spring_stiffness, CUBE["stiffness"], rtol=1e-3)
-    assert np.allclose(fitted.spring_damping, CUBE["damping"], rtol=1e-3)
+    assert np.allclose(fitted.springs.stiffness, CUBE["stiffness"], rtol=1e-3)
+    assert np.allclose(fitted.springs.damping, CUBE["damping"], rtol=1e-3)
     assert np.array_equal(fitted.node_mass, start.node_mass)         # masses stay fixed
     assert learner.history_.shape == (100,)
     assert learner.history_[-1] < 1e-4 * learner.history_[0]
@@ -27,12 +27,12 @@ def test_error_history_is_the_papers_E_with_teacher_forcing(cube_experiment):
     learner.fit(start, cube_experiment)
     # with η = 0 nothing changes, so both cycles see the same error
     assert learner.history_[0] == pytest.approx(learner.history_[1])
-    assert np.array_equal(learner.model_.spring_stiffness, start.spring_stiffness)
+    assert np.array_equal(learner.model_.springs.stiffness, start.springs.stiffness)
     # without teacher forcing, E (eq. 2.2) is half the summed squared free-run error
     free = PaperLearner(learning_rate=0.0, cycles=1, teacher_forcing_limit=10_000)
     energy = free.fit(start, cube_experiment).history_[0]
     count = (cube_experiment.n_frames - 1) * int(cube_experiment.tracked().sum())
-    length_unit = np.mean(start.spring_rest_length)          # the network's length unit
+    length_unit = np.mean(start.springs.rest_length)          # the network's length unit
     expected = 0.5 * count * (rms_error(start, cube_experiment) / length_unit) ** 2
     assert energy == pytest.approx(expected, rel=1e-9)
     assert learner.history_[0] != pytest.approx(energy, rel=1e-3)   # forcing changes E
@@ -41,14 +41,14 @@ def test_error_history_is_the_papers_E_with_teacher_forcing(cube_experiment):
 def test_learning_masses_improves_the_fit_and_keeps_parameters_positive(cube_experiment):
     rng = np.random.default_rng(3)
     truth = paper_cube_model()
-    start = truth.replace(spring_stiffness=truth.spring_stiffness * rng.uniform(0.5, 2, 86),
-                          spring_damping=truth.spring_damping * rng.uniform(0.5, 2, 86),
-                          node_mass=truth.node_mass * rng.uniform(0.7, 1.4, 27))
+    start = truth.with_springs(stiffness=truth.springs.stiffness * rng.uniform(0.5, 2, 86),
+                               damping=truth.springs.damping * rng.uniform(0.5, 2, 86)
+                               ).replace(node_mass=truth.node_mass * rng.uniform(0.7, 1.4, 27))
     learner = PaperLearner(learning_rate=0.01, mass_learning_rate=0.1, learn_masses=True,
                            cycles=30).fit(start, cube_experiment)
     fitted = learner.model_
     assert learner.rms_error_ < 0.5 * learner.rms_error_initial_
-    assert np.all(fitted.spring_stiffness > 0) and np.all(fitted.spring_damping > 0)
+    assert np.all(fitted.springs.stiffness > 0) and np.all(fitted.springs.damping > 0)
     assert np.all(fitted.node_mass > 0)
     assert not np.array_equal(fitted.node_mass, start.node_mass)
     assert np.array_equal(fitted.node_mass[truth.mesh.fixed], start.node_mass[truth.mesh.fixed])
@@ -65,7 +65,7 @@ def test_unobserved_inner_node_eq_3_22():
     start = paper_cube_model(stiffness=1.3 * CUBE["stiffness"], damping=1.3 * CUBE["damping"],
                              tie="global")
     learner = PaperLearner(learning_rate=0.1, cycles=60).fit(start, data)
-    assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=5e-3)
+    assert learner.model_.springs.stiffness[0] == pytest.approx(CUBE["stiffness"], rel=5e-3)
     assert learner.rms_error_ < 0.01 * learner.rms_error_initial_
 
 
@@ -84,7 +84,7 @@ def test_bad_options_and_mismatched_data(cube_experiment):
     with pytest.raises(InputError, match="teacher_forcing_limit"):
         PaperLearner(teacher_forcing_limit=0).fit(paper_cube_model(), cube_experiment)
     from neurofuzzy.mesh import lattice
-    from neurofuzzy.model import SpringMassModel
-    other = SpringMassModel.uniform(lattice((2, 2, 2)), stiffness=1.0, damping=1.0, node_mass=1.0)
+    from neurofuzzy.model import Model
+    other = Model.uniform(lattice((2, 2, 2)), stiffness=1.0, damping=1.0, node_mass=1.0)
     with pytest.raises(InputError, match="has 27 nodes; the model has 8"):
         PaperLearner(cycles=1).fit(other, cube_experiment)

@@ -88,12 +88,12 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     from neurofuzzy.learn.steps import auto_substeps
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.mesh import from_tetra
-    from neurofuzzy.model import SpringMassModel
+    from neurofuzzy.model import Model
 
     mesh = from_tetra(*kuhn_block((3, 3, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
 
     def model(modulus, ratio, viscosity):
-        return SpringMassModel.continuum(mesh, youngs_modulus=modulus, poisson_ratio=ratio,
+        return Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=ratio,
                                          viscosity=viscosity, density=1050.0)
 
     truth = model(6000.0, 0.45, 2.0)
@@ -107,9 +107,10 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
         monkeypatch.setattr(gradient, "SPECULATE_COST", cost)
         fits[cost] = GradientLearner(substeps=steps).fit(model(4000.0, 0.4, 3.0), data)
     apart, together = fits[0], fits[gradient.SPECULATE_COST]
-    assert together.model_.element_youngs_modulus[0] == pytest.approx(6000.0, rel=1e-6)
-    for name in ("element_youngs_modulus", "element_poisson_ratio", "element_viscosity"):
-        assert np.allclose(getattr(apart.model_, name), getattr(together.model_, name),
+    assert together.model_.elements.youngs_modulus[0] == pytest.approx(6000.0, rel=1e-6)
+    for name in ("youngs_modulus", "poisson_ratio", "viscosity"):
+        assert np.allclose(getattr(apart.model_.elements, name),
+                           getattr(together.model_.elements, name),
                            rtol=1e-12, atol=0)
     assert np.allclose(apart.std_errors_, together.std_errors_, rtol=1e-9)
     assert apart.rms_error_ == pytest.approx(together.rms_error_, rel=1e-12)

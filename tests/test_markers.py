@@ -335,8 +335,8 @@ def test_import_then_fit_recovers_the_cube(files, tmp_path, capsys, force_file, 
     assert experiment.markers.n_markers == 26 and experiment.node_mass is not None
     start = paper_cube_model(stiffness=70.0, damping=0.03, tie="global")
     learner = GradientLearner(substeps=1).fit(start, experiment)
-    assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-5)
-    assert learner.model_.spring_damping[0] == pytest.approx(CUBE["damping"], rel=1e-4)
+    assert learner.model_.springs.stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-5)
+    assert learner.model_.springs.damping[0] == pytest.approx(CUBE["damping"], rel=1e-4)
 
 
 @pytest.mark.parametrize("problem, message", [

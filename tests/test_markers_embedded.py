@@ -12,7 +12,7 @@ from neurofuzzy.experiment import rms_error, simulate_experiment
 from neurofuzzy.io import load_experiment, save_experiment
 from neurofuzzy.markers import MarkerData, markers_to_experiment
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.observation import embed_points
 from neurofuzzy.simulation import stability_limit
 
@@ -25,7 +25,7 @@ def element_block(shape=(1, 1, 2)):
     inner = np.all((points > 0) & (points < np.array(shape) * 0.01), axis=1)
     points[inner] += rng.uniform(-0.002, 0.002, (inner.sum(), 3))
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    return SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=ETA,
+    return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=ETA,
                                      density=RHO)
 
 
@@ -126,8 +126,8 @@ def test_gradients_through_embedded_markers_are_exact():
     nodes, weights = interior_points(truth.mesh, 8, seed=3)
     experiment = markers_to_experiment(as_recording(nodes, weights, data, noise=1e-6),
                                        truth.mesh, forces=data.forces_per_frame()).experiment
-    start = truth.replace(element_youngs_modulus=np.full(truth.mesh.n_tetrahedra, 1.3 * E),
-                          element_poisson_ratio=np.full(truth.mesh.n_tetrahedra, 0.35))
+    start = truth.with_elements(youngs_modulus=np.full(truth.mesh.n_tetrahedra, 1.3 * E),
+                                poisson_ratio=np.full(truth.mesh.n_tetrahedra, 0.35))
     parameters = Parameterization(start)
     sensitivity = Sensitivity(parameters, 0.01)
     _, _, run = assert_gradient_exact(sensitivity, parameters.initial(), experiment, steps)
@@ -142,12 +142,12 @@ def test_the_learner_recovers_the_material_from_markers_between_nodes():
     nodes, weights = interior_points(truth.mesh, 10, seed=4)
     experiment = markers_to_experiment(as_recording(nodes, weights, data), truth.mesh,
                                        forces=data.forces_per_frame()).experiment
-    start = SpringMassModel.continuum(truth.mesh, youngs_modulus=3000.0, poisson_ratio=0.3,
+    start = Model.continuum(truth.mesh, youngs_modulus=3000.0, poisson_ratio=0.3,
                                       viscosity=40.0, density=RHO)
     fitted = GradientLearner(substeps=steps).fit(start, experiment).model_
-    assert fitted.element_youngs_modulus == pytest.approx(E, rel=1e-5)
-    assert fitted.element_poisson_ratio == pytest.approx(NU, rel=1e-5)
-    assert fitted.element_viscosity == pytest.approx(ETA, rel=1e-4)
+    assert fitted.elements.youngs_modulus == pytest.approx(E, rel=1e-5)
+    assert fitted.elements.poisson_ratio == pytest.approx(NU, rel=1e-5)
+    assert fitted.elements.viscosity == pytest.approx(ETA, rel=1e-4)
 
 
 def test_no_frame_zero_bias_and_offsets_only_for_markers_outside():

@@ -14,7 +14,7 @@ from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_model, save_model
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.validation.nonlinear import NeoHookean, Yeoh, uniaxial_stress
 
 E, NU = 6000.0, 0.45
@@ -22,7 +22,7 @@ E, NU = 6000.0, 0.45
 
 def _block(law, volumetric="nodal", cells=(2, 2, 2)):
     mesh = from_tetra(*kuhn_block(cells, 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    return SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
+    return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
                                      density=1000.0, volumetric=volumetric, law=law)
 
 
@@ -42,7 +42,7 @@ def test_a_block_carries_the_closed_form_uniaxial_stress_of_its_law(law, volumet
     compression."""
     closed = uniaxial_stress(CLOSED_FORMS[law], stretch)
     F = np.diag([float(closed.lateral_stretch)] * 2 + [stretch])       # axial along z
-    model = _block(law, volumetric).replace(element_stiffening=1.5)
+    model = _block(law, volumetric).with_elements(stiffening=1.5)
     rest = model.mesh.rest_positions
     force = model.elements.force(model, rest @ F.T, np.zeros_like(rest))
     side = 0.02
@@ -88,15 +88,15 @@ def test_model_files_keep_the_law_and_old_files_read_as_svk(tmp_path):
     uniform = _block("neo-hookean")
     path = save_model(uniform, tmp_path / "nh.yaml")
     assert yaml.safe_load(path.read_text())["elements"]["law"] == "neo-hookean"
-    assert set(load_model(path).element_law) == {1}
-    mixed = uniform.replace(element_law=np.arange(uniform.mesh.n_tetrahedra) % 2)
+    assert set(load_model(path).elements.law) == {1}
+    mixed = uniform.with_elements(law=np.arange(uniform.mesh.n_tetrahedra) % 2)
     loaded = load_model(save_model(mixed, tmp_path / "mixed.yaml"))
-    assert np.array_equal(loaded.element_law, mixed.element_law)
+    assert np.array_equal(loaded.elements.law, mixed.elements.law)
     assert "neo-hookean (24 elements), st-venant-kirchhoff" in loaded.summary() or \
         "st-venant-kirchhoff (24 elements), neo-hookean (24 elements)" in loaded.summary()
     svk = save_model(_block("st-venant-kirchhoff"), tmp_path / "svk.yaml")
     assert "law" not in yaml.safe_load(svk.read_text())["elements"]      # as before laws
-    assert set(load_model(svk).element_law) == {0}
+    assert set(load_model(svk).elements.law) == {0}
 
 
 def test_a_misspelt_law_in_a_model_file_is_named_with_the_closest(tmp_path):
@@ -120,17 +120,17 @@ def test_fit_with_a_law_and_refusals(tmp_path):
     from neurofuzzy.io import save_experiment
 
     save_experiment(data, data_path)
-    start = save_model(truth.replace(element_youngs_modulus=np.full(truth.mesh.n_tetrahedra,
+    start = save_model(truth.with_elements(youngs_modulus=np.full(truth.mesh.n_tetrahedra,
                                                                     4000.0),
-                                     element_law=0), tmp_path / "start.yaml")
+                                           law=0), tmp_path / "start.yaml")
     result = cli("fit", data_path, "--start", start, "--law", "neo-hookean", "--tie", "global",
                  "--out", tmp_path / "fitted.yaml", "--quiet", "--json")
     assert result.returncode == 0, result.stderr
     assert json.loads(result.stdout)["material_law"] == "neo-hookean"
     fitted = load_model(tmp_path / "fitted.yaml")
-    assert set(fitted.element_law) == {1}
-    assert fitted.element_youngs_modulus[0] == pytest.approx(E, rel=1e-3)
-    springs = save_model(SpringMassModel.uniform(truth.mesh, stiffness=10.0, damping=0.01,
+    assert set(fitted.elements.law) == {1}
+    assert fitted.elements.youngs_modulus[0] == pytest.approx(E, rel=1e-3)
+    springs = save_model(Model.uniform(truth.mesh, stiffness=10.0, damping=0.01,
                                                  total_mass=0.01), tmp_path / "springs.yaml")
     result = cli("fit", data_path, "--start", springs, "--law", "neo-hookean",
                  "--out", tmp_path / "no.yaml")
@@ -147,7 +147,7 @@ def test_the_mesh_command_writes_the_law_and_refuses_it_for_springs(tmp_path):
     result = cli(*common, "--law", "neo-hookean", "--out", tmp_path / "nh.yaml")
     assert result.returncode == 0, result.stderr
     assert "material law: neo-hookean" in result.stdout
-    assert set(load_model(tmp_path / "nh.yaml").element_law) == {1}
+    assert set(load_model(tmp_path / "nh.yaml").elements.law) == {1}
     result = cli(*common, "--elements", "springs", "--law", "neo-hookean",
                  "--out", tmp_path / "springs.yaml")
     assert result.returncode == 2 and "--law" in result.stderr
@@ -171,5 +171,5 @@ def test_the_uniaxial_curves_and_the_report_section():
     assert abs(svk[1]) < abs(closed[0]) / 2                    # far softer at 35 %
     title, text = law_section(pyplot(), _block("neo-hookean"))
     assert title == "Material law" and "neo-hookean" in text and "<img" in text
-    assert law_section(pyplot(), SpringMassModel.uniform(
+    assert law_section(pyplot(), Model.uniform(
         _block("neo-hookean").mesh, stiffness=1.0, damping=0.0, total_mass=1.0)) is None

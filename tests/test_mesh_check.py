@@ -17,7 +17,7 @@ from neurofuzzy.learn.mesh_check import refine_experiment, refine_model
 from neurofuzzy.markers import markers_to_experiment
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.mesh.refine import refine
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.simulation import simulate
 
 
@@ -38,14 +38,14 @@ def test_refinement_splits_every_tetrahedron_into_eight_of_the_same_volume():
 
 def test_a_refined_model_keeps_mass_materials_regions_and_markers():
     model = element_block((2, 2, 2))
-    model = model.replace(element_youngs_modulus=np.linspace(5e3, 7e3, model.mesh.n_tetrahedra),
-                          element_law=np.arange(model.mesh.n_tetrahedra) % 2)
+    model = model.with_elements(youngs_modulus=np.linspace(5e3, 7e3, model.mesh.n_tetrahedra),
+                                law=np.arange(model.mesh.n_tetrahedra) % 2)
     fine, refinement = refine_model(model)
-    assert np.array_equal(fine.element_law, model.element_law[refinement.parent])
+    assert np.array_equal(fine.elements.law, model.elements.law[refinement.parent])
     assert fine.node_mass.sum() == pytest.approx(model.node_mass.sum(), rel=1e-12)
-    assert np.array_equal(fine.element_youngs_modulus,
-                          model.element_youngs_modulus[refinement.parent])
-    assert fine.n_element_ties == model.n_element_ties
+    assert np.array_equal(fine.elements.youngs_modulus,
+                          model.elements.youngs_modulus[refinement.parent])
+    assert fine.elements.n_ties == model.elements.n_ties
     data, _ = record(model, frames=10)
     nodes, weights = interior_points(model.mesh, 6, seed=2)
     experiment = markers_to_experiment(as_recording(nodes, weights, data), model.mesh,
@@ -66,7 +66,7 @@ def test_refinement_converges_towards_scikit_fems_quadratic_elements():
     scikit-fem's quadratic tetrahedra than the coarse one (code nobody here wrote)."""
     points, tetrahedra = kuhn_block((2, 2, 2), 0.01)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    coarse = SpringMassModel.continuum(mesh, youngs_modulus=60000.0, poisson_ratio=0.3,
+    coarse = Model.continuum(mesh, youngs_modulus=60000.0, poisson_ratio=0.3,
                                        viscosity=2.0, density=1000.0, volumetric="element")
     solver = ContinuumSolver(points, tetrahedra, youngs_modulus=60000.0, poisson_ratio=0.3,
                              viscosity=2.0, density=1000.0, fixed=lambda x: x[2] < 1e-9)

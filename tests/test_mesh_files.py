@@ -11,7 +11,8 @@ from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_experiment, load_model, save_experiment, save_model
 from neurofuzzy.mesh import from_surface_tetra, from_tetra, from_trimesh, lattice
 from neurofuzzy.mesh import MeshFile, read_mesh
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.forces import Springs
+from neurofuzzy.model import Model
 
 
 def _kuhn_block(shape):
@@ -203,9 +204,9 @@ def _tet_model():
     mesh = from_tetra(points * 0.01, tetrahedra, cell_region=region).with_fixed(
         where=lambda p: p[:, 2] == 0)
     rng = np.random.default_rng(3)
-    return SpringMassModel(mesh, node_mass=rng.uniform(1e-3, 2e-3, mesh.n_nodes) / 3,
-                           spring_stiffness=rng.uniform(50, 100, mesh.n_springs) / 7,
-                           spring_damping=np.full(mesh.n_springs, 0.01)).tied("groups")
+    return Model(mesh, rng.uniform(1e-3, 2e-3, mesh.n_nodes) / 3,
+                 (Springs(stiffness=rng.uniform(50, 100, mesh.n_springs) / 7,
+                          damping=np.full(mesh.n_springs, 0.01)),)).tied("groups")
 
 
 def test_tetrahedra_survive_model_files_exactly(tmp_path):
@@ -213,9 +214,9 @@ def test_tetrahedra_survive_model_files_exactly(tmp_path):
     loaded = load_model(save_model(model, tmp_path / "tet.yaml"))
     assert np.array_equal(loaded.mesh.tetrahedra, model.mesh.tetrahedra)
     assert loaded.mesh.group_names == model.mesh.group_names
-    assert np.array_equal(loaded.spring_stiffness, model.spring_stiffness)
-    lattice_model = SpringMassModel(lattice((2, 2, 2)), node_mass=np.ones(8),
-                                    spring_stiffness=np.ones(16), spring_damping=np.zeros(16))
+    assert np.array_equal(loaded.springs.stiffness, model.springs.stiffness)
+    lattice_model = Model(lattice((2, 2, 2)), np.ones(8),
+                          (Springs(stiffness=np.ones(16), damping=np.zeros(16)),))
     path = save_model(lattice_model, tmp_path / "lattice.yaml")
     assert "tetrahedra" not in path.read_text() and load_model(path).mesh.tetrahedra is None
     text = (tmp_path / "tet.yaml").read_text()
@@ -233,8 +234,8 @@ def test_tetrahedra_survive_experiment_files(tmp_path):
     loaded = load_experiment(path)
     assert np.array_equal(loaded.mesh.tetrahedra, model.mesh.tetrahedra)
     assert load_experiment(save_experiment(simulate_experiment(
-        SpringMassModel(lattice((2, 2, 2)), node_mass=np.ones(8), spring_stiffness=np.ones(16),
-                        spring_damping=np.zeros(16)), dt=1e-3, n_frames=3),
+        Model(lattice((2, 2, 2)), np.ones(8),
+              (Springs(stiffness=np.ones(16), damping=np.zeros(16)),)), dt=1e-3, n_frames=3),
         tmp_path / "lattice.npz")).mesh.tetrahedra is None
     with np.load(path) as archive:
         arrays = dict(archive)
@@ -263,14 +264,14 @@ def test_mesh_command_gives_gmsh_regions_their_tissues(tmp_path, capsys):
                  "--out", str(out)]) == 0
     model = load_model(out)
     names = np.asarray(model.mesh.group_names)[model.mesh.spring_group]
-    soft = np.median(model.spring_stiffness[names == "soft"] / model.mesh.rest_lengths[
+    soft = np.median(model.springs.stiffness[names == "soft"] / model.mesh.rest_lengths[
         names == "soft"])
-    hard = np.median(model.spring_stiffness[names == "hard"] / model.mesh.rest_lengths[
+    hard = np.median(model.springs.stiffness[names == "hard"] / model.mesh.rest_lengths[
         names == "hard"])
     assert hard > 5 * soft                     # tumour ("stony") vs liver ("firm")
     assert len(model.mesh.fixed) == 5 * 3 and model.mesh.tetrahedra is not None
     # the regions are tied separately
-    assert len(np.unique(model.spring_tie[names == "soft"])) < len(np.unique(model.spring_tie))
+    assert len(np.unique(model.springs.tie[names == "soft"])) < len(np.unique(model.springs.tie))
     assert main(["mesh", str(path), "--rules", "liver", "--region", "sfot=liver",
                  "--out", str(tmp_path / "x.yaml")]) == 2
     assert "no region 'sfot'" in capsys.readouterr().err

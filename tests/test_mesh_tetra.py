@@ -158,8 +158,8 @@ def test_mesh_command_builds_elements_on_a_voxelised_surface(tmp_path):
 
     model = load_model(tmp_path / "box.yaml")
     cells = int(lattice_cells(read_mesh(tmp_path / "box.stl", pitch=0.01).mesh).cells.sum())
-    assert model.has_elements and model.mesh.n_tetrahedra == 6 * cells
-    assert np.all(model.spring_stiffness == 0) and len(model.mesh.fixed) > 0
+    assert model.elements is not None and model.mesh.n_tetrahedra == 6 * cells
+    assert model.springs is None and len(model.mesh.fixed) > 0
 
 
 def test_voxel_elements_take_the_surface_true_size(tmp_path):

@@ -47,10 +47,10 @@ def test_gradient_learner_fits_the_cube_from_its_26_surface_nodes(cube_experimen
                              tie="groups")
     learner = GradientLearner().fit(start, data)
     fitted = learner.model_
-    for values in (fitted.group_values(fitted.spring_stiffness),):
+    for values in (fitted.group_values(fitted.springs.stiffness),):
         assert values["edge"] == pytest.approx(CUBE["stiffness"], rel=1e-6)
         assert values["diagonal"] == pytest.approx(CUBE["stiffness"], rel=1e-6)
-    damping = fitted.group_values(fitted.spring_damping)
+    damping = fitted.group_values(fitted.springs.damping)
     assert damping["edge"] == pytest.approx(CUBE["damping"], rel=1e-6)
     # windows need every free node measured: the surface-only fit runs on the whole trajectory
     assert learner.rms_error_ < 1e-9 * CUBE["edge_length"]
@@ -61,7 +61,7 @@ def test_paper_learner_fits_the_cube_from_its_surface_with_gaps(cube_experiment)
     start = paper_cube_model(stiffness=1.3 * CUBE["stiffness"], damping=1.3 * CUBE["damping"],
                              tie="global")
     learner = PaperLearner(learning_rate=0.1, cycles=60).fit(start, data)
-    assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=5e-3)
+    assert learner.model_.springs.stiffness[0] == pytest.approx(CUBE["stiffness"], rel=5e-3)
     assert learner.rms_error_ < 0.01 * learner.rms_error_initial_
 
 
@@ -72,7 +72,7 @@ def test_gaps_carry_no_residual_and_are_not_interpolated(cube_model, cube_experi
     # the true model explains every measured value exactly: the gaps add nothing
     assert rms_error(cube_model, data) < 1e-15
     # the same RMS as the complete data at a wrong model, over the measured values only
-    wrong = cube_model.replace(spring_stiffness=1.2 * cube_model.spring_stiffness)
+    wrong = cube_model.with_springs(stiffness=1.2 * cube_model.springs.stiffness)
     simulated = simulate(wrong, dt=data.dt, n_frames=data.n_frames,
                          external_forces=data.external_forces).positions
     diff = (simulated - cube_experiment.positions)[1:][seen[1:]]
@@ -104,8 +104,8 @@ def test_gradient_learner_with_gaps_recovers_the_constants(cube_experiment):
     data = _with_gaps(cube_experiment, 0.1)
     start = paper_cube_model(stiffness=65.0, damping=0.03, tie="global")
     learner = GradientLearner().fit(start, data)
-    assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-6)
-    assert learner.model_.spring_damping[0] == pytest.approx(CUBE["damping"], rel=1e-6)
+    assert learner.model_.springs.stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-6)
+    assert learner.model_.springs.damping[0] == pytest.approx(CUBE["damping"], rel=1e-6)
 
 
 @pytest.mark.slow
@@ -147,5 +147,5 @@ def test_without_complete_data_the_stages_fit_growing_beginnings(cube_experiment
     assert "1/5 first 25 frames" in err and "5/5 window 251 frames" in err
     whole = GradientLearner(windows=()).fit(start, data)
     for learner in (staged, whole):
-        assert learner.model_.spring_stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-9)
-        assert learner.model_.spring_damping[0] == pytest.approx(CUBE["damping"], rel=1e-9)
+        assert learner.model_.springs.stiffness[0] == pytest.approx(CUBE["stiffness"], rel=1e-9)
+        assert learner.model_.springs.damping[0] == pytest.approx(CUBE["damping"], rel=1e-9)

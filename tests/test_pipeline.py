@@ -31,7 +31,7 @@ def soft_start(tmp_path, short):
 def test_a_fit_returns_the_checked_outcome_and_the_summary_of_the_command(short, tmp_path):
     outcome = nf.fit(short, tie="global", names=["cube.npz"])
     assert isinstance(outcome, nf.FitOutcome)
-    assert np.allclose(outcome.model.spring_stiffness, CUBE["stiffness"], rtol=1e-3)
+    assert np.allclose(outcome.model.springs.stiffness, CUBE["stiffness"], rtol=1e-3)
     assert outcome.summary["tie"] == "global" and outcome.summary["experiments"] == ["cube.npz"]
     assert outcome.summary["start"]["how"] == outcome.start.how
     assert outcome.record["lack_of_fit"] == outcome.lack_of_fit.to_dict()
@@ -75,7 +75,7 @@ def test_a_failed_fit_says_its_rms_per_marker_in_metres(short, final):
 
 def test_the_paper_method_fits_the_spring_network(short):
     outcome = nf.fit(short, tie="global", method="paper", cycles=2)
-    assert not outcome.model.has_elements and outcome.summary["method"] == "paper"
+    assert outcome.model.elements is None and outcome.summary["method"] == "paper"
 
 
 def test_a_path_or_an_experiment_is_taken_and_anything_else_refused():

@@ -16,7 +16,7 @@ from neurofuzzy.learn.prior import FuzzyPrior, parse_prior
 from neurofuzzy.noise import noise_level
 from neurofuzzy.learn.regions import describe_regions, regions_found
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.rules import resolve
 from neurofuzzy.tissues import initialize
 
@@ -31,7 +31,7 @@ def block(shape=(2, 2, 1), cell=0.01):
 
 
 def continuum(mesh, modulus=FIRM, tissue="liver"):
-    model = SpringMassModel.continuum(mesh, youngs_modulus=modulus, poisson_ratio=0.45,
+    model = Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=0.45,
                                       viscosity=2.0, density=1050.0)
     return model.replace(region_tissues=(tissue,))
 
@@ -138,7 +138,7 @@ def test_a_whole_tissue_unlike_its_description_is_said_so():
     """Liver is described nearly incompressible; tissue at ν = 0.3 everywhere is one region
     found, all of the object, and the words say so rather than naming a place."""
     mesh = block((3, 3, 1))
-    model = SpringMassModel.continuum(mesh, youngs_modulus=FIRM, poisson_ratio=0.3,
+    model = Model.continuum(mesh, youngs_modulus=FIRM, poisson_ratio=0.3,
                                       viscosity=2.0, density=1050.0)
     model = model.replace(region_tissues=("liver",))
     found = regions_found(model, FuzzyPrior(RULES, model))
@@ -155,9 +155,9 @@ def test_regions_found_on_springs():
     model = initialize(RULES, mesh, "liver", elements=False)
     middle = mesh.rest_positions[mesh.springs].mean(axis=1)
     soft = np.flatnonzero(np.linalg.norm(middle - [0.015, 0.015, 0.02], axis=1) < 0.008)
-    stiffness = model.spring_stiffness.copy()
+    stiffness = model.springs.stiffness.copy()
     stiffness[soft] /= 4.0
-    found = regions_found(model.replace(spring_stiffness=stiffness), FuzzyPrior(RULES, model))
+    found = regions_found(model.with_springs(stiffness=stiffness), FuzzyPrior(RULES, model))
     assert [r["label"] for r in found["regions"]] == ["soft"]
     assert set(found["regions"][0]["springs"]) == set(soft.tolist())
 
@@ -172,8 +172,8 @@ def test_tied_fit_with_good_data_is_unchanged_by_the_prior():
     with_prior = GradientLearner(substeps=substeps, prior=prior).fit(start, data)
     assert with_prior.prior_["how"] == "discrepancy principle"
     assert with_prior.prior_["noise"] == pytest.approx(5e-6, rel=0.15)
-    found = with_prior.model_.element_youngs_modulus[0]
-    expected = plain.model_.element_youngs_modulus[0]
+    found = with_prior.model_.elements.youngs_modulus[0]
+    expected = plain.model_.elements.youngs_modulus[0]
     error = plain.std_errors_[plain.parameter_names_.index("youngs_modulus[all elements]")]
     assert abs(np.log(found / expected)) < 2 * error
     assert found == pytest.approx(6000.0, rel=0.02)
@@ -188,7 +188,7 @@ def test_both_gradient_paths_minimise_the_same_objective():
     fits = [GradientLearner(substeps=substeps, method=method, max_iterations=300,
                             prior=FuzzyPrior(RULES, start, weight=1e4)).fit(start, data)
             for method in ("lm", "lbfgs")]
-    values = [fit.model_.element_youngs_modulus[0] for fit in fits]
+    values = [fit.model_.elements.youngs_modulus[0] for fit in fits]
     assert values[0] == pytest.approx(values[1], rel=2e-3)
     # the strong prior pulls E from the data's 6 kPa towards the description's 5.1 kPa
     assert 5100 < values[0] < 5950
@@ -219,7 +219,7 @@ def test_lbfgs_weight_search_brackets_the_noise_level(crossing):
 
 def test_lbfgs_fit_with_the_prior_chooses_its_weight_from_the_data():
     truth = initialize(RULES, block(), "liver", elements=False)
-    truth = truth.replace(spring_stiffness=1.3 * truth.spring_stiffness)
+    truth = truth.with_springs(stiffness=1.3 * truth.springs.stiffness)
     data, substeps = load_cases(truth, noise=1e-5, directions=((0, 0, -1.0), (1.0, 0, 0)))
     start = initialize(RULES, block(), "liver", elements=False).tied("none")
     learner = GradientLearner(substeps=substeps, windows=(), method="lbfgs",

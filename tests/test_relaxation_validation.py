@@ -41,17 +41,17 @@ def test_a_prony_term_recovers_the_relaxation_where_kelvin_voigt_buys_stiffness(
     coarse = block_model(pitch=0.0075).tied("global")
     plain = GradientLearner(substeps="auto").fit(coarse, block_experiment(recording,
                                                                           coarse.mesh))
-    assert plain.model_.element_youngs_modulus[0] > 1.3 * truth["youngs_modulus"]
-    assert plain.model_.element_viscosity[0] > 1.5 * truth["viscosity"]
-    start = block_model(pitch=0.005).tied("global").replace(
-        element_relaxation_moduli=[0.5], element_relaxation_times=[0.06])
+    assert plain.model_.elements.youngs_modulus[0] > 1.3 * truth["youngs_modulus"]
+    assert plain.model_.elements.viscosity[0] > 1.5 * truth["viscosity"]
+    start = block_model(pitch=0.005).tied("global").with_elements(
+        relaxation_moduli=[0.5], relaxation_times=[0.06])
     fitted = GradientLearner(substeps="auto").fit(start, block_experiment(recording,
                                                                           start.mesh))
     model = fitted.model_
-    assert model.element_youngs_modulus[0] == pytest.approx(truth["youngs_modulus"], rel=0.06)
-    assert abs(model.element_poisson_ratio[0] - truth["poisson_ratio"]) < 0.03
-    assert model.element_relaxation_moduli[0, 0] == pytest.approx(0.5, abs=0.06)
-    assert model.element_relaxation_times[0, 0] == pytest.approx(0.05, rel=0.15)
+    assert model.elements.youngs_modulus[0] == pytest.approx(truth["youngs_modulus"], rel=0.06)
+    assert abs(model.elements.poisson_ratio[0] - truth["poisson_ratio"]) < 0.03
+    assert model.elements.relaxation_moduli[0, 0] == pytest.approx(0.5, abs=0.06)
+    assert model.elements.relaxation_times[0, 0] == pytest.approx(0.05, rel=0.15)
     assert fitted.lack_of_fit_.ratio < 1.1 < plain.lack_of_fit_.ratio
 
 
@@ -65,7 +65,7 @@ def test_the_diagnosis_names_relaxation_and_the_gap_shrinks(recording):
     assert result.names == ["relaxation"]
     assert result.model_.n_relaxation_terms == 1 and not result.model_.effects
     assert result.rms_after < result.rms_before
-    g, tau = (float(result.model_.element_relaxation_moduli[0, 0]),
-              float(result.model_.element_relaxation_times[0, 0]))
+    g, tau = (float(result.model_.elements.relaxation_moduli[0, 0]),
+              float(result.model_.elements.relaxation_times[0, 0]))
     assert 0.3 < g < 0.7 and 0.035 < tau < 0.07
     assert np.isfinite(result.rms_after)

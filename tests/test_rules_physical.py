@@ -221,7 +221,7 @@ def test_regions_of_a_tetrahedral_mesh_file_get_their_tissues(tmp_path):
     model = initialize(rules, read.mesh, regions=regions, elements=False)
     soft, firm = (rules.tissue(t)["youngs_modulus"] for t in ("soft_tissue", "firm_tissue"))
     assert firm > 2 * soft
-    modulus = model.spring_stiffness / tetra_geometry(read.mesh).spring_factor
+    modulus = model.springs.stiffness / tetra_geometry(read.mesh).spring_factor
     x = read.mesh.rest_positions[:, 0][read.mesh.springs]
     core, shell = np.all(x < 0.02 + 1e-9, axis=1), np.all(x > 0.02 + 1e-9, axis=1)
     assert np.allclose(modulus[core], soft) and np.allclose(modulus[shell], firm)
@@ -250,7 +250,7 @@ def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
                                elements=False)
     soft, firm = (rules.tissue(t)["youngs_modulus"] for t in ("soft_tissue", "firm_tissue"))
     geometry = tetra_geometry(mesh)
-    modulus = model.spring_stiffness / geometry.spring_factor
+    modulus = model.springs.stiffness / geometry.spring_factor
     group = np.asarray(mesh.group_names)[mesh.spring_group]
     assert np.allclose(modulus[group == "core"], soft)
     assert np.allclose(modulus[group == "shell"], firm)
@@ -265,7 +265,7 @@ def test_tetrahedron_regions_are_exact_at_the_interface(tmp_path):
             spring = np.flatnonzero(np.all(np.sort(mesh.springs, axis=1)
                                            == sorted((tet[i], tet[j])), axis=1))
             expected[spring] += E
-    assert np.allclose(model.spring_stiffness, expected / mesh.rest_lengths**2, rtol=1e-12)
+    assert np.allclose(model.springs.stiffness, expected / mesh.rest_lengths**2, rtol=1e-12)
     density = rules.tissue("soft_tissue")["density"]
     assert model.node_mass.sum() == pytest.approx(density * 0.04 * 0.02 * 0.02, rel=1e-9)
     from neurofuzzy.errors import InputError

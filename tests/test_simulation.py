@@ -3,14 +3,14 @@ import pytest
 
 from neurofuzzy.errors import InputError, UnstableTimeStepError
 from neurofuzzy.mesh import Mesh, lattice
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.forces import Springs
+from neurofuzzy.model import Model
 from neurofuzzy.simulation import simulate, stability_limit, step, internal_forces
 
 
 def one_spring(stiffness=50.0, damping=0.0, mass=2.0):
     mesh = Mesh(np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([[0, 1]])).with_fixed([0])
-    return SpringMassModel(mesh, node_mass=[1.0, mass], spring_stiffness=[stiffness],
-                           spring_damping=[damping])
+    return Model(mesh, [1.0, mass], (Springs(stiffness=[stiffness], damping=[damping]),))
 
 
 def upward_crossings(x):
@@ -48,8 +48,7 @@ def test_hanging_chain_settles_at_the_static_displacement():
     rest = np.zeros((n + 1, 3))
     rest[:, 2] = -np.arange(n + 1) * 0.1
     mesh = Mesh(rest, np.stack([np.arange(n), np.arange(1, n + 1)], axis=1)).with_fixed([0])
-    model = SpringMassModel(mesh, node_mass=0.01, spring_stiffness=stiffness,
-                            spring_damping=2.0)
+    model = Model(mesh, 0.01, (Springs(stiffness=stiffness, damping=2.0),))
     forces = np.zeros((n + 1, 3))
     forces[1:, 2] = -load                                 # the same load on every hanging node
     run = simulate(model, dt=0.001, n_frames=6000, external_forces=forces, substeps="auto")
@@ -63,9 +62,9 @@ def test_hanging_chain_settles_at_the_static_displacement():
 
 def test_momentum_is_conserved_without_external_forces(rng):
     mesh = lattice((3, 3, 2), 0.1)
-    model = SpringMassModel(mesh, node_mass=rng.uniform(0.5, 2.0, mesh.n_nodes),
-                            spring_stiffness=rng.uniform(10, 30, mesh.n_springs),
-                            spring_damping=rng.uniform(0.0, 0.1, mesh.n_springs))
+    model = Model(mesh, rng.uniform(0.5, 2.0, mesh.n_nodes),
+                  (Springs(stiffness=rng.uniform(10, 30, mesh.n_springs),
+                           damping=rng.uniform(0.0, 0.1, mesh.n_springs)),))
     start = mesh.rest_positions + rng.normal(0, 0.01, (mesh.n_nodes, 3))
     run = simulate(model, dt=0.002, n_frames=300, initial_positions=start,
                    initial_velocities=rng.normal(0, 0.1, (mesh.n_nodes, 3)))
@@ -75,15 +74,14 @@ def test_momentum_is_conserved_without_external_forces(rng):
 
 def test_energy_does_not_grow_without_input(rng):
     mesh = lattice((3, 3, 3), 0.1).with_fixed(np.arange(9))
-    model = SpringMassModel(mesh, node_mass=0.01, spring_stiffness=rng.uniform(10, 30, 86),
-                            spring_damping=0.05)
+    model = Model(mesh, 0.01, (Springs(stiffness=rng.uniform(10, 30, 86), damping=0.05),))
     start = mesh.rest_positions + rng.normal(0, 0.01, (27, 3))
     start[mesh.fixed] = mesh.rest_positions[mesh.fixed]
     run = simulate(model, dt=0.001, n_frames=2000, initial_positions=start)
     a, b = mesh.springs.T
     stretch = np.linalg.norm(run.positions[:, b] - run.positions[:, a], axis=2) - \
-        model.spring_rest_length
-    energy = (0.5 * (stretch**2 * model.spring_stiffness).sum(1)
+        model.springs.rest_length
+    energy = (0.5 * (stretch**2 * model.springs.stiffness).sum(1)
               + 0.5 * np.einsum("i,tij,tij->t", model.node_mass, run.velocities, run.velocities))
     # symplectic Euler's energy oscillates by O(h); it must not grow over a period
     window = 200
@@ -115,7 +113,7 @@ def test_unstable_step_is_refused_and_auto_substeps_fix_it():
 
 
 def test_stability_bound_is_tight_for_the_cube():
-    model = SpringMassModel.uniform(lattice((3, 3, 3), 0.01).with_fixed(np.arange(0, 27, 3)),
+    model = Model.uniform(lattice((3, 3, 3), 0.01).with_fixed(np.arange(0, 27, 3)),
                                     stiffness=50.0, damping=0.02, total_mass=0.008)
     limit = stability_limit(model)
     start = model.mesh.rest_positions + np.random.default_rng(0).normal(0, 1e-4, (27, 3))
@@ -152,9 +150,9 @@ def test_bad_simulation_input():
 @pytest.mark.parametrize("backend", ["numpy", "numba"])
 def test_fast_steppers_equal_the_reference_step(backend, rng):
     mesh = lattice((4, 3, 3), 0.01).with_fixed(np.arange(0, 36, 3))
-    model = SpringMassModel(mesh, node_mass=rng.uniform(1e-4, 3e-4, mesh.n_nodes),
-                            spring_stiffness=rng.uniform(20, 60, mesh.n_springs),
-                            spring_damping=rng.uniform(0.005, 0.02, mesh.n_springs))
+    model = Model(mesh, rng.uniform(1e-4, 3e-4, mesh.n_nodes),
+                  (Springs(stiffness=rng.uniform(20, 60, mesh.n_springs),
+                           damping=rng.uniform(0.005, 0.02, mesh.n_springs)),))
     loads = rng.normal(0, 0.05, (40, mesh.n_nodes, 3))
     fast = simulate(model, dt=5e-4, n_frames=40, external_forces=loads, substeps=2,
                     backend=backend)
@@ -185,7 +183,7 @@ def test_the_compiled_stepper_computes_the_kernels_effects_as_the_numpy_one():
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     for volumetric in ("nodal", "element"):
-        model = SpringMassModel.continuum(mesh, youngs_modulus=5000.0, poisson_ratio=0.4,
+        model = Model.continuum(mesh, youngs_modulus=5000.0, poisson_ratio=0.4,
                                           viscosity=1.0, density=1000.0,
                                           volumetric=volumetric).with_effects(
             Gravity([0.0, 0.0, -9.81]), NodeDrag([0.01]), UnmodeledLoad([0.0, 0.02, 0.0],
@@ -207,9 +205,9 @@ def test_the_compiled_stepper_computes_spring_effects_as_the_numpy_one(rng):
     mesh = lattice((4, 3, 3), 0.01).with_fixed(np.arange(0, 36, 3))
     stiffness = rng.uniform(20, 60, mesh.n_springs)
     stiffness[:5] = 0.0                    # springs that only the inclusion makes pull
-    base = SpringMassModel(mesh, node_mass=rng.uniform(1e-4, 3e-4, mesh.n_nodes),
-                           spring_stiffness=stiffness,
-                           spring_damping=rng.uniform(0.005, 0.02, mesh.n_springs))
+    base = Model(mesh, rng.uniform(1e-4, 3e-4, mesh.n_nodes),
+                 (Springs(stiffness=stiffness,
+                          damping=rng.uniform(0.005, 0.02, mesh.n_springs)),))
     n_groups = len(np.unique(mesh.spring_group))
     model = base.with_effects(
         StiffInclusion.for_model(base, 15.0, springs=np.arange(12)),
@@ -234,7 +232,7 @@ def test_auto_is_the_compiled_loop_wherever_it_computes_the_model():
     from neurofuzzy.mesh import from_tetra
 
     mesh = from_tetra(*kuhn_block((4, 4, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    block = SpringMassModel.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.3,
+    block = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.3,
                                       viscosity=2.0, density=1050.0)
     cube = paper_cube_model()
     assert isinstance(make_stepper(block, 2e-4), NumbaStepper)
@@ -256,11 +254,11 @@ def _relaxing_block():
     from neurofuzzy.mesh import from_tetra
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    model = SpringMassModel.continuum(mesh, youngs_modulus=5e3, poisson_ratio=0.45,
+    model = Model.continuum(mesh, youngs_modulus=5e3, poisson_ratio=0.45,
                                       viscosity=1.0, density=1000.0)
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0.0, 0.0, -0.05)
-    return model.replace(element_relaxation_moduli=[0.5], element_relaxation_times=[0.02]), load
+    return model.with_elements(relaxation_moduli=[0.5], relaxation_times=[0.02]), load
 
 
 @pytest.mark.parametrize("relaxes", [True, False])
@@ -342,7 +340,7 @@ def test_steppers_of_one_model_share_its_constants_not_their_scratch_space():
     assert one.stiffness is two.stiffness and one.elements[5] is two.elements[5]
     assert one.history is not two.history and one.force is not two.force
     assert one.node_strain is not two.node_strain
-    stiffer = model.replace(element_youngs_modulus=2 * model.element_youngs_modulus)
+    stiffer = model.with_elements(youngs_modulus=2 * model.elements.youngs_modulus)
     assert NumbaStepper(stiffer, 1e-4).elements[5] is not one.elements[5]
     assert NumbaStepper(model, 5e-5).elements[15] is not one.elements[15]   # decay per step
 

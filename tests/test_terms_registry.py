@@ -22,7 +22,8 @@ from neurofuzzy.forces.laws import LAWS
 from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.learn._compiled import compiled_possible
 from neurofuzzy.mesh import from_tetra, lattice
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.forces import Springs
+from neurofuzzy.model import Model
 
 EPS = 1e-6          # relative step of the central differences
 RTOL = 1e-6         # what central differences of a smooth force reach at EPS
@@ -31,9 +32,9 @@ RTOL = 1e-6         # what central differences of a smooth force reach at EPS
 def _spring_model():
     rng = np.random.default_rng(11)
     mesh = lattice((3, 3, 2), 0.01).with_fixed(np.arange(3))
-    return SpringMassModel(mesh, node_mass=rng.uniform(1e-4, 3e-4, mesh.n_nodes),
-                           spring_stiffness=rng.uniform(20, 60, mesh.n_springs),
-                           spring_damping=rng.uniform(0.005, 0.02, mesh.n_springs))
+    return Model(mesh, rng.uniform(1e-4, 3e-4, mesh.n_nodes),
+                 (Springs(stiffness=rng.uniform(20, 60, mesh.n_springs),
+                          damping=rng.uniform(0.005, 0.02, mesh.n_springs)),))
 
 
 def _element_model(volumetric, law="st-venant-kirchhoff"):
@@ -42,7 +43,7 @@ def _element_model(volumetric, law="st-venant-kirchhoff"):
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     k = mesh.n_tetrahedra
     laws = rng.permutation(np.arange(k) % len(LAWS)) if law == "mixed" else law
-    return SpringMassModel.continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
+    return Model.continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
                                      poisson_ratio=rng.uniform(0.2, 0.45, k),
                                      viscosity=rng.uniform(1, 5, k), density=1000.0,
                                      volumetric=volumetric, law=laws)

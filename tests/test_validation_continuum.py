@@ -9,7 +9,7 @@ import scipy.sparse.linalg as spla
 
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.mesh import from_tetra, patch_loads
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.observation import embed_points
 
 pytest.importorskip("skfem")
@@ -35,7 +35,7 @@ def markers():
 
 def our_static(shape, spacing, poisson_ratio, volumetric, points):
     mesh = from_tetra(*kuhn_block(shape, spacing)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    model = SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=poisson_ratio,
+    model = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=poisson_ratio,
                                       viscosity=1.0, density=RHO, volumetric=volumetric)
     stiffness, _ = model.elements.rest_matrices(model)
     free = np.setdiff1d(np.arange(3 * mesh.n_nodes),

@@ -16,7 +16,7 @@ from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_model, save_experiment, save_model
 from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.mesh import from_tetra
-from neurofuzzy.model import SpringMassModel
+from neurofuzzy.model import Model
 from neurofuzzy.simulation import required_substeps
 
 E, NU = 6000.0, 0.45
@@ -24,7 +24,7 @@ E, NU = 6000.0, 0.45
 
 def _block(stiffening=1.0, cells=(2, 2, 2), volumetric="nodal", law="yeoh"):
     mesh = from_tetra(*kuhn_block(cells, 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    return SpringMassModel.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
+    return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
                                      density=1000.0, volumetric=volumetric, law=law,
                                      stiffening=stiffening)
 
@@ -93,8 +93,8 @@ def test_stiffening_values_are_checked_and_survive_model_files(tmp_path):
     path = save_model(model, tmp_path / "yeoh.yaml")
     assert yaml.safe_load(path.read_text())["elements"]["law"] == "yeoh"
     back = load_model(path)
-    np.testing.assert_array_equal(back.element_stiffening, model.element_stiffening)
-    assert np.all(_block(None).element_stiffening == 1.0)              # the default
+    np.testing.assert_array_equal(back.elements.stiffening, model.elements.stiffening)
+    assert np.all(_block(None).elements.stiffening == 1.0)              # the default
     # kept unused by a law without the constant, and taken up when the elements become Yeoh's
     neo = _block(3.0, law="neo-hookean")
     rest = neo.mesh.rest_positions
@@ -102,13 +102,13 @@ def test_stiffening_values_are_checked_and_survive_model_files(tmp_path):
     plain = _block(0.0, law="neo-hookean")
     assert np.array_equal(neo.elements.force(neo, pressed, 0 * rest),
                           plain.elements.force(plain, pressed, 0 * rest))
-    assert np.all(neo.replace(element_law="yeoh").element_stiffening == 3.0)
+    assert np.all(neo.with_elements(law="yeoh").elements.stiffening == 3.0)
     # a fit moves the Yeoh elements' constant only
-    mixed = neo.replace(element_law=np.arange(48) % 2 * 2)
+    mixed = neo.with_elements(law=np.arange(48) % 2 * 2)
     parameters = Parameterization(mixed)
     theta = parameters.initial()
     theta[parameters.blocks["log_stiffening"].slice] += np.log(2.0)
-    moved = parameters.model(theta).element_stiffening
+    moved = parameters.model(theta).elements.stiffening
     assert np.allclose(moved[1::2], 6.0) and np.all(moved[::2] == 3.0)
     for value, words in ((-0.5, ">= 0"), (np.nan, ">= 0"), ([1.0, 2.0], "one per element")):
         with pytest.raises(InputError, match=words) as error:
@@ -124,15 +124,15 @@ def test_fit_with_the_yeoh_law_from_the_command_line(tmp_path):
     truth = _block(1.2, cells=(2, 2, 1))
     path = save_experiment(_pressed(truth, 0.4, frames=40, noise=2e-6, seed=1),
                            tmp_path / "pressed.npz")
-    start = save_model(_block(None, cells=(2, 2, 1), law="st-venant-kirchhoff").replace(
-        element_youngs_modulus=np.full(24, 8000.0)), tmp_path / "start.yaml")
+    start = save_model(_block(None, cells=(2, 2, 1), law="st-venant-kirchhoff").with_elements(
+        youngs_modulus=np.full(24, 8000.0)), tmp_path / "start.yaml")
     result = cli("fit", path, "--start", start, "--law", "yeoh", "--stiffening", "0.7",
                  "--tie", "global", "--json", "--out", tmp_path / "fitted.yaml")
     assert result.returncode == 0, result.stderr
     fitted = load_model(tmp_path / "fitted.yaml")
-    assert set(fitted.element_law) == {2}
-    assert fitted.element_stiffening[0] == pytest.approx(1.2, rel=0.1)
-    assert fitted.element_youngs_modulus[0] == pytest.approx(E, rel=0.02)
+    assert set(fitted.elements.law) == {2}
+    assert fitted.elements.stiffening[0] == pytest.approx(1.2, rel=0.1)
+    assert fitted.elements.youngs_modulus[0] == pytest.approx(E, rel=0.02)
     assert np.shape(json.loads(result.stdout)["elements"]["stiffening"]) == (24,)
     for args, words in ((("--stiffening", "1.0"), "no Yeoh elements"),
                         (("--law", "yeoh", "--stiffening", "-1"), ">= 0")):
@@ -153,15 +153,15 @@ def test_words_of_stiffening_make_yeoh_elements_and_come_back(tmp_path):
         "hardening": f"{FIRM}, stiffening: strongly", "plain": FIRM})
     mesh = _block().mesh
     model = initialize(rules, mesh, "hardening", elements=True)
-    assert set(model.element_law) == {2}
+    assert set(model.elements.law) == {2}
     value = rules.tissue("hardening")["strain_stiffening"]
-    assert value > 1.5 and model.element_stiffening[0] == pytest.approx(value, rel=1e-12)
+    assert value > 1.5 and model.elements.stiffening[0] == pytest.approx(value, rel=1e-12)
     assert materials(model, rules)["hardening"]["labels"]["strain_stiffening"] == "strongly"
     for c, word in ((0.05, "little"), (1.0, "moderate"), (8.0, "strongly")):
-        fitted = model.replace(element_stiffening=np.full(48, c))
+        fitted = model.with_elements(stiffening=np.full(48, c))
         assert materials(fitted, rules)["hardening"]["labels"]["strain_stiffening"] == word
     plain = initialize(rules, mesh, "plain", elements=True)
-    assert set(plain.element_law) == {0}
+    assert set(plain.elements.law) == {0}
     assert "strain_stiffening" not in materials(plain, rules)["plain"]["labels"]
 
 
@@ -185,7 +185,7 @@ def test_the_diagnosis_offers_each_law_switch_in_turn():
     [switch] = offered(neo)
     assert switch.name == "nonlinear_stiffening" and switch.switches_material
     switched = switch.switch(neo, 0.1)
-    assert set(switched.element_law) == {2} and np.all(switched.element_stiffening == 1.0)
+    assert set(switched.elements.law) == {2} and np.all(switched.elements.stiffening == 1.0)
     assert switch.switched_values(switched) == {"stiffening": 1.0}
     assert offered(yeoh) == []
     [spring] = offered(paper_cube_model())

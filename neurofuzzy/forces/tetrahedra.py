@@ -148,6 +148,10 @@ class Tetrahedra(ForceTerm):
         if n == 0:
             raise InputError("element parameters need a mesh with tetrahedra",
                              key="element_youngs_modulus")
+        missing = [name for name in PARAMETERS if getattr(self, name) is None]
+        if missing:
+            raise InputError(f"elements need all three of {', '.join(PARAMETERS)}; "
+                             f"{missing[0]} is missing", key=f"element_{missing[0]}")
         out = {name: vector(getattr(self, name), n, f"element_{name}", "n_tetrahedra")
                for name in PARAMETERS}
         out["region"] = region_index(self.region, n, len(model.region_names),

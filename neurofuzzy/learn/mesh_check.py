@@ -148,11 +148,9 @@ def mesh_check(learner, experiments: Sequence, parameters, theta: np.ndarray) ->
     theta_refined = Parameterization(refit.model_, learn_effects=parameters.effects != []
                                      ).initial()
     values = {}
-    for key, label in (("element_youngs_modulus", "youngs_modulus"),
-                       ("element_poisson_ratio", "poisson_ratio"),
-                       ("element_viscosity", "viscosity")):
-        values[label] = {"mesh": float(np.median(getattr(model, key))),
-                         "refined": float(np.median(getattr(refit.model_, key)))}
+    for name in ("youngs_modulus", "poisson_ratio", "viscosity"):
+        values[name] = {"mesh": float(np.median(getattr(model.elements, name))),
+                        "refined": float(np.median(getattr(refit.model_.elements, name)))}
     return MeshCheck(names=parameters.names(), theta=theta, theta_refined=theta_refined,
                      change=np.abs(theta_refined - theta),
                      nodes=(model.n_nodes, fine_model.n_nodes),

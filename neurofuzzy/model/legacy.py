@@ -1,7 +1,9 @@
-"""The flat fields of models before terms: ``Model(mesh, node_mass=…, spring_stiffness=…,
-element_youngs_modulus=…, effects=…)`` and ``model.spring_stiffness`` still work, read into and
-out of the model's :class:`~neurofuzzy.forces.Springs` and
-:class:`~neurofuzzy.forces.Tetrahedra` terms.
+"""The flat fields of models before terms, deprecated: ``Model(mesh, node_mass=…,
+spring_stiffness=…, element_youngs_modulus=…, effects=…)``, ``model.spring_stiffness`` and
+``model.replace(element_law=…)`` still work, with a :class:`DeprecationWarning` that names
+the spelling to use (``Model(mesh, node_mass, (Springs(stiffness=…), …))``,
+``model.springs.stiffness``, ``model.with_elements(law=…)``), read into and out of the model's
+:class:`~neurofuzzy.forces.Springs` and :class:`~neurofuzzy.forces.Tetrahedra` terms.
 
 A model without springs (an element model) reads as one whose springs have no stiffness and no
 damping; a model without elements has no element fields (None).
@@ -9,12 +11,15 @@ damping; a model without elements has no element fields (None).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..errors import InputError
 from ..forces import Springs, Tetrahedra
 
-__all__ = ["FLAT", "DERIVED", "terms_from_fields", "terms_with_fields", "flat_value"]
+__all__ = ["FLAT", "DERIVED", "terms_from_fields", "terms_with_fields", "flat_value",
+           "deprecated"]
 
 #: flat field → (the term's kind, its field)
 FLAT = {
@@ -25,6 +30,11 @@ FLAT = {
                     "volumetric", "law", "stiffening", "relaxation_moduli",
                     "relaxation_times")},
 }
+#: the spelling of each derived value with terms
+_DERIVED_NOW = {"has_elements": "model.elements is not None", "n_ties": "model.springs.n_ties",
+                "n_element_ties": "model.elements.n_ties",
+                "element_stiffens": "model.elements.stiffens",
+                "law_names": "model.elements.law_names()"}
 #: what models before terms computed from those fields: name → its value on a model
 DERIVED = {
     "has_elements": lambda model: model.elements is not None,
@@ -49,6 +59,10 @@ def terms_from_fields(mesh, terms: tuple, fields: dict) -> tuple:
     unknown = sorted(set(fields) - set(FLAT))
     if unknown:
         raise TypeError(f"Model() got unexpected keyword argument(s) {unknown}")
+    if fields:
+        deprecated(f"Model({', '.join(f'{key}=' for key in fields)}...)",
+                   "give terms: Model(mesh, node_mass, (Springs(stiffness=..., damping=...), "
+                   "Tetrahedra(youngs_modulus=..., ...), *effects))")
     by_kind = _by_kind(fields)
     elements = _elements(by_kind["elements"])
     springs = by_kind["springs"]
@@ -67,6 +81,9 @@ def terms_from_fields(mesh, terms: tuple, fields: dict) -> tuple:
 def terms_with_fields(model, fields: dict) -> tuple:
     """``model``'s terms with the flat ``fields`` changed (a term created when the model had
     none of its kind)."""
+    deprecated(f"model.replace({', '.join(f'{key}=' for key in fields)}...)",
+               "use model.with_springs(...) or model.with_elements(...) (the terms' own "
+               "field names: stiffness, youngs_modulus, law ...)")
     cleared = [key for key in _ELEMENT_VALUES if key in fields and fields[key] is None]
     if cleared:
         if len(cleared) < len(_ELEMENT_VALUES):
@@ -97,8 +114,10 @@ def flat_value(model, name: str):
     """``model.<name>`` for a flat field: the term's value, or what a model without that term
     reads as; or a value :data:`DERIVED` from them."""
     if name in DERIVED:
+        deprecated(f"model.{name}", f"use {_DERIVED_NOW[name]}")
         return DERIVED[name](model)
     kind, field = FLAT[name]
+    deprecated(f"model.{name}", f"use model.{kind}.{field}")
     term = getattr(model, kind)
     if term is not None:
         return getattr(term, field)
@@ -129,3 +148,10 @@ def _elements(values: dict):
         raise InputError("give all three of element_youngs_modulus, element_poisson_ratio "
                          "and element_viscosity, or none", key="element_youngs_modulus")
     return Tetrahedra(**values)
+
+
+def deprecated(what: str, instead: str) -> None:
+    """Warn that ``what`` is a flat field of models before terms (DeprecationWarning, pointing
+    at the caller of the model's method)."""
+    warnings.warn(f"{what}: a flat field of models before terms, deprecated; {instead}",
+                  DeprecationWarning, stacklevel=4)
