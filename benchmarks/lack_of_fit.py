@@ -29,6 +29,7 @@ import numpy as np
 from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.learn import GradientLearner
 from neurofuzzy.learn.prior import FuzzyPrior
+from neurofuzzy.rules import resolve
 from neurofuzzy.validation.probed_block import (BLOCK, Inclusion, block_experiment, block_model,
                                        mujoco_block, probed_block)
 
@@ -112,9 +113,8 @@ def prior_fit(data, mesh) -> dict:
     start = start_model(mesh).tied("none")
     experiment = block_experiment(data, start.mesh)
     began = time.perf_counter()
-    fitted = GradientLearner(substeps="auto", prior=FuzzyPrior("liver", start,
-                                                               tissue="liver")).fit(start,
-                                                                                    experiment)
+    prior = FuzzyPrior(resolve("liver"), start, tissue="liver")
+    fitted = GradientLearner(substeps="auto", prior=prior).fit(start, experiment)
     kept = fitted.regions_["regions"]
     return {"regions": [{"label": r["label"], "quantity": r["quantity"], "size": r["size"],
                          "distance_mm": 1e3 * float(np.linalg.norm(np.array(r["centroid"])

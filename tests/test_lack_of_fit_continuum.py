@@ -10,6 +10,7 @@ import pytest
 from neurofuzzy.diagnosis import diagnose
 from neurofuzzy.learn import GradientLearner
 from neurofuzzy.learn.prior import FuzzyPrior
+from neurofuzzy.rules import resolve
 
 skfem = pytest.importorskip("skfem")
 
@@ -63,7 +64,8 @@ def test_the_prior_finds_no_region_in_a_homogeneous_block(plain):
     start, experiment = plain
     per_element = start.tied("none")
     fitted = GradientLearner(substeps="auto",
-                             prior=FuzzyPrior("liver", per_element, tissue="liver")).fit(
+                             prior=FuzzyPrior(resolve("liver"), per_element,
+                                              tissue="liver")).fit(
         per_element, experiment)
     assert fitted.regions_["regions"] == []
     assert all(entry["evidence"]["kept"] is False for entry in fitted.regions_["rejected"]
@@ -78,8 +80,8 @@ def test_a_5x_stiffer_inclusion_is_named_and_located_item_by_item(inclusion):
     start, experiment = inclusion
     centre = np.array(Inclusion().centre)
     model = start.tied("global")
-    result = diagnose(model, experiment, prior=FuzzyPrior("liver", model, tissue="liver"),
-                      mesh_check=False)
+    result = diagnose(model, experiment,
+                      prior=FuzzyPrior(resolve("liver"), model, tissue="liver"), mesh_check=False)
     assert result.names[0] == "stiff_inclusion"
     assert np.linalg.norm(np.array(result.effects[0].centroid) - centre) < 0.005
     regions = result.localisation.regions

@@ -95,6 +95,10 @@ def test_prior_refuses_what_it_cannot_use():
     model = continuum(block(), tissue=None)
     with pytest.raises(InputError, match="no tissue"):
         FuzzyPrior(RULES, model)
+    # the learner reads no files: a name is refused with how to load it
+    with pytest.raises(InputError, match=r"rules: got 'liver'; the prior takes a loaded rule "
+                                         r"base: FuzzyPrior\(neurofuzzy.rules.resolve"):
+        FuzzyPrior("liver", model, tissue="liver")
     with pytest.raises(InputError, match="positive weight"):
         parse_prior("-1")
     with pytest.raises(InputError, match="off, auto"):

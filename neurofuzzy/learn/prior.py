@@ -81,7 +81,9 @@ class FuzzyPrior:
 
     Parameters
     ----------
-    rules : RuleBase, path or shipped name
+    rules : RuleBase
+        A loaded rule base (``nf.load_rules(path)``, or ``neurofuzzy.rules.resolve(name)``
+        for a shipped one: the learner reads no files).
     model : Model
         Its regions' tissues (``region_tissues``), or ``tissue`` for regions without one.
     tissue : str, optional
@@ -95,14 +97,17 @@ class FuzzyPrior:
     Raises
     ------
     InputError
-        A region without a tissue; a rule base without a Young's modulus output.
+        A region without a tissue; a rule base without a Young's modulus output; a name or
+        path instead of a rule base.
     """
 
     def __init__(self, rules, model, *, tissue: str | None = None, weight="auto",
                  smoothness: float = 1.0):
-        from ..rules import resolve
-
-        self.rules = resolve(rules)
+        if not (hasattr(rules, "outputs") and hasattr(rules, "tissue_sets")):
+            raise InputError(f"got {rules!r}; the prior takes a loaded rule base: "
+                             "FuzzyPrior(neurofuzzy.rules.resolve(NAME_OR_PATH), model) or "
+                             "FuzzyPrior(nf.load_rules(PATH), model)", key="rules")
+        self.rules = rules
         self.weight = parse_prior(weight)
         if self.weight == "off":
             raise InputError("a prior cannot be off; pass prior=None instead", key="prior")
