@@ -135,7 +135,7 @@ def bench_large_elements(results):
 
     def block(modulus, ratio, viscosity):
         return Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=ratio,
-                                         viscosity=viscosity, density=1050.0)
+                               viscosity=viscosity, density=1050.0)
 
     top = np.flatnonzero(mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9)
     load = np.zeros((mesh.n_nodes, 3))

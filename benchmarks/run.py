@@ -150,7 +150,7 @@ def bench_elements(results, quick):
         points, tetrahedra = kuhn_block(shape, 0.03 / max(shape))
         mesh = from_tetra(points, tetrahedra).with_fixed(where=bottom_layer)
         model = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
-                                          viscosity=2.0, density=1000.0)
+                                viscosity=2.0, density=1000.0)
         load = np.zeros((mesh.n_nodes, 3))
         load[-1] = (0, 0, -1e-3)
         h = stability_limit(model).max_step
@@ -189,7 +189,7 @@ def bench_laws(results, quick):
     points, tetrahedra = kuhn_block((12, 12, 12), 0.03 / 12)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=bottom_layer)
     models = {law: Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
-                                             viscosity=2.0, density=1000.0, law=law)
+                                   viscosity=2.0, density=1000.0, law=law)
               for law in LAWS}
     # SVK with one Prony term (internal variables per element; stiffer at once by 1 + g, so
     # the step below is stable for it too)
@@ -377,7 +377,7 @@ def bench_diagnose(results):
 
     def continuum(modulus):
         return Model.continuum(tetra, youngs_modulus=modulus, poisson_ratio=0.3,
-                                         viscosity=2.0, density=1050.0)
+                               viscosity=2.0, density=1050.0)
 
     cases = [(f"{springs.n_springs} springs", spring_truth,
               spring_truth.with_springs(stiffness=np.full(springs.n_springs, 35.0))

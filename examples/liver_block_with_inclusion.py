@@ -28,7 +28,7 @@ def recordings(out: Path) -> list[Path]:
     centres = mesh.rest_positions[mesh.tetrahedra].mean(axis=1)
     inside = np.all((centres > 0.01) & (centres < 0.02), axis=1)
     truth = nf.Model.continuum(mesh, youngs_modulus=np.where(inside, HARD, FIRM),
-                                         poisson_ratio=0.45, viscosity=2.0, density=1050.0)
+                               poisson_ratio=0.45, viscosity=2.0, density=1050.0)
     top = np.flatnonzero(mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9)
     dt = 2e-3
     substeps = auto_substeps(truth, dt)

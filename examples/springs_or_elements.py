@@ -89,7 +89,7 @@ def fit_elements(mesh, data):
     # the data are scikit-fem's linear tetrahedra on this very mesh: the textbook per-element
     # volumetric form is their exact discretisation
     start = nf.Model.continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.35,
-                                         viscosity=1.0, density=RHO, volumetric="element")
+                               viscosity=1.0, density=RHO, volumetric="element")
     learner = nf.fit(data, start=start).learner          # the checked fit of `neurofuzzy fit`
     model = learner.model_
     return (float(np.median(model.elements.youngs_modulus)),

@@ -336,7 +336,7 @@ def _pressed_block(path, *, n_frames, substeps, noise, **material):
 
     mesh = from_tetra(*kuhn_block((2, 2, 1), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
-                                      viscosity=2.0, density=1050.0, **material)
+                            viscosity=2.0, density=1050.0, **material)
     top = np.flatnonzero(mesh.rest_positions[:, 2] > 0.01 - 1e-9)
     load = np.zeros((mesh.n_nodes, 3))
     load[top, 2] = -0.03 / len(top)

@@ -23,7 +23,7 @@ DT, FRAMES = 1e-3, 61
 def block(youngs_modulus=E):
     mesh = from_tetra(*kuhn_block(SHAPE, CELL)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=youngs_modulus, poisson_ratio=NU,
-                                     viscosity=ETA, density=RHO)
+                           viscosity=ETA, density=RHO)
 
 
 def surface_markers():

@@ -107,7 +107,7 @@ def _element_block():
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
-                                     viscosity=2.0, density=1000.0)
+                           viscosity=2.0, density=1000.0)
 
 
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])

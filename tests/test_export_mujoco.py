@@ -30,7 +30,7 @@ def block_model(volumetric="element", regions=False, nu=0.35):
     points, tetrahedra = kuhn_block((3, 3, 2), 0.01)
     mesh = nf.from_tetra(points, tetrahedra).with_fixed(where=nf.bottom_layer)
     model = nf.Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=nu,
-                                         viscosity=2.0, density=1050.0, volumetric=volumetric)
+                               viscosity=2.0, density=1050.0, volumetric=volumetric)
     if regions:
         inside = points[tetrahedra].mean(axis=1)[:, 0] > 0.015
         node_region = np.zeros(mesh.n_nodes, int)

@@ -279,7 +279,7 @@ def element_model_text(tmp_path_factory):
     points, tetrahedra = kuhn_block((2, 1, 1), 0.01)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = Model.continuum(mesh, youngs_modulus=np.linspace(4e3, 6e3, 12),
-                                      poisson_ratio=0.45, viscosity=2.0, density=1050.0)
+                            poisson_ratio=0.45, viscosity=2.0, density=1050.0)
     return save_model(model, tmp_path_factory.mktemp("elements") / "m.yaml").read_bytes()
 
 

@@ -86,7 +86,7 @@ def test_learned_effects_of_element_models(volumetric):
     equal the numpy path's."""
     mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
-                                      viscosity=2.0, density=1000.0, volumetric=volumetric)
+                            viscosity=2.0, density=1000.0, volumetric=volumetric)
     model = model.with_effects(Gravity([0.1, 0.0, -9.81]), UnmodeledLoad([0.0, 0.002, 0.0],
                                                                        node=mesh.n_nodes - 2),
                                NodeDrag([0.05]),
@@ -117,7 +117,7 @@ def test_learned_masses_with_gravity(kind):
         mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(
             where=lambda p: p[:, 2] < 1e-9)
         model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
-                                          viscosity=2.0, density=1000.0)
+                                viscosity=2.0, density=1000.0)
         load = np.zeros((mesh.n_nodes, 3))
         load[-1] = (0.0, 0.01, -0.05)
         steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
@@ -326,8 +326,8 @@ def test_the_adjoints_forward_sweep_is_simulates_run():
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45,
-                                      viscosity=2.0, density=1000.0, law="neo-hookean",
-                                      relaxation=((0.5, 0.02),))
+                            viscosity=2.0, density=1000.0, law="neo-hookean",
+                            relaxation=((0.5, 0.02),))
     top = mesh.rest_positions[:, 2] > 0.02 - 1e-9
     load = np.zeros((mesh.n_nodes, 3))
     load[top, 2] = -0.02 / top.sum()

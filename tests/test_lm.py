@@ -94,7 +94,7 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
 
     def model(modulus, ratio, viscosity):
         return Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=ratio,
-                                         viscosity=viscosity, density=1050.0)
+                               viscosity=viscosity, density=1050.0)
 
     truth = model(6000.0, 0.45, 2.0)
     load = np.zeros((mesh.n_nodes, 3))

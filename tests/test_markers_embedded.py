@@ -26,7 +26,7 @@ def element_block(shape=(1, 1, 2)):
     points[inner] += rng.uniform(-0.002, 0.002, (inner.sum(), 3))
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=ETA,
-                                     density=RHO)
+                           density=RHO)
 
 
 def record(truth, frames=40, dt=2e-4):
@@ -143,7 +143,7 @@ def test_the_learner_recovers_the_material_from_markers_between_nodes():
     experiment = markers_to_experiment(as_recording(nodes, weights, data), truth.mesh,
                                        forces=data.forces_per_frame()).experiment
     start = Model.continuum(truth.mesh, youngs_modulus=3000.0, poisson_ratio=0.3,
-                                      viscosity=40.0, density=RHO)
+                            viscosity=40.0, density=RHO)
     fitted = GradientLearner(substeps=steps).fit(start, experiment).model_
     assert fitted.elements.youngs_modulus == pytest.approx(E, rel=1e-5)
     assert fitted.elements.poisson_ratio == pytest.approx(NU, rel=1e-5)

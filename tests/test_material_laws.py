@@ -23,7 +23,7 @@ E, NU = 6000.0, 0.45
 def _block(law, volumetric="nodal", cells=(2, 2, 2)):
     mesh = from_tetra(*kuhn_block(cells, 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
-                                     density=1000.0, volumetric=volumetric, law=law)
+                           density=1000.0, volumetric=volumetric, law=law)
 
 
 #: each curved law and its closed form (:mod:`neurofuzzy.validation.nonlinear`, written in
@@ -131,7 +131,7 @@ def test_fit_with_a_law_and_refusals(tmp_path):
     assert set(fitted.elements.law) == {1}
     assert fitted.elements.youngs_modulus[0] == pytest.approx(E, rel=1e-3)
     springs = save_model(Model.uniform(truth.mesh, stiffness=10.0, damping=0.01,
-                                                 total_mass=0.01), tmp_path / "springs.yaml")
+                                       total_mass=0.01), tmp_path / "springs.yaml")
     result = cli("fit", data_path, "--start", springs, "--law", "neo-hookean",
                  "--out", tmp_path / "no.yaml")
     assert result.returncode == 2

@@ -67,7 +67,7 @@ def test_refinement_converges_towards_scikit_fems_quadratic_elements():
     points, tetrahedra = kuhn_block((2, 2, 2), 0.01)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     coarse = Model.continuum(mesh, youngs_modulus=60000.0, poisson_ratio=0.3,
-                                       viscosity=2.0, density=1000.0, volumetric="element")
+                             viscosity=2.0, density=1000.0, volumetric="element")
     solver = ContinuumSolver(points, tetrahedra, youngs_modulus=60000.0, poisson_ratio=0.3,
                              viscosity=2.0, density=1000.0, fixed=lambda x: x[2] < 1e-9)
     top = np.array([[0.01, 0.01, 0.02]])

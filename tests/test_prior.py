@@ -32,7 +32,7 @@ def block(shape=(2, 2, 1), cell=0.01):
 
 def continuum(mesh, modulus=FIRM, tissue="liver"):
     model = Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=0.45,
-                                      viscosity=2.0, density=1050.0)
+                            viscosity=2.0, density=1050.0)
     return model.replace(region_tissues=(tissue,))
 
 
@@ -143,7 +143,7 @@ def test_a_whole_tissue_unlike_its_description_is_said_so():
     found, all of the object, and the words say so rather than naming a place."""
     mesh = block((3, 3, 1))
     model = Model.continuum(mesh, youngs_modulus=FIRM, poisson_ratio=0.3,
-                                      viscosity=2.0, density=1050.0)
+                            viscosity=2.0, density=1050.0)
     model = model.replace(region_tissues=("liver",))
     found = regions_found(model, FuzzyPrior(RULES, model))
     assert [(r["quantity"], r["label"], r["share"]) for r in found["regions"]] == [

@@ -23,7 +23,7 @@ def _block(law="st-venant-kirchhoff", relaxation=((G, TAU),), density=50.0):
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.005)).with_fixed(
         where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=0.5,
-                                     density=density, law=law, relaxation=relaxation)
+                           density=density, law=law, relaxation=relaxation)
 
 
 def _top_load(model, newtons=0.002):

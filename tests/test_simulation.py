@@ -114,7 +114,7 @@ def test_unstable_step_is_refused_and_auto_substeps_fix_it():
 
 def test_stability_bound_is_tight_for_the_cube():
     model = Model.uniform(lattice((3, 3, 3), 0.01).with_fixed(np.arange(0, 27, 3)),
-                                    stiffness=50.0, damping=0.02, total_mass=0.008)
+                          stiffness=50.0, damping=0.02, total_mass=0.008)
     limit = stability_limit(model)
     start = model.mesh.rest_positions + np.random.default_rng(0).normal(0, 1e-4, (27, 3))
     start[model.mesh.fixed] = model.mesh.rest_positions[model.mesh.fixed]
@@ -184,8 +184,8 @@ def test_the_compiled_stepper_computes_the_kernels_effects_as_the_numpy_one():
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     for volumetric in ("nodal", "element"):
         model = Model.continuum(mesh, youngs_modulus=5000.0, poisson_ratio=0.4,
-                                          viscosity=1.0, density=1000.0,
-                                          volumetric=volumetric).with_effects(
+                                viscosity=1.0, density=1000.0,
+                                volumetric=volumetric).with_effects(
             Gravity([0.0, 0.0, -9.81]), NodeDrag([0.01]), UnmodeledLoad([0.0, 0.02, 0.0],
                                                                         node=mesh.n_nodes - 1),
             StiffInclusion([3000.0], elements=[0, 1, 2, 3], poisson_ratio=0.45),
@@ -233,7 +233,7 @@ def test_auto_is_the_compiled_loop_wherever_it_computes_the_model():
 
     mesh = from_tetra(*kuhn_block((4, 4, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     block = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.3,
-                                      viscosity=2.0, density=1050.0)
+                            viscosity=2.0, density=1050.0)
     cube = paper_cube_model()
     assert isinstance(make_stepper(block, 2e-4), NumbaStepper)
     assert isinstance(make_stepper(cube, 1e-3), NumbaStepper)
@@ -255,7 +255,7 @@ def _relaxing_block():
 
     mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = Model.continuum(mesh, youngs_modulus=5e3, poisson_ratio=0.45,
-                                      viscosity=1.0, density=1000.0)
+                            viscosity=1.0, density=1000.0)
     load = np.zeros((mesh.n_nodes, 3))
     load[-1] = (0.0, 0.0, -0.05)
     return model.with_elements(relaxation_moduli=[0.5], relaxation_times=[0.02]), load

@@ -44,9 +44,9 @@ def _element_model(volumetric, law="st-venant-kirchhoff"):
     k = mesh.n_tetrahedra
     laws = rng.permutation(np.arange(k) % len(LAWS)) if law == "mixed" else law
     return Model.continuum(mesh, youngs_modulus=rng.uniform(3e3, 9e3, k),
-                                     poisson_ratio=rng.uniform(0.2, 0.45, k),
-                                     viscosity=rng.uniform(1, 5, k), density=1000.0,
-                                     volumetric=volumetric, law=laws)
+                           poisson_ratio=rng.uniform(0.2, 0.45, k),
+                           viscosity=rng.uniform(1, 5, k), density=1000.0,
+                           volumetric=volumetric, law=laws)
 
 
 #: the element models: both volumetric forms, and every material law (one model with every

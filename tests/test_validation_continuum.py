@@ -36,7 +36,7 @@ def markers():
 def our_static(shape, spacing, poisson_ratio, volumetric, points):
     mesh = from_tetra(*kuhn_block(shape, spacing)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=poisson_ratio,
-                                      viscosity=1.0, density=RHO, volumetric=volumetric)
+                            viscosity=1.0, density=RHO, volumetric=volumetric)
     stiffness, _ = model.elements.rest_matrices(model)
     free = np.setdiff1d(np.arange(3 * mesh.n_nodes),
                         (3 * mesh.fixed[:, None] + np.arange(3)).ravel())

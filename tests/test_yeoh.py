@@ -25,8 +25,8 @@ E, NU = 6000.0, 0.45
 def _block(stiffening=1.0, cells=(2, 2, 2), volumetric="nodal", law="yeoh"):
     mesh = from_tetra(*kuhn_block(cells, 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
-                                     density=1000.0, volumetric=volumetric, law=law,
-                                     stiffening=stiffening)
+                           density=1000.0, volumetric=volumetric, law=law,
+                           stiffening=stiffening)
 
 
 def _pressed(model, newtons, frames=150, **options):

@@ -248,10 +248,10 @@ def mujoco_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
         modulus[inside] *= inclusion.contrast
         region[inside] = 1
     truth_model = Model.continuum(mesh, youngs_modulus=modulus,
-                                            poisson_ratio=poisson_ratio,
-                                            viscosity=BLOCK["viscosity"] * modulus
-                                            / BLOCK["youngs_modulus"],
-                                            density=BLOCK["density"], volumetric="element")
+                                  poisson_ratio=poisson_ratio,
+                                  viscosity=BLOCK["viscosity"] * modulus
+                                  / BLOCK["youngs_modulus"],
+                                  density=BLOCK["density"], volumetric="element")
     if inclusion is not None:
         truth_model = truth_model.replace(
             region_names=("block", "inclusion"), region_tissues=(None, None),
