@@ -159,6 +159,38 @@ def assert_split_equal(model, data, steps, shift=0.01):
         assert np.array_equal(split.positions, whole.positions)
 
 
+@pytest.mark.parametrize("relaxation", [None, ((0.5, 0.02),)])
+def test_windows_split_over_threads_give_the_jacobian_of_one_thread(relaxation):
+    """With windows (multiple shooting) each thread takes a run of whole windows with every
+    column, bit for bit the one thread's Jacobian; elements that relax carry their internal
+    variables from one window to the next, so they keep the split by columns (equal too)."""
+    from neurofuzzy.learn._sensitivity import _window_spans
+
+    assert _window_spans([0, 25], 41, 2) == [(0, 25), (25, 41)]
+    assert _window_spans([0, 10, 20, 30, 40], 41, 2) == [(0, 20), (20, 41)]
+    assert _window_spans([0], 41, 2) == [(0, 41)]
+    mesh = from_tetra(*kuhn_block((2, 2, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45, viscosity=2.0,
+                            density=1000.0, relaxation=relaxation)
+    load = np.zeros((mesh.n_nodes, 3))
+    load[mesh.rest_positions[:, 2] > 0.02 - 1e-9, 2] = -0.02
+    data = simulate_experiment(model, dt=2e-3, n_frames=31, external_forces=load, substeps=4)
+    parameters = Parameterization(model)
+    sensitivity = Sensitivity(parameters, 0.01, backend="numba")
+    theta = parameters.initial() + 0.02
+    for starts in ((0, 10, 20), (0, 16)):
+        whole = sensitivity.run(theta, data, substeps=4, starts=starts, tangents=True)
+        for threads in (2, 3):
+            split = sensitivity.run(theta, data, substeps=4, starts=starts, tangents=True,
+                                    threads=threads)
+            assert np.array_equal(split.jacobian, whole.jacobian)
+            assert np.array_equal(split.positions, whole.positions)
+            assert np.array_equal(split.residuals, whole.residuals)
+        assert np.abs(whole.jacobian).max() > 0
+        # a window's first frame is measured, not simulated: its row is zero
+        assert not np.any(whole.jacobian[starts[1] - 1])
+
+
 def test_split_columns_of_a_spring_model():
     model = paper_cube_model(tie="none").with_effects(NodeDrag([0.02]))
     assert_split_equal(model, paper_cube_experiment(paper_cube_model(tie="global")), 2)

@@ -28,15 +28,21 @@ import numpy as np
 
 from .integrator import euler_update
 from .springs import partial
-from .stepper import _spring
-from .laws import stress, stress_jvp, volumetric
+from .stepper import _only_svk, _spring
+from .laws import ST_VENANT_KIRCHHOFF, stress, stress_jvp, volumetric
 from .relaxation import relax, relaxation_tangent, relaxed_stress
 from .tuples import (_differences, _dot, _edges, _edges_of_tangent, _full, _green, _mul, _scatter,
                      _sym_dot, _sym_t_mul)
 
 
+#: the tangents' arithmetic may fuse a multiply and an add (one rounding instead of two: FMA,
+#: about 10 % of a tangent sweep of the 10,368-tetrahedron block); nothing else of fast math
+#: (NaN and infinity keep their meaning: a run that leaves the finite numbers is still seen)
+CONTRACT = {"contract"}
+
+
 # -- springs -----------------------------------------------------------------------------------
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring_ptr,
                      spring_column, spring_basis, spring_factor, first, force, d_force, work):
     """Spring forces into ``force`` and their tangents into ``d_force`` (N, 3, P), tangent
@@ -100,10 +106,10 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
 
 
 # -- tetrahedral elements ----------------------------------------------------------------------
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
 def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
                     node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
-                    d_node_strain):
+                    d_node_strain, general):
     """Nodal volumetric form: ``node_strain[:, 0]``, ``[:, 1]`` the node pressures ``Λ θ̄``
     and ``H θ̄̇`` and ``d_node_strain[:, q, :]`` their tangents (the node averages of the
     laws' ``θ`` and of ``θ̇ = tr Ġ`` and of their tangents first)."""
@@ -116,7 +122,7 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, 
         F = _edges(p, n0, n1, n2, n3, B)
         Fd = _edges(v, n0, n1, n2, n3, B)
         G, Gd = _green(F, Fd)
-        theta, N = volumetric(law[e], G)
+        theta, N = volumetric(law[e] if general else ST_VENANT_KIRCHHOFF, G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         corner = 0.25 * volume[e]
         for node in (n0, n1, n2, n3):
@@ -152,7 +158,7 @@ def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, 
                                           + d_node_lam_rate[i, first + q] * theta_rate)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening, shear,
                       shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
                       element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate,
@@ -169,20 +175,56 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
     ``d_history`` (n_elements, K, 6, P) it advances; the element's parameter columns (CSR
     ``element_ptr``/``element_column``, columns ascending) carry the derivatives of its four
     constants, and with ``nodal`` those of the node averages (``d_node_lam*``). Tangent ``q``
-    is that of parameter ``first + q``."""
+    is that of parameter ``first + q``.
+
+    The loop is compiled twice (``general`` a constant at each call), as the stepper's
+    (:func:`neurofuzzy.kernels.stepper._element_forces`): for elements that are all
+    St. Venant–Kirchhoff without stiffening or relaxation the law is a constant of the
+    loop."""
+    # (packed in tuples: a call of more than 30 arguments is a call with *args in
+    # CPython 3.11's bytecode, which numba cannot inline)
+    arrays = (tets, inverse_rest, volume, law, stiffening)
+    constants = (shear, shear_rate, lam, lam_rate)
+    node_arrays = (node_volume, node_lam, node_lam_rate, d_node_lam, d_node_lam_rate)
+    columns = (element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate)
+    relaxation = (relax_g, relax_decay, relax_column, history, d_history)
+    if _only_svk(law, kappa, relax_g.shape[1] > 0):
+        _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
+                        kappa_column, stiffening_column, relaxation, first, node_strain,
+                        d_node_strain, force, d_force, False)
+    else:
+        _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
+                        kappa_column, stiffening_column, relaxation, first, node_strain,
+                        d_node_strain, force, d_force, True)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
+def _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
+                    kappa_column, stiffening_column, relaxation, first, node_strain,
+                    d_node_strain, force, d_force, general):
+    """:func:`_element_tangents`' passes, for any laws (``general``) or St. Venant–Kirchhoff
+    alone."""
+    tets, inverse_rest, volume, law, stiffening = arrays
+    shear, shear_rate, lam, lam_rate = constants
+    node_volume, node_lam, node_lam_rate, d_node_lam, d_node_lam_rate = node_arrays
+    element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate = columns
+    relax_g, relax_decay, relax_column, history, d_history = relaxation
     n_params = tp.shape[2]
-    n_terms = relax_g.shape[1]
+    # St. Venant–Kirchhoff alone: no stiffening, no relaxation
+    n_terms = relax_g.shape[1] if general else 0
+    strain_stiffening = kappa if general else 0.0
     if nodal:
         _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
                         node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
-                        d_node_strain)
+                        d_node_strain, general)
     for e in range(tets.shape[0]):
+        own = law[e] if general else ST_VENANT_KIRCHHOFF
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         B = inverse_rest[e]
         F = _edges(p, n0, n1, n2, n3, B)
         Fd = _edges(v, n0, n1, n2, n3, B)
         G, Gd = _green(F, Fd)
-        theta, N = volumetric(law[e], G)
+        theta, N = volumetric(own, G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         if nodal:
             pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
@@ -192,9 +234,9 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
         else:
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
-        S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                         pressure_rate, kappa, stiffening[e]),
-                                  law[e], G, shear[e], pressure, stiffening[e], relax_g,
+        S6, S_el = relaxed_stress(stress(own, G, Gd, shear[e], shear_rate[e], pressure,
+                                         pressure_rate, strain_stiffening, stiffening[e]),
+                                  own, G, shear[e], pressure, stiffening[e], relax_g,
                                   history, e)
         S = _full(S6)
         scale = -volume[e]
@@ -235,11 +277,11 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
             d_kappa = 1.0 if first + q == kappa_column else 0.0
             # the law's constant is learned by its logarithm: dc/d log c = c
             d_stiffening = stiffening[e] if first + q == stiffening_column[e] else 0.0
-            dS6 = stress_jvp(law[e], G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
-                             pressure_rate, kappa, stiffening[e], shear_part, rate_part,
+            dS6 = stress_jvp(own, G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
+                             pressure_rate, strain_stiffening, stiffening[e], shear_part, rate_part,
                              d_pressure, d_pressure_rate, d_kappa, d_stiffening)
             if n_terms:
-                dS6 = relaxation_tangent(dS6, law[e], G, Gd, dG, dGd, shear[e], pressure,
+                dS6 = relaxation_tangent(dS6, own, G, Gd, dG, dGd, shear[e], pressure,
                                          stiffening[e], shear_part, d_pressure, d_stiffening,
                                          S_el, relax_g, relax_decay, relax_column, history,
                                          d_history, e, first + q, q)
@@ -255,7 +297,7 @@ def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
 
 
 # -- one experiment ----------------------------------------------------------------------------
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_column,
             spring_basis, spring_factor, tets, inverse_rest, volume, law, stiffening, shear,
             shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,

@@ -200,10 +200,14 @@ class CompiledModel:
         return drag, int(drag_column), direction, constant, spans
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
-            columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None):
+            columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None,
+            frames: tuple[int, int] | None = None, positions: np.ndarray | None = None):
         """``(positions, jacobian)`` of one experiment; ``states`` maps every window start
         frame to its ``(p, v)``. With ``columns = (first, stop)`` only those columns of the
-        Jacobian, written into ``jacobian`` (the state is simulated whole either way)."""
+        Jacobian, written into ``jacobian`` (the state is simulated whole either way). With
+        ``frames = (a, b)`` only frames ``a .. b - 1`` (``a`` a window start; models whose
+        elements do not relax, so that windows are independent), written into
+        ``positions`` and ``jacobian``."""
         from ..kernels.sensitivity import forward
 
         if not tangents:        # the state alone: the stepper's driver, the faster sweep
@@ -214,24 +218,32 @@ class CompiledModel:
         start_index, start_p, start_v = _windows(n_frames, states)
         observation = experiment.observation
         operator = observation.operator.tocsr()
-        positions = np.empty((n_frames, n_nodes, 3))
+        if positions is None:
+            positions = np.empty((n_frames, n_nodes, 3))
         if jacobian is None:
             jacobian = np.empty((n_frames - 1, observation.n_rows, 3, self.n_params))
         drag, drag_column, direction, constant, _ = self.effects
         direction = np.ascontiguousarray(direction[:, :, first:first + width])
         # writable C-ordered copies: numba compiles one signature per array layout
         loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
+        seen = np.array(observation.seen, dtype=bool, order="C")
+        a, b = (0, n_frames) if frames is None else frames
+        if a > 0:           # a window starts at frame a: its residual (and row) is zero
+            if start_index[a] < 0 or self.relaxation[0].shape[1]:
+                raise ValueError("a run of some frames starts at a window of a model whose "
+                                 "elements do not relax")
+            jacobian[a - 1, :, :, first:stop] = 0.0
+            loads = loads[a:] if len(loads) > 1 else loads
         h = experiment.dt / substeps
         with np.errstate(over="ignore", invalid="ignore"):
             g, times, relax_column = self.relaxation
             forward(start_p[0].copy(), start_v[0].copy(), *self.springs, *self.elements,
                     g, decay(times, h), relax_column, drag, drag_column, direction, self.weight,
-                    *self.masses, loads, h, n_frames,
-                    int(substeps), int(first), int(width), start_index, start_p, start_v,
+                    *self.masses, loads, h, b - a,
+                    int(substeps), int(first), int(width), start_index[a:b], start_p, start_v,
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
-                    operator.data.astype(float),
-                    np.array(observation.seen, dtype=bool, order="C"), float(scale),
-                    positions, jacobian)
+                    operator.data.astype(float), seen[a:b], float(scale),
+                    positions[a:b], jacobian[a:b - 1])
         return positions, jacobian
 
     def frames(self, experiment, states, *, substeps: int, keep: bool = False):

@@ -250,18 +250,27 @@ class Sensitivity:
         # split only into shares of at least one column each
         bounds = np.linspace(0, compiled.n_params, min(threads, compiled.n_params) + 1)
         shares = [(int(a), int(b)) for a, b in zip(bounds[:-1].round(), bounds[1:].round())]
+        # windows are independent when no element relaxes (no internal variables go on from
+        # one to the next): each thread then takes a run of whole windows with every column,
+        # and no thread simulates the state of another's frames
+        spans = (_window_spans(sorted(states), experiment.n_frames, threads)
+                 if tangents and threads > 1 and not model.n_relaxation_terms else [])
 
-        if len(shares) > 1:     # each thread writes its own columns of one array
-            jacobian = np.empty((experiment.n_frames - 1, experiment.observation.n_rows, 3,
+        if len(spans) > 1 or len(shares) > 1:      # each thread writes its part of one array
+            n_frames = experiment.n_frames
+            jacobian = np.empty((n_frames - 1, experiment.observation.n_rows, 3,
                                  compiled.n_params))
+            positions = np.empty((n_frames, model.n_nodes, 3))
+            parts = ([{"frames": span} for span in spans] if len(spans) > 1
+                     else [{"columns": columns} for columns in shares])
 
-            def share(columns):
+            def part(options):
                 return compiled.run(experiment, states, substeps=substeps,
                                     scale=1.0 / self.length_unit, tangents=True,
-                                    columns=columns, jacobian=jacobian)
+                                    jacobian=jacobian, positions=positions, **options)
 
-            with ThreadPoolExecutor(max_workers=len(shares)) as pool:
-                positions = list(pool.map(share, shares))[0][0]
+            with ThreadPoolExecutor(max_workers=len(parts)) as pool:
+                list(pool.map(part, parts))
         else:
             positions, jacobian = compiled.run(experiment, states, substeps=substeps,
                                                scale=1.0 / self.length_unit,
@@ -382,3 +391,15 @@ class Sensitivity:
         residuals[1:] = self._projected(residuals[1:], observation.seen[1:])
         return residuals
 
+
+def _window_spans(starts: list[int], n_frames: int, threads: int) -> list[tuple[int, int]]:
+    """Frames ``(a, b)`` of up to ``threads`` runs of whole windows (``starts`` the windows'
+    first frames, ascending), cut at the window starts nearest to equal shares."""
+    inner = np.array(starts[1:])
+    cuts = set()
+    for k in range(1, threads):
+        if inner.size:
+            ideal = starts[0] + k * (n_frames - starts[0]) / threads
+            cuts.add(int(inner[np.argmin(np.abs(inner - ideal))]))
+    bounds = [starts[0], *sorted(cuts), n_frames]
+    return list(zip(bounds[:-1], bounds[1:]))
