@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
 from .mesh.core import check_coordinates
-from .model import Model
+from .model import Model, term_values
 from .observation import EmbeddedMarkers, Observation, remove_offsets
 from .simulation import simulate
 
@@ -242,17 +242,10 @@ class Experiment:
 
 def model_truth(model) -> dict[str, np.ndarray]:
     """The ground truth a synthetic experiment records of the model that made it: every
-    term's own parameters (``true_stiffness``, ``true_damping`` of the springs,
-    ``true_youngs_modulus`` … of the elements, ``true_<effect>`` of an effect's parameters)
-    and ``true_masses``."""
-    truth = {}
-    for term in model.terms:
-        values = term.parameter_values(model)
-        if set(values) == {"params"}:
-            values = {term.name: values["params"]}
-        truth.update({f"true_{name}": np.asarray(value) for name, value in values.items()})
-    truth["true_masses"] = model.node_mass
-    return truth
+    term's own parameters (:func:`~neurofuzzy.model.term_values`) as ``true_<name>`` and
+    ``true_masses``."""
+    return {**{f"true_{name}": value for name, value in term_values(model).items()},
+            "true_masses": model.node_mass}
 
 
 def simulate_experiment(model: Model, *, dt: float, n_frames: int,

@@ -13,7 +13,8 @@ The effects of :mod:`neurofuzzy.effects` are force terms too.
 
 from .assembly import Incidence, incidence
 from .base import ForceTerm, region_index, vector
-from .springs import Springs, SpringState, central_jvp, central_vjp, projected_laplacian
+from .central import central_jvp, central_vjp, projected_laplacian
+from .springs import Springs, SpringState
 from .tetra_geometry import ElementConstants, tetrahedron_geometry
 from .tetrahedra import Tetrahedra
 

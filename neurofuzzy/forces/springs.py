@@ -1,17 +1,16 @@
-"""The spring force (paper eqs. 3.4–3.6) and its derivatives: the one implementation every
-part of the package goes through (the compiled kernel in :mod:`neurofuzzy.kernels.stepper` is
-tested equal to it).
+"""The springs' term (:class:`Springs`: the constants of every spring of a model's mesh) and the
+spring force (paper eqs. 3.4–3.6) with its derivatives: the one implementation every part of
+the package goes through (the compiled kernel in :mod:`neurofuzzy.kernels.stepper` is tested
+equal to it).
 
 Spring ``j`` between nodes ``a`` and ``b``::
 
     d = p_b - p_a,  l = |d|,  u = d / l,  closing speed c = (v_b - v_a) · u
     f_j = m_j u,  m_j = s_j (l - L0_j) + c_j c            node a gets +f_j, node b gets -f_j
 
-Every force here is *central*: a magnitude ``m(l, c)`` along ``u``. :func:`central_jvp` and
-:func:`central_vjp` give the exact forward and reverse derivatives of ``f = m u`` for any such
-magnitude, given ``m``, ``∂m/∂l`` and ``∂m/∂c``::
-
-    df = (m_l u·dd + m_c (dv·du + u·ddv)) u + m du,    du = (I - u uᵀ) dd / l
+Every force here is *central*: a magnitude ``m(l, c)`` along ``u``;
+:mod:`neurofuzzy.forces.central` gives the exact forward and reverse derivatives of
+``f = m u`` for any such magnitude, given ``m``, ``∂m/∂l`` and ``∂m/∂c``.
 
 The geometry is computed component-major (arrays of shape (3, n_springs)), the layout in which
 the stepper's hot loop is fastest; :class:`SpringState` offers the node-major views the
@@ -29,9 +28,10 @@ import scipy.sparse as sp
 from ..errors import InputError
 from .assembly import Incidence, incidence
 from .base import ForceTerm, region_index, vector
+from .central import central_jvp, central_vjp, projected_laplacian
 
 __all__ = ["SpringState", "Springs", "spring_state", "spring_constants", "parameter_templates",
-           "central_jvp", "central_vjp", "spring_law"]
+           "spring_law"]
 
 
 @dataclass(frozen=True)
@@ -348,61 +348,3 @@ def spring_law():
     from ..kernels import springs
 
     return springs
-
-
-def projected_laplacian(springs: np.ndarray, direction: np.ndarray, constants: np.ndarray,
-                        n_nodes: int) -> sp.csr_matrix:
-    """Assemble ``Σ_j k_j (e_a - e_b)(e_a - e_b)ᵀ ⊗ u_j u_jᵀ`` as a (3N, 3N) sparse matrix."""
-    block = constants[:, None, None] * direction[:, :, None] * direction[:, None, :]
-    a, b = springs.T
-    rows, cols, data = [], [], []
-    for first, second, sign in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-        r = (3 * first[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
-        c = (3 * second[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1)
-        rows.append(r.ravel())
-        cols.append(c.ravel())
-        data.append(sign * block.ravel())
-    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(3 * n_nodes, 3 * n_nodes))
-
-
-def central_jvp(state: SpringState, magnitude, d_length, d_closing, dd, ddv) -> np.ndarray:
-    """Forward derivative of ``f = m u`` per spring.
-
-    Parameters
-    ----------
-    state : SpringState
-    magnitude, d_length, d_closing : (n_springs,) float
-        ``m``, ``∂m/∂l`` and ``∂m/∂c`` (``d_closing`` None for position-only forces).
-    dd, ddv : (n_springs, P, 3) float
-        Tangents of ``d = p_b - p_a`` and ``v_b - v_a`` for P directions.
-
-    Returns
-    -------
-    (n_springs, P, 3) float
-    """
-    direction = state.direction
-    u = direction[:, None, :]
-    along = np.einsum("spk,sk->sp", dd, direction)
-    du = (dd - along[..., None] * u) / state.length[:, None, None]
-    scalar = d_length[:, None] * along
-    if d_closing is not None:
-        scalar = scalar + d_closing[:, None] * (
-            np.einsum("spk,sk->sp", ddv, direction)
-            + np.einsum("spk,sk->sp", du, state.relative_velocity))
-    return scalar[..., None] * u + magnitude[:, None, None] * du
-
-
-def central_vjp(state: SpringState, magnitude, d_length, d_closing, cotangent):
-    """Reverse derivative of ``f = m u``: cotangent (n_springs, 3) → ``(λ_d, λ_dv)``."""
-    u = state.direction
-    along = np.einsum("ij,ij->i", u, cotangent)
-    project = cotangent - along[:, None] * u                     # (I - u uᵀ) λ
-    lam_d = (d_length * along)[:, None] * u + (magnitude / state.length)[:, None] * project
-    lam_dv = np.zeros_like(cotangent)
-    if d_closing is not None:
-        dv = state.relative_velocity
-        dv_perp = dv - np.einsum("ij,ij->i", dv, u)[:, None] * u
-        lam_d += (d_closing * along / state.length)[:, None] * dv_perp
-        lam_dv = (d_closing * along)[:, None] * u
-    return lam_d, lam_dv

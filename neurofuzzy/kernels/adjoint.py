@@ -10,7 +10,7 @@ for the nodal volumetric form by the node averages of the last two). The caller 
 into the gradient by the parameters with the forward kernel's CSR (``log s``, ``log c`` per
 tie group, the spring effects' coefficients; for elements the same derivatives of the
 constants as the forward kernel). The arithmetic is that of the numpy reference path
-(:meth:`neurofuzzy.forces.Springs.vjp`, :func:`~neurofuzzy.forces.springs.central_vjp`,
+(:meth:`neurofuzzy.forces.Springs.vjp`, :func:`~neurofuzzy.forces.central.central_vjp`,
 :meth:`neurofuzzy.forces.Tetrahedra.state_vjp` and ``parameter_vjp``; tested equal):
 springs ``f = (s x + c ((v_b - v_a)·u) + q x³) u`` (``x = l - L0``, the spring effects'
 extra stiffness in ``s``, their stiffening ``q = κ / L0²``), elements of each element's law

@@ -8,9 +8,9 @@ import warnings
 
 from ..forces.tetrahedra import VOLUMETRIC
 from .model import Model
-from .values import TIES, Tie, tie_index
+from .values import TIES, Tie, term_values, tie_index
 
-__all__ = ["Model", "Tie", "TIES", "tie_index", "VOLUMETRIC"]
+__all__ = ["Model", "Tie", "TIES", "tie_index", "term_values", "VOLUMETRIC"]
 
 
 def __getattr__(name: str):

@@ -12,7 +12,8 @@ from ..errors import InputError
 from ..forces.base import vector
 from ..mesh import Mesh
 
-__all__ = ["Tie", "TIES", "tie_index", "PerSpring", "vector", "per_spring", "describe"]
+__all__ = ["Tie", "TIES", "tie_index", "PerSpring", "vector", "per_spring", "describe",
+           "term_values"]
 
 Tie = Literal["global", "groups", "none"]
 TIES: tuple[str, ...] = ("global", "groups", "none")
@@ -62,3 +63,14 @@ def per_spring(mesh: Mesh, value: PerSpring, key: str) -> np.ndarray:
         per_group = np.array([value.get(name, np.nan) for name in mesh.group_names], float)
         return per_group[mesh.spring_group]
     return vector(value, mesh.n_springs, key, "n_springs")
+
+
+def term_values(model) -> dict[str, np.ndarray]:
+    """Every term's own parameters by name: the springs' ``stiffness``, ``damping``, the
+    elements' ``youngs_modulus``, ``poisson_ratio``, ``viscosity``, an effect's parameters
+    under its name (``gravity`` …)."""
+    out = {}
+    for term in model.terms:
+        values = term.parameter_values(model)
+        out.update({term.name: values["params"]} if set(values) == {"params"} else values)
+    return {name: np.asarray(value) for name, value in out.items()}
