@@ -226,7 +226,7 @@ def test_auto_is_the_compiled_loop_wherever_it_computes_the_model():
     """``backend="auto"``: the compiled loop is the one production path (the paper cube and a
     288-element block alike, explicitly numpy only when asked); a model with an effect the
     kernels do not compute (two node drags) takes the numpy stepper, with the same steps."""
-    from neurofuzzy._steppers import NumbaStepper, NumpyStepper, make_stepper
+    from neurofuzzy.simulation.steppers import NumbaStepper, NumpyStepper, make_stepper
     from neurofuzzy.datasets import kuhn_block, paper_cube_model
     from neurofuzzy.effects import NodeDrag
     from neurofuzzy.mesh import from_tetra
@@ -333,7 +333,7 @@ def test_steppers_of_one_model_share_its_constants_not_their_scratch_space():
     other, and a changed model gets its own arrays."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from neurofuzzy._steppers import NumbaStepper
+    from neurofuzzy.simulation.steppers import NumbaStepper
 
     model, load = _relaxing_block()
     one, two = NumbaStepper(model, 1e-4), NumbaStepper(model, 1e-4)

@@ -164,7 +164,7 @@ def test_the_compiled_kernels_compute_every_term_but_the_named_ones():
     """The kernels compute every kind of term with a force but :data:`NOT_COMPILED`, which
     take the numpy path (the learner's and ``simulate``'s): a new kind of term the kernels do
     not compute fails here rather than drop out of the comparisons below unnoticed."""
-    from neurofuzzy._steppers import NumpyStepper, make_stepper
+    from neurofuzzy.simulation.steppers import NumpyStepper, make_stepper
 
     not_computed = set()
     for case in EXAMPLES:

@@ -1,5 +1,5 @@
 """Which effects the compiled kernels compute, and their values in the kernels' terms, written
-once for the stepper (:class:`neurofuzzy._steppers.NumbaStepper`) and the sensitivities
+once for the stepper (:class:`neurofuzzy.simulation.steppers.NumbaStepper`) and the sensitivities
 (:class:`neurofuzzy.learn._compiled.CompiledModel`):
 
 - constant forces (gravity, an unmodeled load): added to the loads;

@@ -1,4 +1,4 @@
-"""Compiled inner loops (numba) of :class:`neurofuzzy._steppers.NumbaStepper`.
+"""Compiled inner loops (numba) of :class:`neurofuzzy.simulation.steppers.NumbaStepper`.
 
 Module-level so that ``cache=True`` keeps the machine code between runs. The arithmetic is that
 of :class:`neurofuzzy.forces.Springs` and :class:`neurofuzzy.forces.Tetrahedra`

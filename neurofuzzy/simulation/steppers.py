@@ -61,7 +61,7 @@ def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, weight: np.nda
 @functools.cache
 def _compiled_update():
     """The compiled update, imported on first use (numba loads when a model is stepped)."""
-    from .kernels.integrator import euler_update
+    from ..kernels.integrator import euler_update
 
     return euler_update
 
@@ -80,7 +80,7 @@ class NumpyStepper:
     spring term's own force (:meth:`~neurofuzzy.forces.Springs.force_components`)."""
 
     def __init__(self, model, h: float, dtype=np.float64):
-        from .forces import incidence
+        from ..forces import incidence
 
         self.model = model
         self.h = float(h)
@@ -213,8 +213,8 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
         cache = NumbaStepper._prepared.setdefault(model, {})
         if key in cache:
             return cache[key]
-    from .effects.compiled import kernel_values, spring_entries
-    from .forces.springs import spring_constants
+    from ..effects.compiled import kernel_values, spring_entries
+    from ..forces.springs import spring_constants
 
     drag, constant, kappa = kernel_values(model)
     # the springs with a force, then those that stiffen once more (the spring effects')
@@ -235,7 +235,7 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
 def compiled_terms_only(model) -> bool:
     """True when every force term of ``model`` is one the compiled loop knows (springs,
     tetrahedral elements and the effects of :func:`neurofuzzy.effects.compiled.kernel_effects`)."""
-    from .effects.compiled import kernel_effects
+    from ..effects.compiled import kernel_effects
 
     return kernel_effects(model)
 
@@ -255,8 +255,8 @@ def _element_arrays(model, dtype, h: float):
                 empty,
                 np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
                 np.zeros((0, 0, 6), dtype))
-    from .forces.relaxation import decay
-    from .effects.compiled import element_constants
+    from ..forces.relaxation import decay
+    from ..effects.compiled import element_constants
 
     materials, total = element_constants(model)        # the inclusions' constants added
     geometry = materials.geometry
@@ -280,7 +280,7 @@ def _element_arrays(model, dtype, h: float):
 
 
 def _compile():
-    from .kernels.stepper import advance, frames
+    from ..kernels.stepper import advance, frames
 
     return advance, frames
 
