@@ -163,7 +163,10 @@ def test_parameter_tangent_and_adjoint_match_central_differences(model, term):
 def test_the_compiled_kernels_compute_every_term_but_the_named_ones():
     """The kernels compute every kind of term with a force but :data:`NOT_COMPILED`, which
     take the numpy path (the learner's and ``simulate``'s): a new kind of term the kernels do
-    not compute fails here rather than drop out of the comparisons below unnoticed."""
+    not compute fails here rather than drop out of the comparisons below unnoticed. An effect
+    says itself whether they do (``compiled_as``)."""
+    from neurofuzzy.forces import Springs, Tetrahedra
+    from neurofuzzy.forces.base import COMPILED_AS
     from neurofuzzy.simulation.steppers import NumpyStepper, make_stepper
 
     not_computed = set()
@@ -175,6 +178,9 @@ def test_the_compiled_kernels_compute_every_term_but_the_named_ones():
             not_computed.add(term.name)
             assert not Sensitivity(parameters, 0.01).compiled
             assert isinstance(make_stepper(with_term, 1e-4), NumpyStepper)
+        if not isinstance(term, (Springs, Tetrahedra)):
+            assert term.compiled_as in (None, *COMPILED_AS), term.name
+            assert (term.compiled_as is None) == (term.name in not_computed), term.name
     assert not_computed == NOT_COMPILED
     assert len(COMPILED_EXAMPLES) > len(EXAMPLES) - len(COMPILED_EXAMPLES) > 0
 

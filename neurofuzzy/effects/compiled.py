@@ -1,16 +1,22 @@
-"""Which effects the compiled kernels compute, and their values in the kernels' terms, written
+"""The effects the compiled kernels compute, and their values in the kernels' terms, written
 once for the stepper (:class:`neurofuzzy.simulation.steppers.NumbaStepper`) and the sensitivities
-(:class:`neurofuzzy.learn._compiled.CompiledModel`):
+(:class:`neurofuzzy.learn._compiled.CompiledModel`). Every effect says how the kernels compute it
+(:attr:`~neurofuzzy.forces.ForceTerm.compiled_as`, one of
+:data:`~neurofuzzy.forces.base.COMPILED_AS`):
 
-- constant forces (gravity, an unmodeled load): added to the loads;
-- a node drag ``-b v``;
-- inclusions of springs: extra stiffness of their springs; strain stiffening of springs: a
-  second central force along each spring that stiffens, ``q x³`` of
-  :func:`neurofuzzy.kernels.stepper.spring_state` (:func:`spring_entries`);
-- inclusions of elements: extra element constants (:meth:`StiffInclusion.added_constants`);
-- strain stiffening of the elements: ``κ`` of :mod:`neurofuzzy.kernels.laws`.
+- ``"constant force"`` (gravity, an unmodeled load): added to the loads;
+- ``"node drag"``: ``-b v`` on every node;
+- ``"spring stretch"`` (inclusions of springs): extra stiffness of their springs;
+  ``"spring cubic"`` (strain stiffening of springs): a second central force along each spring
+  that stiffens, ``q x³`` of :func:`neurofuzzy.kernels.stepper.spring_state`
+  (:func:`spring_entries`);
+- ``"element constants"`` (inclusions of elements): extra element constants
+  (:meth:`StiffInclusion.added_constants`);
+- ``"element stiffening"`` (strain stiffening of the elements): ``κ`` of
+  :mod:`neurofuzzy.kernels.laws`.
 
-Every other effect takes the numpy path.
+A model with any other effect (``compiled_as`` None), or more than one node drag or element
+stiffening, takes the numpy path.
 """
 
 from __future__ import annotations
@@ -20,48 +26,45 @@ import numpy as np
 from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import ElementConstants
 from ..kernels.springs import CLOSING, CUBIC, STRETCH
-from .inclusions import SoftInclusion, StiffInclusion
-from .nodes import Gravity, NodeDrag, UnmodeledLoad
-from .stiffening import NonlinearStiffening
 
-__all__ = ["CONSTANT", "STRETCH", "CLOSING", "CUBIC", "element_inclusion",
+__all__ = ["STRETCH", "CLOSING", "CUBIC", "constant_force", "node_drag", "element_inclusion",
            "element_stiffening", "spring_effect", "kernel_effects", "element_constants",
            "kernel_values", "spring_entries"]
 
-#: effects that are constant forces
-CONSTANT = (Gravity, UnmodeledLoad)
+#: the basis of a spring effect's coefficient: ``x`` (inclusions), ``x³`` (stiffening, with
+#: the factor ``1 / L0²``)
+_BASIS = {"spring stretch": STRETCH, "spring cubic": CUBIC}
 
 
+def constant_force(effect) -> bool:
+    """A force that does not depend on the state (gravity, an unmodeled load)."""
+    return effect.compiled_as == "constant force"
+
+
+def node_drag(effect) -> bool:
+    return effect.compiled_as == "node drag"
 
 
 def spring_effect(effect) -> bool:
     """An inclusion or strain stiffening of springs (a coefficient per spring group)."""
-    return (isinstance(effect, (StiffInclusion, SoftInclusion, NonlinearStiffening))
-            and not effect.on_elements)
-
-
-def _basis(effect) -> int:
-    """The basis of a spring effect's coefficient: ``x`` (inclusions), ``x³`` (stiffening,
-    with the factor ``1 / L0²``)."""
-    return CUBIC if isinstance(effect, NonlinearStiffening) else STRETCH
+    return effect.compiled_as in _BASIS
 
 
 def element_inclusion(effect) -> bool:
-    return isinstance(effect, (StiffInclusion, SoftInclusion)) and effect.on_elements
+    return effect.compiled_as == "element constants"
 
 
 def element_stiffening(effect) -> bool:
-    return isinstance(effect, NonlinearStiffening) and effect.on_elements
+    return effect.compiled_as == "element stiffening"
 
 
 def kernel_effects(model) -> bool:
     """True when the compiled kernels compute every effect of ``model`` (at most one node drag
     and one strain stiffening)."""
-    drags = sum(isinstance(effect, NodeDrag) for effect in model.effects)
+    drags = sum(node_drag(effect) for effect in model.effects)
     stiffenings = sum(element_stiffening(effect) for effect in model.effects)
     return drags <= 1 and stiffenings <= 1 and all(
-        isinstance(effect, (*CONSTANT, NodeDrag)) or element_inclusion(effect)
-        or element_stiffening(effect) or spring_effect(effect) for effect in model.effects)
+        effect.compiled_as is not None for effect in model.effects)
 
 
 def element_constants(model) -> tuple[ElementConstants, dict[str, np.ndarray]]:
@@ -80,9 +83,9 @@ def kernel_values(model) -> tuple[float, np.ndarray, float]:
     drag, kappa = 0.0, 0.0
     constant = np.zeros((model.n_nodes, 3))
     for effect in model.effects:
-        if isinstance(effect, NodeDrag):
+        if node_drag(effect):
             drag = float(effect.params[0])
-        elif isinstance(effect, CONSTANT):
+        elif constant_force(effect):
             constant += effect.force(model, model.mesh.rest_positions, None)
         elif element_stiffening(effect):
             kappa = float(effect.params[0])
@@ -121,7 +124,8 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
         selection = effect.selected(model)
         index = effect.parameter_index(model, selection)
         springs = selection[index >= 0]
-        if _basis(effect) == CUBIC:
+        basis = _BASIS[effect.compiled_as]
+        if basis == CUBIC:
             cubic += effect.per_spring(model) / rest_length**2
             stiffens[springs] |= i in columns
             factor = 1.0 / rest_length[springs]**2
@@ -130,7 +134,7 @@ def spring_entries(model, columns: dict[int, int] | None = None, *, every_spring
             keep[springs] |= i in columns
             factor = np.ones(len(springs))
         if i in columns:
-            learned.append((springs, columns[i] + index[index >= 0], _basis(effect), factor))
+            learned.append((springs, columns[i] + index[index >= 0], basis, factor))
     keep |= stiffness != 0                 # an inclusion's springs with no force of their own
     stiffens |= cubic != 0
     plain, tail = np.flatnonzero(keep), np.flatnonzero(stiffens)

@@ -59,6 +59,10 @@ class _Inclusion(SpringEffect):
     def on_elements(self) -> bool:
         return "elements" in self.options
 
+    @property
+    def compiled_as(self) -> str:
+        return "element constants" if self.on_elements else "spring stretch"
+
     #: the sign of the examples' extra stiffness
     _sign = 1.0
 

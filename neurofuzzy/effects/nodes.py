@@ -18,6 +18,7 @@ class Gravity(Effect):
     unit = (1, -2, 0)
     _labels = ("gx", "gy", "gz")
     per_unit_mass = True
+    compiled_as = "constant force"
 
     def force(self, model, positions, velocities):
         return model.node_mass[:, None] * self.params[None, :]
@@ -42,6 +43,7 @@ class NodeDrag(Effect):
     name = "node_drag"
     unit = (0, -1, 1)
     _labels = ("b",)
+    compiled_as = "node drag"
 
     def force(self, model, positions, velocities):
         return -self.params[0] * velocities
@@ -70,6 +72,7 @@ class UnmodeledLoad(Effect):
     name = "unmodeled_load"
     unit = (1, -2, 1)
     _labels = ("fx", "fy", "fz")
+    compiled_as = "constant force"
 
     def __init__(self, params, *, node, **options):
         super().__init__(params, node=int(node), **options)

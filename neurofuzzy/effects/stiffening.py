@@ -61,6 +61,10 @@ class NonlinearStiffening(SpringEffect):
         return self.options.get("on") == "elements"
 
     @property
+    def compiled_as(self) -> str:
+        return "element stiffening" if self.on_elements else "spring cubic"
+
+    @property
     def switches_material(self) -> bool:
         """On elements the diagnosis switches their law to Yeoh's (module docstring)."""
         return self.on_elements

@@ -25,7 +25,15 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["ForceTerm", "vector", "region_index"]
+__all__ = ["ForceTerm", "COMPILED_AS", "vector", "region_index"]
+
+#: How the compiled kernels can compute a term beside the springs and elements
+#: (:attr:`ForceTerm.compiled_as`): a force that does not depend on the state, added to the
+#: loads; a drag ``-b v`` on every node; extra stiffness along springs (``x``); a second
+#: central force along springs (``x³``); extra element constants (μ, λ and their rates); the
+#: elements' strain stiffening ``κ``.
+COMPILED_AS = ("constant force", "node drag", "spring stretch", "spring cubic",
+               "element constants", "element stiffening")
 
 
 class ForceTerm(ABC):
@@ -44,6 +52,13 @@ class ForceTerm(ABC):
     name: ClassVar[str]
     unit: ClassVar[tuple[int, int, int]] = (0, 0, 0)
     per_unit_mass: ClassVar[bool] = False
+
+    @property
+    def compiled_as(self) -> str | None:
+        """How the compiled kernels compute this term, one of :data:`COMPILED_AS`, or None
+        for a term they cannot (a model with one takes the numpy path). The springs and the
+        elements are the kernels' own; this says it of an effect."""
+        return None
 
     def bound(self, model) -> ForceTerm:
         """This term checked against ``model`` (its mesh and regions), with defaults filled

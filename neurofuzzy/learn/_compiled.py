@@ -16,14 +16,14 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..effects import NodeDrag, per_unit_mass_force
-from ..effects.compiled import (CLOSING, CONSTANT, STRETCH, element_constants,
+from ..effects import per_unit_mass_force
+from ..effects.compiled import (CLOSING, STRETCH, constant_force, element_constants,
                                 element_inclusion, element_stiffening, kernel_effects,
-                                kernel_values, spring_entries)
+                                kernel_values, node_drag, spring_entries)
+from ..forces.relaxation import decay
 from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
-from ..forces.relaxation import decay
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
 __all__ = ["compiled_possible", "CompiledModel"]
@@ -189,9 +189,9 @@ class CompiledModel:
         spans = []
         for i, effect in enumerate(model.effects):
             column = columns.get(i)
-            if isinstance(effect, NodeDrag):
+            if node_drag(effect):
                 drag_column = -1 if column is None else column
-            elif isinstance(effect, CONSTANT):
+            elif constant_force(effect):
                 if column is not None:
                     span = slice(column, column + len(effect.params))
                     direction[:, :, span] = effect.parameter_jacobian(
