@@ -313,8 +313,6 @@ def test_fits_whose_start_cannot_match_the_data_are_refused(block, imported, tmp
 def test_a_model_of_another_object_names_the_model_file(block, files_cube, tmp_path, capsys):
     """The experiment and the start model disagree: the message names both files; a model
     of the same numbering but ten times the size is another body."""
-    from dataclasses import replace
-
     from neurofuzzy.io import load_model, save_model
 
     refused(capsys, ["diagnose", files_cube["npz"], "--start", block["model"], "--quiet"],
@@ -408,8 +406,6 @@ def test_lengths_given_as_options_are_checked_against_the_body(block, tmp_path, 
 def test_markers_in_one_corner_of_a_mesh_in_another_unit_are_refused(block, tmp_path, capsys):
     """A mesh 60 times too large (2.4 m: possible, so only warned about) holds the markers of
     the real 4 cm block in one corner: the import is refused, naming both scales."""
-    from dataclasses import replace
-
     from neurofuzzy.io import load_model, save_model
 
     model = load_model(block["model"])

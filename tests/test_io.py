@@ -3,7 +3,6 @@ import pytest
 
 from neurofuzzy.errors import InputError
 from neurofuzzy.io import load_experiment, load_model, save_experiment, save_model
-from neurofuzzy.model import Model
 
 
 def _write(path, **arrays):

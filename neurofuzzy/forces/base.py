@@ -18,6 +18,7 @@ Conventions (shapes first, node-major tangents):
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["ForceTerm", "COMPILED_AS", "vector", "region_index"]
+__all__ = ["ForceTerm", "MemberTerm", "COMPILED_AS", "vector", "region_index"]
 
 #: How the compiled kernels can compute a term beside the springs and elements
 #: (:attr:`ForceTerm.compiled_as`): a force that does not depend on the state, added to the
@@ -129,6 +130,21 @@ class ForceTerm(ABC):
         """``(K, C)``: the (3N, 3N) sparse stiffness and damping matrices at rest, or None for
         a term that adds neither (used for the stability bound of the time step)."""
         return None
+
+
+class MemberTerm(ForceTerm):
+    """A term with values for every member of the mesh, each spring or each element, and a
+    tie group per member (``tie``): :class:`~neurofuzzy.forces.Springs`,
+    :class:`~neurofuzzy.forces.Tetrahedra`, frozen dataclasses."""
+
+    @property
+    def n_ties(self) -> int:
+        """The number of tie groups."""
+        return int(self.tie.max()) + 1 if len(self.tie) else 0
+
+    def replace(self, **changes):
+        """A copy with some fields changed (checked again when it joins a model)."""
+        return dataclasses.replace(self, **changes)
 
 
 def _columns(directions: dict) -> int:

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from .assembly import Incidence, incidence
-from .base import ForceTerm, region_index, vector
+from .base import MemberTerm, region_index, vector
 from .central import central_jvp, central_vjp, projected_laplacian
 
 __all__ = ["SpringState", "Springs", "spring_state", "spring_constants", "parameter_templates",
@@ -77,7 +77,7 @@ class SpringState:
 
 
 @dataclass(frozen=True, eq=False)
-class Springs(ForceTerm):
+class Springs(MemberTerm):
     """The springs of a model: per spring of its mesh the stiffness ``s`` (N/m), the damping
     ``c`` (N·s/m), the rest length ``L0`` (m), the tie group and the region.
 
@@ -147,15 +147,6 @@ class Springs(ForceTerm):
         for value in values.values():
             value.setflags(write=False)
         return replace(self, **values)._checked(model)
-
-    @property
-    def n_ties(self) -> int:
-        """The number of tie groups."""
-        return int(self.tie.max()) + 1 if len(self.tie) else 0
-
-    def replace(self, **changes) -> Springs:
-        """A copy with some fields changed (checked again when it joins a model)."""
-        return replace(self, **changes)
 
     def blocks(self, model, *, index: int = 0):
         """``log_stiffness`` and ``log_damping`` of every tie group
@@ -292,7 +283,6 @@ class Springs(ForceTerm):
         direction /= np.linalg.norm(direction, axis=1)[:, None]
         return tuple(projected_laplacian(mesh.springs, direction, constants, model.n_nodes)
                      for constants in (self.stiffness, self.damping))
-
 
 
 def parameter_templates(state: SpringState) -> dict[str, np.ndarray]:

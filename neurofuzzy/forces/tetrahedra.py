@@ -63,7 +63,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError, closest_name
-from .base import ForceTerm, region_index, vector
+from .base import MemberTerm, region_index, vector
 from .element_forces import (columns, element_force, element_rest_matrices, element_state,
                              element_state_jvp, element_state_vjp)
 from .laws import LAWS, law_numbers, stiffening_array, stiffening_slope, stiffens
@@ -81,7 +81,7 @@ VOLUMETRIC: tuple[str, ...] = ("nodal", "element")
 
 
 @dataclass(frozen=True, eq=False)
-class Tetrahedra(ForceTerm):
+class Tetrahedra(MemberTerm):
     """The tetrahedral finite elements of a model (``model.elements``; the elements are
     ``model.mesh.tetrahedra``): per element its Young's modulus, Poisson's ratio, viscosity,
     material law and the law's constants, tie group and region.
@@ -191,10 +191,6 @@ class Tetrahedra(ForceTerm):
                 value.setflags(write=False)
         return replace(self, **out)._checked(model)
 
-    def replace(self, **changes) -> Tetrahedra:
-        """A copy with some fields changed (checked again when it joins a model)."""
-        return replace(self, **changes)
-
     def blocks(self, model, *, index: int = 0):
         """E, ν, η, the Prony terms and Yeoh's constant of every tie group
         (:class:`~neurofuzzy.forces.blocks.ElementBlocks`)."""
@@ -203,11 +199,6 @@ class Tetrahedra(ForceTerm):
         return ElementBlocks(self)
 
     # -- what the values say ------------------------------------------------------------------
-    @property
-    def n_ties(self) -> int:
-        """The number of tie groups."""
-        return int(self.tie.max()) + 1 if len(self.tie) else 0
-
     @property
     def n_relaxation_terms(self) -> int:
         """How many Prony terms the elements carry (0: no relaxation)."""

@@ -223,11 +223,7 @@ def _elements_from_dict(data: dict) -> Tetrahedra | None:
     if not isinstance(elements, dict):
         raise InputError("expected youngs_modulus, poisson_ratio and viscosity lists",
                          key="elements")
-    missing = [key for key in ("youngs_modulus", "poisson_ratio", "viscosity")
-               if elements.get(key) is None]
-    if missing:
-        raise InputError("give all three of element_youngs_modulus, element_poisson_ratio "
-                         "and element_viscosity, or none", key=f"element_{missing[0]}")
+    # (a missing E, ν or η: Tetrahedra.bound names it)
     # files written before the nodal volumetric form existed hold per-element elements
     return Tetrahedra(**{key: elements.get(key)
                          for key in ("youngs_modulus", "poisson_ratio", "viscosity", "tie",

@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
-from ..forces.blocks import TieGroups
 from ..forces.springs import spring_constants
-from ..model import Model
 
-__all__ = ["Learner", "TieGroups"]
+__all__ = ["Learner"]
 
 
 class Learner:

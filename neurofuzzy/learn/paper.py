@@ -32,11 +32,12 @@ import numpy as np
 
 from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, require_node_observations, rms_error
-from ..model import Model
 from ..forces import incidence
+from ..forces.blocks import TieGroups
+from ..model import Model
 from ..progress import Progress
 from ..simulation import euler_update
-from ._base import Learner, TieGroups
+from ._base import Learner
 from .lack_of_fit import model_lack_of_fit
 
 __all__ = ["PaperLearner"]

@@ -25,9 +25,9 @@ from scipy.optimize import lsq_linear
 
 from ..experiment import Experiment, check_experiments
 from ..forces import incidence
+from ..forces.blocks import TieGroups
 from ..forces.springs import parameter_templates, spring_state
 from ..model import Model
-from ._base import TieGroups
 
 __all__ = ["StartModel", "estimate_start"]
 

@@ -141,13 +141,11 @@ def _by_kind(fields: dict) -> dict:
 
 
 def _elements(values: dict):
-    given = [key.removeprefix("element_") in values for key in _ELEMENT_VALUES]
-    if not any(given):
+    if not any(key.removeprefix("element_") in values for key in _ELEMENT_VALUES):
         return None                    # (a volumetric form or a law alone: no elements)
-    if not all(given):
-        raise InputError("give all three of element_youngs_modulus, element_poisson_ratio "
-                         "and element_viscosity, or none", key="element_youngs_modulus")
-    return Tetrahedra(**values)
+    # (Tetrahedra.bound names a missing E, ν or η)
+    return Tetrahedra(**{"youngs_modulus": None, "poisson_ratio": None, "viscosity": None,
+                         **values})
 
 
 def deprecated(what: str, instead: str) -> None:

@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import InputError, UnstableTimeStepError
 from ..model import Model
 from .stability import check_time_step, required_substeps
-from .steppers import euler_update, make_stepper, numba_available
+from .steppers import euler_update, make_stepper
 
 __all__ = ["State", "Trajectory", "internal_forces", "step", "simulate", "check_substeps"]
 
