@@ -226,3 +226,28 @@ def test_the_compiled_adjoint_equals_the_reference_wherever_it_runs(model, term)
         want, got = numpy_path[1][block.slice], compiled[1][block.slice]
         assert np.abs(got - want).max() <= 1e-9 * np.abs(want).max(), name
     assert np.abs(numpy_path[1]).max() > 0
+
+
+@pytest.mark.parametrize("model, term", COMPILED_EXAMPLES)
+def test_the_stiffness_and_damping_matrices_are_the_force_derivatives(model, term):
+    """The assembled stiffness ``-∂F/∂p`` and damping ``-∂F/∂v`` (generated from each
+    item's one per-item function, :mod:`neurofuzzy.kernels.element`) of every compiled term
+    are central differences of the model's force, and the force they come with is the
+    model's (the numpy reference)."""
+    from neurofuzzy.simulation import internal_forces
+    from neurofuzzy.simulation.tangents import tangents
+
+    with_term = _with_term(model, term)
+    p, v = _state(with_term)
+    result = tangents(with_term, p, v)
+    _close(result.force, internal_forces(with_term, p, v))
+    rng = np.random.default_rng(2)
+    size = np.ptp(with_term.mesh.rest_positions, axis=0).max()
+    dx = size * rng.normal(size=p.shape)
+    for matrix, moved in ((result.stiffness, lambda s: (p + s * dx, v)),
+                          (result.damping, lambda s: (p, v + s * dx))):
+        difference = (internal_forces(with_term, *moved(EPS))
+                      - internal_forces(with_term, *moved(-EPS))) / (2 * EPS)
+        got = -(matrix @ dx.ravel()).reshape(-1, 3)
+        assert np.abs(got - difference).max() <= 1e-6 * max(np.abs(difference).max(),
+                                                             1e-300), term.name

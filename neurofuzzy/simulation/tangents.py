@@ -1,0 +1,150 @@
+"""A model's force and its Jacobians, assembled as sparse matrices: what a Newton solve needs
+(the static equilibrium of :mod:`neurofuzzy.simulation.static`; an implicit time step).
+
+Every entry is generated from the per-item functions of :mod:`neurofuzzy.kernels.element` (a
+tetrahedron's, a spring's) by complex step, in compiled loops
+(:mod:`neurofuzzy.kernels.stiffness`), for every material law, both volumetric forms, Prony
+relaxation (its internal variables held), and the effects the kernels compute (constant forces,
+a node drag, inclusions and strain stiffening); nothing is written twice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import InputError
+from ..model import Model
+
+__all__ = ["Tangents", "tangents"]
+
+
+@dataclass(frozen=True)
+class Tangents:
+    """A model's force at a state and its Jacobians.
+
+    Attributes
+    ----------
+    force : (n_nodes, 3) float
+        The sum of every force term (springs, elements, effects), without external loads.
+    stiffness : (3 n_nodes, 3 n_nodes) scipy.sparse.csr_array
+        ``K = -∂force/∂positions`` (node-major degrees of freedom: ``3 i + k``).
+    damping : (3 n_nodes, 3 n_nodes) scipy.sparse.csr_array
+        ``C = -∂force/∂velocities``.
+    """
+
+    force: np.ndarray
+    stiffness: sp.csr_array
+    damping: sp.csr_array
+
+
+def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None = None,
+             internal: np.ndarray | None = None) -> Tangents:
+    """The force of ``model`` at ``(positions, velocities)`` and its stiffness and damping.
+
+    Parameters
+    ----------
+    model : Model
+        Springs, tetrahedral elements, and the effects the compiled kernels compute (a model
+        with another effect is refused).
+    positions : (n_nodes, 3) float
+    velocities : (n_nodes, 3) float, optional
+        Zero by default.
+    internal : (n_elements, n_prony_terms, 6) float, optional
+        The relaxation's internal variables (zero, the state at rest, by default), held.
+    """
+    from .steppers import _prepared, compiled_terms_only
+
+    if not compiled_terms_only(model):
+        raise InputError("the stiffness matrix covers springs, elements and the effects the "
+                         "compiled kernels compute; this model has another "
+                         f"({', '.join(e.name for e in model.effects)})", key="model")
+    n = model.n_nodes
+    p = np.array(positions, dtype=float, order="C")
+    v = np.zeros_like(p) if velocities is None else np.array(velocities, dtype=float, order="C")
+    if p.shape != (n, 3) or v.shape != (n, 3):
+        raise InputError(f"positions and velocities must have shape ({n}, 3); got {p.shape} "
+                         f"and {v.shape}", key="positions")
+    (drag, kappa, constant, a, b, stiffness, damping, rest, cubic, elements,
+     _) = _prepared(model, 1.0, np.dtype(np.float64))
+    from ..kernels.stiffness import element_tangents, spring_tangents
+
+    force = constant - drag * v
+    blocks_k, blocks_c, dofs = [], [], []
+    if len(a):
+        K = np.empty((len(a), 6, 6))
+        C = np.empty_like(K)
+        spring_tangents(p, v, a, b, stiffness, damping, rest, cubic, force, K, C)
+        blocks_k.append(K.reshape(len(a), -1))
+        blocks_c.append(C.reshape(len(a), -1))
+        dofs.append(_dofs(np.stack([a, b], axis=1)))
+    extra_k, extra_c = [], []
+    if model.elements is not None:
+        scratch = np.zeros_like(elements[13])
+        history = np.zeros_like(elements[16]) if internal is None else np.ascontiguousarray(
+            internal, dtype=float)
+        if history.shape != elements[16].shape:
+            raise InputError(f"internal variables must have shape {elements[16].shape}; got "
+                             f"{history.shape}", key="internal")
+        layout = (*elements[:13], scratch, *elements[14:16], history)
+        k = model.mesh.n_tetrahedra
+        K = np.empty((k, 12, 12))
+        C = np.empty_like(K)
+        gradients = np.zeros((k, 3, 12))
+        element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
+        tets = elements[0]
+        blocks_k.append(K.reshape(k, -1))
+        blocks_c.append(C.reshape(k, -1))
+        dofs.append(_dofs(tets))
+        if elements[9]:                                     # the nodal volumetric form
+            extra_k, extra_c = _nodal_coupling(n, tets, elements, gradients)
+    stiffness_matrix = _assemble(n, blocks_k, dofs) + sum(extra_k, sp.csr_array((3 * n, 3 * n)))
+    damping_matrix = _assemble(n, blocks_c, dofs) + sum(extra_c, sp.csr_array((3 * n, 3 * n)))
+    if drag:
+        damping_matrix = damping_matrix + drag * sp.eye_array(3 * n, format="csr")
+    return Tangents(force, sp.csr_array(stiffness_matrix), sp.csr_array(damping_matrix))
+
+
+def _dofs(items: np.ndarray) -> np.ndarray:
+    """(n_items, 3 n_corners) degrees of freedom of items of corner nodes (n_items, n_corners)."""
+    return (3 * items[:, :, None] + np.arange(3)).reshape(len(items), -1)
+
+
+def _assemble(n: int, blocks: list, dofs: list) -> sp.csr_array:
+    """The sum of per-item square blocks (n_items, d*d) at their degrees of freedom."""
+    if not blocks:
+        return sp.csr_array((3 * n, 3 * n))
+    rows = np.concatenate([np.repeat(d, d.shape[1], axis=1).ravel() for d in dofs])
+    cols = np.concatenate([np.tile(d, (1, d.shape[1])).ravel() for d in dofs])
+    values = np.concatenate([block.ravel() for block in blocks])
+    return sp.csr_array(sp.coo_array((values, (rows, cols)), shape=(3 * n, 3 * n)))
+
+
+def _nodal_coupling(n: int, tets: np.ndarray, elements: tuple, gradients: np.ndarray):
+    """The nodal volumetric form's stiffness and damping through its node averages:
+    ``A diag(Λ/V) Aᵀ + R diag(H/V) Dᵀ`` and ``R diag(H/V) Rᵀ`` with the columns of ``A``,
+    ``R``, ``D`` the nodes' ``∂Θ_a/∂x``, ``∂(Σ_e (V_e/4) tr G_e)/∂x`` and ``∂Θ̇_a/∂x``
+    (:mod:`neurofuzzy.kernels.stiffness`)."""
+    node_volume, node_lam, node_lam_rate = elements[10], elements[11], elements[12]
+    rows = np.repeat(_dofs(tets)[:, None, :], 4, axis=1).ravel()     # (k, corner, 12)
+    cols = np.repeat(tets[:, :, None], 12, axis=2).ravel()
+
+    def columns(which):
+        values = np.repeat(gradients[:, which][:, None, :], 4, axis=1).ravel()
+        return sp.csr_array(sp.coo_array((values, (rows, cols)), shape=(3 * n, n)))
+
+    inside = node_volume > 0
+    weight = np.zeros(n)
+    weight_rate = np.zeros(n)
+    weight[inside] = node_lam[inside] / node_volume[inside]
+    weight_rate[inside] = node_lam_rate[inside] / node_volume[inside]
+    A, R, D = columns(0), columns(1), columns(2)
+    stiffness = [A @ sp.diags_array(weight) @ A.T]
+    damping = []
+    if np.any(weight_rate):
+        scaled = R @ sp.diags_array(weight_rate)
+        stiffness.append(scaled @ D.T)
+        damping.append(scaled @ R.T)
+    return stiffness, damping
