@@ -20,7 +20,8 @@ node_volume, Λ, H, node_strain, g, a, history``).
 
 import numba
 
-from .element import deformation, element_matrices, spring_matrices, volumetric_gradients
+from .element import (deformation, element_force, element_matrices, spring_force,
+                      spring_matrices, volumetric_gradients)
 from .laws import volumetric
 from .tuples import _green
 
@@ -59,7 +60,8 @@ def node_pressures(p, v, elements):
 def element_tangents(p, v, elements, kappa, force, K, C, gradients):
     """Every element's force added to ``force`` (n_nodes, 3), its stiffness and damping into
     ``K``, ``C`` (n_elements, 12, 12) and, in the nodal volumetric form, its weighted
-    volumetric gradients into ``gradients`` (n_elements, 3, 12) (module docstring)."""
+    volumetric gradients into ``gradients`` (n_elements, 3, 12) (module docstring); the
+    force alone when ``K`` is empty."""
     (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
      _, _, _, node_strain, relax_g, _, history) = elements
     if nodal:
@@ -82,13 +84,19 @@ def element_tangents(p, v, elements, kappa, force, K, C, gradients):
             g += relax_g[e, k]
             for i in range(6):
                 r[i] += relax_g[e, k] * history[e, k, i]
-        f = element_matrices(x, xd, B, volume[e], law[e], stiffening[e], shear[e],
-                             shear_rate[e], own, own_rate, pressure, pressure_rate, kappa, g,
-                             (r[0], r[1], r[2], r[3], r[4], r[5]), K[e], C[e])
+        r6 = (r[0], r[1], r[2], r[3], r[4], r[5])
+        if K.shape[0] == 0:
+            f = element_force(x, xd, B, volume[e], law[e], stiffening[e], shear[e],
+                              shear_rate[e], own, own_rate, pressure, pressure_rate, kappa, g,
+                              r6)
+        else:
+            f = element_matrices(x, xd, B, volume[e], law[e], stiffening[e], shear[e],
+                                 shear_rate[e], own, own_rate, pressure, pressure_rate, kappa,
+                                 g, r6, K[e], C[e])
         for c, n in enumerate((n0, n1, n2, n3)):
             for k in range(3):
                 force[n, k] += f[3 * c + k]
-        if nodal:
+        if nodal and K.shape[0]:
             a, b, d = volumetric_gradients(x, xd, B, law[e])
             corner = 0.25 * volume[e]
             for i in range(12):
@@ -100,15 +108,18 @@ def element_tangents(p, v, elements, kappa, force, K, C, gradients):
 @numba.njit(cache=True, nogil=True)
 def spring_tangents(p, v, a, b, stiffness, damping, rest, cubic, force, K, C):
     """Every spring's force added to ``force``, its stiffness and damping into ``K``, ``C``
-    (n_springs, 6, 6); ``cubic`` the ``q`` of the last ``len(cubic)`` springs (as the
-    stepper's :func:`~neurofuzzy.kernels.stepper._springs`)."""
+    (n_springs, 6, 6), or the force alone when ``K`` is empty; ``cubic`` the ``q`` of the last
+    ``len(cubic)`` springs (as the stepper's :func:`~neurofuzzy.kernels.stepper._springs`)."""
     plain = a.shape[0] - cubic.shape[0]
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]
         x = (p[ia, 0], p[ia, 1], p[ia, 2], p[ib, 0], p[ib, 1], p[ib, 2])
         xd = (v[ia, 0], v[ia, 1], v[ia, 2], v[ib, 0], v[ib, 1], v[ib, 2])
         q = cubic[j - plain] if j >= plain else 0.0
-        f = spring_matrices(x, xd, stiffness[j], damping[j], rest[j], q, K[j], C[j])
+        if K.shape[0] == 0:
+            f = spring_force(x, xd, stiffness[j], damping[j], rest[j], q)
+        else:
+            f = spring_matrices(x, xd, stiffness[j], damping[j], rest[j], q, K[j], C[j])
         for k in range(3):
             force[ia, k] += f[k]
             force[ib, k] += f[3 + k]

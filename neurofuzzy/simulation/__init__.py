@@ -1,12 +1,16 @@
 """Time stepping of a model (paper eqs. 3.1–3.6): :func:`simulate` and :func:`step`
 (:mod:`~neurofuzzy.simulation.integration`), the stability bound of the step
 (:mod:`~neurofuzzy.simulation.stability`) and the steppers that run it, the numpy reference
-and the compiled one (:mod:`~neurofuzzy.simulation.steppers`)."""
+and the compiled one (:mod:`~neurofuzzy.simulation.steppers`); the force's stiffness and damping
+matrices (:mod:`~neurofuzzy.simulation.tangents`) and the static equilibrium under driven
+boundaries and loads (:mod:`~neurofuzzy.simulation.static`)."""
 
 from .integration import State, Trajectory, check_substeps, internal_forces, simulate, step
 from .stability import (STABILITY_SAFETY, StabilityLimit, check_time_step, required_substeps,
                         stability_limit)
+from .static import ConvergenceError, Driven, Equilibrium, equilibrium
 from .steppers import euler_update, numba_available
+from .tangents import Tangents, tangents
 
 __all__ = [
     "State",
@@ -22,4 +26,10 @@ __all__ = [
     "check_substeps",
     "required_substeps",
     "numba_available",
+    "Driven",
+    "Equilibrium",
+    "equilibrium",
+    "ConvergenceError",
+    "Tangents",
+    "tangents",
 ]

@@ -36,12 +36,13 @@ class Tangents:
     """
 
     force: np.ndarray
-    stiffness: sp.csr_array
-    damping: sp.csr_array
+    stiffness: sp.csr_array | None
+    damping: sp.csr_array | None
 
 
 def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None = None,
-             internal: np.ndarray | None = None) -> Tangents:
+             internal: np.ndarray | None = None, *, long_time: bool = False,
+             matrices: bool = True) -> Tangents:
     """The force of ``model`` at ``(positions, velocities)`` and its stiffness and damping.
 
     Parameters
@@ -54,6 +55,12 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         Zero by default.
     internal : (n_elements, n_prony_terms, 6) float, optional
         The relaxation's internal variables (zero, the state at rest, by default), held.
+    long_time : bool
+        The relaxed response: the Prony terms take their long-time value (none of their
+        share; a static equilibrium's).
+    matrices : bool
+        False: the force alone (``stiffness`` and ``damping`` None), at the cost of one
+        evaluation per item.
     """
     from .steppers import _prepared, compiled_terms_only
 
@@ -74,37 +81,50 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
     force = constant - drag * v
     blocks_k, blocks_c, dofs = [], [], []
     if len(a):
-        K = np.empty((len(a), 6, 6))
+        K = np.empty((len(a) if matrices else 0, 6, 6))
         C = np.empty_like(K)
         spring_tangents(p, v, a, b, stiffness, damping, rest, cubic, force, K, C)
-        blocks_k.append(K.reshape(len(a), -1))
-        blocks_c.append(C.reshape(len(a), -1))
+        blocks_k.append(K.reshape(len(K), K[0].size if len(K) else 0))
+        blocks_c.append(C.reshape(len(C), C[0].size if len(C) else 0))
         dofs.append(_dofs(np.stack([a, b], axis=1)))
     extra_k, extra_c = [], []
     if model.elements is not None:
-        scratch = np.zeros_like(elements[13])
-        history = np.zeros_like(elements[16]) if internal is None else np.ascontiguousarray(
-            internal, dtype=float)
-        if history.shape != elements[16].shape:
-            raise InputError(f"internal variables must have shape {elements[16].shape}; got "
-                             f"{history.shape}", key="internal")
-        layout = (*elements[:13], scratch, *elements[14:16], history)
+        layout = _element_layout(elements, internal, long_time)
         k = model.mesh.n_tetrahedra
-        K = np.empty((k, 12, 12))
+        K = np.empty((k if matrices else 0, 12, 12))
         C = np.empty_like(K)
-        gradients = np.zeros((k, 3, 12))
+        gradients = np.zeros((k if matrices else 0, 3, 12))
         element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
         tets = elements[0]
-        blocks_k.append(K.reshape(k, -1))
-        blocks_c.append(C.reshape(k, -1))
+        blocks_k.append(K.reshape(len(K), K[0].size if len(K) else 0))
+        blocks_c.append(C.reshape(len(C), C[0].size if len(C) else 0))
         dofs.append(_dofs(tets))
-        if elements[9]:                                     # the nodal volumetric form
-            extra_k, extra_c = _nodal_coupling(n, tets, elements, gradients)
+        if elements[9] and matrices:                        # the nodal volumetric form
+            extra_k, extra_c = _nodal_coupling(n, tets, layout, gradients)
+    if not matrices:
+        return Tangents(force, None, None)
     stiffness_matrix = _assemble(n, blocks_k, dofs) + sum(extra_k, sp.csr_array((3 * n, 3 * n)))
     damping_matrix = _assemble(n, blocks_c, dofs) + sum(extra_c, sp.csr_array((3 * n, 3 * n)))
     if drag:
         damping_matrix = damping_matrix + drag * sp.eye_array(3 * n, format="csr")
     return Tangents(force, sp.csr_array(stiffness_matrix), sp.csr_array(damping_matrix))
+
+
+def _element_layout(elements: tuple, internal, long_time: bool) -> tuple:
+    """The stepper's element layout with scratch space of its own and the internal variables
+    ``internal`` (none: zero), or without Prony terms (``long_time``)."""
+    relax_g, history = elements[14], elements[16]
+    if long_time:
+        relax_g = np.zeros((len(relax_g), 0))
+        history = np.zeros((len(relax_g), 0, 6))
+    elif internal is not None:
+        internal = np.ascontiguousarray(internal, dtype=float)
+        if internal.shape != history.shape:
+            raise InputError(f"internal variables must have shape {history.shape}; got "
+                             f"{internal.shape}", key="internal")
+        history = internal
+    return (*elements[:13], np.zeros_like(elements[13]), relax_g, elements[15],
+            np.zeros_like(history) if internal is None and not long_time else history)
 
 
 def _dofs(items: np.ndarray) -> np.ndarray:
@@ -124,15 +144,16 @@ def _assemble(n: int, blocks: list, dofs: list) -> sp.csr_array:
 
 def _nodal_coupling(n: int, tets: np.ndarray, elements: tuple, gradients: np.ndarray):
     """The nodal volumetric form's stiffness and damping through its node averages:
-    ``A diag(Λ/V) Aᵀ + R diag(H/V) Dᵀ`` and ``R diag(H/V) Rᵀ`` with the columns of ``A``,
+    ``A_g diag(Λ/V) Aᵀ + R diag(H/V) Dᵀ`` and ``R diag(H/V) Rᵀ`` with the columns of ``A``,
     ``R``, ``D`` the nodes' ``∂Θ_a/∂x``, ``∂(Σ_e (V_e/4) tr G_e)/∂x`` and ``∂Θ̇_a/∂x``
-    (:mod:`neurofuzzy.kernels.stiffness`)."""
+    (:mod:`neurofuzzy.kernels.stiffness`), and ``A_g`` that of ``A`` with each element's
+    share times ``1 + Σᵢ gᵢ`` (its Prony terms carry the volumetric stress too)."""
     node_volume, node_lam, node_lam_rate = elements[10], elements[11], elements[12]
     rows = np.repeat(_dofs(tets)[:, None, :], 4, axis=1).ravel()     # (k, corner, 12)
     cols = np.repeat(tets[:, :, None], 12, axis=2).ravel()
 
-    def columns(which):
-        values = np.repeat(gradients[:, which][:, None, :], 4, axis=1).ravel()
+    def columns(which, scale=1.0):
+        values = np.repeat((scale * gradients[:, which])[:, None, :], 4, axis=1).ravel()
         return sp.csr_array(sp.coo_array((values, (rows, cols)), shape=(3 * n, n)))
 
     inside = node_volume > 0
@@ -141,7 +162,9 @@ def _nodal_coupling(n: int, tets: np.ndarray, elements: tuple, gradients: np.nda
     weight[inside] = node_lam[inside] / node_volume[inside]
     weight_rate[inside] = node_lam_rate[inside] / node_volume[inside]
     A, R, D = columns(0), columns(1), columns(2)
-    stiffness = [A @ sp.diags_array(weight) @ A.T]
+    relaxing = 1.0 + elements[14].sum(axis=1)[:, None]
+    stiffness = [(columns(0, relaxing) if np.any(relaxing != 1.0) else A)
+                 @ sp.diags_array(weight) @ A.T]
     damping = []
     if np.any(weight_rate):
         scaled = R @ sp.diags_array(weight_rate)
