@@ -103,12 +103,19 @@ class Equilibrium:
         Newton iterations over all increments.
     residual : float
         The largest out-of-balance force left at a free component (N).
+    stiffness : (3 n_nodes, 3 n_nodes) sparse, or None
+        ``-∂F/∂p`` at the equilibrium (what its sensitivities solve with), when the last
+        iteration assembled it.
+    held : (n_held,) int
+        The held degrees of freedom (node-major ``3 i + k``).
     """
 
     positions: np.ndarray
     reaction: np.ndarray
     iterations: int
     residual: float
+    stiffness: object = None
+    held: np.ndarray | None = None
 
     def reaction_on(self, nodes) -> np.ndarray:
         """(3,) the total reaction on ``nodes``: what a load cell under them reads."""
@@ -191,7 +198,8 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
                 "displacements in more increments", key="increments")
     reaction = np.zeros(3 * n)
     reaction[held] = -(state.force.ravel()[held] + load_now[held])
-    return Equilibrium(p.reshape(n, 3), reaction.reshape(n, 3), iterations, float(residual))
+    return Equilibrium(p.reshape(n, 3), reaction.reshape(n, 3), iterations, float(residual),
+                       state.stiffness, held)
 
 
 def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarray]:

@@ -171,3 +171,44 @@ def _nodal_coupling(n: int, tets: np.ndarray, elements: tuple, gradients: np.nda
         stiffness.append(scaled @ D.T)
         damping.append(scaled @ R.T)
     return stiffness, damping
+
+
+def unit_forces(model: Model, positions: np.ndarray,
+                groups: np.ndarray | None = None) -> np.ndarray:
+    """The elements' force per unit of their constants, at rest velocity and long time:
+    ``(n_groups, 2, n_nodes, 3)``, ``[g, 0]`` the force of the elements of group ``g`` with
+    ``2μ = 1`` and ``λ = 0``, ``[g, 1]`` with ``2μ = 0`` and ``λ = 1`` (Pa⁻¹ · N).
+
+    Every law's stress is linear in ``2μ`` and in ``π = λ θ`` (and the nodal form's node
+    averages in the ``λ`` of the elements), so the elements' elastic force is exactly
+    ``Σ_g 2μ_g F[g, 0] + λ_g F[g, 1]``: its derivatives by the material constants, from the
+    one per-element function. ``groups`` (n_elements,) int: the groups (default one).
+    """
+    from ..kernels.stiffness import element_tangents
+    from .steppers import _prepared
+
+    if model.elements is None:
+        raise InputError("the model has no elements", key="model")
+    elements = _prepared(model, 1.0, np.dtype(np.float64))[9]
+    tets, volume, node_volume = elements[0], elements[2], elements[10]
+    k, n = len(tets), model.n_nodes
+    groups = np.zeros(k, np.intp) if groups is None else np.asarray(groups, np.intp)
+    if groups.shape != (k,):
+        raise InputError(f"groups must have shape ({k},); got {groups.shape}", key="groups")
+    p = np.array(positions, dtype=float, order="C")
+    zero_v = np.zeros_like(p)
+    zeros_k, zeros_n = np.zeros(k), np.zeros(n)
+    out = np.zeros((groups.max(initial=-1) + 1, 2, n, 3))
+    for g in range(len(out)):
+        member = (groups == g).astype(float)
+        corner = np.zeros(n)
+        np.add.at(corner, tets, (0.25 * volume * member)[:, None])
+        node_lam = np.divide(corner, node_volume, out=np.zeros(n), where=node_volume > 0)
+        for which in (0, 1):
+            shear, lam = (member, zeros_k) if which == 0 else (zeros_k, member)
+            layout = (*elements[:5], shear, zeros_k, lam, zeros_k, elements[9], node_volume,
+                      node_lam if which else zeros_n, zeros_n, np.zeros_like(elements[13]),
+                      np.zeros((k, 0)), elements[15], np.zeros((k, 0, 6)))
+            element_tangents(p, zero_v, layout, 0.0, out[g, which], np.empty((0, 12, 12)),
+                             np.empty((0, 12, 12)), np.zeros((0, 3, 12)))
+    return out

@@ -150,6 +150,26 @@ class ContinuumSolver:
         u[free] = spla.spsolve(self.stiffness[free][:, free].tocsc(), load[free])
         return u
 
+    def displaced(self, where: Callable, displacement) -> tuple[np.ndarray, np.ndarray]:
+        """The equilibrium with the boundary where ``where(x)`` holds (a bonded plate) moved
+        by ``displacement`` (3,) m and the fixed boundary at rest: ``(u, reaction)``, the
+        displacement (n_dofs,) and the total force (3,) N the plate exerts on the body."""
+        skfem = _skfem()
+        shift = np.asarray(displacement, float)
+        plate = self.basis.get_dofs(self.mesh.facets_satisfying(where)).all()
+        held = np.union1d(np.setdiff1d(np.arange(self.basis.N), self.free), plate)
+        # the dofs' components: a constant field is interpolated exactly by Lagrange elements
+        component = np.stack([self.basis.project(
+            lambda x, k=k: np.stack([np.full(x.shape[1:], float(k == j)) for j in range(3)]))
+            for k in range(3)])
+        u = np.zeros(self.basis.N)
+        u[plate] = (shift[:, None] * component[:, plate]).sum(axis=0)
+        free = np.setdiff1d(np.arange(self.basis.N), held)
+        K = self.stiffness
+        u[free] = spla.spsolve(K[free][:, free].tocsc(), -(K[free][:, held] @ u[held]))
+        force = K @ u
+        return u, np.array([force[plate] @ component[k, plate] for k in range(3)])
+
     def dynamic(self, load, *, dt: float, n_frames: int, substeps: int = 10) -> np.ndarray:
         """(n_frames, n_dofs) displacement from rest: average-acceleration Newmark with
         ``substeps`` steps per frame.

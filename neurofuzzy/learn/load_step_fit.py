@@ -1,0 +1,311 @@
+"""Young's modulus and Poisson's ratio from scans at load steps and, where a load cell was
+used, its force: :func:`fit_load_steps`.
+
+Each load step is a static equilibrium (:func:`neurofuzzy.simulation.equilibrium`) with the
+driven sets where the stage put them. The fit is a Levenberg–Marquardt least squares over the
+markers of every step (and the load cell's force at every step), each weighted by its own
+noise, with exact sensitivities of the equilibrium: at a solution ``F_f(p; θ) = 0`` on the
+free degrees of freedom, so ``∂p_f/∂θ = K_ff⁻¹ ∂F_f/∂θ`` (one solve per parameter with the
+equilibrium's stiffness), and the elements' force is exactly linear in ``2μ`` and ``λ``
+(:func:`neurofuzzy.simulation.tangents.unit_forces`), so ``∂F/∂θ`` needs no differencing.
+
+What the data cannot tell is said, not guessed: under displacement control with no force
+measured and no load, the equilibrium does not depend on the stiffness's scale
+(``∂p/∂ log E = 0`` exactly), so Young's modulus is listed in ``unidentifiable_`` and kept at
+its start value; Poisson's ratio (and the law's shape) still are identified. Scans taken at
+separate load steps are seldom registered exactly to each other: a rigid transform per step
+(a nuisance, on by default) moves each scan onto the model's markers before the residual is
+taken (Kabsch's closed form, alternating with the material's steps).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from ..errors import InputError
+from ..model import Model
+from ..simulation.static import equilibrium
+from ..simulation.tangents import tangents, unit_forces
+
+__all__ = ["LoadStepFit", "fit_load_steps"]
+
+#: the parameters, in the order of the fit's vector (log E, then u with ν = 0.5 σ(u))
+PARAMETERS = ("youngs_modulus", "poisson_ratio")
+
+
+@dataclass(frozen=True)
+class LoadStepFit:
+    """The outcome of :func:`fit_load_steps` (learned values end in ``_``)."""
+
+    model_: Model
+    youngs_modulus_: float
+    poisson_ratio_: float
+    standard_errors_: dict
+    unidentifiable_: tuple
+    marker_rms_: float
+    force_rms_: float | None
+    marker_noise_: float
+    force_noise_: float | None
+    registration_: np.ndarray
+    validation_: dict | None
+    iterations_: int
+    notes_: tuple
+
+    @property
+    def marker_scale(self) -> float:
+        """The RMS per marker that noise alone gives (m): ``√3`` times the noise of one
+        coordinate."""
+        return float(np.sqrt(3.0) * self.marker_noise_)
+
+    def summary(self) -> str:
+        """A few lines a person reads: the values, what was not identifiable, the errors."""
+        lines = []
+        for name, value, unit in (("youngs_modulus", self.youngs_modulus_, "Pa"),
+                                  ("poisson_ratio", self.poisson_ratio_, "")):
+            if name in self.unidentifiable_:
+                lines.append(f"  {name:<16} not identifiable from these data (kept at "
+                             f"{value:.4g} {unit}; no word is given for it)".rstrip())
+            else:
+                error = self.standard_errors_.get(name, float("nan"))
+                lines.append(f"  {name:<16} {value:.4g} ± {1.96 * error:.2g} {unit}".rstrip())
+        lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker, "
+                     f"{self.marker_rms_ / self.marker_scale:.2f}x the noise "
+                     f"({self.marker_noise_ * 1e6:.1f} µm per coordinate)")
+        if self.force_rms_ is not None:
+            lines.append(f"  load cell: RMS {self.force_rms_:.4g} N (noise estimate "
+                         f"{self.force_noise_:.3g} N)")
+        if self.validation_:
+            v = self.validation_
+            lines.append(f"  held-out steps {v['steps']}: markers RMS "
+                         f"{v['rms_error'] * 1e6:.1f} µm per marker "
+                         f"({v['rms_error'] / self.marker_scale:.2f}x the noise)")
+        return "\n".join(lines + [f"  note: {note}" for note in self.notes_])
+
+
+def _constants(theta):
+    """``(E, ν, shear 2μ, λ, ∂(2μ, λ)/∂θ)`` of ``θ = (log E, u)``."""
+    E = float(np.exp(theta[0]))
+    nu = 0.5 / (1.0 + np.exp(-theta[1]))
+    shear = E / (1 + nu)
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    dnu = nu * (1 - 2 * nu)
+    derivatives = np.array([[shear, -E / (1 + nu) ** 2 * dnu],
+                            [lam, E * (1 + 2 * nu**2) / ((1 + nu) * (1 - 2 * nu)) ** 2 * dnu]])
+    return E, nu, shear, lam, derivatives
+
+
+def _kabsch(measured, model):
+    """The rigid transform ``(R, t)`` moving ``measured`` (n, 3) closest onto ``model``."""
+    a0, b0 = measured.mean(axis=0), model.mean(axis=0)
+    u, _, vt = np.linalg.svd((measured - a0).T @ (model - b0))
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    R = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return R, b0 - R @ a0
+
+
+def _forward(model, data, theta, steps, want_jacobian):
+    """The model of ``θ`` through every step: markers (n_steps, n_markers, 3), the first
+    driven set's reaction (n_steps, 3) and their derivatives by θ."""
+    E, nu, _, _, dconst = _constants(theta)
+    current = model.with_elements(youngs_modulus=E, poisson_ratio=nu)
+    H = data.markers.operator(model.n_nodes)
+    measured_set = np.asarray(data.driven[0].nodes)
+    markers, reactions, d_markers, d_reactions = [], [], [], []
+    positions = None
+    for step in range(1, max(steps) + 1):
+        result = equilibrium(current, driven=data.boundary(step), start=positions,
+                             increments=2 if step == 1 else 1)
+        positions = result.positions
+        markers.append(H @ positions)
+        reactions.append(result.reaction_on(measured_set))
+        if not want_jacobian:
+            continue
+        K = result.stiffness
+        if K is None:
+            K = tangents(current, positions, long_time=True).stiffness
+        held = result.held
+        free = np.setdiff1d(np.arange(3 * model.n_nodes), held)
+        units = unit_forces(current, positions)[0].reshape(2, -1)     # (2, 3N)
+        dF = dconst.T @ units                                         # (P, 3N)
+        solve = spla.splu(K[free][:, free].tocsc()).solve
+        dp = np.zeros((len(theta), 3 * model.n_nodes))
+        dp[:, free] = solve(dF[:, free].T).T
+        d_markers.append(np.stack([H @ d.reshape(-1, 3) for d in dp]))
+        # reaction R_c = -(F + f)_c:  dR_c = -∂F_c/∂θ + K_cf dp_f
+        on_set = np.zeros(3 * model.n_nodes, bool)
+        on_set[(3 * measured_set[:, None] + np.arange(3)).ravel()] = True
+        K_cf = K[held][:, free]
+        dR = np.zeros((len(theta), 3 * model.n_nodes))
+        dR[:, held] = -dF[:, held] + (K_cf @ dp[:, free].T).T
+        dR[:, ~on_set] = 0.0
+        d_reactions.append(dR.reshape(len(theta), -1, 3).sum(axis=1))
+    return current, np.array(markers), np.array(reactions), d_markers, d_reactions
+
+
+def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
+                   force_noise: float | None = None, register: bool = True,
+                   validate_on: Sequence[int] = (), max_iterations: int = 30,
+                   progress: Callable[[str], None] | None = None) -> LoadStepFit:
+    """Fit the elements' Young's modulus and Poisson's ratio (one material) to
+    :class:`~neurofuzzy.load_steps.LoadSteps` (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        The start: an element model of the specimen's mesh (its E, ν the start values, its
+        law kept).
+    data : LoadSteps
+    marker_noise, force_noise : float, optional
+        The markers' (m) and the load cell's (N) noise; estimated from the residuals and
+        reported when not given.
+    register : bool
+        A rigid transform per scan (module docstring).
+    validate_on : sequence of int
+        Load steps (1-based) kept out of the fit; their prediction error is reported.
+    """
+    say = progress or (lambda message: None)
+    if model.elements is None:
+        raise InputError("a fit from load steps needs an element model", key="model")
+    if model.mesh is not data.mesh and model.n_nodes != data.mesh.n_nodes:
+        raise InputError(f"the model has {model.n_nodes} nodes, the load steps' mesh "
+                         f"{data.mesh.n_nodes}", key="model")
+    held_out = sorted({int(s) for s in validate_on})
+    if any(s < 1 or s > data.n_steps for s in held_out) or len(held_out) >= data.n_steps:
+        raise InputError(f"validate_on must name some of the load steps 1..{data.n_steps} and "
+                         f"leave one to fit; got {list(validate_on)}", key="validate_on")
+    fitted = [s for s in range(1, data.n_steps + 1) if s not in held_out]
+    scans = data.markers.positions[1:]
+    seen = np.isfinite(scans).all(axis=-1)
+    size = float(np.ptp(model.mesh.rest_positions, axis=0).max())
+    reaction = None if data.reaction is None else np.asarray(data.reaction, float)
+    sigma_m = marker_noise or 1e-4 * size
+    sigma_f = force_noise or (None if reaction is None
+                              else max(0.01 * np.abs(reaction).max(), 1e-12))
+    E0 = float(np.mean(model.elements.youngs_modulus))
+    nu0 = float(np.clip(np.mean(model.elements.poisson_ratio), 0.01, 0.4999))
+    theta = np.array([np.log(E0), np.log(nu0 / (0.5 - nu0))])
+    transforms = np.tile(np.eye(4), (data.n_steps, 1, 1))
+    iterations = 0
+
+    def registered(markers):
+        out = scans[:len(markers)].copy()
+        for k in range(len(markers)):
+            if register and seen[k].sum() >= 3:
+                R, t = _kabsch(scans[k, seen[k]], markers[k, seen[k]])
+                transforms[k, :3, :3], transforms[k, :3, 3] = R, t
+            out[k] = scans[k] @ transforms[k, :3, :3].T + transforms[k, :3, 3]
+        return out
+
+    def residuals(markers, reactions, rows):
+        moved = registered(markers) - markers
+        r = [(moved[s - 1][seen[s - 1]] / sigma_m).ravel() for s in rows]
+        if reaction is not None:
+            r += [(reaction[s - 1] - reactions[s - 1]) / sigma_f for s in rows]
+        return np.concatenate(r)
+
+    def jacobian(d_markers, d_reactions):
+        blocks = [-(d_markers[s - 1][:, seen[s - 1]] / sigma_m).reshape(len(theta), -1)
+                  for s in fitted]
+        if reaction is not None:
+            blocks += [-(d_reactions[s - 1] / sigma_f) for s in fitted]
+        return np.concatenate(blocks, axis=1).T
+
+    rounds = 2 if (marker_noise is None or (reaction is not None and force_noise is None)) else 1
+    identifiable = np.ones(len(theta), bool)
+    for round_ in range(rounds):
+        damping = 1e-3
+        current, markers, reactions, dm, dr = _forward(model, data, theta, fitted, True)
+        r = residuals(markers, reactions, fitted)
+        cost = r @ r
+        for _ in range(max_iterations):
+            J = jacobian(dm, dr)
+            norms = np.linalg.norm(J, axis=0)
+            identifiable = norms > 1e-7 * max(norms.max(), 1e-300)
+            J = J[:, identifiable]
+            g = J.T @ r
+            A = J.T @ J
+            accepted = False
+            while damping < 1e10:
+                step = np.zeros(len(theta))
+                step[identifiable] = -np.linalg.solve(A + damping * np.diag(np.diag(A)), g)
+                trial = theta + np.clip(step, -1.0, 1.0)
+                out = _forward(model, data, trial, fitted, True)
+                r_trial = residuals(out[1], out[2], fitted)
+                if r_trial @ r_trial < cost:
+                    theta, (current, markers, reactions, dm, dr) = trial, out
+                    gain = (cost - r_trial @ r_trial) / max(cost, 1e-300)
+                    r, cost, accepted = r_trial, r_trial @ r_trial, gain > 1e-10
+                    damping = max(damping / 10, 1e-9)
+                    break
+                damping *= 10
+            iterations += 1
+            E, nu = _constants(theta)[:2]
+            say(f"  load steps: iteration {iterations}, cost {cost:.6g}, E {E:.4g} Pa, "
+                f"nu {nu:.4f}")
+            if not accepted or np.abs(step).max() < 1e-8:
+                break
+        if round_ + 1 < rounds:                      # the noise from the residuals, then refit
+            sigma_m, sigma_f = _noise(registered(markers) - markers, seen, fitted, reactions,
+                                      reaction, sigma_m, sigma_f, marker_noise, force_noise,
+                                      register, int(identifiable.sum()))
+    J = jacobian(dm, dr)[:, identifiable]
+    covariance = np.linalg.pinv(J.T @ J)
+    E, nu, *_ = _constants(theta)
+    errors = {}
+    names = [name for name, keep in zip(PARAMETERS, identifiable) if keep]
+    scale = {"youngs_modulus": E, "poisson_ratio": nu * (1 - 2 * nu)}
+    for i, name in enumerate(names):
+        errors[name] = float(np.sqrt(covariance[i, i]) * scale[name])
+    moved = registered(markers) - markers
+    marker_rms = _rms(moved, seen, fitted)
+    force_rms = None if reaction is None else float(np.sqrt(np.mean(
+        (reaction[[s - 1 for s in fitted]] - reactions[[s - 1 for s in fitted]]) ** 2)))
+    validation = None
+    if held_out:
+        everything = _forward(model, data, theta, range(1, data.n_steps + 1), False)
+        moved_all = registered(everything[1]) - everything[1]
+        validation = {"steps": held_out, "rms_error": _rms(moved_all, seen, held_out),
+                      "fitted_rms_error": marker_rms}
+        if reaction is not None:
+            validation["force_error"] = float(np.sqrt(np.mean(
+                (reaction[[s - 1 for s in held_out]]
+                 - everything[2][[s - 1 for s in held_out]]) ** 2)))
+    notes = ["static steps: viscosity plays no part, and Prony terms take their long-time "
+             "value"]
+    if not identifiable[0]:
+        notes.append("no force was measured and no load applied: under displacement control "
+                     "the equilibrium does not depend on the stiffness's scale, so Young's "
+                     "modulus cannot be identified (add a load cell's force)")
+    return LoadStepFit(current, E, nu, errors,
+                       tuple(n for n, keep in zip(PARAMETERS, identifiable) if not keep),
+                       marker_rms, force_rms, float(sigma_m),
+                       None if sigma_f is None else float(sigma_f), transforms.copy(),
+                       validation, iterations, tuple(notes))
+
+
+def _rms(moved, seen, steps):
+    """Root mean square of the marker misfit per marker (m) over ``steps``."""
+    values = np.concatenate([np.sum(moved[s - 1][seen[s - 1]] ** 2, axis=-1) for s in steps])
+    return float(np.sqrt(values.mean()))
+
+
+def _noise(moved, seen, fitted, reactions, reaction, sigma_m, sigma_f, given_m, given_f,
+           register, n_parameters):
+    """The markers' and the load cell's noise from the residuals (per coordinate, with the
+    degrees of freedom the fit used: the material's and, per scan, the registration's six)."""
+    count = sum(int(seen[s - 1].sum()) * 3 for s in fitted)
+    blocks = 1 + (reaction is not None)
+    used = n_parameters / blocks + (6 * len(fitted) if register else 0)
+    if given_m is None:
+        squares = sum(float(np.sum(moved[s - 1][seen[s - 1]] ** 2)) for s in fitted)
+        sigma_m = np.sqrt(squares / max(count - used, 1))
+    if reaction is not None and given_f is None:
+        rows = [s - 1 for s in fitted]
+        squares = float(np.sum((reaction[rows] - reactions[rows]) ** 2))
+        sigma_f = max(np.sqrt(squares / max(3 * len(rows) - n_parameters / blocks, 1)),
+                      1e-9 * np.abs(reaction).max())
+    return sigma_m, sigma_f

@@ -1,0 +1,173 @@
+"""Experiments whose frames are equilibria: a specimen compressed between plates (or pulled,
+or sheared) by a stage moved a known amount, scanned at a few load steps, perhaps with a load
+cell: the :class:`LoadSteps`.
+
+Step 0 is the reference (the unloaded scan); at step ``s ≥ 1`` every :class:`DrivenPath` sits
+at its ``displacement[s - 1]`` from rest, the mesh's fixed nodes at rest, and the markers
+(embedded anywhere in the body, :class:`~neurofuzzy.observation.EmbeddedMarkers`) were scanned
+where the body came to rest. A load cell, when there was one, measured the total reaction
+force on one driven set at each step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+from .mesh import Mesh
+from .model import Model
+from .observation import EmbeddedMarkers
+from .simulation.static import Driven, equilibrium
+
+__all__ = ["DrivenPath", "LoadSteps", "simulate_load_steps"]
+
+
+@dataclass(frozen=True, eq=False)
+class DrivenPath:
+    """A set of nodes moved by a known displacement at each load step.
+
+    Parameters
+    ----------
+    nodes : (n,) int
+        The driven nodes (a plate's face).
+    displacement : (n_steps, 3) float
+        Their displacement from rest at steps 1..n_steps (m).
+    components : str
+        The components the driver holds: ``"xyz"`` a bonded plate, the normal alone (e.g.
+        ``"z"``) a frictionless one.
+    name : str
+        How reports call it ("top plate").
+    """
+
+    nodes: np.ndarray
+    displacement: np.ndarray
+    components: str = "xyz"
+    name: str = "plate"
+
+    def at(self, step: int) -> Driven:
+        """The driven set at step ``step`` (1-based; 0 is rest)."""
+        shift = np.zeros(3) if step == 0 else np.asarray(self.displacement, float)[step - 1]
+        return Driven(np.asarray(self.nodes), shift, self.components)
+
+
+@dataclass(frozen=True, eq=False)
+class LoadSteps:
+    """Markers scanned at a few load steps of a displacement-controlled test.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The body, its fixed nodes (the anvil under a bonded specimen) held at rest.
+    driven : tuple of DrivenPath
+        What the stage moved.
+    markers : EmbeddedMarkers
+        Marker positions (n_steps + 1, n_markers, 3): step 0 the reference scan, NaN where a
+        marker was not found.
+    reaction : (n_steps, 3) float, optional
+        The load cell's reading at each step: the total force the first driven set exerts on
+        the body (N).
+    truth : dict
+        Ground truth of synthetic data: reported, never read by a fitter.
+    source : str
+        Where the data came from, for messages.
+    """
+
+    mesh: Mesh
+    driven: tuple
+    markers: EmbeddedMarkers
+    reaction: np.ndarray | None = None
+    truth: dict = field(default_factory=dict)
+    source: str = "<load steps>"
+
+    def __post_init__(self):
+        src = self.source
+        if not isinstance(self.markers, EmbeddedMarkers):
+            raise InputError("markers must be EmbeddedMarkers", source=src, key="markers")
+        n_steps = self.markers.positions.shape[0] - 1
+        if n_steps < 1:
+            raise InputError("needs the reference scan and at least one load step",
+                             source=src, key="markers")
+        driven = tuple(self.driven)
+        if not driven or not all(isinstance(d, DrivenPath) for d in driven):
+            raise InputError("needs at least one DrivenPath (what moved the body)",
+                             source=src, key="driven")
+        fixed = set(np.asarray(self.mesh.fixed).tolist())
+        for path in driven:
+            shape = np.shape(path.displacement)
+            if shape != (n_steps, 3):
+                raise InputError(f"the driven set {path.name!r} has displacements of shape "
+                                 f"{shape}; the scans have {n_steps} load steps, so expected "
+                                 f"({n_steps}, 3)", source=src, key="driven")
+            nodes = np.asarray(path.nodes)
+            if nodes.size == 0:
+                raise InputError(f"the driven set {path.name!r} is empty", source=src,
+                                 key="driven")
+            overlap = fixed.intersection(nodes.tolist())
+            if overlap:
+                raise InputError(f"the driven set {path.name!r} overlaps the fixed nodes "
+                                 f"({len(overlap)} nodes, e.g. {min(overlap)}): a node is "
+                                 "held by one boundary", source=src, key="driven")
+            try:
+                path.at(1).dofs(self.mesh.n_nodes)
+            except InputError as error:
+                raise InputError(error.detail, source=src, key=error.key) from None
+        try:
+            self.markers.operator(self.mesh.n_nodes)
+        except InputError as error:
+            raise InputError(error.detail, source=src, key=error.key) from None
+        if not np.isfinite(self.markers.positions[0]).all():
+            raise InputError("every marker needs a position in the reference scan (step 0)",
+                             source=src, key="marker_positions")
+        if self.reaction is not None:
+            reaction = np.asarray(self.reaction, float)
+            if reaction.shape != (n_steps, 3) or not np.all(np.isfinite(reaction)):
+                raise InputError(f"the load cell's reading must be finite of shape "
+                                 f"({n_steps}, 3) (one force per load step); got "
+                                 f"{reaction.shape}", source=src, key="reaction")
+        object.__setattr__(self, "driven", driven)
+
+    @property
+    def n_steps(self) -> int:
+        """Load steps after the reference scan."""
+        return self.markers.positions.shape[0] - 1
+
+    def boundary(self, step: int) -> list[Driven]:
+        """Every driven set at step ``step``."""
+        return [path.at(step) for path in self.driven]
+
+
+def simulate_load_steps(model: Model, driven, markers: EmbeddedMarkers, *,
+                        load_cell: bool = True, marker_noise: float = 0.0,
+                        force_noise: float = 0.0, increments: int = 2,
+                        seed: int = 0) -> LoadSteps:
+    """Synthetic :class:`LoadSteps` of ``model``: the equilibria at each step of ``driven``
+    (DrivenPaths), the markers' positions there (``markers.positions`` gives only the number
+    of scans; their weights place them), with Gaussian noise of ``marker_noise`` (m) and, with
+    ``load_cell``, the first driven set's reaction with noise of ``force_noise`` (N)."""
+    driven = tuple(driven)
+    n_steps = markers.positions.shape[0] - 1
+    H = markers.operator(model.n_nodes)
+    rng = np.random.default_rng(seed)
+    scans = [H @ model.mesh.rest_positions]
+    forces = []
+    positions = None
+    for step in range(1, n_steps + 1):
+        result = equilibrium(model, driven=[path.at(step) for path in driven],
+                             start=positions, increments=increments)
+        positions = result.positions
+        scans.append(H @ positions)
+        forces.append(result.reaction_on(driven[0].nodes))
+    scans = np.array(scans)
+    scans[1:] += rng.normal(scale=marker_noise, size=scans[1:].shape) if marker_noise else 0.0
+    reaction = np.array(forces)
+    if force_noise:
+        reaction = reaction + rng.normal(scale=force_noise, size=reaction.shape)
+    elements = model.elements
+    truth = {} if elements is None else {
+        "true_youngs_modulus": np.asarray(elements.youngs_modulus),
+        "true_poisson_ratio": np.asarray(elements.poisson_ratio)}
+    return LoadSteps(model.mesh, driven,
+                     EmbeddedMarkers(markers.nodes, markers.weights, scans, markers.names),
+                     reaction if load_cell else None, truth, "<simulated load steps>")

@@ -1,0 +1,160 @@
+"""Load steps (scans of a specimen between plates at a few compressions) and the fit of E and
+ν from them: what the data identify, what they cannot, registration of the scans, held-out
+steps, and data from scikit-fem's quadratic tetrahedra that our linear ones cannot fit
+exactly."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.errors import InputError
+from neurofuzzy.learn.load_step_fit import fit_load_steps
+from neurofuzzy.load_steps import DrivenPath, LoadSteps, simulate_load_steps
+from neurofuzzy.mesh import from_tetra, kuhn_block
+from neurofuzzy.model import Model
+from neurofuzzy.observation import EmbeddedMarkers, embed_points
+
+SIZE = 0.02
+E, NU = 6000.0, 0.45
+STRAINS = (0.05, 0.125, 0.18)
+
+
+def _mesh(cells=3):
+    points, tetrahedra = kuhn_block((cells,) * 3, SIZE / cells)
+    return from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+
+
+def _top(mesh):
+    return np.flatnonzero(np.isclose(mesh.rest_positions[:, 2], SIZE))
+
+
+def _plate(mesh, strains=STRAINS):
+    return DrivenPath(_top(mesh), np.array([[0.0, 0.0, -s * SIZE] for s in strains]),
+                      name="top plate")
+
+
+def _markers(mesh, n=60, steps=len(STRAINS), seed=1):
+    points = np.random.default_rng(seed).uniform(0.1 * SIZE, 0.9 * SIZE, size=(n, 3))
+    nodes, weights, _ = embed_points(mesh, points)
+    return EmbeddedMarkers(nodes, weights, np.zeros((steps + 1, n, 3)))
+
+
+def _start(mesh):
+    return Model.continuum(mesh, youngs_modulus=3000.0, poisson_ratio=0.3, viscosity=1.0,
+                           density=1000.0, law="neo-hookean")
+
+
+@pytest.fixture(scope="module")
+def gel():
+    """A neo-Hookean gel (E 6 kPa, ν 0.45) compressed 5 / 12.5 / 18 % between bonded
+    plates, 60 embedded markers with 20 µm noise, a load cell with 1 mN noise."""
+    mesh = _mesh()
+    truth = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=1.0,
+                            density=1000.0, law="neo-hookean")
+    return simulate_load_steps(truth, [_plate(mesh)], _markers(mesh), marker_noise=20e-6,
+                               force_noise=1e-3, seed=3)
+
+
+def _without_force(data):
+    return LoadSteps(data.mesh, data.driven, data.markers, None, data.truth)
+
+
+def test_without_a_force_poisson_is_found_and_youngs_modulus_is_said_unidentifiable(gel):
+    fit = fit_load_steps(_start(gel.mesh), _without_force(gel), validate_on=[3])
+    assert fit.poisson_ratio_ == pytest.approx(NU, abs=0.01)
+    assert fit.unidentifiable_ == ("youngs_modulus",)
+    assert fit.youngs_modulus_ == pytest.approx(3000.0)          # kept, not made up
+    assert "youngs_modulus" not in fit.standard_errors_
+    assert "not identifiable" in fit.summary() and "load cell" in " ".join(fit.notes_)
+    # the held-out deepest step is predicted to the noise (markers: √3 σ per marker)
+    assert fit.validation_["steps"] == [3]
+    assert fit.validation_["rms_error"] < 1.2 * np.sqrt(3) * 20e-6
+    assert fit.marker_noise_ == pytest.approx(20e-6, rel=0.25)
+
+
+def test_with_a_load_cell_youngs_modulus_is_found_too(gel):
+    fit = fit_load_steps(_start(gel.mesh), gel)
+    assert fit.unidentifiable_ == ()
+    assert fit.youngs_modulus_ == pytest.approx(E, rel=0.03)
+    assert fit.poisson_ratio_ == pytest.approx(NU, abs=0.01)
+    # the interval holds the truth and is not vacuous
+    half = 1.96 * fit.standard_errors_["youngs_modulus"]
+    assert abs(fit.youngs_modulus_ - E) <= half < 0.05 * E
+    assert fit.force_noise_ == pytest.approx(1e-3, rel=0.6)
+
+
+def test_scans_out_of_register_are_registered_per_step(gel):
+    """Each scan moved by its own rigid transform (a few degrees, a millimetre): with the
+    registration the fit is as good as on registered scans; without it, it is not."""
+    rng = np.random.default_rng(7)
+    scans = gel.markers.positions.copy()
+    for k in range(1, len(scans)):
+        angle = np.radians(rng.uniform(-3, 3, 3))
+        cx, cy, cz = np.cos(angle)
+        sx, sy, sz = np.sin(angle)
+        R = (np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+             @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+             @ np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]))
+        scans[k] = scans[k] @ R.T + rng.uniform(-1e-3, 1e-3, 3)
+    moved = LoadSteps(gel.mesh, gel.driven, EmbeddedMarkers(
+        gel.markers.nodes, gel.markers.weights, scans), None)
+    registered = fit_load_steps(_start(gel.mesh), moved)
+    assert registered.poisson_ratio_ == pytest.approx(NU, abs=0.01)
+    assert registered.marker_rms_ < 1.3 * np.sqrt(3) * 20e-6
+    assert not np.allclose(registered.registration_[1], np.eye(4), atol=1e-4)
+    plain = fit_load_steps(_start(gel.mesh), moved, register=False, max_iterations=5)
+    assert plain.marker_rms_ > 10 * registered.marker_rms_
+
+
+def test_bad_load_steps_are_refused_with_what_is_wrong():
+    mesh = _mesh(2)
+    markers = _markers(mesh, n=5)
+    with pytest.raises(InputError, match=r"3 load steps, so expected \(3, 3\)"):
+        LoadSteps(mesh, (_plate(mesh, (0.1, 0.2)),), markers)
+    with pytest.raises(InputError, match="overlaps the fixed nodes"):
+        LoadSteps(mesh, (DrivenPath(mesh.fixed, np.zeros((3, 3))),), markers)
+    with pytest.raises(InputError, match="empty"):
+        LoadSteps(mesh, (DrivenPath(np.array([], int), np.zeros((3, 3))),), markers)
+    with pytest.raises(InputError, match="DrivenPath"):
+        LoadSteps(mesh, (), markers)
+    with pytest.raises(InputError, match="one force per load step"):
+        LoadSteps(mesh, (_plate(mesh),), markers, reaction=np.zeros((2, 3)))
+    data = LoadSteps(mesh, (_plate(mesh),), markers)
+    with pytest.raises(InputError, match="validate_on"):
+        fit_load_steps(_start(mesh), data, validate_on=[1, 2, 3])
+    with pytest.raises(InputError, match="validate_on"):
+        fit_load_steps(_start(mesh), data, validate_on=[4])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("nu, tolerance", [(0.45, 0.01), (0.499, 0.02)])
+def test_data_from_scikit_fems_quadratic_tetrahedra(nu, tolerance):
+    """Bonded compression of 0.5 / 1 / 1.5 % computed by scikit-fem (quadratic tetrahedra,
+    linear elasticity), 343 markers with 2 µm noise and a load cell with 1 % noise, fitted
+    with our linear tetrahedra (the nodal volumetric form) on the same 4³ cells: what the
+    other discretisation leaves is absorbed by E (a few per cent) and ν (within the
+    tolerance), and the held-out step is predicted within 1.6x the noise."""
+    from neurofuzzy.validation.continuum import ContinuumSolver
+
+    rng = np.random.default_rng(0)
+    points, tetrahedra = kuhn_block((4,) * 3, SIZE / 4)
+    solver = ContinuumSolver(points, tetrahedra, youngs_modulus=E, poisson_ratio=nu,
+                             viscosity=1.0, density=1000.0, fixed=lambda x: x[2] < 1e-9)
+    marker_points = rng.uniform(0.1 * SIZE, 0.9 * SIZE, size=(343, 3))
+    strains = (0.005, 0.01, 0.015)
+    scans, forces = [marker_points], []
+    for strain in strains:
+        u, force = solver.displaced(lambda x: x[2] > SIZE - 1e-9, (0, 0, -strain * SIZE))
+        scans.append(marker_points + solver.at(u, marker_points))
+        forces.append(force)
+    scans = np.array(scans)
+    scans[1:] += rng.normal(scale=2e-6, size=scans[1:].shape)
+    forces = np.array(forces) * (1 + 0.01 * rng.normal(size=(len(strains), 3)))
+    mesh = _mesh(4)
+    nodes, weights, _ = embed_points(mesh, marker_points)
+    data = LoadSteps(mesh, (_plate(mesh, strains),), EmbeddedMarkers(nodes, weights, scans),
+                     forces)
+    fit = fit_load_steps(_start(mesh).with_elements(law="st-venant-kirchhoff"), data,
+                         validate_on=[3])
+    assert fit.poisson_ratio_ == pytest.approx(nu, abs=tolerance)
+    assert fit.youngs_modulus_ == pytest.approx(E, rel=0.1)
+    assert fit.validation_["rms_error"] < 1.6 * fit.marker_scale
