@@ -61,7 +61,7 @@ def _without_force(data):
 def test_without_a_force_poisson_is_found_and_youngs_modulus_is_said_unidentifiable(gel):
     fit = fit_load_steps(_start(gel.mesh), _without_force(gel), validate_on=[3])
     assert fit.poisson_ratio_ == pytest.approx(NU, abs=0.01)
-    assert fit.unidentifiable_ == ("youngs_modulus",)
+    assert fit.unidentifiable_ == ("youngs_modulus", "viscosity", "density")
     assert fit.youngs_modulus_ == pytest.approx(3000.0)          # kept, not made up
     assert "youngs_modulus" not in fit.standard_errors_
     assert "not identifiable" in fit.summary() and "load cell" in " ".join(fit.notes_)
@@ -73,7 +73,7 @@ def test_without_a_force_poisson_is_found_and_youngs_modulus_is_said_unidentifia
 
 def test_with_a_load_cell_youngs_modulus_is_found_too(gel):
     fit = fit_load_steps(_start(gel.mesh), gel)
-    assert fit.unidentifiable_ == ()
+    assert fit.unidentifiable_ == ("viscosity", "density")
     assert fit.youngs_modulus_ == pytest.approx(E, rel=0.03)
     assert fit.poisson_ratio_ == pytest.approx(NU, abs=0.01)
     # the interval holds the truth and is not vacuous
@@ -158,3 +158,28 @@ def test_data_from_scikit_fems_quadratic_tetrahedra(nu, tolerance):
     assert fit.poisson_ratio_ == pytest.approx(nu, abs=tolerance)
     assert fit.youngs_modulus_ == pytest.approx(E, rel=0.1)
     assert fit.validation_["rms_error"] < 1.6 * fit.marker_scale
+
+
+def test_the_equilibriums_sensitivities_are_its_central_differences(gel):
+    """The fit's Jacobian (markers and the load cell's force by log E and ν's logit, from
+    K_ff⁻¹ ∂F/∂θ with ∂F/∂θ from the force per unit 2μ and λ) against central differences
+    of the solved equilibria."""
+    from neurofuzzy.learn.load_step_fit import _forward
+
+    model = _start(gel.mesh)
+    theta = np.array([np.log(5000.0), np.log(0.4 / 0.1)])
+    _, markers, reactions, d_markers, d_reactions = _forward(model, gel, theta, [1, 2, 3], True)
+    eps = 1e-5
+    for j in range(2):
+        step = np.zeros(2)
+        step[j] = eps
+        plus = _forward(model, gel, theta + step, [1, 2, 3], False)
+        minus = _forward(model, gel, theta - step, [1, 2, 3], False)
+        for k in range(3):
+            difference = (plus[1][k] - minus[1][k]) / (2 * eps)
+            assert np.abs(d_markers[k][j] - difference).max() <= 1e-5 * np.abs(
+                difference).max() + 1e-12
+            difference = (plus[2][k] - minus[2][k]) / (2 * eps)
+            assert np.abs(d_reactions[k][j] - difference).max() <= 1e-5 * np.abs(
+                difference).max() + 1e-12
+    assert np.abs(d_markers[2][0]).max() < 1e-9 * np.abs(d_markers[2][1]).max()   # E: none

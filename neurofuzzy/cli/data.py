@@ -98,7 +98,10 @@ def mesh(args) -> int:
         bounds = None if read.surface_bounds is None else read.surface_bounds * args.scale
         mesh = lattice_to_tetra(mesh, bounds=bounds)
     if args.fix_bottom:
-        z = mesh.rest_positions[:, 2]
+        from .steps import axis_of
+
+        index, sign = axis_of(args.up)
+        z = sign * mesh.rest_positions[:, index]
         mesh = mesh.with_fixed(where=lambda p: z <= z.min() + 0.25 * mesh.rest_lengths.min())
     elif args.fix_below is not None:
         z = mesh.rest_positions[:, 2]
@@ -197,8 +200,16 @@ def _resolution(args, bounds) -> str:
 def import_markers(args) -> int:
     from ..io import load_experiment, load_model, save_experiment
     from ..markers import markers_to_experiment, read_marker_map, read_markers
+    from ..markers.steps import has_step_column
     from ..plausibility import check_body_size, check_length_option, check_recording
+    from .steps import import_load_steps
 
+    if Path(args.markers).suffix.lower() == ".csv" and has_step_column(args.markers):
+        return import_load_steps(args)
+    if args.displacements:
+        raise InputError("a plate's displacement per load step goes with scans at load steps "
+                         "(a marker CSV with a 'step' column); this recording is in time",
+                         source=str(args.markers), key="--displacements")
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
     positive(args.dt, "--dt")
     positive(args.max_distance, "--max-distance")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ..errors import InputError
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
 from ..learn.lack_of_fit import length_text
 from ..pipeline import check_outcome, explained, require_motion
@@ -42,6 +43,15 @@ def _protected(args) -> list[Path]:
 
 
 def fit(args) -> int:
+    from ..io.load_steps import is_load_steps_file
+    from .steps import fit_load_steps
+
+    if is_load_steps_file(args.experiments[0]):
+        return fit_load_steps(args)
+    if args.validate_on:
+        raise InputError("holds out load steps of a load-step file; these experiments are "
+                         "time series (hold out a load case by fitting the others and "
+                         "simulating it)", key="--validate-on")
     progress = not args.quiet   # on stderr: --json output on stdout stays one object
     positive(args.cycles, "--cycles", integer=True)
     positive(args.learning_rate, "--learning-rate")

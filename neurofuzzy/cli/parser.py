@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import batch, data, fitting, misc, studio
+from . import batch, data, fitting, misc, steps, studio
 from .common import usage
 from ..forces.laws import LAWS
 from ..version import __version__
@@ -62,6 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "the discrepancy principle, a number fixes it (1 = Bayesian: the "
                           "fuzzy set's spread against the measured noise), 'off' (the default "
                           "otherwise) fits the data alone")
+    fit.add_argument("--validate-on", metavar="STEPS",
+                     help="a load-step file: keep these load steps (e.g. 3 or 2,3) out of the "
+                          "fit and report their prediction error beside the fitted error")
     fit.add_argument("--mesh-check", action="store_true",
                      help="after the fit, refit on the mesh refined once (each tetrahedron in "
                           "eight) and widen the 95 %% intervals by how far the values move: "
@@ -251,10 +254,13 @@ def build_parser() -> argparse.ArgumentParser:
                            "default 1)")
     fixing = mesh.add_mutually_exclusive_group()
     fixing.add_argument("--fix-bottom", action="store_true",
-                        help="hold the lowest nodes (z within a quarter of the shortest "
-                             "spring of the minimum) in place")
+                        help="hold the lowest nodes (along --up, within a quarter of the "
+                             "shortest spring of the minimum) in place")
     fixing.add_argument("--fix-below", type=float, metavar="Z",
                         help="hold the nodes with z <= Z (metres) in place")
+    mesh.add_argument("--up", default="z", choices=steps.AXES,
+                      help="the axis pointing up, for --fix-bottom (default z): scans whose "
+                           "up is not +z")
     mesh.add_argument("--elements", choices=("tetra", "springs"), default="tetra",
                       help="tetra (default): linear tetrahedral finite elements whose "
                            "parameters are the tissue's Young's modulus, Poisson's ratio and "
@@ -314,6 +320,19 @@ def build_parser() -> argparse.ArgumentParser:
                           help="farthest a marker may lie from its node (--attach node) or "
                                "outside the mesh (embed) at the start (m; default half the "
                                "shortest spring)")
+    importer.add_argument("--displacements", metavar="PLATE.csv",
+                          help="a load-step file's plate (MARKERS.csv with a 'step' column: "
+                               "scans at load steps, step 0 the reference): step,dx,dy,dz"
+                               "[,fx,fy,fz], the top plate's displacement per step and, where "
+                               "a load cell was read, its force ('# length units:' and "
+                               "'# force units:' lines); writes a load-step file")
+    importer.add_argument("--up", default="z", choices=steps.AXES,
+                          help="with --displacements: the axis the plate moves along, "
+                               "pointing away from the fixed bottom (default z; a negative one as --up=-z)")
+    importer.add_argument("--plate", choices=("bonded", "sliding"), default="bonded",
+                          help="with --displacements: the plate holds the top face in every "
+                               "direction (bonded, the default) or only along --up "
+                               "(frictionless, sliding)")
     importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz",
                           help="the experiment file to write")
     importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")

@@ -35,6 +35,9 @@ __all__ = ["LoadStepFit", "fit_load_steps"]
 
 #: the parameters, in the order of the fit's vector (log E, then u with ν = 0.5 σ(u))
 PARAMETERS = ("youngs_modulus", "poisson_ratio")
+#: what equilibria never tell: the viscosity (nothing moves) and the density (nothing
+#: accelerates)
+STATIC_UNIDENTIFIABLE = ("viscosity", "density")
 
 
 @dataclass(frozen=True)
@@ -274,14 +277,14 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
             validation["force_error"] = float(np.sqrt(np.mean(
                 (reaction[[s - 1 for s in held_out]]
                  - everything[2][[s - 1 for s in held_out]]) ** 2)))
-    notes = ["static steps: viscosity plays no part, and Prony terms take their long-time "
-             "value"]
+    notes = ["static steps: viscosity and density play no part (not identifiable, given no "
+             "word), and Prony terms take their long-time value"]
     if not identifiable[0]:
         notes.append("no force was measured and no load applied: under displacement control "
                      "the equilibrium does not depend on the stiffness's scale, so Young's "
                      "modulus cannot be identified (add a load cell's force)")
-    return LoadStepFit(current, E, nu, errors,
-                       tuple(n for n, keep in zip(PARAMETERS, identifiable) if not keep),
+    unidentifiable = tuple(n for n, keep in zip(PARAMETERS, identifiable) if not keep)
+    return LoadStepFit(current, E, nu, errors, unidentifiable + STATIC_UNIDENTIFIABLE,
                        marker_rms, force_rms, float(sigma_m),
                        None if sigma_f is None else float(sigma_f), transforms.copy(),
                        validation, iterations, tuple(notes))

@@ -1,0 +1,170 @@
+"""The commands on load-step experiments (scans at a few compressions between plates):
+``import SCANS.csv --displacements PLATE.csv`` writes a load-step file, ``fit STEPS.npz``
+fits E and ν to it (:func:`neurofuzzy.learn.load_step_fit.fit_load_steps`)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .common import Outputs, positive, print_json, written
+
+__all__ = ["import_load_steps", "fit_load_steps", "AXES", "axis_of"]
+
+#: the axes a scan's "up" may be
+AXES = ("x", "y", "z", "-x", "-y", "-z")
+
+
+def axis_of(up: str) -> tuple[int, float]:
+    """``(index, sign)`` of an ``--up`` axis."""
+    if up not in AXES:
+        raise InputError(f"got {up!r}; expected one of {', '.join(AXES)}", key="--up")
+    return "xyz".index(up[-1]), -1.0 if up.startswith("-") else 1.0
+
+
+def top_face(mesh, up: str) -> np.ndarray:
+    """The nodes of the face farthest along ``up`` (within a quarter of the shortest edge)."""
+    index, sign = axis_of(up)
+    height = sign * mesh.rest_positions[:, index]
+    return np.flatnonzero(height >= height.max() - 0.25 * mesh.rest_lengths.min())
+
+
+def import_load_steps(args) -> int:
+    """``import`` of a ``step,marker,x,y,z`` file: the markers embedded in the topology's
+    tetrahedra at the reference scan, the top face driven by the plate file."""
+    from ..io import load_model
+    from ..io.load_steps import save_load_steps
+    from ..load_steps import DrivenPath, LoadSteps
+    from ..markers.steps import read_plate, read_step_markers
+    from ..observation import EmbeddedMarkers, embed_points
+
+    if not args.displacements:
+        raise InputError("a load-step file (a 'step' column) needs the plate's displacement "
+                         "at each step: --displacements PLATE.csv (step,dx,dy,dz[,fx,fy,fz])",
+                         key="--displacements")
+    for option in ("map", "forces", "dt"):
+        if getattr(args, option) is not None:
+            raise InputError("is for time recordings; a load-step file's frames are "
+                             "equilibria", key=f"--{option.replace('_', '-')}")
+    positive(args.max_distance, "--max-distance")
+    topology = Path(args.topology)
+    outputs = Outputs([Path(args.markers), topology, Path(args.displacements)])
+    out = outputs.file(args.out, "--out")
+    if topology.suffix.lower() not in (".yaml", ".yml"):
+        raise InputError("a load-step import needs the model (.yaml, from 'neurofuzzy mesh "
+                         "--fix-bottom')", source=str(topology), key="--topology")
+    model = load_model(topology)
+    mesh = model.mesh
+    if mesh.tetrahedra is None:
+        raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
+                         "mesh --elements tetra)", source=str(topology), key="--topology")
+    scans = read_step_markers(args.markers, units=args.units)
+    plate = read_plate(args.displacements, n_steps=scans.positions.shape[0] - 1,
+                       units=args.units)
+    nodes, weights, distance = embed_points(mesh, scans.positions[0])
+    limit = args.max_distance or 0.5 * mesh.rest_lengths.min()
+    if np.any(distance > limit):
+        worst = int(np.argmax(distance))
+        raise InputError(f"marker {scans.names[worst]!r} lies {distance[worst] * 1e3:.3g} mm "
+                         f"outside the mesh in the reference scan (at most "
+                         f"{limit * 1e3:.3g} mm; --max-distance, or check the units and the "
+                         "scan's registration to the mesh)", source=scans.source)
+    driven = top_face(mesh, args.up)
+    components = "xyz" if args.plate == "bonded" else args.up[-1]
+    data = LoadSteps(mesh, (DrivenPath(driven, plate.displacement, components,
+                                       "top plate"),),
+                     EmbeddedMarkers(nodes, weights, scans.positions, scans.names),
+                     plate.force, {}, str(args.out))
+    with outputs:
+        save_load_steps(data, out)
+    summary = {"kind": "load steps", "steps": data.n_steps, "markers": len(scans.names),
+               "driven_nodes": len(driven), "plate": args.plate,
+               "load_cell": plate.force is not None, "out": str(args.out)}
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"wrote {args.out}: {len(scans.names)} markers at {data.n_steps} load steps, the "
+              f"top plate ({len(driven)} nodes, {args.plate}) moved to "
+              + ", ".join(f"{v:g}" for v in plate.displacement[-1] * 1e3) + " mm"
+              + (", with the load cell's force" if plate.force is not None
+                 else ", no force measured"))
+    return 0
+
+
+def fit_load_steps(args) -> int:
+    """``fit`` of a load-step file."""
+    from ..io import load_model, save_model
+    from ..io.load_steps import load_load_steps
+    from ..learn.load_step_fit import fit_load_steps as fit
+    from ..tissues import initialize, materials
+    from .common import rule_base_for
+
+    if len(args.experiments) != 1:
+        raise InputError("fits one load-step file at a time", key="EXPERIMENT.npz")
+    source = Path(args.experiments[0])
+    steps = _step_list(args.validate_on)
+    with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
+        out = outputs.file(args.out, "--out")
+        data = load_load_steps(source)
+        rule_base = rule_base_for(args.rules, args.tissue)
+        if args.start:
+            model = load_model(args.start)
+            if model.n_nodes != data.mesh.n_nodes or model.elements is None:
+                raise InputError(f"has {model.n_nodes} nodes"
+                                 + ("" if model.elements is not None else " and no elements")
+                                 + f"; the load steps' mesh has {data.mesh.n_nodes} nodes and "
+                                 "tetrahedra", source=str(args.start), key="--start")
+            model = model.replace(mesh=data.mesh)
+        elif rule_base is not None and args.tissue:
+            model = initialize(rule_base, data.mesh, args.tissue, elements=True)
+        else:
+            raise InputError("give the start: --start MODEL.yaml, or --rules R --tissue T",
+                             key="--start")
+        if args.law:
+            model = model.with_elements(law=args.law)
+        say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
+        result = fit(model, data, validate_on=steps, progress=say)
+        if out:
+            save_model(result.model_, out)
+    found = materials(result.model_, rule_base, args.tissue)
+    for region in found.values():
+        for name in result.unidentifiable_:
+            region.get("labels", {}).pop(name, None)
+            if name in region:
+                region[name] = None
+    record = {"kind": "load steps", "youngs_modulus": None if "youngs_modulus" in
+              result.unidentifiable_ else result.youngs_modulus_,
+              "poisson_ratio": result.poisson_ratio_,
+              "unidentifiable": list(result.unidentifiable_),
+              "standard_errors": result.standard_errors_,
+              "marker_rms_error": result.marker_rms_, "marker_noise": result.marker_noise_,
+              "force_rms_error": result.force_rms_, "force_noise": result.force_noise_,
+              "validation": result.validation_, "iterations": result.iterations_,
+              "registration": result.registration_.tolist(), "materials": found,
+              "notes": list(result.notes_)}
+    if args.json:
+        print_json(record)
+    else:
+        print(f"load steps: {data.n_steps} steps, {data.markers.n_markers} markers"
+              + (", the load cell's force" if data.reaction is not None else ", no force"))
+        print(result.summary())
+        for region, values in found.items():
+            labels = values.get("labels", {})
+            if labels:
+                print(f"  {region}: " + ", ".join(f"{k} {v}" for k, v in labels.items()))
+        written(args.out)
+    return 0
+
+
+def _step_list(text: str | None) -> list[int]:
+    """``--validate-on 3`` or ``2,3``."""
+    if not text:
+        return []
+    try:
+        return [int(part) for part in text.split(",")]
+    except ValueError:
+        raise InputError(f"got {text!r}; expected load steps as numbers, e.g. 3 or 2,3",
+                         key="--validate-on") from None

@@ -1,0 +1,107 @@
+"""Load-step experiment files (``.npz``, docs/formats.md "Load-step files"): the scans of a
+displacement-controlled test, its driven sets and, where there was one, the load cell's force.
+
+A load-step file is told from a time-series experiment by its ``load_steps`` key. Read with
+the same safe reader as experiment files (:func:`neurofuzzy.io.experiments.read_npz`), checked
+key by key, written atomically.
+"""
+
+from __future__ import annotations
+
+import io as _io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, closest_name
+from ..load_steps import DrivenPath, LoadSteps
+from ..mesh import from_tetra
+from .experiments import _markers, read_npz
+from .writing import atomic_write
+
+__all__ = ["save_load_steps", "load_load_steps", "is_load_steps_file", "KEYS"]
+
+#: the keys of a load-step file (``true_*`` besides)
+KEYS = ("load_steps", "rest_positions", "tetrahedra", "fixed", "marker_positions",
+        "marker_nodes", "marker_weights", "marker_names", "driven_nodes", "driven_set",
+        "driven_displacement", "driven_components", "driven_names", "reaction")
+REQUIRED = KEYS[:7] + KEYS[8:13]
+
+
+def is_load_steps_file(path: str | os.PathLike) -> bool:
+    """True for an ``.npz`` file with the ``load_steps`` key (the archive's member list only)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return "load_steps.npy" in archive.namelist()
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def save_load_steps(data: LoadSteps, path: str | os.PathLike) -> Path:
+    """Write ``data`` as a load-step file (atomically); returns the path."""
+    path = Path(path)
+    mesh, markers = data.mesh, data.markers
+    out = {"load_steps": np.int64(data.n_steps), "rest_positions": mesh.rest_positions,
+           "tetrahedra": mesh.tetrahedra, "fixed": mesh.fixed,
+           "marker_positions": markers.positions, "marker_nodes": markers.nodes,
+           "marker_weights": markers.weights,
+           "marker_names": np.array(markers.names, dtype=str),
+           "driven_nodes": np.concatenate([np.asarray(d.nodes) for d in data.driven]),
+           "driven_set": np.concatenate([np.full(len(d.nodes), i)
+                                         for i, d in enumerate(data.driven)]),
+           "driven_displacement": np.array([d.displacement for d in data.driven], float),
+           "driven_components": np.array([d.components for d in data.driven], dtype=str),
+           "driven_names": np.array([d.name for d in data.driven], dtype=str)}
+    if data.reaction is not None:
+        out["reaction"] = np.asarray(data.reaction, float)
+    for key, value in data.truth.items():
+        out[key if key.startswith("true_") else f"true_{key}"] = np.asarray(value)
+    buffer = _io.BytesIO()
+    np.savez_compressed(buffer, **out)
+    with atomic_write(path) as handle:
+        handle.write(buffer.getvalue())
+    return path
+
+
+def load_load_steps(path: str | os.PathLike) -> LoadSteps:
+    """Read and check a load-step file; :class:`InputError` naming the file and key."""
+    source = str(path)
+    data = read_npz(path)
+    for key in data:
+        if key not in KEYS and not key.startswith("true_"):
+            hint = closest_name(key, KEYS)
+            raise InputError("unknown key" + (f"; did you mean {hint!r}?" if hint else ""),
+                             source=source, key=key)
+    for key in REQUIRED:
+        if key not in data:
+            raise InputError(f"required key is missing (the file has {sorted(data)})",
+                             source=source, key=key)
+    try:
+        for key in ("tetrahedra", "fixed", "driven_nodes", "driven_set", "marker_nodes"):
+            if data[key].dtype.kind not in "iu":
+                raise InputError(f"expected integers, got dtype {data[key].dtype}", key=key)
+        for key in ("driven_components", "driven_names"):
+            if data[key].dtype.kind not in "US":
+                raise InputError("expected strings", key=key)
+        mesh = from_tetra(data["rest_positions"], data["tetrahedra"]).with_fixed(data["fixed"])
+        sets = data["driven_set"]
+        displacement = data["driven_displacement"]
+        n_sets = len(data["driven_names"])
+        if sets.shape != data["driven_nodes"].shape or (sets.size and (
+                sets.min() < 0 or sets.max() >= n_sets)) or displacement.ndim != 3 \
+                or displacement.shape[0] != n_sets or len(data["driven_components"]) != n_sets:
+            raise InputError(f"driven_nodes, driven_set, driven_displacement (n_sets, "
+                             f"n_steps, 3), driven_components and driven_names must describe "
+                             f"the same {n_sets} sets", key="driven_set")
+        driven = tuple(DrivenPath(data["driven_nodes"][sets == i], displacement[i],
+                                  str(data["driven_components"][i]),
+                                  str(data["driven_names"][i])) for i in range(n_sets))
+        truth = {key: value for key, value in data.items() if key.startswith("true_")}
+        return LoadSteps(mesh, driven, _markers(data), data.get("reaction"), truth, source)
+    except InputError as error:
+        if error.source:
+            raise
+        raise InputError(error.detail, source=source, key=error.key) from None

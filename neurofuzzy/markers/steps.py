@@ -1,0 +1,170 @@
+"""Files of load-step experiments: scans of markers at a few load steps
+(``step,marker,x,y,z``) and the driven plate's displacement (and a load cell's force) per step
+(``step,dx,dy,dz[,fx,fy,fz]``). Units are stated in ``# length units:`` and
+``# force units:`` lines (or given as options), never assumed; docs/formats.md has the
+layouts."""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .csvtable import number, read_csv_table
+from .units import FORCE_UNITS, LENGTH_UNITS, check_statements, unit_factor
+
+__all__ = ["StepScans", "PlatePath", "read_step_markers", "read_plate", "has_step_column"]
+
+_NO_UNIT = ("states no length unit: add a line '# length units: mm' (m, cm or mm) or pass "
+            "--units")
+
+
+@dataclass(frozen=True, eq=False)
+class StepScans:
+    """Marker positions at load steps.
+
+    Attributes
+    ----------
+    names : tuple of str
+    positions : (n_steps + 1, n_markers, 3) float
+        Metres; step 0 the reference scan; NaN where a marker was not found.
+    source : str
+    """
+
+    names: tuple
+    positions: np.ndarray
+    source: str
+
+
+@dataclass(frozen=True, eq=False)
+class PlatePath:
+    """The driven plate per load step: ``displacement`` (n_steps, 3) m from rest and, where
+    a load cell was read, ``force`` (n_steps, 3) N."""
+
+    displacement: np.ndarray
+    force: np.ndarray | None
+    source: str
+
+
+def has_step_column(path: str | os.PathLike) -> bool:
+    """True when the CSV's header names a ``step`` column (a load-step file)."""
+    try:
+        header, _, _ = read_csv_table(Path(path), required=[])
+    except InputError:
+        return False
+    return "step" in header
+
+
+def _steps(header, rows, source) -> np.ndarray:
+    """The ``step`` column as non-negative integers; a file with ``step`` and ``time`` is
+    refused."""
+    if "time" in header:
+        raise InputError("has both a 'step' and a 'time' column: a file's frames are load "
+                         "steps (equilibria) or times, not both", source=source)
+    steps = []
+    for line, row in rows:
+        value = number(row[header["step"]], source, line, "step")
+        if not math.isfinite(value) or value < 0 or value != int(value):
+            raise InputError(f"step is {row[header['step']]!r}; expected 0, 1, 2, … (0 the "
+                             "reference)", source=source, line=line)
+        steps.append(int(value))
+    return np.array(steps, int)
+
+
+def read_step_markers(path: str | os.PathLike, *, units: str | None = None) -> StepScans:
+    """Read a ``step,marker,x,y,z`` CSV: step 0 the reference scan (every marker in it), then
+    steps 1, 2, … without a gap."""
+    path = Path(path)
+    source = str(path)
+    header, rows, stated = read_csv_table(path, required=[("step",), ("marker",), ("x",),
+                                                         ("y",), ("z",)])
+    check_statements(stated, ("units", "length units"), source)
+    unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
+                       keys=("units", "length units"), source=source, given=units,
+                       given_as="--units", missing=_NO_UNIT)
+    if not rows:
+        raise InputError("no data rows", source=source)
+    steps = _steps(header, rows, source)
+    names = [row[header["marker"]].strip() for _, row in rows]
+    for name, (line, _) in zip(names, rows):
+        if not name:
+            raise InputError("empty marker name", source=source, line=line)
+    present = np.unique(steps)
+    if present[0] != 0 or not np.array_equal(present, np.arange(len(present))):
+        raise InputError(f"has the steps {present.tolist()}; expected 0 (the reference scan), "
+                         "1, 2, … without a gap", source=source)
+    if len(present) < 2:
+        raise InputError("has only the reference scan (step 0); a fit needs load steps too",
+                         source=source)
+    marker_names, first = np.unique(np.asarray(names), return_index=True)
+    marker_names = marker_names[np.argsort(first, kind="stable")]
+    index = {name: i for i, name in enumerate(marker_names)}
+    positions = np.full((len(present), len(marker_names), 3), np.nan)
+    for (line, row), step, name in zip(rows, steps, names):
+        if np.isfinite(positions[step, index[name]]).any():
+            raise InputError(f"marker {name!r} appears twice at step {step}", source=source,
+                             line=line)
+        positions[step, index[name]] = [number(row[header[a]], source, line, a,
+                                               allow_missing=True) * unit for a in "xyz"]
+    missing = ~np.isfinite(positions[0]).all(axis=-1)
+    if missing.any():
+        raise InputError(f"marker {marker_names[np.argmax(missing)]!r} has no position in the "
+                         "reference scan (step 0)", source=source)
+    return StepScans(tuple(str(n) for n in marker_names), positions, source)
+
+
+def read_plate(path: str | os.PathLike, *, n_steps: int,
+               units: str | None = None) -> PlatePath:
+    """Read a ``step,dx,dy,dz[,fx,fy,fz]`` CSV: the plate's displacement from rest at steps
+    1..``n_steps`` (a step 0 row, if any, must be at rest) and the load cell's force."""
+    path = Path(path)
+    source = str(path)
+    header, rows, stated = read_csv_table(path, required=[("step", "time"), ("dx",), ("dy",),
+                                                         ("dz",)])
+    if "step" not in header:
+        raise InputError("has a 'time' column: a load-step experiment's plate file gives the "
+                         "displacement per 'step' (0 the reference)", source=source)
+    check_statements(stated, ("units", "length units", "force units"), source)
+    unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
+                       keys=("units", "length units"), source=source, given=units,
+                       given_as="--units", missing=_NO_UNIT)
+    forces = [c in header for c in ("fx", "fy", "fz")]
+    if any(forces) and not all(forces):
+        raise InputError("names some of fx, fy, fz; a load cell's force needs all three",
+                         source=source)
+    newton = None
+    if all(forces):
+        if "force units" not in stated:
+            raise InputError("has force columns but no '# force units: N' line (N, mN or kN): "
+                             "a load cell's unit is never guessed", source=source)
+        newton = unit_factor(FORCE_UNITS, what="force", stated=stated, keys=("force units",),
+                             source=source)
+    steps = _steps(header, rows, source)
+    displacement = np.full((n_steps + 1, 3), np.nan)
+    force = np.full((n_steps + 1, 3), np.nan)
+    for (line, row), step in zip(rows, steps):
+        if step > n_steps:
+            raise InputError(f"step {step} is not one of the scans' steps 0..{n_steps}",
+                             source=source, line=line)
+        if np.isfinite(displacement[step]).any():
+            raise InputError(f"step {step} appears twice", source=source, line=line)
+        displacement[step] = [number(row[header[c]], source, line, c) * unit
+                              for c in ("dx", "dy", "dz")]
+        if newton is not None:
+            force[step] = [number(row[header[c]], source, line, c) * newton
+                           for c in ("fx", "fy", "fz")]
+    absent = [s for s in range(1, n_steps + 1) if not np.isfinite(displacement[s]).all()]
+    if absent:
+        raise InputError(f"has no row for step(s) {absent}: the scans have steps 1..{n_steps}, "
+                         "and the plate's displacement is needed at each", source=source)
+    if np.isfinite(displacement[0]).all() and np.abs(displacement[0]).max() > 0:
+        raise InputError("step 0 is the reference: its displacement must be 0 0 0",
+                         source=source)
+    if not np.all(np.isfinite(displacement[1:])) or (
+            newton is not None and not np.all(np.isfinite(force[1:]))):
+        raise InputError("a displacement or force is not finite", source=source)
+    return PlatePath(displacement[1:], None if newton is None else force[1:], source)

@@ -1,0 +1,139 @@
+"""Load steps from the command line, as a lab's files arrive: scans in mm at a few load steps
+(``step,marker,x,y,z``), the plate's displacement and load cell per step, ``import`` then
+``fit``; and each bad input a clear message with exit status 2 and nothing written."""
+
+import json
+
+import numpy as np
+import pytest
+
+from helpers import cli
+from neurofuzzy.io import save_model
+from neurofuzzy.load_steps import DrivenPath, simulate_load_steps
+from neurofuzzy.mesh import from_tetra, kuhn_block
+from neurofuzzy.model import Model
+from neurofuzzy.observation import EmbeddedMarkers, embed_points
+
+SIZE = 0.02
+STRAINS = (0.05, 0.125, 0.18)
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """A neo-Hookean gel (E 6 kPa, ν 0.45) between bonded plates: the model file a user
+    meshes (the start: E 3 kPa, ν 0.3), the scans and the plate file a lab writes."""
+    folder = tmp_path_factory.mktemp("lab")
+    points, tetrahedra = kuhn_block((3, 3, 3), SIZE / 3)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=1.0,
+                            density=1000.0, law="neo-hookean")
+    save_model(truth.with_elements(youngs_modulus=3000.0, poisson_ratio=0.3),
+               folder / "model.yaml")
+    top = np.flatnonzero(np.isclose(points[:, 2], SIZE))
+    plate = DrivenPath(top, np.array([[0, 0, -s * SIZE] for s in STRAINS]))
+    beads = np.random.default_rng(1).uniform(0.1 * SIZE, 0.9 * SIZE, size=(60, 3))
+    nodes, weights, _ = embed_points(mesh, beads)
+    data = simulate_load_steps(truth, [plate], EmbeddedMarkers(
+        nodes, weights, np.zeros((4, 60, 3))), marker_noise=20e-6, force_noise=1e-3, seed=3)
+    rows = ["# length units: mm", "step,marker,x,y,z"]
+    for step, scan in enumerate(data.markers.positions):
+        rows += [f"{step},bead{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
+                 for i, (x, y, z) in enumerate(scan)]
+    (folder / "scans.csv").write_text("\n".join(rows) + "\n")
+    plate_rows = ["# length units: mm", "# force units: mN", "step,dx,dy,dz,fx,fy,fz",
+                  "0,0,0,0,0,0,0"]
+    plate_rows += [f"{s + 1},0,0,{-strain * SIZE * 1e3:.6f},"
+                   + ",".join(f"{f * 1e3:.6f}" for f in data.reaction[s])
+                   for s, strain in enumerate(STRAINS)]
+    (folder / "plate.csv").write_text("\n".join(plate_rows) + "\n")
+    (folder / "plate-no-force.csv").write_text("\n".join(
+        ["# length units: mm", "step,dx,dy,dz"]
+        + [f"{s + 1},0,0,{-strain * SIZE * 1e3:.6f}" for s, strain in enumerate(STRAINS)])
+        + "\n")
+    return folder
+
+
+def _import(lab, plate, out, *extra):
+    return cli("import", lab / "scans.csv", "--topology", lab / "model.yaml",
+               "--displacements", lab / plate, "--out", out, *extra)
+
+
+def test_a_compression_test_without_a_load_cell_from_files(lab, tmp_path):
+    steps = tmp_path / "steps.npz"
+    done = _import(lab, "plate-no-force.csv", steps)
+    assert done.returncode == 0, done.stderr
+    assert "60 markers at 3 load steps" in done.stdout and "no force" in done.stdout
+    fitted = tmp_path / "fitted.yaml"
+    done = cli("fit", steps, "--start", lab / "model.yaml", "--validate-on", "3", "--out",
+               fitted, "--json", "--rules", "liver", "--tissue", "liver")
+    assert done.returncode == 0, done.stderr
+    record = json.loads(done.stdout)
+    assert record["unidentifiable"] == ["youngs_modulus", "viscosity", "density"]
+    assert record["youngs_modulus"] is None
+    assert record["poisson_ratio"] == pytest.approx(0.45, abs=0.01)
+    assert record["validation"]["steps"] == [3]
+    assert record["validation"]["rms_error"] < 1.2 * np.sqrt(3) * 20e-6
+    region = next(iter(record["materials"].values()))
+    assert region["youngs_modulus"] is None and "youngs_modulus" not in region["labels"]
+    assert "poisson_ratio" in region["labels"]
+    assert fitted.is_file()
+    text = cli("fit", steps, "--start", lab / "model.yaml", "--quiet")
+    assert "not identifiable" in text.stdout and "poisson_ratio" in text.stdout
+
+
+def test_with_the_load_cell_youngs_modulus_is_fitted(lab, tmp_path):
+    steps = tmp_path / "steps.npz"
+    assert _import(lab, "plate.csv", steps, "--json").returncode == 0
+    record = json.loads(cli("fit", steps, "--start", lab / "model.yaml", "--json",
+                            "--quiet").stdout)
+    assert record["unidentifiable"] == ["viscosity", "density"]
+    assert record["youngs_modulus"] == pytest.approx(6000.0, rel=0.03)
+    assert record["force_rms_error"] < 3e-3
+
+
+def _write(path, lines):
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("case, message", [
+    ("plate_steps", "no row for step(s) [3]"),
+    ("mixed_columns", "both a 'step' and a 'time' column"),
+    ("force_without_unit", "no '# force units: N' line"),
+    ("overlap", "overlaps the fixed nodes"),
+    ("time_plate", "has a 'time' column"),
+])
+def test_bad_load_step_input_is_refused_with_exit_2_and_nothing_written(lab, tmp_path, case,
+                                                                         message):
+    scans, plate, extra = lab / "scans.csv", lab / "plate.csv", []
+    if case == "plate_steps":
+        plate = _write(tmp_path / "p.csv", ["# length units: mm", "step,dx,dy,dz",
+                                            "1,0,0,-1", "2,0,0,-2"])
+    elif case == "mixed_columns":
+        scans = _write(tmp_path / "s.csv", ["# length units: mm", "step,time,marker,x,y,z",
+                                            "0,0,a,1,1,1", "1,1,a,1,1,0.9"])
+    elif case == "force_without_unit":
+        plate = _write(tmp_path / "p.csv", ["# length units: mm", "step,dx,dy,dz,fx,fy,fz",
+                                            "1,0,0,-1,0,0,1", "2,0,0,-2,0,0,2",
+                                            "3,0,0,-3,0,0,3"])
+    elif case == "overlap":
+        extra = ["--up=-z"]         # "up" pointing down: the top face is the fixed bottom
+    elif case == "time_plate":
+        plate = _write(tmp_path / "p.csv", ["# length units: mm", "time,dx,dy,dz",
+                                            "1,0,0,-1"])
+    out = tmp_path / "steps.npz"
+    done = cli("import", scans, "--topology", lab / "model.yaml", "--displacements", plate,
+               "--out", out, *extra)
+    assert done.returncode == 2
+    assert message in done.stderr and "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_validate_on_a_time_series_is_refused(lab, tmp_path):
+    from neurofuzzy.datasets import paper_cube_experiment
+    from neurofuzzy.io import save_experiment
+
+    path = save_experiment(paper_cube_experiment(), tmp_path / "cube.npz")
+    done = cli("fit", path, "--validate-on", "2")
+    assert done.returncode == 2 and "load steps" in done.stderr
