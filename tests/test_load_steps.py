@@ -168,7 +168,8 @@ def test_the_equilibriums_sensitivities_are_its_central_differences(gel):
 
     model = _start(gel.mesh)
     theta = np.array([np.log(5000.0), np.log(0.4 / 0.1)])
-    _, markers, reactions, d_markers, d_reactions = _forward(model, gel, theta, [1, 2, 3], True)
+    _, markers, reactions, d_markers, d_reactions, _ = _forward(model, gel, theta, [1, 2, 3],
+                                                                True)
     eps = 1e-5
     for j in range(2):
         step = np.zeros(2)

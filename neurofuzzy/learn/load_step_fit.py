@@ -110,9 +110,11 @@ def _kabsch(measured, model):
     return R, b0 - R @ a0
 
 
-def _forward(model, data, theta, steps, want_jacobian):
+def _forward(model, data, theta, steps, want_jacobian, warm=None):
     """The model of ``θ`` through every step: markers (n_steps, n_markers, 3), the first
-    driven set's reaction (n_steps, 3) and their derivatives by θ."""
+    driven set's reaction (n_steps, 3) and their derivatives by θ. ``warm`` (step →
+    positions) holds the equilibria of a nearby ``θ``: each step's Newton starts there (one or
+    two iterations instead of a solve from the last step), and is updated."""
     E, nu, _, _, dconst = _constants(theta)
     current = model.with_elements(youngs_modulus=E, poisson_ratio=nu)
     H = data.markers.operator(model.n_nodes)
@@ -120,9 +122,14 @@ def _forward(model, data, theta, steps, want_jacobian):
     markers, reactions, d_markers, d_reactions = [], [], [], []
     positions = None
     for step in range(1, max(steps) + 1):
-        result = equilibrium(current, driven=data.boundary(step), start=positions,
-                             increments=2 if step == 1 else 1)
+        if warm is not None and step in warm:
+            result = equilibrium(current, driven=data.boundary(step), start=warm[step])
+        else:
+            result = equilibrium(current, driven=data.boundary(step), start=positions,
+                                 increments=2 if step == 1 else 1)
         positions = result.positions
+        if warm is not None:
+            warm[step] = positions
         markers.append(H @ positions)
         reactions.append(result.reaction_on(measured_set))
         if not want_jacobian:
@@ -146,7 +153,7 @@ def _forward(model, data, theta, steps, want_jacobian):
         dR[:, held] = -dF[:, held] + (K_cf @ dp[:, free].T).T
         dR[:, ~on_set] = 0.0
         d_reactions.append(dR.reshape(len(theta), -1, 3).sum(axis=1))
-    return current, np.array(markers), np.array(reactions), d_markers, d_reactions
+    return current, np.array(markers), np.array(reactions), d_markers, d_reactions, warm
 
 
 def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
@@ -193,6 +200,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     theta = np.array([np.log(E0), np.log(nu0 / (0.5 - nu0))])
     transforms = np.tile(np.eye(4), (data.n_steps, 1, 1))
     iterations = 0
+    warm = {}
 
     def registered(markers):
         out = scans[:len(markers)].copy()
@@ -221,7 +229,8 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     identifiable = np.ones(len(theta), bool)
     for round_ in range(rounds):
         damping = 1e-3
-        current, markers, reactions, dm, dr = _forward(model, data, theta, fitted, True)
+        current, markers, reactions, dm, dr, warm = _forward(model, data, theta, fitted, True,
+                                                             warm)
         r = residuals(markers, reactions, fitted)
         cost = r @ r
         for _ in range(max_iterations):
@@ -236,10 +245,11 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
                 step = np.zeros(len(theta))
                 step[identifiable] = -np.linalg.solve(A + damping * np.diag(np.diag(A)), g)
                 trial = theta + np.clip(step, -1.0, 1.0)
-                out = _forward(model, data, trial, fitted, True)
+                out = _forward(model, data, trial, fitted, True, dict(warm))
                 r_trial = residuals(out[1], out[2], fitted)
                 if r_trial @ r_trial < cost:
-                    theta, (current, markers, reactions, dm, dr) = trial, out
+                    theta, (current, markers, reactions, dm, dr) = trial, out[:5]
+                    warm = out[5]
                     gain = (cost - r_trial @ r_trial) / max(cost, 1e-300)
                     r, cost, accepted = r_trial, r_trial @ r_trial, gain > 1e-10
                     damping = max(damping / 10, 1e-9)
@@ -269,7 +279,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
         (reaction[[s - 1 for s in fitted]] - reactions[[s - 1 for s in fitted]]) ** 2)))
     validation = None
     if held_out:
-        everything = _forward(model, data, theta, range(1, data.n_steps + 1), False)
+        everything = _forward(model, data, theta, range(1, data.n_steps + 1), False, warm)
         moved_all = registered(everything[1]) - everything[1]
         validation = {"steps": held_out, "rms_error": _rms(moved_all, seen, held_out),
                       "fitted_rms_error": marker_rms}
