@@ -81,14 +81,20 @@ def test_a_compression_test_without_a_load_cell_from_files(lab, tmp_path):
     assert "not identifiable" in text.stdout and "poisson_ratio" in text.stdout
 
 
-def test_with_the_load_cell_youngs_modulus_is_fitted(lab, tmp_path):
+def test_with_the_load_cell_youngs_modulus_is_fitted_and_reported(lab, tmp_path):
     steps = tmp_path / "steps.npz"
     assert _import(lab, "plate.csv", steps, "--json").returncode == 0
-    record = json.loads(cli("fit", steps, "--start", lab / "model.yaml", "--json",
-                            "--quiet").stdout)
+    report = tmp_path / "fit.html"
+    record = json.loads(cli("fit", steps, "--start", lab / "model.yaml", "--json", "--quiet",
+                            "--report", report, "--validate-on", "2").stdout)
     assert record["unidentifiable"] == ["viscosity", "density"]
     assert record["youngs_modulus"] == pytest.approx(6000.0, rel=0.03)
     assert record["force_rms_error"] < 3e-3
+    page = report.read_text()
+    twin = json.loads(report.with_suffix(".json").read_text())
+    measured, predicted = np.array(twin["measured_force"]), np.array(twin["predicted_force"])
+    assert np.abs(predicted - measured).max() < 5e-3          # the curve drawn is the fit's
+    assert page.count("<img") == 2 and "held out" in page and "not identifiable" in page
 
 
 def _write(path, lines):

@@ -108,6 +108,7 @@ def fit_load_steps(args) -> int:
     steps = _step_list(args.validate_on)
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
+        report = outputs.file(args.report, "--report", twins=(".json",))
         data = load_load_steps(source)
         rule_base = rule_base_for(args.rules, args.tissue)
         if args.start:
@@ -127,14 +128,19 @@ def fit_load_steps(args) -> int:
             model = model.with_elements(law=args.law)
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         result = fit(model, data, validate_on=steps, progress=say)
+        found = materials(result.model_, rule_base, args.tissue)
+        for region in found.values():
+            for name in result.unidentifiable_:
+                region.get("labels", {}).pop(name, None)
+                if name in region:
+                    region[name] = None
         if out:
             save_model(result.model_, out)
-    found = materials(result.model_, rule_base, args.tissue)
-    for region in found.values():
-        for name in result.unidentifiable_:
-            region.get("labels", {}).pop(name, None)
-            if name in region:
-                region[name] = None
+        if report:
+            from ..report.load_steps import load_steps_report
+
+            labels = next(iter(found.values()), {}).get("labels", {})
+            load_steps_report(model, result, data, report, labels=labels)
     record = {"kind": "load steps", "youngs_modulus": None if "youngs_modulus" in
               result.unidentifiable_ else result.youngs_modulus_,
               "poisson_ratio": result.poisson_ratio_,
@@ -155,7 +161,7 @@ def fit_load_steps(args) -> int:
             labels = values.get("labels", {})
             if labels:
                 print(f"  {region}: " + ", ".join(f"{k} {v}" for k, v in labels.items()))
-        written(args.out)
+        written(args.out, args.report)
     return 0
 
 

@@ -57,6 +57,10 @@ class LoadStepFit:
     validation_: dict | None
     iterations_: int
     notes_: tuple
+    markers_: np.ndarray | None = None
+    reactions_: np.ndarray | None = None
+    registered_: np.ndarray | None = None
+    fitted_steps_: tuple = ()
 
     @property
     def marker_scale(self) -> float:
@@ -278,9 +282,9 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     force_rms = None if reaction is None else float(np.sqrt(np.mean(
         (reaction[[s - 1 for s in fitted]] - reactions[[s - 1 for s in fitted]]) ** 2)))
     validation = None
+    everything = _forward(model, data, theta, range(1, data.n_steps + 1), False, warm)
+    moved_all = registered(everything[1]) - everything[1]
     if held_out:
-        everything = _forward(model, data, theta, range(1, data.n_steps + 1), False, warm)
-        moved_all = registered(everything[1]) - everything[1]
         validation = {"steps": held_out, "rms_error": _rms(moved_all, seen, held_out),
                       "fitted_rms_error": marker_rms}
         if reaction is not None:
@@ -297,7 +301,8 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     return LoadStepFit(current, E, nu, errors, unidentifiable + STATIC_UNIDENTIFIABLE,
                        marker_rms, force_rms, float(sigma_m),
                        None if sigma_f is None else float(sigma_f), transforms.copy(),
-                       validation, iterations, tuple(notes))
+                       validation, iterations, tuple(notes), everything[1], everything[2],
+                       registered(everything[1]), tuple(fitted))
 
 
 def _rms(moved, seen, steps):
