@@ -184,3 +184,28 @@ def test_the_equilibriums_sensitivities_are_its_central_differences(gel):
             assert np.abs(d_reactions[k][j] - difference).max() <= 1e-5 * np.abs(
                 difference).max() + 1e-12
     assert np.abs(d_markers[2][0]).max() < 1e-9 * np.abs(d_markers[2][1]).max()   # E: none
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("plate, answer", [("z", ["plate_slip", "hyperelasticity (neo-hookean)"]),
+                                           ("xyz", ["hyperelasticity (neo-hookean)"])])
+def test_the_diagnosis_names_plate_slip_and_the_law(plate, answer):
+    """A neo-Hookean gel compressed to 18 % on a plate it slides on (or is bonded to),
+    started as bonded St. Venant–Kirchhoff: the diagnosis names what the set-up's model
+    lacks and the misfit falls to the noise; it names nothing that is not there."""
+    from neurofuzzy.diagnosis.load_steps import diagnose_load_steps
+
+    mesh = _mesh()
+    truth = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=1.0,
+                            density=1000.0, law="neo-hookean")
+    path = _plate(mesh)
+    data = simulate_load_steps(truth, [DrivenPath(path.nodes, path.displacement, plate)],
+                               _markers(mesh), marker_noise=20e-6, force_noise=1e-3, seed=3)
+    bonded = LoadSteps(mesh, (DrivenPath(path.nodes, path.displacement, "xyz"),),
+                       data.markers, data.reaction)
+    start = _start(mesh).with_elements(law="st-venant-kirchhoff")
+    result = diagnose_load_steps(start, bonded)
+    assert result.names == answer
+    assert result.after.marker_rms_ < 1.2 * np.sqrt(3) * 20e-6 < result.before.marker_rms_
+    assert result.to_dict()["plate"] == plate and result.to_dict()["law"] == "neo-hookean"
+    assert result.after.youngs_modulus_ == pytest.approx(E, rel=0.03)

@@ -143,3 +143,19 @@ def test_validate_on_a_time_series_is_refused(lab, tmp_path):
     path = save_experiment(paper_cube_experiment(), tmp_path / "cube.npz")
     done = cli("fit", path, "--validate-on", "2")
     assert done.returncode == 2 and "load steps" in done.stderr
+
+
+@pytest.mark.slow
+def test_diagnose_a_load_step_file(lab, tmp_path):
+    """The gel is neo-Hookean, the model file St. Venant–Kirchhoff: at 18 % the diagnosis
+    names the law, and the model it writes has it."""
+    steps = tmp_path / "steps.npz"
+    assert _import(lab, "plate.csv", steps).returncode == 0
+    out = tmp_path / "diagnosed.yaml"
+    done = cli("diagnose", steps, "--start", lab / "model.yaml", "--law",
+               "st-venant-kirchhoff", "--json", "--quiet", "--out", out)
+    assert done.returncode == 0, done.stderr
+    record = json.loads(done.stdout)
+    assert record["answer"] == ["hyperelasticity (neo-hookean)"]
+    assert record["rms_after"] < record["rms_before"]
+    assert "neo-hookean" in out.read_text()

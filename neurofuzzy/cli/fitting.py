@@ -127,6 +127,11 @@ def _fit(args, progress, substeps, out, report, export, outputs):
 
 
 def diagnose(args) -> int:
+    from ..io.load_steps import is_load_steps_file
+    from .steps import diagnose_load_steps
+
+    if is_load_steps_file(args.experiments[0]):
+        return diagnose_load_steps(args)
     from ..diagnosis import diagnose as run_diagnosis
     from ..errors import InputError
     from ..io import save_model

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import InputError
 from .common import Outputs, positive, print_json, written
 
-__all__ = ["import_load_steps", "fit_load_steps", "AXES", "axis_of"]
+__all__ = ["import_load_steps", "fit_load_steps", "diagnose_load_steps", "AXES", "axis_of"]
 
 #: the axes a scan's "up" may be
 AXES = ("x", "y", "z", "-x", "-y", "-z")
@@ -94,38 +94,71 @@ def import_load_steps(args) -> int:
     return 0
 
 
-def fit_load_steps(args) -> int:
-    """``fit`` of a load-step file."""
-    from ..io import load_model, save_model
+def _start(args, source):
+    """``(data, rule base, start model)`` of a load-step command."""
+    from ..io import load_model
     from ..io.load_steps import load_load_steps
-    from ..learn.load_step_fit import fit_load_steps as fit
-    from ..tissues import initialize, materials
+    from ..tissues import initialize
     from .common import rule_base_for
 
     if len(args.experiments) != 1:
-        raise InputError("fits one load-step file at a time", key="EXPERIMENT.npz")
+        raise InputError("takes one load-step file at a time", key="EXPERIMENT.npz")
+    data = load_load_steps(source)
+    rule_base = rule_base_for(args.rules, args.tissue)
+    if args.start:
+        model = load_model(args.start)
+        if model.n_nodes != data.mesh.n_nodes or model.elements is None:
+            raise InputError(f"has {model.n_nodes} nodes"
+                             + ("" if model.elements is not None else " and no elements")
+                             + f"; the load steps' mesh has {data.mesh.n_nodes} nodes and "
+                             "tetrahedra", source=str(args.start), key="--start")
+        model = model.replace(mesh=data.mesh)
+    elif rule_base is not None and args.tissue:
+        model = initialize(rule_base, data.mesh, args.tissue, elements=True)
+    else:
+        raise InputError("give the start: --start MODEL.yaml, or --rules R --tissue T",
+                         key="--start")
+    if getattr(args, "law", None):
+        model = model.with_elements(law=args.law)
+    return data, rule_base, model
+
+
+def diagnose_load_steps(args) -> int:
+    """``diagnose`` of a load-step file: plate slip or bonding, the law."""
+    from ..diagnosis.load_steps import diagnose_load_steps as diagnose
+    from ..io import save_model
+
+    source = Path(args.experiments[0])
+    with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
+        out = outputs.file(args.out, "--out")
+        if args.report:
+            raise InputError("a report of a load-step diagnosis is not written yet; use "
+                             "--json, or fit --report", key="--report")
+        data, _, model = _start(args, source)
+        say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
+        result = diagnose(model, data, progress=say)
+        if out:
+            save_model(result.after.model_, out)
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(result.summary())
+        written(args.out)
+    return 0
+
+
+def fit_load_steps(args) -> int:
+    """``fit`` of a load-step file."""
+    from ..io import save_model
+    from ..learn.load_step_fit import fit_load_steps as fit
+    from ..tissues import materials
+
     source = Path(args.experiments[0])
     steps = _step_list(args.validate_on)
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
-        data = load_load_steps(source)
-        rule_base = rule_base_for(args.rules, args.tissue)
-        if args.start:
-            model = load_model(args.start)
-            if model.n_nodes != data.mesh.n_nodes or model.elements is None:
-                raise InputError(f"has {model.n_nodes} nodes"
-                                 + ("" if model.elements is not None else " and no elements")
-                                 + f"; the load steps' mesh has {data.mesh.n_nodes} nodes and "
-                                 "tetrahedra", source=str(args.start), key="--start")
-            model = model.replace(mesh=data.mesh)
-        elif rule_base is not None and args.tissue:
-            model = initialize(rule_base, data.mesh, args.tissue, elements=True)
-        else:
-            raise InputError("give the start: --start MODEL.yaml, or --rules R --tissue T",
-                             key="--start")
-        if args.law:
-            model = model.with_elements(law=args.law)
+        data, rule_base, model = _start(args, source)
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         result = fit(model, data, validate_on=steps, progress=say)
         found = materials(result.model_, rule_base, args.tissue)
