@@ -62,9 +62,10 @@ class LoadSteps:
         The body, its fixed nodes (the anvil under a bonded specimen) held at rest.
     driven : tuple of DrivenPath
         What the stage moved.
-    markers : EmbeddedMarkers
+    markers : EmbeddedMarkers or None
         Marker positions (n_steps + 1, n_markers, 3): step 0 the reference scan, NaN where a
-        marker was not found.
+        marker was not found. None for a force–displacement curve alone (then ``reaction``
+        is required).
     reaction : (n_steps, 3) float, optional
         The load cell's reading at each step: the total force the first driven set exerts on
         the body (N).
@@ -83,9 +84,15 @@ class LoadSteps:
 
     def __post_init__(self):
         src = self.source
-        if not isinstance(self.markers, EmbeddedMarkers):
+        if self.markers is None:
+            if self.reaction is None:
+                raise InputError("needs markers, a load cell's force, or both: with neither "
+                                 "there is nothing to fit", source=src, key="markers")
+            n_steps = (np.shape(self.reaction) or (0,))[0]
+        elif not isinstance(self.markers, EmbeddedMarkers):
             raise InputError("markers must be EmbeddedMarkers", source=src, key="markers")
-        n_steps = self.markers.positions.shape[0] - 1
+        else:
+            n_steps = self.markers.positions.shape[0] - 1
         if n_steps < 1:
             raise InputError("needs the reference scan and at least one load step",
                              source=src, key="markers")
@@ -113,13 +120,8 @@ class LoadSteps:
                 path.at(1).dofs(self.mesh.n_nodes)
             except InputError as error:
                 raise InputError(error.detail, source=src, key=error.key) from None
-        try:
-            self.markers.operator(self.mesh.n_nodes)
-        except InputError as error:
-            raise InputError(error.detail, source=src, key=error.key) from None
-        if not np.isfinite(self.markers.positions[0]).all():
-            raise InputError("every marker needs a position in the reference scan (step 0)",
-                             source=src, key="marker_positions")
+        if self.markers is not None:
+            self._check_markers(src)
         if self.reaction is not None:
             reaction = np.asarray(self.reaction, float)
             if reaction.shape != (n_steps, 3) or not np.all(np.isfinite(reaction)):
@@ -128,10 +130,20 @@ class LoadSteps:
                                  f"{reaction.shape}", source=src, key="reaction")
         object.__setattr__(self, "driven", driven)
 
+    def _check_markers(self, src):
+        try:
+            self.markers.operator(self.mesh.n_nodes)
+        except InputError as error:
+            raise InputError(error.detail, source=src, key=error.key) from None
+        if not np.isfinite(self.markers.positions[0]).all():
+            raise InputError("every marker needs a position in the reference scan (step 0)",
+                             source=src, key="marker_positions")
+
     @property
     def n_steps(self) -> int:
         """Load steps after the reference scan."""
-        return self.markers.positions.shape[0] - 1
+        return (np.shape(self.reaction)[0] if self.markers is None
+                else self.markers.positions.shape[0] - 1)
 
     def boundary(self, step: int) -> list[Driven]:
         """Every driven set at step ``step``."""

@@ -209,3 +209,19 @@ def test_the_diagnosis_names_plate_slip_and_the_law(plate, answer):
     assert result.after.marker_rms_ < 1.2 * np.sqrt(3) * 20e-6 < result.before.marker_rms_
     assert result.to_dict()["plate"] == plate and result.to_dict()["law"] == "neo-hookean"
     assert result.after.youngs_modulus_ == pytest.approx(E, rel=0.03)
+
+
+def test_a_force_curve_alone_fits_youngs_modulus_with_poisson_held(gel):
+    """No scans, only the load cell: E is fitted with ν held at the start's (said so), and
+    it is right when that ν is the tissue's; a wrong ν biases E, which is why it is said."""
+    data = LoadSteps(gel.mesh, gel.driven, None, gel.reaction)
+    start = _start(gel.mesh).with_elements(poisson_ratio=NU)
+    fit = fit_load_steps(start, data)
+    assert fit.fixed_ == ("poisson_ratio",) and fit.poisson_ratio_ == pytest.approx(NU)
+    assert fit.youngs_modulus_ == pytest.approx(E, rel=0.03)
+    assert fit.marker_rms_ is None and "fixed" in fit.summary()
+    assert any("no markers" in note for note in fit.notes_)
+    wrong = fit_load_steps(_start(gel.mesh), data)            # ν 0.3 for the gel's 0.45
+    assert abs(wrong.youngs_modulus_ / E - 1) > 0.03
+    with pytest.raises(InputError, match="nothing to fit"):
+        LoadSteps(gel.mesh, gel.driven, None, None)

@@ -159,3 +159,21 @@ def test_diagnose_a_load_step_file(lab, tmp_path):
     assert record["answer"] == ["hyperelasticity (neo-hookean)"]
     assert record["rms_after"] < record["rms_before"]
     assert "neo-hookean" in out.read_text()
+
+
+def test_a_load_cell_alone_from_the_command_line(lab, tmp_path):
+    steps = tmp_path / "force.npz"
+    done = cli("import", "--topology", lab / "model.yaml", "--displacements",
+               lab / "plate.csv", "--out", steps)
+    assert done.returncode == 0, done.stderr
+    assert "0 markers at 3 load steps" in done.stdout
+    record = json.loads(cli("fit", steps, "--start", lab / "model.yaml", "--json",
+                            "--quiet").stdout)
+    assert record["poisson_ratio"] == pytest.approx(0.3)          # the start's, held
+    assert record["youngs_modulus"] > 0 and record["marker_rms_error"] is None
+    assert any("no markers" in note for note in record["notes"])
+    done = cli("import", "--topology", lab / "model.yaml", "--displacements",
+               lab / "plate-no-force.csv", "--out", tmp_path / "nothing.npz")
+    assert done.returncode == 2 and "load cell's force is all there is" in done.stderr
+    done = cli("import", "--topology", lab / "model.yaml", "--out", tmp_path / "x.npz")
+    assert done.returncode == 2 and "--displacements" in done.stderr

@@ -204,6 +204,12 @@ def import_markers(args) -> int:
     from ..plausibility import check_body_size, check_length_option, check_recording
     from .steps import import_load_steps
 
+    if args.markers is None and args.displacements:
+        return import_load_steps(args)
+    if args.markers is None:
+        raise InputError("give the marker recording (MARKERS.csv or .c3d), or, for a "
+                         "compression test with a load cell alone, --displacements PLATE.csv",
+                         key="MARKERS")
     if Path(args.markers).suffix.lower() == ".csv" and has_step_column(args.markers):
         return import_load_steps(args)
     if args.displacements:

@@ -282,7 +282,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "resample to the model's step and write an experiment file (.npz; "
                     f"{FORMAT_DOC}; nodes with markers observed; frames where a marker "
                     "was not seen are gaps, never interpolated across).")
-    importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d")
+    importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d", nargs="?",
+                          help="the marker recording (a load-step import may do without: "
+                               "the plate file's load cell alone)")
     importer.add_argument("--topology", required=True, metavar="MODEL.yaml|EXPERIMENT.npz",
                           help="the object's nodes and springs: a model (its masses become the "
                                "experiment's known masses) or another experiment file")

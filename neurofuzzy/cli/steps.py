@@ -39,7 +39,6 @@ def import_load_steps(args) -> int:
     from ..io.load_steps import save_load_steps
     from ..load_steps import DrivenPath, LoadSteps
     from ..markers.steps import read_plate, read_step_markers
-    from ..observation import EmbeddedMarkers, embed_points
 
     if not args.displacements:
         raise InputError("a load-step file (a 'step' column) needs the plate's displacement "
@@ -51,7 +50,7 @@ def import_load_steps(args) -> int:
                              "equilibria", key=f"--{option.replace('_', '-')}")
     positive(args.max_distance, "--max-distance")
     topology = Path(args.topology)
-    outputs = Outputs([Path(args.markers), topology, Path(args.displacements)])
+    outputs = Outputs([Path(p) for p in (args.markers, topology, args.displacements) if p])
     out = outputs.file(args.out, "--out")
     if topology.suffix.lower() not in (".yaml", ".yml"):
         raise InputError("a load-step import needs the model (.yaml, from 'neurofuzzy mesh "
@@ -61,32 +60,28 @@ def import_load_steps(args) -> int:
     if mesh.tetrahedra is None:
         raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
                          "mesh --elements tetra)", source=str(topology), key="--topology")
-    scans = read_step_markers(args.markers, units=args.units)
-    plate = read_plate(args.displacements, n_steps=scans.positions.shape[0] - 1,
-                       units=args.units)
-    nodes, weights, distance = embed_points(mesh, scans.positions[0])
-    limit = args.max_distance or 0.5 * mesh.rest_lengths.min()
-    if np.any(distance > limit):
-        worst = int(np.argmax(distance))
-        raise InputError(f"marker {scans.names[worst]!r} lies {distance[worst] * 1e3:.3g} mm "
-                         f"outside the mesh in the reference scan (at most "
-                         f"{limit * 1e3:.3g} mm; --max-distance, or check the units and the "
-                         "scan's registration to the mesh)", source=scans.source)
+    scans = read_step_markers(args.markers, units=args.units) if args.markers else None
+    plate = read_plate(args.displacements, units=args.units,
+                       n_steps=None if scans is None else scans.positions.shape[0] - 1)
+    if scans is None and plate.force is None:
+        raise InputError("without scans the load cell's force is all there is to fit: the "
+                         "plate file needs fx,fy,fz (and a '# force units:' line)",
+                         source=str(args.displacements), key="--displacements")
+    markers = None if scans is None else _embedded(mesh, scans, args.max_distance)
     driven = top_face(mesh, args.up)
     components = "xyz" if args.plate == "bonded" else args.up[-1]
     data = LoadSteps(mesh, (DrivenPath(driven, plate.displacement, components,
-                                       "top plate"),),
-                     EmbeddedMarkers(nodes, weights, scans.positions, scans.names),
-                     plate.force, {}, str(args.out))
+                                       "top plate"),), markers, plate.force, {}, str(args.out))
     with outputs:
         save_load_steps(data, out)
-    summary = {"kind": "load steps", "steps": data.n_steps, "markers": len(scans.names),
+    count = 0 if scans is None else len(scans.names)
+    summary = {"kind": "load steps", "steps": data.n_steps, "markers": count,
                "driven_nodes": len(driven), "plate": args.plate,
                "load_cell": plate.force is not None, "out": str(args.out)}
     if args.json:
         print_json(summary)
     else:
-        print(f"wrote {args.out}: {len(scans.names)} markers at {data.n_steps} load steps, the "
+        print(f"wrote {args.out}: {count} markers at {data.n_steps} load steps, the "
               f"top plate ({len(driven)} nodes, {args.plate}) moved to "
               + ", ".join(f"{v:g}" for v in plate.displacement[-1] * 1e3) + " mm"
               + (", with the load cell's force" if plate.force is not None
@@ -147,6 +142,22 @@ def diagnose_load_steps(args) -> int:
     return 0
 
 
+def _embedded(mesh, scans, max_distance):
+    """The scans' markers embedded in ``mesh`` at the reference scan, none farther outside
+    it than ``max_distance`` (default half the shortest edge)."""
+    from ..observation import EmbeddedMarkers, embed_points
+
+    nodes, weights, distance = embed_points(mesh, scans.positions[0])
+    limit = max_distance or 0.5 * mesh.rest_lengths.min()
+    if np.any(distance > limit):
+        worst = int(np.argmax(distance))
+        raise InputError(f"marker {scans.names[worst]!r} lies {distance[worst] * 1e3:.3g} mm "
+                         f"outside the mesh in the reference scan (at most "
+                         f"{limit * 1e3:.3g} mm; --max-distance, or check the units and the "
+                         "scan's registration to the mesh)", source=scans.source)
+    return EmbeddedMarkers(nodes, weights, scans.positions, scans.names)
+
+
 def fit_load_steps(args) -> int:
     """``fit`` of a load-step file."""
     from ..io import save_model
@@ -187,7 +198,8 @@ def fit_load_steps(args) -> int:
     if args.json:
         print_json(record)
     else:
-        print(f"load steps: {data.n_steps} steps, {data.markers.n_markers} markers"
+        print(f"load steps: {data.n_steps} steps, "
+              f"{0 if data.markers is None else data.markers.n_markers} markers"
               + (", the load cell's force" if data.reaction is not None else ", no force"))
         print(result.summary())
         for region, values in found.items():

@@ -72,8 +72,9 @@ def _chi2(fit, data, sigma_m, sigma_f) -> float:
     """The misfit of ``fit`` with fixed noise levels (markers: registered, fitted steps)."""
     scans, model = fit.registered_, fit.markers_
     seen = np.isfinite(scans).all(axis=-1)
-    total = sum(float(np.sum((scans[s - 1] - model[s - 1])[seen[s - 1]] ** 2))
-                for s in fit.fitted_steps_) / sigma_m**2
+    total = 0.0 if not sigma_m else sum(
+        float(np.sum((scans[s - 1] - model[s - 1])[seen[s - 1]] ** 2))
+        for s in fit.fitted_steps_) / sigma_m**2
     if data.reaction is not None and sigma_f:
         rows = [s - 1 for s in fit.fitted_steps_]
         total += float(np.sum((np.asarray(data.reaction)[rows] - fit.reactions_[rows]) ** 2)

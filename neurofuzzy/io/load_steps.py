@@ -26,7 +26,8 @@ __all__ = ["save_load_steps", "load_load_steps", "is_load_steps_file", "KEYS"]
 KEYS = ("load_steps", "rest_positions", "tetrahedra", "fixed", "marker_positions",
         "marker_nodes", "marker_weights", "marker_names", "driven_nodes", "driven_set",
         "driven_displacement", "driven_components", "driven_names", "reaction")
-REQUIRED = KEYS[:7] + KEYS[8:13]
+#: the markers are optional (a force–displacement curve alone), the rest is required
+REQUIRED = KEYS[:4] + KEYS[8:13]
 
 
 def is_load_steps_file(path: str | os.PathLike) -> bool:
@@ -46,15 +47,16 @@ def save_load_steps(data: LoadSteps, path: str | os.PathLike) -> Path:
     mesh, markers = data.mesh, data.markers
     out = {"load_steps": np.int64(data.n_steps), "rest_positions": mesh.rest_positions,
            "tetrahedra": mesh.tetrahedra, "fixed": mesh.fixed,
-           "marker_positions": markers.positions, "marker_nodes": markers.nodes,
-           "marker_weights": markers.weights,
-           "marker_names": np.array(markers.names, dtype=str),
            "driven_nodes": np.concatenate([np.asarray(d.nodes) for d in data.driven]),
            "driven_set": np.concatenate([np.full(len(d.nodes), i)
                                          for i, d in enumerate(data.driven)]),
            "driven_displacement": np.array([d.displacement for d in data.driven], float),
            "driven_components": np.array([d.components for d in data.driven], dtype=str),
            "driven_names": np.array([d.name for d in data.driven], dtype=str)}
+    if markers is not None:
+        out.update(marker_positions=markers.positions, marker_nodes=markers.nodes,
+                   marker_weights=markers.weights,
+                   marker_names=np.array(markers.names, dtype=str))
     if data.reaction is not None:
         out["reaction"] = np.asarray(data.reaction, float)
     for key, value in data.truth.items():
@@ -80,7 +82,7 @@ def load_load_steps(path: str | os.PathLike) -> LoadSteps:
             raise InputError(f"required key is missing (the file has {sorted(data)})",
                              source=source, key=key)
     try:
-        for key in ("tetrahedra", "fixed", "driven_nodes", "driven_set", "marker_nodes"):
+        for key in ("tetrahedra", "fixed", "driven_nodes", "driven_set"):
             if data[key].dtype.kind not in "iu":
                 raise InputError(f"expected integers, got dtype {data[key].dtype}", key=key)
         for key in ("driven_components", "driven_names"):

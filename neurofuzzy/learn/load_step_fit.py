@@ -24,6 +24,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
@@ -61,35 +62,44 @@ class LoadStepFit:
     reactions_: np.ndarray | None = None
     registered_: np.ndarray | None = None
     fitted_steps_: tuple = ()
+    fixed_: tuple = ()
 
     @property
     def marker_scale(self) -> float:
         """The RMS per marker that noise alone gives (m): ``√3`` times the noise of one
         coordinate."""
-        return float(np.sqrt(3.0) * self.marker_noise_)
+        return float(np.sqrt(3.0) * (self.marker_noise_ or 0.0))
 
     def summary(self) -> str:
         """A few lines a person reads: the values, what was not identifiable, the errors."""
         lines = []
         for name, value, unit in (("youngs_modulus", self.youngs_modulus_, "Pa"),
                                   ("poisson_ratio", self.poisson_ratio_, "")):
-            if name in self.unidentifiable_:
+            if name in self.fixed_:
+                lines.append(f"  {name:<16} {value:.4g} fixed (the start's: a force curve "
+                             "alone cannot separate it from Young's modulus)")
+            elif name in self.unidentifiable_:
                 lines.append(f"  {name:<16} not identifiable from these data (kept at "
                              f"{value:.4g} {unit}; no word is given for it)".rstrip())
             else:
                 error = self.standard_errors_.get(name, float("nan"))
                 lines.append(f"  {name:<16} {value:.4g} ± {1.96 * error:.2g} {unit}".rstrip())
-        lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker, "
-                     f"{self.marker_rms_ / self.marker_scale:.2f}x the noise "
-                     f"({self.marker_noise_ * 1e6:.1f} µm per coordinate)")
+        if self.marker_rms_ is not None:
+            lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker, "
+                         f"{self.marker_rms_ / self.marker_scale:.2f}x the noise "
+                         f"({self.marker_noise_ * 1e6:.1f} µm per coordinate)")
         if self.force_rms_ is not None:
             lines.append(f"  load cell: RMS {self.force_rms_:.4g} N (noise estimate "
                          f"{self.force_noise_:.3g} N)")
-        if self.validation_:
+        if self.validation_ and self.marker_rms_ is not None:
             v = self.validation_
             lines.append(f"  held-out steps {v['steps']}: markers RMS "
                          f"{v['rms_error'] * 1e6:.1f} µm per marker "
                          f"({v['rms_error'] / self.marker_scale:.2f}x the noise)")
+        elif self.validation_:
+            v = self.validation_
+            lines.append(f"  held-out steps {v['steps']}: load cell RMS "
+                         f"{v['force_error']:.4g} N")
         return "\n".join(lines + [f"  note: {note}" for note in self.notes_])
 
 
@@ -121,7 +131,8 @@ def _forward(model, data, theta, steps, want_jacobian, warm=None):
     two iterations instead of a solve from the last step), and is updated."""
     E, nu, _, _, dconst = _constants(theta)
     current = model.with_elements(youngs_modulus=E, poisson_ratio=nu)
-    H = data.markers.operator(model.n_nodes)
+    H = (sp.csr_matrix((0, model.n_nodes)) if data.markers is None
+         else data.markers.operator(model.n_nodes))
     measured_set = np.asarray(data.driven[0].nodes)
     markers, reactions, d_markers, d_reactions = [], [], [], []
     positions = None
@@ -192,7 +203,8 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
         raise InputError(f"validate_on must name some of the load steps 1..{data.n_steps} and "
                          f"leave one to fit; got {list(validate_on)}", key="validate_on")
     fitted = [s for s in range(1, data.n_steps + 1) if s not in held_out]
-    scans = data.markers.positions[1:]
+    imaged = data.markers is not None
+    scans = data.markers.positions[1:] if imaged else np.zeros((data.n_steps, 0, 3))
     seen = np.isfinite(scans).all(axis=-1)
     size = float(np.ptp(model.mesh.rest_positions, axis=0).max())
     reaction = None if data.reaction is None else np.asarray(data.reaction, float)
@@ -241,6 +253,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
             J = jacobian(dm, dr)
             norms = np.linalg.norm(J, axis=0)
             identifiable = norms > 1e-7 * max(norms.max(), 1e-300)
+            identifiable[1] &= imaged                  # a force curve alone: ν held
             J = J[:, identifiable]
             g = J.T @ r
             A = J.T @ J
@@ -278,31 +291,36 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     for i, name in enumerate(names):
         errors[name] = float(np.sqrt(covariance[i, i]) * scale[name])
     moved = registered(markers) - markers
-    marker_rms = _rms(moved, seen, fitted)
+    marker_rms = _rms(moved, seen, fitted) if imaged else None
     force_rms = None if reaction is None else float(np.sqrt(np.mean(
         (reaction[[s - 1 for s in fitted]] - reactions[[s - 1 for s in fitted]]) ** 2)))
     validation = None
     everything = _forward(model, data, theta, range(1, data.n_steps + 1), False, warm)
     moved_all = registered(everything[1]) - everything[1]
     if held_out:
-        validation = {"steps": held_out, "rms_error": _rms(moved_all, seen, held_out),
-                      "fitted_rms_error": marker_rms}
+        validation = {"steps": held_out, "fitted_rms_error": marker_rms,
+                      "rms_error": _rms(moved_all, seen, held_out) if imaged else None}
         if reaction is not None:
             validation["force_error"] = float(np.sqrt(np.mean(
                 (reaction[[s - 1 for s in held_out]]
                  - everything[2][[s - 1 for s in held_out]]) ** 2)))
     notes = ["static steps: viscosity and density play no part (not identifiable, given no "
              "word), and Prony terms take their long-time value"]
+    if not imaged:
+        notes.append(f"no markers: Poisson's ratio is held at the start's {nu:.4g} (from the "
+                     "words or the model file) and Young's modulus fitted to the force alone")
     if not identifiable[0]:
         notes.append("no force was measured and no load applied: under displacement control "
                      "the equilibrium does not depend on the stiffness's scale, so Young's "
                      "modulus cannot be identified (add a load cell's force)")
-    unidentifiable = tuple(n for n, keep in zip(PARAMETERS, identifiable) if not keep)
+    fixed = () if imaged else ("poisson_ratio",)
+    unidentifiable = tuple(n for n, keep in zip(PARAMETERS, identifiable)
+                           if not keep and n not in fixed)
     return LoadStepFit(current, E, nu, errors, unidentifiable + STATIC_UNIDENTIFIABLE,
-                       marker_rms, force_rms, float(sigma_m),
+                       marker_rms, force_rms, float(sigma_m) if imaged else None,
                        None if sigma_f is None else float(sigma_f), transforms.copy(),
                        validation, iterations, tuple(notes), everything[1], everything[2],
-                       registered(everything[1]), tuple(fitted))
+                       registered(everything[1]), tuple(fitted), fixed)
 
 
 def _rms(moved, seen, steps):
@@ -318,7 +336,7 @@ def _noise(moved, seen, fitted, reactions, reaction, sigma_m, sigma_f, given_m, 
     count = sum(int(seen[s - 1].sum()) * 3 for s in fitted)
     blocks = 1 + (reaction is not None)
     used = n_parameters / blocks + (6 * len(fitted) if register else 0)
-    if given_m is None:
+    if given_m is None and count:
         squares = sum(float(np.sum(moved[s - 1][seen[s - 1]] ** 2)) for s in fitted)
         sigma_m = np.sqrt(squares / max(count - used, 1))
     if reaction is not None and given_f is None:

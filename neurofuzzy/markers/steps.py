@@ -117,10 +117,11 @@ def read_step_markers(path: str | os.PathLike, *, units: str | None = None) -> S
     return StepScans(tuple(str(n) for n in marker_names), positions, source)
 
 
-def read_plate(path: str | os.PathLike, *, n_steps: int,
+def read_plate(path: str | os.PathLike, *, n_steps: int | None = None,
                units: str | None = None) -> PlatePath:
     """Read a ``step,dx,dy,dz[,fx,fy,fz]`` CSV: the plate's displacement from rest at steps
-    1..``n_steps`` (a step 0 row, if any, must be at rest) and the load cell's force."""
+    1..``n_steps`` (a step 0 row, if any, must be at rest) and the load cell's force;
+    ``n_steps`` None: the file's last step (no scans to match)."""
     path = Path(path)
     source = str(path)
     header, rows, stated = read_csv_table(path, required=[("step", "time"), ("dx",), ("dy",),
@@ -144,6 +145,12 @@ def read_plate(path: str | os.PathLike, *, n_steps: int,
         newton = unit_factor(FORCE_UNITS, what="force", stated=stated, keys=("force units",),
                              source=source)
     steps = _steps(header, rows, source)
+    if not rows:
+        raise InputError("no data rows", source=source)
+    if n_steps is None:
+        n_steps = int(steps.max())
+        if n_steps < 1:
+            raise InputError("has only step 0; a fit needs load steps", source=source)
     displacement = np.full((n_steps + 1, 3), np.nan)
     force = np.full((n_steps + 1, 3), np.nan)
     for (line, row), step in zip(rows, steps):

@@ -24,9 +24,10 @@ def load_steps_report(start, fit, data, path, *, title: str = "neurofuzzy: load 
     plt = pyplot()
     labels = labels or {}
     sections = [("Values", _values(start, fit, labels)),
-                ("The plate's force", _force(plt, fit, data)),
-                ("Markers at each step", _markers(plt, fit, data)),
-                ("Registration of the scans", _registration(fit))]
+                ("The plate's force", _force(plt, fit, data))]
+    if data.markers is not None:
+        sections += [("Markers at each step", _markers(plt, fit, data)),
+                     ("Registration of the scans", _registration(fit))]
     notes = "".join(f"<p class='note'>{html.escape(note)}</p>" for note in fit.notes_)
     sections.append(("Notes", notes))
     record = {"youngs_modulus": fit.youngs_modulus_, "poisson_ratio": fit.poisson_ratio_,
@@ -45,6 +46,9 @@ def _values(start, fit, labels) -> str:
               "poisson_ratio": float(np.mean(start.elements.poisson_ratio))}
     after = {"youngs_modulus": fit.youngs_modulus_, "poisson_ratio": fit.poisson_ratio_}
     for name in ("youngs_modulus", "poisson_ratio", "viscosity", "density"):
+        if name in getattr(fit, "fixed_", ()):
+            rows.append([name, before[name], after[name], "fixed", labels.get(name, "-")])
+            continue
         if name in fit.unidentifiable_:
             rows.append([name, before.get(name, "-"), "not identifiable", "-", "(no word)"])
             continue
