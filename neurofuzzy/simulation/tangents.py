@@ -10,6 +10,7 @@ a node drag, inclusions and strain stiffening); nothing is written twice.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,11 +101,15 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         blocks_c.append(C.reshape(len(C), C[0].size if len(C) else 0))
         dofs.append(_dofs(tets))
         if elements[9] and matrices:                        # the nodal volumetric form
-            extra_k, extra_c = _nodal_coupling(n, tets, layout, gradients)
+            extra_k, extra_c = _nodal_coupling(model.mesh, tets, layout, gradients)
     if not matrices:
         return Tangents(force, None, None)
-    stiffness_matrix = _assemble(n, blocks_k, dofs) + sum(extra_k, sp.csr_array((3 * n, 3 * n)))
-    damping_matrix = _assemble(n, blocks_c, dofs) + sum(extra_c, sp.csr_array((3 * n, 3 * n)))
+    stiffness_matrix = _assemble(model.mesh, blocks_k, dofs)
+    damping_matrix = _assemble(model.mesh, blocks_c, dofs)
+    for extra in extra_k:
+        stiffness_matrix = stiffness_matrix + extra
+    for extra in extra_c:
+        damping_matrix = damping_matrix + extra
     if drag:
         damping_matrix = damping_matrix + drag * sp.eye_array(3 * n, format="csr")
     return Tangents(force, sp.csr_array(stiffness_matrix), sp.csr_array(damping_matrix))
@@ -132,29 +137,70 @@ def _dofs(items: np.ndarray) -> np.ndarray:
     return (3 * items[:, :, None] + np.arange(3)).reshape(len(items), -1)
 
 
-def _assemble(n: int, blocks: list, dofs: list) -> sp.csr_array:
+#: per mesh (weakly: gone with it), the sparsity pattern of its items' blocks: the learners
+#: assemble many models of one mesh
+_PATTERNS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+@dataclass(frozen=True)
+class _Pattern:
+    """Where each entry of the items' blocks goes in the CSR matrix: ``slot`` (n_entries,)
+    into ``data`` of the structure ``indices``, ``indptr``."""
+
+    slot: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+    shape: tuple
+
+    @classmethod
+    def of(cls, rows: np.ndarray, cols: np.ndarray, shape: tuple) -> _Pattern:
+        width = shape[1]
+        unique, slot = np.unique(rows * width + cols, return_inverse=True)
+        indptr = np.searchsorted(unique // width, np.arange(shape[0] + 1))
+        return cls(slot.ravel(), (unique % width).astype(np.int32), indptr.astype(np.int32),
+                   shape)
+
+    @classmethod
+    def of_blocks(cls, n: int, dofs: list) -> _Pattern:
+        rows = np.concatenate([np.repeat(d, d.shape[1], axis=1).ravel() for d in dofs])
+        cols = np.concatenate([np.tile(d, (1, d.shape[1])).ravel() for d in dofs])
+        return cls.of(rows, cols, (3 * n, 3 * n))
+
+    def matrix(self, values: np.ndarray) -> sp.csr_array:
+        data = np.bincount(self.slot, weights=values, minlength=len(self.indices))
+        return sp.csr_array((data, self.indices, self.indptr), shape=self.shape)
+
+
+def _assemble(mesh, blocks: list, dofs: list) -> sp.csr_array:
     """The sum of per-item square blocks (n_items, d*d) at their degrees of freedom."""
+    n = mesh.n_nodes
     if not blocks:
         return sp.csr_array((3 * n, 3 * n))
-    rows = np.concatenate([np.repeat(d, d.shape[1], axis=1).ravel() for d in dofs])
-    cols = np.concatenate([np.tile(d, (1, d.shape[1])).ravel() for d in dofs])
-    values = np.concatenate([block.ravel() for block in blocks])
-    return sp.csr_array(sp.coo_array((values, (rows, cols)), shape=(3 * n, 3 * n)))
+    key = tuple(d.shape for d in dofs)
+    patterns = _PATTERNS.setdefault(mesh, {})
+    if key not in patterns:
+        patterns[key] = _Pattern.of_blocks(n, dofs)
+    return patterns[key].matrix(np.concatenate([block.ravel() for block in blocks]))
 
 
-def _nodal_coupling(n: int, tets: np.ndarray, elements: tuple, gradients: np.ndarray):
+def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarray):
     """The nodal volumetric form's stiffness and damping through its node averages:
     ``A_g diag(Λ/V) Aᵀ + R diag(H/V) Dᵀ`` and ``R diag(H/V) Rᵀ`` with the columns of ``A``,
     ``R``, ``D`` the nodes' ``∂Θ_a/∂x``, ``∂(Σ_e (V_e/4) tr G_e)/∂x`` and ``∂Θ̇_a/∂x``
     (:mod:`neurofuzzy.kernels.stiffness`), and ``A_g`` that of ``A`` with each element's
     share times ``1 + Σᵢ gᵢ`` (its Prony terms carry the volumetric stress too)."""
+    n = mesh.n_nodes
     node_volume, node_lam, node_lam_rate = elements[10], elements[11], elements[12]
-    rows = np.repeat(_dofs(tets)[:, None, :], 4, axis=1).ravel()     # (k, corner, 12)
-    cols = np.repeat(tets[:, :, None], 12, axis=2).ravel()
+    patterns = _PATTERNS.setdefault(mesh, {})
+    if "node averages" not in patterns:                 # (element, corner, 12) entries
+        patterns["node averages"] = _Pattern.of(
+            np.repeat(_dofs(tets)[:, None, :], 4, axis=1).ravel(),
+            np.repeat(tets[:, :, None], 12, axis=2).ravel(), (3 * n, n))
+    pattern = patterns["node averages"]
 
     def columns(which, scale=1.0):
-        values = np.repeat((scale * gradients[:, which])[:, None, :], 4, axis=1).ravel()
-        return sp.csr_array(sp.coo_array((values, (rows, cols)), shape=(3 * n, n)))
+        return pattern.matrix(np.repeat((scale * gradients[:, which])[:, None, :], 4,
+                                        axis=1).ravel())
 
     inside = node_volume > 0
     weight = np.zeros(n)
