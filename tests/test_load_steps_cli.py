@@ -177,3 +177,22 @@ def test_a_load_cell_alone_from_the_command_line(lab, tmp_path):
     assert done.returncode == 2 and "load cell's force is all there is" in done.stderr
     done = cli("import", "--topology", lab / "model.yaml", "--out", tmp_path / "x.npz")
     assert done.returncode == 2 and "--displacements" in done.stderr
+
+
+def test_mesh_fixes_the_bottom_along_up(tmp_path):
+    """A scan whose up is +y (or -z): --fix-bottom holds the face at the bottom of that
+    axis, not z's."""
+    import meshio
+
+    from neurofuzzy.io import load_model
+
+    points, tetrahedra = kuhn_block((2, 2, 2), 5.0)
+    meshio.write(tmp_path / "gel.vtu", meshio.Mesh(points, [("tetra", tetrahedra)]))
+    for up, axis, side in (("y", 1, 0.0), ("-z", 2, 10.0), ("z", 2, 0.0)):
+        out = tmp_path / f"model-{axis}-{side}.yaml"
+        done = cli("mesh", tmp_path / "gel.vtu", "--scale", "0.001", "--rules", "liver",
+                   "--tissue", "liver", "--fix-bottom", f"--up={up}", "--out", out)
+        assert done.returncode == 0, done.stderr
+        model = load_model(out)
+        held = model.mesh.rest_positions[model.mesh.fixed]
+        assert len(held) == 9 and np.allclose(held[:, axis], side * 1e-3)

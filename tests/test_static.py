@@ -205,3 +205,33 @@ def test_an_increment_too_large_says_to_take_more():
     with pytest.raises(ConvergenceError, match="more increments"):
         equilibrium(model, driven=Driven(top, (0.3 * SIZE, 0, -0.8 * SIZE)),
                     max_iterations=6)
+
+
+def test_a_spring_network_under_gravity_and_a_load_balances_them():
+    """The paper's cube of springs with gravity and a push on its top: the supports' reaction
+    balances the weight and the load (force balance), and the equilibrium is one the
+    dynamics settle to (a long damped run ends there)."""
+    from neurofuzzy.datasets import paper_cube_model, top_centre_node
+    from neurofuzzy.effects import EFFECTS
+    from neurofuzzy.simulation import simulate
+
+    model = paper_cube_model().with_effects(
+        EFFECTS["gravity"](params=np.array([0.0, 0.0, -9.81])))
+    load = np.zeros((model.n_nodes, 3))
+    load[top_centre_node(model.mesh)] = (0.02, 0.0, -0.1)
+    result = equilibrium(model, load=load)
+    weight = model.node_mass.sum() * 9.81        # the supports carry their own nodes too
+    np.testing.assert_allclose(result.reaction.sum(axis=0), [-0.02, 0.0, 0.1 + weight],
+                               atol=1e-9)
+    settled = simulate(model, dt=0.01, n_frames=400, external_forces=load,
+                       substeps="auto").positions[-1]
+    assert np.abs(settled - result.positions).max() < 1e-3 * np.abs(
+        result.positions - model.mesh.rest_positions).max()
+
+
+def test_a_model_with_an_effect_the_kernels_do_not_compute_is_refused():
+    from neurofuzzy.effects import EFFECTS
+
+    model = _block(0.3).with_effects(EFFECTS["hyperelasticity"](params=np.array([1.0])))
+    with pytest.raises(InputError, match="hyperelasticity"):
+        tangents(model, model.mesh.rest_positions)
