@@ -15,17 +15,22 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
   :func:`check_experiments`, :func:`simulate_like`, :func:`rms_error`,
   :func:`load_experiment`, :func:`save_experiment`, :func:`load_model`, :func:`save_model`;
   marker recordings: :func:`read_markers`, :func:`markers_to_experiment`; markers between
-  nodes: :class:`EmbeddedMarkers`, :class:`Observation`, :func:`embed_points`
+  nodes: :class:`EmbeddedMarkers`, :class:`Observation`, :func:`embed_points`; scans at
+  load steps of a compression test: :class:`LoadSteps`, :class:`DrivenPath`,
+  :func:`simulate_load_steps`, :func:`load_load_steps`, :func:`save_load_steps`, one static
+  equilibrium :func:`equilibrium` (:class:`Driven`)
 - learning: :func:`start_model` (:class:`StartModel`), :func:`estimate_start`,
   :class:`PaperLearner`, :class:`GradientLearner`, the rule base as a prior
   :class:`FuzzyPrior`; the one fit pipeline of Python, the command
-  and fit-many: :func:`fit` (:class:`FitOutcome`, :class:`FitFailedError`)
+  and fit-many: :func:`fit` (:class:`FitOutcome`, :class:`FitFailedError`); E and ν from
+  load steps: :func:`fit_load_steps`
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
-- diagnosis: :func:`diagnose` (:class:`Diagnosis`)
+- diagnosis: :func:`diagnose` (:class:`Diagnosis`), of load steps
+  :func:`diagnose_load_steps`
 - many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
   :func:`cohort_report`
-- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`export` (MuJoCo, SOFA, FEBio,
+- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`load_steps_report`, :func:`export` (MuJoCo, SOFA, FEBio,
   ParaView), :func:`export_paraview`
 - the rule studio in the browser: :func:`studio` (``pip install 'neurofuzzy[studio]'``)
 - errors: :class:`NeurofuzzyError`, :class:`InputError`, :class:`UnstableTimeStepError`
@@ -54,7 +59,11 @@ _EXPORTS = {
     "StiffInclusion": "effects", "SoftInclusion": "effects",
     "NonlinearStiffening": "effects", "UnmodeledLoad": "effects",
     "Trajectory": "simulation", "State": "simulation", "simulate": "simulation",
-    "stability_limit": "simulation",
+    "stability_limit": "simulation", "equilibrium": "simulation", "Driven": "simulation",
+    "LoadSteps": "load_steps", "DrivenPath": "load_steps",
+    "simulate_load_steps": "load_steps", "load_load_steps": "io", "save_load_steps": "io",
+    "fit_load_steps": "learn.load_step_fit", "diagnose_load_steps": "diagnosis.load_steps",
+    "load_steps_report": "report.load_steps",
     "reference_simulate": "validation.integrators",
     "reference_experiment": "validation.integrators",
     "Experiment": "experiment", "simulate_experiment": "experiment",
@@ -115,6 +124,12 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .tissues import initialize, material_values, materials  # noqa: F401
     from .rulestudio import studio  # noqa: F401
     from .simulation import State, Trajectory, simulate, stability_limit  # noqa: F401
+    from .simulation import Driven, equilibrium  # noqa: F401
+    from .load_steps import DrivenPath, LoadSteps, simulate_load_steps  # noqa: F401
+    from .io import load_load_steps, save_load_steps  # noqa: F401
+    from .learn.load_step_fit import fit_load_steps  # noqa: F401
+    from .diagnosis.load_steps import diagnose_load_steps  # noqa: F401
+    from .report.load_steps import load_steps_report  # noqa: F401
 
 from .version import __version__  # noqa: E402, F401  (the package's version, public)
 
