@@ -102,6 +102,9 @@ class LoadSteps:
                              source=src, key="driven")
         fixed = set(np.asarray(self.mesh.fixed).tolist())
         for path in driven:
+            if np.asarray(path.displacement).dtype.kind not in "iuf":
+                raise InputError(f"the driven set {path.name!r} has displacements that are not "
+                                 "numbers", source=src, key="driven")
             shape = np.shape(path.displacement)
             if shape != (n_steps, 3):
                 raise InputError(f"the driven set {path.name!r} has displacements of shape "
@@ -123,7 +126,11 @@ class LoadSteps:
         if self.markers is not None:
             self._check_markers(src)
         if self.reaction is not None:
-            reaction = np.asarray(self.reaction, float)
+            try:
+                reaction = np.asarray(self.reaction, float)
+            except (TypeError, ValueError):
+                raise InputError("the load cell's reading must be numbers (N)", source=src,
+                                 key="reaction") from None
             if reaction.shape != (n_steps, 3) or not np.all(np.isfinite(reaction)):
                 raise InputError(f"the load cell's reading must be finite of shape "
                                  f"({n_steps}, 3) (one force per load step); got "

@@ -28,6 +28,12 @@ KEYS = ("load_steps", "rest_positions", "tetrahedra", "fixed", "marker_positions
         "driven_displacement", "driven_components", "driven_names", "reaction")
 #: the markers are optional (a force–displacement curve alone), the rest is required
 REQUIRED = KEYS[:4] + KEYS[8:13]
+#: the dtype kinds each key may have: integers, numbers, text
+KINDS_INTEGER = (("load_steps", "tetrahedra", "fixed", "driven_nodes", "driven_set",
+                  "marker_nodes"), "iu", "integers")
+KINDS_NUMBER = (("rest_positions", "marker_positions", "marker_weights",
+                 "driven_displacement", "reaction"), "iuf", "numbers")
+KINDS_TEXT = (("driven_components", "driven_names", "marker_names"), "US", "strings")
 
 
 def is_load_steps_file(path: str | os.PathLike) -> bool:
@@ -82,12 +88,18 @@ def load_load_steps(path: str | os.PathLike) -> LoadSteps:
             raise InputError(f"required key is missing (the file has {sorted(data)})",
                              source=source, key=key)
     try:
-        for key in ("tetrahedra", "fixed", "driven_nodes", "driven_set"):
-            if data[key].dtype.kind not in "iu":
-                raise InputError(f"expected integers, got dtype {data[key].dtype}", key=key)
-        for key in ("driven_components", "driven_names"):
-            if data[key].dtype.kind not in "US":
-                raise InputError("expected strings", key=key)
+        for keys, kinds, what in (KINDS_INTEGER, KINDS_NUMBER, KINDS_TEXT):
+            for key in keys:
+                if key in data and data[key].dtype.kind not in kinds:
+                    raise InputError(f"expected {what}, got dtype {data[key].dtype}", key=key)
+        if data["load_steps"].ndim != 0:
+            raise InputError("expected one integer (the number of load steps)",
+                             key="load_steps")
+        for key, ndim in (("driven_nodes", 1), ("driven_set", 1), ("driven_components", 1),
+                          ("driven_names", 1), ("reaction", 2), ("driven_displacement", 3)):
+            if key in data and data[key].ndim != ndim:
+                raise InputError(f"expected {ndim} dimension(s), got shape {data[key].shape}",
+                                 key=key)
         mesh = from_tetra(data["rest_positions"], data["tetrahedra"]).with_fixed(data["fixed"])
         sets = data["driven_set"]
         displacement = data["driven_displacement"]
