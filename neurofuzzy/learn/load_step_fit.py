@@ -25,12 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import Model
 from ..simulation.static import equilibrium
-from ..simulation.tangents import tangents, unit_forces
+from ..simulation.tangents import unit_forces
 
 __all__ = ["LoadStepFit", "fit_load_steps"]
 
@@ -150,15 +149,12 @@ def _forward(model, data, theta, steps, want_jacobian, warm=None):
         if not want_jacobian:
             continue
         K = result.stiffness
-        if K is None:
-            K = tangents(current, positions, long_time=True).stiffness
         held = result.held
         free = np.setdiff1d(np.arange(3 * model.n_nodes), held)
         units = unit_forces(current, positions)[0].reshape(2, -1)     # (2, 3N)
         dF = dconst.T @ units                                         # (P, 3N)
-        solve = spla.splu(K[free][:, free].tocsc()).solve
         dp = np.zeros((len(theta), 3 * model.n_nodes))
-        dp[:, free] = solve(dF[:, free].T).T
+        dp[:, free] = result.solve_free(dF[:, free].T).T
         d_markers.append(np.stack([H @ d.reshape(-1, 3) for d in dp]))
         # reaction R_c = -(F + f)_c:  dR_c = -∂F_c/∂θ + K_cf dp_f
         on_set = np.zeros(3 * model.n_nodes, bool)

@@ -116,6 +116,24 @@ class Equilibrium:
     residual: float
     stiffness: object = None
     held: np.ndarray | None = None
+    factor: object = None
+
+    def solve_free(self, right: np.ndarray, tolerance: float = 1e-12) -> np.ndarray:
+        """``K_ff⁻¹ right`` (free degrees of freedom; ``right`` (n_free,) or (n_free, k)) with
+        the equilibrium's stiffness: the last Newton iteration's factorisation, refined
+        against the stiffness at the solution (which differs from it by the last, small,
+        step), or a new factorisation when that does not converge at once."""
+        free = np.setdiff1d(np.arange(self.stiffness.shape[0]), self.held)
+        K = self.stiffness[free][:, free]
+        if self.factor is not None:
+            x = self.factor.solve(right)
+            scale = max(np.abs(right).max(), 1e-300)
+            for _ in range(6):
+                residual = right - K @ x
+                if np.abs(residual).max() <= tolerance * scale:
+                    return x
+                x = x + self.factor.solve(residual)
+        return spla.splu(K.tocsc()).solve(right)
 
     def reaction_on(self, nodes) -> np.ndarray:
         """(3,) the total reaction on ``nodes``: what a load cell under them reads."""
@@ -164,6 +182,7 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     size = float(np.ptp(rest, axis=0).max())
     iterations = 0
     residual = 0.0
+    factor = None
     for step in range(1, int(increments) + 1):
         fraction = step / int(increments)
         target = rest.ravel()[held] + first + fraction * (shift - first)
@@ -174,7 +193,7 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         K = state.stiffness
         if np.any(move):
             coupling = K[free][:, held] @ move
-            p[free] -= _solve(K[free][:, free], coupling)
+            p[free] -= _factor(K[free][:, free]).solve(coupling)
         p[held] = target
         for _ in range(max_iterations):
             state = tangents(model, p.reshape(n, 3), long_time=True)
@@ -183,7 +202,8 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             residual = np.abs(out[free]).max(initial=0.0)
             if residual <= tolerance * scale:
                 break
-            delta = _solve(state.stiffness[free][:, free], out[free])
+            factor = _factor(state.stiffness[free][:, free])
+            delta = factor.solve(out[free])
             iterations += 1
             p[free] += _line_search(model, p, free, delta, load_now, residual)
             if np.abs(delta).max() <= 1e-4 * tolerance * size:
@@ -198,8 +218,11 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
                 "displacements in more increments", key="increments")
     reaction = np.zeros(3 * n)
     reaction[held] = -(state.force.ravel()[held] + load_now[held])
+    stiffness = state.stiffness
+    if stiffness is None:
+        stiffness = tangents(model, p.reshape(n, 3), long_time=True).stiffness
     return Equilibrium(p.reshape(n, 3), reaction.reshape(n, 3), iterations, float(residual),
-                       state.stiffness, held)
+                       stiffness, held, factor)
 
 
 def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarray]:
@@ -221,9 +244,9 @@ def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarr
     return held, np.concatenate(shifts)
 
 
-def _solve(matrix, right):
-    """``matrix⁻¹ right`` by SuperLU."""
-    return spla.splu(matrix.tocsc()).solve(right)
+def _factor(matrix):
+    """SuperLU's factorisation of ``matrix``."""
+    return spla.splu(matrix.tocsc())
 
 
 def _line_search(model, p, free, delta, load, residual, shrink=0.5, tries=8):
