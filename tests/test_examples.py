@@ -213,3 +213,21 @@ def test_the_stiffening_tissue_example_fits_each_law_and_says_the_words(tmp_path
     assert "strain_stiffening moderate" in rows["yeoh"] and "youngs_modulus firm" in rows["yeoh"]
     assert "youngs_modulus hard" in rows["st-venant-kirchhoff"]
     assert (tmp_path / "fitted_yeoh.yaml").exists()
+
+
+@pytest.mark.slow
+def test_compression_between_plates_example_runs(tmp_path):
+    """The gel slid on its plates and is neo-Hookean; the lab's bonded St. Venant–Kirchhoff
+    model gets E wrong with a load cell, the diagnosis names both and E comes back."""
+    import re
+
+    result = subprocess.run([sys.executable, str(EXAMPLES / "compression_between_plates.py"),
+                             str(tmp_path)], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert "youngs_modulus   not identifiable" in result.stdout
+    assert "answer: plate_slip, hyperelasticity (neo-hookean)" in result.stdout
+    E, nu = re.search(r"after the diagnosis: E (\d+) Pa \(gel 6000\), nu (\S+)",
+                      result.stdout).groups()
+    assert float(E) == pytest.approx(6000, rel=0.03) and float(nu) == pytest.approx(0.47,
+                                                                                  abs=0.01)
+    assert (tmp_path / "compression.html").stat().st_size > 10_000

@@ -62,6 +62,7 @@ class LoadStepFit:
     registered_: np.ndarray | None = None
     fitted_steps_: tuple = ()
     fixed_: tuple = ()
+    noise_estimated_: bool = False
 
     @property
     def marker_scale(self) -> float:
@@ -83,7 +84,12 @@ class LoadStepFit:
             else:
                 error = self.standard_errors_.get(name, float("nan"))
                 lines.append(f"  {name:<16} {value:.4g} ± {1.96 * error:.2g} {unit}".rstrip())
-        if self.marker_rms_ is not None:
+        if self.marker_rms_ is not None and self.noise_estimated_:
+            lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker; the noise, "
+                         f"estimated from these residuals, {self.marker_noise_ * 1e6:.1f} µm per "
+                         "coordinate (a model error would look like noise here: compare "
+                         "with the scanner's, or run diagnose)")
+        elif self.marker_rms_ is not None:
             lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker, "
                          f"{self.marker_rms_ / self.marker_scale:.2f}x the noise "
                          f"({self.marker_noise_ * 1e6:.1f} µm per coordinate)")
@@ -316,7 +322,8 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
                        marker_rms, force_rms, float(sigma_m) if imaged else None,
                        None if sigma_f is None else float(sigma_f), transforms.copy(),
                        validation, iterations, tuple(notes), everything[1], everything[2],
-                       registered(everything[1]), tuple(fitted), fixed)
+                       registered(everything[1]), tuple(fitted), fixed,
+                       marker_noise is None and imaged)
 
 
 def _rms(moved, seen, steps):
