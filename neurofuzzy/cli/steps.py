@@ -91,31 +91,17 @@ def import_load_steps(args) -> int:
 
 def _start(args, source):
     """``(data, rule base, start model)`` of a load-step command."""
-    from ..io import load_model
     from ..io.load_steps import load_load_steps
-    from ..tissues import initialize
+    from ..pipeline.load_steps import load_step_start
     from .common import rule_base_for
 
     if len(args.experiments) != 1:
         raise InputError("takes one load-step file at a time", key="EXPERIMENT.npz")
     data = load_load_steps(source)
     rule_base = rule_base_for(args.rules, args.tissue)
-    if args.start:
-        model = load_model(args.start)
-        if model.n_nodes != data.mesh.n_nodes or model.elements is None:
-            raise InputError(f"has {model.n_nodes} nodes"
-                             + ("" if model.elements is not None else " and no elements")
-                             + f"; the load steps' mesh has {data.mesh.n_nodes} nodes and "
-                             "tetrahedra", source=str(args.start), key="--start")
-        model = model.replace(mesh=data.mesh)
-    elif rule_base is not None and args.tissue:
-        model = initialize(rule_base, data.mesh, args.tissue, elements=True)
-    else:
-        raise InputError("give the start: --start MODEL.yaml, or --rules R --tissue T",
-                         key="--start")
-    if getattr(args, "law", None):
-        model = model.with_elements(law=args.law)
-    return data, rule_base, model
+    return data, rule_base, load_step_start(data, start=args.start, rules=rule_base,
+                                            tissue=args.tissue,
+                                            law=getattr(args, "law", None))
 
 
 def diagnose_load_steps(args) -> int:
@@ -161,40 +147,29 @@ def _embedded(mesh, scans, max_distance):
 def fit_load_steps(args) -> int:
     """``fit`` of a load-step file."""
     from ..io import save_model
-    from ..learn.load_step_fit import fit_load_steps as fit
-    from ..tissues import materials
+    from ..pipeline.load_steps import fit_load_step_file
+    from .common import rule_base_for
 
     source = Path(args.experiments[0])
     steps = _step_list(args.validate_on)
+    if len(args.experiments) != 1:
+        raise InputError("takes one load-step file at a time", key="EXPERIMENT.npz")
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
-        data, rule_base, model = _start(args, source)
+        rule_base = rule_base_for(args.rules, args.tissue)
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
-        result = fit(model, data, validate_on=steps, progress=say)
-        found = materials(result.model_, rule_base, args.tissue)
-        for region in found.values():
-            for name in result.unidentifiable_:
-                region.get("labels", {}).pop(name, None)
-                if name in region:
-                    region[name] = None
+        outcome = fit_load_step_file(source, start=args.start, rules=rule_base,
+                                     tissue=args.tissue, law=args.law, validate_on=steps,
+                                     progress=say)
+        result, data, record = outcome.result, outcome.data, outcome.record
         if out:
             save_model(result.model_, out)
         if report:
             from ..report.load_steps import load_steps_report
 
-            labels = next(iter(found.values()), {}).get("labels", {})
-            load_steps_report(model, result, data, report, labels=labels)
-    record = {"kind": "load steps", "youngs_modulus": None if "youngs_modulus" in
-              result.unidentifiable_ else result.youngs_modulus_,
-              "poisson_ratio": result.poisson_ratio_,
-              "unidentifiable": list(result.unidentifiable_),
-              "standard_errors": result.standard_errors_,
-              "marker_rms_error": result.marker_rms_, "marker_noise": result.marker_noise_,
-              "force_rms_error": result.force_rms_, "force_noise": result.force_noise_,
-              "validation": result.validation_, "iterations": result.iterations_,
-              "registration": result.registration_.tolist(), "materials": found,
-              "notes": list(result.notes_)}
+            labels = next(iter(record["materials"].values()), {}).get("labels", {})
+            load_steps_report(outcome.start, result, data, report, labels=labels)
     if args.json:
         print_json(record)
     else:
@@ -202,7 +177,7 @@ def fit_load_steps(args) -> int:
               f"{0 if data.markers is None else data.markers.n_markers} markers"
               + (", the load cell's force" if data.reaction is not None else ", no force"))
         print(result.summary())
-        for region, values in found.items():
+        for region, values in record["materials"].items():
             labels = values.get("labels", {})
             if labels:
                 print(f"  {region}: " + ", ".join(f"{k} {v}" for k, v in labels.items()))
