@@ -22,15 +22,10 @@ import socket
 import time
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import FolderInUseError, InputError
 from .manifest import LOCK_NAME
 
-__all__ = ["LOCK_NAME", "FolderInUseError", "folder_lock"]
-
-
-class FolderInUseError(InputError):
-    """Another ``fit-many`` is running on the results folder (or may be: its lock was left by
-    a run on another host)."""
+__all__ = ["LOCK_NAME", "folder_lock"]
 
 
 @contextlib.contextmanager
@@ -77,11 +72,7 @@ def _take(path: Path, manifest, notes):
         handle = open(path, "a+", encoding="utf-8")
         try:
             if not _flock(handle):
-                owner = _owner(path)
-                raise FolderInUseError(
-                    f"another fit-many is writing this results folder ({_describe(owner)}); "
-                    "wait for it to finish, or choose another --out", source=str(path.parent),
-                    key="--out")
+                raise _in_use(_owner(path), path)
             if not _same_file(handle, path):
                 handle.close()         # its owner removed it as it finished: lock the new one
                 continue
@@ -145,14 +136,17 @@ def _check_stale(owner: dict, path: Path, notes) -> None:
         import fcntl  # noqa: F401
     except ImportError:
         if alive:
-            raise FolderInUseError(
-                f"another fit-many is writing this results folder ({_describe(owner)}); "
-                "wait for it to finish, or choose another --out", source=str(path.parent),
-                key="--out") from None
+            raise _in_use(owner, path) from None
     if notes is not None:
         why = "no longer running" if not alive else "running but no longer holding the lock"
         notes(f"fit-many: took over the stale lock of a run that ended without releasing "
               f"it ({_describe(owner)}: {why})")
+
+
+def _in_use(owner: dict | None, path: Path) -> FolderInUseError:
+    return FolderInUseError(f"another fit-many is writing this results folder "
+                            f"({_describe(owner)}); wait for it to finish, or choose another "
+                            "--out", source=str(path.parent), key="--out")
 
 
 def _running(pid: int) -> bool:

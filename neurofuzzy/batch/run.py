@@ -11,7 +11,9 @@ Layout of the output folder ``OUT``:
 - ``OUT/results.csv``: one row per specimen and material region, rewritten atomically after
   every specimen (``results.parquet`` too when pyarrow is installed);
 - ``OUT/fit-many.json``: the manifest the folder was made from (:mod:`.books`), so that
-  ``--resume`` never mixes in another cohort.
+  ``--resume`` never mixes in another cohort;
+- ``OUT/fit-many.lock``: the lock of the run writing the folder (:mod:`.lock`): one run at a
+  time, a dead run's lock taken over.
 
 Nothing is written before the cluster answers: a refused or unreachable scheduler leaves the
 folder as it was. Ids that would collide with these files, inputs that an output would
@@ -20,7 +22,12 @@ overwrite, and a folder of another manifest are refused before anything runs.
 Every file is written atomically by this process (the workers return their outputs), so an
 interrupted batch leaves only finished specimens behind, and ``resume=True`` fits only those
 whose ``fit.json`` is missing or was made from other inputs (a fingerprint of the input files'
-contents and the options). Dask is imported here only, when a batch runs.
+contents and the options); it first removes the temporary files of writes that never
+finished. A worker that dies while it fits a specimen costs that attempt only: the scheduler
+runs the task again, at most :data:`RETRIES` times on the local cluster, and a specimen
+that kills its worker every time is recorded as failed with the reason. A lost scheduler or
+a full disk stops the batch (what finished is kept). Dask is imported here only, when a
+batch runs.
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from ..errors import InputError, NeurofuzzyError
+from ..errors import InputError, SchedulerLostError
 from ..progress import Progress, note
 from .books import RECORD_FORMAT, check_folder, finished, sweep, write_books, write_specimen
 from .lock import folder_lock
@@ -40,7 +47,7 @@ from .manifest import Specimen, read_manifest
 from .table import TABLE_NAME, write_table
 from .task import fit_specimen
 
-__all__ = ["fit_many", "Cohort", "THREAD_LIMITS", "RECORD_FORMAT", "RETRIES", "SchedulerLostError"]
+__all__ = ["fit_many", "Cohort", "THREAD_LIMITS", "RECORD_FORMAT", "RETRIES"]
 
 #: environment of local workers: one thread each for every numerical library, so that
 #: ``n`` single-threaded workers use ``n`` cores and no more
@@ -51,14 +58,6 @@ CONNECT_TIMEOUT = "10s"
 #: how often the local cluster runs a specimen again after its worker process died (an
 #: existing cluster keeps its own ``distributed.scheduler.allowed-failures``, 3 by default)
 RETRIES = 2
-
-
-class SchedulerLostError(NeurofuzzyError):
-    """The Dask scheduler stopped or could not be reached any more during a batch; what
-    finished is kept, and ``--resume`` fits the rest."""
-
-    def __init__(self, message: str, *, key: str | None = None):
-        super().__init__(f"{key}: {message}" if key else message)
 
 
 @dataclass(frozen=True)
@@ -153,6 +152,13 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
         A bad manifest, a bad option, an output that would overwrite an input or an earlier
         run's results (without ``resume``), an unreachable scheduler. A specimen that fails
         does not raise: it is recorded, and the others go on.
+    FolderInUseError
+        Another run holds the folder's lock (:mod:`neurofuzzy.batch.lock`; a stale one is
+        taken over).
+    SchedulerLostError
+        The scheduler stopped during the batch; what finished is kept.
+    OSError
+        An output could not be written (a full disk); what finished before is kept.
     """
     started = time.perf_counter()
     specimens = read_manifest(manifest)
@@ -279,9 +285,8 @@ def _outcome(future, specimen: Specimen, scheduler) -> dict:
     except CancelledError:
         # the futures of a client that lost its scheduler are cancelled: no specimen failed
         raise SchedulerLostError(
-            f"lost the Dask scheduler{' ' + scheduler if scheduler else ''} (it stopped or "
-            "the connection broke) before every specimen was fitted", key="--scheduler"
-        ) from None
+            f"--scheduler: lost the Dask scheduler{' ' + scheduler if scheduler else ''} (it "
+            "stopped or the connection broke) before every specimen was fitted") from None
     except KilledWorker as error:
         # a specimen whose worker died every time it ran (killed, out of memory): the
         # scheduler's bounded retries are spent; recorded as failed with the reason
