@@ -13,7 +13,7 @@ from collections.abc import Iterable
 __all__ = [
     "NeurofuzzyError",
     "InputError",
-    "UnstableTimeStepError",
+    "UnstableTimeStepError", "FolderInUseError", "SchedulerLostError",
     "closest_name", "RuleFileDeprecationWarning", "PlausibilityWarning"]
 
 
@@ -51,6 +51,16 @@ class InputError(NeurofuzzyError):
 
 class UnstableTimeStepError(NeurofuzzyError):
     """The explicit time step is too large for the stiffest mode of the model."""
+
+
+class FolderInUseError(InputError):
+    """Another ``fit-many`` is writing the results folder (or may be: its lock was left by a
+    run on another host); the message names the owner."""
+
+
+class SchedulerLostError(NeurofuzzyError):
+    """The Dask scheduler of a ``fit-many`` stopped or could not be reached any more; what
+    finished is kept, and ``--resume`` fits the rest."""
 
 
 def closest_name(name: str, known: Iterable[str]) -> str | None:

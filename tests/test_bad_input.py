@@ -201,6 +201,10 @@ def _at(value, index, array):
      "springs: spring 86 connects the same two nodes as spring 0"),
     ({}, {"masses": b"\x93NUMPY\x01\x00\x10\x00{'descr': '<f8',,}\n"}, "masses: "),
     ({"dt": None}, {"dt": b"hello raw bytes"}, "dt: "),
+    ({"masses": None}, {"masses": b"\x93NUMPY\x01\x00\x40\x00{'descr': '<f8', "     # no }
+                                  b"'fortran_order': False, 'shape': (27,), " + b" " * 6 + b"\n"
+                                  + np.ones(27).tobytes()},
+     "masses: its .npy header is not a closed Python dictionary"),
     ({"masses": None}, {"masses": b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': "
                                   b"False, 'shape': (100000000000,), }" + b" " * 50 + b"\n"},
      "truncated or corrupt"),

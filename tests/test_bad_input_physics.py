@@ -369,7 +369,8 @@ def test_regions_without_one_tissue_each_are_refused(organ, tmp_path, capsys, re
 def test_regions_of_a_surface_are_refused(block, tmp_path, capsys):
     refused(capsys, ["mesh", block["folder"] / "block.stl", "--rules", "liver", "--region",
                      "organ=liver", "--out", tmp_path / "m.yaml"],
-            names=["block.stl", "--region", "has no regions"], folder=tmp_path)
+            names=["block.stl", "--region", "has no regions, so no region 'organ' "
+                                              "(organ=liver)"], folder=tmp_path)
 
 
 # -- model files --------------------------------------------------------------------------------
@@ -386,6 +387,25 @@ def test_an_element_model_file_beyond_physics_names_line_element_and_tissue(bloc
             names=[f"bad.yaml:{line}: elements.poisson_ratio: element 3 (region 'liver', "
                    "tissue 'liver') has Poisson's ratio 0.5; it must lie in (0, 0.5)"],
             folder=tmp_path)
+
+
+@pytest.mark.parametrize("key", ["stiffness", "damping"])
+def test_per_spring_lists_shorter_than_the_springs_are_refused_beside_elements(
+        block, tmp_path, capsys, key):
+    """An element model's idle springs (stiffness and damping 0) are no term, but lists one
+    shorter than the springs are a file that disagrees with itself (issue 49)."""
+    import yaml
+
+    data = yaml.safe_load(block["model"].read_text())
+    assert "elements" in data and not any(data["springs"][key])
+    count = len(data["springs"]["nodes"])
+    data["springs"][key] = data["springs"][key][:-1]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(data, default_flow_style=None, width=100, sort_keys=False))
+    line = _line_of(bad.read_text(), f"  {key}: [")
+    refused(capsys, ["simulate", bad, "--frames", "3", "--out", tmp_path / "x.npz"],
+            names=[f"bad.yaml:{line}: springs.{key}: got shape ({count - 1},); expected "
+                   f"(n_springs,) = ({count},)"], folder=tmp_path)
 
 
 @pytest.mark.parametrize("args, names", [

@@ -39,6 +39,8 @@ def _manifest(folder, rows, name="cohort.csv", header="id,group,experiments,tie"
                                            "file fit-many keeps"),
     (["s1,x,a.npz,global", "FIT-MANY.JSON,x,a.npz,global"], None,
      "cohort.csv:3: id: 'FIT-MANY.JSON' is the name of a file"),
+    (["fit-many.lock,x,a.npz,global"], None, "cohort.csv:2: id: 'fit-many.lock' is the name "
+                                             "of a file fit-many keeps"),
     (["s1,x,a.npz,global", "S1,y,a.npz,global"], None,
      "cohort.csv:3: id: 'S1' and 's1' (line 2) differ only in letter case"),
     (["cohort.html,x,a.npz,global"], "out/cohort.html",
@@ -169,3 +171,79 @@ def test_an_input_inside_the_results_folder_is_never_an_output(data, tmp_path):
     assert result.returncode == 2
     assert "fitted.yaml: --out: is an input of the batch (specimen s1)" in result.stderr
     assert _snapshot(tmp_path) == before
+
+
+# -- one run per results folder (issue 49) ------------------------------------------------------
+def _dead_pid():
+    import subprocess
+    import sys
+
+    process = subprocess.Popen([sys.executable, "-c", "pass"])
+    process.wait()
+    return process.pid
+
+
+def test_a_live_run_s_lock_refuses_a_second_run_naming_its_owner(data, tmp_path, cluster,
+                                                                 stub):
+    import os
+    import socket
+
+    from neurofuzzy.batch.lock import folder_lock
+
+    manifest = _manifest(data, ["s1,x,a.npz,global"], name="one.csv")
+    out = tmp_path / "results"
+    scheduler = ["--scheduler", cluster.scheduler_address]
+    with folder_lock(out, manifest):                 # another run, alive (this process)
+        before = _snapshot(out)
+        for resume in ([], ["--resume"]):
+            result = cli("fit-many", manifest, "--out", out, *resume, *scheduler)
+            assert result.returncode == 2
+            [line] = result.stderr.strip().splitlines()
+            assert line.startswith(f"neurofuzzy: error: {out}: --out: another fit-many is "
+                                   f"writing this results folder (pid {os.getpid()} on "
+                                   f"{socket.gethostname()}, started "), line
+            assert line.endswith(f"manifest {manifest}); wait for it to finish, or choose "
+                                 "another --out"), line
+            assert _snapshot(out) == before and stub() == []
+    assert not out.exists()                  # the lock's folder was made for it and is gone
+    assert cli("fit-many", manifest, "--out", out, *scheduler).returncode == 0
+    assert stub() == ["s1"] and not (out / "fit-many.lock").exists()
+
+
+def test_a_stale_lock_of_a_dead_run_is_reported_and_taken_over(data, tmp_path, cluster, stub):
+    import json
+    import socket
+
+    manifest = _manifest(data, ["s1,x,a.npz,global"], name="one.csv")
+    out = tmp_path / "results"
+    out.mkdir()
+    pid = _dead_pid()
+    (out / "fit-many.lock").write_text(json.dumps(
+        {"host": socket.gethostname(), "pid": pid, "started": "2026-11-27T03:00:00+0000",
+         "manifest": str(manifest)}))
+    result = cli("fit-many", manifest, "--out", out, "--scheduler", cluster.scheduler_address)
+    assert result.returncode == 0, result.stderr
+    assert (f"fit-many: took over the stale lock of a run that ended without releasing it (pid "
+            f"{pid} on {socket.gethostname()}, started 2026-11-27T03:00:00+0000, manifest "
+            f"{manifest}: no longer running)") in result.stderr
+    assert stub() == ["s1"] and not (out / "fit-many.lock").exists()
+
+
+def test_a_lock_left_by_another_host_is_refused_with_the_file_to_remove(data, tmp_path,
+                                                                        cluster, stub):
+    import json
+
+    manifest = _manifest(data, ["s1,x,a.npz,global"], name="one.csv")
+    out = tmp_path / "results"
+    out.mkdir()
+    lock = out / "fit-many.lock"
+    lock.write_text(json.dumps({"host": "node-17", "pid": 4242, "started": "yesterday",
+                                "manifest": "/elsewhere/cohort.csv"}))
+    before = _snapshot(out)
+    result = cli("fit-many", manifest, "--out", out, "--scheduler", cluster.scheduler_address)
+    assert result.returncode == 2
+    assert ("was locked by a fit-many on another host (pid 4242 on node-17, started yesterday, "
+            f"manifest /elsewhere/cohort.csv), which cannot be checked from "
+            f"") in result.stderr and f"if that run is over, delete {lock} and run again" in \
+        result.stderr
+    assert _snapshot(out) == before and stub() == []

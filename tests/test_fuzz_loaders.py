@@ -121,6 +121,57 @@ def test_mutated_experiment_files_load_or_raise_our_error(tmp_path, experiment_b
     mutated_loads_or_refuses(load_experiment, tmp_path / "e.npz", source, data)
 
 
+@st.composite
+def npy_headers(draw):
+    """A ``.npy`` member (27 doubles) whose header dictionary is mutated: brackets and quotes
+    left open or doubled, keys and values replaced, Python syntax where numpy's header parser
+    (``tokenize`` and ``ast``) meets it."""
+    text = bytearray(b"{'descr': '<f8', 'fortran_order': False, 'shape': (27,), }")
+    for _ in range(draw(st.integers(1, 4))):
+        at = draw(st.integers(0, len(text)))
+        kind = draw(st.sampled_from(["insert", "delete", "truncate"]))
+        if kind == "insert":
+            text[at:at] = draw(st.sampled_from(
+                [b"{", b"}", b"(", b")", b"[", b"]", b"'", b'"', b"'" * 3, b",", b":", b"\\",
+                 b"\n", b"#", b"-1", b"1e400", b"None", b"'|O'", b"'<U5'", b"lambda: 0",
+                 b"'shape': (", b"'descr': ", b"True", b"\x00", b"\xff", b"9" * 30]))
+        elif kind == "delete":
+            del text[at:at + draw(st.integers(1, 8))]
+        else:
+            del text[at:]
+    version = draw(st.sampled_from([1, 2]))
+    prefix = 10 if version == 1 else 12          # magic, version, header length
+    padded = (prefix + len(text) + 1 + 63) // 64 * 64 - prefix
+    header = bytes(text) + b" " * (padded - len(text) - 1) + b"\n"
+    length = len(header).to_bytes(2 if version == 1 else 4, "little")
+    return b"\x93NUMPY" + bytes([version, 0]) + length + header + np.ones(27).tobytes()
+
+
+@FAST
+@given(header=npy_headers())
+def test_experiment_files_with_a_mutated_npy_header_load_or_raise_our_error(
+        tmp_path, cube_experiment, header):
+    """A member whose ``.npy`` header is broken (an unclosed ``{``, issue 49) is refused
+    naming the file and the member, never with a tokenizer's or parser's traceback."""
+    path = save_experiment(cube_experiment.first_frames(12), tmp_path / "good.npz")
+    with np.load(path) as archive:
+        arrays = {name: archive[name] for name in archive.files if name != "masses"}
+    bad = tmp_path / "e.npz"
+    with zipfile.ZipFile(bad, "w") as archive:
+        for name, array in arrays.items():
+            buffer = io.BytesIO()
+            np.save(buffer, array)
+            archive.writestr(name + ".npy", buffer.getvalue())
+        archive.writestr("masses.npy", header)
+    try:
+        load_experiment(bad)
+    except NeurofuzzyError as error:
+        assert str(bad) in str(error), str(error)
+        event("refused naming the member" if "masses" in str(error) else "refused")
+    else:
+        event("loaded")
+
+
 ARRAYS = st.sampled_from([
     np.array([]), np.array(1.0), np.array("text"), np.zeros((27, 3), np.complex128),
     np.full((27, 3), np.nan), np.full(27, True), np.arange(-5, 5), np.zeros((2, 0, 3)),

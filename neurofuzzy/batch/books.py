@@ -15,14 +15,15 @@ import hashlib
 import json
 import os
 import time
+from glob import escape as glob_escape
 from pathlib import Path
 
 from ..errors import InputError
 from ..io.writing import atomic_write
-from .manifest import BOOKS_NAME, FOLDER_FILES, Specimen
+from .manifest import BOOKS_NAME, FOLDER_FILES, LOCK_NAME, Specimen
 from .task import OUTPUT_FILES
 
-__all__ = ["RECORD_FORMAT", "check_folder", "finished", "write_books", "write_specimen"]
+__all__ = ["RECORD_FORMAT", "check_folder", "finished", "write_books", "write_specimen", "sweep"]
 
 #: marks the records this module writes (``fit.json``, ``error.json``, ``fit-many.json``)
 RECORD_FORMAT = "neurofuzzy-fit-many/1"
@@ -73,7 +74,7 @@ def check_folder(out: Path, report: Path | None, manifest, specimens, resume: bo
             raise InputError(f"is an input of the batch{f' (specimen {owner.id})' if owner else ''}"
                              f" and fit-many would write its results there; move the input "
                              "or choose another --out", source=str(path), key="--out")
-    earlier = (out / BOOKS_NAME).exists() or any((out / name).exists() for name in FOLDER_FILES) \
+    earlier = any((out / name).exists() for name in FOLDER_FILES if name != LOCK_NAME) \
         or any((out / s.id / name).exists() for s in specimens
                for name in ("fit.json", "error.json"))
     if earlier and not resume:
@@ -168,6 +169,8 @@ def write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: 
               "status": outcome["status"], "fingerprint": fingerprint,
               "seconds": outcome.get("seconds"), "worker": outcome.get("worker"),
               "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    if outcome.get("retries"):
+        record["retries"] = outcome["retries"]      # worker processes lost while fitting it
     folder.mkdir(parents=True, exist_ok=True)
     if outcome["status"] == "ok":
         for name, content in outcome["files"].items():
@@ -184,6 +187,28 @@ def write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: 
                        if key in outcome})
         _write_json(folder / "error.json", record)
     return json_safe(record)
+
+
+def sweep(out: Path, specimens, report: Path | None = None) -> list[Path]:
+    """Remove what an interrupted run's atomic writes left half-written: the temporary files
+    (``.NAME.*.tmp``) beside the folder's, each specimen's and the report's files. They are
+    never read as results (a result is only ever its final name); they are not kept either.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    places = [(out, FOLDER_FILES)] + [(out / s.id, _SPECIMEN_FILES) for s in specimens]
+    if report is not None:
+        places.append((report.parent, (report.name, report.with_suffix(".json").name)))
+    removed = []
+    for folder, names in places:
+        for name in names:
+            for path in folder.glob(f".{glob_escape(name)}.*.tmp"):
+                path.unlink(missing_ok=True)
+                removed.append(path)
+    return removed
 
 
 def _write_json(path: Path, value: dict) -> None:

@@ -47,7 +47,7 @@ from .options import fit_options
 from .rows import COLUMNS, csv_rows, yaml_rows
 
 __all__ = ["Specimen", "read_manifest", "relative_path", "COLUMNS", "MANIFEST_SUFFIXES",
-           "FOLDER_FILES", "BOOKS_NAME"]
+           "FOLDER_FILES", "BOOKS_NAME", "LOCK_NAME"]
 
 #: file types a manifest may be
 MANIFEST_SUFFIXES = (".csv", ".yaml", ".yml")
@@ -58,9 +58,11 @@ _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 _TASK_VERSION = "fit-many/1"
 #: the record of the manifest a results folder was made from (what ``--resume`` checks)
 BOOKS_NAME = "fit-many.json"
+#: the lock of the run writing a results folder (:mod:`.lock`)
+LOCK_NAME = "fit-many.lock"
 #: the files fit-many keeps at the top of its results folder: no specimen's folder may take
 #: their names (compared without letter case, as macOS and Windows file systems do)
-FOLDER_FILES = ("results.csv", "results.parquet", BOOKS_NAME)
+FOLDER_FILES = ("results.csv", "results.parquet", BOOKS_NAME, LOCK_NAME)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,9 @@ Layout of the output folder ``OUT``:
 - ``OUT/results.csv``: one row per specimen and material region, rewritten atomically after
   every specimen (``results.parquet`` too when pyarrow is installed);
 - ``OUT/fit-many.json``: the manifest the folder was made from (:mod:`.books`), so that
-  ``--resume`` never mixes in another cohort.
+  ``--resume`` never mixes in another cohort;
+- ``OUT/fit-many.lock``: the lock of the run writing the folder (:mod:`.lock`): one run at a
+  time, a dead run's lock taken over.
 
 Nothing is written before the cluster answers: a refused or unreachable scheduler leaves the
 folder as it was. Ids that would collide with these files, inputs that an output would
@@ -20,7 +22,12 @@ overwrite, and a folder of another manifest are refused before anything runs.
 Every file is written atomically by this process (the workers return their outputs), so an
 interrupted batch leaves only finished specimens behind, and ``resume=True`` fits only those
 whose ``fit.json`` is missing or was made from other inputs (a fingerprint of the input files'
-contents and the options). Dask is imported here only, when a batch runs.
+contents and the options); it first removes the temporary files of writes that never
+finished. A worker that dies while it fits a specimen costs that attempt only: the scheduler
+runs the task again, at most :data:`RETRIES` times on the local cluster, and a specimen
+that kills its worker every time is recorded as failed with the reason. A lost scheduler or
+a full disk stops the batch (what finished is kept). Dask is imported here only, when a
+batch runs.
 """
 
 from __future__ import annotations
@@ -29,17 +36,18 @@ import contextlib
 import logging
 import os
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, SchedulerLostError
 from ..progress import Progress, note
-from .books import RECORD_FORMAT, check_folder, finished, write_books, write_specimen
+from .books import RECORD_FORMAT, check_folder, finished, sweep, write_books, write_specimen
+from .lock import folder_lock
 from .manifest import Specimen, read_manifest
 from .table import TABLE_NAME, write_table
 from .task import fit_specimen
 
-__all__ = ["fit_many", "Cohort", "THREAD_LIMITS", "RECORD_FORMAT"]
+__all__ = ["fit_many", "Cohort", "THREAD_LIMITS", "RECORD_FORMAT", "RETRIES"]
 
 #: environment of local workers: one thread each for every numerical library, so that
 #: ``n`` single-threaded workers use ``n`` cores and no more
@@ -47,6 +55,9 @@ THREAD_LIMITS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_T
                  "NUMBA_NUM_THREADS": "1"}
 #: how long to wait for an existing scheduler
 CONNECT_TIMEOUT = "10s"
+#: how often the local cluster runs a specimen again after its worker process died (an
+#: existing cluster keeps its own ``distributed.scheduler.allowed-failures``, 3 by default)
+RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -68,6 +79,9 @@ class Cohort:
         The output folder; ``table`` its ``results.csv``; ``report`` the cohort report or None.
     seconds : float
         Wall time.
+    retried : dict
+        Specimen id → how many worker processes died while fitting it in this run (only the
+        specimens that lost one; :data:`RETRIES` bounds the attempts of a local cluster).
     """
 
     specimens: tuple[Specimen, ...]
@@ -78,6 +92,7 @@ class Cohort:
     table: Path
     report: Path | None
     seconds: float
+    retried: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> list[str]:
@@ -96,7 +111,7 @@ class Cohort:
                 "computed": list(self.computed), "resumed": list(self.resumed),
                 "out": str(self.out), "table": str(self.table),
                 "report": None if self.report is None else str(self.report),
-                "seconds": self.seconds}
+                "retried": dict(self.retried), "seconds": self.seconds}
 
 
 def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
@@ -137,12 +152,18 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
         A bad manifest, a bad option, an output that would overwrite an input or an earlier
         run's results (without ``resume``), an unreachable scheduler. A specimen that fails
         does not raise: it is recorded, and the others go on.
+    FolderInUseError
+        Another run holds the folder's lock (:mod:`neurofuzzy.batch.lock`; a stale one is
+        taken over).
+    SchedulerLostError
+        The scheduler stopped during the batch; what finished is kept.
+    OSError
+        An output could not be written (a full disk); what finished before is kept.
     """
     started = time.perf_counter()
     specimens = read_manifest(manifest)
     out = Path(out)
     report = None if report is None else Path(report)
-    check_folder(out, report, manifest, specimens, resume)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
                                 or workers < 1):
         raise InputError(f"got {workers!r}; expected a positive number of processes",
@@ -150,6 +171,26 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
     if workers is not None and scheduler:
         raise InputError("an existing cluster has its own workers; give --workers only for "
                          "the local cluster", key="--workers")
+    with folder_lock(out, manifest, notes=lambda text: note(True, text)):
+        cohort = _books_and_run(specimens, manifest, out, report, scheduler, workers, resume,
+                                progress)
+        if report is not None:
+            from .cohort import cohort_report
+
+            cohort = replace(cohort, report=cohort_report(cohort, report, seed=seed))
+    return replace(cohort, seconds=time.perf_counter() - started)
+
+
+def _books_and_run(specimens, manifest, out, report, scheduler, workers, resume,
+                   progress) -> Cohort:
+    """What :func:`fit_many` does while it holds the folder's lock."""
+    check_folder(out, report, manifest, specimens, resume)
+    if resume:
+        removed = sweep(out, specimens, report)
+        if removed:
+            note(progress, f"fit-many: removed {len(removed)} half-written file(s) of an "
+                           f"interrupted run ({', '.join(p.name for p in removed[:3])}"
+                           f"{' …' if len(removed) > 3 else ''})")
     fingerprints = {s.id: s.fingerprint() for s in specimens}
     records = {s.id: finished(out / s.id, fingerprints[s.id]) if resume else None
                for s in specimens}
@@ -161,40 +202,35 @@ def fit_many(manifest, out, *, report=None, scheduler: str | None = None,
     table = out / TABLE_NAME
 
     def open_books() -> None:
-        """The folder, its record of the manifest and the table: written only once the
+        """The folder's record of the manifest and the table: written only once the
         cluster answers, so a refused or unreachable one leaves the folder as it was."""
-        out.mkdir(parents=True, exist_ok=True)
         write_books(out, manifest, specimens)
         write_table(table, specimens, records)
         if resumed:
             note(progress, f"fit-many: {len(resumed)} of {len(specimens)} specimens already "
                            f"fitted in {out} (resumed)")
 
+    retried: dict[str, int] = {}
     if not pending:
         open_books()
     else:
         try:
             _run(pending, fingerprints, records, out, table, specimens, scheduler, workers,
-                 progress, len(resumed), open_books)
-        except KeyboardInterrupt:
+                 progress, len(resumed), open_books, retried)
+        except (KeyboardInterrupt, OSError, SchedulerLostError) as error:
             finished_now = sum(record is not None for record in records.values())
-            note(True, f"fit-many: interrupted; the {finished_now} of {len(specimens)} "
+            why = "interrupted" if isinstance(error, KeyboardInterrupt) else "stopped"
+            note(True, f"fit-many: {why}; the {finished_now} of {len(specimens)} "
                        f"specimens that finished are in {out}: run again with --resume for "
                        "the rest")
             raise
-    cohort = Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out,
-                    table, None, time.perf_counter() - started)
-    if report is None:
-        return cohort
-    from .cohort import cohort_report
-
-    written = cohort_report(cohort, report, seed=seed)
-    return replace(cohort, report=written, seconds=time.perf_counter() - started)
+    return Cohort(tuple(specimens), records, tuple(s.id for s in pending), resumed, out,
+                  table, None, 0.0, retried)
 
 
 # -- running ----------------------------------------------------------------------------------
 def _run(pending, fingerprints, records, out, table, specimens, scheduler, workers, progress,
-         n_resumed, open_books) -> None:
+         n_resumed, open_books, retried) -> None:
     from dask.distributed import as_completed
 
     total = len(specimens)
@@ -216,10 +252,19 @@ def _run(pending, fingerprints, records, out, table, specimens, scheduler, worke
         finished, failed, began = 0, 0, time.perf_counter()
         for future in as_completed(futures):
             specimen = futures[future]
-            outcome = _outcome(future, specimen)
+            outcome = _outcome(future, specimen, scheduler)
+            lost = _workers_lost(client, future.key)
+            if lost:
+                retried[specimen.id] = lost
+                outcome["retries"] = lost
+                note(progress, f"fit-many: {specimen.id}: {lost} worker process(es) died "
+                               "while fitting it; "
+                               + ("fitted again" if outcome["status"] == "ok" else "not "
+                                  "retried again"))
             records[specimen.id] = write_specimen(out / specimen.id, specimen,
                                                   fingerprints[specimen.id], outcome)
             write_table(table, specimens, records)
+            future.release()
             finished += 1
             failed += outcome["status"] == "failed"
             left = len(pending) - finished
@@ -231,33 +276,76 @@ def _run(pending, fingerprints, records, out, table, specimens, scheduler, worke
                 note(progress, f"fit-many: {specimen.id} failed: {outcome['error']}")
 
 
-def _outcome(future, specimen: Specimen) -> dict:
+def _outcome(future, specimen: Specimen, scheduler) -> dict:
     """The task's result, or its failure when the worker could not deliver one."""
+    from dask.distributed import CancelledError, KilledWorker
+
     try:
         return future.result()
+    except CancelledError:
+        # the futures of a client that lost its scheduler are cancelled: no specimen failed
+        raise SchedulerLostError(
+            f"--scheduler: lost the Dask scheduler{' ' + scheduler if scheduler else ''} (it "
+            "stopped or the connection broke) before every specimen was fitted") from None
+    except KilledWorker as error:
+        # a specimen whose worker died every time it ran (killed, out of memory): the
+        # scheduler's bounded retries are spent; recorded as failed with the reason
+        return {"id": specimen.id, "status": "failed", "kind": "worker",
+                "error": f"its worker process died each time it was fitted (killed, or out "
+                         f"of memory; {error})", "seconds": None}
     except Exception as error:  # noqa: BLE001
-        # deliberately broad: a worker that died (KilledWorker), lost its connection or could
-        # not unpickle the task fails this specimen only; it is recorded and the batch goes on
+        # deliberately broad: a worker that lost its connection or could not unpickle the
+        # task fails this specimen only; it is recorded and the batch goes on
         return {"id": specimen.id, "status": "failed", "kind": "error",
                 "error": f"the worker could not run the fit: {type(error).__name__}: {error}",
                 "seconds": None}
 
 
+def _workers_lost(client, key: str) -> int:
+    """How many worker processes died while running the task ``key`` (the scheduler's count
+    of the task's retries; 0 when it does not know the task any more)."""
+    def suspicious(dask_scheduler, key):
+        task = dask_scheduler.tasks.get(key)
+        return 0 if task is None else task.suspicious
+
+    try:
+        return int(client.run_on_scheduler(suspicious, key=key))
+    except (OSError, TimeoutError, ValueError):
+        return 0
+
+
 @contextlib.contextmanager
 def _client(scheduler: str | None, workers: int | None):
-    """A Dask client of the scheduler at ``scheduler``, or of a new local cluster."""
+    """A Dask client of the scheduler at ``scheduler``, or of a new local cluster.
+
+    Dask's own log lines (a worker that died, a lost connection, with their tracebacks) are
+    not shown: fit-many reports each in one line of its own.
+    """
+    import dask
     from dask.distributed import Client, LocalCluster
 
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
-        except (OSError, ValueError, TimeoutError) as error:
-            raise InputError(f"cannot reach the Dask scheduler {scheduler} ({error})",
-                             key="--scheduler") from None
-        with client:
+    loggers = [logging.getLogger("distributed")] + [
+        logging.getLogger(name) for name in list(logging.root.manager.loggerDict)
+        if name.startswith("distributed.")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:          # dask's configuration gives some their own level
+        logger.setLevel(logging.CRITICAL)
+    try:
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+            except (OSError, ValueError, TimeoutError) as error:
+                raise InputError(f"cannot reach the Dask scheduler {scheduler} ({error})",
+                                 key="--scheduler") from None
+            with client:
+                yield client
+            return
+        with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}), \
+                LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                             processes=True, dashboard_address=None,
+                             silence_logs=logging.CRITICAL, env=THREAD_LIMITS) as cluster, \
+                Client(cluster) as client:
             yield client
-        return
-    with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                      processes=True, dashboard_address=None, silence_logs=logging.ERROR,
-                      env=THREAD_LIMITS) as cluster, Client(cluster) as client:
-        yield client
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)

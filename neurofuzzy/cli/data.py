@@ -163,9 +163,11 @@ def _check_regions(read, tissue_of: dict, tissue: str | None, source: Path) -> N
 
     known = list(read.tetrahedron_regions or read.regions)
     if not known:
-        raise InputError("has no regions (--region names regions of a volume mesh whose cells "
-                         "carry region ids, e.g. Gmsh physical groups); give --tissue for "
-                         "the whole object", source=str(source), key="--region")
+        asked = ", ".join(f"{region!r} ({region}={tissue_of[region]})" for region in tissue_of)
+        raise InputError(f"has no regions, so no region {asked} (--region names regions of a "
+                         "volume mesh whose cells carry region ids, e.g. Gmsh physical "
+                         "groups); give --tissue for the whole object", source=str(source),
+                         key="--region")
     for region in tissue_of:
         if region not in known:
             hint = closest_name(region, known)

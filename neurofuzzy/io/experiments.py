@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io as _io
 import os
+import tokenize
 import zipfile
 import zlib
 from pathlib import Path
@@ -144,12 +145,16 @@ def read_npz(path: str | os.PathLike, *, max_bytes: int | None = None) -> dict[s
 def _read_npy(handle, size: int) -> np.ndarray:
     """One ``.npy`` member of ``size`` bytes; its header must agree with its size."""
     version = np.lib.format.read_magic(handle)
-    if version == (1, 0):
-        shape, fortran, dtype = np.lib.format.read_array_header_1_0(handle)
-    elif version in ((2, 0), (3, 0)):
-        shape, fortran, dtype = np.lib.format.read_array_header_2_0(handle)
-    else:
+    if version not in ((1, 0), (2, 0), (3, 0)):
         raise InputError(f"unsupported .npy format version {version}")
+    read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) \
+        else np.lib.format.read_array_header_2_0
+    try:
+        shape, fortran, dtype = read_header(handle)
+    except tokenize.TokenError as error:
+        # numpy tokenizes a header of an older numpy's form; an unclosed bracket ends there
+        raise InputError(f"its .npy header is not a closed Python dictionary ({error.args[0]})"
+                         ) from None
     if dtype.hasobject:
         raise InputError("holds Python objects, which neurofuzzy will not unpickle; store "
                          "plain numeric arrays")

@@ -13,7 +13,7 @@ from . import safe_yaml
 from ..errors import InputError, closest_name
 from ..forces.laws import LAWS
 from ..mesh import Mesh
-from ..forces import Springs, Tetrahedra
+from ..forces import Springs, Tetrahedra, vector
 from ..model import Model
 from .safe_yaml import kind_of
 from .writing import atomic_write
@@ -203,6 +203,10 @@ def _model_from_checked_dict(data: dict, source: str) -> Model:
                     fixed=nodes.get("fixed", []), tetrahedra=data.get("tetrahedra"))
         elements = _elements_from_dict(data)
         terms = [] if elements is None else [elements]
+        for key in ("stiffness", "damping"):
+            # checked even when the springs are idle beside elements: a file whose lists
+            # disagree with its springs disagrees with itself
+            vector(springs[key], mesh.n_springs, f"spring_{key}", "n_springs")
         if elements is None or np.any(springs["stiffness"]) or np.any(springs["damping"]):
             # (an element model's springs without stiffness and damping are no term)
             terms.insert(0, Springs(

@@ -33,7 +33,8 @@ def json_safe(value):
 
 @contextlib.contextmanager
 def atomic_write(path: str | os.PathLike, mode: str = "wb"):
-    """Open a temporary file beside ``path``; on success rename it onto ``path``.
+    """Open a temporary file beside ``path``; on success flush it to the disk and rename it
+    onto ``path``.
 
     Use as ``with atomic_write(path) as handle: ...``. On an exception the temporary file is
     removed and ``path`` is left as it was.
@@ -47,8 +48,12 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb"):
     try:
         with os.fdopen(fd, mode) as handle:
             yield handle
+            handle.flush()
+            os.fsync(handle.fileno())           # on disk before its name says it is there
         os.replace(temporary, path)
-    except BaseException:
+    except BaseException as error:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
+        if isinstance(error, OSError) and error.filename in (None, temporary):
+            error.filename = str(path)          # a full disk names the file the user knows
         raise
