@@ -21,6 +21,7 @@ import numpy as np
 from .datasets import CUBE, paper_cube_experiment, paper_cube_model
 from .learn import GradientLearner, PaperLearner
 from .learn.lack_of_fit import length_text
+from .progress import note
 
 __all__ = ["PAPER_RESULTS", "CubeRun", "paper_experiments", "comparison_table",
            "plot_error_curves"]
@@ -186,7 +187,8 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
 
     out = Path(out)
     lines = []
-    rules = load_rules(shipped("liver"))
+    rules = load_rules(shipped("liver"))        # the shipped words, never a user's copy
+    note(progress, f"rules: {rules.origin}")
     mesh = paper_cube_mesh()
     truth = initialize(rules, mesh, "fibrotic_liver").tied("global")
     load = point_load(mesh, top_centre_node(mesh), (0.0, 0.0, -0.05))

@@ -64,8 +64,8 @@ def mesh(args) -> int:
     from ..mesh import read_mesh
     from ..mesh.files import SURFACE_SUFFIXES
     from ..plausibility import check_body_size
-    from ..rules import resolve as load_rule_base
     from ..tissues import initialize
+    from .common import load_rule_base, rule_file
 
     source = Path(args.mesh)
     positive(args.pitch, "--pitch")
@@ -74,10 +74,10 @@ def mesh(args) -> int:
     if args.fix_below is not None and not np.isfinite(args.fix_below):
         raise InputError(f"got {args.fix_below}; expected a height in metres", key="--fix-below")
     tissue_of = _region_options(args.region)
-    outputs = Outputs([source, Path(args.rules)])
+    outputs = Outputs([source, rule_file(args.rules)])
     out = outputs.file(args.out, "--out")
     method = "tetra" if args.tetra else "voxel"
-    rule_base = load_rule_base(args.rules)
+    rule_base = load_rule_base(args.rules, quiet=True)     # said once the model is written
     for option, tissue in [("--tissue", args.tissue)] + [
             (f"--region {region}={tissue}", tissue) for region, tissue in tissue_of.items()]:
         if tissue:
@@ -127,7 +127,8 @@ def mesh(args) -> int:
         raise InputError(f"a material law ({args.law!r}) is one of tetrahedral elements; "
                          "this model is a spring network (--elements springs)", key="--law")
     with outputs:
-        save_model(model, out)
+        save_model(model, out, rules=rule_base.provenance())
+    print(f"rules: {rule_base.origin}", file=sys.stderr)
     print(model.summary())
     print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
                                               " (none: use --fix-bottom or --fix-below)"))

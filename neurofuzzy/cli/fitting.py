@@ -24,7 +24,7 @@ def _start(args, progress: bool):
 
     inputs = [Path(p) for p in args.experiments]
     experiments = [load_experiment(p) for p in inputs]
-    rules = rule_base_for(args.rules, args.tissue)
+    rules = rule_base_for(args.rules, args.tissue, quiet=not progress)
     elements = {"tetra": True, "springs": False}.get(args.elements)
     start = start_model(experiments, model=args.start, rules=rules, tissue=args.tissue,
                         tie=args.tie, elements=elements, law=args.law,
@@ -37,7 +37,10 @@ def _start(args, progress: bool):
 
 def _protected(args) -> list[Path]:
     """The files a fit or diagnosis reads (never written over)."""
-    return [Path(p) for p in args.experiments] + [Path(p) for p in (args.rules, args.start)
+    from .common import rule_file
+
+    return [Path(p) for p in args.experiments] + [p for p in (rule_file(args.rules),
+                                                              args.start and Path(args.start))
                                                   if p]
 
 
@@ -82,7 +85,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     inputs = [Path(p) for p in args.experiments]
     loaded = [load_experiment(p) for p in inputs]
     elements = {"tetra": True, "springs": False}.get(args.elements)
-    outcome = fit_pipeline(loaded, start=args.start, rules=rule_base_for(args.rules, args.tissue),
+    rules = rule_base_for(args.rules, args.tissue, quiet=not progress)
+    outcome = fit_pipeline(loaded, start=args.start, rules=rules,
                            tissue=args.tissue, tie=args.tie, elements=elements,
                            law=args.law, relaxation=args.relaxation,
                            stiffening=args.stiffening, prior=args.prior,
@@ -149,6 +153,8 @@ def diagnose(args) -> int:
             diagnosis_report(result, report)
     data = result.to_dict()
     data.update(experiments=[str(p) for p in inputs], start=start.to_dict())
+    if start.rules is not None:
+        data["rules"] = start.rules.provenance()
     if args.json:
         print_json(data)
     else:

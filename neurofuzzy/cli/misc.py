@@ -53,22 +53,23 @@ def _demo(args, out: Path) -> None:
 
 
 def rules_check(args) -> int:
-    from ..rules import resolve as load_rule_base
+    from .common import load_rule_base
 
-    rule_base = load_rule_base(args.rules)
+    rule_base = load_rule_base(args.rules, quiet=True)      # its summary names the file
     print(rule_base.summary())
     return 0
 
 
 def rules_show(args) -> int:
-    from ..rules import resolve as load_rule_base
+    from .common import load_rule_base
 
-    rule_base = load_rule_base(args.rules)
+    rule_base = load_rule_base(args.rules, quiet=True)      # its output names the file
     values = rule_base.tissue(args.tissue)
     labels = rule_base.describe(values)
     if args.json:
         print_json({
             "tissue": args.tissue,
+            "rules": rule_base.provenance(),
             "words": {k: str(v) for k, v in rule_base.tissues[args.tissue].items()},
             "values": values,
             "units": {k: rule_base.outputs[k].unit for k in values},
@@ -76,6 +77,7 @@ def rules_show(args) -> int:
                        for k, l in labels.items()}})
     else:
         words = ", ".join(f"{k} is {v}" for k, v in rule_base.tissues[args.tissue].items())
+        print(f"rules: {rule_base.origin}")
         print(f"{args.tissue}: {words}")
         for name, label in labels.items():
             print(f"  {name} = {label.value:.4g} {rule_base.outputs[name].unit}   ({label})")

@@ -164,7 +164,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
                           experiments=names)
     return FitOutcome(model=learner.model_, learner=learner, start=begun, prior=chosen_prior,
                       experiments=experiments, summary=summary,
-                      record=fit_record(learner, names))
+                      record=fit_record(learner, names, begun.rules))
 
 
 def _experiments(experiments) -> list[Experiment]:

@@ -64,7 +64,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
                files: dict | None = None) -> Path:
     """HTML + JSON report of a fit from ``start`` (a :class:`~neurofuzzy.learn.StartModel`).
 
-    With a rule base (``start.rules``), for every region with a tissue: the expert's words,
+    With a rule base (``start.rules``; its file and checksum in the JSON's ``rules``), for
+    every region with a tissue: the expert's words,
     the start and learned values, the learned words with degrees, each change highlighted, the
     input words that best reproduce the learned values, and the membership functions with the
     before and after values marked.
@@ -82,6 +83,7 @@ def fit_report(start, learner, path, *, title: str | None = None,
             sections += words_sections
             regions.append(region_data)
         data["regions"] = regions
+        data["rules"] = start.rules.provenance()
     history = np.asarray(learner.history_)
     figure, ax = plt.subplots(figsize=(8, 3.2))
     ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
@@ -204,7 +206,8 @@ def _words_sections(rules, region, tissue, start, fitted):
                           "degrees_after": a.degrees, "changed": a.term != b.term})
     sections = [("The expert's words" + where,
                  f"<p>Tissue <b>{html.escape(tissue)}</b> of <code>"
-                 f"{html.escape(rules.source)}</code>: " +
+                 f"{html.escape(rules.source)}</code> (sha256 <code>"
+                 f"{html.escape(str(rules.sha256))}</code>): " +
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
                            for k, v in words.items()) + "</p>"),
                 ("Start values, learned values, learned words" + where, table_html(

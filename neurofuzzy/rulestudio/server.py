@@ -65,11 +65,9 @@ def _resolve(rules) -> tuple[Path, Path | None]:
     """(folder, rule file or None) of what :func:`studio` was given."""
     if rules is None:
         return Path.cwd().resolve(), None
-    path = Path(rules)
-    if not path.exists() and path.suffix == "" and "/" not in str(rules):
-        from ..rules import shipped
+    from ..rules import locate
 
-        path = shipped(str(rules))
+    path = locate(rules)        # a bare name: ./rules/NAME.yaml, ./NAME.yaml, else shipped
     if path.is_dir():
         return path.resolve(), None
     if not path.is_file():
