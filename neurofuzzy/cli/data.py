@@ -68,6 +68,10 @@ def mesh(args) -> int:
     from .common import load_rule_base, rule_file
 
     source = Path(args.mesh)
+    if args.tetra:
+        from ..extras import require
+
+        require("tetra", "--tetra (TetGen)")              # before any work
     positive(args.pitch, "--pitch")
     positive(args.max_edge, "--max-edge")
     positive(args.scale, "--scale")

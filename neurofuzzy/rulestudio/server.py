@@ -22,13 +22,11 @@ PACKAGES = ("starlette", "uvicorn")
 
 
 def require_packages() -> None:
-    """Raise :class:`InputError` naming the extra when the web packages are missing."""
-    from importlib.util import find_spec
+    """Raise :class:`~neurofuzzy.errors.MissingDependencyError` naming the extra when the
+    web packages are missing."""
+    from ..extras import require
 
-    missing = [name for name in PACKAGES if find_spec(name) is None]
-    if missing:
-        raise InputError(f"the rule studio needs {', '.join(missing)}: pip install "
-                         "'neurofuzzy[studio]'", key="studio")
+    require("studio", "the rule studio")
 
 
 class Studio:
