@@ -11,6 +11,7 @@ import sys
 import warnings
 
 from ..errors import NeurofuzzyError, PlausibilityWarning, RuleFileDeprecationWarning
+from ..progress import announced
 from .common import EXIT_BAD_INPUT
 
 __all__ = ["main", "EXIT_BAD_INPUT"]
@@ -30,7 +31,8 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("always", RuleFileDeprecationWarning)
             warnings.simplefilter("always", PlausibilityWarning)
             warnings.showwarning = functools.partial(_show_warning, held=held)
-            status = args.run(args) or 0
+            with announced(not getattr(args, "quiet", False)):
+                status = args.run(args) or 0
     except NeurofuzzyError as error:
         # one root cause: the notes on the input that led here are not repeated
         print(f"neurofuzzy: error: {error}", file=sys.stderr)

@@ -11,6 +11,7 @@ from pathlib import Path
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
 from ..learn.lack_of_fit import length_text
 from ..pipeline import check_outcome, explained, require_motion
+from ..progress import Stopwatch
 
 __all__ = ["fit", "diagnose"]
 
@@ -50,6 +51,7 @@ def fit(args) -> int:
     positive(args.learning_rate, "--learning-rate")
     at_least(args.mass_learning_rate, 0, "--mass-learning-rate")
     substeps = _substeps(args.substeps)
+    watch = Stopwatch()
     with Outputs(_protected(args)) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
@@ -65,7 +67,7 @@ def fit(args) -> int:
         print(learner.model_.summary())
         print(f"RMS error per marker: {length_text(result['rms_error_initial'])} -> "
               f"{length_text(result['rms_error'])} ({result['cycles']} cycles, "
-              f"{result['seconds']:.1f} s)")
+              f"{result['seconds']:.1f} s{_compiling(watch)})")
         print(f"lack of fit: {learner.lack_of_fit_.verdict}")
         for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
@@ -185,6 +187,12 @@ def _where(finding) -> str:
         parts.append(f"node {finding.nodes[0]}")
     centre = ", ".join(f"{1e3 * c:.1f}" for c in finding.centroid)
     return f" at ({centre}) mm" + (f" ({', '.join(parts)})" if parts else "")
+
+
+def _compiling(watch) -> str:
+    """The kernels' one-time compilation, when this command did it (not in the fit's time)."""
+    return f"; {watch.compiling:.0f} s more compiling the kernels, once" \
+        if watch.compiling >= 0.5 else ""
 
 
 def _substeps(value):

@@ -12,7 +12,6 @@ minimises the free-running error that :func:`rms_error` reports.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,7 +21,7 @@ from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, rms_error
 from ..model import Model
 from ..simulation import check_substeps
-from ..progress import Progress, note
+from ..progress import Progress, Stopwatch, note
 from ._base import Learner
 from . import _passes as passes
 from ._lm import levenberg_marquardt
@@ -170,7 +169,7 @@ class GradientLearner(Learner):
         if self.mesh_check and model.elements is None:
             raise InputError("the mesh check refines tetrahedral elements; a spring network's "
                              "constants belong to its mesh", key="mesh_check")
-        started = time.perf_counter()
+        watch = Stopwatch()       # the kernels' compilation left out
         # the start's error as the fit would simulate it (one step per frame can be unstable
         # for a start that continuous physics fits with substeps)
         initial_steps = (max(auto_substeps(model, e.dt) for e in experiments) if auto
@@ -256,7 +255,7 @@ class GradientLearner(Learner):
                 progress=(lambda line: note(True, f"regions found: {line}"))
                 if self.progress else None)
         self.history_ = np.array([energy for energy, _ in self._trace])
-        self.seconds_ = time.perf_counter() - started
+        self.seconds_ = watch.seconds
         return self
 
     def to_dict(self) -> dict:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 from ..errors import InputError
 from ..experiment import Experiment
+from ..progress import announced
 from .outcome import check_outcome, explained, require_motion
 
 __all__ = ["FitOutcome", "fit", "tie_label"]
@@ -155,7 +156,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     learner = make_learner(method, cycles=cycles, learn_masses=learn_masses, substeps=substeps,
                            learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
                            prior=chosen_prior, mesh_check=mesh_check, progress=progress)
-    with explained("fit", experiments, begun.model, substeps):
+    with explained("fit", experiments, begun.model, substeps), announced(progress):
         learner.fit(begun.model, experiments)
     check_outcome("fit", experiments, begun.model, learner.model_, learner.rms_error_initial_,
                   learner.rms_error_, learner.substeps_)
