@@ -66,8 +66,10 @@ def compile_seconds() -> float:
 @contextlib.contextmanager
 def announced(enabled: bool = True):
     """Within: the first compilation of a kernel in this process is said on stderr
-    (:data:`COMPILING`), once, when ``enabled``."""
-    _COMPILATIONS.register()
+    (:data:`COMPILING`), once, when ``enabled`` (which imports numba: not for work that
+    runs no kernel)."""
+    if enabled:
+        _COMPILATIONS.register()
     _COMPILATIONS.announcing += bool(enabled)
     try:
         yield

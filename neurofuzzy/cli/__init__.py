@@ -18,9 +18,14 @@ __all__ = ["main", "EXIT_BAD_INPUT"]
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .options import unknown_option
     from .parser import build_parser
 
     parser = build_parser()
+    unknown = unknown_option(parser, sys.argv[1:] if argv is None else list(argv))
+    if unknown:                # before argparse: its message would not say which was meant
+        print(f"neurofuzzy: error: {unknown}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help(sys.stderr)
@@ -31,7 +36,8 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("always", RuleFileDeprecationWarning)
             warnings.simplefilter("always", PlausibilityWarning)
             warnings.showwarning = functools.partial(_show_warning, held=held)
-            with announced(not getattr(args, "quiet", False)):
+            with announced(not getattr(args, "quiet", False)      # rules, studio: no kernels
+                           and args.command not in ("rules", "studio")):
                 status = args.run(args) or 0
     except NeurofuzzyError as error:
         # one root cause: the notes on the input that led here are not repeated
