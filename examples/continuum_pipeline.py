@@ -165,7 +165,7 @@ def main(argv):
                         f"{ratio:>7.3f}{eta:>6.2f}{100 * (eta / ETA - 1):>7.1f}%"
                         f"{fitted['rms_error'] / (NOISE * np.sqrt(3)):>10.2f}"
                         f"{fitted['seconds']:>5.0f}s  {labels['youngs_modulus']}, "
-                        f"{labels['poisson_ratio']}, {labels['viscosity']}")
+                        f"{labels.get('poisson_ratio', 'nu locked')}, {labels['viscosity']}")
             print(rows[-1], file=sys.stderr, flush=True)
     print(header)
     print("\n".join(rows))
