@@ -78,7 +78,8 @@ def test_rules_show_reads_the_edited_copy_and_names_it(tmp_path):
     assert data["words"]["consistency"] == "hard"
     assert data["labels"]["youngs_modulus"]["term"] == "hard"
     text = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path, timeout=300)
-    assert text.stdout.splitlines()[0] == f"rules: rules/liver.yaml (sha256 {_sha256(edited)[:8]}…)"
+    first = text.stdout.splitlines()[0]
+    assert first == f"rules: rules/liver.yaml (sha256 {_sha256(edited)[:8]}…)"
     assert "consistency is hard" in text.stdout
 
 
