@@ -109,6 +109,8 @@ def last_json(stdout: str) -> dict:
 
 def check_words(folder, outputs):
     assert (folder / "fitted.yaml").exists() and (folder / "report.html").exists()
+    # the page explains the fit's warning, quoting its 297 µm
+    assert "-> 297 µm" in outputs[0][1] and "misses them by 297 µm" in outputs[0][1]
     # the snippet's comment: white matter's Poisson's ratio in words, with its degree
     printed = outputs[-1][1]
     assert "nearly_incompressible" in printed and "0.72" in printed, printed
