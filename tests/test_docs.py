@@ -146,8 +146,14 @@ def check_prior(folder, outputs):
 
 
 def check_missing_effect(folder, outputs):
+    """Nothing hidden: none; gravity hidden: found, the page's 112 µm (to 5 %) before, below
+    1e-15 m after, gz -9.81 m/s²."""
     assert (folder / "diagnosis.html").exists()
     assert last_json(outputs[0][1])["answer"] == ["none"]     # nothing hidden in push.npz
+    found = last_json(outputs[2][1])
+    assert found["answer"] == ["gravity"]
+    assert found["rms_before"] == pytest.approx(112e-6, rel=0.05) and found["rms_after"] < 1e-15
+    assert found["effects"][0]["parameters"]["gz"] == pytest.approx(-9.81, rel=1e-6)
 
 
 def check_many_specimens(folder, outputs):
