@@ -40,6 +40,12 @@ def test_the_site_builds_strictly_with_the_api_reference(tmp_path):
     for name in ("GradientLearner", "FuzzyPrior", "initialize", "diagnose"):
         assert name in api, name
     assert "discrepancy principle" in api                  # a docstring, rendered
+    # issue 50: no raw Sphinx roles, signatures as highlighted code under short headings
+    assert not re.search(r":(func|class|meth|mod|data|attr|exc):[<`]", api)
+    assert "<code>start_model</code>" in api               # :func:`~.start.start_model`
+    heading = re.search(r'<h2 id="neurofuzzy.pipeline.fit"[^>]*>(.*?)</h2>', api, re.S)[1]
+    assert "experiments" not in heading and 'class="doc-signature highlight"' in api
+    assert ".doc .highlight .kc" in (site / "css" / "pygments.css").read_text()
     assert "rest_positions" in (site / "formats" / "index.html").read_text()
     for page in TUTORIALS:                                 # every tutorial is in the nav
         assert (site / "tutorials" / page / "index.html").exists(), page
