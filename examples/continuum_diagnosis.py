@@ -32,6 +32,7 @@ import numpy as np
 
 from continuum_pipeline import DT, E, ETA, FORCE, PROBE, RADIUS, REST, RHO
 from continuum_pipeline import command, marker_points, write_recording
+from neurofuzzy.extras import require_in_script
 from neurofuzzy.validation.continuum import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 
@@ -100,6 +101,8 @@ def describe(case: str, result: dict) -> str:
 
 
 def main(argv):
+    require_in_script("validation", "examples/continuum_diagnosis.py (scikit-fem's solver "
+                      "makes its data)")
     values = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a.startswith("--")}
     out = Path(next((a for a in argv if not a.startswith("--") and a not in values),
                     "continuum-diagnosis-output"))

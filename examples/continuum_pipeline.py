@@ -24,7 +24,8 @@ spring constants stand for (nu locked at 1/4). The table gives what each recover
 words. The last fitted model stays in OUT_DIR/fitted.yaml (with the record of its fit), ready
 for ``neurofuzzy export fitted.yaml trial.npz --to mujoco|sofa|febio|vtu``.
 
-Run:  python examples/continuum_pipeline.py [OUT_DIR] [--quick]   (needs scikit-fem;
+Run:  python examples/continuum_pipeline.py [OUT_DIR] [--quick]   (needs scikit-fem: pip install
+'neurofuzzy[validation]';
 --quick: nu = 0.45 only, the default voxel mesh only, a shorter recording)
 """
 
@@ -36,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from neurofuzzy.extras import require_in_script
 from neurofuzzy.validation.continuum import ContinuumSolver
 from neurofuzzy.datasets import kuhn_block
 
@@ -125,6 +127,8 @@ def pipeline(out: Path, mesh_options: list[str]) -> tuple[dict, str]:
 
 
 def main(argv):
+    require_in_script("validation", "examples/continuum_pipeline.py (scikit-fem's solver "
+                      "makes its data)")
     started = time.perf_counter()
     quick = "--quick" in argv
     args = [a for a in argv if not a.startswith("--")]
@@ -161,7 +165,7 @@ def main(argv):
                         f"{ratio:>7.3f}{eta:>6.2f}{100 * (eta / ETA - 1):>7.1f}%"
                         f"{fitted['rms_error'] / (NOISE * np.sqrt(3)):>10.2f}"
                         f"{fitted['seconds']:>5.0f}s  {labels['youngs_modulus']}, "
-                        f"{labels['poisson_ratio']}, {labels['viscosity']}")
+                        f"{labels.get('poisson_ratio', 'nu locked')}, {labels['viscosity']}")
             print(rows[-1], file=sys.stderr, flush=True)
     print(header)
     print("\n".join(rows))

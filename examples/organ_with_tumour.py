@@ -28,6 +28,7 @@ from organ_surface_markers import (CAPTURE_STEP, MARKER_NOISE, PROBE_FORCE, RAMP
                                    organ_surface, write_forces, write_markers)
 
 import neurofuzzy as nf
+from neurofuzzy.extras import require_in_script
 
 TUMOUR_RADIUS = 0.016        # m
 
@@ -49,6 +50,7 @@ def write_organ_volume(path, max_edge: float):
 
 
 def main(argv):
+    require_in_script("tetra", "examples/organ_with_tumour.py (TetGen meshes the organ)")
     started = time.perf_counter()
     quick = "--quick" in argv
     paths = [a for a in argv if not a.startswith("--")]

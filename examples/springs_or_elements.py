@@ -12,7 +12,7 @@ stiffness and viscosity learned; its Poisson's ratio is locked at 1/4), both wit
 learner and continuous-physics substeps. The table says what each recovers.
 
 Run:  python examples/springs_or_elements.py [--quick]   (needs scikit-fem: pip install
-scikit-fem; --quick: one Poisson's ratio, a shorter recording)
+'neurofuzzy[validation]'; --quick: one Poisson's ratio, a shorter recording)
 """
 
 import sys
@@ -23,6 +23,7 @@ from scipy.integrate import solve_ivp
 
 import neurofuzzy as nf
 from neurofuzzy.datasets import kuhn_block
+from neurofuzzy.extras import require_in_script
 from neurofuzzy.constants import tetra_geometry
 
 E, ETA, RHO, FORCE, DT = 6000.0, 2.0, 1000.0, 0.05, 1e-3
@@ -109,6 +110,8 @@ def fit_springs(mesh, data):
 
 
 def main(argv):
+    require_in_script("validation", "examples/springs_or_elements.py (scikit-fem assembles "
+                      "its data)")
     started = time.perf_counter()
     quick = "--quick" in argv
     points, tetrahedra = kuhn_block((4, 4, 3), 0.01)

@@ -14,6 +14,7 @@ __all__ = [
     "NeurofuzzyError",
     "InputError",
     "UnstableTimeStepError", "FolderInUseError", "SchedulerLostError",
+    "MissingDependencyError",
     "closest_name", "RuleFileDeprecationWarning", "PlausibilityWarning"]
 
 
@@ -47,6 +48,24 @@ class InputError(NeurofuzzyError):
             where = f"{source}:{line}: " if line is not None else f"{source}: "
         what = f"{key}: " if key is not None else ""
         super().__init__(f"{where}{what}{message}")
+
+
+class MissingDependencyError(InputError):
+    """An optional package is not installed; the message names the extra that installs it
+    (:func:`neurofuzzy.extras.require`).
+
+    Attributes
+    ----------
+    extra : str
+        The extra of ``pip install 'neurofuzzy[EXTRA]'``.
+    packages : list of str
+        The missing packages, as pip names them.
+    """
+
+    def __init__(self, message: str, *, extra: str, packages=()):
+        super().__init__(message)
+        self.extra = extra
+        self.packages = list(packages)
 
 
 class UnstableTimeStepError(NeurofuzzyError):

@@ -264,6 +264,25 @@ def test_json_fit_reports_progress_on_stderr_in_the_final_rms_definition(tmp_pat
     assert fitted["rms_error"] == pytest.approx(np.sqrt(3) * 1e-5, rel=0.1)
 
 
+def test_progress_rms_of_a_free_run_is_that_run_s_not_an_earlier_window_s(tmp_path):
+    """Issue 50: a fit the model class cannot follow printed 'RMS 190 µm' on every progress
+    line (the best of the first stage's 25-frame windows, restarted from the data) and 297 µm
+    in its summary; each line now gives its own stage's RMS."""
+    import re
+
+    data = tmp_path / "cube.npz"
+    assert run_cli("simulate", "cube", "--out", data).returncode == 0
+    result = run_cli("fit", data, "--rules", "brain", "--tissue", "white_matter", "--json")
+    assert result.returncode == 0, result.stderr
+    fitted = json.loads(result.stdout)
+    windows = re.findall(r"window 25 frames, RMS ([0-9.e+-]+) µm", result.stderr)
+    free = re.findall(r"window 251 frames, RMS ([0-9.e+-]+) µm", result.stderr)
+    assert windows and len(free) >= 2
+    assert float(windows[0]) < 0.8 * float(free[0])         # windows restart from the data
+    for shown in free:
+        assert float(shown) * 1e-6 == pytest.approx(fitted["rms_error"], rel=0.03)
+
+
 def test_version():
     from neurofuzzy.version import __version__
 

@@ -102,7 +102,7 @@ def test_from_surface_tetra_refuses_open_surfaces_and_explains_a_missing_tetgen(
     with pytest.raises(InputError, match="max_edge: got -1"):
         from_surface_tetra(box, max_edge=-1)
     monkeypatch.setitem(__import__("sys").modules, "tetgen", None)    # import fails
-    with pytest.raises(InputError, match="pip install tetgen"):
+    with pytest.raises(InputError, match=r"pip install 'neurofuzzy\[tetra\]'"):
         from_surface_tetra(box, max_edge=0.5)
 
 

@@ -19,10 +19,10 @@ from neurofuzzy.validation.nonlinear.closed_forms import prony_relaxation
 
 #: the solver's tests need sfepy, which is not in the test extra: on Python 3.11 pip builds it
 #: from its source (about 7 minutes on 2 cores), too long for every CI run. The laws and the closed
-#: forms are tested everywhere. ``pip install 'neurofuzzy[validation]'`` runs them all.
+#: forms are tested everywhere. ``pip install 'neurofuzzy[validation-nonlinear]'`` runs them all.
 needs_sfepy = pytest.mark.skipif(importlib.util.find_spec("sfepy") is None,
                                  reason="sfepy is not installed: pip install "
-                                        "'neurofuzzy[validation]'")
+                                        "'neurofuzzy[validation-nonlinear]'")
 
 # sfepy's equation parser uses pyparsing names that pyparsing 3 deprecates
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning:sfepy.*")

@@ -270,20 +270,20 @@ def _file(text: str, base: Path, problem, key: str) -> Path:
 
 
 def _rules(text: str | None, base: Path, problem) -> str | None:
-    """A rule file (absolute path) or the name of a shipped rule base."""
+    """A rule file (absolute path); a bare name is the manifest folder's ``rules/NAME.yaml``,
+    then ``NAME.yaml``, then the shipped rule base (:func:`neurofuzzy.rules.locate`)."""
     if not text:
         return None
     if Path(text).suffix.lower() in (".yaml", ".yml") or "/" in text or (base / text).exists():
         return str(_file(text, base, problem, "rules"))
-    from ..rules import shipped
+    from ..rules import locate
 
     try:
-        shipped(text)
+        return str(locate(text, folder=base).resolve())
     except InputError:
         raise problem(f"no rule file {text!r} beside the manifest and no shipped rule base of "
                       "that name (liver, brain, kidney, muscle, fat, soft_tissue)",
                       "rules") from None
-    return text
 
 
 def _check_tissues(specimens: list[Specimen]) -> list[InputError]:

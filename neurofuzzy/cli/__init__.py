@@ -11,15 +11,21 @@ import sys
 import warnings
 
 from ..errors import NeurofuzzyError, PlausibilityWarning, RuleFileDeprecationWarning
+from ..progress import announced
 from .common import EXIT_BAD_INPUT
 
 __all__ = ["main", "EXIT_BAD_INPUT"]
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .options import unknown_option
     from .parser import build_parser
 
     parser = build_parser()
+    unknown = unknown_option(parser, sys.argv[1:] if argv is None else list(argv))
+    if unknown:                # before argparse: its message would not say which was meant
+        print(f"neurofuzzy: error: {unknown}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help(sys.stderr)
@@ -30,7 +36,9 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("always", RuleFileDeprecationWarning)
             warnings.simplefilter("always", PlausibilityWarning)
             warnings.showwarning = functools.partial(_show_warning, held=held)
-            status = args.run(args) or 0
+            with announced(not getattr(args, "quiet", False)      # rules, studio: no kernels
+                           and args.command not in ("rules", "studio")):
+                status = args.run(args) or 0
     except NeurofuzzyError as error:
         # one root cause: the notes on the input that led here are not repeated
         print(f"neurofuzzy: error: {error}", file=sys.stderr)

@@ -14,7 +14,9 @@ EXIT_SOME_FAILED = 1
 
 def fit_many(args) -> int:
     from ..batch import fit_many as run
+    from ..extras import require
 
+    require("batch", "fit-many (specimens as tasks on Dask)")       # before any work
     cohort = run(args.manifest, args.out, report=args.report, scheduler=args.scheduler,
                  workers=args.workers, resume=args.resume, seed=args.seed,
                  progress=not args.quiet)

@@ -18,7 +18,7 @@ from ..errors import InputError, UnstableTimeStepError
 
 __all__ = ["EXIT_BAD_INPUT", "print_json", "refuse_overwrite", "written", "usage", "Outputs",
            "positive", "at_least", "vtu_series", "naming", "rule_base_for",
-           "require_tissue"]
+           "load_rule_base", "rule_file", "require_tissue"]
 
 EXIT_BAD_INPUT = 2
 
@@ -59,17 +59,41 @@ def at_least(value, minimum, option: str):
     return value
 
 
-def rule_base_for(rules, tissue: str | None, option: str = "--tissue"):
-    """The rule base of ``--rules`` (None without one), with ``--tissue`` checked to be one of
-    its tissues ("did you mean"); a tissue without a rule base is refused."""
+def load_rule_base(value, *, quiet: bool = False):
+    """The rule base ``value`` names (:func:`neurofuzzy.rules.resolve`: a file, or a bare
+    name as ``./rules/NAME.yaml``, ``./NAME.yaml``, else the shipped copy), said in one line
+    on stderr (``rules: rules/liver.yaml (sha256 1a2b3c4d…)``) unless ``quiet``."""
     from ..rules import resolve
 
+    rule_base = resolve(value)
+    if not quiet:
+        print(f"rules: {rule_base.origin}", file=sys.stderr)
+    return rule_base
+
+
+def rule_file(value) -> Path | None:
+    """The file ``--rules VALUE`` reads (for the outputs that must not write over it)."""
+    from ..rules import locate
+
+    if value is None:
+        return None
+    try:
+        return locate(value)
+    except InputError:
+        return Path(value)          # refused when it is read, with the reason
+
+
+def rule_base_for(rules, tissue: str | None, option: str = "--tissue", *,
+                  quiet: bool = False):
+    """The rule base of ``--rules`` (None without one; :func:`load_rule_base`), with
+    ``--tissue`` checked to be one of its tissues ("did you mean"); a tissue without a rule
+    base is refused."""
     if rules is None:
         if tissue is not None:
             raise InputError(f"names tissue {tissue!r} of a rule base; give the rule base too "
                              "(--rules R)", key=option)
         return None
-    rule_base = resolve(rules)
+    rule_base = load_rule_base(rules, quiet=quiet)
     if tissue is not None:
         require_tissue(rule_base, tissue, option)
     return rule_base

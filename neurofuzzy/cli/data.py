@@ -64,20 +64,24 @@ def mesh(args) -> int:
     from ..mesh import read_mesh
     from ..mesh.files import SURFACE_SUFFIXES
     from ..plausibility import check_body_size
-    from ..rules import resolve as load_rule_base
     from ..tissues import initialize
+    from .common import load_rule_base, rule_file
 
     source = Path(args.mesh)
+    if args.tetra:
+        from ..extras import require
+
+        require("tetra", "--tetra (TetGen)")              # before any work
     positive(args.pitch, "--pitch")
     positive(args.max_edge, "--max-edge")
     positive(args.scale, "--scale")
     if args.fix_below is not None and not np.isfinite(args.fix_below):
         raise InputError(f"got {args.fix_below}; expected a height in metres", key="--fix-below")
     tissue_of = _region_options(args.region)
-    outputs = Outputs([source, Path(args.rules)])
+    outputs = Outputs([source, rule_file(args.rules)])
     out = outputs.file(args.out, "--out")
     method = "tetra" if args.tetra else "voxel"
-    rule_base = load_rule_base(args.rules)
+    rule_base = load_rule_base(args.rules, quiet=True)     # said once the model is written
     for option, tissue in [("--tissue", args.tissue)] + [
             (f"--region {region}={tissue}", tissue) for region, tissue in tissue_of.items()]:
         if tissue:
@@ -130,7 +134,8 @@ def mesh(args) -> int:
         raise InputError(f"a material law ({args.law!r}) is one of tetrahedral elements; "
                          "this model is a spring network (--elements springs)", key="--law")
     with outputs:
-        save_model(model, out)
+        save_model(model, out, rules=rule_base.provenance())
+    print(f"rules: {rule_base.origin}", file=sys.stderr)
     print(model.summary())
     print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
                                               " (none: use --fix-bottom or --fix-below)"))

@@ -12,6 +12,7 @@ from ..errors import InputError
 from .common import Outputs, at_least, positive, print_json, vtu_series, written
 from ..learn.lack_of_fit import length_text
 from ..pipeline import check_outcome, explained, require_motion
+from ..progress import Stopwatch
 
 __all__ = ["fit", "diagnose"]
 
@@ -25,7 +26,7 @@ def _start(args, progress: bool):
 
     inputs = [Path(p) for p in args.experiments]
     experiments = [load_experiment(p) for p in inputs]
-    rules = rule_base_for(args.rules, args.tissue)
+    rules = rule_base_for(args.rules, args.tissue, quiet=not progress)
     elements = {"tetra": True, "springs": False}.get(args.elements)
     start = start_model(experiments, model=args.start, rules=rules, tissue=args.tissue,
                         tie=args.tie, elements=elements, law=args.law,
@@ -38,7 +39,10 @@ def _start(args, progress: bool):
 
 def _protected(args) -> list[Path]:
     """The files a fit or diagnosis reads (never written over)."""
-    return [Path(p) for p in args.experiments] + [Path(p) for p in (args.rules, args.start)
+    from .common import rule_file
+
+    return [Path(p) for p in args.experiments] + [p for p in (rule_file(args.rules),
+                                                              args.start and Path(args.start))
                                                   if p]
 
 
@@ -57,6 +61,7 @@ def fit(args) -> int:
     positive(args.learning_rate, "--learning-rate")
     at_least(args.mass_learning_rate, 0, "--mass-learning-rate")
     substeps = _substeps(args.substeps)
+    watch = Stopwatch()
     with Outputs(_protected(args)) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
@@ -72,7 +77,7 @@ def fit(args) -> int:
         print(learner.model_.summary())
         print(f"RMS error per marker: {length_text(result['rms_error_initial'])} -> "
               f"{length_text(result['rms_error'])} ({result['cycles']} cycles, "
-              f"{result['seconds']:.1f} s)")
+              f"{result['seconds']:.1f} s{_compiling(watch)})")
         print(f"lack of fit: {learner.lack_of_fit_.verdict}")
         for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
@@ -92,7 +97,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     inputs = [Path(p) for p in args.experiments]
     loaded = [load_experiment(p) for p in inputs]
     elements = {"tetra": True, "springs": False}.get(args.elements)
-    outcome = fit_pipeline(loaded, start=args.start, rules=rule_base_for(args.rules, args.tissue),
+    rules = rule_base_for(args.rules, args.tissue, quiet=not progress)
+    outcome = fit_pipeline(loaded, start=args.start, rules=rules,
                            tissue=args.tissue, tie=args.tie, elements=elements,
                            law=args.law, relaxation=args.relaxation,
                            stiffening=args.stiffening, prior=args.prior,
@@ -164,6 +170,8 @@ def diagnose(args) -> int:
             diagnosis_report(result, report)
     data = result.to_dict()
     data.update(experiments=[str(p) for p in inputs], start=start.to_dict())
+    if start.rules is not None:
+        data["rules"] = start.rules.provenance()
     if args.json:
         print_json(data)
     else:
@@ -194,6 +202,12 @@ def _where(finding) -> str:
         parts.append(f"node {finding.nodes[0]}")
     centre = ", ".join(f"{1e3 * c:.1f}" for c in finding.centroid)
     return f" at ({centre}) mm" + (f" ({', '.join(parts)})" if parts else "")
+
+
+def _compiling(watch) -> str:
+    """The kernels' one-time compilation, when this command did it (not in the fit's time)."""
+    return f"; {watch.compiling:.0f} s more compiling the kernels, once" \
+        if watch.compiling >= 0.5 else ""
 
 
 def _substeps(value):

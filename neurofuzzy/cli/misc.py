@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
-from ..progress import note
+from ..progress import Stopwatch, note
 from .common import Outputs, positive, print_json
 
 __all__ = ["demo", "rules_check", "rules_show"]
@@ -16,12 +15,14 @@ def demo(args) -> int:
     positive(args.cycles, "--cycles", integer=True)
     outputs = Outputs()
     staged = outputs.folder(args.out, "--out")
-    started = time.perf_counter()
+    watch = Stopwatch()
     with outputs:
         _demo(args, staged)
+    compiling = (f"; {watch.compiling:.0f} s more compiling the kernels, once"
+                 if watch.compiling >= 0.5 else "")
     print(f"\nwrote {args.out}/: error_per_cycle.png (the paper's Figure 4), table.txt, "
           f"summary.json, report.html (+ .json), diagnosis.html (+ .json) "
-          f"({time.perf_counter() - started:.1f} s)")
+          f"({watch.seconds:.1f} s{compiling})")
     return 0
 
 
@@ -53,22 +54,23 @@ def _demo(args, out: Path) -> None:
 
 
 def rules_check(args) -> int:
-    from ..rules import resolve as load_rule_base
+    from .common import load_rule_base
 
-    rule_base = load_rule_base(args.rules)
+    rule_base = load_rule_base(args.rules, quiet=True)      # its summary names the file
     print(rule_base.summary())
     return 0
 
 
 def rules_show(args) -> int:
-    from ..rules import resolve as load_rule_base
+    from .common import load_rule_base
 
-    rule_base = load_rule_base(args.rules)
+    rule_base = load_rule_base(args.rules, quiet=True)      # its output names the file
     values = rule_base.tissue(args.tissue)
     labels = rule_base.describe(values)
     if args.json:
         print_json({
             "tissue": args.tissue,
+            "rules": rule_base.provenance(),
             "words": {k: str(v) for k, v in rule_base.tissues[args.tissue].items()},
             "values": values,
             "units": {k: rule_base.outputs[k].unit for k in values},
@@ -76,6 +78,7 @@ def rules_show(args) -> int:
                        for k, l in labels.items()}})
     else:
         words = ", ".join(f"{k} is {v}" for k, v in rule_base.tissues[args.tissue].items())
+        print(f"rules: {rule_base.origin}")
         print(f"{args.tissue}: {words}")
         for name, label in labels.items():
             print(f"  {name} = {label.value:.4g} {rule_base.outputs[name].unit}   ({label})")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -206,8 +207,10 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                                           verdict.noise_per_coordinate)
                     if in_trajectory_space else Evidence.of(current, experiments, steps))
         candidates = propose_candidates(current, evidence)
-        say(f"diagnose: scoring {len(candidates)} candidates "
-            f"({', '.join(sorted({c.name for c in candidates}))})")
+        kinds = Counter(c.name for c in candidates)       # an inclusion: several regions
+        say(f"diagnose: scoring {len(candidates)} candidates of {len(kinds)} effects (" +
+            ", ".join(f"{name}{f' x{n}' if n > 1 else ''}" for name, n in sorted(kinds.items()))
+            + ")")
         ranked = evidence.score(candidates)
         round_info = {"residuals": evidence.residuals(), "candidates": ranked, "rms": rms,
                       "winner": "none"}
@@ -281,11 +284,15 @@ def _to_refit(ranked, evidence, verdict, rms, say) -> list:
     strong = [c for c in ranked if c.score >= MIN_EVIDENCE]
     if verdict.explained:
         strong = [c for c in strong if c.explained >= evidence.min_explained]
-        if not strong or not significant(rms, verdict.noise, evidence.size):
+        exact = verdict.noise == 0          # noise-free data explained exactly: rounding left
+        if exact or not significant(rms, verdict.noise, evidence.size):
+            say(f"diagnose: none ({verdict.short}; nothing left to explain)")
+            return []
+        if not strong:
             best = ranked[0] if ranked else None
-            say(f"diagnose: none ({verdict.short}; best candidate "
-                f"{best.name if best else '-'}: explains "
-                f"{best.explained if best else 0:.0%})")
+            say(f"diagnose: none ({verdict.short}; no candidate has strong evidence: best "
+                f"{best.name if best else '-'}, explaining {best.explained if best else 0:.0%}"
+                " linearly)")
             return []
         return strong[:MAX_REFITS]
     kinds, tried = set(), []

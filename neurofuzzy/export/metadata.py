@@ -106,6 +106,9 @@ def fit_lines(fit: dict | None) -> list[str]:
     who = [f"{key} {fit[key]}" for key in ("learner", "neurofuzzy_version") if fit.get(key)]
     if fit.get("experiments"):
         who.append("experiments " + ", ".join(str(e) for e in fit["experiments"]))
+    rules = fit.get("rules")
+    if isinstance(rules, dict) and rules.get("path"):
+        who.append(f"rules {rules['path']} (sha256 {str(rules.get('sha256'))[:8]}…)")
     if who:
         lines.append("fitted by " + "; ".join(who))
     return lines

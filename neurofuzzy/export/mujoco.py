@@ -187,6 +187,9 @@ def simulate_mujoco(mjcf_file, experiment, *, constant_load=None) -> np.ndarray:
     (n_frames, n_nodes, 3) float
         Node positions at every frame; fixed nodes stay at their rest positions.
     """
+    from ..extras import require
+
+    require("export", "simulate_mujoco (MuJoCo runs the file)")
     import mujoco
 
     text = str(mjcf_file)

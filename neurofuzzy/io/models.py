@@ -87,7 +87,7 @@ def _elements_to_dict(elements) -> dict:
 #: the keys of a model file, per section: (required, optional)
 MODEL_KEYS = {
     None: (("format", "nodes", "springs"), ("effects", "regions", "tetrahedra", "elements",
-                                            "fit")),
+                                            "fit", "rules")),
     "nodes": (("rest_positions", "mass"), ("fixed", "region")),
     "springs": (("nodes", "stiffness", "damping"),
                 ("group", "group_names", "rest_length", "tie", "region")),
@@ -149,10 +149,11 @@ def check_model_dict(data, source: str = "<model>") -> None:
         for key, value in where.items():
             if section is None and (key in MODEL_KEYS or key == "format"):
                 continue
-            if section is None and key == "fit":
+            if section is None and key in ("fit", "rules"):
                 if not isinstance(value, dict):
-                    raise InputError(f"expected a mapping (the fit's record), got "
-                                     f"{kind_of(value)}", source=source, key="fit",
+                    what = "the fit's record" if key == "fit" else "the rule file's path, sha256"
+                    raise InputError(f"expected a mapping ({what}), got {kind_of(value)}",
+                                     source=source, key=key,
                                      line=_line_of(where, key))
                 continue
             if (section, key) == ("elements", "law") and isinstance(value, str):
@@ -248,17 +249,21 @@ def _regions_from_dict(data: dict, nodes: dict, source: str) -> dict:
 
 
 def save_model(model: Model, path: str | os.PathLike, *,
-               fit: dict | None = None) -> Path:
+               fit: dict | None = None, rules: dict | None = None) -> Path:
     """Write ``model`` as YAML (atomically); :func:`load_model` reads it back exactly.
 
     ``fit`` is the record of the fit that made the model (a JSON-ready mapping: the toolkit
-    version, the lack of fit and its verdict, …), kept as the file's ``fit:`` section and read
-    back by :func:`load_fit_record`; the model itself does not depend on it.
+    version, the lack of fit and its verdict, the rule file, …), kept as the file's ``fit:``
+    section and read back by :func:`load_fit_record`; ``rules`` the rule file the start values
+    came from (``neurofuzzy mesh``: :meth:`~neurofuzzy.rules.RuleBase.provenance`, its path and
+    sha256), kept as the ``rules:`` section. The model itself depends on neither.
     """
     path = Path(path)
     data = model_to_dict(model)
     if fit is not None:
         data["fit"] = dict(fit)
+    if rules is not None:
+        data["rules"] = dict(rules)
     text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
     with atomic_write(path, "w") as handle:
         handle.write("# neurofuzzy model; load with neurofuzzy.io.load_model\n")

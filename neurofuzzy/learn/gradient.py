@@ -12,7 +12,6 @@ minimises the free-running error that :func:`rms_error` reports.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,7 +21,7 @@ from ..errors import InputError, NeurofuzzyError
 from ..experiment import Experiment, check_experiments, rms_error
 from ..model import Model
 from ..simulation import check_substeps
-from ..progress import Progress, note
+from ..progress import Progress, Stopwatch, note
 from ._base import Learner
 from . import _passes as passes
 from ._lm import levenberg_marquardt
@@ -170,7 +169,7 @@ class GradientLearner(Learner):
         if self.mesh_check and model.elements is None:
             raise InputError("the mesh check refines tetrahedral elements; a spring network's "
                              "constants belong to its mesh", key="mesh_check")
-        started = time.perf_counter()
+        watch = Stopwatch()       # the kernels' compilation left out
         # the start's error as the fit would simulate it (one step per frame can be unstable
         # for a start that continuous physics fits with substeps)
         initial_steps = (max(auto_substeps(model, e.dt) for e in experiments) if auto
@@ -180,7 +179,7 @@ class GradientLearner(Learner):
         # one step per frame (the paper's network) is tried only where it is stable
         discrete = not auto or stable_at_one_step(model, experiments)
         self.n_cycles_ = 0
-        self._trace = []        # (E, RMS) best so far after every simulation of the data
+        self._trace = []        # (E, RMS) of every simulation of the data
         self._last = None       # the last simulation of the data (passes.Last)
         model = stable_start(model, min(e.dt for e in experiments)
                               / (1 if auto and discrete else initial_steps))
@@ -255,8 +254,8 @@ class GradientLearner(Learner):
                 regions_found(self.model_, self.prior), self.homogeneous_, experiments,
                 progress=(lambda line: note(True, f"regions found: {line}"))
                 if self.progress else None)
-        self.history_ = np.array([energy for energy, _ in self._trace])
-        self.seconds_ = time.perf_counter() - started
+        self.history_ = np.minimum.accumulate([energy for energy, _ in self._trace])  # best so far
+        self.seconds_ = watch.seconds
         return self
 
     def to_dict(self) -> dict:
@@ -309,22 +308,22 @@ class GradientLearner(Learner):
             # a stage before the last only has to bring the next into its basin
             tolerance = (self.tolerance if window == longest
                          else max(self.tolerance, STAGE_TOLERANCE))
+            begun = len(self._trace)
             theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active,
                            tolerance)
-            progress.update(stage + 1, f"{what}, RMS {length_text(self._trace[-1][1])} "
-                            "per marker")
+            best = min(self._trace[begun:] or self._trace[-1:])   # this stage's, not earlier
+            progress.update(stage + 1, f"{what}, RMS {length_text(best[1])} per marker")
         return theta
 
     def _record(self, runs, length_unit: float) -> None:
-        """One more simulation of the data: count it and keep the best ``E`` and RMS error so
-        far (per marker, over the measured values; gaps hold zero residuals and do not
-        count)."""
+        """One more simulation of the data: count it and keep its ``E`` and RMS error (per
+        marker, over the measured values; gaps hold zero residuals and do not count)."""
         count = sum(run.n_measured for run in runs)
         with np.errstate(over="ignore", invalid="ignore"):
             total = sum(float(np.sum(run.residuals**2)) for run in runs)
             rms = float(np.sqrt(3.0 * total / count)) * length_unit if count else 0.0
         entry = (0.5 * total, rms) if np.isfinite(total) else (float("inf"), float("inf"))
-        self._trace.append(min(self._trace[-1], entry) if self._trace else entry)
+        self._trace.append(entry)
         self.n_cycles_ += 1
 
     def _residuals(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:

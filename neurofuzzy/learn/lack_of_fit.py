@@ -115,7 +115,8 @@ class LackOfFit:
     @property
     def short(self) -> str:
         """One line for progress and summaries: ``RMS 41.2 µm per marker, 1.19x the noise``."""
-        ratio = f"{self.ratio:.2f}x the noise" if np.isfinite(self.ratio) else "no measurable noise"
+        ratio = (f"{self.ratio:.2f}x the noise" if np.isfinite(self.ratio) and self.noise > 0
+                 else "noise-free data" if np.isfinite(self.ratio) else "no measurable noise")
         return f"RMS {length_text(self.rms)} per marker, {ratio}"
 
 

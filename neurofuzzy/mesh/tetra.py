@@ -125,14 +125,10 @@ def from_surface_tetra(surface, *, max_edge: float | None = None, quality: bool 
                          f"a max_edge of {max_edge:g} is too fine for a volume of {volume:.3g}: "
                          "use at least about "
                          f"{np.cbrt(volume * 6.0 * np.sqrt(2.0) / MAX_CELLS) * 1.1:.3g}")
-    try:
-        import tetgen
-    except ImportError:
-        raise InputError("tetrahedral meshing needs the optional tetgen package: "
-                         "pip install tetgen, or neurofuzzy[tetra] (or use the voxel lattice, "
-                         "from_trimesh)",
-                         key="method") from None
-    del tetgen                          # imported to fail early; it runs in a child process
+    from ..extras import require
+
+    # fails early (tetgen runs in a child process): "… pip install 'neurofuzzy[tetra]'"
+    require("tetra", "tetrahedral meshing (method 'tetra'; or the voxel lattice, from_trimesh)")
     vertices = np.asarray(surface.vertices, dtype=np.float64)
     faces = np.asarray(surface.faces, dtype=np.int32)
     # TetGen aborts the whole process (not just raises) on some bad surfaces, e.g.

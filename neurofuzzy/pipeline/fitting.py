@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 
 from ..errors import InputError
 from ..experiment import Experiment
+from ..learn.lack_of_fit import length_text
+from ..progress import announced, note
 from .outcome import check_outcome, explained, require_motion
 
 __all__ = ["FitOutcome", "fit", "tie_label"]
@@ -155,16 +157,19 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     learner = make_learner(method, cycles=cycles, learn_masses=learn_masses, substeps=substeps,
                            learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
                            prior=chosen_prior, mesh_check=mesh_check, progress=progress)
-    with explained("fit", experiments, begun.model, substeps):
+    with explained("fit", experiments, begun.model, substeps), announced(progress):
         learner.fit(begun.model, experiments)
     check_outcome("fit", experiments, begun.model, learner.model_, learner.rms_error_initial_,
                   learner.rms_error_, learner.substeps_)
+    # the progress lines give each stage's RMS; this is the fitted model's, as the summary's
+    note(progress, f"fit: {learner.substeps_} substep(s) per frame kept, RMS "
+                   f"{length_text(learner.rms_error_)} per marker")
     names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]
     summary = fit_summary(learner, begun, method=method, tie=tie_label(tie, start),
                           experiments=names)
     return FitOutcome(model=learner.model_, learner=learner, start=begun, prior=chosen_prior,
                       experiments=experiments, summary=summary,
-                      record=fit_record(learner, names))
+                      record=fit_record(learner, names, begun.rules))
 
 
 def _experiments(experiments) -> list[Experiment]:

@@ -102,7 +102,9 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     """The JSON object of ``neurofuzzy fit --json`` for a fitted ``learner``.
 
     ``learner.to_dict()`` plus ``method``, ``tie``, ``start`` (where the start came from),
-    ``experiments`` (the files) and, when the start has a rule base or tissues, ``materials``
+    ``experiments`` (the files), ``rules`` (the rule file read, with its checksum:
+    :meth:`~neurofuzzy.rules.RuleBase.provenance`) when the fit had a rule base and, when the
+    start has a rule base or tissues, ``materials``
     (per region E, ν, η, ρ and words; :func:`~neurofuzzy.tissues.materials`), and after a
     fit with a prior ``regions_found`` (:func:`~neurofuzzy.learn.regions.regions_found`),
     ``regions_rest`` and ``regions_found_words``.
@@ -121,6 +123,8 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     result = learner.to_dict()
     result.update(method=method, tie=tie, start=start.to_dict(),
                   experiments=[str(p) for p in experiments])
+    if start.rules is not None:
+        result["rules"] = start.rules.provenance()
     if learner.model_.elements is not None:
         result["material_law"] = learner.model_.elements.law_names()
     if start.rules is not None or any(start.model.region_tissues):
@@ -137,12 +141,16 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     return result
 
 
-def fit_record(learner: Learner, experiments: Sequence[str]) -> dict:
+def fit_record(learner: Learner, experiments: Sequence[str], rules=None) -> dict:
     """What a fitted model file keeps of its fit (its ``fit:`` section,
     :func:`~neurofuzzy.io.models.save_model`): the toolkit version, the experiments, the RMS
-    error and the lack of fit with its verdict."""
+    error and the lack of fit with its verdict, and the rule file read with its checksum
+    (``rules``, when the fit had a rule base)."""
     from ..version import __version__
 
-    return {"neurofuzzy_version": __version__, "learner": type(learner).__name__,
-            "experiments": [str(p) for p in experiments],
-            "lack_of_fit": learner.lack_of_fit_.to_dict()}
+    record = {"neurofuzzy_version": __version__, "learner": type(learner).__name__,
+              "experiments": [str(p) for p in experiments],
+              "lack_of_fit": learner.lack_of_fit_.to_dict()}
+    if rules is not None:
+        record["rules"] = rules.provenance()
+    return record

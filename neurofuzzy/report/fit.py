@@ -64,7 +64,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
                files: dict | None = None) -> Path:
     """HTML + JSON report of a fit from ``start`` (a :class:`~neurofuzzy.learn.StartModel`).
 
-    With a rule base (``start.rules``), for every region with a tissue: the expert's words,
+    With a rule base (``start.rules``; its file and checksum in the JSON's ``rules``), for
+    every region with a tissue: the expert's words,
     the start and learned values, the learned words with degrees, each change highlighted, the
     input words that best reproduce the learned values, and the membership functions with the
     before and after values marked.
@@ -82,6 +83,7 @@ def fit_report(start, learner, path, *, title: str | None = None,
             sections += words_sections
             regions.append(region_data)
         data["regions"] = regions
+        data["rules"] = start.rules.provenance()
     history = np.asarray(learner.history_)
     figure, ax = plt.subplots(figsize=(8, 3.2))
     ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
@@ -174,15 +176,26 @@ def _relative(target, folder: Path) -> str:
 def _words_sections(rules, region, tissue, start, fitted):
     """Sections and JSON of one region: words, start and learned values, labels, plots."""
     from ..tissues import material_values
+    from ..tissues.values import LOCKED_POISSON_RATIO
 
     plt = pyplot()
     springs, nodes = start.region_springs(region), start.region_nodes(region)
     elements = start.region_elements(region)
     before = material_values(rules, start, springs, nodes, elements)
     after = material_values(rules, fitted, springs, nodes, elements)
+    locked = []             # a spring network's ν = 1/4: neither described nor explained
+    if start.elements is None:
+        locked = [name for name in after if rules.outputs[name].quantity == "poisson_ratio"]
+        before, after = ({k: v for k, v in values.items() if k not in locked}
+                         for values in (before, after))
     labels_before = rules.describe(before)
     labels_after = rules.describe(after)
     explained = rules.explain(after)
+    if locked:              # only the words that decide a described quantity
+        deciding = {clause.variable for rule in rules.rules
+                    if any(c.variable in after for c in rule.consequents)
+                    for group in rule.antecedent for clause in group}
+        explained["words"] = {k: v for k, v in explained["words"].items() if k in deciding}
     words = {name: str(phrase) for name, phrase in rules.tissues[tissue].items()}
     where = f" ({html.escape(region)})" if len(start.region_names) > 1 else ""
 
@@ -204,12 +217,15 @@ def _words_sections(rules, region, tissue, start, fitted):
                           "degrees_after": a.degrees, "changed": a.term != b.term})
     sections = [("The expert's words" + where,
                  f"<p>Tissue <b>{html.escape(tissue)}</b> of <code>"
-                 f"{html.escape(rules.source)}</code>: " +
+                 f"{html.escape(rules.source)}</code> (sha256 <code>"
+                 f"{html.escape(str(rules.sha256))}</code>): " +
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
                            for k, v in words.items()) + "</p>"),
                 ("Start values, learned values, learned words" + where, table_html(
                     ["quantity", "start (from the words)", "learned", "label", "degrees"],
-                    rows, changed) + "<p class='note'>Highlighted: the label changed.</p>"),
+                    rows, changed) + "<p class='note'>Highlighted: the label changed." +
+                 "".join(f" {html.escape(name)}: {html.escape(LOCKED_POISSON_RATIO)}."
+                         for name in locked) + "</p>"),
                 ("The learned numbers in the expert's words" + where,
                  "<p>The input words that best reproduce the learned values: " +
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
@@ -233,5 +249,6 @@ def _words_sections(rules, region, tissue, start, fitted):
     sections.append(("Membership functions with the start and learned values" + where,
                      figure_html(figure, "membership functions")))
     data = {"region": region, "tissue": tissue, "rules": rules.source, "words": words,
-            "quantities": data_rows, "explained": explained}
+            "quantities": data_rows, "explained": explained,
+            **({"notes": {name: LOCKED_POISSON_RATIO for name in locked}} if locked else {})}
     return sections, data

@@ -2,7 +2,8 @@
 here imports the physics.
 
 - :func:`load_rules` reads and validates a YAML rule base (format: ``rules/README.md``;
-  :mod:`.parser`), :func:`resolve` also takes the name of a shipped one;
+  :mod:`.parser`), :func:`resolve` also takes a bare name (``"liver"``), which
+  :func:`locate` finds as ``./rules/liver.yaml``, ``./liver.yaml``, then the shipped copy;
 - :meth:`RuleBase.infer` / :meth:`RuleBase.tissue` turn words into material values
   (scikit-fuzzy membership functions, vectorised over many descriptions);
 - :meth:`RuleBase.describe` and :meth:`RuleBase.explain` turn numbers back into words.
@@ -17,7 +18,7 @@ from .parser import load_rules
 from .rulebase import RuleBase
 from .terms import QUANTITIES, Label, RuleBaseError
 
-__all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "resolve", "QUANTITIES",
+__all__ = ["RuleBase", "RuleBaseError", "Label", "load_rules", "resolve", "locate", "QUANTITIES",
            "RuleFileDeprecationWarning", "shipped"]
 
 #: names this package held before the words and the physics were parted, and where they are
@@ -58,14 +59,38 @@ def shipped(name: str):
     raise InputError(f"no shipped rule base {name!r}", key="rules")
 
 
-def resolve(value) -> RuleBase:
-    """A :class:`RuleBase` from itself, a path, or the name of a shipped one (``"liver"``)."""
+def locate(value, *, folder=None):
+    """The rule file that ``value`` names.
+
+    A path that exists is itself. A bare name (no suffix, no folder: ``"liver"``) is the
+    user's copy first, the shipped one last: ``FOLDER/rules/liver.yaml``, then
+    ``FOLDER/liver.yaml``, then :func:`shipped` (so the file a user copied and edited is
+    the one used). Anything else is returned as it is, for :func:`load_rules` to refuse.
+
+    Parameters
+    ----------
+    value : str or path
+    folder : path, optional
+        Where the user's copies are looked for (default the current folder; a manifest's
+        folder for ``fit-many``).
+    """
     from pathlib import Path
 
+    path = Path(value)
+    if path.exists() or path.suffix or "/" in str(value) or "\\" in str(value):
+        return path if folder is None or path.is_absolute() else Path(folder) / path
+    name = f"{value}.yaml"
+    base = Path(folder) if folder is not None else Path()
+    for candidate in (base / "rules" / name, base / name):
+        if candidate.is_file():
+            return candidate
+    return shipped(str(value))
+
+
+def resolve(value) -> RuleBase:
+    """A :class:`RuleBase` from itself, a path, or a bare name (``"liver"``: ``./rules/
+    liver.yaml``, ``./liver.yaml``, else the shipped one; :func:`locate`). Which file was
+    read is its ``source``, ``sha256`` and :meth:`~RuleBase.provenance`."""
     if isinstance(value, RuleBase):
         return value
-    path = Path(value)
-    if not path.exists() and path.suffix == "" and "/" not in str(value):
-        path = shipped(str(value))
-    return load_rules(path)
-
+    return load_rules(locate(value))

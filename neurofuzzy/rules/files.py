@@ -3,10 +3,13 @@ limit (:data:`MAX_RULE_FILE_BYTES`)."""
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 from ..io import safe_yaml
 from ..io.safe_yaml import Mapping, Sequence
 
-__all__ = ["Mapping", "Sequence", "load", "loads", "MAX_RULE_FILE_BYTES"]
+__all__ = ["Mapping", "Sequence", "load", "loads", "fingerprint", "MAX_RULE_FILE_BYTES"]
 
 #: largest rule file read (the shipped ones are a few kB)
 MAX_RULE_FILE_BYTES = 2**20
@@ -26,3 +29,10 @@ def loads(text: str, source: str) -> object:
         raise InputError(f"is larger than {MAX_RULE_FILE_BYTES // 2**20} MB; a rule file is "
                          "a few kB", source=source)
     return safe_yaml.loads(text, source)
+
+
+def fingerprint(path, text: str | None = None) -> tuple[str, str]:
+    """``(file, sha256)`` of a rule file as read: its bytes, or ``text`` (an editor's unsaved
+    content) encoded as UTF-8; the checksum ``sha256sum FILE`` prints."""
+    data = Path(path).read_bytes() if text is None else text.encode("utf-8")
+    return str(path), hashlib.sha256(data).hexdigest()

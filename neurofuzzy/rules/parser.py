@@ -177,7 +177,8 @@ class _Builder:
                              inputs=inputs, outputs=outputs, rules=rules, tissues=tissues,
                              defuzzification=settings["defuzzification"],
                              and_method=settings["and"], or_method=settings["or"],
-                             renamed=self.renamed, tissue_lines=tissue_lines)
+                             renamed=self.renamed, tissue_lines=tissue_lines, files=[
+                                 rule_files.fingerprint(path, text), *getattr(base, "files", [])])
         self.check_tissue_values(rule_base)
         if self.problems:
             raise RuleBaseError(self.problems)

@@ -15,7 +15,7 @@ class RuleBase:
     """A parsed, validated rule base (use :func:`load_rules`)."""
 
     def __init__(self, *, name, source, inputs, outputs, rules, tissues, defuzzification,
-                 and_method, or_method, renamed=None, tissue_lines=None):
+                 and_method, or_method, renamed=None, tissue_lines=None, files=None):
         self.name = name
         self.source = source
         self.inputs: dict[str, Variable] = inputs
@@ -29,6 +29,29 @@ class RuleBase:
         self.renamed: dict[str, str] = dict(renamed or {})
         #: tissue name → (rule file, line) where it is described (for messages)
         self.tissue_lines: dict[str, tuple[str, int]] = dict(tissue_lines or {})
+        #: (file, sha256) of every file read: this one first, then the files it extends
+        self.files: list[tuple[str, str]] = list(files or [])
+
+    @property
+    def sha256(self) -> str | None:
+        """Checksum of the rule file as read (``sha256sum FILE``), None for a rule base
+        built without a file."""
+        return self.files[0][1] if self.files else None
+
+    @property
+    def origin(self) -> str:
+        """Which file this is, in one line: ``rules/liver.yaml (sha256 1a2b3c4d…)``."""
+        return f"{self.source} (sha256 {self.sha256[:8]}…)" if self.sha256 else str(self.source)
+
+    def provenance(self) -> dict:
+        """Which file this rule base was read from, for records (``fit --json``, model files,
+        reports): ``{"path": absolute path, "sha256": ..., "extends": [{"path", "sha256"},
+        ...]}`` (``extends`` only when the file extends others)."""
+        from pathlib import Path
+
+        files = [{"path": str(Path(path).resolve()), "sha256": digest}
+                 for path, digest in self.files] or [{"path": str(self.source), "sha256": None}]
+        return {**files[0], **({"extends": files[1:]} if files[1:] else {})}
 
     @property
     def variables(self) -> dict[str, Variable]:
@@ -66,7 +89,7 @@ class RuleBase:
         return {self.renamed.get(name, name): value for name, value in values.items()}
 
     def summary(self) -> str:
-        lines = [f"rule base {self.name!r} ({self.source})"]
+        lines = [f"rule base {self.name!r} ({self.origin})"]
         for role, variables in (("input", self.inputs), ("output", self.outputs)):
             for v in variables.values():
                 unit = f" {v.unit}" if v.unit else ""

@@ -22,13 +22,11 @@ PACKAGES = ("starlette", "uvicorn")
 
 
 def require_packages() -> None:
-    """Raise :class:`InputError` naming the extra when the web packages are missing."""
-    from importlib.util import find_spec
+    """Raise :class:`~neurofuzzy.errors.MissingDependencyError` naming the extra when the
+    web packages are missing."""
+    from ..extras import require
 
-    missing = [name for name in PACKAGES if find_spec(name) is None]
-    if missing:
-        raise InputError(f"the rule studio needs {', '.join(missing)}: pip install "
-                         "'neurofuzzy[studio]'", key="studio")
+    require("studio", "the rule studio")
 
 
 class Studio:
@@ -65,11 +63,9 @@ def _resolve(rules) -> tuple[Path, Path | None]:
     """(folder, rule file or None) of what :func:`studio` was given."""
     if rules is None:
         return Path.cwd().resolve(), None
-    path = Path(rules)
-    if not path.exists() and path.suffix == "" and "/" not in str(rules):
-        from ..rules import shipped
+    from ..rules import locate
 
-        path = shipped(str(rules))
+    path = locate(rules)        # a bare name: ./rules/NAME.yaml, ./NAME.yaml, else shipped
     if path.is_dir():
         return path.resolve(), None
     if not path.is_file():

@@ -8,10 +8,15 @@ from __future__ import annotations
 from ..constants import quantities, region_quantities
 from ..model import Model
 
-__all__ = ["materials", "material_values"]
+__all__ = ["materials", "material_values", "LOCKED_POISSON_RATIO"]
 
 #: what ``materials`` reports of a region (the terms may say more; all of it gets words)
 _REPORTED = ("youngs_modulus", "poisson_ratio", "viscosity", "density")
+
+#: why a spring network's ν gets no word (its 1/4 would read "compressible" whatever the
+#: expert said)
+LOCKED_POISSON_RATIO = ("locked at 1/4 by the spring network whatever the words say; neither "
+                        "learned nor described (tetrahedral elements learn it)")
 
 
 def materials(model: Model, rules=None, tissue: str | None = None) -> dict:
@@ -23,7 +28,9 @@ def materials(model: Model, rules=None, tissue: str | None = None) -> dict:
     constants, viscosities and masses correspond to (:mod:`neurofuzzy.constants.springs`) and
     ν is the 1/4 the springs are locked to; for element models they are the elements' own
     values (medians over the region), with their relaxation and stiffening where they have
-    them. ``labels`` (with ``rules``) are the rule base's words for each quantity.
+    them. ``labels`` (with ``rules``) are the rule base's words for each quantity but a spring
+    network's locked ν, which ``notes`` explains (:data:`LOCKED_POISSON_RATIO`) instead of
+    calling incompressible tissue "compressible".
     """
     out = {}
     for index, region in enumerate(model.region_names):
@@ -37,6 +44,9 @@ def materials(model: Model, rules=None, tissue: str | None = None) -> dict:
             values["labels"] = {rules.outputs[name].quantity: label.term
                                 for name, label in rules.describe(_by_output(rules, found))
                                 .items()}
+            if model.elements is None:
+                values["labels"].pop("poisson_ratio", None)
+                values["notes"] = {"poisson_ratio": LOCKED_POISSON_RATIO}
         out[region] = values
     return out
 

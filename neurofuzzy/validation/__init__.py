@@ -3,9 +3,10 @@
 - :mod:`.integrators`: RK4 and :func:`scipy.integrate.solve_ivp` integrators of the continuous
   spring-mass equations (``nf.reference_simulate``, ``nf.reference_experiment``);
 - :mod:`.continuum`: scikit-fem's quadratic tetrahedra, linear elasticity with Kelvin–Voigt
-  damping (``pip install '.[validation]'``);
+  damping (``pip install 'neurofuzzy[validation]'``);
 - :mod:`.nonlinear`: sfepy's total-Lagrangian hyperelastic and viscoelastic solids and the
-  closed forms they are checked against (``pip install sfepy``);
+  closed forms they are checked against (``pip install 'neurofuzzy[validation-nonlinear]'``,
+  which builds sfepy from its source: minutes);
 - :mod:`.probed_block`: recordings of the probed soft block (scikit-fem, MuJoCo) and the models
   a user would build for it.
 

@@ -14,7 +14,7 @@ Loads: a probe pressing on a patch of the surface (a uniform traction over the b
 within a radius of the point) and gravity (``ρ g`` per volume). Motion is sampled anywhere
 in the mesh (markers) through scikit-fem's own interpolation.
 
-Needs scikit-fem (``pip install scikit-fem``, or ``pip install neurofuzzy[validation]``).
+Needs scikit-fem (``pip install 'neurofuzzy[validation]'``).
 """
 
 from __future__ import annotations
@@ -33,11 +33,11 @@ PerElement = float | np.ndarray | Callable[[np.ndarray], np.ndarray]
 
 
 def _skfem():
-    try:
-        import skfem
-    except ImportError:
-        raise InputError("the continuum reference needs scikit-fem: pip install scikit-fem "
-                         "(or neurofuzzy[validation])") from None
+    from ..extras import require
+
+    require("validation", "the continuum reference (scikit-fem's solver)")
+    import skfem
+
     return skfem
 
 

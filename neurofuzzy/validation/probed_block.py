@@ -16,7 +16,8 @@ proportional damping (another code's elements, integrator and damping form), on 
 six around a diagonal), with the probe's patch load, an inclusion as a second flex and gravity
 as MuJoCo's own.
 
-Needs scikit-fem (``pip install '.[validation]'``), and mujoco for :func:`mujoco_block`.
+Needs scikit-fem (``pip install 'neurofuzzy[validation]'``), and mujoco
+(``pip install 'neurofuzzy[export]'``) for :func:`mujoco_block`.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ either. :class:`HyperelasticSolver` solves them dynamically at large strain;
 relaxation to check it against; :mod:`.recordings` records the probed block of
 :mod:`neurofuzzy.validation.probed_block` with them (up to about 35 % compression under the probe).
 
-Needs sfepy (``pip install sfepy``) for the solver; the closed forms need only numpy and
+Needs sfepy (``pip install 'neurofuzzy[validation-nonlinear]'``) for the solver; the closed forms need only numpy and
 scipy.
 """
 

@@ -5,8 +5,6 @@ from __future__ import annotations
 import contextlib
 import io
 
-from ...errors import InputError
-
 
 @contextlib.contextmanager
 def quiet():
@@ -24,8 +22,10 @@ def require_sfepy():
             from sfepy.base.base import output
             output.set_output(quiet=True)  # sfepy's own switch; it only silences sfepy
     except ImportError:
-        raise InputError("the nonlinear reference needs sfepy: pip install sfepy "
-                         "(or neurofuzzy[validation])") from None
+        from ...extras import require
+
+        require("validation-nonlinear", "the nonlinear reference (sfepy's solver)")
+        raise           # installed, but broken: sfepy's own error
     import sfepy
     return sfepy
 

@@ -38,8 +38,8 @@ strain rate times η/E (``S_v = η/E ℂ₀ : Ė``), which at small strain is th
 reference's stiffness-proportional damping.
 
 Loads are *dead*: a force per reference area of fixed direction (the probe's push, as our
-node forces are), or gravity. Needs sfepy (``pip install sfepy``, or
-``pip install 'neurofuzzy[validation]'``).
+node forces are), or gravity. Needs sfepy (``pip install
+'neurofuzzy[validation-nonlinear]'``; pip builds it from its source).
 """
 
 from __future__ import annotations
