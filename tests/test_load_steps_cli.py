@@ -196,3 +196,30 @@ def test_mesh_fixes_the_bottom_along_up(tmp_path):
         model = load_model(out)
         held = model.mesh.rest_positions[model.mesh.fixed]
         assert len(held) == 9 and np.allclose(held[:, axis], side * 1e-3)
+
+
+@pytest.mark.slow
+def test_fit_many_fits_a_cohort_of_compression_tests(lab, tmp_path):
+    """Two specimens measured between plates, one with its load cell: fit-many's task fits
+    each as ``fit`` does, writes its report, and the results table holds ν for both, E only
+    where a force identifies it (no value and no word for the other)."""
+    from neurofuzzy.batch import read_manifest
+    from neurofuzzy.batch.table import table_rows
+    from neurofuzzy.batch.task import fit_specimen
+
+    for name, plate in (("scans", "plate-no-force.csv"), ("cell", "plate.csv")):
+        assert _import(lab, plate, tmp_path / f"{name}.npz").returncode == 0
+    (tmp_path / "model.yaml").write_bytes((lab / "model.yaml").read_bytes())
+    (tmp_path / "cohort.csv").write_text("id,group,experiments,start,rules,tissue\n"
+                                         "a,gel,scans.npz,model.yaml,liver,liver\n"
+                                         "b,gel,cell.npz,model.yaml,liver,liver\n")
+    specimens = read_manifest(tmp_path / "cohort.csv")
+    records = {s.id: fit_specimen(s) for s in specimens}
+    assert all(r["status"] == "ok" for r in records.values()), records
+    assert {"fitted.yaml", "report.html", "report.json"} <= set(records["b"]["files"])
+    rows = {row["id"]: row for row in table_rows(specimens, records)}
+    for row in rows.values():
+        assert row["poisson_ratio"] == pytest.approx(0.45, abs=0.01)
+        assert row["poisson_ratio_word"] is not None and row["rms_error"] < 1e-4
+    assert rows["a"]["youngs_modulus"] is None and rows["a"]["youngs_modulus_word"] is None
+    assert rows["b"]["youngs_modulus"] == pytest.approx(6000, rel=0.03)

@@ -74,6 +74,48 @@ def fit_specimen(specimen: Specimen) -> dict:
 
 
 def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
+    from ..io.load_steps import is_load_steps_file
+
+    if len(specimen.experiments) == 1 and is_load_steps_file(specimen.experiments[0]):
+        return _fit_load_steps(specimen)
+    return _fit_time_series(specimen)
+
+
+def _fit_load_steps(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
+    """A specimen measured at load steps (a compression test between plates): the fit of
+    ``neurofuzzy fit STEPS.npz`` (:func:`neurofuzzy.pipeline.load_steps.fit_load_step_file`),
+    its report and, when asked for, the load-step diagnosis."""
+    from ..io import save_model
+    from ..io.writing import json_safe
+    from ..pipeline.load_steps import fit_load_step_file
+    from ..report.load_steps import load_steps_report
+    from ..rules import resolve
+
+    options = specimen.options
+    rules = resolve(specimen.rules) if specimen.rules else None
+    outcome = fit_load_step_file(specimen.experiments[0], start=specimen.start, rules=rules,
+                                 tissue=specimen.tissue, law=options.get("law"))
+    fit = dict(outcome.record)
+    with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
+        folder = Path(folder)
+        save_model(outcome.result.model_, folder / "fitted.yaml")
+        labels = next(iter(fit["materials"].values()), {}).get("labels", {})
+        load_steps_report(outcome.start, outcome.result, outcome.data, folder / "report.html",
+                          title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})",
+                          labels=labels)
+        if options.get("diagnose"):
+            from ..diagnosis.load_steps import diagnose_load_steps
+
+            diagnosis = diagnose_load_steps(outcome.start, outcome.data)
+            fit["diagnosis"] = {"effects": diagnosis.names,
+                                "rms_before": diagnosis.before.marker_rms_,
+                                "rms_after": diagnosis.after.marker_rms_}
+        files = {name: (folder / name).read_bytes() for name in OUTPUT_FILES
+                 if (folder / name).exists()}
+    return json_safe(fit), files
+
+
+def _fit_time_series(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..io import save_model
     from ..pipeline import fit as fit_pipeline
     from ..report import fit_report
