@@ -330,7 +330,8 @@ def build_parser() -> argparse.ArgumentParser:
                                "'# force units:' lines); writes a load-step file")
     importer.add_argument("--up", default="z", choices=steps.AXES,
                           help="with --displacements: the axis the plate moves along, "
-                               "pointing away from the fixed bottom (default z; a negative one as --up=-z)")
+                               "pointing away from the fixed bottom (default z; a negative "
+                               "one as --up=-z)")
     importer.add_argument("--plate", choices=("bonded", "sliding"), default="bonded",
                           help="with --displacements: the plate holds the top face in every "
                                "direction (bonded, the default) or only along --up "

@@ -220,10 +220,16 @@ def save_experiment(experiment: Experiment, path: str | os.PathLike) -> Path:
         data.update(marker_positions=markers.positions, marker_nodes=markers.nodes,
                     marker_weights=markers.weights,
                     marker_names=np.array(markers.names, dtype=str))
-    for key, value in experiment.truth.items():
-        data[key if key.startswith("true_") else f"true_{key}"] = np.asarray(value)
+    return write_npz(path, data, experiment.truth)
+
+
+def write_npz(path: Path, arrays: dict, truth: dict) -> Path:
+    """``arrays`` and the ground truth ``truth`` (as ``true_*`` keys) as a compressed
+    ``.npz`` file, written atomically; returns the path."""
+    for key, value in truth.items():
+        arrays[key if key.startswith("true_") else f"true_{key}"] = np.asarray(value)
     buffer = _io.BytesIO()
-    np.savez_compressed(buffer, **data)
+    np.savez_compressed(buffer, **arrays)
     with atomic_write(path) as handle:
         handle.write(buffer.getvalue())
     return path

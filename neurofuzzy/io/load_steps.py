@@ -8,7 +8,6 @@ key by key, written atomically.
 
 from __future__ import annotations
 
-import io as _io
 import os
 from pathlib import Path
 
@@ -17,8 +16,7 @@ import numpy as np
 from ..errors import InputError, closest_name
 from ..load_steps import DrivenPath, LoadSteps
 from ..mesh import from_tetra
-from .experiments import _markers, read_npz
-from .writing import atomic_write
+from .experiments import _markers, read_npz, write_npz
 
 __all__ = ["save_load_steps", "load_load_steps", "is_load_steps_file", "KEYS"]
 
@@ -65,13 +63,7 @@ def save_load_steps(data: LoadSteps, path: str | os.PathLike) -> Path:
                    marker_names=np.array(markers.names, dtype=str))
     if data.reaction is not None:
         out["reaction"] = np.asarray(data.reaction, float)
-    for key, value in data.truth.items():
-        out[key if key.startswith("true_") else f"true_{key}"] = np.asarray(value)
-    buffer = _io.BytesIO()
-    np.savez_compressed(buffer, **out)
-    with atomic_write(path) as handle:
-        handle.write(buffer.getvalue())
-    return path
+    return write_npz(path, out, data.truth)
 
 
 def load_load_steps(path: str | os.PathLike) -> LoadSteps:
