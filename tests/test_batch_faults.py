@@ -58,7 +58,9 @@ def cluster():
     import dask
     from dask.distributed import LocalCluster
 
-    with dask.config.set({"distributed.scheduler.allowed-failures": 2}), \
+    from neurofuzzy.batch.run import LOCAL_SCHEDULER
+
+    with dask.config.set(LOCAL_SCHEDULER), \
             LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                          dashboard_address=None, silence_logs=logging.CRITICAL) as started:
         yield started

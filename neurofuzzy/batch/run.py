@@ -58,6 +58,12 @@ CONNECT_TIMEOUT = "10s"
 #: how often the local cluster runs a specimen again after its worker process died (an
 #: existing cluster keeps its own ``distributed.scheduler.allowed-failures``, 3 by default)
 RETRIES = 2
+#: the local cluster's scheduler: bounded retries, and one task per worker thread at a time
+#: (Dask's default saturation, 1.1, hands a single-threaded worker a second task to hold,
+#: which a worker killed by the first takes down with it: an innocent specimen would count a
+#: worker death of its own and could be failed with the guilty one)
+LOCAL_SCHEDULER = {"distributed.scheduler.allowed-failures": RETRIES,
+                   "distributed.scheduler.worker-saturation": 1.0}
 
 
 @dataclass(frozen=True)
@@ -340,7 +346,7 @@ def _client(scheduler: str | None, workers: int | None):
             with client:
                 yield client
             return
-        with dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}), \
+        with dask.config.set(LOCAL_SCHEDULER), \
                 LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                              processes=True, dashboard_address=None,
                              silence_logs=logging.CRITICAL, env=THREAD_LIMITS) as cluster, \
