@@ -195,6 +195,8 @@ def test_bad_boundaries_are_refused_with_what_is_wrong():
         equilibrium(model, driven=Driven(top, (0, 0, np.nan)))
     with pytest.raises(InputError, match="load"):
         equilibrium(model, load=np.zeros((3, 3)))
+    with pytest.raises(InputError, match="start must be finite positions"):
+        equilibrium(model, start=np.full((model.n_nodes, 3), np.nan))
 
 
 def test_an_increment_too_large_says_to_take_more():

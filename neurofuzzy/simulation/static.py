@@ -177,7 +177,11 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     if int(increments) < 1:
         raise InputError(f"increments must be at least 1; got {increments}", key="increments")
     free = np.setdiff1d(np.arange(3 * n), held)
-    p = np.array(rest if start is None else start, dtype=float).ravel()
+    p = np.array(rest if start is None else start, dtype=float)
+    if p.shape != (n, 3) or not np.all(np.isfinite(p)):
+        raise InputError(f"start must be finite positions of shape ({n}, 3); got {p.shape}",
+                         key="start")
+    p = p.ravel()
     first = p[held] - rest.ravel()[held]
     size = float(np.ptp(rest, axis=0).max())
     iterations = 0
@@ -187,11 +191,10 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         fraction = step / int(increments)
         target = rest.ravel()[held] + first + fraction * (shift - first)
         load_now = fraction * f_ext.ravel()
-        state = tangents(model, p.reshape(n, 3), long_time=True)
         # predictor: the free nodes follow the driven ones linearly
         move = target - p[held]
-        K = state.stiffness
         if np.any(move):
+            K = tangents(model, p.reshape(n, 3), long_time=True).stiffness
             coupling = K[free][:, held] @ move
             p[free] -= _factor(K[free][:, free]).solve(coupling)
         p[held] = target
