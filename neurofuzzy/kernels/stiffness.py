@@ -56,6 +56,22 @@ def node_pressures(p, v, elements):
             node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _prony_sums(relax_g, history, e):
+    """``(Σᵢ gᵢ, Σᵢ gᵢ rᵢ)`` of element ``e``'s Prony terms (six entries; zeros without)."""
+    g = r0 = r1 = r2 = r3 = r4 = r5 = 0.0
+    for k in range(relax_g.shape[1]):
+        gk = relax_g[e, k]
+        g += gk
+        r0 += gk * history[e, k, 0]
+        r1 += gk * history[e, k, 1]
+        r2 += gk * history[e, k, 2]
+        r3 += gk * history[e, k, 3]
+        r4 += gk * history[e, k, 4]
+        r5 += gk * history[e, k, 5]
+    return g, (r0, r1, r2, r3, r4, r5)
+
+
 @numba.njit(cache=True, nogil=True)
 def element_tangents(p, v, elements, kappa, force, K, C, gradients):
     """Every element's force added to ``force`` (n_nodes, 3), its stiffness and damping into
@@ -78,13 +94,7 @@ def element_tangents(p, v, elements, kappa, force, K, C, gradients):
                                     + node_strain[n2, 1] + node_strain[n3, 1])
         else:
             own, own_rate, pressure, pressure_rate = lam[e], lam_rate[e], 0.0, 0.0
-        g = 0.0
-        r = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-        for k in range(relax_g.shape[1]):
-            g += relax_g[e, k]
-            for i in range(6):
-                r[i] += relax_g[e, k] * history[e, k, i]
-        r6 = (r[0], r[1], r[2], r[3], r[4], r[5])
+        g, r6 = _prony_sums(relax_g, history, e)
         if K.shape[0] == 0:
             f = element_force(x, xd, B, volume[e], law[e], stiffening[e], shear[e],
                               shear_rate[e], own, own_rate, pressure, pressure_rate, kappa, g,

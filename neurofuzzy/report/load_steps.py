@@ -46,7 +46,7 @@ def _values(start, fit, labels) -> str:
               "poisson_ratio": float(np.mean(start.elements.poisson_ratio))}
     after = {"youngs_modulus": fit.youngs_modulus_, "poisson_ratio": fit.poisson_ratio_}
     for name in ("youngs_modulus", "poisson_ratio", "viscosity", "density"):
-        if name in getattr(fit, "fixed_", ()):
+        if name in fit.fixed_:
             rows.append([name, before[name], after[name], "fixed", labels.get(name, "-")])
             continue
         if name in fit.unidentifiable_:

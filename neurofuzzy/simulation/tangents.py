@@ -85,9 +85,10 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         K = np.empty((len(a) if matrices else 0, 6, 6))
         C = np.empty_like(K)
         spring_tangents(p, v, a, b, stiffness, damping, rest, cubic, force, K, C)
-        blocks_k.append(K.reshape(len(K), K[0].size if len(K) else 0))
-        blocks_c.append(C.reshape(len(C), C[0].size if len(C) else 0))
-        dofs.append(_dofs(np.stack([a, b], axis=1)))
+        if matrices:
+            blocks_k.append(K.reshape(len(K), -1))
+            blocks_c.append(C.reshape(len(C), -1))
+            dofs.append(_dofs(np.stack([a, b], axis=1)))
     extra_k, extra_c = [], []
     if model.elements is not None:
         layout = _element_layout(elements, internal, long_time)
@@ -96,12 +97,13 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         C = np.empty_like(K)
         gradients = np.zeros((k if matrices else 0, 3, 12))
         element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
-        tets = elements[0]
-        blocks_k.append(K.reshape(len(K), K[0].size if len(K) else 0))
-        blocks_c.append(C.reshape(len(C), C[0].size if len(C) else 0))
-        dofs.append(_dofs(tets))
-        if elements[9] and matrices:                        # the nodal volumetric form
-            extra_k, extra_c = _nodal_coupling(model.mesh, tets, layout, gradients)
+        if matrices:
+            tets = elements[0]
+            blocks_k.append(K.reshape(len(K), -1))
+            blocks_c.append(C.reshape(len(C), -1))
+            dofs.append(_dofs(tets))
+            if elements[9]:                                 # the nodal volumetric form
+                extra_k, extra_c = _nodal_coupling(model.mesh, tets, layout, gradients)
     if not matrices:
         return Tangents(force, None, None)
     stiffness_matrix = _assemble(model.mesh, blocks_k, dofs)
