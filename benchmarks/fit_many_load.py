@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from neurofuzzy.batch import fit_many
-from neurofuzzy.batch.run import LOCAL_SCHEDULER, THREAD_LIMITS
+from neurofuzzy.batch.run import LOCAL_CLUSTER, THREAD_LIMITS
 from neurofuzzy.batch.synthetic import synthetic_cohort
 
 MB = 2**20
@@ -75,7 +75,7 @@ def run(specimens: int, workers: int, every: float, seed: int, folder: Path) -> 
     manifest = cohort(folder, specimens, seed)
     out = folder / "results"
     samples: list = []
-    with dask.config.set(LOCAL_SCHEDULER), \
+    with dask.config.set(LOCAL_CLUSTER), \
             LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                          dashboard_address=None, silence_logs=logging.CRITICAL,
                          env=THREAD_LIMITS) as cluster, Client(cluster) as client:

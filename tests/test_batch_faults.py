@@ -58,9 +58,9 @@ def cluster():
     import dask
     from dask.distributed import LocalCluster
 
-    from neurofuzzy.batch.run import LOCAL_SCHEDULER
+    from neurofuzzy.batch.run import LOCAL_CLUSTER
 
-    with dask.config.set(LOCAL_SCHEDULER), \
+    with dask.config.set(LOCAL_CLUSTER), \
             LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                          dashboard_address=None, silence_logs=logging.CRITICAL) as started:
         yield started
@@ -330,3 +330,18 @@ def test_a_second_run_on_the_folder_is_refused_while_the_first_runs(cohort, clus
         first.wait()
     assert first.returncode == 0, stderr
     assert _final(run) == reference
+
+
+def _profiling(dask_worker):
+    """Whether a worker samples its tasks' stacks, and how many call trees it keeps."""
+    return "profile" in dask_worker.periodic_callbacks, len(dask_worker.profile_history)
+
+
+def test_the_local_cluster_keeps_no_profile_of_the_fits():
+    # Dask's statistical profiler kept a call tree per second of every fit for the last
+    # 1,000 seconds: about 1 MB per specimen on each worker (issue 49's memory growth)
+    from neurofuzzy.batch.run import _client
+
+    with _client(None, 1) as client:
+        assert client.submit(sum, [1, 2], pure=False).result() == 3
+        assert list(client.run(_profiling).values()) == [(False, 0)]

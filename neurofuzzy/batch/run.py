@@ -58,12 +58,16 @@ CONNECT_TIMEOUT = "10s"
 #: how often the local cluster runs a specimen again after its worker process died (an
 #: existing cluster keeps its own ``distributed.scheduler.allowed-failures``, 3 by default)
 RETRIES = 2
-#: the local cluster's scheduler: bounded retries, and one task per worker thread at a time
+#: the local cluster's configuration: bounded retries, and one task per worker thread at a time
 #: (Dask's default saturation, 1.1, hands a single-threaded worker a second task to hold,
 #: which a worker killed by the first takes down with it: an innocent specimen would count a
-#: worker death of its own and could be failed with the guilty one)
-LOCAL_SCHEDULER = {"distributed.scheduler.allowed-failures": RETRIES,
-                   "distributed.scheduler.worker-saturation": 1.0}
+#: worker death of its own and could be failed with the guilty one); and no statistical
+#: profiler on the workers: Dask samples every running task's stack every 10 ms and keeps a
+#: call tree per second for the last 1,000 seconds, which grew a worker fitting specimens by
+#: about 1 MB per specimen (issue 49; ``benchmarks/fit_many_load.py``)
+LOCAL_CLUSTER = {"distributed.scheduler.allowed-failures": RETRIES,
+                 "distributed.scheduler.worker-saturation": 1.0,
+                 "distributed.worker.profile.enabled": False}
 
 
 @dataclass(frozen=True)
@@ -346,7 +350,7 @@ def _client(scheduler: str | None, workers: int | None):
             with client:
                 yield client
             return
-        with dask.config.set(LOCAL_SCHEDULER), \
+        with dask.config.set(LOCAL_CLUSTER), \
                 LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                              processes=True, dashboard_address=None,
                              silence_logs=logging.CRITICAL, env=THREAD_LIMITS) as cluster, \
