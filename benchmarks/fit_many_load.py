@@ -9,7 +9,7 @@ blocks (8 nodes, the bottom four held) of healthy and fibrotic liver, 40 frames,
 the data alone (no rule base: the cheapest fit and report) with one spring constant for the
 whole block. Prints a table and writes JSON (``benchmarks/fit_many_load.json``).
 
-    python benchmarks/fit_many_load.py                   # 500 specimens, about 5 min on 2 cores
+    python benchmarks/fit_many_load.py                   # 500 specimens, about 3½ min on 2 cores
     python benchmarks/fit_many_load.py --specimens 40    # a quick look
 """
 
