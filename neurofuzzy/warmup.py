@@ -1,0 +1,135 @@
+"""Compile the simulation kernels ahead of time, side by side: :func:`compile_kernels`.
+
+numba compiles each kernel the first time it runs and keeps it in its cache (the kernels'
+``__pycache__``, or ``NUMBA_CACHE_DIR``), so the first run of the toolkit on a machine waits
+for the compiler, on one core. The kernels fall into parts that share no compiled function;
+:func:`compile_kernels` runs each part's small workload in a process of its own, so a machine
+with two cores compiles in about the time of the largest part instead of the sum. A part whose
+kernels are cached loads them in about a second.
+
+    python -m neurofuzzy.warmup            # every part, one process each
+    python -m neurofuzzy.warmup stepper    # one part, in this process
+
+The test suite runs it before its workers start (``tests/conftest.py``): two test processes
+meeting a cold cache would each compile every kernel.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+__all__ = ["PARTS", "compile_kernels"]
+
+
+def _cube_experiment(frames: int = 12):
+    from .datasets import paper_cube_experiment, paper_cube_model
+
+    model = paper_cube_model()
+    return model, paper_cube_experiment(model, n_frames=frames)
+
+
+def _learner_part() -> None:
+    """The forward sensitivities (``kernels.sensitivity``): :func:`neurofuzzy.learn.warmup.
+    run_with_tangents`."""
+    from .learn.warmup import run_with_tangents
+
+    run_with_tangents()
+
+
+def _stepper() -> None:
+    """The time stepper (``kernels.stepper``) and the adjoint sweep (``kernels.adjoint``) it
+    feeds: the gradient of a pass, as L-BFGS takes it."""
+    from .learn import GradientLearner
+
+    model, data = _cube_experiment()
+    GradientLearner(method="lbfgs", max_iterations=2).fit(model.tied("global"), data)
+
+
+def _static() -> None:
+    """The stiffness of elements and springs (``kernels.element``, ``kernels.stiffness``) and
+    the laws over arrays (``kernels.laws``): a static compression of a small block of each
+    volumetric form."""
+    from .mesh import from_tetra, kuhn_block
+    from .model import Model
+    from .simulation.static import Driven, equilibrium
+
+    points, tetrahedra = kuhn_block((1, 1, 1), 0.01)
+    mesh = from_tetra(points, tetrahedra)
+    bottom = np.flatnonzero(points[:, 2] < 1e-9)
+    top = np.flatnonzero(points[:, 2] > 0.01 - 1e-9)
+    for volumetric in ("nodal", "element"):
+        model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45,
+                                viscosity=3.0, density=1000.0, volumetric=volumetric,
+                                law="neo-hookean")
+        equilibrium(model, driven=[Driven(bottom, (0, 0, 0)), Driven(top, (0, 0, -1e-3))])
+
+
+#: part name → its workload, the longest first; parts share no compiled function, so they
+#: compile side by side (cold, on one core each: about 80, 85 and 20 s; the first two
+#: at once, then the third, on two cores: 105 s)
+PARTS = {"sensitivity": _learner_part, "stepper": _stepper, "static": _static}
+
+
+def compile_kernels(parts=None, *, processes: int | None = None,
+                    progress: bool = False) -> dict:
+    """Compile (or load from the cache) the kernels of ``parts`` (default: every part of
+    :data:`PARTS`), each part in a process of its own, at most ``processes`` at a time
+    (default: the machine's cores). Returns ``{part: seconds}``.
+
+    Raises
+    ------
+    RuntimeError
+        A part's process failed (its stderr is in the message).
+    """
+    names = list(PARTS) if parts is None else list(parts)
+    unknown = sorted(set(names) - set(PARTS))
+    if unknown:
+        raise ValueError(f"unknown part(s) {', '.join(unknown)}; known: {', '.join(PARTS)}")
+    limit = max(1, processes or os.cpu_count() or 1)
+    waiting, running, seconds = list(names), {}, {}
+    while waiting or running:
+        while waiting and len(running) < limit:
+            name = waiting.pop(0)
+            running[name] = (time.perf_counter(), subprocess.Popen(
+                [sys.executable, "-m", "neurofuzzy.warmup", name],
+                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
+        for name, (began, process) in list(running.items()):
+            if process.poll() is None:
+                continue
+            del running[name]
+            stderr = process.stderr.read()
+            process.stderr.close()
+            if process.returncode:
+                for other in running.values():
+                    other[1].kill()
+                raise RuntimeError(f"compiling the kernels of '{name}' failed:\n{stderr}")
+            seconds[name] = time.perf_counter() - began
+            if progress:
+                print(f"neurofuzzy: kernels of '{name}' ready ({seconds[name]:.0f} s)",
+                      file=sys.stderr, flush=True)
+        time.sleep(0.05)
+    return seconds
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    unknown = [name for name in argv if name not in PARTS]
+    if unknown:
+        print(f"neurofuzzy.warmup: error: unknown part(s) {', '.join(unknown)}; known: "
+              f"{', '.join(PARTS)}", file=sys.stderr)
+        return 2
+    if argv:
+        for name in argv:
+            PARTS[name]()
+    else:
+        compile_kernels(progress=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
