@@ -5,7 +5,7 @@ numba compiles each kernel the first time it runs and keeps it in its cache (the
 for the compiler, on one core. The kernels fall into parts that share no compiled function;
 :func:`compile_kernels` runs each part's small workload in a process of its own, so a machine
 with two cores compiles in about the time of the largest part instead of the sum. A part whose
-kernels are cached loads them in about a second.
+kernels are cached loads them in a second or two.
 
     python -m neurofuzzy.warmup            # every part, one process each
     python -m neurofuzzy.warmup stepper    # one part, in this process
@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -34,8 +35,8 @@ def _cube_experiment(frames: int = 12):
 
 
 def _learner_part() -> None:
-    """The forward sensitivities (``kernels.sensitivity``): :func:`neurofuzzy.learn.warmup.
-    run_with_tangents`."""
+    """The forward sensitivities (``kernels.sensitivity``), without the stepper:
+    :func:`neurofuzzy.learn.warmup.run_with_tangents`."""
     from .learn.warmup import run_with_tangents
 
     run_with_tangents()
@@ -51,9 +52,8 @@ def _stepper() -> None:
 
 
 def _static() -> None:
-    """The stiffness of elements and springs (``kernels.element``, ``kernels.stiffness``) and
-    the laws over arrays (``kernels.laws``): a static compression of a small block of each
-    volumetric form."""
+    """The elements' stiffness (``kernels.element``, ``kernels.stiffness``): a static
+    compression of a small block of each volumetric form."""
     from .mesh import from_tetra, kuhn_block
     from .model import Model
     from .simulation.static import Driven, equilibrium
@@ -95,18 +95,22 @@ def compile_kernels(parts=None, *, processes: int | None = None,
     while waiting or running:
         while waiting and len(running) < limit:
             name = waiting.pop(0)
-            running[name] = (time.perf_counter(), subprocess.Popen(
+            log = tempfile.TemporaryFile("w+")        # a pipe could fill and stall the part
+            running[name] = (time.perf_counter(), log, subprocess.Popen(
                 [sys.executable, "-m", "neurofuzzy.warmup", name],
-                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
-        for name, (began, process) in list(running.items()):
+                stdout=subprocess.DEVNULL, stderr=log, text=True))
+        for name, (began, log, process) in list(running.items()):
             if process.poll() is None:
                 continue
             del running[name]
-            stderr = process.stderr.read()
-            process.stderr.close()
+            log.seek(0)
+            stderr = log.read()
+            log.close()
             if process.returncode:
-                for other in running.values():
-                    other[1].kill()
+                for _, other_log, other in running.values():
+                    other.kill()
+                    other.wait()
+                    other_log.close()
                 raise RuntimeError(f"compiling the kernels of '{name}' failed:\n{stderr}")
             seconds[name] = time.perf_counter() - began
             if progress:
