@@ -44,11 +44,22 @@ def _learner_part() -> None:
 
 def _stepper() -> None:
     """The time stepper (``kernels.stepper``) and the adjoint sweep (``kernels.adjoint``) it
-    feeds: the gradient of a pass, as L-BFGS takes it."""
+    feeds: the gradient of a pass, as L-BFGS takes it, for each kind of model the kernels
+    compile apart (springs only, the cube; elements, a block of six tetrahedra)."""
     from .learn import GradientLearner
+    from .mesh import from_tetra, kuhn_block
+    from .model import Model
+    from .experiment import simulate_experiment
 
     model, data = _cube_experiment()
     GradientLearner(method="lbfgs", max_iterations=2).fit(model.tied("global"), data)
+    mesh = from_tetra(*kuhn_block((1, 1, 1), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    block = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45, viscosity=2.0,
+                            density=1000.0)
+    load = np.zeros((mesh.n_nodes, 3))
+    load[mesh.rest_positions[:, 2] > 0.01 - 1e-9, 2] = -1e-3
+    data = simulate_experiment(block, dt=1e-3, n_frames=6, external_forces=load)
+    GradientLearner(method="lbfgs", max_iterations=2).fit(block.tied("global"), data)
 
 
 def _static() -> None:

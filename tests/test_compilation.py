@@ -94,8 +94,7 @@ def test_a_fit_leaves_a_compilation_during_it_out_of_its_time(fresh, capsys, mon
 @pytest.mark.slow
 def test_a_cold_cache_is_announced_and_a_warm_one_is_silent(tmp_path):
     """With numba's cache in an empty folder: the first simulation says it compiles, the
-    second does not. (A cold fit would compile for another minute and a half; the fit's
-    wiring is the test above.)"""
+    second does not. (A cold fit compiles longer; the fit's wiring is the test above.)"""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
 
     def run(*args):
@@ -108,3 +107,42 @@ def test_a_cold_cache_is_announced_and_a_warm_one_is_silent(tmp_path):
     assert cold.stderr.count(COMPILING) == 1
     warm = run("simulate", "cube", "--out", tmp_path / "b.npz")
     assert COMPILING not in warm.stderr
+
+
+_SPRINGS_ONLY = """
+import json
+from neurofuzzy.datasets import paper_cube_experiment, paper_cube_model
+from neurofuzzy.kernels import adjoint, sensitivity, stepper
+from neurofuzzy.learn import GradientLearner
+from neurofuzzy.learn.warmup import Parameterization, Sensitivity
+
+model = paper_cube_model()
+data = paper_cube_experiment(model, n_frames=8)
+GradientLearner(method="lbfgs", max_iterations=1).fit(model.tied("global"), data)
+parameters = Parameterization(model.tied("global"))
+Sensitivity(parameters, model.length_unit).run(parameters.initial(), data, tangents=True)
+kernels = {"frames": stepper.frames, "forward": sensitivity.forward,
+           "pull_back": adjoint.pull_back, "_element_forces": stepper._element_forces,
+           "_element_tangents": sensitivity._element_tangents,
+           "_element_vjp": adjoint._element_vjp}
+print(json.dumps({name: [[str(t) for t in s] for s in kernel.signatures]
+                  for name, kernel in kernels.items()}))
+"""
+
+
+@pytest.mark.slow
+def test_a_spring_model_compiles_no_element_code(tmp_path):
+    """A model without elements passes ``tets`` (``elements``) None, and numba prunes the
+    element branch of the stepper, the sensitivities and the adjoint: from an empty cache a
+    fit of the cube compiles those three, and none of the element loops (together a minute
+    and a half of compilation, for nothing)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    result = subprocess.run([sys.executable, "-c", _SPRINGS_ONLY], capture_output=True,
+                            text=True, env=env, timeout=900)
+    assert result.returncode == 0, result.stderr
+    signatures = json.loads(result.stdout.strip().splitlines()[-1])
+    assert signatures["frames"] and all(s[8] == "none" for s in signatures["frames"])
+    assert signatures["forward"] and all(s[12] == "none" for s in signatures["forward"])
+    assert signatures["pull_back"] and all(s[6] == "none" for s in signatures["pull_back"])
+    for loop in ("_element_forces", "_element_tangents", "_element_vjp"):
+        assert signatures[loop] == [], loop

@@ -240,11 +240,12 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
     the mass (gravity), which ``W F`` does not see. The effects' cotangents: ``Σ λ_F`` per
     node into ``g_load`` (N, 3; a constant force's direction takes it, empty when none is
     learned), ``Σ λ_F · ∂F/∂drag = -Σ λ_F · v`` into ``g_terms[0]`` (when ``g_load`` is not
-    empty) and the elements' ``Σ λ_F · ∂F/∂κ`` into ``g_terms[1]``."""
+    empty) and the elements' ``Σ λ_F · ∂F/∂κ`` into ``g_terms[1]``. ``elements`` None: a
+    model without elements, which numba compiles without the element code (it prunes a
+    branch on an argument that is None)."""
     n_nodes = frame_adjoint.shape[1]
     effects = g_load.shape[0] > 0
     g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
-    has_elements = elements[0].shape[0] > 0
     cubic_basis = d_springs.shape[0] > 2
     plain = a.shape[0] - cubic.shape[0]        # the last springs' q: cubic
     node_strain = np.zeros((n_nodes, 2))
@@ -252,7 +253,7 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
     lam_p = np.zeros((n_nodes, 3))
     lam_v = np.zeros((n_nodes, 3))
     lam_force = np.empty((n_nodes, 3))
-    lam_history = np.zeros((elements[0].shape[0], relax_g.shape[1], 6))
+    lam_history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6))
     d_p = np.empty((n_nodes, 3))
     d_v = np.empty((n_nodes, 3))
     step = (n_frames - 1) * substeps
@@ -322,7 +323,7 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
                 d_v[ib, 0] += cv * ux
                 d_v[ib, 1] += cv * uy
                 d_v[ib, 2] += cv * uz
-            if has_elements:
+            if elements is not None:   # None: no elements, and no element code compiled
                 _element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, g_shear,
                              g_shear_rate, g_lam, g_lam_rate, g_stiffening, g_terms,
                              node_strain, node_adjoint, relax_g, relax_decay, states_r[step],

@@ -310,6 +310,7 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured (frame, row), 0
     elsewhere (threads given disjoint columns of one array split an experiment's Jacobian).
     A run of the state alone takes the faster :func:`neurofuzzy.kernels.stepper.frames`.
+    ``tets`` None: a model without elements, compiled without the element code (as there).
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
@@ -337,8 +338,8 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     d_node_strain = np.zeros((n_nodes, width, 2))
     # the relaxation's internal variables and their tangents: from rest, carried over window
     # starts (a window starts from a measured state; the elements' history goes on)
-    history = np.zeros((tets.shape[0], relax_g.shape[1], 6))
-    d_history = np.zeros((tets.shape[0], relax_g.shape[1], 6, width))
+    history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6))
+    d_history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6, width))
     for t in range(n_frames):
         if start_index[t] >= 0:
             p[:] = start_p[start_index[t]]
@@ -362,7 +363,7 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring_ptr,
                              spring_column, spring_basis, spring_factor, first, force, d_force,
                              work)
-            if tets.shape[0]:
+            if tets is not None:       # None: no elements, and no element code compiled
                 _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
                                   shear, shear_rate, lam, lam_rate, nodal, node_volume,
                                   node_lam, node_lam_rate, element_ptr, element_column,

@@ -247,7 +247,7 @@ def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, vol
                 for k in range(3):
                     force[i, k] -= drag * v[i, k]
         _springs(p, v, a, b, stiffness, damping, rest, cubic, force)
-        if tets.shape[0]:
+        if tets is not None:           # None: no elements, and no element code compiled
             _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear,
                             shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
                             node_lam_rate, node_strain, relax_g, relax_decay, history, kappa,
@@ -269,6 +269,9 @@ def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volu
     ``positions`` (n_frames, N, 3); ``loads[t - 1]`` acts from frame ``t - 1`` to ``t`` (the
     last load on); a run that leaves the finite numbers is NaN from there on. ``history``
     (the relaxation's internal variables) is carried through and left at its last value.
+    ``tets`` None: a model without elements, which numba compiles without the element code
+    (it prunes a branch on an argument that is None): a spring model's first run waits for
+    a third of the compilation.
 
     ``start_index`` (n_frames,) int, empty for one run from ``p``, ``v``: frames ``t`` with
     ``start_index[t] >= 0`` start a window from the state ``start_p``, ``start_v`` of that

@@ -92,9 +92,9 @@ class CompiledModel:
         """Element constants (the model's plus its inclusions') and the CSR of their
         derivatives by the parameters, with the node averages' derivatives."""
         n_nodes = model.n_nodes
-        if model.elements is None:
+        if model.elements is None:      # tets None: the kernels compile no element code
             empty, none = np.zeros(0), np.zeros(0, np.intp)
-            return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3)), empty, none,
+            return (None, np.zeros((0, 3, 3)), empty, none,
                     *(empty,) * 5, False,
                     *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
                     np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1, none)
@@ -260,7 +260,7 @@ class CompiledModel:
         start_index, start_p, start_v = _windows(n_frames, states)
         elements = self.elements[:13]
         relax_g, times, _ = self.relaxation
-        n_relaxing = len(elements[0]) if relax_g.shape[1] else 0
+        n_relaxing = relax_g.shape[0] if relax_g.shape[1] else 0
         steps = (n_frames - 1) * substeps if keep else 0
         kept = (np.empty((steps, n_nodes, 3)), np.empty((steps, n_nodes, 3)),
                 np.empty((steps if n_relaxing else 0, n_relaxing, relax_g.shape[1], 6)),
@@ -272,7 +272,7 @@ class CompiledModel:
         with np.errstate(over="ignore", invalid="ignore"):
             frames(start_p[0].copy(), start_v[0].copy(), *self.springs[:6], *elements,
                    np.zeros((n_nodes, 2)), relax_g, decay(times, h),
-                   np.zeros((len(elements[0]), relax_g.shape[1], 6)), self.elements[-3],
+                   np.zeros((relax_g.shape[0], relax_g.shape[1], 6)), self.elements[-3],
                    self.effects[0], np.ascontiguousarray(self.weight, dtype=float), loads, h,
                    n_frames, int(substeps), np.empty((n_nodes, 3)), positions,
                    np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept)

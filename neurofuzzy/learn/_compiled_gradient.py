@@ -53,7 +53,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
         sensitivity.n_nodes, n_frames, 3), 0, 1) * scale)
     # the springs' λ · ∂F by the bases of their magnitudes (x, ẋ and, when learned, x³)
     d_springs = np.zeros((3 if np.any(basis == CUBIC) else 2, len(a)))
-    n_elements, nodal = len(elements[0]), elements[9]
+    n_elements, nodal = relax_g.shape[0], elements[9]
     per_volumetric = sensitivity.n_nodes if nodal else n_elements   # λ, λβ: per node or element
     d_elements = (np.zeros(n_elements), np.zeros(n_elements), np.zeros(per_volumetric),
                   np.zeros(per_volumetric), np.zeros(n_elements))
@@ -64,10 +64,10 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     learned_effects = drag_column >= 0 or bool(spans)
     g_load = np.zeros((sensitivity.n_nodes if learned_effects else 0, 3))
     g_terms = np.zeros(2)
-    pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
-              drag, weight, h, n_frames, int(substeps), start_index, states_p, states_v,
-              states_r, states_f, unit_mass_force, frame_adjoint, d_springs, d_elements,
-              g_relax, g_mass, g_load, g_terms)
+    pull_back(a, b, stiffness, damping, rest, cubic, None if elements[0] is None else elements,
+              kappa, relax_g, relax_decay, drag, weight, h, n_frames, int(substeps),
+              start_index, states_p, states_v, states_r, states_f, unit_mass_force,
+              frame_adjoint, d_springs, d_elements, g_relax, g_mass, g_load, g_terms)
     for span in spans:
         grad[span] += np.einsum("nk,nkp->p", g_load, direction[:, :, span])
     if drag_column >= 0:

@@ -244,13 +244,15 @@ def _element_arrays(model, dtype, h: float):
     """``(tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
     node_volume, Λ, H, node_strain, g, a, history)`` of the model's elements in the kernel's
     layout (the
-    constants of :class:`~neurofuzzy.forces.ElementConstants`; empty when it has none;
+    constants of :class:`~neurofuzzy.forces.ElementConstants`; empty when it has none, and
+    ``tets`` None, which the kernels compile without their element code (a spring model
+    waits a third of the time for its first compilation);
     ``node_strain`` is scratch space of the nodal volumetric form; ``g``, ``a = exp(-h/τ)``
     and ``history`` (n_elements, K, 6) the Prony terms of steps of ``h`` seconds and their
     internal variables, :mod:`neurofuzzy.forces.relaxation`)."""
-    if model.elements is None:
+    if model.elements is None:          # tets None: the kernels compile no element code
         empty = np.zeros(0, dtype)
-        return (np.zeros((0, 4), np.intp), np.zeros((0, 3, 3), dtype), empty,
+        return (None, np.zeros((0, 3, 3), dtype), empty,
                 np.zeros(0, np.intp), empty, empty, empty, empty, empty, False, empty, empty,
                 empty,
                 np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
