@@ -1,7 +1,8 @@
 """Progress of long work on stderr: one mechanism for learners, the diagnosis and the CLI.
 
 The kernels compile once (numba, cached in ``neurofuzzy/kernels/__pycache__``): the first run
-on a clean install spends about a minute in it. :func:`announced` says so on stderr when a
+on a clean install spends half a minute in it for a spring model, two or three minutes for a
+model with elements (on one core). :func:`announced` says so on stderr when a
 compilation starts (only on a cold cache: a kernel loaded from the cache compiles nothing),
 and a :class:`Stopwatch` (the learners', the demo's and :class:`Progress`' timings) leaves the
 time spent compiling out.
@@ -18,8 +19,8 @@ import numpy as np
 __all__ = ["Progress", "note", "announced", "compile_seconds", "Stopwatch", "COMPILING"]
 
 #: what is said on stderr when the kernels start compiling
-COMPILING = ("compiling the simulation kernels, once: about a minute (cached for later runs; "
-             "not counted in the timings)")
+COMPILING = ("compiling the simulation kernels, once: half a minute for springs, two or three "
+             "minutes with elements (cached for later runs; not counted in the timings)")
 
 
 class _Compilations:
