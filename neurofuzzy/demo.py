@@ -210,13 +210,9 @@ def words_and_diagnosis(out, *, progress: bool = False) -> list[str]:
         arrow = f"{b.term} -> {a.term}" if a.term != b.term else a.term
         lines.append(f"  {name:<15} {b.value:10.4g} -> {a.value:10.4g} "
                      f"{rules.outputs[name].unit:<7} {arrow} ({a})")
-    explained = rules.explain(fitted)
-    deciding = {clause.variable for rule in rules.rules
-                if any(c.variable in learned for c in rule.consequents)
-                for group in rule.antecedent for clause in group}
+    explained = rules.explain(fitted)       # the words that decide the learned quantities
     lines.append("  in the expert's words: " +
-                 ", ".join(f"{k} is {v}" for k, v in explained["words"].items()
-                           if k in deciding))
+                 ", ".join(f"{k} is {v}" for k, v in explained["words"].items()))
 
     hidden = paper_cube_model().with_effects(Gravity([0.0, 0.0, -9.81]))
     result = diagnose(paper_cube_model(stiffness=40.0, damping=0.03, tie="groups"),

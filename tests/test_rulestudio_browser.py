@@ -166,3 +166,30 @@ def test_edit_a_breakpoint_see_the_tissue_fix_an_error_and_save(browser, studio)
     assert "firm" in row.inner_text() and "hard" in row.inner_text()
     assert page.locator('svg.mf[data-var="youngs_modulus"] .fit-start').count() == 1
     assert errors == []
+
+
+def test_the_side_panels_fit_a_1400_pixel_window(browser, studio):
+    """At 1400 x 900 pixels nothing in the side panels runs past their right edge, for every
+    tissue of the liver (the longest words: 'nearly_incompressible (0.72)',
+    'relaxation_modulus'), and the inputs a tissue leaves out are named with the defaults
+    it takes."""
+    running, folder = studio
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    errors = []
+    page.on("pageerror", lambda error: errors.append(f"{error} {error.stack}"))
+    page.goto(running.url)
+    page.wait_for_selector('tr.value[data-quantity="poisson_ratio"]')
+    for tissue in load_rules(folder / "liver.yaml").tissues:
+        page.select_option("#tissue-select", tissue)
+        until(lambda: attribute(page, "#block", "data-tissue") == tissue)
+        settled(page)
+        for panel in page.query_selector_all("#side .panel"):
+            edge = panel.bounding_box()
+            right = edge["x"] + edge["width"]
+            for element in panel.query_selector_all("td, li, div, span, code, b"):
+                box = element.bounding_box()
+                if box and box["width"]:
+                    assert box["x"] + box["width"] <= right + 1, (
+                        tissue, element.inner_text()[:60], box["x"] + box["width"], right)
+        assert "relaxation is relaxes" in page.inner_text("#defaults")
+    assert not errors

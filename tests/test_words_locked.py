@@ -11,7 +11,7 @@ from neurofuzzy.pipeline import start_model
 from neurofuzzy.report import fit_report
 from neurofuzzy.rules import load_rules, shipped
 from neurofuzzy.tissues import initialize, materials
-from neurofuzzy.tissues.values import LOCKED_POISSON_RATIO
+from neurofuzzy.tissues.values import DENSITY_NOT_LEARNED, LOCKED_POISSON_RATIO
 
 
 def test_a_spring_networks_locked_poisson_ratio_gets_no_word():
@@ -35,7 +35,10 @@ def test_the_report_of_a_spring_fit_leaves_the_locked_ratio_out(tmp_path):
     fit_report(start_model(data, model=start, rules=rules), learner, tmp_path / "r.html")
     (region,) = json.loads((tmp_path / "r.json").read_text())["regions"]
     assert "poisson_ratio" not in {row["quantity"] for row in region["quantities"]}
-    assert region["notes"] == {"poisson_ratio": LOCKED_POISSON_RATIO}
+    # the masses were not learned: the density is theirs, said so, and not explained
+    assert region["notes"] == {"poisson_ratio": LOCKED_POISSON_RATIO,
+                               "density": DENSITY_NOT_LEARNED}
     assert "compressibility" not in region["explained"]["words"]    # decides ν only
+    assert "heaviness" not in region["explained"]["words"]          # decides ρ only
     assert "consistency" in region["explained"]["words"]
     assert "locked at 1/4" in (tmp_path / "r.html").read_text()

@@ -67,11 +67,13 @@ def rules_show(args) -> int:
     rule_base = load_rule_base(args.rules, quiet=True)      # its output names the file
     values = rule_base.tissue(args.tissue)
     labels = rule_base.describe(values)
+    defaults = rule_base.defaults_taken(rule_base.tissues[args.tissue])
     if args.json:
         print_json({
             "tissue": args.tissue,
             "rules": rule_base.provenance(),
             "words": {k: str(v) for k, v in rule_base.tissues[args.tissue].items()},
+            "defaults": {k: str(v) for k, v in defaults.items()},
             "values": values,
             "units": {k: rule_base.outputs[k].unit for k in values},
             "labels": {k: {"term": l.term, "degree": l.degree, "degrees": l.degrees}
@@ -80,6 +82,9 @@ def rules_show(args) -> int:
         words = ", ".join(f"{k} is {v}" for k, v in rule_base.tissues[args.tissue].items())
         print(f"rules: {rule_base.origin}")
         print(f"{args.tissue}: {words}")
+        if defaults:
+            print("  not described, so the rule base's defaults: " + ", ".join(
+                f"{k} is {v}" for k, v in defaults.items()))
         for name, label in labels.items():
             print(f"  {name} = {label.value:.4g} {rule_base.outputs[name].unit}   ({label})")
     return 0

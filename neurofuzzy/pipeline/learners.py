@@ -129,8 +129,12 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
         result["material_law"] = learner.model_.elements.law_names()
     if start.rules is not None or any(start.model.region_tissues):
         from ..tissues import materials
+        from ..tissues.values import DENSITY_NOT_LEARNED
 
         result["materials"] = materials(learner.model_, start.rules, start.tissue)
+        if not learner.learn_masses:
+            for values in result["materials"].values():   # ρ is the masses', not a finding
+                values.setdefault("notes", {})["density"] = DENSITY_NOT_LEARNED
     if getattr(learner, "prior", None) is not None:
         from ..learn.regions import describe_regions, regions_found
 

@@ -78,8 +78,9 @@ def fit_report(start, learner, path, *, title: str | None = None,
     if start.rules is not None:
         regions = []
         for region, tissue in _tissues(start):
-            words_sections, region_data = _words_sections(start.rules, region, tissue,
-                                                          start.model, learner.model_)
+            words_sections, region_data = _words_sections(
+                start.rules, region, tissue, start.model, learner.model_,
+                masses_learned=learner.learn_masses)
             sections += words_sections
             regions.append(region_data)
         data["regions"] = regions
@@ -173,10 +174,11 @@ def _relative(target, folder: Path) -> str:
         return Path(target).resolve().as_posix()
 
 
-def _words_sections(rules, region, tissue, start, fitted):
-    """Sections and JSON of one region: words, start and learned values, labels, plots."""
+def _words_sections(rules, region, tissue, start, fitted, *, masses_learned: bool):
+    """Sections and JSON of one region: words, start and learned values, labels, plots (the
+    density, when the masses were not learned, is the masses' and no finding of the fit)."""
     from ..tissues import material_values
-    from ..tissues.values import LOCKED_POISSON_RATIO
+    from ..tissues.values import DENSITY_NOT_LEARNED, LOCKED_POISSON_RATIO
 
     plt = pyplot()
     springs, nodes = start.region_springs(region), start.region_nodes(region)
@@ -190,12 +192,13 @@ def _words_sections(rules, region, tissue, start, fitted):
                          for values in (before, after))
     labels_before = rules.describe(before)
     labels_after = rules.describe(after)
-    explained = rules.explain(after)
-    if locked:              # only the words that decide a described quantity
-        deciding = {clause.variable for rule in rules.rules
-                    if any(c.variable in after for c in rule.consequents)
-                    for group in rule.antecedent for clause in group}
-        explained["words"] = {k: v for k, v in explained["words"].items() if k in deciding}
+    # masses not learned: the density is theirs (the experiment's), shown but not explained
+    given = [] if masses_learned else [name for name in after
+                                       if rules.outputs[name].quantity == "density"]
+    notes = {**{name: LOCKED_POISSON_RATIO for name in locked},
+             **{name: DENSITY_NOT_LEARNED for name in given}}
+    # the words that decide a learned quantity
+    explained = rules.explain({k: v for k, v in after.items() if k not in given})
     words = {name: str(phrase) for name, phrase in rules.tissues[tissue].items()}
     where = f" ({html.escape(region)})" if len(start.region_names) > 1 else ""
 
@@ -210,11 +213,12 @@ def _words_sections(rules, region, tissue, start, fitted):
         rows.append([name, f"{b.value:.4g} {unit}", f"{a.value:.4g} {unit}", change,
                      ", ".join(f"{t} {d:.2f}" for t, d in sorted(a.degrees.items(),
                                                                  key=lambda kv: -kv[1]) if d > 0)])
-        changed.append(a.term != b.term)
+        moved = a.term != b.term and name not in given
+        changed.append(moved)
         data_rows.append({"quantity": name, "unit": unit, "before": b.value, "after": a.value,
                           "label_before": b.term, "degree_before": b.degree,
                           "label_after": a.term, "degree_after": a.degree,
-                          "degrees_after": a.degrees, "changed": a.term != b.term})
+                          "degrees_after": a.degrees, "changed": moved})
     sections = [("The expert's words" + where,
                  f"<p>Tissue <b>{html.escape(tissue)}</b> of <code>"
                  f"{html.escape(rules.source)}</code> (sha256 <code>"
@@ -224,8 +228,8 @@ def _words_sections(rules, region, tissue, start, fitted):
                 ("Start values, learned values, learned words" + where, table_html(
                     ["quantity", "start (from the words)", "learned", "label", "degrees"],
                     rows, changed) + "<p class='note'>Highlighted: the label changed." +
-                 "".join(f" {html.escape(name)}: {html.escape(LOCKED_POISSON_RATIO)}."
-                         for name in locked) + "</p>"),
+                 "".join(f" {html.escape(name)}: {html.escape(note)}."
+                         for name, note in notes.items()) + "</p>"),
                 ("The learned numbers in the expert's words" + where,
                  "<p>The input words that best reproduce the learned values: " +
                  ", ".join(f"{html.escape(k)} is <b>{html.escape(v)}</b>"
@@ -250,5 +254,5 @@ def _words_sections(rules, region, tissue, start, fitted):
                      figure_html(figure, "membership functions")))
     data = {"region": region, "tissue": tissue, "rules": rules.source, "words": words,
             "quantities": data_rows, "explained": explained,
-            **({"notes": {name: LOCKED_POISSON_RATIO for name in locked}} if locked else {})}
+            **({"notes": notes} if notes else {})}
     return sections, data

@@ -10,7 +10,8 @@ from .limits import check_inferred
 from .membership import apply_hedges
 from .terms import GRID_POINTS, Phrase, Variable, parse_phrase
 
-__all__ = ["infer", "aggregate", "rule_strengths", "tissue_values", "tissue_sets"]
+__all__ = ["infer", "aggregate", "rule_strengths", "tissue_values", "tissue_sets",
+           "undescribed"]
 
 
 def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
@@ -20,8 +21,9 @@ def infer(rules, descriptions: list[dict]) -> dict[str, np.ndarray]:
     ----------
     descriptions : list of dict
         Each maps input variable names to words ("very soft"), :class:`Phrase` objects or
-        crisp numbers; inputs left out do not constrain the rules that use them (their
-        clauses count as fully true).
+        crisp numbers. An input left out takes the rule base's ``default:`` for it; without
+        one, the rules that use it do not fire (its clauses count as false), and an output
+        that only such rules decide is NaN.
 
     Returns
     -------
@@ -71,7 +73,7 @@ def rule_strengths(rules, descriptions: list[dict]) -> np.ndarray:
     sets = {}
     for name, variable in rules.inputs.items():
         phrases = [_phrase(rules, d.get(name), variable) for d in descriptions]
-        sets[name] = _input_sets(variable, phrases)          # (n, G) or None
+        sets[name] = _input_sets(variable, phrases)          # (n, G), (n,)
     strengths = np.zeros((len(rules.rules), n))
     for index, rule in enumerate(rules.rules):
         groups = []
@@ -84,7 +86,9 @@ def rule_strengths(rules, descriptions: list[dict]) -> np.ndarray:
 
 
 def _phrase(rules, value, variable: Variable) -> Phrase | None:
-    if value is None or isinstance(value, Phrase):
+    if value is None:
+        return variable.default                 # None: not described, and no default
+    if isinstance(value, Phrase):
         return value
     if isinstance(value, (int, float, np.floating, np.integer)):
         if not variable.low <= value <= variable.high:      # also NaN; never clamped
@@ -98,11 +102,10 @@ def _phrase(rules, value, variable: Variable) -> Phrase | None:
     return phrase
 
 def _input_sets(variable, phrases):
-    """``(sets (n, G) or None, crisp (n,) internal values, NaN where fuzzy)``."""
+    """``(sets (n, G), crisp (n,) internal values, NaN where fuzzy)``; an input that is not
+    described is the empty set (no clause about it holds)."""
     crisp = np.full(len(phrases), np.nan)
-    if all(p is None for p in phrases):
-        return None, crisp
-    out = np.ones((len(phrases), GRID_POINTS))
+    out = np.zeros((len(phrases), GRID_POINTS))
     for i, phrase in enumerate(phrases):
         if phrase is None:
             continue
@@ -123,8 +126,6 @@ def _possibility(inputs, variable, phrase, n):
     """
     sets, crisp = inputs
     clause = apply_hedges(variable.terms[phrase.term].values, phrase.hedges)
-    if sets is None:
-        return np.ones(n)
     union = np.maximum(sets, clause[None, :]).sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         degree = np.where(union > 0, np.minimum(sets, clause[None, :]).sum(axis=1) / union,
@@ -154,11 +155,26 @@ def tissue_values(rules, name: str) -> dict[str, float]:
     values = infer(rules, [rules.tissues[name]])
     missing = [k for k, v in values.items() if not np.isfinite(v[0])]
     if missing:
-        raise InputError(f"no rule fires for tissue {name!r} on {missing}; add a rule",
-                         source=rules.source, key="tissues")
+        silent = undescribed(rules, rules.tissues[name], missing)
+        raise InputError(f"no rule fires for tissue {name!r} on {missing}" + (
+            f": it does not describe {' or '.join(silent)}, which has no default; describe "
+            f"it (e.g. {silent[0]}: {next(iter(rules.inputs[silent[0]].terms))}) or give "
+            f"the input a default (default: WORDS)" if silent else "; add a rule"),
+            source=rules.source, key="tissues")
     values = {k: float(v[0]) for k, v in values.items()}
     check_inferred(rules, name, values)
     return values
+
+
+def undescribed(rules, description: dict, outputs=None) -> list[str]:
+    """The inputs a description leaves out that have no default (whose rules do not fire),
+    among those the rules about ``outputs`` (default: every output) use."""
+    wanted = set(rules.outputs if outputs is None else outputs)
+    used = {clause.variable for rule in rules.rules
+            if any(c.variable in wanted for c in rule.consequents)
+            for group in rule.antecedent for clause in group}
+    return [name for name, variable in rules.inputs.items()
+            if name in used and description.get(name) is None and variable.default is None]
 
 
 def tissue_sets(rules, name: str) -> dict[str, np.ndarray]:

@@ -46,7 +46,7 @@ from .limits import (defuzzification_problems, shared_quantities, term_problem,
 from .membership import HEDGES, MEMBERSHIP_FUNCTIONS, check_parameters, evaluate
 from .rulebase import RuleBase
 from .terms import (DEFUZZIFICATION, QUANTITIES, TOP_KEYS, VARIABLE_KEYS, Clause, Phrase, Rule,
-                    RuleBaseError, Term, Variable, parse_phrase)
+                    RuleBaseError, Term, Variable, input_default, parse_phrase)
 
 __all__ = ["load_rules"]
 
@@ -276,6 +276,10 @@ class _Builder:
             return None
         for term, definition in terms.items():
             self.term(source, variable, str(term), definition, terms.line_of(term))
+        if "default" in spec:
+            variable.default, problem = input_default(variable, spec["default"])
+            if problem:
+                self.problem(source, spec.line_of("default"), problem)
         return variable
 
     def term(self, source, variable, name, definition, line):

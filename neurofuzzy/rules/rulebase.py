@@ -84,6 +84,13 @@ class RuleBase:
         (:func:`.words.explain`)."""
         return words.explain(self, self._current(values), hedges=hedges)
 
+    def defaults_taken(self, description: dict) -> dict[str, Phrase]:
+        """The inputs ``description`` (a tissue's words) leaves out, with the default words
+        it takes for each (inputs without a default are left out: their rules do not fire,
+        :func:`.inference.undescribed`)."""
+        return {name: variable.default for name, variable in self.inputs.items()
+                if description.get(name) is None and variable.default is not None}
+
     def _current(self, values: dict) -> dict:
         """Values keyed by an old (renamed) output name, under the new one."""
         return {self.renamed.get(name, name): value for name, value in values.items()}
@@ -94,8 +101,9 @@ class RuleBase:
             for v in variables.values():
                 unit = f" {v.unit}" if v.unit else ""
                 quantity = f" = {v.quantity}" if v.quantity else ""
+                default = f"; default {v.default}" if v.default is not None else ""
                 lines.append(f"  {role} {v.name}{quantity}: {v.low:g}..{v.high:g}{unit} "
-                             f"({v.scale}); terms: {', '.join(v.terms)}")
+                             f"({v.scale}); terms: {', '.join(v.terms)}{default}")
         lines.append(f"  {len(self.rules)} rules; defuzzification {self.defuzzification}, "
                      f"and={self.and_method}, or={self.or_method}")
         lines.append(f"  tissues: {', '.join(self.tissues) or '(none)'}")

@@ -12,7 +12,7 @@ from ..errors import InputError, closest_name
 from .membership import HEDGES
 
 __all__ = ["QUANTITIES", "Term", "Variable", "Phrase", "Clause", "Rule", "Label",
-           "RuleBaseError", "parse_phrase"]
+           "RuleBaseError", "parse_phrase", "input_default"]
 
 #: Physical quantities an output variable may stand for.
 QUANTITIES = ("youngs_modulus", "poisson_ratio", "stiffness", "viscosity", "damping",
@@ -22,7 +22,7 @@ DEFUZZIFICATION = ("centroid", "bisector", "mom", "som", "lom")
 GRID_POINTS = 401
 TOP_KEYS = ("name", "description", "extends", "defuzzification", "and", "or", "inputs",
             "outputs", "rules", "tissues")
-VARIABLE_KEYS = ("universe", "terms", "quantity", "description", "unit")
+VARIABLE_KEYS = ("universe", "terms", "quantity", "description", "unit", "default")
 
 
 class RuleBaseError(InputError):
@@ -60,6 +60,8 @@ class Variable:
     terms: dict = field(default_factory=dict)
     line: int = 0
     source: str = ""              # the rule file that defines it (for messages)
+    #: an input's words for a tissue that does not describe it (None: its rules do not fire)
+    default: Phrase | None = None
 
     def to_internal(self, x):
         x = np.asarray(x, dtype=float)
@@ -145,3 +147,14 @@ def parse_phrase(text: str, variable: Variable) -> tuple[Phrase | None, str | No
                       (f"; did you mean {hint!r}?" if hint else
                        f"; its terms are {list(variable.terms)}"))
     return Phrase(tuple(hedges), term), None
+
+
+def input_default(variable: Variable, value) -> tuple[Phrase | None, str | None]:
+    """An input's ``default:`` as a :class:`Phrase`, or ``(None, problem)``: the words a
+    tissue takes for an input it does not describe (without one, the rules about the input
+    do not fire for that tissue)."""
+    if variable.role != "input":
+        return None, (f"{variable.name}: only an input takes a default (the words of a tissue "
+                      "that does not describe it)")
+    phrase, problem = parse_phrase(str(value), variable)
+    return (None, f"{variable.name}: default: {problem}") if problem else (phrase, None)

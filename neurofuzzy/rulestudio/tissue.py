@@ -55,6 +55,8 @@ def tissue_view(rules: RuleBase, tissue: str) -> dict:
                     "values": np.round(np.interp(samples, grid, sets[name]), 4).tolist()}})
     return {"tissue": tissue,
             "words": {k: str(v) for k, v in rules.tissues[tissue].items()},
+            "defaults": {k: str(v) for k, v in
+                         rules.defaults_taken(rules.tissues[tissue]).items()},
             "outputs": outputs,
             "rules": [{"position": i, "text": rule.text, "line": rule.line,
                        "weight": rule.weight, "strength": float(s)}

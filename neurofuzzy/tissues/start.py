@@ -167,9 +167,9 @@ def element_model(rules, mesh, names, values, element_tissue, *, node_region) ->
     """An element model of ``mesh``: every tetrahedron takes E, ν, η and density of its
     tissue (``element_tissue`` indexes ``names``; ``values[name]`` are the tissue's inferred
     outputs). ν comes from an output of quantity ``poisson_ratio`` where the rule base has
-    one and the tissue's description names an input of its rules; else (the expert said
-    nothing about compressibility, and every ν rule would fire at once, giving the centre of
-    the universe) :data:`~neurofuzzy.constants.DEFAULT_POISSON_RATIO`. Likewise the elements
+    one and the tissue's description, or an input's ``default:``, decides an input of its
+    rules; else (nothing about compressibility: no ν rule fires)
+    :data:`~neurofuzzy.constants.DEFAULT_POISSON_RATIO`. Likewise the elements
     relax (one Prony term, :mod:`neurofuzzy.forces.relaxation`) with the ``relaxation_modulus``
     and ``relaxation_time`` outputs where some tissue's description names an input of their
     rules; the others then get g = 0 (no relaxation). And the tissues whose description names
@@ -189,7 +189,8 @@ def element_model(rules, mesh, names, values, element_tissue, *, node_region) ->
                 raise InputError(f"an element model needs the rule base's {key}; it has "
                                  f"{sorted(quantities)}", source=rules.source, key="outputs")
             per_tissue[key][index] = quantities[key]
-        said = _inputs_of(rules, "poisson_ratio") & set(rules.tissues.get(name, {}))
+        words = rules.tissues.get(name, {})
+        said = _inputs_of(rules, "poisson_ratio") & {*words, *rules.defaults_taken(words)}
         per_tissue["poisson_ratio"][index] = (quantities["poisson_ratio"] if said
                                               and "poisson_ratio" in quantities
                                               else DEFAULT_POISSON_RATIO)

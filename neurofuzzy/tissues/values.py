@@ -8,7 +8,7 @@ from __future__ import annotations
 from ..constants import quantities, region_quantities
 from ..model import Model
 
-__all__ = ["materials", "material_values", "LOCKED_POISSON_RATIO"]
+__all__ = ["materials", "material_values", "LOCKED_POISSON_RATIO", "DENSITY_NOT_LEARNED"]
 
 #: what ``materials`` reports of a region (the terms may say more; all of it gets words)
 _REPORTED = ("youngs_modulus", "poisson_ratio", "viscosity", "density")
@@ -17,6 +17,11 @@ _REPORTED = ("youngs_modulus", "poisson_ratio", "viscosity", "density")
 #: expert said)
 LOCKED_POISSON_RATIO = ("locked at 1/4 by the spring network whatever the words say; neither "
                         "learned nor described (tetrahedral elements learn it)")
+
+#: why a fitted model's density is no finding of the fit when the masses were not learned
+#: (``fit --json``'s materials and the report say it beside the value and its word)
+DENSITY_NOT_LEARNED = ("not learned: the node masses the fit started from (the experiment's "
+                       "when it gives them, else the words'), read as a density")
 
 
 def materials(model: Model, rules=None, tissue: str | None = None) -> dict:

@@ -163,13 +163,20 @@ function renderTissuePicker() {
   if (tissueName) select.value = tissueName;
 }
 
+// A name_with_underscores that may wrap after each underscore (a narrow panel), not mid-word.
+function breakable(name) {
+  return name.split("_").flatMap((part, i) => (i ? ["_", el("wbr"), part] : [part]));
+}
+
 function renderSide() {
   const stale = !tissueFresh;
   $("values").classList.toggle("stale", stale);
   if (!state.valid) $("tissue-note").textContent = "Fix the problems to see the tissue again (showing the last valid one).";
-  if (!tissue) { $("values").replaceChildren(); $("fired").replaceChildren(); return; }
+  if (!tissue) { $("values").replaceChildren(); $("fired").replaceChildren(); $("defaults").textContent = ""; return; }
+  const defaults = Object.entries(tissue.defaults || {}).map(([k, v]) => `${k} is ${v}`);
+  $("defaults").textContent = defaults.length ? `Not described, so the rule base's defaults: ${defaults.join(", ")}.` : "";
   $("values").replaceChildren(...tissue.outputs.map((o) => el("tr", { class: "value", "data-quantity": o.quantity, "data-value": o.value, "data-term": o.term }, [
-    el("td", {}, [el("b", { text: o.name })]),
+    el("td", {}, [el("b", {}, breakable(o.name))]),
     el("td", { class: "num", text: quantityText(o.value, o.unit) }),
     el("td", {}, [el("div", { text: `${o.term} (${o.degree.toFixed(2)})` }),
       el("div", { class: "degrees" }, Object.entries(o.degrees).filter(([, d]) => d > 0.005).sort((a, b) => b[1] - a[1])
