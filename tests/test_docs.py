@@ -117,6 +117,12 @@ def check_words(folder, outputs):
     assert (folder / "fitted.yaml").exists() and (folder / "report.html").exists()
     # the page explains the fit's warning, quoting its 297 µm
     assert "-> 297 µm" in outputs[0][1] and "misses them by 297 µm" in outputs[0][1]
+    # the page: the data's masses read as 889 kg/m³ "light", said to be no finding
+    region = json.loads((folder / "report.json").read_text())["regions"][0]
+    density = next(q for q in region["quantities"] if q["quantity"] == "density")
+    assert round(density["after"]) == 889 and density["label_after"] == "light"
+    assert not density["changed"] and region["notes"]["density"].startswith("not learned")
+    assert "heaviness" not in region["explained"]["words"]
     # the snippet's comment: white matter's Poisson's ratio in words, with its degree
     printed = outputs[-1][1]
     assert "nearly_incompressible" in printed and "0.72" in printed, printed
