@@ -54,6 +54,19 @@ def test_none_on_clean_data_without_an_effect(cube_experiment):
     assert result.to_dict()["answer"] == ["none"]
 
 
+def test_no_candidate_below_one_at_the_noise_is_refitted(capsys):
+    """Hidden gravity on the cube: its refit reaches the noise, so the four candidates
+    ranked below it are not refitted (they could only tie within the noise); the answer is
+    the one refitting them all gave."""
+    hidden = paper_cube_model().with_effects(Gravity([0.0, 0.0, -9.81]))
+    result = diagnose(start_model(), paper_cube_experiment(hidden), progress=True)
+    said = capsys.readouterr().err
+    assert result.names == ["gravity"]
+    assert result.effects[0].parameters["gz"] == pytest.approx(-9.81, rel=1e-6)
+    assert "gravity (ranked 1), refitted" in said and "(ranked 2)" not in said
+    assert "the 4 candidate(s) ranked below it are not refitted" in said
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(HIDDEN))
 def test_hidden_effect_is_named_located_and_removed(name):

@@ -235,6 +235,11 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 (f"shrinks the gap {gap_before / gap_after:.2g}x" if gap_after > 0 else
                  "down to the noise"))
             refits.append((gap_after, rank, candidate, refit))
+            if refit.lack_of_fit_.explained and rank + 1 < len(tried):
+                # at the noise: a candidate ranked lower could only tie within the noise
+                say(f"diagnose: {candidate.name} explains the data to the noise; the "
+                    f"{len(tried) - rank - 1} candidate(s) ranked below it are not refitted")
+                break
         gap_after, _, winner, refit = min(refits, key=lambda entry: entry[:2])
         if gap_after * MIN_SHRINK > gap_before:
             say("diagnose: no candidate shrinks the gap enough when refitted")

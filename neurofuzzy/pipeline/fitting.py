@@ -117,8 +117,17 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     prior : {"default", "auto", "off"} or float
         See :func:`~.learners.make_prior`.
     method : {"gradient", "paper"}
-    cycles, learn_masses, substeps, learning_rate, mass_learning_rate, mesh_check
-        The learner's options (:func:`~.learners.make_learner`).
+    cycles : int, optional
+        Learning cycles (default: the learner's own; this and the next five options are
+        :func:`~.learners.make_learner`'s).
+    learn_masses : bool
+        Learn the node masses too.
+    substeps : int or "auto"
+        Simulation steps per frame (``"auto"``: the fewest the data follow).
+    learning_rate, mass_learning_rate : float
+        The paper's learner's rates (``method="paper"``).
+    mesh_check : bool
+        When the fitted element model misses the data, refit it on its mesh refined once.
     names : sequence of str, optional
         How the summary names the experiments (default: their files).
     progress : bool
