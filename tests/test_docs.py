@@ -133,6 +133,17 @@ def check_words(folder, outputs):
 def check_command_line(folder, outputs):
     fitted = last_json(outputs[0][1])
     assert fitted["rms_error"] < fitted["rms_error_initial"]
+    # the page: the paper's learner from the noisy data's own start, 225 µm -> 8.71 µm, the
+    # noise, with the stiffness and damping it quotes (it started at the answer before)
+    printed = outputs[0][1]
+    start, end = map(float, re.search(r"RMS error per marker: ([\d.]+) µm -> ([\d.]+) µm",
+                                      printed).groups())
+    assert start == pytest.approx(225, rel=0.05) and end == pytest.approx(8.71, rel=0.05)
+    assert "explained to the noise" in printed and "1.01x" in printed
+    stiffness, damping = map(float, re.search(
+        r"edge \(54 springs\): stiffness ([\d.]+), damping ([\d.]+)", printed).groups())
+    assert stiffness == pytest.approx(49.99, abs=0.01)
+    assert damping == pytest.approx(0.0199, abs=1e-4)
 
 
 def check_python(folder, outputs):

@@ -191,9 +191,10 @@ def volume_shares(mesh: Mesh, geometry: TetraGeometry, tet_tissue: np.ndarray,
 def spring_material_values(model, springs=None, nodes=None) -> dict[str, float]:
     """The material quantities a spring model's constants stand for (medians over the given
     springs and nodes, default all; springs with both ends fixed and fixed nodes are left
-    out, their values are never learned), by quantity: E and η from the spring constants by the factors of the
-    module docstring, ν the 1/4 a spring network is locked to, density from the node masses,
-    and the constants themselves (``stiffness``, ``damping``, ``node_mass``)."""
+    out, their values are never learned), by quantity: E and η from the spring constants by
+    the factors of the module docstring, ν the 1/4 a spring network is locked to, density
+    from the node masses, and the constants themselves (``stiffness``, ``damping``,
+    ``node_mass``)."""
     geometry = spring_geometry(model.mesh)
     moving = model.mesh.free[model.mesh.springs].any(axis=1)
     springs = np.flatnonzero(moving) if springs is None else np.intersect1d(
