@@ -312,6 +312,8 @@ def test_bad_meshes_and_resource_guards(tmp_path, capsys):
     (["fit", "NPZ", "--learning-rate", "nan", "--method", "paper"], "--learning-rate"),
     (["fit", "NPZ", "--substeps", "-2"], "--substeps"),
     (["diagnose", "NPZ", "--max-effects", "-1"], "--max-effects"),
+    (["diagnose", "NPZ", "--max-time", "0"], "--max-time"),
+    (["diagnose", "NPZ", "--max-time", "nan"], "--max-time"),
     (["import", "x.csv", "--topology", "NPZ", "--dt", "0"], "--dt"),
     (["import", "x.csv", "--topology", "NPZ", "--force-spread", "0"], "--force-spread"),
     (["export", "MODEL", "--every", "0"], "--every"),

@@ -341,3 +341,21 @@ def test_examples_write_only_into_ignored_folders():
                for name in re.findall(r'"([a-z-]+-output)"', path.read_text())}
     assert len(folders) >= 7
     assert {f"{name}/" for name in folders} <= ignored
+
+
+def test_diagnose_max_time_answers_provisionally(tmp_path, capsys):
+    """diagnose --max-time on the cube under a gravity the start does not know: out of time
+    after the first fit, the answer so far, marked provisional in the JSON, the verdict and
+    on stderr; exit status 0."""
+    from neurofuzzy.datasets import paper_cube_experiment, paper_cube_model
+    from neurofuzzy.effects import Gravity
+
+    hanging = paper_cube_model().with_effects(Gravity([0.0, 0.0, -9.81]))
+    data = save_experiment(paper_cube_experiment(hanging), tmp_path / "hanging.npz")
+    status = main(["diagnose", str(data), "--tie", "global", "--max-time", "1e-9", "--json"])
+    assert status == 0
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    assert result["provisional"].startswith("stopped after")
+    assert result["verdict"].startswith("provisional (stopped after")
+    assert "the answer is provisional" in captured.err

@@ -67,6 +67,34 @@ def test_no_candidate_below_one_at_the_noise_is_refitted(capsys):
     assert "the 4 candidate(s) ranked below it are not refitted" in said
 
 
+def test_out_of_time_the_answer_so_far_is_provisional(capsys):
+    """max_time spent after the first fit: no candidate is refitted, the answer is what the
+    fitted model says (it misses the data: unexplained), marked provisional with what was
+    left out; with time enough the same data give gravity and nothing provisional."""
+    data = paper_cube_experiment(paper_cube_model().with_effects(Gravity([0.0, 0.0, -9.81])))
+    hurried = diagnose(start_model(), data, max_time=1e-6, progress=True)
+    said = capsys.readouterr().err
+    assert hurried.effects == [] and hurried.names == ["unexplained"]
+    assert hurried.provisional.startswith("stopped after ")
+    assert hurried.provisional.endswith(" s of max_time 1e-06 s: 5 of 5 candidates of round 1 "
+                                        "not refitted")
+    assert hurried.verdict.startswith("provisional (stopped after")
+    assert hurried.to_dict()["provisional"] == hurried.provisional
+    assert "refitting" not in said and "the answer is provisional" in said
+    calm = diagnose(start_model(), data, max_time=600.0, progress=True)
+    said = capsys.readouterr().err
+    assert calm.names == ["gravity"] and calm.provisional is None
+    assert "refitting gravity (1 of 5; about " in said and " s left in this round)" in said
+
+
+@pytest.mark.parametrize("seconds", [0.0, -1.0, float("nan")])
+def test_max_time_must_be_positive(seconds):
+    from neurofuzzy.errors import InputError
+
+    with pytest.raises(InputError, match="expected a positive number of seconds"):
+        diagnose(start_model(), paper_cube_experiment(TRUTH), max_time=seconds)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(HIDDEN))
 def test_hidden_effect_is_named_located_and_removed(name):

@@ -146,6 +146,7 @@ def diagnose(args) -> int:
 
     progress = not args.quiet   # on stderr: --json output on stdout stays one object
     at_least(args.max_effects, 0, "--max-effects")
+    positive(args.max_time, "--max-time")
     substeps = _substeps(args.substeps)
     with Outputs(_protected(args)) as outputs:
         out = outputs.file(args.out, "--out")
@@ -161,7 +162,8 @@ def diagnose(args) -> int:
         with explained("diagnosis", experiments, start.model, substeps):
             result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
                                    substeps=substeps, prior=prior,
-                                   mesh_check=not args.no_mesh_check, progress=progress)
+                                   mesh_check=not args.no_mesh_check,
+                                   max_time=args.max_time, progress=progress)
         check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
                       result.rms_after, substeps)
         if out:

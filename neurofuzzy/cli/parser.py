@@ -133,6 +133,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="when the final element model still misses the data, do not "
                                "refit it on the mesh refined once to say how much of the "
                                "misfit is the mesh's")
+    diagnose.add_argument("--max-time", type=float, metavar="SECONDS",
+                          help="answer after about this many seconds with the best answer so "
+                               "far, marked provisional (checked between fits)")
     diagnose.add_argument("--out", help="write the final model (with the effects) as YAML")
     diagnose.add_argument("--report", help="write an HTML report (and a .json twin)")
     diagnose.add_argument("--localise", action="store_true",

@@ -17,6 +17,7 @@ from ..model import Model
 from ..progress import note
 from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
+from .clock import Clock
 from .localise import INCLUSIONS, Localisation, localise
 from .scoring import Candidate, confidence
 from .trajectory import TrajectoryEvidence
@@ -99,6 +100,9 @@ class Diagnosis:
         When the final model still misses the data: the same model refitted on its mesh
         refined once (``nodes``, ``elements``, ``rms``, ``ratio`` to the noise and the share of
         the misfit above the noise it ``explains``).
+    provisional : str or None
+        Why the answer is provisional (the diagnosis ran out of ``max_time`` with work left:
+        what it did not do); None for a complete diagnosis.
     """
 
     effects: list
@@ -111,6 +115,7 @@ class Diagnosis:
     localisation: Localisation | None = None
     lack_of_fit: object = None
     mesh: dict | None = None
+    provisional: str | None = None
 
     @property
     def unexplained(self) -> bool:
@@ -128,6 +133,10 @@ class Diagnosis:
     @property
     def verdict(self) -> str:
         """The answer in words, with the lack of fit of the final model."""
+        head = f"provisional ({self.provisional}): " if self.provisional else ""
+        return head + self._verdict()
+
+    def _verdict(self) -> str:
         if self.lack_of_fit is None:
             return ", ".join(self.names)
         found = ", ".join(f.name for f in self.effects)
@@ -152,7 +161,8 @@ class Diagnosis:
             "rms_before": self.rms_before, "rms_after": self.rms_after,
             "noise_rms": self.noise_rms, "verdict": self.verdict,
             "lack_of_fit": self.lack_of_fit.to_dict() if self.lack_of_fit else None,
-            "mesh": self.mesh, "candidates": [c.to_dict() for c in self.candidates],
+            "mesh": self.mesh, "provisional": self.provisional,
+            "candidates": [c.to_dict() for c in self.candidates],
             "rounds": [{"candidates": [c.to_dict() for c in r["candidates"]], "rms": r["rms"],
                         "winner": r["winner"]} for r in self.rounds],
             "localisation": self.localisation.to_dict() if self.localisation else None})
@@ -160,7 +170,8 @@ class Diagnosis:
 
 def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
              max_effects: int = 3, substeps: int | str = "auto", prior=None,
-             mesh_check: bool = True, progress: bool = False) -> Diagnosis:
+             mesh_check: bool = True, max_time: float | None = None,
+             progress: bool = False) -> Diagnosis:
     """Find, name and add the effects the model lacks (see the module docstring).
 
     Parameters
@@ -183,8 +194,12 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         When the final element model still misses the data, refit it on its mesh refined
         once to say how much of the misfit is the mesh's (``mesh``; a fit of about 16 times
         the work).
+    max_time : float, optional
+        Seconds of wall time: once they are spent, no further fit starts and the best answer
+        so far is returned, marked :attr:`Diagnosis.provisional` (checked between fits, so
+        the answer comes at most one fit late; the first fit always runs).
     progress : bool
-        Report each round on stderr.
+        Report each round on stderr, each refit with an estimate of the round's time left.
     """
     experiments = check_experiments(model, experiments)
     # one-step residual forces need measured nodes; element models and embedded markers are
@@ -195,7 +210,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     def say(message):
         note(progress, message)
 
-    fitted = GradientLearner(substeps=substeps).fit(model, experiments)
+    clock = Clock(max_time)
+    fitted = clock.timed(lambda: GradientLearner(substeps=substeps).fit(model, experiments))
     current, rms, steps = fitted.model_, fitted.rms_error_, fitted.substeps_
     rms_start, verdict = rms, fitted.lack_of_fit_
     say(f"diagnose: fitted the model as it is, {verdict.short}")
@@ -221,14 +237,23 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         gap_before = gap(rms, noise_rms)
         refits = []
         for rank, candidate in enumerate(tried):
-            refit = _refit(candidate, current, evidence, experiments, substeps,
-                           staged=not in_trajectory_space)
-            if not refit.lack_of_fit_.explained:
+            if clock.out():
+                clock.left_out(f"{len(tried) - rank} of {len(tried)} candidates of round "
+                               f"{len(rounds)} not refitted")
+                break
+            say(f"diagnose: refitting {candidate.name} ({rank + 1} of {len(tried)}; "
+                f"{clock.estimate(len(tried) - rank)})")
+            refit = clock.timed(lambda: _refit(candidate, current, evidence, experiments,
+                                               substeps, staged=not in_trajectory_space))
+            if not refit.lack_of_fit_.explained and clock.out():
+                clock.left_out(f"{candidate.name} not refitted from the start model's values")
+            elif not refit.lack_of_fit_.explained:
                 # the fitted model may have bent its own values to make up for what it
                 # lacks (softened the whole block for hidden gravity), far from where the
                 # effect's fit starts well: once more from the start model's values
-                again = _refit(candidate, model.with_effects(*current.effects), evidence,
-                               experiments, substeps, staged=not in_trajectory_space)
+                again = clock.timed(lambda: _refit(
+                    candidate, model.with_effects(*current.effects), evidence, experiments,
+                    substeps, staged=not in_trajectory_space))
                 refit = min(refit, again, key=lambda fitted: fitted.rms_error_)
             gap_after = gap(refit.rms_error_, noise_rms)
             say(f"diagnose: {candidate.name} (ranked {rank + 1}), refitted: " +
@@ -240,6 +265,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 say(f"diagnose: {candidate.name} explains the data to the noise; the "
                     f"{len(tried) - rank - 1} candidate(s) ranked below it are not refitted")
                 break
+        if not refits:
+            break
         gap_after, _, winner, refit = min(refits, key=lambda entry: entry[:2])
         if gap_after * MIN_SHRINK > gap_before:
             say("diagnose: no candidate shrinks the gap enough when refitted")
@@ -263,22 +290,32 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
             f"{length_text(refit.rms_error_)}")
         current, rms, steps = refit.model_, refit.rms_error_, refit.substeps_
         verdict = refit.lack_of_fit_
+        if clock.stopped:
+            break
     mesh = None
-    if not verdict.explained and model.elements is not None and mesh_check:
+    if not verdict.explained and model.elements is not None and mesh_check and clock.out():
+        clock.left_out("the mesh check not run")
+    elif not verdict.explained and model.elements is not None and mesh_check:
         say("diagnose: the misfit is above the noise; refitting on the mesh refined once to "
             "see how much of it is the mesh's")
         mesh = _mesh_share(current, experiments, substeps, verdict)
     localisation = None
     inclusions = [f for f in findings if f.name in INCLUSIONS]
-    if prior is not None and inclusions:
+    if prior is not None and inclusions and clock.out():
+        clock.left_out("the inclusion not located item by item")
+    elif prior is not None and inclusions:
         say("diagnose: locating the inclusion item by item (a fit of every "
             f"{'spring' if model.elements is None else 'element'} with the rule base as a prior)")
         localisation = localise(model, experiments, prior, findings=inclusions,
                                 substeps=substeps, progress=progress)
         say(f"diagnose: {localisation.words}")
+    if clock.stopped:
+        say(f"diagnose: out of time ({clock.provisional}); the answer is provisional")
     return Diagnosis(effects=findings, model_=current, rms_before=rms_start, rms_after=rms,
                      noise_rms=verdict.noise, candidates=ranked, rounds=rounds,
-                     localisation=localisation, lack_of_fit=verdict, mesh=mesh)
+                     localisation=localisation, lack_of_fit=verdict, mesh=mesh,
+                     provisional=clock.provisional)
+
 
 
 def _to_refit(ranked, evidence, verdict, rms, say) -> list:
