@@ -62,10 +62,15 @@ def region_centre(model, elements):
     return corners.mean(axis=(0, 1))
 
 
-def test_nothing_hidden_answers_none():
-    result = diagnose(start(), measured(block()))
+def test_nothing_hidden_answers_none(capsys):
+    """At the noise with nothing significant left, the answer is none before any candidate
+    is scored (their evidence, a scan of inclusion balls, is most of a diagnosis's time)."""
+    result = diagnose(start(), measured(block()), progress=True)
     assert result.names == ["none"]
     assert result.rms_after < 1.5 * result.noise_rms
+    assert result.rounds == [] and result.candidates == []
+    said = capsys.readouterr().err
+    assert "nothing left to explain, so no candidate scored" in said and "scoring" not in said
 
 
 @pytest.mark.slow

@@ -19,7 +19,7 @@ from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
 from .localise import INCLUSIONS, Localisation, localise
-from .scoring import Candidate, confidence
+from .scoring import Candidate, confidence, gap, marker_size, nothing_left
 from .trajectory import TrajectoryEvidence
 
 __all__ = ["diagnose", "Diagnosis", "Finding"]
@@ -219,6 +219,12 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     ranked: list[Candidate] = []
     for _ in range(max_effects):
         noise_rms = verdict.noise
+        if in_trajectory_space and nothing_left(verdict, rms, marker_size(experiments)):
+            # the answer is none whatever the candidates score: their evidence (a scan of
+            # inclusion balls, the material switches) is most of a diagnosis's time
+            say(f"diagnose: none ({verdict.short}; nothing left to explain, so no candidate "
+                "scored)")
+            break
         evidence = (TrajectoryEvidence.of(current, experiments, steps,
                                           verdict.noise_per_coordinate)
                     if in_trajectory_space else Evidence.of(current, experiments, steps))
@@ -326,8 +332,7 @@ def _to_refit(ranked, evidence, verdict, rms, say) -> list:
     strong = [c for c in ranked if c.score >= MIN_EVIDENCE]
     if verdict.explained:
         strong = [c for c in strong if c.explained >= evidence.min_explained]
-        exact = verdict.noise == 0          # noise-free data explained exactly: rounding left
-        if exact or not significant(rms, verdict.noise, evidence.size):
+        if nothing_left(verdict, rms, evidence.size):
             say(f"diagnose: none ({verdict.short}; nothing left to explain)")
             return []
         if not strong:
@@ -403,13 +408,3 @@ def _switches(candidate: Candidate) -> bool:
     (:attr:`~neurofuzzy.effects.Effect.switches_material`: neo-Hookean or Yeoh elements, a
     Prony term) rather than add a force term?"""
     return candidate.effect.switches_material
-
-
-def significant(rms: float, noise_rms: float, n: int) -> bool:
-    """Is the squared error above the noise by more than 5 sampling standard deviations?"""
-    return rms**2 - noise_rms**2 > 5.0 * np.sqrt(2.0 / max(n, 1)) * noise_rms**2
-
-
-def gap(rms: float, noise_rms: float) -> float:
-    """RMS error above what marker noise explains."""
-    return float(np.sqrt(max(rms**2 - noise_rms**2, 0.0)))

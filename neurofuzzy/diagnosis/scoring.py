@@ -9,7 +9,8 @@ import numpy as np
 
 from .residuals import Samples, templates
 
-__all__ = ["Candidate", "score_candidates", "confidence", "initial_params"]
+__all__ = ["Candidate", "score_candidates", "confidence", "initial_params", "significant",
+           "gap", "nothing_left", "marker_size"]
 
 
 @dataclass
@@ -84,3 +85,25 @@ def initial_params(effect, model, samples, base) -> np.ndarray:
     norms[norms == 0] = 1.0
     solution, *_ = np.linalg.lstsq(both / norms, samples.force.ravel(), rcond=None)
     return (solution / norms)[base.shape[1]:]
+
+
+def nothing_left(verdict, rms: float, n: int) -> bool:
+    """Does the model explain the data to the noise with no significant excess (or noise-free
+    data exactly, rounding left)? Then the answer is none, whatever a candidate scores."""
+    exact = verdict.noise == 0
+    return verdict.explained and (exact or not significant(rms, verdict.noise, n))
+
+
+def marker_size(experiments) -> int:
+    """The number of marker residuals of a free run (the trajectory evidence's size)."""
+    return sum(3 * (e.n_frames - 1) * e.observation.n_rows for e in experiments)
+
+
+def significant(rms: float, noise_rms: float, n: int) -> bool:
+    """Is the squared error above the noise by more than 5 sampling standard deviations?"""
+    return rms**2 - noise_rms**2 > 5.0 * np.sqrt(2.0 / max(n, 1)) * noise_rms**2
+
+
+def gap(rms: float, noise_rms: float) -> float:
+    """RMS error above what marker noise explains."""
+    return float(np.sqrt(max(rms**2 - noise_rms**2, 0.0)))
