@@ -62,15 +62,21 @@ def region_centre(model, elements):
     return corners.mean(axis=(0, 1))
 
 
-def test_nothing_hidden_answers_none(capsys):
+def test_nothing_hidden_answers_none(capsys, tmp_path):
     """At the noise with nothing significant left, the answer is none before any candidate
-    is scored (their evidence, a scan of inclusion balls, is most of a diagnosis's time)."""
+    is scored (their evidence, a scan of inclusion balls, is most of a diagnosis's time);
+    the round keeps its residuals, which the report draws."""
+    from neurofuzzy.report import diagnosis_report
+
     result = diagnose(start(), measured(block()), progress=True)
     assert result.names == ["none"]
     assert result.rms_after < 1.5 * result.noise_rms
-    assert result.rounds == [] and result.candidates == []
+    [round_info] = result.rounds
+    assert round_info["candidates"] == [] and result.candidates == []
     said = capsys.readouterr().err
     assert "nothing left to explain, so no candidate scored" in said and "scoring" not in said
+    diagnosis_report(result, tmp_path / "d.html")
+    assert "none" in (tmp_path / "d.html").read_text()
 
 
 @pytest.mark.slow

@@ -19,7 +19,7 @@ from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
 from .localise import INCLUSIONS, Localisation, localise
-from .scoring import Candidate, confidence, gap, marker_size, nothing_left
+from .scoring import Candidate, confidence, gap, nothing_left
 from .trajectory import TrajectoryEvidence
 
 __all__ = ["diagnose", "Diagnosis", "Finding"]
@@ -219,15 +219,17 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     ranked: list[Candidate] = []
     for _ in range(max_effects):
         noise_rms = verdict.noise
-        if in_trajectory_space and nothing_left(verdict, rms, marker_size(experiments)):
+        evidence = (TrajectoryEvidence.of(current, experiments, steps,
+                                          verdict.noise_per_coordinate)
+                    if in_trajectory_space else Evidence.of(current, experiments, steps))
+        if in_trajectory_space and nothing_left(verdict, rms, evidence.size):
             # the answer is none whatever the candidates score: their evidence (a scan of
             # inclusion balls, the material switches) is most of a diagnosis's time
             say(f"diagnose: none ({verdict.short}; nothing left to explain, so no candidate "
                 "scored)")
+            rounds.append({"residuals": evidence.residuals(), "candidates": [], "rms": rms,
+                           "winner": "none"})
             break
-        evidence = (TrajectoryEvidence.of(current, experiments, steps,
-                                          verdict.noise_per_coordinate)
-                    if in_trajectory_space else Evidence.of(current, experiments, steps))
         candidates = propose_candidates(current, evidence)
         kinds = Counter(c.name for c in candidates)       # an inclusion: several regions
         say(f"diagnose: scoring {len(candidates)} candidates of {len(kinds)} effects (" +

@@ -10,7 +10,7 @@ import numpy as np
 from .residuals import Samples, templates
 
 __all__ = ["Candidate", "score_candidates", "confidence", "initial_params", "significant",
-           "gap", "nothing_left", "marker_size"]
+           "gap", "nothing_left"]
 
 
 @dataclass
@@ -92,11 +92,6 @@ def nothing_left(verdict, rms: float, n: int) -> bool:
     data exactly, rounding left)? Then the answer is none, whatever a candidate scores."""
     exact = verdict.noise == 0
     return verdict.explained and (exact or not significant(rms, verdict.noise, n))
-
-
-def marker_size(experiments) -> int:
-    """The number of marker residuals of a free run (the trajectory evidence's size)."""
-    return sum(3 * (e.n_frames - 1) * e.observation.n_rows for e in experiments)
 
 
 def significant(rms: float, noise_rms: float, n: int) -> bool:
