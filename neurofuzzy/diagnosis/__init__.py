@@ -18,8 +18,9 @@ Each round (DESIGN.md, "Diagnosis"):
    a good share of the residual with strong evidence; while it does not, the best candidate of
    every kind with strong evidence is refitted (from the fitted model and, if that stays above
    the noise, from the start model's values), best scored first and no further once one
-   reaches the noise (the rest could only tie within it), and the best refit is added when it
-   shrinks the gap (RMS above the noise floor) at least ``MIN_SHRINK`` times; repeat. When
+   leaves nothing significant above the noise (the rest could only tie within it), and the
+   best refit is added when it shrinks the gap (RMS above the noise floor) at least
+   ``MIN_SHRINK`` times; repeat. When
    nothing does and the model still misses the data, the answer is ``unexplained`` (never
    ``none``), with where and when the misfit lives, and for element models how much of it
    the mesh refined once explains.

@@ -268,8 +268,11 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 (f"shrinks the gap {gap_before / gap_after:.2g}x" if gap_after > 0 else
                  "down to the noise"))
             refits.append((gap_after, rank, candidate, refit))
-            if refit.lack_of_fit_.explained and rank + 1 < len(tried):
-                # at the noise: a candidate ranked lower could only tie within the noise
+            if (nothing_left(refit.lack_of_fit_, refit.rms_error_, evidence.size)
+                    and rank + 1 < len(tried)):
+                # at the noise, nothing significant left: a candidate ranked lower could
+                # only tie within the noise (merely "explained" is not enough: a model at
+                # the noise with a significant excess refits its candidates to compare them)
                 say(f"diagnose: {candidate.name} explains the data to the noise; the "
                     f"{len(tried) - rank - 1} candidate(s) ranked below it are not refitted")
                 break
