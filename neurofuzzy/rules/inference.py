@@ -169,10 +169,7 @@ def tissue_values(rules, name: str) -> dict[str, float]:
 def undescribed(rules, description: dict, outputs=None) -> list[str]:
     """The inputs a description leaves out that have no default (whose rules do not fire),
     among those the rules about ``outputs`` (default: every output) use."""
-    wanted = set(rules.outputs if outputs is None else outputs)
-    used = {clause.variable for rule in rules.rules
-            if any(c.variable in wanted for c in rule.consequents)
-            for group in rule.antecedent for clause in group}
+    used = rules.deciding(rules.outputs if outputs is None else outputs)
     return [name for name, variable in rules.inputs.items()
             if name in used and description.get(name) is None and variable.default is None]
 

@@ -84,6 +84,13 @@ class RuleBase:
         (:func:`.words.explain`)."""
         return words.explain(self, self._current(values), hedges=hedges)
 
+    def deciding(self, outputs) -> set[str]:
+        """The input variables of the rules that conclude on any of ``outputs`` (names)."""
+        outputs = set(outputs)
+        return {clause.variable for rule in self.rules
+                if any(c.variable in outputs for c in rule.consequents)
+                for group in rule.antecedent for clause in group}
+
     def defaults_taken(self, description: dict) -> dict[str, Phrase]:
         """The inputs ``description`` (a tissue's words) leaves out, with the default words
         it takes for each (inputs without a default are left out: their rules do not fire,

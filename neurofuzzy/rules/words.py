@@ -50,9 +50,7 @@ def explain(rules, values: dict[str, float], *, hedges=("very", "somewhat")) -> 
     wanted = {k: v for k, v in values.items() if k in rules.outputs}
     if not wanted:
         raise InputError("no output values to explain", source=rules.source)
-    deciding = {clause.variable for rule in rules.rules
-                if any(c.variable in wanted for c in rule.consequents)
-                for group in rule.antecedent for clause in group}
+    deciding = rules.deciding(wanted)
     names = [name for name in rules.inputs if name in deciding]
 
     def distance(results):

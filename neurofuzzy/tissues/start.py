@@ -156,11 +156,8 @@ STIFFENING = "strain_stiffening"
 
 def _inputs_of(rules, *quantities) -> set[str]:
     """The input variables of the rules that conclude on an output of ``quantities``."""
-    outputs = {name for name, variable in rules.outputs.items()
-               if variable.quantity in quantities}
-    return {clause.variable for rule in rules.rules
-            if any(c.variable in outputs for c in rule.consequents)
-            for group in rule.antecedent for clause in group}
+    return rules.deciding(name for name, variable in rules.outputs.items()
+                          if variable.quantity in quantities)
 
 
 def element_model(rules, mesh, names, values, element_tissue, *, node_region) -> Model:
