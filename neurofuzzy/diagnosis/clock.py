@@ -6,13 +6,15 @@ from __future__ import annotations
 import time
 
 from ..errors import InputError
+from ..progress import Stopwatch
 
 __all__ = ["Clock"]
 
 
 class Clock:
-    """Wall time since the diagnosis began, the duration of every fit it ran, and what it
-    left out once ``max_time`` (seconds, or None: no limit) was spent."""
+    """Wall time since the diagnosis began (what ``max_time`` limits: the user's wait), the
+    duration of every fit it ran, and what it left out once ``max_time`` (seconds, or None:
+    no limit) was spent."""
 
     def __init__(self, max_time: float | None):
         if max_time is not None and not max_time > 0:      # also NaN
@@ -23,10 +25,11 @@ class Clock:
         self.skipped: list[str] = []
 
     def timed(self, run):
-        """``run()`` (a fit), its duration kept."""
-        began = time.perf_counter()
+        """``run()`` (a fit), its duration kept without the kernels' compilation (a cold
+        first fit would make every estimate a minute long): :class:`~..progress.Stopwatch`."""
+        watch = Stopwatch()
         result = run()
-        self.fits.append(time.perf_counter() - began)
+        self.fits.append(watch.seconds)
         return result
 
     def out(self) -> bool:
