@@ -123,3 +123,25 @@ def test_hidden_strain_stiffening_switches_the_law_to_yeoh_s():
     plain = diagnose(neo_hookean, measured(block().with_elements(law="neo-hookean"),
                                            force=0.3))
     assert plain.names == ["none"]
+
+
+def test_the_ball_scan_scores_exactly_only_a_shortlist_that_holds_the_best():
+    """An inclusion ball's sensitivity column costs about a simulation; the scan's balls are
+    shortlisted by ``cᵀt`` from one backward sweep, and only the shortlist gets columns. On a
+    hidden stiff region the shortlist holds the ball the exact scores of every ball rank
+    first, and is a fraction of the scan."""
+    from neurofuzzy.diagnosis.trajectory import TrajectoryEvidence
+    from neurofuzzy.learn import GradientLearner
+
+    truth = block()
+    centroids = truth.mesh.rest_positions[truth.mesh.tetrahedra].mean(axis=1)
+    inside = np.flatnonzero(np.all(np.abs(centroids - (0.015, 0.02, 0.015)) < 0.01, axis=1))
+    data = measured(truth.with_effects(StiffInclusion.of_elements(truth, inside, 4 * E)))
+    fitted = GradientLearner(substeps="auto").fit(start(), data)
+    evidence = TrajectoryEvidence.of(fitted.model_, [data], fitted.substeps_,
+                                     fitted.lack_of_fit_.noise_per_coordinate)
+    _, balls, _ = evidence.first_scan(set())
+    best = balls[int(np.argmax(evidence.ball_gains(balls)))]
+    shortlist = evidence.shortlist(balls)
+    assert len(shortlist) <= len(balls) // 2
+    assert any(np.array_equal(best, members) for members in shortlist)

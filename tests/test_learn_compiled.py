@@ -332,6 +332,45 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, 
         assert np.abs(compiled[1] - numpy_path[1]).max() < 1e-10 * scale
 
 
+
+@pytest.mark.parametrize("volumetric", ["nodal", "element"])
+def test_the_adjoint_pulls_back_a_cotangent_of_one_s_own(volumetric):
+    """``gradient(cotangent=v)`` is ``Jᵀ v`` of the forward Jacobian (the diagnosis scores
+    every inclusion ball's ``cᵀ t`` in one backward sweep so), gaps left out; an inclusion's
+    coefficient learned, seen through embedded markers."""
+    mesh = from_tetra(*kuhn_block((3, 3, 2), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    rng = np.random.default_rng(8)
+    model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=2.0,
+                            density=1000.0, volumetric=volumetric).with_effects(
+        StiffInclusion([0.0], elements=[3, 4, 10, 11], poisson_ratio=0.45),
+        StiffInclusion([0.0], elements=[20], poisson_ratio=0.45))
+    load = np.zeros((mesh.n_nodes, 3))
+    load[-1] = (0.0, 0.01, -0.05)
+    steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
+    nodes = simulate_experiment(model, dt=1e-3, n_frames=20, external_forces=load,
+                                substeps=steps)
+    corners, weights, _ = embed_points(mesh, rng.uniform(0.002, 0.018, (10, 3)))
+    seen = np.einsum("mk,tmkj->tmj", weights, nodes.positions[:, corners])
+    seen[5:8, 3] = np.nan
+    positions = np.full_like(nodes.positions, np.nan)
+    positions[0] = mesh.rest_positions
+    data = Experiment(mesh=mesh, dt=1e-3, positions=positions, external_forces=load,
+                      node_mass=model.node_mass, observed=np.zeros(mesh.n_nodes, bool),
+                      markers=EmbeddedMarkers(corners, weights, seen))
+    parameters = Parameterization(model)
+    sensitivity = Sensitivity(parameters, 0.01)
+    theta = parameters.initial()
+    run = sensitivity.run(theta, data, substeps=steps, tangents=True)
+    cotangent = rng.normal(size=run.residuals.shape)
+    pulled = sensitivity.gradient(theta, data, substeps=steps, cotangent=cotangent)[1]
+    cotangent[4:7, 3] = 0.0                 # frames 5-7 of marker 3 are gaps
+    expected = run.jacobian.reshape(-1, parameters.size).T @ cotangent.ravel()
+    assert np.abs(expected).min() > 0
+    assert np.abs(pulled - expected).max() < 1e-9 * np.abs(expected).max()
+    with pytest.raises(ValueError, match="compiled"):
+        Sensitivity(parameters, 0.01, backend="numpy").gradient(theta, data, substeps=steps,
+                                                                 cotangent=cotangent)
+
 def test_the_kernels_use_no_more_threads_than_numba_is_allowed(monkeypatch):
     """fit-many's workers set NUMBA_NUM_THREADS=1: load cases and Jacobian columns then run
     on one thread; without it every core is used, and nonsense falls back to the cores."""

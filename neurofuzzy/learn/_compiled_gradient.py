@@ -14,10 +14,13 @@ from ._passes import Run
 __all__ = ["compiled_gradient"]
 
 
-def compiled_gradient(sensitivity, model, experiment, substeps, starts):
+def compiled_gradient(sensitivity, model, experiment, substeps, starts, cotangent=None):
     """:meth:`gradient` in the compiled kernels (:mod:`neurofuzzy.kernels.adjoint`) for
     models of springs and elements (relaxing or not) whose effects the kernels compute
-    (:mod:`neurofuzzy.effects.compiled`), learned or not; node masses learned or fixed."""
+    (:mod:`neurofuzzy.effects.compiled`), learned or not; node masses learned or fixed.
+    With ``cotangent`` (shaped as the run's residuals) the backward sweep pulls it back in
+    place of the residuals (its entries at gaps left out, as a residual's are): the gradient
+    is then ``Jᵀ cotangent``."""
     from ..kernels.adjoint import pull_back
 
     param = sensitivity.parameters
@@ -47,6 +50,9 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts):
     grad = np.zeros(param.size)
     if not np.isfinite(loss):
         return float("inf"), grad, run
+    if cotangent is not None:           # as a residual: nothing where nothing was measured
+        residuals = np.zeros_like(residuals)
+        residuals[1:] = cotangent * observation.seen[1:, :, None]
     # ∂L/∂p(t) = Hᵀ r(t) / length_unit, every frame at once
     frame_adjoint = np.ascontiguousarray(np.moveaxis(observation.adjoint(
         np.moveaxis(residuals, 0, 1).reshape(observation.n_rows, -1)).reshape(

@@ -284,12 +284,18 @@ class Sensitivity:
 
     # -- reverse pass -------------------------------------------------------------------------
     def gradient(self, theta: np.ndarray, experiment: Experiment, *, substeps: int = 1,
-                 starts=(0,)) -> tuple[float, np.ndarray, Run]:
-        """``(½ Σ r², ∂/∂θ, run)`` by the discrete adjoint (one forward, one backward sweep)."""
+                 starts=(0,), cotangent=None) -> tuple[float, np.ndarray, Run]:
+        """``(½ Σ r², ∂/∂θ, run)`` by the discrete adjoint (one forward, one backward sweep).
+
+        ``cotangent`` (compiled models only; shaped as the run's residuals): pull it back
+        instead of the residuals, for ``Jᵀ cotangent`` (every parameter's column against
+        one vector, in one backward sweep)."""
         param = self.parameters
         model = param.model(theta)
         if self.compiled_gradient:
-            return compiled_gradient(self, model, experiment, substeps, starts)
+            return compiled_gradient(self, model, experiment, substeps, starts, cotangent)
+        if cotangent is not None:
+            raise ValueError("a cotangent of one's own needs the compiled gradient")
         weight = model.node_inverse_mass[:, None]
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()
