@@ -126,8 +126,9 @@ class TrajectoryEvidence(TakenByEffects):
         sensitivity = Sensitivity(parameters, self.length_unit,
                                   offsets=fits_offsets("auto", self.experiments))
         theta = parameters.initial()
-        self._runs = [sensitivity.run(theta, e, substeps=self.substeps, tangents=True)
-                      for e in self.experiments]
+        # the columns split over the cores (each thread simulates the state once)
+        self._runs = [sensitivity.run(theta, e, substeps=self.substeps, tangents=True,
+                                      threads=None) for e in self.experiments]
         residual = np.concatenate([run.residuals.ravel() for run in self._runs])
         jacobian = np.concatenate([run.jacobian.reshape(-1, parameters.size)
                                    for run in self._runs])

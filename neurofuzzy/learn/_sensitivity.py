@@ -30,7 +30,7 @@ from ..observation import remove_offsets
 from ..simulation import euler_update
 from ._compiled import CompiledModel, compiled_possible
 from ._compiled_gradient import compiled_gradient
-from ._passes import Run
+from ._passes import Run, cores
 from ._parameters import (ELEMENT_BLOCKS, Parameterization, element_directions,
                           stiffening_columns)
 
@@ -169,10 +169,11 @@ class Sensitivity:
 
     # -- forward passes -----------------------------------------------------------------------
     def run(self, theta: np.ndarray, experiment: Experiment, *, substeps: int = 1,
-            starts=(0,), tangents: bool = False, threads: int = 1) -> Run:
+            starts=(0,), tangents: bool = False, threads: int | None = 1) -> Run:
         """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities
         (in the compiled kernel split by columns over ``threads`` threads: each simulates the
-        state and carries its share of the tangents)."""
+        state and carries its share of the tangents; None: the cores the kernels may use)."""
+        threads = cores() if threads is None else threads
         param = self.parameters
         model = param.model(theta)
         if self.compiled:
