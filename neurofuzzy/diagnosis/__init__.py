@@ -28,7 +28,10 @@ Each round (DESIGN.md, "Diagnosis"):
 Element models and markers embedded anywhere are diagnosed in trajectory space instead
 (:mod:`.trajectory`): the evidence is the fitted model's free-run marker error, candidates are
 scored by the sensitivities of the error to their parameters (a linearised refit), and an
-inclusion is a ball of elements with extra Young's modulus.
+inclusion is a ball of elements with extra Young's modulus. There the candidates are refitted
+at one step (the candidate model's stable substeps; :mod:`.refits`) and only the winner's fit
+is made as every fit is, at two steps and extrapolated (Richardson): the second step, twice as
+fine, was two thirds of every refit's work.
 
 With the rule base as a prior (``diagnose(..., prior=FuzzyPrior(rules, model))``), an
 inclusion found is also located item by item (:mod:`.localise`): every element or spring is

@@ -8,8 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..effects import SoftInclusion, StiffInclusion
-from ..experiment import Experiment, check_experiments, duration
+from ..experiment import Experiment, check_experiments
 from ..forces import tetrahedron_geometry
 from ..learn import GradientLearner
 from ..learn.lack_of_fit import length_text
@@ -19,21 +18,15 @@ from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
 from .localise import INCLUSIONS, Localisation, localise
+from .refits import confirm, refit_candidate, switches, to_refit
 from .scoring import Candidate, confidence, gap, nothing_left
 from .trajectory import TrajectoryEvidence
 
 __all__ = ["diagnose", "Diagnosis", "Finding"]
 
-#: A candidate must explain at least a fraction of the residual above the noise (the
-#: evidence's ``min_explained``: 0.3 of the one-step residual force, 0.1 of the linearised
-#: marker error) with at least this much evidence (ΔBIC; 10 is "very strong" on Kass &
-#: Raftery's scale)…
-MIN_EVIDENCE = 10.0
-#: …and refitting with it must shrink the gap above the noise floor at least this many times.
+#: Refitting with a candidate must shrink the gap above the noise floor at least this many
+#: times (and the candidate have :data:`~.refits.MIN_EVIDENCE`).
 MIN_SHRINK = 1.5
-#: Candidates refitted per round, best-scored first, until one passes the refit test: with
-#: noisy accelerations the one-step scores can rank a wrong local effect above the global one.
-MAX_REFITS = 5
 
 
 @dataclass
@@ -239,7 +232,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         round_info = {"residuals": evidence.residuals(), "candidates": ranked, "rms": rms,
                       "winner": "none"}
         rounds.append(round_info)
-        tried = _to_refit(ranked, evidence, verdict, rms, say)
+        tried = to_refit(ranked, evidence, verdict, rms, say)
         if not tried:
             break
         gap_before = gap(rms, noise_rms)
@@ -251,7 +244,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 break
             say(f"diagnose: refitting {candidate.name} ({rank + 1} of {len(tried)}; "
                 f"{clock.estimate(len(tried) - rank)})")
-            refit = clock.timed(lambda: _refit(candidate, current, evidence, experiments,
+            refit = clock.timed(lambda: refit_candidate(candidate, current, evidence, experiments,
                                                substeps, staged=not in_trajectory_space))
             if not refit.lack_of_fit_.explained and clock.out():
                 clock.left_out(f"{candidate.name} not refitted from the start model's values")
@@ -259,7 +252,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 # the fitted model may have bent its own values to make up for what it
                 # lacks (softened the whole block for hidden gravity), far from where the
                 # effect's fit starts well: once more from the start model's values
-                again = clock.timed(lambda: _refit(
+                again = clock.timed(lambda: refit_candidate(
                     candidate, model.with_effects(*current.effects), evidence, experiments,
                     substeps, staged=not in_trajectory_space))
                 refit = min(refit, again, key=lambda fitted: fitted.rms_error_)
@@ -282,16 +275,22 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         if gap_after * MIN_SHRINK > gap_before:
             say("diagnose: no candidate shrinks the gap enough when refitted")
             break
+        if in_trajectory_space and substeps == "auto" and not clock.out():
+            # the refits compared at one step; the winner's fit confirmed as every fit is
+            # (Richardson's two steps), from where its refit ended
+            say(f"diagnose: confirming {winner.name} (the fit at two steps, extrapolated)")
+            refit = clock.timed(lambda: confirm(refit, experiments))
+            gap_after = gap(refit.rms_error_, noise_rms)
         round_info["winner"] = winner.name
         # a switch of the material adds no effect: the refitted model's elements are
         # neo-Hookean, or relax
-        added = (winner.effect.with_params([1.0]) if _switches(winner)
+        added = (winner.effect.with_params([1.0]) if switches(winner)
                  else refit.model_.effects[-1])
         others = [c for c in ranked if c is not winner]
         nodes, centroid = where(current, added)
         findings.append(Finding(
             name=winner.name, confidence=confidence([winner, *others]),
-            parameters=(winner.effect.switched_values(refit.model_) if _switches(winner)
+            parameters=(winner.effect.switched_values(refit.model_) if switches(winner)
                         else dict(zip(added.labels, added.params.tolist()))),
             springs=winner.springs, nodes=nodes, rms_before=rms,
             rms_after=refit.rms_error_, gap_before=gap_before, gap_after=gap_after,
@@ -329,32 +328,6 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
 
 
 
-def _to_refit(ranked, evidence, verdict, rms, say) -> list:
-    """The candidates worth a refit, best scored first: while the model explains the data
-    to the noise, only one that explains a good share of the residual, significantly; while
-    it does not, the best of every kind with strong evidence, however little it explains
-    linearly (a linearised step from a model far off underestimates what a refit does)."""
-    strong = [c for c in ranked if c.score >= MIN_EVIDENCE]
-    if verdict.explained:
-        strong = [c for c in strong if c.explained >= evidence.min_explained]
-        if nothing_left(verdict, rms, evidence.size):
-            say(f"diagnose: none ({verdict.short}; nothing left to explain)")
-            return []
-        if not strong:
-            best = ranked[0] if ranked else None
-            say(f"diagnose: none ({verdict.short}; no candidate has strong evidence: best "
-                f"{best.name if best else '-'}, explaining {best.explained if best else 0:.0%}"
-                " linearly)")
-            return []
-        return strong[:MAX_REFITS]
-    kinds, tried = set(), []
-    for candidate in strong:
-        if candidate.name not in kinds:
-            kinds.add(candidate.name)
-            tried.append(candidate)
-    return tried[:MAX_REFITS]
-
-
 def _mesh_share(model, experiments, substeps, verdict) -> dict | None:
     """How much of a misfit the mesh explains: the model refitted on its mesh refined once."""
     from ..errors import InputError
@@ -389,27 +362,3 @@ def where(model, effect) -> tuple[list[int], list[float] | None]:
     if not len(nodes):
         return [], None
     return [int(n) for n in nodes], model.mesh.rest_positions[nodes].mean(axis=0).tolist()
-
-
-def _refit(candidate: Candidate, model, evidence, experiments, substeps, staged=True):
-    """The model with the candidate's effect (started at its least-squares parameters),
-    refitted; an inclusion's sign decides stiff or soft (the candidate is renamed). From
-    markers (``staged=False``) the refit starts from the fitted model and the linearised
-    step, so it fits the whole recording at once rather than growing beginnings of it."""
-    learner = GradientLearner(substeps=substeps, windows=None if staged else ())
-    if _switches(candidate):
-        # not a patch: the elements take the law or relax, and everything is refitted
-        return learner.fit(candidate.effect.switch(model, duration(experiments)), experiments)
-    effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
-    if effect.name in ("stiff_inclusion", "soft_inclusion"):
-        kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
-        effect = kind(effect.params, **effect.options)
-        candidate.name = effect.name
-    return learner.fit(model.with_effects(effect), experiments)
-
-
-def _switches(candidate: Candidate) -> bool:
-    """Does the catalogue entry switch the elements' material
-    (:attr:`~neurofuzzy.effects.Effect.switches_material`: neo-Hookean or Yeoh elements, a
-    Prony term) rather than add a force term?"""
-    return candidate.effect.switches_material

@@ -1,0 +1,88 @@
+"""Refits of the diagnosis's candidates: which are worth one, the model each starts from, and
+the winner's fit confirmed."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..effects import SoftInclusion, StiffInclusion
+from ..experiment import duration
+from ..learn import GradientLearner, auto_substeps
+from .scoring import Candidate, nothing_left
+
+#: A candidate must explain at least a fraction of the residual above the noise (the
+#: evidence's ``min_explained``: 0.3 of the one-step residual force, 0.1 of the linearised
+#: marker error) with at least this much evidence (ΔBIC; 10 is "very strong" on Kass &
+#: Raftery's scale)…
+MIN_EVIDENCE = 10.0
+#: Candidates refitted per round, best-scored first, until one passes the refit test: with
+#: noisy accelerations the one-step scores can rank a wrong local effect above the global one.
+MAX_REFITS = 5
+
+
+def to_refit(ranked, evidence, verdict, rms, say) -> list:
+    """The candidates worth a refit, best scored first: while the model explains the data
+    to the noise, only one that explains a good share of the residual, significantly; while
+    it does not, the best of every kind with strong evidence, however little it explains
+    linearly (a linearised step from a model far off underestimates what a refit does)."""
+    strong = [c for c in ranked if c.score >= MIN_EVIDENCE]
+    if verdict.explained:
+        strong = [c for c in strong if c.explained >= evidence.min_explained]
+        if nothing_left(verdict, rms, evidence.size):
+            say(f"diagnose: none ({verdict.short}; nothing left to explain)")
+            return []
+        if not strong:
+            best = ranked[0] if ranked else None
+            say(f"diagnose: none ({verdict.short}; no candidate has strong evidence: best "
+                f"{best.name if best else '-'}, explaining {best.explained if best else 0:.0%}"
+                " linearly)")
+            return []
+        return strong[:MAX_REFITS]
+    kinds, tried = set(), []
+    for candidate in strong:
+        if candidate.name not in kinds:
+            kinds.add(candidate.name)
+            tried.append(candidate)
+    return tried[:MAX_REFITS]
+
+
+def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps, staged=True):
+    """The model with the candidate's effect (started at its least-squares parameters),
+    refitted; an inclusion's sign decides stiff or soft (the candidate is renamed). From
+    markers (``staged=False``) the refit starts from the fitted model and the linearised
+    step, so it fits the whole recording at once rather than growing beginnings of it, and
+    with ``substeps="auto"`` at one step only, the candidate model's own
+    (:func:`~neurofuzzy.learn.auto_substeps`): enough to compare candidates, and a third of
+    the work of Richardson's two steps (the second, twice as fine, is twice the first's);
+    the winner's fit is confirmed at both."""
+    start = _with_candidate(candidate, model, evidence, experiments)
+    if not staged and substeps == "auto":
+        substeps = max(auto_substeps(start, e.dt) for e in experiments)
+    return GradientLearner(substeps=substeps, windows=None if staged else ()).fit(
+        start, experiments)
+
+
+def _with_candidate(candidate: Candidate, model, evidence, experiments):
+    """``model`` with the candidate's effect at its linearised parameters, or switched."""
+    if switches(candidate):
+        # not a patch: the elements take the law or relax, and everything is refitted
+        return candidate.effect.switch(model, duration(experiments))
+    effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
+    if effect.name in ("stiff_inclusion", "soft_inclusion"):
+        kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
+        effect = kind(effect.params, **effect.options)
+        candidate.name = effect.name
+    return model.with_effects(effect)
+
+
+def switches(candidate: Candidate) -> bool:
+    """Does the catalogue entry switch the elements' material
+    (:attr:`~neurofuzzy.effects.Effect.switches_material`: neo-Hookean or Yeoh elements, a
+    Prony term) rather than add a force term?"""
+    return candidate.effect.switches_material
+
+
+def confirm(refit, experiments):
+    """The winner's refit, made at one step (:func:`refit_candidate`), fitted as every fit is: at two
+    steps and extrapolated (Richardson), from where the refit ended."""
+    return GradientLearner(substeps="auto", windows=()).fit(refit.model_, experiments)
