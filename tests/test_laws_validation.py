@@ -73,10 +73,11 @@ def test_at_large_strain_the_diagnosis_switches_to_neo_hookean_which_recovers_th
     """27–35 % compression under the probe. SVK buys stiffness (E 40 % too high) and misses
     the data by far; the diagnosis' evidence puts ``hyperelasticity`` among the candidates it
     refits, and its refit, confirmed at two steps (what ``diagnose`` does when it wins: the
-    elements become neo-Hookean, no effect is added) recovers the shear modulus within 3 % and E within 6 %
-    (ν 0.06 low: the coarse mesh's share, see the README table) and shrinks the gap above the
-    noise by more than the diagnosis asks (``MIN_SHRINK``). (The whole ``diagnose`` refits
-    five candidates; ``benchmarks/laws.py`` runs it: hyperelasticity wins.)"""
+    elements become neo-Hookean, no effect is added) recovers the shear modulus within 3 %
+    and E within 6 % (ν 0.06 low: the coarse mesh's share, see the README table) and shrinks
+    the gap above the noise by more than the diagnosis asks (``MIN_SHRINK``). (The whole
+    ``diagnose`` refits five candidates; ``benchmarks/laws.py`` runs it: hyperelasticity
+    wins.)"""
     recording = stored(DATA / "neo_hookean_block_large_strain.npz")
     experiment = block_experiment(recording, start.mesh)
     svk = GradientLearner(substeps="auto").fit(start, experiment)

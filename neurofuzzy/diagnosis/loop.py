@@ -244,8 +244,9 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 break
             say(f"diagnose: refitting {candidate.name} ({rank + 1} of {len(tried)}; "
                 f"{clock.estimate(len(tried) - rank)})")
-            refit = clock.timed(lambda: refit_candidate(candidate, current, evidence, experiments,
-                                               substeps, staged=not in_trajectory_space))
+            refit = clock.timed(lambda: refit_candidate(
+                candidate, current, evidence, experiments, substeps,
+                staged=not in_trajectory_space))
             if not refit.lack_of_fit_.explained and clock.out():
                 clock.left_out(f"{candidate.name} not refitted from the start model's values")
             elif not refit.lack_of_fit_.explained:

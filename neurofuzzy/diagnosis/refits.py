@@ -10,6 +10,9 @@ from ..experiment import duration
 from ..learn import GradientLearner, auto_substeps
 from .scoring import Candidate, nothing_left
 
+__all__ = ["to_refit", "refit_candidate", "confirm", "switches", "MIN_EVIDENCE",
+           "MAX_REFITS"]
+
 #: A candidate must explain at least a fraction of the residual above the noise (the
 #: evidence's ``min_explained``: 0.3 of the one-step residual force, 0.1 of the linearised
 #: marker error) with at least this much evidence (ΔBIC; 10 is "very strong" on Kass &
@@ -46,15 +49,17 @@ def to_refit(ranked, evidence, verdict, rms, say) -> list:
     return tried[:MAX_REFITS]
 
 
-def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps, staged=True):
+def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps,
+                    staged=True):
     """The model with the candidate's effect (started at its least-squares parameters),
     refitted; an inclusion's sign decides stiff or soft (the candidate is renamed). From
     markers (``staged=False``) the refit starts from the fitted model and the linearised
     step, so it fits the whole recording at once rather than growing beginnings of it, and
     with ``substeps="auto"`` at one step only, the candidate model's own
-    (:func:`~neurofuzzy.learn.auto_substeps`): enough to compare candidates, and a third of
-    the work of Richardson's two steps (the second, twice as fine, is twice the first's);
-    the winner's fit is confirmed at both."""
+    (:func:`~neurofuzzy.learn.auto_substeps`): enough to compare candidates, and at most a
+    third of the work of Richardson's two steps (the second, twice as fine, costs twice the
+    first per iteration; the relaxation switch on the 4 mm block took 72 s at one step, 486 s
+    at both); the winner's fit is confirmed at both (:func:`confirm`)."""
     start = _with_candidate(candidate, model, evidence, experiments)
     if not staged and substeps == "auto":
         substeps = max(auto_substeps(start, e.dt) for e in experiments)
@@ -83,6 +88,6 @@ def switches(candidate: Candidate) -> bool:
 
 
 def confirm(refit, experiments):
-    """The winner's refit, made at one step (:func:`refit_candidate`), fitted as every fit is: at two
-    steps and extrapolated (Richardson), from where the refit ended."""
+    """The winner's refit, made at one step (:func:`refit_candidate`), fitted as every fit
+    is: at two steps and extrapolated (Richardson), from where the refit ended."""
     return GradientLearner(substeps="auto", windows=()).fit(refit.model_, experiments)
