@@ -288,6 +288,20 @@ def test_stiffening_of_springs_learned_from_zero():
     assert compiled[1][column] == pytest.approx(numpy_path[1][column], rel=1e-10)
 
 
+def _through_markers(model, nodes, load, points):
+    """``nodes`` (an experiment of every node) seen only through markers embedded at
+    ``points``, marker 3 missing in frames 5-7."""
+    mesh = model.mesh
+    corners, weights, _ = embed_points(mesh, points)
+    seen = np.einsum("mk,tmkj->tmj", weights, nodes.positions[:, corners])
+    seen[5:8, 3] = np.nan
+    positions = np.full_like(nodes.positions, np.nan)
+    positions[0] = mesh.rest_positions
+    return Experiment(mesh=mesh, dt=nodes.dt, positions=positions, external_forces=load,
+                      node_mass=model.node_mass, observed=np.zeros(mesh.n_nodes, bool),
+                      markers=EmbeddedMarkers(corners, weights, seen))
+
+
 @pytest.mark.parametrize("law", LAWS)
 @pytest.mark.parametrize("volumetric", ["nodal", "element"])
 def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, law):
@@ -309,15 +323,8 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, 
     steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
     nodes = simulate_experiment(model, dt=1e-3, n_frames=25, external_forces=load,
                                 substeps=steps)
-    points = rng.uniform((0.002, 0.002, 0.005), (0.028, 0.028, 0.02), (12, 3))
-    corners, weights, _ = embed_points(mesh, points)
-    seen = np.einsum("mk,tmkj->tmj", weights, nodes.positions[:, corners])
-    seen[5:8, 3] = np.nan
-    positions = np.full_like(nodes.positions, np.nan)
-    positions[0] = mesh.rest_positions
-    markers = Experiment(mesh=mesh, dt=1e-3, positions=positions, external_forces=load,
-                         node_mass=model.node_mass, observed=np.zeros(mesh.n_nodes, bool),
-                         markers=EmbeddedMarkers(corners, weights, seen))
+    markers = _through_markers(model, nodes, load, rng.uniform(
+        (0.002, 0.002, 0.005), (0.028, 0.028, 0.02), (12, 3)))
     parameters = Parameterization(model, learn_effects=False)
     theta = parameters.initial() + rng.normal(0.0, 0.05, parameters.size)
     sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
@@ -349,14 +356,7 @@ def test_the_adjoint_pulls_back_a_cotangent_of_one_s_own(volumetric):
     steps = int(np.ceil(1e-3 / stability_limit(model).max_step))
     nodes = simulate_experiment(model, dt=1e-3, n_frames=20, external_forces=load,
                                 substeps=steps)
-    corners, weights, _ = embed_points(mesh, rng.uniform(0.002, 0.018, (10, 3)))
-    seen = np.einsum("mk,tmkj->tmj", weights, nodes.positions[:, corners])
-    seen[5:8, 3] = np.nan
-    positions = np.full_like(nodes.positions, np.nan)
-    positions[0] = mesh.rest_positions
-    data = Experiment(mesh=mesh, dt=1e-3, positions=positions, external_forces=load,
-                      node_mass=model.node_mass, observed=np.zeros(mesh.n_nodes, bool),
-                      markers=EmbeddedMarkers(corners, weights, seen))
+    data = _through_markers(model, nodes, load, rng.uniform(0.002, 0.018, (10, 3)))
     parameters = Parameterization(model)
     sensitivity = Sensitivity(parameters, 0.01)
     theta = parameters.initial()
