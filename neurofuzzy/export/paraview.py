@@ -376,8 +376,20 @@ def _write_pvd(path: Path, files: Sequence[str], times: np.ndarray,
     path.write_text(text, encoding="utf-8")
 
 
+def _text_writer(meshio):
+    """meshio's XDMF time-series writer with its arrays written as the shortest text that
+    reads back exactly (Python's ``repr``) instead of through ``numpy.savetxt``, which
+    formats each number in Python with a ``%`` format: 25 s of the 30 s a 131-frame export
+    of a 4,800-tetrahedron block took, now about 2 s. The file holds the same numbers."""
+    class Writer(meshio.xdmf.TimeSeriesWriter):
+        def numpy_to_xml_string(self, data):
+            return "\n".join(map(repr, np.asarray(data).ravel().tolist())) + "\n"
+
+    return Writer
+
+
 def _write_xdmf(meshio, path: Path, series: dict, comment: str | None = None) -> None:
-    with meshio.xdmf.TimeSeriesWriter(path, data_format="XML") as writer:
+    with _text_writer(meshio)(path, data_format="XML") as writer:
         writer.write_points_cells(series["rest"], [("line", series["springs"])])
         for k, t in enumerate(series["times"]):
             writer.write_data(float(t), point_data=_point_data(series, k),
