@@ -84,7 +84,7 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     Jacobian is a run of the stepper's driver, whose St. Venant–Kirchhoff loop adds the
     volumetric stresses in another order than the sensitivities' (3e-16 of E here)."""
     from neurofuzzy.experiment import simulate_experiment
-    from neurofuzzy.learn import GradientLearner, gradient
+    from neurofuzzy.learn import GradientLearner, _solvers
     from neurofuzzy.learn.steps import auto_substeps
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.mesh import from_tetra
@@ -103,10 +103,10 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     data = simulate_experiment(truth, dt=1e-3, n_frames=30, external_forces=load,
                                substeps=steps)
     fits = {}
-    for cost in (0, gradient.SPECULATE_COST):          # 0: never with the trial steps
-        monkeypatch.setattr(gradient, "SPECULATE_COST", cost)
+    for cost in (0, _solvers.SPECULATE_COST):          # 0: never with the trial steps
+        monkeypatch.setattr(_solvers, "SPECULATE_COST", cost)
         fits[cost] = GradientLearner(substeps=steps).fit(model(4000.0, 0.4, 3.0), data)
-    apart, together = fits[0], fits[gradient.SPECULATE_COST]
+    apart, together = fits[0], fits[_solvers.SPECULATE_COST]
     assert together.model_.elements.youngs_modulus[0] == pytest.approx(6000.0, rel=1e-6)
     for name in ("youngs_modulus", "poisson_ratio", "viscosity"):
         assert np.allclose(getattr(apart.model_.elements, name),
@@ -117,3 +117,72 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     assert together.n_cycles_ < apart.n_cycles_
     assert len(together.history_) == together.n_cycles_
     assert together._last is None          # the last Jacobian is not kept with the result
+
+
+def test_the_floor_is_the_least_cost_of_a_linear_problem():
+    """For residuals linear in x, Gauss–Newton's floor at any point is the least-squares
+    minimum (numpy's lstsq), whichever point it is computed at."""
+    rng = np.random.default_rng(3)
+    A, b = rng.standard_normal((30, 4)), rng.standard_normal(30)
+    least = 0.5 * float(np.sum((A @ np.linalg.lstsq(A, b, rcond=None)[0] - b) ** 2))
+    for x in (np.zeros(4), rng.standard_normal(4) * 10):
+        r = A @ x - b
+        assert _lm.floor(A.T @ A, A.T @ r, 0.5 * float(r @ r)) == pytest.approx(least,
+                                                                                 rel=1e-9)
+
+
+@pytest.mark.parametrize("target", ["below", "above"])
+def test_a_fit_that_cannot_beat_the_target_gives_up(target):
+    """Asked to give up once the floor is above a target: with the target below the noisy
+    problem's minimum the fit stops early ("given up", fewer passes); with it above, the fit
+    is the one without the question, step for step. From this far start the first floors
+    promise far too little (39, 7 and 3 times the least cost): they are not asked about."""
+    lower, upper = np.full(3, -np.inf), np.full(3, np.inf)
+    residuals, jacobian, _, calls = _problem(0.05)
+    free = _lm.levenberg_marquardt(residuals, jacobian, np.array([4.0, 2.0, 2.2]), lower,
+                                   upper, max_evaluations=100, tolerance=1e-10)
+    threshold = free.cost * (0.5 if target == "below" else 2.0)
+    asked = []
+    residuals, jacobian, _, calls = _problem(0.05)
+    solution = _lm.levenberg_marquardt(
+        residuals, jacobian, np.array([4.0, 2.0, 2.2]), lower, upper, max_evaluations=100,
+        tolerance=1e-10, give_up=lambda least: asked.append(least) or least > threshold)
+    if target == "below":
+        assert solution.reason == "given up" and solution.evaluations < free.evaluations
+        assert asked[-1] > threshold and solution.cost > free.cost
+    else:
+        assert solution.reason == free.reason and np.array_equal(solution.x, free.x)
+        # the floors asked about are the least cost within 1 %
+        assert np.allclose(asked, free.cost, rtol=0.01) and len(asked) >= 2
+
+
+def test_the_learner_abandons_a_fit_that_cannot_come_below_the_leader():
+    """An element fit of noisy data: asked to beat half the noise, it gives up after two
+    Jacobians (``abandoned_``) with fewer simulations than the whole fit; asked to beat
+    twice the RMS it reaches, it is the whole fit."""
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.learn import GradientLearner
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import Model
+
+    mesh = from_tetra(*kuhn_block((3, 3, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+
+    def model(modulus, viscosity):
+        return Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=0.45,
+                               viscosity=viscosity, density=1050.0)
+
+    load = np.zeros((mesh.n_nodes, 3))
+    load[mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9] = [0.0, 0.0, -0.01]
+    data = simulate_experiment(model(6000.0, 2.0), dt=1e-3, n_frames=30, external_forces=load,
+                               substeps=4, noise=2e-6, seed=5)
+    whole = GradientLearner(substeps=4).fit(model(3000.0, 4.0), data)
+    assert not whole.abandoned_
+    given_up = GradientLearner(substeps=4, abandon_above=0.5 * whole.rms_error_).fit(
+        model(3000.0, 4.0), data)
+    assert given_up.abandoned_ and given_up.n_cycles_ < whole.n_cycles_
+    assert given_up.rms_error_ > whole.rms_error_
+    kept = GradientLearner(substeps=4, abandon_above=2.0 * whole.rms_error_).fit(
+        model(3000.0, 4.0), data)
+    assert not kept.abandoned_ and kept.n_cycles_ == whole.n_cycles_
+    assert kept.rms_error_ == whole.rms_error_

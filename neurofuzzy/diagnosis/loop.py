@@ -236,7 +236,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         if not tried:
             break
         gap_before = gap(rms, noise_rms)
-        refits = []
+        refits, leader = [], np.inf     # leader: the best refit's RMS so far
         for rank, candidate in enumerate(tried):
             if clock.out():
                 clock.left_out(f"{len(tried) - rank} of {len(tried)} candidates of round "
@@ -246,7 +246,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 f"{clock.estimate(len(tried) - rank)})")
             refit = clock.timed(lambda: refit_candidate(
                 candidate, current, evidence, experiments, substeps,
-                staged=not in_trajectory_space))
+                staged=not in_trajectory_space, abandon_above=leader))
             if not refit.lack_of_fit_.explained and clock.out():
                 clock.left_out(f"{candidate.name} not refitted from the start model's values")
             elif not refit.lack_of_fit_.explained:
@@ -255,12 +255,16 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 # effect's fit starts well: once more from the start model's values
                 again = clock.timed(lambda: refit_candidate(
                     candidate, model.with_effects(*current.effects), evidence, experiments,
-                    substeps, staged=not in_trajectory_space))
+                    substeps, staged=not in_trajectory_space,
+                    abandon_above=min(leader, refit.rms_error_)))
                 refit = min(refit, again, key=lambda fitted: fitted.rms_error_)
             gap_after = gap(refit.rms_error_, noise_rms)
             say(f"diagnose: {candidate.name} (ranked {rank + 1}), refitted: " +
                 (f"shrinks the gap {gap_before / gap_after:.2g}x" if gap_after > 0 else
-                 "down to the noise"))
+                 "down to the noise") +
+                (f" (given up: it cannot come below {length_text(leader)}, the best refit "
+                 "so far)" if refit.abandoned_ else ""))
+            leader = min(leader, refit.rms_error_)
             refits.append((gap_after, rank, candidate, refit))
             if (nothing_left(refit.lack_of_fit_, refit.rms_error_, evidence.size)
                     and rank + 1 < len(tried)):

@@ -50,7 +50,7 @@ def to_refit(ranked, evidence, verdict, rms, say) -> list:
 
 
 def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps,
-                    staged=True):
+                    staged=True, abandon_above=None):
     """The model with the candidate's effect (started at its least-squares parameters),
     refitted; an inclusion's sign decides stiff or soft (the candidate is renamed). From
     markers (``staged=False``) the refit starts from the fitted model and the linearised
@@ -59,12 +59,14 @@ def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps
     (:func:`~neurofuzzy.learn.auto_substeps`): enough to compare candidates, and at most a
     third of the work of Richardson's two steps (the second, twice as fine, costs twice the
     first per iteration; the relaxation switch on the 4 mm block took 72 s at one step, 486 s
-    at both); the winner's fit is confirmed at both (:func:`confirm`)."""
+    at both); the winner's fit is confirmed at both (:func:`confirm`). With
+    ``abandon_above`` (the best refit's RMS so far) the refit stops once it cannot come
+    below it (:class:`~neurofuzzy.learn.GradientLearner`'s ``abandon_above``)."""
     start = _with_candidate(candidate, model, evidence, experiments)
     if not staged and substeps == "auto":
         substeps = max(auto_substeps(start, e.dt) for e in experiments)
-    return GradientLearner(substeps=substeps, windows=None if staged else ()).fit(
-        start, experiments)
+    return GradientLearner(substeps=substeps, windows=None if staged else (),
+                           abandon_above=abandon_above).fit(start, experiments)
 
 
 def _with_candidate(candidate: Candidate, model, evidence, experiments):

@@ -36,6 +36,9 @@ STEP_OF_STD_ERROR = 0.1
 #: Residual RMS (the residuals' own unit, lengths over the length unit) at which nothing is
 #: left to fit: positions agree to about a thousand rounding errors of double precision.
 FLOOR = 1e-12
+#: ``give_up`` is asked only where Gauss–Newton predicts that at most this share of the
+#: cost can go: near enough a minimum for the linearisation to be taken at its word.
+TRUSTED_FLOOR = 0.5
 #: Starting Marquardt damping ``μ`` (steps solve ``(JᵀJ + μ diag JᵀJ) δ = -Jᵀr``).
 INITIAL_DAMPING = 1e-3
 
@@ -65,7 +68,7 @@ def _damped_step(normal, gradient, damping):
 
 
 def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluations: int,
-                        tolerance: float, both=None) -> Solution:
+                        tolerance: float, both=None, give_up=None) -> Solution:
     """Minimise ``½‖r(x)‖²`` within the box ``[lower, upper]`` (steps are clipped to it).
 
     ``residuals(x)`` returns r (m,), ``jacobian(x)`` returns J (m, n). ``max_evaluations``
@@ -78,14 +81,30 @@ def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluation
     every step, are) and the step is not predicted to end the fit, so an accepted step needs no
     second pass, and the Jacobian at the result is there for the standard errors. The steps
     taken are the same either way; only the passes that compute them differ.
+
+    ``give_up(floor)``, when given, is asked whether to stop with the cost Gauss–Newton
+    predicts as the least reachable from the point (:func:`floor`), at every Jacobian where
+    that prediction is at least ``TRUSTED_FLOOR`` of the cost; a stop it asks for ends the
+    fit with the reason ``"given up"``. Farther from a minimum the linearisation can promise
+    far too little: fitting a damped oscillation from a start at 200 times the least cost,
+    the first three floors were 39, 7 and 3 times it.
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
-                         tolerance)
+                         tolerance, give_up)
+
+
+def floor(normal, gradient, cost) -> float:
+    """Gauss–Newton's prediction of the least cost reachable from a point: the minimum of
+    the linearised cost ``½‖r + Jδ‖² = cost - ½ gᵀ(JᵀJ)⁻¹g`` (``g = Jᵀr``), bounds ignored, so
+    that the prediction is never above what the linearisation allows. Far from a minimum
+    the linearisation can promise too much or too little; near one it is the minimum."""
+    step = _damped_step(normal, gradient, 1e-12)
+    return cost if step is None else max(cost + 0.5 * float(gradient @ step), 0.0)
 
 
 def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
-              tolerance) -> Solution:
+              tolerance, give_up=None) -> Solution:
     x = np.clip(np.asarray(x0, float), lower, upper)
     r, J = both(x) if both is not None else (residuals(x), None)
     cost = 0.5 * float(r @ r)
@@ -99,6 +118,10 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
     speculate = True        # evaluate the next trial with its Jacobian (``both``)
     while True:
         gradient = J.T @ r
+        if give_up is not None:
+            least = floor(normal, gradient, cost)
+            if least >= TRUSTED_FLOOR * cost and give_up(least):
+                return Solution(x, cost, evaluations, "given up")
         trials = 0
         while True:
             if evaluations >= max_evaluations:

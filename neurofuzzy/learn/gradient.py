@@ -15,19 +15,18 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.optimize import minimize
 
-from ..errors import InputError, NeurofuzzyError
+from ..errors import InputError
 from ..experiment import Experiment, check_experiments, rms_error
 from ..model import Model
 from ..simulation import check_substeps
 from ..progress import Progress, Stopwatch, note
 from ._base import Learner
 from . import _passes as passes
-from ._lm import levenberg_marquardt
 from ._parameters import Parameterization
 from ._prior_weight import set_prior
 from ._sensitivity import Sensitivity
+from ._solvers import solve_lbfgs, solve_lm
 from .identifiability import structurally_unidentifiable
 from .lack_of_fit import length_text
 from .steps import (auto_substeps, fits_offsets, parameter_bounds, stable_at_one_step,
@@ -44,10 +43,6 @@ MAX_JACOBIAN_ENTRIES = 3e7
 DEFAULT_WINDOW = 25
 #: Relative tolerance on the cost of the stages before the last (windows, beginnings).
 STAGE_TOLERANCE = 1e-3
-#: A Jacobian pass costing at most this many residual passes is run with the trial steps
-#: after a step accepted at its first trial (:func:`._lm.levenberg_marquardt`'s ``both``): a
-#: rejected trial then costs at most 3 passes more, an accepted one saves one.
-SPECULATE_COST = 4
 
 
 
@@ -93,6 +88,13 @@ class GradientLearner(Learner):
         so that the noise of the frames a rest position was taken from, or a marker a little
         off the mesh, is not read as model error. ``"auto"``: for markers embedded in
         elements (an imported recording); tracked nodes start from their measured frame 0.
+    abandon_above : float, optional
+        An RMS error per marker (metres) the fit has to be able to beat, or it stops: once,
+        at two Jacobians in a row, Gauss–Newton's prediction of the least error reachable
+        from there (:func:`._lm.floor`; asked only near a minimum, where it predicts that at
+        most half the cost can go) is above it, the fit ends where it is and ``abandoned_``
+        is True (Levenberg–Marquardt on the whole recording only). The diagnosis gives it
+        the best refit so far, so that a candidate which cannot overtake it stops early.
     progress : bool
         Report progress on stderr.
 
@@ -122,6 +124,8 @@ class GradientLearner(Learner):
         With ``mesh_check``: how far the values move on the mesh refined once.
     offsets_ : bool
         Whether the markers' rest positions were fitted.
+    abandoned_ : bool
+        Whether the fit stopped because it could not beat ``abandon_above``.
     identifiability_ : Identifiability
         Standard errors and the parameter combinations the data do not determine.
     homogeneous_ : GradientLearner or None
@@ -143,7 +147,8 @@ class GradientLearner(Learner):
                  substeps: int | str = 1, windows: Sequence[int] | None = None,
                  method: str = "auto", max_iterations: int = 100, tolerance: float = 1e-10,
                  bounds: float = 1e3, prior=None, offsets: bool | str = "auto",
-                 mesh_check: bool = False, progress: bool = False):
+                 mesh_check: bool = False, abandon_above: float | None = None,
+                 progress: bool = False):
         self.learn_masses = learn_masses
         self.learn_effects = learn_effects
         self.substeps = substeps
@@ -155,6 +160,7 @@ class GradientLearner(Learner):
         self.prior = prior
         self.offsets = offsets
         self.mesh_check = mesh_check
+        self.abandon_above = abandon_above
         self.progress = progress
 
     def fit(self, model: Model,
@@ -179,6 +185,7 @@ class GradientLearner(Learner):
         # one step per frame (the paper's network) is tried only where it is stable
         discrete = not auto or stable_at_one_step(model, experiments)
         self.n_cycles_ = 0
+        self.abandoned_ = False
         self._trace = []        # (E, RMS) of every simulation of the data
         self._last = None       # the last simulation of the data (passes.Last)
         model = stable_start(model, min(e.dt for e in experiments)
@@ -198,7 +205,7 @@ class GradientLearner(Learner):
         searched = (None, 0)    # the prior's search's fit at its chosen weight, substeps
 
         def fit(start, substeps, windows):
-            if start is searched[0] and substeps == searched[1]:
+            if (start is searched[0] and substeps == searched[1]) or self.abandoned_:
                 return start    # the search fitted this weight already: not twice
             return self._fit_stages(sensitivity, experiments, start, substeps, windows, method,
                                     lower, upper, active)
@@ -294,7 +301,7 @@ class GradientLearner(Learner):
                 lengths.append(2 * lengths[-1])
             windows = [w for w in lengths if w < moving]
         stages = [w for w in windows if w < longest] + [longest]
-        solver = self._solve_lm if method == "lm" else self._solve_lbfgs
+        solver = solve_lm if method == "lm" else solve_lbfgs
         progress = Progress(f"gradient fit, {substeps} substep(s)", len(stages), self.progress)
         for stage, window in enumerate(stages):
             if shooting or window == longest:
@@ -309,8 +316,9 @@ class GradientLearner(Learner):
             tolerance = (self.tolerance if window == longest
                          else max(self.tolerance, STAGE_TOLERANCE))
             begun = len(self._trace)
-            theta = solver(sensitivity, data, theta, starts, substeps, lower, upper, active,
-                           tolerance)
+            theta = solver(self, sensitivity, data, theta, starts, substeps, lower, upper,
+                           active, tolerance,
+                           abandon=self.abandon_above if window == longest else None)
             best = min(self._trace[begun:] or self._trace[-1:])   # this stage's, not earlier
             progress.update(stage + 1, f"{what}, RMS {length_text(best[1])} per marker")
         return theta
@@ -349,70 +357,3 @@ class GradientLearner(Learner):
             self._record(runs, sensitivity.length_unit)
             self._last = passes.Last(theta.copy(), substeps, starts, runs, jacobian, columns)
         return (jacobian, runs) if with_runs else jacobian
-
-    def _solve_lm(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
-                  active, tolerance):
-        def full(x):
-            values = theta.copy()
-            values[active] = x
-            return values
-
-        terms, scale = self._prior_terms, self._prior_scale
-
-        def with_prior(x, data):
-            return data if terms is None else np.concatenate([data,
-                                                              scale * terms.residuals(full(x))])
-
-        def residuals(x):
-            return with_prior(x, self._residuals(sensitivity, experiments, full(x), starts,
-                                                 substeps))
-
-        def jacobian(x):
-            J = self._jacobian(sensitivity, experiments, full(x), starts, substeps,
-                               columns=active)
-            if terms is None:
-                return J
-            return np.vstack([J, scale * terms.jacobian(full(x)).toarray()[:, active]])
-
-        def both(x):           # one pass: the Jacobian's runs hold the residuals at x
-            J = jacobian(x)
-            return with_prior(x, passes.stacked(self._last.runs)), J
-
-        # a Jacobian pass simulates the state and ceil(columns / threads) tangents per thread
-        threads = max(1, passes.cores() // len(experiments))
-        cheap = sensitivity.compiled and 1 + -(-len(active) // threads) <= SPECULATE_COST
-        result = levenberg_marquardt(residuals, jacobian,
-            theta[active], lower[active], upper[active],
-            max_evaluations=int(self.max_iterations), tolerance=tolerance,
-            both=both if cheap else None)
-        return full(result.x)
-
-    def _solve_lbfgs(self, sensitivity, experiments, theta, starts, substeps, lower, upper,
-                     active, tolerance):
-        def objective(x):
-            values = theta.copy()
-            values[active] = x
-            parts = passes.side_by_side(sensitivity, lambda e, s: sensitivity.gradient(
-                values, e, substeps=substeps, starts=s), experiments, starts,
-                compiled=sensitivity.compiled_gradient)
-            loss = sum(value for value, _, _ in parts)
-            grad = np.sum([g for _, g, _ in parts], axis=0)
-            runs = [run for _, _, run in parts]
-            self._record(runs, sensitivity.length_unit)
-            if self._prior_terms is not None:
-                loss += self._prior_scale**2 * self._prior_terms.cost(values)
-                grad += self._prior_scale**2 * self._prior_terms.gradient(values)
-            if not np.isfinite(loss):
-                return 1e30, np.zeros_like(x)
-            return loss, grad[active]
-
-        bounds = list(zip(np.where(np.isfinite(lower), lower, None)[active],
-                          np.where(np.isfinite(upper), upper, None)[active]))
-        result = minimize(objective, theta[active], jac=True, method="L-BFGS-B", bounds=bounds,
-                          options={"maxiter": int(self.max_iterations), "ftol": tolerance,
-                                   "gtol": 1e-12, "maxcor": 30})
-        if not np.all(np.isfinite(result.x)):
-            raise NeurofuzzyError("the gradient fit diverged; start from plausible parameters")
-        values = theta.copy()
-        values[active] = result.x
-        return values

@@ -1,0 +1,106 @@
+"""The gradient learner's two solvers over one stage: Levenberg–Marquardt on the full
+Jacobian (:mod:`._lm`) and L-BFGS-B with the adjoint gradient. Each takes the learner, whose
+``_residuals``, ``_jacobian`` and ``_record`` count every simulation of the data."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+
+from ..errors import NeurofuzzyError
+from . import _passes as passes
+from ._lm import levenberg_marquardt
+
+#: A Jacobian pass costing at most this many residual passes is run with the trial steps
+#: after a step accepted at its first trial (:func:`._lm.levenberg_marquardt`'s ``both``): a
+#: rejected trial then costs at most 3 passes more, an accepted one saves one.
+SPECULATE_COST = 4
+#: Jacobians in a row whose Gauss–Newton floor is above ``abandon`` that end a fit: one may
+#: be the linearisation of a start far off, which promises too little.
+ABANDON_AFTER = 2
+
+
+def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, upper,
+             active, tolerance, abandon=None):
+    """The parameters ``theta`` with their ``active`` entries fitted by Levenberg–Marquardt
+    (the prior's terms, when the learner has one, stacked under the data's residuals);
+    given up, ``learner.abandoned_`` set, once Gauss–Newton predicts at two Jacobians in a
+    row that the RMS error per marker cannot come below ``abandon`` (metres)."""
+    def full(x):
+        values = theta.copy()
+        values[active] = x
+        return values
+
+    terms, scale = learner._prior_terms, learner._prior_scale
+
+    def with_prior(x, data):
+        return data if terms is None else np.concatenate([data,
+                                                          scale * terms.residuals(full(x))])
+
+    def residuals(x):
+        return with_prior(x, learner._residuals(sensitivity, experiments, full(x), starts,
+                                                substeps))
+
+    def jacobian(x):
+        J = learner._jacobian(sensitivity, experiments, full(x), starts, substeps,
+                              columns=active)
+        if terms is None:
+            return J
+        return np.vstack([J, scale * terms.jacobian(full(x)).toarray()[:, active]])
+
+    def both(x):           # one pass: the Jacobian's runs hold the residuals at x
+        J = jacobian(x)
+        return with_prior(x, passes.stacked(learner._last.runs)), J
+
+    # a Jacobian pass simulates the state and ceil(columns / threads) tangents per thread
+    threads = max(1, passes.cores() // len(experiments))
+    cheap = sensitivity.compiled and 1 + -(-len(active) // threads) <= SPECULATE_COST
+    strikes = []
+
+    def give_up(least):
+        runs = learner._last.runs          # those of the Jacobian at the point
+        count = sum(run.n_measured for run in runs)
+        rms = np.sqrt(6.0 * least / count) * sensitivity.length_unit if count else 0.0
+        strikes.append(rms > abandon)
+        learner.abandoned_ = strikes[-ABANDON_AFTER:] == [True] * ABANDON_AFTER
+        return learner.abandoned_
+
+    result = levenberg_marquardt(
+        residuals, jacobian, theta[active], lower[active], upper[active],
+        max_evaluations=int(learner.max_iterations), tolerance=tolerance,
+        both=both if cheap else None, give_up=None if abandon is None else give_up)
+    return full(result.x)
+
+
+def solve_lbfgs(learner, sensitivity, experiments, theta, starts, substeps, lower, upper,
+                active, tolerance, abandon=None):
+    """The parameters ``theta`` with their ``active`` entries fitted by L-BFGS-B with the
+    adjoint gradient (for Jacobians too large to hold; ``abandon`` is not used: without a
+    Jacobian there is no prediction of the least error)."""
+    def objective(x):
+        values = theta.copy()
+        values[active] = x
+        parts = passes.side_by_side(sensitivity, lambda e, s: sensitivity.gradient(
+            values, e, substeps=substeps, starts=s), experiments, starts,
+            compiled=sensitivity.compiled_gradient)
+        loss = sum(value for value, _, _ in parts)
+        grad = np.sum([g for _, g, _ in parts], axis=0)
+        runs = [run for _, _, run in parts]
+        learner._record(runs, sensitivity.length_unit)
+        if learner._prior_terms is not None:
+            loss += learner._prior_scale**2 * learner._prior_terms.cost(values)
+            grad += learner._prior_scale**2 * learner._prior_terms.gradient(values)
+        if not np.isfinite(loss):
+            return 1e30, np.zeros_like(x)
+        return loss, grad[active]
+
+    bounds = list(zip(np.where(np.isfinite(lower), lower, None)[active],
+                      np.where(np.isfinite(upper), upper, None)[active]))
+    result = minimize(objective, theta[active], jac=True, method="L-BFGS-B", bounds=bounds,
+                      options={"maxiter": int(learner.max_iterations), "ftol": tolerance,
+                               "gtol": 1e-12, "maxcor": 30})
+    if not np.all(np.isfinite(result.x)):
+        raise NeurofuzzyError("the gradient fit diverged; start from plausible parameters")
+    values = theta.copy()
+    values[active] = result.x
+    return values
