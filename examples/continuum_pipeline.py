@@ -24,9 +24,11 @@ spring constants stand for (nu locked at 1/4). The table gives what each recover
 words. The last fitted model stays in OUT_DIR/fitted.yaml (with the record of its fit), ready
 for ``neurofuzzy export fitted.yaml trial.npz --to mujoco|sofa|febio|vtu``.
 
-Run:  python examples/continuum_pipeline.py [OUT_DIR] [--quick]   (needs scikit-fem: pip install
-'neurofuzzy[validation]';
---quick: nu = 0.45 only, the default voxel mesh only, a shorter recording)
+Run:  python examples/continuum_pipeline.py [OUT_DIR] [--quick] [--data-only]   (needs
+scikit-fem: pip install 'neurofuzzy[validation]';
+--quick: nu = 0.45 only, the default voxel mesh only, a shorter recording;
+--data-only: write block.stl, markers.csv and probe.csv and stop, for a user to run the three
+commands)
 """
 
 import json
@@ -130,7 +132,7 @@ def main(argv):
     require_in_script("validation", "examples/continuum_pipeline.py (scikit-fem's solver "
                       "makes its data)")
     started = time.perf_counter()
-    quick = "--quick" in argv
+    quick, data_only = "--quick" in argv, "--data-only" in argv
     args = [a for a in argv if not a.startswith("--")]
     out = Path(args[0] if args else "continuum-pipeline-output")
     out.mkdir(parents=True, exist_ok=True)
@@ -154,6 +156,10 @@ def main(argv):
         print(f"nu = {nu}: {motion['markers']} markers, peak motion "
               f"{1e6 * motion['peak']:.0f} um, RMS {1e6 * motion['rms']:.0f} um",
               file=sys.stderr, flush=True)
+        if data_only:
+            print(f"wrote {out / 'block.stl'}, {out / 'markers.csv'} and {out / 'probe.csv'} "
+                  f"(nu = {nu}; {time.perf_counter() - started:.0f} s)")
+            return 0
         for name, options in meshes:
             fitted, summary = pipeline(out, options)
             material = next(iter(fitted["materials"].values()))

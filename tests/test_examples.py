@@ -104,58 +104,6 @@ def test_springs_or_elements_on_scikit_fem_continuum_data():
 
 
 @pytest.mark.slow
-def test_the_pipeline_recovers_the_continuum_through_mesh_import_fit(tmp_path):
-    """mesh -> import -> fit --rules on scikit-fem continuum data with 20 um marker noise: E
-    within 5 %, nu within 0.03, eta within 20 %, the right words, and a marker error within
-    1.5 times the noise (the issue's acceptance, on the default mesh). The fitted model then
-    exports to MuJoCo, SOFA, FEBio and ParaView, and MuJoCo reproduces our simulation of the
-    textbook element within 1 µm and of the fitted nodal form by the difference the file
-    states (issue 29)."""
-    import re
-
-    pytest.importorskip("skfem")
-    result = subprocess.run([sys.executable, str(EXAMPLES / "continuum_pipeline.py"),
-                             str(tmp_path), "--quick"], capture_output=True, text=True,
-                            timeout=1200)
-    assert result.returncode == 0, result.stderr
-    row = re.search(r"^\s+0\.45 voxel\s+\d+\s+\S+\s+(\S+)%\s+(\S+)\s+\S+\s+(\S+)%\s+(\S+)"
-                    r"\s+\S+\s+(.+)$", result.stdout, flags=re.M)
-    e_error, nu, eta_error, ratio = (float(row.group(k)) for k in range(1, 5))
-    assert abs(e_error) < 5.0 and abs(nu - 0.45) < 0.03 and abs(eta_error) < 20.0
-    assert ratio < 1.5
-    assert row.group(5).split(", ") == ["firm", "nearly_incompressible", "medium"]
-    # the fitted model exports to every target; MuJoCo runs it as our textbook element does
-    import numpy as np
-
-    import neurofuzzy as nf
-    from neurofuzzy.export.mujoco import simulate_mujoco
-
-    for to, out in (("mujoco", "fitted.xml"), ("sofa", "fitted.py"), ("febio", "fitted.feb"),
-                    ("vtu", "paraview")):
-        thinned = ["--every", "20"] if to == "vtu" else []
-        done = subprocess.run([sys.executable, "-m", "neurofuzzy.cli", "export", "fitted.yaml",
-                               "trial.npz", "--to", to, "--out", out, *thinned],
-                              capture_output=True, text=True, cwd=tmp_path, timeout=300)
-        assert done.returncode == 0, done.stderr
-    assert "lack of fit: explained to the noise" in (tmp_path / "fitted.feb").read_text()
-    model = nf.load_model(tmp_path / "fitted.yaml")
-    data = nf.load_experiment(tmp_path / "trial.npz")
-    text = (tmp_path / "fitted.xml").read_text()
-    steps = round(data.dt / float(re.search(r'timestep="([^"]+)"', text).group(1)))
-    theirs = simulate_mujoco(tmp_path / "fitted.xml", data)
-    free = model.mesh.free
-
-    def rms(a, b):
-        return np.sqrt(np.mean(np.sum((a[:, free] - b[:, free]) ** 2, axis=-1)))
-
-    element = nf.simulate_like(model.with_elements(volumetric="element"), data, steps)
-    assert rms(theirs, element) < 1e-6                   # the issue's 1 µm; measured 6e-10 m
-    nodal = nf.simulate_like(model, data, steps)         # the default form, as fitted
-    stated = float(re.search(r"differ by ([0-9.e+-]+) m RMS", text).group(1))
-    assert rms(theirs, nodal) == pytest.approx(stated, rel=5e-3)   # 3 digits
-
-
-@pytest.mark.slow
 def test_the_diagnosis_names_hidden_gravity_in_continuum_data(tmp_path):
     """mesh -> import -> diagnose on scikit-fem data of the block let go under gravity nobody
     declared (1 cm cells to keep it short; docs/tutorials/springs-or-elements.md quotes the
