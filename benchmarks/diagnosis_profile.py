@@ -15,6 +15,7 @@ first fit (the model as it is).
 
     python benchmarks/diagnosis_profile.py                  # every case, ~20 min
     python benchmarks/diagnosis_profile.py --cases none "large strain"
+    python benchmarks/diagnosis_profile.py --cases relaxing --max-effects 1 --no-mesh-check
 
 Prints a table per case and writes ``benchmarks/diagnosis_profile.json``.
 """
@@ -51,15 +52,17 @@ class _Stamped(io.TextIOBase):
         self.began, self.lines, self.buffer = began, [], ""
 
     def write(self, text: str) -> int:
-        sys.__stderr__.write(text)
         self.buffer += text
         while "\n" in self.buffer:
             line, self.buffer = self.buffer.split("\n", 1)
-            self.lines.append((time.perf_counter() - self.began, line))
+            seconds = time.perf_counter() - self.began
+            self.lines.append((seconds, line))
+            if line.strip():
+                sys.__stderr__.write(f"[{seconds:7.1f} s] {line}\n")
         return len(text)
 
 
-def profile(case: str) -> dict:
+def profile(case: str, max_effects: int = 3, mesh_check: bool = True) -> dict:
     source = CASES[case]
     data = stored(source) if isinstance(source, Path) else probed_block(**source)
     start = block_model().tied("global")
@@ -67,7 +70,8 @@ def profile(case: str) -> dict:
     began = time.perf_counter()
     stamped = _Stamped(began)
     with contextlib.redirect_stderr(stamped):
-        result = diagnose(start, experiment, progress=True)
+        result = diagnose(start, experiment, progress=True, max_effects=max_effects,
+                          mesh_check=mesh_check)
     total = time.perf_counter() - began
     phases, last = [], 0.0
     for seconds, line in stamped.lines:
@@ -76,7 +80,10 @@ def profile(case: str) -> dict:
         last = seconds
     phases.append({"until": "the answer", "seconds": round(total - last, 1)})
     first_fit = phases[0]["seconds"]
-    return {"case": case, "elements": start.mesh.n_tetrahedra, "nodes": start.n_nodes,
+    named = next((seconds for seconds, line in stamped.lines
+                  if line.startswith(("diagnose: found", "diagnose: none"))), total)
+    return {"case": case, "max_effects": max_effects, "mesh_check": mesh_check,
+            "first_answer": round(named, 1), "elements": start.mesh.n_tetrahedra, "nodes": start.n_nodes,
             "frames": experiment.n_frames, "answer": result.names,
             "expected": EXPECTED[case], "right": result.names[:1] == EXPECTED[case][:1],
             "verdict": result.verdict, "seconds": round(total, 1),
@@ -87,20 +94,27 @@ def profile(case: str) -> dict:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
+    parser.add_argument("--max-effects", type=int, default=3,
+                        help="as diagnose's (default 3); 1: until the first effect is named")
+    parser.add_argument("--no-mesh-check", action="store_true",
+                        help="leave out the refit on the refined mesh (16 fits' work)")
     args = parser.parse_args(argv)
     results = []
     for case in args.cases:
-        result = profile(case)
+        result = profile(case, args.max_effects, not args.no_mesh_check)
         results.append(result)
         print(f"\n{case}: {result['nodes']} nodes, {result['elements']} tetrahedra, "
               f"{result['frames']} frames -> {', '.join(result['answer'])} "
               f"({'right' if result['right'] else 'expected ' + result['expected'][0]}) in "
-              f"{result['seconds']:.0f} s, {result['fits']:.1f} times its first fit")
+              f"{result['seconds']:.0f} s, {result['fits']:.1f} times its first fit; the "
+              f"first answer after {result['first_answer']:.0f} s")
         for phase in result["phases"]:
             print(f"  {phase['seconds']:7.1f} s  until: {phase['until']}")
     path = Path(__file__).with_suffix(".json")
     kept = json.loads(path.read_text()) if path.exists() else []
-    kept = [r for r in kept if isinstance(r, dict) and r.get("case") not in args.cases]
+    kept = [r for r in kept if isinstance(r, dict) and (
+        r.get("case"), r.get("max_effects", 3), r.get("mesh_check", True))
+        not in {(c, args.max_effects, not args.no_mesh_check) for c in args.cases}]
     path.write_text(json.dumps(kept + results, indent=1) + "\n")
     print(f"\nwrote {path}")
     return 0
