@@ -379,8 +379,9 @@ def _write_pvd(path: Path, files: Sequence[str], times: np.ndarray,
 def _text_writer(meshio):
     """meshio's XDMF time-series writer with its arrays written as the shortest text that
     reads back exactly (Python's ``repr``) instead of through ``numpy.savetxt``, which
-    formats each number in Python with a ``%`` format: 25 s of the 30 s a 131-frame export
-    of a 4,800-tetrahedron block took, now about 2 s. The file holds the same numbers."""
+    formats each number in Python with a ``%`` format (25 s of a 35 s profiled export of 131
+    frames of a 4,800-tetrahedron block; the export took 28 s, now 10 s, and its XDMF file
+    shrank from 120 MB to 70 MB). The file holds the same numbers."""
     class Writer(meshio.xdmf.TimeSeriesWriter):
         def numpy_to_xml_string(self, data):
             return "\n".join(map(repr, np.asarray(data).ravel().tolist())) + "\n"
