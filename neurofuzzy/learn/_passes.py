@@ -119,9 +119,15 @@ def rms(sensitivity, experiments, theta, substeps, last: Last | None = None) -> 
             theta, e, substeps=substeps, starts=s), experiments, starts)
     with np.errstate(over="ignore", invalid="ignore"):
         total = sum(float(np.sum(run.residuals**2)) for run in runs)
-    rows = sum(run.n_measured for run in runs) // 3      # measured positions
-    value = np.sqrt(total / max(rows, 1)) * sensitivity.length_unit
+        value = per_marker(total, runs, sensitivity.length_unit)
     return float(value) if np.isfinite(value) else float("inf")
+
+
+def per_marker(total: float, runs, length_unit: float) -> float:
+    """The RMS error per marker (metres) of a sum of squared residuals ``total`` (in length
+    units) over the values ``runs`` measured (gaps hold zero residuals and do not count)."""
+    count = sum(run.n_measured for run in runs)
+    return float(np.sqrt(3.0 * total / count)) * length_unit if count else 0.0
 
 
 def jacobian(sensitivity, experiments, theta, starts, substeps, *, columns=None):

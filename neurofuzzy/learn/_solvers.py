@@ -55,14 +55,15 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
     # a Jacobian pass simulates the state and ceil(columns / threads) tangents per thread
     threads = max(1, passes.cores() // len(experiments))
     cheap = sensitivity.compiled and 1 + -(-len(active) // threads) <= SPECULATE_COST
-    strikes = []
+    strikes = 0             # floors asked about in a row that are above ``abandon``
 
     def give_up(least):
-        runs = learner._last.runs          # those of the Jacobian at the point
-        count = sum(run.n_measured for run in runs)
-        rms = np.sqrt(6.0 * least / count) * sensitivity.length_unit if count else 0.0
-        strikes.append(rms > abandon)
-        learner.abandoned_ = strikes[-ABANDON_AFTER:] == [True] * ABANDON_AFTER
+        nonlocal strikes
+        # the cost is half the sum of squares; the runs are the Jacobian's at the point
+        above = passes.per_marker(2.0 * least, learner._last.runs,
+                                  sensitivity.length_unit) > abandon
+        strikes = strikes + 1 if above else 0
+        learner.abandoned_ = strikes >= ABANDON_AFTER
         return learner.abandoned_
 
     result = levenberg_marquardt(

@@ -90,7 +90,7 @@ class GradientLearner(Learner):
         elements (an imported recording); tracked nodes start from their measured frame 0.
     abandon_above : float, optional
         An RMS error per marker (metres) the fit has to be able to beat, or it stops: once,
-        at two Jacobians in a row, Gauss–Newton's prediction of the least error reachable
+        at two such Jacobians in a row, Gauss–Newton's prediction of the least error reachable
         from there (:func:`._lm.floor`; asked only near a minimum, where it predicts that at
         most half the cost can go) is above it, the fit ends where it is and ``abandoned_``
         is True (Levenberg–Marquardt on the whole recording only). The diagnosis gives it
@@ -326,10 +326,9 @@ class GradientLearner(Learner):
     def _record(self, runs, length_unit: float) -> None:
         """One more simulation of the data: count it and keep its ``E`` and RMS error (per
         marker, over the measured values; gaps hold zero residuals and do not count)."""
-        count = sum(run.n_measured for run in runs)
         with np.errstate(over="ignore", invalid="ignore"):
             total = sum(float(np.sum(run.residuals**2)) for run in runs)
-            rms = float(np.sqrt(3.0 * total / count)) * length_unit if count else 0.0
+            rms = passes.per_marker(total, runs, length_unit)
         entry = (0.5 * total, rms) if np.isfinite(total) else (float("inf"), float("inf"))
         self._trace.append(entry)
         self.n_cycles_ += 1
