@@ -198,6 +198,41 @@ def test_mesh_fixes_the_bottom_along_up(tmp_path):
         assert len(held) == 9 and np.allclose(held[:, axis], side * 1e-3)
 
 
+def test_mesh_drive_top_names_the_plate_and_import_drives_it(lab, tmp_path):
+    """``mesh --fix-bottom --drive-top`` writes the plate's face into the model file (along
+    --up); ``import`` drives that set; a driven set that is also fixed is refused."""
+    import meshio
+
+    from neurofuzzy.io import load_model
+    from neurofuzzy.io.load_steps import load_load_steps
+    from neurofuzzy.mesh import Mesh
+
+    points, tetrahedra = kuhn_block((3, 3, 3), SIZE * 1e3 / 3)
+    meshio.write(tmp_path / "gel.vtu", meshio.Mesh(points, [("tetra", tetrahedra)]))
+    for up, side in (("z", SIZE), ("-z", 0.0)):
+        out = tmp_path / f"model{up}.yaml"
+        done = cli("mesh", tmp_path / "gel.vtu", "--scale", "0.001", "--rules", "liver",
+                   "--tissue", "liver", "--fix-bottom", "--drive-top", f"--up={up}",
+                   "--out", out)
+        assert done.returncode == 0, done.stderr
+        assert "16 fixed nodes, 16 driven" in done.stdout
+        mesh = load_model(out).mesh
+        assert len(mesh.driven) == 16
+        assert np.allclose(mesh.rest_positions[mesh.driven, 2], side)
+        assert np.allclose(mesh.rest_positions[mesh.fixed, 2], SIZE - side)
+    # the model's set is what import drives, whatever --up says to import
+    model = load_model(tmp_path / "modelz.yaml")
+    steps = tmp_path / "steps.npz"
+    done = cli("import", lab / "scans.csv", "--topology", tmp_path / "modelz.yaml",
+               "--displacements", lab / "plate.csv", "--out", steps, "--up=-z")
+    assert done.returncode == 0, done.stderr
+    driven = load_load_steps(steps).driven[0].nodes
+    assert np.array_equal(np.sort(driven), model.mesh.driven)
+    with pytest.raises(Exception, match="driven nodes are also fixed"):
+        Mesh(points, load_model(tmp_path / "modelz.yaml").mesh.springs, fixed=[0, 1],
+             driven=[1, 2])
+
+
 @pytest.mark.slow
 def test_fit_many_fits_a_cohort_of_compression_tests(lab, tmp_path):
     """Two specimens measured between plates, one with its load cell: fit-many's task fits

@@ -114,6 +114,10 @@ def mesh(args) -> int:
                              f"(z from {z.min():.4g} to {z.max():.4g} m): every node would be "
                              "held and nothing could move", key="--fix-below")
         mesh = mesh.with_fixed(where=lambda p: p[:, 2] <= args.fix_below)
+    if args.drive_top:
+        from .steps import top_face
+
+        mesh = mesh.with_driven(top_face(mesh, args.up))
     regions = {}
     if tissue_of:
         of = "tetrahedra" if read.tetrahedron_regions else "nodes"
@@ -138,7 +142,9 @@ def mesh(args) -> int:
     print(f"rules: {rule_base.origin}", file=sys.stderr)
     print(model.summary())
     print(f"{len(mesh.fixed)} fixed nodes" + ("" if len(mesh.fixed) else
-                                              " (none: use --fix-bottom or --fix-below)"))
+                                              " (none: use --fix-bottom or --fix-below)")
+          + (f", {len(mesh.driven)} driven (the top plate's face)" if len(mesh.driven)
+             else ""))
     if source.suffix.lower() in SURFACE_SUFFIXES:
         bounds = (read.surface_bounds if read.surface_bounds is not None else np.array(
             [read.mesh.rest_positions.min(axis=0), read.mesh.rest_positions.max(axis=0)]))

@@ -261,9 +261,13 @@ def build_parser() -> argparse.ArgumentParser:
                              "shortest spring of the minimum) in place")
     fixing.add_argument("--fix-below", type=float, metavar="Z",
                         help="hold the nodes with z <= Z (metres) in place")
+    mesh.add_argument("--drive-top", action="store_true",
+                      help="the highest nodes (along --up, within a quarter of the shortest "
+                           "spring of the maximum) are a plate's face, moved by the stage in "
+                           "a load-step test ('import --displacements PLATE.csv' drives them)")
     mesh.add_argument("--up", default="z", choices=steps.AXES,
-                      help="the axis pointing up, for --fix-bottom (default z): scans whose "
-                           "up is not +z")
+                      help="the axis pointing up, for --fix-bottom and --drive-top (default "
+                           "z): scans whose up is not +z")
     mesh.add_argument("--elements", choices=("tetra", "springs"), default="tetra",
                       help="tetra (default): linear tetrahedral finite elements whose "
                            "parameters are the tissue's Young's modulus, Poisson's ratio and "

@@ -68,7 +68,8 @@ def import_load_steps(args) -> int:
                          "plate file needs fx,fy,fz (and a '# force units:' line)",
                          source=str(args.displacements), key="--displacements")
     markers = None if scans is None else _embedded(mesh, scans, args.max_distance)
-    driven = top_face(mesh, args.up)
+    # the face 'mesh --drive-top' chose, else the one farthest along --up
+    driven = mesh.driven if mesh.driven.size else top_face(mesh, args.up)
     components = "xyz" if args.plate == "bonded" else args.up[-1]
     data = LoadSteps(mesh, (DrivenPath(driven, plate.displacement, components,
                                        "top plate"),), markers, plate.force, {}, str(args.out))

@@ -37,6 +37,7 @@ def model_to_dict(model: Model) -> dict:
             "rest_positions": mesh.rest_positions.tolist(),
             "mass": model.node_mass.tolist(),
             "fixed": mesh.fixed.tolist(),
+            **({"driven": mesh.driven.tolist()} if mesh.driven.size else {}),
         },
         "springs": {"nodes": mesh.springs.tolist(), "group": mesh.spring_group.tolist(),
                     "group_names": list(mesh.group_names), **_springs_to_dict(model)},
@@ -88,7 +89,7 @@ def _elements_to_dict(elements) -> dict:
 MODEL_KEYS = {
     None: (("format", "nodes", "springs"), ("effects", "regions", "tetrahedra", "elements",
                                             "fit", "rules")),
-    "nodes": (("rest_positions", "mass"), ("fixed", "region")),
+    "nodes": (("rest_positions", "mass"), ("fixed", "region", "driven")),
     "springs": (("nodes", "stiffness", "damping"),
                 ("group", "group_names", "rest_length", "tie", "region")),
     "regions": (("names",), ("tissues",)),
@@ -101,7 +102,8 @@ _MODEL_SCALAR_KEYS = {("elements", "volumetric")}
 #: where an array a model checks (its key) is in the file: (section, key)
 _MODEL_FILE_KEY = {
     "rest_positions": ("nodes", "rest_positions"), "node_mass": ("nodes", "mass"),
-    "fixed": ("nodes", "fixed"), "node_region": ("nodes", "region"),
+    "fixed": ("nodes", "fixed"), "driven": ("nodes", "driven"),
+    "node_region": ("nodes", "region"),
     "springs": ("springs", "nodes"), "spring_group": ("springs", "group"),
     "group_names": ("springs", "group_names"), "spring_stiffness": ("springs", "stiffness"),
     "spring_damping": ("springs", "damping"), "spring_rest_length": ("springs", "rest_length"),
@@ -201,7 +203,8 @@ def _model_from_checked_dict(data: dict, source: str) -> Model:
         mesh = Mesh(rest_positions=nodes["rest_positions"], springs=springs["nodes"],
                     spring_group=springs.get("group"),
                     group_names=tuple(springs.get("group_names", ())),
-                    fixed=nodes.get("fixed", []), tetrahedra=data.get("tetrahedra"))
+                    fixed=nodes.get("fixed", []), tetrahedra=data.get("tetrahedra"),
+                    driven=nodes.get("driven", []))
         elements = _elements_from_dict(data)
         terms = [] if elements is None else [elements]
         for key in ("stiffness", "damping"):

@@ -46,6 +46,7 @@ class Mesh:
     group_names: tuple[str, ...] = ()
     fixed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     tetrahedra: np.ndarray | None = None
+    driven: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     def __post_init__(self):
         positions = as_float_array(self.rest_positions, "rest_positions")
@@ -90,14 +91,21 @@ class Mesh:
             raise InputError(f"{len(names)} names for {n_groups} groups", key="group_names")
         fixed = np.unique(as_index_array(self.fixed, "fixed").ravel())
         check_range(fixed, n_nodes, "fixed")
+        driven = np.unique(as_index_array(self.driven, "driven").ravel())
+        check_range(driven, n_nodes, "driven")
+        both = np.intersect1d(fixed, driven)
+        if both.size:
+            raise InputError(f"{both.size} driven nodes are also fixed (e.g. node {both[0]}): "
+                             "a node is either held at rest or moved by the stage",
+                             key="driven")
         tetrahedra = None
         if self.tetrahedra is not None:
             tetrahedra = check_tetrahedra(self.tetrahedra, n_nodes, positions)
         for name, value in (("rest_positions", positions), ("springs", springs),
                             ("spring_group", groups), ("group_names", names), ("fixed", fixed),
-                            ("tetrahedra", tetrahedra)):
+                            ("tetrahedra", tetrahedra), ("driven", driven)):
             object.__setattr__(self, name, value)
-        for array in (positions, springs, groups, fixed, tetrahedra):
+        for array in (positions, springs, groups, fixed, tetrahedra, driven):
             if array is not None:
                 array.setflags(write=False)
 
@@ -155,6 +163,10 @@ class Mesh:
                                  f"expected bool of shape ({self.n_nodes},)", key="where")
             chosen |= mask
         return replace(self, fixed=np.flatnonzero(chosen))
+
+    def with_driven(self, nodes: Sequence[int] | np.ndarray) -> Mesh:
+        """Return a copy whose driven set (the nodes a stage moves) is ``nodes``."""
+        return replace(self, driven=nodes)
 
     def group_index(self, name: str) -> int:
         """Index of the spring group called ``name``."""
