@@ -168,8 +168,8 @@ def test_the_equilibriums_sensitivities_are_its_central_differences(gel):
 
     model = _start(gel.mesh)
     theta = np.array([np.log(5000.0), np.log(0.4 / 0.1)])
-    _, markers, reactions, d_markers, d_reactions, _ = _forward(model, gel, theta, [1, 2, 3],
-                                                                True)
+    _, markers, reactions, d_markers, d_reactions, *_ = _forward(model, gel, theta,
+                                                                 [1, 2, 3], True)
     eps = 1e-5
     for j in range(2):
         step = np.zeros(2)
@@ -225,3 +225,28 @@ def test_a_force_curve_alone_fits_youngs_modulus_with_poisson_held(gel):
     assert abs(wrong.youngs_modulus_ / E - 1) > 0.03
     with pytest.raises(InputError, match="nothing to fit"):
         LoadSteps(gel.mesh, gel.driven, None, None)
+
+
+def test_a_noisy_reference_scan_is_estimated_with_reference_noise(gel):
+    """A lab's reference scan is as noisy as the others and the markers are embedded where it
+    saw them, so a perfect model's residuals carry the noise twice (√2 σ). With
+    ``reference_noise`` each marker's rest point is estimated from every fitted scan: the
+    fitted residual falls to √(S/(S+1)) of the noise (S = 2 fitted steps) and the held-out
+    step is predicted to √(1 + 1/(S+1)) ≈ 1.15 of it, ν unchanged."""
+    rng = np.random.default_rng(7)
+    scans = gel.markers.positions.copy()
+    scans[0] += rng.normal(scale=20e-6, size=scans[0].shape)
+    nodes, weights, _ = embed_points(gel.mesh, scans[0])         # as 'import' embeds them
+    data = LoadSteps(gel.mesh, gel.driven, EmbeddedMarkers(nodes, weights, scans), None)
+    plain = fit_load_steps(_start(gel.mesh), data, marker_noise=20e-6, validate_on=[3])
+    refined = fit_load_steps(_start(gel.mesh), data, marker_noise=20e-6, validate_on=[3],
+                             reference_noise=True)
+    ratio = {name: (fit.marker_rms_ / fit.marker_scale,
+                    fit.validation_["rms_error"] / fit.marker_scale)
+             for name, fit in (("plain", plain), ("refined", refined))}
+    assert ratio["plain"][0] > 1.2 and ratio["plain"][1] > ratio["refined"][1] + 0.05
+    assert 0.7 < ratio["refined"][0] < 0.95 and ratio["refined"][1] < 1.25
+    assert refined.poisson_ratio_ == pytest.approx(NU, abs=0.01)
+    # the model's markers are the predictions from the estimated rest points
+    moved = refined.registered_ - refined.markers_
+    assert np.sqrt(np.mean(np.sum(moved[:2] ** 2, -1))) == pytest.approx(refined.marker_rms_)
