@@ -136,13 +136,13 @@ def test_bad_load_step_input_is_refused_with_exit_2_and_nothing_written(lab, tmp
     assert not out.exists()
 
 
-def test_validate_on_a_time_series_is_refused(lab, tmp_path):
+def test_validate_on_steps_of_a_time_series_names_what_it_takes(lab, tmp_path):
     from neurofuzzy.datasets import paper_cube_experiment
     from neurofuzzy.io import save_experiment
 
     path = save_experiment(paper_cube_experiment(), tmp_path / "cube.npz")
-    done = cli("fit", path, "--validate-on", "2")
-    assert done.returncode == 2 and "load steps" in done.stderr
+    done = cli("fit", path, "--validate-on", "2,3")
+    assert done.returncode == 2 and "load steps are held out of a load-step file" in done.stderr
 
 
 @pytest.mark.slow

@@ -52,10 +52,7 @@ def fit(args) -> int:
 
     if is_load_steps_file(args.experiments[0]):
         return fit_load_steps(args)
-    if args.validate_on:
-        raise InputError("holds out load steps of a load-step file; these experiments are "
-                         "time series (hold out a load case by fitting the others and "
-                         "simulating it)", key="--validate-on")
+    validate_on = _held_out(args.validate_on, args.experiments)
     progress = not args.quiet   # on stderr: --json output on stdout stays one object
     positive(args.cycles, "--cycles", integer=True)
     positive(args.learning_rate, "--learning-rate")
@@ -67,7 +64,8 @@ def fit(args) -> int:
         report = outputs.file(args.report, "--report", twins=(".json",))
         export = outputs.folder(args.export, "--export",
                                 owns=vtu_series(Path(args.experiments[0]).stem))
-        outcome, exported = _fit(args, progress, substeps, out, report, export, outputs)
+        outcome, exported = _fit(args, progress, substeps, out, report, export, outputs,
+                                 validate_on)
     learner, result = outcome.learner, outcome.summary
     if not learner.lack_of_fit_.explained and not args.quiet:
         print(f"neurofuzzy: warning: {learner.lack_of_fit_.verdict}", file=sys.stderr)
@@ -79,6 +77,8 @@ def fit(args) -> int:
               f"{length_text(result['rms_error'])} ({result['cycles']} cycles, "
               f"{result['seconds']:.1f} s{_compiling(watch)})")
         print(f"lack of fit: {learner.lack_of_fit_.verdict}")
+        if "validation" in result:
+            print(_validation_line(result["validation"]))
         for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
         if result.get("prior"):
@@ -88,7 +88,36 @@ def fit(args) -> int:
     return 0
 
 
-def _fit(args, progress, substeps, out, report, export, outputs):
+def _held_out(text: str | None, experiments) -> float | list[str] | None:
+    """``--validate-on`` of time series: a time (``0.3s`` or ``0.3``) or experiment files."""
+    if not text:
+        return None
+    value = text[:-1] if text.endswith("s") and not text.endswith(".npz") else text
+    try:
+        return float(value)
+    except ValueError:
+        pass
+    given = {Path(p).name: str(Path(p)) for p in experiments}
+    given |= {str(p): str(Path(p)) for p in experiments}
+    chosen = [part.strip() for part in text.split(",") if part.strip()]
+    for part in chosen:
+        if part not in given:
+            raise InputError(f"got {part!r}: of time series, hold out some of the experiment "
+                             f"files given ({', '.join(map(str, experiments))}) or a time in "
+                             "seconds (e.g. 0.3s); load steps are held out of a load-step file",
+                             key="--validate-on")
+    return [given[part] for part in chosen]
+
+
+def _validation_line(v: dict) -> str:
+    what = (f"frames from {v['from_time']:g} s" if "from_time" in v
+            else ", ".join(v["experiments"]))
+    times = f", {v['times_noise']:.2f}x the noise" if "times_noise" in v else ""
+    return (f"held out ({what}): RMS {length_text(v['rms_error'])} per marker predicted"
+            f"{times}; fitted {length_text(v['fitted_rms_error'])}")
+
+
+def _fit(args, progress, substeps, out, report, export, outputs, validate_on=None):
     """Fit (the library's pipeline, which refuses a failed fit), write the staged outputs."""
     from ..io import load_experiment, save_model
     from ..pipeline import fit as fit_pipeline
@@ -106,7 +135,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
                            learn_masses=args.learn_masses, substeps=substeps,
                            learning_rate=args.learning_rate,
                            mass_learning_rate=args.mass_learning_rate,
-                           mesh_check=args.mesh_check, names=inputs, progress=progress)
+                           mesh_check=args.mesh_check, names=inputs, progress=progress,
+                           validate_on=validate_on)
     learner, record, experiments = outcome.learner, outcome.record, outcome.experiments
     if out:
         save_model(learner.model_, out, fit=record)
@@ -128,7 +158,8 @@ def _fit(args, progress, substeps, out, report, export, outputs):
     if report:
         from ..report import fit_report
 
-        fit_report(outcome.start, learner, report, files=files)
+        fit_report(outcome.start, learner, report, files=files,
+                   validation=outcome.summary.get("validation"))
     return outcome, exported
 
 

@@ -62,9 +62,12 @@ def build_parser() -> argparse.ArgumentParser:
                           "the discrepancy principle, a number fixes it (1 = Bayesian: the "
                           "fuzzy set's spread against the measured noise), 'off' (the default "
                           "otherwise) fits the data alone")
-    fit.add_argument("--validate-on", metavar="STEPS",
-                     help="a load-step file: keep these load steps (e.g. 3 or 2,3) out of the "
-                          "fit and report their prediction error beside the fitted error")
+    fit.add_argument("--validate-on", metavar="STEPS|FILES|TIME",
+                     help="keep data out of the fit and report its prediction error beside "
+                          "the fitted error: a load-step file's steps (3 or 2,3); of time "
+                          "series, some of the experiment files (b.npz or b.npz,c.npz: load "
+                          "cases fitted on the others) or a time in seconds ('0.3s': every "
+                          "recording fitted on its frames before it)")
     fit.add_argument("--mesh-check", action="store_true",
                      help="after the fit, refit on the mesh refined once (each tetrahedron in "
                           "eight) and widen the 95 %% intervals by how far the values move: "

@@ -187,7 +187,8 @@ def _forward(model, data, theta, steps, want_jacobian, warm=None, gradient_of=No
 
 def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
                    force_noise: float | None = None, register: bool = True,
-                   reference_noise: bool = False, validate_on: Sequence[int] = (), max_iterations: int = 30,
+                   reference_noise: bool = False, validate_on: Sequence[int] = (),
+                   max_iterations: int = 30,
                    progress: Callable[[str], None] | None = None) -> LoadStepFit:
     """Fit the elements' Young's modulus and Poisson's ratio (one material) to
     :class:`~neurofuzzy.load_steps.LoadSteps` (module docstring).

@@ -75,7 +75,8 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
         learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool = False,
-        names: Sequence[str] | None = None, progress: bool = False) -> FitOutcome:
+        names: Sequence[str] | None = None, progress: bool = False,
+        validate_on=None) -> FitOutcome:
     """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
     Python.
 
@@ -132,6 +133,11 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         How the summary names the experiments (default: their files).
     progress : bool
         Report progress on stderr.
+    validate_on : float or sequence of int or str, optional
+        Data kept out of the fit and predicted (:mod:`.validation`): a time in seconds (every
+        experiment fitted on its frames before it), or load cases (indices into
+        ``experiments`` or their names). The summary's ``validation`` holds the prediction
+        error beside the fitted one.
 
     Returns
     -------
@@ -149,6 +155,13 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     from ..plausibility import check_fit_inputs
 
     experiments = _experiments(experiments)
+    names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]
+    split = None
+    if validate_on is not None:
+        from .validation import hold_out
+
+        split = hold_out(experiments, validate_on, names)
+        experiments, names = split.fitted, split.fitted_names
     if method == "paper":
         elements = False                    # the paper's learner is the spring network's
     begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
@@ -173,9 +186,16 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     # the progress lines give each stage's RMS; this is the fitted model's, as the summary's
     note(progress, f"fit: {learner.substeps_} substep(s) per frame kept, RMS "
                    f"{length_text(learner.rms_error_)} per marker")
-    names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]
     summary = fit_summary(learner, begun, method=method, tie=tie_label(tie, start),
                           experiments=names)
+    if split is not None:
+        from .validation import validation
+
+        summary["validation"] = validation(learner.model_, split, substeps=learner.substeps_,
+                                           fitted_rms=learner.rms_error_,
+                                           noise_rms=learner.lack_of_fit_.noise)
+        note(progress, f"held out: RMS {length_text(summary['validation']['rms_error'])} "
+                       "per marker predicted")
     return FitOutcome(model=learner.model_, learner=learner, start=begun, prior=chosen_prior,
                       experiments=experiments, summary=summary,
                       record=fit_record(learner, names, begun.rules))

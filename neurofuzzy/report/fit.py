@@ -61,7 +61,7 @@ def identifiability_html(learner) -> tuple[str, list]:
 
 
 def fit_report(start, learner, path, *, title: str | None = None,
-               files: dict | None = None) -> Path:
+               files: dict | None = None, validation: dict | None = None) -> Path:
     """HTML + JSON report of a fit from ``start`` (a :class:`~neurofuzzy.learn.StartModel`).
 
     With a rule base (``start.rules``; its file and checksum in the JSON's ``rules``), for
@@ -72,6 +72,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
     Always: the error curve, the learned parameters and what the data cannot determine (with
     a suggested extra load case). ``files`` (label → path) are linked, relative to the report
     (e.g. the fitted model and the ParaView files of :func:`neurofuzzy.export.export_paraview`).
+    ``validation`` (the fit summary's, :mod:`neurofuzzy.pipeline.validation`): the held-out
+    data's prediction error beside the fitted one.
     """
     plt = pyplot()
     sections, data = [], {}
@@ -98,6 +100,16 @@ def fit_report(start, learner, path, *, title: str | None = None,
     if lack_of_fit is not None:
         sections.append(lack_of_fit_section(plt, lack_of_fit))
         data["lack_of_fit"] = lack_of_fit.to_dict()
+    if validation:
+        what = (f"the frames from {validation['from_time']:g} s on"
+                if "from_time" in validation else ", ".join(validation["experiments"]))
+        times = (f" ({validation['times_noise']:.2f}× the noise)"
+                 if "times_noise" in validation else "")
+        sections.append(("Held-out data", html.escape(
+            f"Kept out of the fit: {what}. The fitted model predicts them to an RMS of "
+            f"{length_text(validation['rms_error'])} per marker{times}; it fits the rest to "
+            f"{length_text(validation['fitted_rms_error'])}.").join(("<p>", "</p>"))))
+        data["validation"] = validation
     sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
                      "</pre>"))
     law = law_section(plt, learner.model_)
