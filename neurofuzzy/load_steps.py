@@ -21,7 +21,7 @@ from .model import Model
 from .observation import EmbeddedMarkers
 from .simulation.static import Driven, equilibrium
 
-__all__ = ["DrivenPath", "LoadSteps", "simulate_load_steps"]
+__all__ = ["DrivenPath", "LoadSteps", "marker_paths", "simulate_load_steps"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +156,26 @@ class LoadSteps:
         """Every driven set at step ``step``."""
         return [path.at(step) for path in self.driven]
 
+    def drive_markers(self, markers, *, replace: bool = False) -> LoadSteps:
+        """Measured boundary data: the node under each of ``markers`` (names or indices; the
+        corner of its tetrahedron it sits nearest to) driven along that marker's measured
+        path (its scan at each step minus the reference scan), the marker no longer fitted
+        (:func:`marker_paths`).
+
+        For a boundary whose motion a lab saw but did not prescribe (a plate that tilted, a
+        clamp that slipped, tissue held by hand). ``replace=True`` drops the driven sets
+        there were (the markers are the whole boundary); a load cell, which reads the first
+        of them, cannot be kept then.
+        """
+        if replace and self.reaction is not None:
+            raise InputError("the load cell reads the driven set the markers would replace: "
+                             "drop the load cell or keep the driven sets",
+                             source=self.source, key="reaction")
+        paths, rest = marker_paths(self.markers, markers, source=self.source,
+                                   taken=() if replace else self.driven)
+        return LoadSteps(self.mesh, paths if replace else self.driven + paths, rest,
+                         self.reaction, self.truth, self.source)
+
 
 def simulate_load_steps(model: Model, driven, markers: EmbeddedMarkers, *,
                         load_cell: bool = True, marker_noise: float = 0.0,
@@ -190,3 +210,46 @@ def simulate_load_steps(model: Model, driven, markers: EmbeddedMarkers, *,
     return LoadSteps(model.mesh, driven,
                      EmbeddedMarkers(markers.nodes, markers.weights, scans, markers.names),
                      reaction if load_cell else None, truth, "<simulated load steps>")
+
+
+def marker_paths(markers: EmbeddedMarkers | None, chosen, *, source: str = "<load steps>",
+                 taken=()) -> tuple[tuple, EmbeddedMarkers | None]:
+    """``(paths, the other markers)``: a :class:`DrivenPath` for the node under each chosen
+    marker (:meth:`LoadSteps.drive_markers`), none of them a node of the ``taken`` paths."""
+    if markers is None:
+        raise InputError("has no markers to drive nodes with", source=source, key="markers")
+    names = list(markers.names) or [str(i) for i in range(len(markers.nodes))]
+    index = []
+    for item in chosen:
+        if isinstance(item, int | np.integer) and 0 <= item < len(names):
+            index.append(int(item))
+        elif str(item) in names:
+            index.append(names.index(str(item)))
+        else:
+            raise InputError(f"no marker {item!r} (markers: {', '.join(names[:8])}"
+                             f"{' …' if len(names) > 8 else ''})", source=source,
+                             key="markers")
+    if not index:
+        raise InputError("name at least one marker to drive", source=source, key="markers")
+    positions = markers.positions
+    if not np.isfinite(positions[:, index]).all():
+        raise InputError("a marker that drives its node must be seen in every scan",
+                         source=source, key="markers")
+    nodes = np.asarray(markers.nodes)[index, np.argmax(np.asarray(markers.weights)[index],
+                                                       axis=1)]
+    held = {int(n) for path in taken for n in path.nodes}
+    if held & set(nodes.tolist()):
+        raise InputError(f"marker {names[index[0]]!r}'s node is driven already (by "
+                         f"{taken[0].name!r}): drive the markers instead of that set "
+                         "(replace=True) or choose markers elsewhere", source=source,
+                         key="markers")
+    if len(set(nodes.tolist())) < len(nodes):
+        raise InputError("two of these markers sit nearest the same node; drive one of them",
+                         source=source, key="markers")
+    paths = tuple(DrivenPath(np.array([node]), positions[1:, i] - positions[0, i], "xyz",
+                             f"marker {names[i]}") for node, i in zip(nodes, index))
+    keep = np.setdiff1d(np.arange(len(names)), index)
+    rest = None if not keep.size else EmbeddedMarkers(
+        np.asarray(markers.nodes)[keep], np.asarray(markers.weights)[keep],
+        positions[:, keep], tuple(names[i] for i in keep) if markers.names else ())
+    return paths, rest

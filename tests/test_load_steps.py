@@ -250,3 +250,44 @@ def test_a_noisy_reference_scan_is_estimated_with_reference_noise(gel):
     # the model's markers are the predictions from the estimated rest points
     moved = refined.registered_ - refined.markers_
     assert np.sqrt(np.mean(np.sum(moved[:2] ** 2, -1))) == pytest.approx(refined.marker_rms_)
+
+
+def test_markers_on_a_tilted_plate_drive_the_boundary_they_saw():
+    """The stage's plate tilted as it pressed (its top face's nodes moved unevenly): a model
+    of a level plate misses the scans, while the top face driven along the markers that sat
+    on it (measured boundary data) fits them and finds ν."""
+    mesh = _mesh()
+    truth = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=1.0,
+                            density=1000.0, law="neo-hookean")
+    top = _top(mesh)
+    x = mesh.rest_positions[top, 0] / SIZE
+    tilted = [DrivenPath(np.array([node]), np.array([[0.0, 0.0, -s * SIZE * (0.6 + 0.8 * xi)]
+                                                     for s in STRAINS]), name=f"n{node}")
+              for node, xi in zip(top, x)]
+    inside = _markers(mesh)
+    on_top = EmbeddedMarkers(np.repeat(top[:, None], 4, axis=1),
+                             np.tile([1.0, 0.0, 0.0, 0.0], (len(top), 1)),
+                             np.zeros((len(STRAINS) + 1, len(top), 3)))
+    both = EmbeddedMarkers(np.vstack([inside.nodes, on_top.nodes]),
+                           np.vstack([inside.weights, on_top.weights]),
+                           np.zeros((len(STRAINS) + 1, 60 + len(top), 3)),
+                           tuple(f"bead{i}" for i in range(60))
+                           + tuple(f"top{i}" for i in range(len(top))))
+    data = simulate_load_steps(truth, tilted, both, marker_noise=20e-6, load_cell=False,
+                               seed=4)
+    level = LoadSteps(mesh, (_plate(mesh),), data.markers)
+    driven = level.drive_markers([f"top{i}" for i in range(len(top))], replace=True)
+    assert len(driven.driven) == len(top) and driven.markers.positions.shape[1] == 60
+    assert np.allclose(driven.driven[-1].displacement,
+                       data.markers.positions[1:, -1] - data.markers.positions[0, -1])
+    wrong = fit_load_steps(_start(mesh), level, marker_noise=20e-6)
+    right = fit_load_steps(_start(mesh), driven, marker_noise=20e-6)
+    assert right.marker_rms_ < 1.3 * right.marker_scale < wrong.marker_rms_ / 3
+    assert right.poisson_ratio_ == pytest.approx(NU, abs=0.01)
+    with pytest.raises(InputError, match="driven already"):
+        level.drive_markers(["top0"])
+    with pytest.raises(InputError, match="no marker 'nope'"):
+        level.drive_markers(["nope"])
+    with pytest.raises(InputError, match="load cell reads"):
+        LoadSteps(mesh, (_plate(mesh),), data.markers, np.zeros((3, 3))).drive_markers(
+            ["top0"], replace=True)

@@ -145,6 +145,40 @@ def test_validate_on_steps_of_a_time_series_names_what_it_takes(lab, tmp_path):
     assert done.returncode == 2 and "load steps are held out of a load-step file" in done.stderr
 
 
+def test_import_drive_markers_drives_their_nodes(lab, tmp_path):
+    """``--drive-markers``: beside the plate, or as the whole boundary (no plate file); the
+    driving markers are not fitted, and a time recording refuses the option."""
+    from neurofuzzy.io.load_steps import load_load_steps
+
+    plain = tmp_path / "plain.npz"
+    assert _import(lab, "plate-no-force.csv", plain).returncode == 0
+    data = load_load_steps(plain)
+    nearest = data.markers.nodes[np.arange(60), np.argmax(data.markers.weights, axis=1)]
+    held = set(data.mesh.fixed.tolist()) | set(data.driven[0].nodes.tolist())
+    free = [f"bead{i}" for i in range(60) if nearest[i] not in held]
+    free = [name for k, name in enumerate(free)
+            if nearest[int(name[4:])] not in {nearest[int(n[4:])] for n in free[:k]}][:5]
+    steps = tmp_path / "steps.npz"
+    done = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--displacements",
+               lab / "plate-no-force.csv", "--drive-markers", ",".join(free[:2]), "--out",
+               steps, "--json")
+    assert done.returncode == 0, done.stderr
+    record = json.loads(done.stdout)
+    assert record["markers"] == 58 and record["driving_markers"] == free[:2]
+    assert [path.name for path in load_load_steps(steps).driven] == [
+        "top plate", f"marker {free[0]}", f"marker {free[1]}"]
+    alone = tmp_path / "alone.npz"
+    done = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml",
+               "--drive-markers", ",".join(free), "--out", alone)
+    assert done.returncode == 0, done.stderr
+    assert "55 markers at 3 load steps, 5 markers drive their nodes" in done.stdout
+    assert len(load_load_steps(alone).driven) == 5
+    done = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml",
+               "--drive-markers", "nobead", "--out", tmp_path / "x.npz")
+    assert done.returncode == 2 and "no marker 'nobead'" in done.stderr
+    assert not (tmp_path / "x.npz").exists()
+
+
 @pytest.mark.slow
 def test_diagnose_a_load_step_file(lab, tmp_path):
     """The gel is neo-Hookean, the model file St. Venant–Kirchhoff: at 18 % the diagnosis

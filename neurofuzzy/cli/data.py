@@ -225,10 +225,11 @@ def import_markers(args) -> int:
                          key="MARKERS")
     if Path(args.markers).suffix.lower() == ".csv" and has_step_column(args.markers):
         return import_load_steps(args)
-    if args.displacements:
-        raise InputError("a plate's displacement per load step goes with scans at load steps "
-                         "(a marker CSV with a 'step' column); this recording is in time",
-                         source=str(args.markers), key="--displacements")
+    for option in ("displacements", "drive_markers"):
+        if getattr(args, option):
+            raise InputError("drives nodes at load steps, which go with scans at load steps "
+                             "(a marker CSV with a 'step' column); this recording is in time",
+                             source=str(args.markers), key=f"--{option.replace('_', '-')}")
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces) if p]
     positive(args.dt, "--dt")
     positive(args.max_distance, "--max-distance")

@@ -342,6 +342,11 @@ def build_parser() -> argparse.ArgumentParser:
                           help="with --displacements: the axis the plate moves along, "
                                "pointing away from the fixed bottom (default z; a negative "
                                "one as --up=-z)")
+    importer.add_argument("--drive-markers", metavar="NAMES",
+                          help="a load-step file's measured boundary: the node under each of "
+                               "these markers (A,B,...) moved along that marker's scans, the "
+                               "markers no longer fitted; with --displacements beside the "
+                               "plate, without it the whole driven boundary")
     importer.add_argument("--plate", choices=("bonded", "sliding"), default="bonded",
                           help="with --displacements: the plate holds the top face in every "
                                "direction (bonded, the default) or only along --up "

@@ -37,12 +37,14 @@ def import_load_steps(args) -> int:
     tetrahedra at the reference scan, the top face driven by the plate file."""
     from ..io import load_model
     from ..io.load_steps import save_load_steps
-    from ..load_steps import DrivenPath, LoadSteps
+    from ..load_steps import DrivenPath, LoadSteps, marker_paths
     from ..markers.steps import read_plate, read_step_markers
 
-    if not args.displacements:
+    drivers = [name.strip() for name in (args.drive_markers or "").split(",") if name.strip()]
+    if not args.displacements and not drivers:
         raise InputError("a load-step file (a 'step' column) needs the plate's displacement "
-                         "at each step: --displacements PLATE.csv (step,dx,dy,dz[,fx,fy,fz])",
+                         "at each step: --displacements PLATE.csv (step,dx,dy,dz[,fx,fy,fz]), "
+                         "or markers that show how the boundary moved (--drive-markers)",
                          key="--displacements")
     for option in ("map", "forces", "dt"):
         if getattr(args, option) is not None:
@@ -61,6 +63,8 @@ def import_load_steps(args) -> int:
         raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
                          "mesh --elements tetra)", source=str(topology), key="--topology")
     scans = read_step_markers(args.markers, units=args.units) if args.markers else None
+    if not args.displacements:
+        return _import_marker_driven(args, mesh, scans, drivers, outputs, out)
     plate = read_plate(args.displacements, units=args.units,
                        n_steps=None if scans is None else scans.positions.shape[0] - 1)
     if scans is None and plate.force is None:
@@ -73,10 +77,13 @@ def import_load_steps(args) -> int:
     components = "xyz" if args.plate == "bonded" else args.up[-1]
     data = LoadSteps(mesh, (DrivenPath(driven, plate.displacement, components,
                                        "top plate"),), markers, plate.force, {}, str(args.out))
+    if drivers:
+        data = data.drive_markers(drivers)
     with outputs:
         save_load_steps(data, out)
-    count = 0 if scans is None else len(scans.names)
+    count = 0 if data.markers is None else data.markers.positions.shape[1]
     summary = {"kind": "load steps", "steps": data.n_steps, "markers": count,
+               "driving_markers": drivers,
                "driven_nodes": len(driven), "plate": args.plate,
                "load_cell": plate.force is not None, "out": str(args.out)}
     if args.json:
@@ -86,7 +93,35 @@ def import_load_steps(args) -> int:
               f"top plate ({len(driven)} nodes, {args.plate}) moved to "
               + ", ".join(f"{v:g}" for v in plate.displacement[-1] * 1e3) + " mm"
               + (", with the load cell's force" if plate.force is not None
-                 else ", no force measured"))
+                 else ", no force measured")
+              + (f"; {len(drivers)} markers drive their nodes" if drivers else ""))
+    return 0
+
+
+def _import_marker_driven(args, mesh, scans, drivers, outputs, out) -> int:
+    """``import SCANS.csv --drive-markers A,B,...`` without a plate file: the markers' nodes
+    are the whole driven boundary (measured boundary data), no load cell."""
+    from ..io.load_steps import save_load_steps
+    from ..load_steps import LoadSteps, marker_paths
+
+    if scans is None:
+        raise InputError("--drive-markers needs the scans (MARKERS.csv)", key="--drive-markers")
+    markers = _embedded(mesh, scans, args.max_distance)
+    paths, rest = marker_paths(markers, drivers, source=str(args.markers))
+    if rest is None:
+        raise InputError("every marker would drive its node, leaving none to fit: keep some "
+                         "out of --drive-markers", key="--drive-markers")
+    data = LoadSteps(mesh, paths, rest, None, {}, str(args.out))
+    with outputs:
+        save_load_steps(data, out)
+    summary = {"kind": "load steps", "steps": data.n_steps,
+               "markers": rest.positions.shape[1], "driving_markers": drivers,
+               "driven_nodes": len(paths), "load_cell": False, "out": str(args.out)}
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"wrote {args.out}: {summary['markers']} markers at {data.n_steps} load steps, "
+              f"{len(drivers)} markers drive their nodes, no force measured")
     return 0
 
 
