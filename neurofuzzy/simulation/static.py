@@ -12,13 +12,18 @@ the fixed nodes at rest, and every other node where the forces balance,
 - **Newton's method** with the exact stiffness ``K = -∂F/∂p`` of every law and both
   volumetric forms, a predictor that moves the free nodes with the driven ones
   (``Δp_f = -K_ff⁻¹ K_fc Δp_c``), and a backtracking line search on the residual's norm;
-- **a sparse direct solve** of each Newton system by SciPy's SuperLU (``splu``). Why: it is
-  part of SciPy, already a dependency, exact (no tolerance to tune where ν → 0.5 makes the
-  system ill-conditioned and an iterative solver slow to converge), and it handles the
-  indefinite stiffness of a strongly compressed hyperelastic body, where a Cholesky solver
-  (CHOLMOD) would refuse; on the 10,368-tetrahedron block one factorisation takes 0.8 s (the
-  element volumetric form) to 3.3 s (the nodal form, whose node averages couple two rings
-  of nodes) on this 2-core machine;
+- **a sparse direct factorisation** by SciPy's SuperLU (``splu``, ordered by minimum degree
+  on ``A + Aᵀ`` in its symmetric mode). Why: it is part of SciPy, already a dependency, it
+  needs no tolerance tuned where ν → 0.5 makes the system ill-conditioned and an
+  unpreconditioned iterative solver slow to converge, and it handles the indefinite
+  stiffness of a strongly compressed hyperelastic body, where a Cholesky solver (CHOLMOD)
+  would refuse; on the 10,368-tetrahedron block in the nodal form (whose node averages
+  couple two rings of nodes) one factorisation takes 0.8 s on this 2-core machine;
+- **reused as a preconditioner**: a factorisation is kept while the matrix moves little
+  (later Newton iterations, the same load step at a fit's nearby parameters, the
+  sensitivities) and GMRES preconditioned by it solves those systems in a few triangular
+  solves (:func:`_solve`; a new factorisation where it does not converge in 30), so a
+  fit from three load steps of that block factorises 20 times instead of 93;
 - **relaxation** takes its long-time value (the Prony terms have relaxed: in equilibrium the
   internal variables cancel their share), and **viscosity** does nothing (no velocity).
 
@@ -120,9 +125,9 @@ class Equilibrium:
 
     def solve_free(self, right: np.ndarray, tolerance: float = 1e-10) -> np.ndarray:
         """``K_ff⁻¹ right`` (free degrees of freedom; ``right`` (n_free,) or (n_free, k)) with
-        the equilibrium's stiffness: the last Newton iteration's factorisation, refined
-        against the stiffness at the solution (which differs from it by the last, small,
-        step), or a new factorisation when that does not converge at once."""
+        the equilibrium's stiffness, to a relative ``tolerance``: GMRES preconditioned by the
+        factorisation the Newton iterations used (:func:`_solve`), or a new factorisation
+        when that does not converge."""
         free = np.setdiff1d(np.arange(self.stiffness.shape[0]), self.held)
         K = self.stiffness[free][:, free]
         right = np.asarray(right, float)
