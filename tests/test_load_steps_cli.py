@@ -136,6 +136,17 @@ def test_bad_load_step_input_is_refused_with_exit_2_and_nothing_written(lab, tmp
     assert not out.exists()
 
 
+def test_fit_reference_noise_from_the_command_line(lab, tmp_path):
+    steps = tmp_path / "steps.npz"
+    assert _import(lab, "plate-no-force.csv", steps).returncode == 0
+    records = [json.loads(cli("fit", steps, "--start", lab / "model.yaml", "--json", "--quiet",
+                              *extra).stdout) for extra in ([], ["--reference-noise"])]
+    assert [r["reference_noise"] for r in records] == [False, True]
+    # the rest points take up part of each marker's residual
+    assert records[1]["marker_rms_error"] < 0.9 * records[0]["marker_rms_error"]
+    assert records[1]["poisson_ratio"] == pytest.approx(0.45, abs=0.01)
+
+
 def test_validate_on_steps_of_a_time_series_names_what_it_takes(lab, tmp_path):
     from neurofuzzy.datasets import paper_cube_experiment
     from neurofuzzy.io import save_experiment
@@ -143,6 +154,8 @@ def test_validate_on_steps_of_a_time_series_names_what_it_takes(lab, tmp_path):
     path = save_experiment(paper_cube_experiment(), tmp_path / "cube.npz")
     done = cli("fit", path, "--validate-on", "2,3")
     assert done.returncode == 2 and "load steps are held out of a load-step file" in done.stderr
+    done = cli("fit", path, "--reference-noise")
+    assert done.returncode == 2 and "is for a load-step file" in done.stderr
 
 
 def test_import_drive_markers_drives_their_nodes(lab, tmp_path):

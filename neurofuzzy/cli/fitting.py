@@ -52,6 +52,10 @@ def fit(args) -> int:
 
     if is_load_steps_file(args.experiments[0]):
         return fit_load_steps(args)
+    if args.reference_noise:
+        raise InputError("is for a load-step file's scans (each marker's rest point "
+                         "estimated from every scan); time series take the first frame as "
+                         "measured", key="--reference-noise")
     validate_on = _held_out(args.validate_on, args.experiments)
     progress = not args.quiet   # on stderr: --json output on stdout stays one object
     positive(args.cycles, "--cycles", integer=True)

@@ -68,6 +68,11 @@ def build_parser() -> argparse.ArgumentParser:
                           "series, some of the experiment files (b.npz or b.npz,c.npz: load "
                           "cases fitted on the others) or a time in seconds ('0.3s': every "
                           "recording fitted on its frames before it)")
+    fit.add_argument("--reference-noise", action="store_true",
+                     help="a load-step file: the reference scan is as noisy as the others; "
+                          "estimate each marker's rest point from every scan (a noisy "
+                          "reference otherwise puts its noise into every residual; it also "
+                          "absorbs a wrong model's error, so use it once the model is right)")
     fit.add_argument("--mesh-check", action="store_true",
                      help="after the fit, refit on the mesh refined once (each tetrahedron in "
                           "eight) and widen the 95 %% intervals by how far the values move: "

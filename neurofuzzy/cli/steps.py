@@ -197,7 +197,7 @@ def fit_load_steps(args) -> int:
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         outcome = fit_load_step_file(source, start=args.start, rules=rule_base,
                                      tissue=args.tissue, law=args.law, validate_on=steps,
-                                     progress=say)
+                                     reference_noise=args.reference_noise, progress=say)
         result, data, record = outcome.result, outcome.data, outcome.record
         if out:
             save_model(result.model_, out)

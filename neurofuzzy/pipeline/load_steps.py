@@ -53,21 +53,24 @@ def load_step_start(data, *, start=None, rules=None, tissue: str | None = None,
 
 def fit_load_step_file(path: str | os.PathLike, *, start=None, rules=None,
                        tissue: str | None = None, law: str | None = None,
-                       validate_on: Sequence[int] = (),
+                       validate_on: Sequence[int] = (), reference_noise: bool = False,
                        progress: Callable[[str], None] | None = None) -> LoadStepOutcome:
     """Read the load-step file ``path``, fit it from ``start`` (a model or model file) or
     ``rules`` and ``tissue`` (:func:`load_step_start`), and make the record ``fit --json``
     prints: E (None when not identifiable), ν, ``unidentifiable``, standard errors, the
     markers' and the load cell's errors and noise, the held-out steps, the registration,
     ``rms_error`` (the markers', for the tables of fit-many), ``materials`` with no value and
-    no word for what is not identifiable, and the notes."""
+    no word for what is not identifiable, and the notes. ``reference_noise``: each marker's
+    rest point estimated from every scan (:func:`~neurofuzzy.learn.load_step_fit.fit_load_steps`).
+    """
     from ..io.load_steps import load_load_steps
     from ..learn.load_step_fit import fit_load_steps
     from ..tissues import materials
 
     data = load_load_steps(path)
     model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
-    result = fit_load_steps(model, data, validate_on=validate_on, progress=progress)
+    result = fit_load_steps(model, data, validate_on=validate_on,
+                            reference_noise=reference_noise, progress=progress)
     found = materials(result.model_, rules, tissue)
     for region in found.values():
         for name in result.unidentifiable_:
@@ -84,5 +87,6 @@ def fit_load_step_file(path: str | os.PathLike, *, start=None, rules=None,
               "force_rms_error": result.force_rms_, "force_noise": result.force_noise_,
               "validation": result.validation_, "iterations": result.iterations_,
               "registration": result.registration_.tolist(), "materials": found,
+              "reference_noise": reference_noise,
               "notes": list(result.notes_)}
     return LoadStepOutcome(model, data, result, record, rules)
