@@ -308,6 +308,9 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
             while damping < 1e10:
                 step = np.zeros(len(theta))
                 step[identifiable] = -np.linalg.solve(A + damping * np.diag(np.diag(A)), g)
+                move = step[identifiable]
+                if -(2 * g @ move + move @ A @ move) < GAIN * cost:
+                    break           # the linearised model promises no gain worth a solve
                 trial = theta + np.clip(step, -1.0, 1.0)
                 out = forward(trial, fitted, True, dict(warm))
                 r_trial = residuals(out[1], out[2], fitted, out[6])

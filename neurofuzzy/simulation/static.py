@@ -22,7 +22,7 @@ the fixed nodes at rest, and every other node where the forces balance,
 - **reused as a preconditioner**: a factorisation is kept while the matrix moves little
   (later Newton iterations, the same load step at a fit's nearby parameters, the
   sensitivities) and GMRES preconditioned by it solves those systems in a few triangular
-  solves (:func:`_solve`; a new factorisation where it does not converge in 30), so a
+  solves (:func:`_solve`; a new factorisation where it does not converge in 60), so a
   fit from three load steps of that block factorises 20 times instead of 93;
 - **relaxation** takes its long-time value (the Prony terms have relaxed: in equilibrium the
   internal variables cancel their share), and **viscosity** does nothing (no velocity).
@@ -265,11 +265,12 @@ def _solve(matrix, right, factor=None, tolerance=1e-12):
     nearby matrix (an earlier Newton iteration's, or the same step's at nearby material
     parameters), GMRES preconditioned by it: a few triangular solves instead of a new
     factorisation, which costs ten to thirty of them; a new one when GMRES has not converged
-    to ``tolerance`` after 30 iterations."""
+    to ``tolerance`` after 60 iterations (their triangular solves cost about half a
+    factorisation)."""
     if factor is not None and np.any(right):
         preconditioner = spla.LinearOperator(matrix.shape, matvec=factor.solve)
         x, info = spla.gmres(matrix, right, x0=factor.solve(right), rtol=tolerance,
-                             atol=0.0, restart=30, maxiter=1, M=preconditioner)
+                             atol=0.0, restart=60, maxiter=1, M=preconditioner)
         if info == 0:
             return x, factor
     factor = _factor(matrix)
