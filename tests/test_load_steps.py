@@ -291,3 +291,16 @@ def test_markers_on_a_tilted_plate_drive_the_boundary_they_saw():
     with pytest.raises(InputError, match="load cell reads"):
         LoadSteps(mesh, (_plate(mesh),), data.markers, np.zeros((3, 3))).drive_markers(
             ["top0"], replace=True)
+
+
+def test_marker_gradients_are_the_deformation_gradient_and_identity_when_glued():
+    """Each marker's tetrahedron's F under a homogeneous deformation is that deformation;
+    a marker whose four corners are one node moves with it (F = I), never a singular
+    matrix."""
+    from neurofuzzy.learn._reference_scan import MarkerGradients
+
+    mesh = _mesh(2)
+    deformation = np.array([[1.1, 0.05, 0.0], [0.0, 0.9, 0.02], [0.01, 0.0, 1.05]])
+    nodes = np.vstack([mesh.tetrahedra[:5], [[7, 7, 7, 7]]])
+    F = MarkerGradients(mesh.rest_positions, nodes).at(mesh.rest_positions @ deformation.T)
+    assert np.allclose(F[:5], deformation) and np.allclose(F[5], np.eye(3))

@@ -29,13 +29,19 @@ class MarkerGradients:
     def __init__(self, rest_positions: np.ndarray, nodes: np.ndarray):
         corners = rest_positions[nodes]                                   # (n, 4, 3)
         edges = np.transpose(corners[:, 1:] - corners[:, :1], (0, 2, 1))
+        scale = np.abs(edges).max(axis=(1, 2)) ** 3
+        # a marker glued to one node (its four corners the same) moves with it: F = I
+        self._glued = ~(np.abs(np.linalg.det(edges)) > 1e-9 * scale)
+        edges[self._glued] = np.eye(3)
         inverse = np.linalg.inv(edges)                  # row k: the gradient of λ_(k+1)
         self._grads = np.concatenate([-inverse.sum(axis=1, keepdims=True), inverse], axis=1)
         self._nodes = nodes
 
     def at(self, positions: np.ndarray) -> np.ndarray:
         """(n_markers, 3, 3): ``F = Σ_a x_a ⊗ ∇λ_a`` at node positions (n_nodes, 3)."""
-        return np.einsum("nai,naj->nij", positions[self._nodes], self._grads)
+        F = np.einsum("nai,naj->nij", positions[self._nodes], self._grads)
+        F[self._glued] = np.eye(3)
+        return F
 
 
 def project(reference, moved, gradients, seen, rows, derivatives=None):
