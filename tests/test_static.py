@@ -237,3 +237,26 @@ def test_a_model_with_an_effect_the_kernels_do_not_compute_is_refused():
     model = _block(0.3).with_effects(EFFECTS["hyperelasticity"](params=np.array([1.0])))
     with pytest.raises(InputError, match="hyperelasticity"):
         tangents(model, model.mesh.rest_positions)
+
+
+def test_a_kept_factorisation_gives_the_same_equilibrium_in_fewer_factorisations(monkeypatch):
+    """``factor``: the equilibrium at nearby parameters solved with a kept factorisation as
+    GMRES's preconditioner is the one a fresh solve finds, with no new factorisation; one of
+    another size (another set of held nodes) is ignored, not an error."""
+    import neurofuzzy.simulation.static as static
+
+    model = _block(0.45, law="neo-hookean", fixed=True)
+    top = _face(model, 2, SIZE)
+    plate = Driven(top, (0, 0, -0.1 * SIZE))
+    first = equilibrium(model, driven=plate, increments=2)
+    nearby = model.with_elements(youngs_modulus=1.05 * E, poisson_ratio=0.46)
+    fresh = equilibrium(nearby, driven=plate, start=first.positions)
+    count = []
+    factor = static._factor
+    monkeypatch.setattr(static, "_factor", lambda m: count.append(1) or factor(m))
+    kept = equilibrium(nearby, driven=plate, start=first.positions, factor=first.factor)
+    assert not count
+    assert np.abs(kept.positions - fresh.positions).max() < 1e-9 * SIZE
+    other = equilibrium(nearby, driven=Driven(top, (0, 0, -0.1 * SIZE), "z"),
+                        start=first.positions, factor=first.factor)
+    assert count and np.isfinite(other.positions).all()

@@ -267,7 +267,7 @@ def _solve(matrix, right, factor=None, tolerance=1e-12):
     factorisation, which costs ten to thirty of them; a new one when GMRES has not converged
     to ``tolerance`` after 60 iterations (their triangular solves cost about half a
     factorisation)."""
-    if factor is not None and np.any(right):
+    if factor is not None and tuple(factor.shape) == matrix.shape and np.any(right):
         preconditioner = spla.LinearOperator(matrix.shape, matvec=factor.solve)
         x, info = spla.gmres(matrix, right, x0=factor.solve(right), rtol=tolerance,
                              atol=0.0, restart=60, maxiter=1, M=preconditioner)
