@@ -7,6 +7,9 @@
 - :mod:`.nonlinear`: sfepy's total-Lagrangian hyperelastic and viscoelastic solids and the
   closed forms they are checked against (``pip install 'neurofuzzy[validation-nonlinear]'``,
   which builds sfepy from its source: minutes);
+- :mod:`.plates`: FElupe's locking-free quadratic tetrahedra (the Hu–Washizu three-field
+  form), a neo-Hookean cube compressed between plates, read at embedded beads (the
+  ``validation`` extra; the recordings in ``tests/data/plates_nu*.npz``);
 - :mod:`.probed_block`: recordings of the probed soft block (scikit-fem, MuJoCo) and the models
   a user would build for it.
 
