@@ -32,7 +32,7 @@ def _start():
 
 
 def test_a_held_out_load_case_is_predicted_to_the_noise(cases):
-    outcome = fit(list(cases), start=_start(), validate_on=["pull"])
+    outcome = fit(list(cases), start=_start(), validate_on="pull")
     v = outcome.summary["validation"]
     assert v["experiments"] == ["pull"]
     assert [e.source for e in outcome.experiments] == ["push"]
@@ -66,6 +66,7 @@ def test_the_prediction_error_is_measured_not_copied(cases):
     (["both"], "not one of the experiments"),
     ([0, 1], "leave one to fit"),
     (100.0, "give a time inside it"),
+    (1, "a time window is a float"),
 ])
 def test_bad_held_out_data_is_refused(cases, validate_on, message):
     with pytest.raises(InputError, match=message):

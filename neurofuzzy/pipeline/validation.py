@@ -15,6 +15,7 @@ the data's marker noise is known, as a multiple of the RMS the noise alone gives
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -40,11 +41,17 @@ class HeldOut:
 
 
 def hold_out(experiments: list, validate_on, names: Sequence[str]) -> HeldOut:
-    """Split ``experiments`` by ``validate_on``: a time (float, s), or load cases (a sequence
-    of indices or names)."""
+    """Split ``experiments`` by ``validate_on``: a time (a float, s), or load cases (a name, or
+    a sequence of indices or names); a bare integer is refused as ambiguous."""
     names = [str(n) for n in names]
-    if isinstance(validate_on, int | float) and not isinstance(validate_on, bool):
+    if isinstance(validate_on, bool | int | np.integer):
+        raise InputError(f"got {validate_on!r}: a time window is a float in seconds "
+                         f"({float(validate_on)!r}), load cases a list ([{validate_on!r}])",
+                         key="validate_on")
+    if isinstance(validate_on, float | np.floating):
         return _window(experiments, float(validate_on), names)
+    if isinstance(validate_on, str | os.PathLike):
+        validate_on = [validate_on]
     chosen = []
     for item in validate_on:
         if isinstance(item, int | np.integer) and 0 <= item < len(experiments):
