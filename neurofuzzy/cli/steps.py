@@ -37,7 +37,7 @@ def import_load_steps(args) -> int:
     tetrahedra at the reference scan, the top face driven by the plate file."""
     from ..io import load_model
     from ..io.load_steps import save_load_steps
-    from ..load_steps import DrivenPath, LoadSteps, marker_paths
+    from ..load_steps import DrivenPath, LoadSteps
     from ..markers.steps import read_plate, read_step_markers
 
     drivers = [name.strip() for name in (args.drive_markers or "").split(",") if name.strip()]

@@ -136,8 +136,8 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     validate_on : float, str or sequence of int or str, optional
         Data kept out of the fit and predicted (:mod:`.validation`): a time in seconds, a
         float (every experiment fitted on its frames before it), or load cases (a name, or a
-        list of indices into ``experiments`` or names). The summary's ``validation`` holds the prediction
-        error beside the fitted one.
+        list of indices into ``experiments`` or names). The summary's ``validation`` holds
+        the prediction error beside the fitted one.
 
     Returns
     -------
