@@ -8,6 +8,7 @@ prints the message on one line and exits with status 2; anything else is a bug i
 from __future__ import annotations
 
 import difflib
+import numbers
 from collections.abc import Iterable
 
 __all__ = [
@@ -15,7 +16,7 @@ __all__ = [
     "InputError",
     "UnstableTimeStepError", "FolderInUseError", "SchedulerLostError",
     "MissingDependencyError",
-    "closest_name", "RuleFileDeprecationWarning", "PlausibilityWarning"]
+    "closest_name", "index_of", "RuleFileDeprecationWarning", "PlausibilityWarning"]
 
 
 class NeurofuzzyError(ValueError):
@@ -80,6 +81,14 @@ class FolderInUseError(InputError):
 class SchedulerLostError(NeurofuzzyError):
     """The Dask scheduler of a ``fit-many`` stopped or could not be reached any more; what
     finished is kept, and ``--resume`` fits the rest."""
+
+
+def index_of(item, names) -> int | None:
+    """Where ``item`` is in ``names``: an integer index in range, or one of the names (as
+    text); None when it is neither (the caller says what was expected)."""
+    if isinstance(item, numbers.Integral) and not isinstance(item, bool):
+        return int(item) if 0 <= item < len(names) else None
+    return names.index(str(item)) if str(item) in names else None
 
 
 def closest_name(name: str, known: Iterable[str]) -> str | None:

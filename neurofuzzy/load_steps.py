@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, index_of
 from .mesh import Mesh
 from .model import Model
 from .observation import EmbeddedMarkers
@@ -221,11 +221,8 @@ def marker_paths(markers: EmbeddedMarkers | None, chosen, *, source: str = "<loa
     names = list(markers.names) or [str(i) for i in range(len(markers.nodes))]
     index = []
     for item in chosen:
-        if isinstance(item, int | np.integer) and 0 <= item < len(names):
-            index.append(int(item))
-        elif str(item) in names:
-            index.append(names.index(str(item)))
-        else:
+        index.append(index_of(item, names))
+        if index[-1] is None:
             raise InputError(f"no marker {item!r} (markers: {', '.join(names[:8])}"
                              f"{' …' if len(names) > 8 else ''})", source=source,
                              key="markers")

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, index_of
 from ..experiment import model_errors
 
 __all__ = ["HeldOut", "hold_out", "validation"]
@@ -54,11 +54,8 @@ def hold_out(experiments: list, validate_on, names: Sequence[str]) -> HeldOut:
         validate_on = [validate_on]
     chosen = []
     for item in validate_on:
-        if isinstance(item, int | np.integer) and 0 <= item < len(experiments):
-            chosen.append(int(item))
-        elif str(item) in names:
-            chosen.append(names.index(str(item)))
-        else:
+        chosen.append(index_of(item, names))
+        if chosen[-1] is None:
             raise InputError(f"{item!r} is not one of the experiments ({', '.join(names)}); "
                              "hold out load cases by their files, or a time window by a time "
                              "in seconds", key="validate_on")
