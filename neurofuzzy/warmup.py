@@ -60,6 +60,24 @@ def _stepper() -> None:
     load[mesh.rest_positions[:, 2] > 0.01 - 1e-9, 2] = -1e-3
     data = simulate_experiment(block, dt=1e-3, n_frames=6, external_forces=load)
     GradientLearner(method="lbfgs", max_iterations=2).fit(block.tied("global"), data)
+    _parallel_passes()
+
+
+def _parallel_passes() -> None:
+    """The stepper's element passes on threads (``kernels.stepper._passes_parallel``), which
+    only a model of :data:`~neurofuzzy.simulation.threads.PARALLEL_FROM` elements or more
+    takes, stepped from this (main) thread; nothing when numba has one thread."""
+    from .mesh import from_tetra, kuhn_block
+    from .model import Model
+    from .simulation import simulate
+    from .simulation.threads import PARALLEL_FROM, element_threads
+
+    if element_threads(PARALLEL_FROM) < 2:
+        return
+    mesh = from_tetra(*kuhn_block((8, 8, 6), 0.01))      # 2,304 tetrahedra
+    block = Model.continuum(mesh, youngs_modulus=6e3, poisson_ratio=0.45, viscosity=2.0,
+                            density=1000.0)
+    simulate(block, dt=1e-5, n_frames=2)
 
 
 def _static() -> None:

@@ -112,7 +112,7 @@ def _only_svk(law, kappa, relaxing):
 @numba.njit(cache=True, nogil=True)
 def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
                     lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                    relax_decay, history, kappa, force):
+                    relax_decay, history, kappa, force, buffers):
     """Element forces into ``force``; with ``nodal`` the volumetric stresses come from the
     node averages of ``θ`` and ``θ̇ = tr Ġ`` (one pass for the averages, one for the forces);
     with Prony terms (``relax_g`` (n_elements, K), K > 0) the relaxation of
@@ -124,15 +124,25 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, sh
     The passes are compiled twice (``general`` a constant at each call): for elements that
     are all St. Venant–Kirchhoff without stiffening or relaxation (:func:`_only_svk`) the law
     is a constant of the loop and ``θ = tr G``, and the loop has no branch for other laws or
-    relaxation (7 % of the step rate at 10,368 tetrahedra)."""
-    if _only_svk(law, kappa, relax_g.shape[1] > 0):
-        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                relax_decay, history, kappa, force, False)
+    relaxation (7 % of the step rate at 10,368 tetrahedra).
+
+    ``buffers`` None: one thread. Else (n_chunks - 1, n_nodes, 3): the elements split into
+    ``n_chunks`` runs of consecutive elements, one per thread (:func:`_passes_parallel`)."""
+    general = not _only_svk(law, kappa, relax_g.shape[1] > 0)
+    if buffers is None:
+        if general:
+            _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+                    lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+                    relax_g, relax_decay, history, kappa, force, True, 0)
+        else:
+            _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+                    lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+                    relax_g, relax_decay, history, kappa, force, False, 0)
     else:
-        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                relax_decay, history, kappa, force, True)
+        _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+                         lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                         node_strain, relax_g, relax_decay, history, kappa, force, general,
+                         buffers)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -156,14 +166,31 @@ def _strains(p, v, e, tets, inverse_rest):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general):
+    """Node ``i``'s sums of the first pass into its pressures ``Λ θ̄`` and ``H θ̄̇`` (for St.
+    Venant–Kirchhoff alone both into column 0: ``π`` and ``π̇`` both multiply ``I``)."""
+    if node_volume[i] > 0.0 and not general:
+        node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
+                             + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
+        node_strain[i, 1] = 0.0
+    elif node_volume[i] > 0.0:
+        node_strain[i, 0] *= node_lam[i] / node_volume[i]
+        node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
             lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-            relax_decay, history, kappa, force, general):
+            relax_decay, history, kappa, force, general, stage):
     """:func:`_element_forces`' two passes, for any laws (``general``) or St. Venant–Kirchhoff
-    alone (``π`` and ``π̇`` both multiply ``I``, so their node averages add into one)."""
+    alone (``π`` and ``π̇`` both multiply ``I``, so their node averages add into one).
+    ``stage`` 0: both (one thread); 1: the first alone, its sums added into ``node_strain``
+    (a thread's buffer); 2: the second alone, its forces added into ``force`` (a thread's
+    buffer); the element arrays of a thread's run of elements (:func:`_stage`)."""
     n_elements = tets.shape[0]
-    if nodal:
-        node_strain[:] = 0.0
+    if nodal and stage != 2:
+        if stage == 0:
+            node_strain[:] = 0.0
         for e in range(n_elements):
             nodes, _, _, G, Gd = _strains(p, v, e, tets, inverse_rest)
             if general:
@@ -175,14 +202,10 @@ def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
             for n in nodes:
                 node_strain[n, 0] += corner * theta
                 node_strain[n, 1] += corner * theta_rate
-        for i in range(node_strain.shape[0]):
-            if node_volume[i] > 0.0 and not general:          # π + π̇ at once (both times I)
-                node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
-                                     + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
-                node_strain[i, 1] = 0.0
-            elif node_volume[i] > 0.0:
-                node_strain[i, 0] *= node_lam[i] / node_volume[i]
-                node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
+        for i in range(node_strain.shape[0] if stage == 0 else 0):
+            _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general)
+    if stage == 1:
+        return
     for e in range(n_elements):
         (n0, n1, n2, n3), (b00, b01, b02, b10, b11, b12, b20, b21, b22), \
             (f00, f01, f02, f10, f11, f12, f20, f21, f22), G, Gd = _strains(
@@ -233,10 +256,61 @@ def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
 
 
 @numba.njit(cache=True, nogil=True)
+def _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+           lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, out, general,
+           lo, hi, stage):
+    """One thread's share of :func:`_passes_parallel`: :func:`_passes` ``stage`` 1 (sums into
+    ``out``) or 2 (forces into ``out``) on the elements ``lo..hi - 1`` (views of their
+    arrays: a loop from ``lo`` to ``hi`` costs the one-thread passes 12 % of their rate),
+    ``general`` a constant of each."""
+    none = node_strain[:0, 0]
+    t, B, V, L, s, m, mr = (tets[lo:hi], inverse_rest[lo:hi], volume[lo:hi], law[lo:hi],
+                            stiffening[lo:hi], shear[lo:hi], shear_rate[lo:hi])
+    lm, lr, g, a, r = (lam[lo:hi], lam_rate[lo:hi], relax_g[lo:hi], relax_decay[lo:hi],
+                       history[lo:hi])
+    strains = out if stage == 1 else node_strain
+    if general:
+        _passes(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, none, none, none, strains, g, a, r,
+                kappa, out, True, stage)
+    else:
+        _passes(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, none, none, none, strains, g, a, r,
+                kappa, out, False, stage)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+                     lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+                     relax_g, relax_decay, history, kappa, force, general, buffers):
+    """:func:`_passes` on ``len(buffers) + 1`` threads: thread ``c`` takes the ``c``-th run of
+    consecutive elements and adds its nodal values into ``node_strain`` / ``force`` (the
+    first) or its own buffer (zero on entry, left zero), summed per node after each pass: no
+    two threads write one value."""
+    n_elements, chunks = tets.shape[0], buffers.shape[0] + 1
+    for stage in (1, 2):
+        if stage == 1 and not nodal:
+            continue
+        if stage == 1:
+            node_strain[:] = 0.0
+        total = node_strain if stage == 1 else force
+        for c in numba.prange(chunks):
+            lo, hi = c * n_elements // chunks, (c + 1) * n_elements // chunks
+            _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+                   lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa,
+                   total if c == 0 else buffers[c - 1], general, lo, hi, stage)
+        for i in numba.prange(total.shape[0]):
+            for c in range(1, chunks):
+                for k in range(total.shape[1]):
+                    total[i, k] += buffers[c - 1, i, k]
+                    buffers[c - 1, i, k] = 0.0
+            if stage == 1:
+                _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general)
+
+
+@numba.njit(cache=True, nogil=True)
 def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
             stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
             node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, load,
-            h, n_steps, force):
+            h, n_steps, force, buffers):
     n_nodes = p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -251,7 +325,7 @@ def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, vol
             _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear,
                             shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
                             node_lam_rate, node_strain, relax_g, relax_decay, history, kappa,
-                            force)
+                            force, buffers)
         euler_update(p, v, force, weight, h)
 
 
@@ -260,7 +334,7 @@ def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volu
            stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
            node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, loads,
            h, n_frames, substeps, force, positions, velocities, start_index, start_p, start_v,
-           states_p, states_v, states_r, states_f):
+           states_p, states_v, states_r, states_f, buffers):
     """The frames of a run, ``substeps`` steps of :func:`advance` each: the one driver of the
     forward run of :func:`neurofuzzy.simulate` and of the adjoint's forward sweep
     (:mod:`neurofuzzy.kernels.adjoint`).
@@ -279,7 +353,8 @@ def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volu
     ``states_p``, ``states_v`` ((n_frames - 1) substeps, N, 3; empty: none kept) receive the
     state at the start of every substep in time order (a window's first frame's left unset),
     ``states_r`` the internal variables there and ``states_f`` (when not empty) every
-    substep's force: what the adjoint's backward sweep runs over.
+    substep's force: what the adjoint's backward sweep runs over. ``buffers``: None for one
+    thread, else the element passes' per-thread scratch (:func:`_element_forces`).
     """
     windows = start_index.shape[0] > 0
     keep = states_p.shape[0] > 0
@@ -303,7 +378,7 @@ def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volu
                 advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume,
                         law, stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume,
                         node_lam, node_lam_rate, node_strain, relax_g, relax_decay, history,
-                        kappa, drag, weight, load, h, at_once, force)
+                        kappa, drag, weight, load, h, at_once, force, buffers)
                 if states_f.shape[0]:               # (kept only with the states)
                     states_f[step] = force          # the step's force (advance leaves it)
                 step += 1

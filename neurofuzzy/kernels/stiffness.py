@@ -78,11 +78,20 @@ def element_tangents(p, v, elements, kappa, force, K, C, gradients):
     ``K``, ``C`` (n_elements, 12, 12) and, in the nodal volumetric form, its weighted
     volumetric gradients into ``gradients`` (n_elements, 3, 12) (module docstring); the
     force alone when ``K`` is empty."""
+    if elements[9]:
+        node_pressures(p, v, elements)
+    element_tangents_of(p, v, elements, kappa, force, K, C, gradients, 0,
+                        elements[0].shape[0])
+
+
+@numba.njit(cache=True, nogil=True)
+def element_tangents_of(p, v, elements, kappa, force, K, C, gradients, lo, hi):
+    """:func:`element_tangents` of elements ``lo..hi - 1`` alone, the nodal form's node
+    pressures (:func:`node_pressures`) already in ``elements``: runs of elements on threads
+    of their own, each adding into a ``force`` of its own."""
     (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
      _, _, _, node_strain, relax_g, _, history) = elements
-    if nodal:
-        node_pressures(p, v, elements)
-    for e in range(tets.shape[0]):
+    for e in range(lo, hi):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         x, xd = _gather(p, n0, n1, n2, n3), _gather(v, n0, n1, n2, n3)
         B = inverse_rest[e]

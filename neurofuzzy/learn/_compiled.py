@@ -24,6 +24,7 @@ from ..forces.relaxation import decay
 from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
 from ..simulation import numba_available
+from ..simulation.threads import element_buffers
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
 __all__ = ["compiled_possible", "CompiledModel"]
@@ -275,7 +276,9 @@ class CompiledModel:
                    np.zeros((relax_g.shape[0], relax_g.shape[1], 6)), self.elements[-3],
                    self.effects[0], np.ascontiguousarray(self.weight, dtype=float), loads, h,
                    n_frames, int(substeps), np.empty((n_nodes, 3)), positions,
-                   np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept)
+                   np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept,
+                   element_buffers(elements[0].shape[0] if elements[0] is not None else 0,
+                                   n_nodes))
         return positions, (kept if keep else None)
 
 

@@ -24,6 +24,8 @@ import weakref
 
 import numpy as np
 
+from .threads import element_threads
+
 __all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
 
 
@@ -164,8 +166,20 @@ class NumbaStepper:
         none = np.zeros((0, model.n_nodes, 3), dtype=self.dtype)
         self.no_windows = (np.zeros(0, np.intp), none, none, none, none,
                            np.zeros((0,) + self.history.shape, dtype=self.dtype), none)
+        self.n_elements = model.mesh.n_tetrahedra if model.elements is not None else 0
+        self._buffers = None
         if NumbaStepper._kernel is None:
             NumbaStepper._kernel, NumbaStepper._frames_kernel = _compile()
+
+    def buffers(self):
+        """The element passes' per-thread scratch for this call (None: one thread;
+        :mod:`neurofuzzy.simulation.threads`)."""
+        threads = element_threads(self.n_elements)
+        if threads < 2:
+            return None
+        if self._buffers is None or self._buffers.shape[0] != threads - 1:
+            self._buffers = np.zeros((threads - 1, self.force.shape[0], 3), self.dtype)
+        return self._buffers
 
     def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
         """As :meth:`NumpyStepper.trajectory`, all frames in one compiled call, the
@@ -185,7 +199,7 @@ class NumbaStepper:
                                     self.dtype.type(self.drag), self.weight, loads,
                                     self.dtype.type(self.h),
                                     int(n_frames), int(substeps), self.force, positions,
-                                    velocities, *self.no_windows)
+                                    velocities, *self.no_windows, self.buffers())
         return (positions.astype(float, copy=False), velocities.astype(float, copy=False),
                 self.history.astype(float))
 
@@ -199,7 +213,7 @@ class NumbaStepper:
                              self.cubic, *self.elements, self.dtype.type(self.kappa),
                              self.dtype.type(self.drag), self.weight, load,
                              self.dtype.type(self.h),
-                             int(n_steps), self.force)
+                             int(n_steps), self.force, self.buffers())
         p[...] = pc
         v[...] = vc
 

@@ -11,6 +11,7 @@ a node drag, inclusions and strain stiffening); nothing is written twice.
 from __future__ import annotations
 
 import weakref
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +19,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import Model
+from .threads import element_threads
 
 __all__ = ["Tangents", "tangents"]
 
@@ -39,6 +41,29 @@ class Tangents:
     force: np.ndarray
     stiffness: sp.csr_array | None
     damping: sp.csr_array | None
+
+
+def _element_tangents(p, v, layout, kappa, force, K, C, gradients):
+    """:func:`~neurofuzzy.kernels.stiffness.element_tangents`, its elements split into runs on
+    threads of their own when the model is large (:mod:`.threads`): each run adds its forces
+    into a buffer of its own, summed here; the matrices are per element, written once."""
+    from ..kernels.stiffness import element_tangents, element_tangents_of, node_pressures
+
+    n_elements = layout[0].shape[0]
+    threads = element_threads(n_elements)
+    if threads < 2:
+        element_tangents(p, v, layout, kappa, force, K, C, gradients)
+        return
+    if layout[9]:
+        node_pressures(p, v, layout)
+    bounds = [n_elements * c // threads for c in range(threads + 1)]
+    buffers = [force] + [np.zeros_like(force) for _ in range(threads - 1)]
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        list(pool.map(lambda c: element_tangents_of(p, v, layout, kappa, buffers[c], K, C,
+                                                    gradients, bounds[c], bounds[c + 1]),
+                      range(threads)))
+    for buffer in buffers[1:]:
+        force += buffer
 
 
 def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None = None,
@@ -77,7 +102,7 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
                          f"and {v.shape}", key="positions")
     (drag, kappa, constant, a, b, stiffness, damping, rest, cubic, elements,
      _) = _prepared(model, 1.0, np.dtype(np.float64))
-    from ..kernels.stiffness import element_tangents, spring_tangents
+    from ..kernels.stiffness import spring_tangents
 
     force = constant - drag * v
     blocks_k, blocks_c, dofs = [], [], []
@@ -96,7 +121,7 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         K = np.empty((k if matrices else 0, 12, 12))
         C = np.empty_like(K)
         gradients = np.zeros((k if matrices else 0, 3, 12))
-        element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
+        _element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
         if matrices:
             tets = elements[0]
             blocks_k.append(K.reshape(len(K), -1))

@@ -1,0 +1,47 @@
+"""How many threads the compiled element passes use: both cores for a large model run from the
+main thread, one otherwise.
+
+The element passes scatter each element's nodal forces into the nodes it shares with its
+neighbours, so they cannot simply be split over threads. Split into runs of consecutive
+elements, each thread adds its run's forces into a buffer of its own, and the buffers are
+summed per node afterwards (:func:`neurofuzzy.kernels.stepper._passes_parallel`). A parallel
+region costs its launch (tens of microseconds on this machine, measured in
+``benchmarks/threads.py``), so small models, whose whole step is shorter, stay on one
+thread: :data:`PARALLEL_FROM` elements.
+
+Work that already runs side by side in threads (the learners' experiments and Jacobian
+columns, :mod:`neurofuzzy.learn._passes`) or in worker processes (``fit-many``, whose workers
+set ``NUMBA_NUM_THREADS=1``) keeps one thread per kernel: only the main thread splits, so the
+cores are not asked for more threads than they have, and numba's threading layers never see
+two parallel regions launched at once.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+__all__ = ["PARALLEL_FROM", "element_threads", "element_buffers"]
+
+#: Elements from which the passes run on more than one thread (below, one thread's step is
+#: about as short as the launch of a parallel region; ``benchmarks/threads.py``).
+PARALLEL_FROM = 2000
+
+
+def element_threads(n_elements: int) -> int:
+    """Threads for the element passes of a model of ``n_elements``: numba's thread count
+    (``NUMBA_NUM_THREADS``, :func:`numba.set_num_threads`) for a large model on the main
+    thread, else 1."""
+    if n_elements < PARALLEL_FROM or threading.current_thread() is not threading.main_thread():
+        return 1
+    import numba
+
+    return max(1, min(numba.get_num_threads(), n_elements // (PARALLEL_FROM // 2)))
+
+
+def element_buffers(n_elements: int, n_nodes: int, dtype=np.float64) -> np.ndarray | None:
+    """The per-thread scratch of the element passes: None for one thread (the serial passes),
+    else zeros (threads - 1, n_nodes, 3)."""
+    threads = element_threads(n_elements)
+    return None if threads < 2 else np.zeros((threads - 1, n_nodes, 3), dtype)
