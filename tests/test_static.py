@@ -180,6 +180,21 @@ def test_the_force_with_internal_variables_is_the_steppers():
     assert np.abs(got - difference).max() <= 1e-6 * np.abs(difference).max()
 
 
+def test_the_stiffness_without_damping_is_the_same_at_rest_and_moving():
+    """``damping=False`` (the static solve's) leaves the damping out and the stiffness as it
+    is: with the nodal form's viscous coupling at a moving state, and at rest."""
+    model = Model.continuum(_block(0.45).mesh, youngs_modulus=E, poisson_ratio=0.45,
+                            viscosity=3.0, density=1000.0, law="neo-hookean")
+    rng = np.random.default_rng(5)
+    p = model.mesh.rest_positions + 1e-3 * rng.normal(size=(model.n_nodes, 3))
+    for v in (np.zeros_like(p), 0.01 * rng.normal(size=p.shape)):
+        full, stiffness_only = tangents(model, p, v), tangents(model, p, v, damping=False)
+        assert stiffness_only.damping is None and full.damping is not None
+        np.testing.assert_array_equal(stiffness_only.force, full.force)
+        assert abs(stiffness_only.stiffness - full.stiffness).max() <= (
+            1e-12 * abs(full.stiffness).max())
+
+
 def test_bad_boundaries_are_refused_with_what_is_wrong():
     model = _block(0.3, fixed=True)
     top = _face(model, 2, SIZE)

@@ -120,7 +120,7 @@ def element_matrices(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, 
                      pressure, pressure_rate, kappa, relax_g, relax_r, K, C):
     """The element's force (returned, 12-tuple) and, generated from :func:`element_force` by
     complex step, its stiffness ``-∂f/∂x`` into ``K`` (12, 12) and damping ``-∂f/∂v`` into
-    ``C`` (12, 12) (the constants, ``π̄`` and ``π̄̇`` held)."""
+    ``C`` (12, 12; none when ``C`` is (0, 12)) (the constants, ``π̄`` and ``π̄̇`` held)."""
     none = -1
     xc, xdc = _lift(x, none), _lift(xd, none)
     r = (complex(relax_r[0]), complex(relax_r[1]), complex(relax_r[2]), complex(relax_r[3]),
@@ -132,6 +132,8 @@ def element_matrices(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, 
                           args[2], args[3], args[4], args[5], args[6], relax_g, r)
         for i in range(12):
             K[i, k] = -f[i].imag / STEP
+        if C.shape[0] == 0:                         # the stiffness alone (a static solve)
+            continue
         f = element_force(xc, _lift(xd, k), B, volume, law, args[7], args[0], args[1],
                           args[2], args[3], args[4], args[5], args[6], relax_g, r)
         for i in range(12):

@@ -77,7 +77,7 @@ def element_tangents(p, v, elements, kappa, force, K, C, gradients):
     """Every element's force added to ``force`` (n_nodes, 3), its stiffness and damping into
     ``K``, ``C`` (n_elements, 12, 12) and, in the nodal volumetric form, its weighted
     volumetric gradients into ``gradients`` (n_elements, 3, 12) (module docstring); the
-    force alone when ``K`` is empty."""
+    force alone when ``K`` is empty, no damping when ``C`` is (n_elements, 0, 12)."""
     if elements[9]:
         node_pressures(p, v, elements)
     element_tangents_of(p, v, elements, kappa, force, K, C, gradients, 0,

@@ -201,13 +201,13 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         # predictor: the free nodes follow the driven ones linearly
         move = target - p[held]
         if np.any(move):
-            K = tangents(model, p.reshape(n, 3), long_time=True).stiffness
+            K = tangents(model, p.reshape(n, 3), long_time=True, damping=False).stiffness
             coupling = K[free][:, held] @ move
             change, factor = _solve(K[free][:, free], coupling, factor, NEWTON_RTOL)
             p[free] -= change
         p[held] = target
         for _ in range(max_iterations):
-            state = tangents(model, p.reshape(n, 3), long_time=True)
+            state = tangents(model, p.reshape(n, 3), long_time=True, damping=False)
             out = state.force.ravel() + load_now
             scale = max(np.abs(out[held]).max(initial=0.0), np.abs(load_now).max(), 1e-300)
             residual = np.abs(out[free]).max(initial=0.0)
@@ -231,7 +231,7 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     reaction[held] = -(state.force.ravel()[held] + load_now[held])
     stiffness = state.stiffness
     if stiffness is None:
-        stiffness = tangents(model, p.reshape(n, 3), long_time=True).stiffness
+        stiffness = tangents(model, p.reshape(n, 3), long_time=True, damping=False).stiffness
     return Equilibrium(p.reshape(n, 3), reaction.reshape(n, 3), iterations, float(residual),
                        stiffness, held, factor)
 

@@ -68,7 +68,7 @@ def _element_tangents(p, v, layout, kappa, force, K, C, gradients):
 
 def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None = None,
              internal: np.ndarray | None = None, *, long_time: bool = False,
-             matrices: bool = True) -> Tangents:
+             matrices: bool = True, damping: bool = True) -> Tangents:
     """The force of ``model`` at ``(positions, velocities)`` and its stiffness and damping.
 
     Parameters
@@ -87,6 +87,9 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
     matrices : bool
         False: the force alone (``stiffness`` and ``damping`` None), at the cost of one
         evaluation per item.
+    damping : bool
+        False: no damping matrix (``damping`` None), which a static solve does not need (half
+        the element matrices' work).
     """
     from .steppers import _prepared, compiled_terms_only
 
@@ -100,7 +103,7 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
     if p.shape != (n, 3) or v.shape != (n, 3):
         raise InputError(f"positions and velocities must have shape ({n}, 3); got {p.shape} "
                          f"and {v.shape}", key="positions")
-    (drag, kappa, constant, a, b, stiffness, damping, rest, cubic, elements,
+    (drag, kappa, constant, a, b, spring_stiffness, spring_damping, rest, cubic, elements,
      _) = _prepared(model, 1.0, np.dtype(np.float64))
     from ..kernels.stiffness import spring_tangents
 
@@ -109,7 +112,7 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
     if len(a):
         K = np.empty((len(a) if matrices else 0, 6, 6))
         C = np.empty_like(K)
-        spring_tangents(p, v, a, b, stiffness, damping, rest, cubic, force, K, C)
+        spring_tangents(p, v, a, b, spring_stiffness, spring_damping, rest, cubic, force, K, C)
         if matrices:
             blocks_k.append(K.reshape(len(K), -1))
             blocks_c.append(C.reshape(len(C), -1))
@@ -119,7 +122,7 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         layout = _element_layout(elements, internal, long_time)
         k = model.mesh.n_tetrahedra
         K = np.empty((k if matrices else 0, 12, 12))
-        C = np.empty_like(K)
+        C = np.empty((len(K), 12 if damping else 0, 12))
         gradients = np.zeros((k if matrices else 0, 3, 12))
         _element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
         if matrices:
@@ -128,13 +131,16 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
             blocks_c.append(C.reshape(len(C), -1))
             dofs.append(_dofs(tets))
             if elements[9]:                                 # the nodal volumetric form
-                extra_k, extra_c = _nodal_coupling(model.mesh, tets, layout, gradients)
+                extra_k, extra_c = _nodal_coupling(model.mesh, tets, layout, gradients,
+                                                   damping)
     if not matrices:
         return Tangents(force, None, None)
     stiffness_matrix = _assemble(model.mesh, blocks_k, dofs)
-    damping_matrix = _assemble(model.mesh, blocks_c, dofs)
     for extra in extra_k:
         stiffness_matrix = stiffness_matrix + extra
+    if not damping:
+        return Tangents(force, sp.csr_array(stiffness_matrix), None)
+    damping_matrix = _assemble(model.mesh, blocks_c, dofs)
     for extra in extra_c:
         damping_matrix = damping_matrix + extra
     if drag:
@@ -210,12 +216,14 @@ def _assemble(mesh, blocks: list, dofs: list) -> sp.csr_array:
     return patterns[key].matrix(np.concatenate([block.ravel() for block in blocks]))
 
 
-def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarray):
+def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarray,
+                    damping: bool = True):
     """The nodal volumetric form's stiffness and damping through its node averages:
     ``A_g diag(Λ/V) Aᵀ + R diag(H/V) Dᵀ`` and ``R diag(H/V) Rᵀ`` with the columns of ``A``,
     ``R``, ``D`` the nodes' ``∂Θ_a/∂x``, ``∂(Σ_e (V_e/4) tr G_e)/∂x`` and ``∂Θ̇_a/∂x``
     (:mod:`neurofuzzy.kernels.stiffness`), and ``A_g`` that of ``A`` with each element's
-    share times ``1 + Σᵢ gᵢ`` (its Prony terms carry the volumetric stress too)."""
+    share times ``1 + Σᵢ gᵢ`` (its Prony terms carry the volumetric stress too). ``R
+    diag(H/V) Dᵀ`` is left out at rest (``D = 0``), the damping without ``damping``."""
     n = mesh.n_nodes
     node_volume, node_lam, node_lam_rate = elements[10], elements[11], elements[12]
     patterns = _PATTERNS.setdefault(mesh, {})
@@ -234,16 +242,19 @@ def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarr
     weight_rate = np.zeros(n)
     weight[inside] = node_lam[inside] / node_volume[inside]
     weight_rate[inside] = node_lam_rate[inside] / node_volume[inside]
-    A, R, D = columns(0), columns(1), columns(2)
+    A = columns(0)
     relaxing = 1.0 + elements[14].sum(axis=1)[:, None]
     stiffness = [(columns(0, relaxing) if np.any(relaxing != 1.0) else A)
                  @ sp.diags_array(weight) @ A.T]
-    damping = []
-    if np.any(weight_rate):
-        scaled = R @ sp.diags_array(weight_rate)
-        stiffness.append(scaled @ D.T)
-        damping.append(scaled @ R.T)
-    return stiffness, damping
+    damping_terms = []
+    moving = np.any(gradients[:, 2])
+    if np.any(weight_rate) and (damping or moving):
+        scaled = columns(1) @ sp.diags_array(weight_rate)
+        if moving:
+            stiffness.append(scaled @ columns(2).T)
+        if damping:
+            damping_terms.append(scaled @ columns(1).T)
+    return stiffness, damping_terms
 
 
 def unit_forces(model: Model, positions: np.ndarray,
