@@ -5,9 +5,10 @@ The element passes scatter each element's nodal forces into the nodes it shares 
 neighbours, so they cannot simply be split over threads. Split into runs of consecutive
 elements, each thread adds its run's forces into a buffer of its own, and the buffers are
 summed per node afterwards (:func:`neurofuzzy.kernels.stepper._passes_parallel`). A parallel
-region costs its launch (tens of microseconds on this machine, measured in
-``benchmarks/threads.py``), so small models, whose whole step is shorter, stay on one
-thread: :data:`PARALLEL_FROM` elements.
+region costs its launch (about 30 µs for an empty one on this 2-core machine), and a step
+of the nodal form starts four (two passes, two sums); a step of 1,296 tetrahedra takes
+about 160 µs on one thread. So models under :data:`PARALLEL_FROM` elements stay on one
+thread; ``benchmarks/threads.py`` measures the step rates either side.
 
 Work that already runs side by side in threads (the learners' experiments and Jacobian
 columns, :mod:`neurofuzzy.learn._passes`) or in worker processes (``fit-many``, whose workers
@@ -24,8 +25,8 @@ import numpy as np
 
 __all__ = ["PARALLEL_FROM", "element_threads", "element_buffers"]
 
-#: Elements from which the passes run on more than one thread (below, one thread's step is
-#: about as short as the launch of a parallel region; ``benchmarks/threads.py``).
+#: Elements from which the passes run on more than one thread (3,072 tetrahedra step 1.7-1.8x
+#: faster on two threads, ``benchmarks/threads.py``).
 PARALLEL_FROM = 2000
 
 
