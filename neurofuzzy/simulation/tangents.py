@@ -32,10 +32,11 @@ class Tangents:
     ----------
     force : (n_nodes, 3) float
         The sum of every force term (springs, elements, effects), without external loads.
-    stiffness : (3 n_nodes, 3 n_nodes) scipy.sparse.csr_array
-        ``K = -∂force/∂positions`` (node-major degrees of freedom: ``3 i + k``).
-    damping : (3 n_nodes, 3 n_nodes) scipy.sparse.csr_array
-        ``C = -∂force/∂velocities``.
+    stiffness : (3 n_nodes, 3 n_nodes) scipy.sparse.csr_array or None
+        ``K = -∂force/∂positions`` (node-major degrees of freedom: ``3 i + k``); None for
+        the force alone (``tangents(matrices=False)``).
+    damping : (3 n_nodes, 3 n_nodes) scipy.sparse.csr_array or None
+        ``C = -∂force/∂velocities``; None for the force alone or ``tangents(damping=False)``.
     """
 
     force: np.ndarray
