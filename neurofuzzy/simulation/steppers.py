@@ -24,7 +24,7 @@ import weakref
 
 import numpy as np
 
-from .threads import element_threads
+from .threads import element_buffers
 
 __all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
 
@@ -174,12 +174,10 @@ class NumbaStepper:
     def buffers(self):
         """The element passes' per-thread scratch for this call (None: one thread;
         :mod:`neurofuzzy.simulation.threads`)."""
-        threads = element_threads(self.n_elements)
-        if threads < 2:
-            return None
-        if self._buffers is None or self._buffers.shape[0] != threads - 1:
-            self._buffers = np.zeros((threads - 1, self.force.shape[0], 3), self.dtype)
-        return self._buffers
+        buffers = element_buffers(self.n_elements, self.force.shape[0], self.dtype,
+                                  reuse=self._buffers)
+        self._buffers = self._buffers if buffers is None else buffers
+        return buffers
 
     def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
         """As :meth:`NumpyStepper.trajectory`, all frames in one compiled call, the

@@ -32,8 +32,8 @@ PARALLEL_FROM = 2000
 
 def element_threads(n_elements: int) -> int:
     """Threads for the element passes of a model of ``n_elements``: numba's thread count
-    (``NUMBA_NUM_THREADS``, :func:`numba.set_num_threads`) for a large model on the main
-    thread, else 1."""
+    (``NUMBA_NUM_THREADS``, :func:`numba.set_num_threads`), at most one per half of
+    :data:`PARALLEL_FROM` elements, for a large model on the main thread; else 1."""
     if n_elements < PARALLEL_FROM or threading.current_thread() is not threading.main_thread():
         return 1
     import numba
@@ -41,8 +41,14 @@ def element_threads(n_elements: int) -> int:
     return max(1, min(numba.get_num_threads(), n_elements // (PARALLEL_FROM // 2)))
 
 
-def element_buffers(n_elements: int, n_nodes: int, dtype=np.float64) -> np.ndarray | None:
+def element_buffers(n_elements: int, n_nodes: int, dtype=np.float64,
+                    reuse: np.ndarray | None = None) -> np.ndarray | None:
     """The per-thread scratch of the element passes: None for one thread (the serial passes),
-    else zeros (threads - 1, n_nodes, 3)."""
+    else zeros (threads - 1, n_nodes, 3): ``reuse`` when it has that shape (the passes leave
+    their buffers zero)."""
     threads = element_threads(n_elements)
-    return None if threads < 2 else np.zeros((threads - 1, n_nodes, 3), dtype)
+    if threads < 2:
+        return None
+    if reuse is not None and reuse.shape == (threads - 1, n_nodes, 3):
+        return reuse
+    return np.zeros((threads - 1, n_nodes, 3), dtype)
