@@ -133,11 +133,11 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, sh
         if general:
             _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
                     lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                    relax_g, relax_decay, history, kappa, force, True, 0)
+                    relax_g, relax_decay, history, kappa, force, True)
         else:
             _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
                     lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                    relax_g, relax_decay, history, kappa, force, False, 0)
+                    relax_g, relax_decay, history, kappa, force, False)
     else:
         _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
                          lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
@@ -179,33 +179,30 @@ def _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-            lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-            relax_decay, history, kappa, force, general, stage):
-    """:func:`_element_forces`' two passes, for any laws (``general``) or St. Venant–Kirchhoff
-    alone (``π`` and ``π̇`` both multiply ``I``, so their node averages add into one).
-    ``stage`` 0: both (one thread); 1: the first alone, its sums added into ``node_strain``
-    (a thread's buffer); 2: the second alone, its forces added into ``force`` (a thread's
-    buffer); the element arrays of a thread's run of elements (:func:`_stage`)."""
+def _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general):
+    """The nodal form's first pass: every element's ``V θ / 4`` and ``V θ̇ / 4`` added into
+    columns 0 and 1 of its corners' rows of ``node_strain``."""
     n_elements = tets.shape[0]
-    if nodal and stage != 2:
-        if stage == 0:
-            node_strain[:] = 0.0
-        for e in range(n_elements):
-            nodes, _, _, G, Gd = _strains(p, v, e, tets, inverse_rest)
-            if general:
-                theta = volumetric(law[e], G)[0]
-            else:          # θ = tr G: the off-diagonal strains compile away
-                theta = volumetric(ST_VENANT_KIRCHHOFF, G)[0]
-            theta_rate = Gd[0] + Gd[1] + Gd[2]
-            corner = 0.25 * volume[e]
-            for n in nodes:
-                node_strain[n, 0] += corner * theta
-                node_strain[n, 1] += corner * theta_rate
-        for i in range(node_strain.shape[0] if stage == 0 else 0):
-            _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general)
-    if stage == 1:
-        return
+    for e in range(n_elements):
+        nodes, _, _, G, Gd = _strains(p, v, e, tets, inverse_rest)
+        if general:
+            theta = volumetric(law[e], G)[0]
+        else:          # θ = tr G: the off-diagonal strains compile away
+            theta = volumetric(ST_VENANT_KIRCHHOFF, G)[0]
+        theta_rate = Gd[0] + Gd[1] + Gd[2]
+        corner = 0.25 * volume[e]
+        for n in nodes:
+            node_strain[n, 0] += corner * theta
+            node_strain[n, 1] += corner * theta_rate
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+            lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force,
+            general):
+    """The second pass: every element's nodal forces added into ``force``, its volumetric
+    stresses from ``node_strain``'s node pressures (``nodal``) or its own ``λ θ``."""
+    n_elements = tets.shape[0]
     for e in range(n_elements):
         (n0, n1, n2, n3), (b00, b01, b02, b10, b11, b12, b20, b21, b22), \
             (f00, f01, f02, f10, f11, f12, f20, f21, f22), G, Gd = _strains(
@@ -255,26 +252,52 @@ def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
             force[n0, r] -= q1 + q2 + q3
 
 
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+            lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
+            relax_decay, history, kappa, force, general):
+    """:func:`_element_forces`' two passes on one thread, for any laws (``general``) or St.
+    Venant–Kirchhoff alone (``π`` and ``π̇`` both multiply ``I``, so their node averages add
+    into one)."""
+    if nodal:
+        node_strain[:] = 0.0
+        _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general)
+        for i in range(node_strain.shape[0]):
+            if node_volume[i] > 0.0 and not general:          # π + π̇ at once (both times I)
+                node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
+                                     + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
+                node_strain[i, 1] = 0.0
+            elif node_volume[i] > 0.0:
+                node_strain[i, 0] *= node_lam[i] / node_volume[i]
+                node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
+    _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+            lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force, general)
+
+
 @numba.njit(cache=True, nogil=True)
 def _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
            lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, out, general,
            lo, hi, stage):
-    """One thread's share of :func:`_passes_parallel`: :func:`_passes` ``stage`` 1 (sums into
-    ``out``) or 2 (forces into ``out``) on the elements ``lo..hi - 1`` (views of their
-    arrays: a loop from ``lo`` to ``hi`` costs the one-thread passes 12 % of their rate),
-    ``general`` a constant of each."""
-    none = node_strain[:0, 0]
+    """One thread's share of :func:`_passes_parallel`: the nodal sums (``stage`` 1,
+    :func:`_nodal_sums`, into ``out``) or the forces (``stage`` 2, :func:`_forces`, into
+    ``out``) of the elements ``lo..hi - 1`` (views of their arrays: a loop from ``lo`` to
+    ``hi`` costs the passes 12 % of their rate), ``general`` a constant of each."""
     t, B, V, L, s, m, mr = (tets[lo:hi], inverse_rest[lo:hi], volume[lo:hi], law[lo:hi],
                             stiffening[lo:hi], shear[lo:hi], shear_rate[lo:hi])
     lm, lr, g, a, r = (lam[lo:hi], lam_rate[lo:hi], relax_g[lo:hi], relax_decay[lo:hi],
                        history[lo:hi])
-    strains = out if stage == 1 else node_strain
-    if general:
-        _passes(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, none, none, none, strains, g, a, r,
-                kappa, out, True, stage)
+    if stage == 1 and general:
+        _nodal_sums(p, v, t, B, V, L, out, True)
+    elif stage == 1:
+        _nodal_sums(p, v, t, B, V, L, out, False)
+    elif general:
+        _forces(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, node_strain, g, a, r, kappa, out,
+                True)
     else:
-        _passes(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, none, none, none, strains, g, a, r,
-                kappa, out, False, stage)
+        _forces(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, node_strain, g, a, r, kappa, out,
+                False)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
