@@ -19,6 +19,9 @@ __all__ = ["set_prior", "MAX_PRIOR_FITS", "MAX_PRIOR_ALPHA"]
 MAX_PRIOR_FITS = 5
 #: The prior's weight stays within this factor of the Bayesian one.
 MAX_PRIOR_ALPHA = 1e4
+#: With L-BFGS, the search stops weakening the prior once a tenfold weaker one took the
+#: misfit less than this share of the way down to the noise (:func:`_bracket`).
+MIN_PROGRESS = 0.25
 
 
 def set_prior(learner, parameters, sensitivity, experiments, theta, substeps, fit, method,
@@ -108,13 +111,25 @@ def _discrepancy(learner, sensitivity, experiments, theta, substeps, fit, method
 
 def _bracket(tried, misfit, bound) -> None:
     """Fits at ``α`` ten times apart until the bound lies between two of them (then one
-    in the middle), each from the nearest fit so far (L-BFGS: no Jacobian to predict with)."""
+    in the middle), each from the nearest fit so far (L-BFGS: no Jacobian to predict with).
+
+    The search stops early when a tenfold weaker prior took the misfit less than
+    :data:`MIN_PROGRESS` of the way down to the noise: what stays above the noise is then
+    model error (a coarse mesh, a missing effect), which a weaker prior would only let the
+    items absorb. On scikit-fem data of the probed block fitted element by element on
+    7.5 mm voxels, the RMS went 1.22, 1.20, 1.19, 1.19, 1.19 times the noise over
+    ``α`` = 1 … 10⁻⁴: two fits instead of five."""
     step = np.log(10.0)
     while len(tried) < MAX_PRIOR_FITS:
         below = [a for a, (v, _) in tried.items() if v <= bound]
         above = [a for a, (v, _) in tried.items() if v > bound]
         if below and above and min(above) - max(below) <= step / 2:
             return
+        if not below and len(above) >= 2:
+            weakest, next_weakest = sorted(above)[:2]
+            gained = tried[next_weakest][0] - tried[weakest][0]
+            if gained < MIN_PROGRESS * (tried[next_weakest][0] - bound):
+                return          # what the data leave above the noise is not the prior's
         if below and above:
             log_alpha = 0.5 * (max(below) + min(above))
         elif below:
