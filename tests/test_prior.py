@@ -138,6 +138,39 @@ def test_regions_found_groups_neighbours_that_leave_the_description():
     assert region["share"] == pytest.approx(len(cluster) / mesh.n_tetrahedra)
 
 
+def test_a_region_grows_over_neighbours_that_lean_its_way_and_its_pieces_become_one():
+    """Two hard cores (each 6 elements at 10,500 Pa) joined by elements still called firm
+    but more than half as far above the tissue's level (8,000 Pa against 5,000 ± 1 %): one
+    region of cores and shell, named from its cores; each core alone, less than half of it, is a nested
+    candidate too. A lower ν over the same elements is the same region, not another."""
+    mesh = block((6, 3, 2))
+    centres = mesh.rest_positions[mesh.tetrahedra].mean(axis=1)
+    cell = np.floor(centres / 0.01).astype(int)
+    left = np.flatnonzero((cell[:, 0] == 1) & (cell[:, 1] == 1) & (cell[:, 2] == 1))
+    right = np.flatnonzero((cell[:, 0] == 4) & (cell[:, 1] == 1) & (cell[:, 2] == 1))
+    shell = np.flatnonzero((cell[:, 0] >= 2) & (cell[:, 0] <= 3) & (cell[:, 1] == 1)
+                           & (cell[:, 2] == 1))
+    rng = np.random.default_rng(0)
+    modulus = FIRM * np.exp(rng.normal(0.0, 0.01, mesh.n_tetrahedra))
+    modulus[left] = modulus[right] = 10500.0
+    modulus[shell] = 8000.0
+    model = continuum(mesh, modulus).replace(region_tissues=("liver",))
+    ratio = np.full(mesh.n_tetrahedra, 0.45)
+    grown = np.concatenate([left, shell, right])
+    ratio[grown] = 0.3
+    model = model.with_elements(poisson_ratio=ratio)
+    found = regions_found(model, FuzzyPrior(RULES, model))["regions"]
+    assert [(len(r["elements"]), r["quantity"], r["label"]) for r in found] == [
+        (len(grown), "youngs_modulus", "hard"), (6, "youngs_modulus", "hard"),
+        (6, "youngs_modulus", "hard")]
+    whole = found[0]
+    assert sorted(whole["elements"]) == sorted(grown.tolist())
+    assert whole["grown_from"] == 12 and whole["value"] == pytest.approx(10500.0)
+    assert [a["quantity"] for a in whole["also"]] == ["poisson_ratio"]
+    assert {tuple(sorted(r["elements"])) for r in found[1:]} == {
+        tuple(sorted(left.tolist())), tuple(sorted(right.tolist()))}
+
+
 def test_a_whole_tissue_unlike_its_description_is_said_so():
     """Liver is described nearly incompressible; tissue at ν = 0.3 everywhere is one region
     found, all of the object, and the words say so rather than naming a place."""
@@ -339,3 +372,22 @@ def test_diagnose_localise_needs_a_rule_base_and_says_when_there_is_nothing(reco
               "--localise", "--substeps", "2", "--max-effects", "0")
     assert run.returncode == 0, run.stderr
     assert "nothing to locate" in run.stdout
+
+
+@pytest.mark.parametrize("ratios, decades", [((1.22, 1.20, 1.19, 1.19, 1.19), [0, -1]),
+                                             ((1.6, 1.3, 1.1, 0.99, 0.98), [0, -1, -2, -3, -2.5])])
+def test_the_weight_search_stops_when_a_weaker_prior_no_longer_nears_the_noise(ratios,
+                                                                               decades):
+    """L-BFGS brackets α with fits ten times apart. When a tenfold weaker prior took the
+    misfit less than a quarter of the way to the noise, what is left is model error: the
+    search stops (the first case: scikit-fem data on 7.5 mm voxels); while it gains, it goes
+    on until it brackets the bound, then halves the bracket (the second)."""
+    from neurofuzzy.learn._prior_weight import _bracket
+
+    tried = {0.0: (ratios[0], None)}
+
+    def misfit(log_alpha, start):
+        tried[log_alpha] = (ratios[len(tried)], None)
+
+    _bracket(tried, misfit, 1.0)
+    assert list(tried) == pytest.approx([d * np.log(10.0) for d in decades])

@@ -22,7 +22,7 @@ from scipy.sparse.csgraph import connected_components
 from ..forces import tetrahedron_geometry
 from .prior import _elements_sharing_a_face, _spring_factor, _springs_sharing_a_node
 
-__all__ = ["regions_found", "describe_regions", "MIN_NODES"]
+__all__ = ["MIN_NODES", "describe_regions", "regions_found"]
 
 #: Smallest region reported, in nodes' worth of the mesh (its volume, or its springs, per
 #: node): one marker's noise moves the items around its node, so a smaller region is as
@@ -30,6 +30,12 @@ __all__ = ["regions_found", "describe_regions", "MIN_NODES"]
 MIN_NODES = 2.0
 #: An item leaves the description when another word fits its value at least this well.
 MIN_DEGREE = 0.5
+#: A region grows over neighbours departing from its tissue's level by more than this many
+#: times the scatter of the items about it (:func:`_grown`) ...
+GROW_TOLERANCE = 2.0
+#: ... and at least this share of the description's spread (a field of equal values has no
+#: scatter).
+MIN_GROW = 0.05
 
 _QUANTITIES = ("youngs_modulus", "viscosity", "poisson_ratio")
 
@@ -111,30 +117,104 @@ def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
                                   shape=(len(value), len(value)))
             _, component = connected_components(graph, directed=False)
             flagged = other & np.isin(component, component[seed])
+            pieces = _grown(component, flagged, side, variable.to_internal(value), members, a,
+                            b, chosen.spread)
             calm = members & ~flagged
             if calm.any():
                 typical = float(np.median(value[calm]))
                 rest.setdefault(model.region_names[region], {})[quantity] = {
                     "value": typical, "label": _word(rules, chosen.output, typical)[0]}
-            for label in np.unique(component[flagged]):
-                items = np.flatnonzero(flagged & (component == label))
+            for items, core in pieces:
                 if weights[items].sum() < min_nodes * weights.sum() / model.n_nodes:
                     continue
-                typical = float(np.median(value[items]))
+                typical = float(np.median(value[core]))
                 word, degree = _word(rules, chosen.output, typical)
                 w = weights[items]
                 entry = {kind: items.tolist(),
                          "nodes": np.unique(item_nodes[items]).tolist(),
                          "centroid": (w @ centres[items] / w.sum()).tolist(),
-                         "size": int(len(items)), "quantity": quantity, "value": typical,
-                         "label": word, "degree": degree,
+                         "size": len(items), "quantity": quantity, "value": typical,
+                         "label": word, "degree": degree, "output": chosen.output,
                          "described": terms[described], "region": model.region_names[region],
-                         "share": float(w.sum() / weights[members].sum())}
+                         "share": float(w.sum() / weights[members].sum()),
+                         "grown_from": len(core)}
                 if kind == "elements":
                     entry["volume"] = float(w.sum())
                 found.append(entry)
+    found = _merged(found, kind)
     found.sort(key=lambda entry: -entry["size"])
     return {"regions": found, "rest": rest}
+
+
+def _grown(component, flagged, side, u, members, a, b,
+           spread) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The pieces of one quantity in one region, grown: ``[(items, core)]``.
+
+    ``flagged`` items (``component``: their connected pieces) leave the description, on the
+    ``side`` of it (True: above) that every item of a piece shares. Their neighbours that
+    depart from the region's level (the median of its items' internal values ``u``) on the
+    same side as the piece join it, and so on outwards, when they depart by more than half
+    the pieces' height (their median departure: a step that the prior's smoothness term
+    spreads out crosses half its height where the step is) and by more than
+    :data:`GROW_TOLERANCE` times the items' scatter about that level (1.4826 × their median
+    absolute departure: the spread the fit's errors give values that do not depart); pieces
+    that meet are one region (a smooth bump whose top straddles two words, or a core cut in
+    two by a word's border). ``core``: the flagged items of the grown region, whose median
+    names it. A piece that is less than half of its grown region is also a candidate on its
+    own (a hard core in a slightly hard shell: the region test compares them).
+    """
+    if not flagged.any():
+        return []
+    level = np.median(u[members])
+    departure = u - level
+    scatter = 1.4826 * np.median(np.abs(departure[members]))
+    tolerance = max(GROW_TOLERANCE * scatter, MIN_GROW * spread)
+    pieces = []
+    for sign in (1.0, -1.0):
+        cores = [label for label in np.unique(component[flagged])
+                 if side[flagged & (component == label)][0] == (sign > 0)]
+        if not cores:
+            continue
+        core = flagged & np.isin(component, cores)
+        # half the height of the weakest piece: a step smoothed by the fit crosses half its
+        # height at the step
+        height = min(sign * np.median(departure[core & (component == label)])
+                     for label in cores)
+        eligible = core | (members & (sign * departure > max(tolerance, 0.5 * height)))
+        keep = eligible[a] & eligible[b]
+        graph = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])),
+                              shape=(len(u), len(u)))
+        _, grown = connected_components(graph, directed=False)
+        for label in np.unique(grown[core]):
+            items = np.flatnonzero(eligible & (grown == label))
+            inside = core & (grown == label)
+            pieces.append((items, np.flatnonzero(inside)))
+            for piece in np.unique(component[inside]):
+                alone = np.flatnonzero(inside & (component == piece))
+                if 2 * len(alone) < len(items):
+                    pieces.append((alone, alone))
+    return pieces
+
+
+def _merged(found: list[dict], kind: str) -> list[dict]:
+    """Candidates of different quantities over (nearly) the same items made one: a region
+    whose E is harder and whose ν is lower is one hypothesis, which the region test frees
+    all of (its own E, ν and η). Two merge when they share at least half of their union
+    (a small candidate inside a large one stays apart: the nested case). The merged one
+    keeps the entry of the larger and lists every quantity it stands for."""
+    merged: list[dict] = []
+    for entry in sorted(found, key=lambda e: -e["size"]):
+        items = set(entry[kind])
+        for other in merged:
+            union = items | set(other[kind])
+            if other["region"] == entry["region"] and \
+                    len(items & set(other[kind])) >= 0.5 * len(union):
+                other.setdefault("also", []).append(
+                    {key: entry[key] for key in ("quantity", "value", "label", "degree")})
+                break
+        else:
+            merged.append(entry)
+    return merged
 
 
 def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm") -> str:

@@ -39,19 +39,39 @@ BLOCK = {"size": (0.04, 0.04, 0.03), "probe": (0.02, 0.02, 0.03), "force": 0.05,
 
 @dataclass(frozen=True)
 class Inclusion:
-    """A sphere of other stiffness: centre (m), radius (m), ``contrast`` × the block's E."""
+    """A region of other stiffness, ``contrast`` × the block's E: a sphere of ``radius`` (m)
+    about ``centre`` (m), or with ``half_size`` (m, per axis) the box of those half-widths
+    about it."""
 
     centre: tuple = (0.014, 0.02, 0.017)
     radius: float = 0.0095
     contrast: float = 5.0
+    half_size: tuple | None = None
+
+    @classmethod
+    def box(cls, low, high, contrast: float = 5.0) -> Inclusion:
+        """The box from corner ``low`` to corner ``high`` (m)."""
+        low, high = np.asarray(low, float), np.asarray(high, float)
+        return cls(centre=tuple((low + high) / 2), radius=0.0, contrast=contrast,
+                   half_size=tuple((high - low) / 2))
 
     def inside(self, points: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(np.asarray(points) - np.asarray(self.centre), axis=-1) <= self.radius
+        offset = np.asarray(points) - np.asarray(self.centre)
+        if self.half_size is not None:
+            return np.all(np.abs(offset) <= np.asarray(self.half_size) + 1e-12, axis=-1)
+        return np.linalg.norm(offset, axis=-1) <= self.radius
+
+    @property
+    def volume(self) -> float:
+        """m³."""
+        if self.half_size is not None:
+            return float(np.prod(2 * np.asarray(self.half_size)))
+        return float(4 / 3 * np.pi * self.radius**3)
 
     @property
     def volume_share(self) -> float:
-        """The sphere's share of the block's volume (it lies wholly inside)."""
-        return float(4 / 3 * np.pi * self.radius**3 / np.prod(BLOCK["size"]))
+        """The inclusion's share of the block's volume (it lies wholly inside)."""
+        return self.volume / float(np.prod(BLOCK["size"]))
 
 
 @dataclass
