@@ -7,10 +7,13 @@ the same side (harder or softer; elements sharing a face, springs sharing a node
 region); a group with at least one item that its word fits with a degree of ``MIN_DEGREE`` or
 more is a region found (hysteresis, as in edge detection: a clear core, then its neighbours
 that lean the same way, so a region whose values straddle the border between two words is not
-cut in pieces). A region's word is that of its median value. Each is reported with its elements
-or springs, nodes, centroid, size, median value, word and degree of membership, and the rest of
-the tissue with its own word: "a region of 24 elements near (2.0, 2.0, 1.5) cm is hard (0.93),
-the rest firm".
+cut in pieces). Each group then grows over neighbours that lean its way by more than half its
+height (:func:`_grown`), so that pieces of one smoothed bump meet; candidates of two
+quantities over nearly the same items are one (:func:`_merged`). A region's word is that of
+the median value of its core (the items that left the description). Each is reported with
+its elements or springs, nodes, centroid, size, median value, word and degree of membership,
+and the rest of the tissue with its own word: "a region of 24 elements near (2.0, 2.0,
+1.5) cm is hard (0.93), the rest firm".
 """
 
 from __future__ import annotations
@@ -154,8 +157,8 @@ def _grown(component, flagged, side, u, members, a, b,
     ``side`` of it (True: above) that every item of a piece shares. Their neighbours that
     depart from the region's level (the median of its items' internal values ``u``) on the
     same side as the piece join it, and so on outwards, when they depart by more than half
-    the pieces' height (their median departure: a step that the prior's smoothness term
-    spreads out crosses half its height where the step is) and by more than
+    the height of the lowest piece (its median departure: a step that the prior's smoothness
+    term spreads out crosses half its height where the step is) and by more than
     :data:`GROW_TOLERANCE` times the items' scatter about that level (1.4826 × their median
     absolute departure: the spread the fit's errors give values that do not depart); pieces
     that meet are one region (a smooth bump whose top straddles two words, or a core cut in
