@@ -5,9 +5,10 @@ it, and none; fitted element by element with the rule base as a prior on voxels 
 a cube (another split and size than the data's), and every region found tested
 (:mod:`neurofuzzy.learn.region_test`).
 
-Each row says what the fit kept (:func:`outcome`), and what the true inclusion's elements would do as the one
-candidate (the same test): when even they do not shrink the misfit above the noise 1.5×,
-no candidate can pass on that mesh, and a miss is the mesh's, not the search's.
+Each row says what the fit kept (:func:`outcome`), and what the true inclusion's elements
+would do as the one candidate (the same test): when even they do not shrink the misfit above
+the noise 1.5×, no candidate can pass on that mesh, and a miss is the mesh's, not the
+search's.
 
     python benchmarks/inclusions.py                  # 13 data sets on 7.5 mm voxels
     python benchmarks/inclusions.py --pitch 0.01     # the 1 cm voxels

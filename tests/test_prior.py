@@ -141,8 +141,9 @@ def test_regions_found_groups_neighbours_that_leave_the_description():
 def test_a_region_grows_over_neighbours_that_lean_its_way_and_its_pieces_become_one():
     """Two hard cores (each 6 elements at 10,500 Pa) joined by elements still called firm
     but more than half as far above the tissue's level (8,000 Pa against 5,000 ± 1 %): one
-    region of cores and shell, named from its cores; each core alone, less than half of it, is a nested
-    candidate too. A lower ν over the same elements is the same region, not another."""
+    region of cores and shell, named from its cores; each core alone, less than half of it,
+    is a nested candidate too. A lower ν over the same elements is the same region, not
+    another."""
     mesh = block((6, 3, 2))
     centres = mesh.rest_positions[mesh.tetrahedra].mean(axis=1)
     cell = np.floor(centres / 0.01).astype(int)
