@@ -166,16 +166,19 @@ def _strains(p, v, e, tets, inverse_rest):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general):
-    """Node ``i``'s sums of the first pass into its pressures ``Λ θ̄`` and ``H θ̄̇`` (for St.
-    Venant–Kirchhoff alone both into column 0: ``π`` and ``π̇`` both multiply ``I``)."""
-    if node_volume[i] > 0.0 and not general:
-        node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
-                             + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
-        node_strain[i, 1] = 0.0
-    elif node_volume[i] > 0.0:
-        node_strain[i, 0] *= node_lam[i] / node_volume[i]
-        node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
+def _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, lo, hi, general):
+    """Nodes ``lo..hi - 1``: the sums of the first pass into their pressures ``Λ θ̄`` and
+    ``H θ̄̇`` (for St. Venant–Kirchhoff alone both into column 0: ``π`` and ``π̇`` both
+    multiply ``I``). A loop of its own: called once per node inside the one-thread step's
+    loop, it cost that step 15 % of its rate at 10,368 tetrahedra."""
+    for i in range(lo, hi):
+        if node_volume[i] > 0.0 and not general:
+            node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
+                                 + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
+            node_strain[i, 1] = 0.0
+        elif node_volume[i] > 0.0:
+            node_strain[i, 0] *= node_lam[i] / node_volume[i]
+            node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -264,14 +267,8 @@ def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
     if nodal:
         node_strain[:] = 0.0
         _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general)
-        for i in range(node_strain.shape[0]):
-            if node_volume[i] > 0.0 and not general:          # π + π̇ at once (both times I)
-                node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
-                                     + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
-                node_strain[i, 1] = 0.0
-            elif node_volume[i] > 0.0:
-                node_strain[i, 0] *= node_lam[i] / node_volume[i]
-                node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
+        _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, 0,
+                        node_strain.shape[0], general)
     _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
             lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force, general)
 
@@ -326,7 +323,8 @@ def _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, s
                     total[i, k] += buffers[c - 1, i, k]
                     buffers[c - 1, i, k] = 0.0
             if stage == 1:
-                _node_pressure(node_strain, node_volume, node_lam, node_lam_rate, i, general)
+                _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, i, i + 1,
+                                general)
 
 
 @numba.njit(cache=True, nogil=True)
