@@ -13,7 +13,11 @@ with the regions kept so far and the region's items as one more tie group (its o
 the misfit above the noise at least ``MIN_SHRINK`` times (the diagnosis's rule for adding an
 effect) and its likelihood ratio beats the Bayesian information criterion with the residual
 of the model without it as the noise (the honest level: model error and marker noise
-together). A smaller gain is what any extra freedom buys against model error.
+together). A smaller gain is what any extra freedom buys against model error. A refit that
+Gauss–Newton predicts cannot reach that shrink is given up where it is (the learner's
+``abandon_above``), since it would be rejected anyway: on scikit-fem data of the 7.5 mm
+block with a 5× stiffer sphere, the nine rejected regions were all given up, the first four
+(the largest) in 9 s instead of 28 s, and the kept one and every verdict stayed the same.
 
 The prior's weight stays with the discrepancy principle against the marker noise: it is a
 search for candidates, and the test decides. (Asking the item-by-item fit to explain the data
@@ -80,7 +84,8 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
     (so two regions that describe one inclusion, say a harder E and a lower η over the same
     elements, do not both pass): the kept ones stay in ``"regions"``, the others move to
     ``"rejected"``; each carries ``"evidence"``: the RMS error per marker (m) without and
-    with it, the shrink of the misfit above the noise and the BIC gain."""
+    with it, the shrink of the misfit above the noise, the BIC gain and whether the refit was
+    given up once it could no longer reach ``MIN_SHRINK`` (its RMS is then where it stopped)."""
     current = homogeneous
     noise = homogeneous.lack_of_fit_.noise
     count = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
@@ -98,23 +103,31 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
         tie = term.tie.copy()
         tie[items] = tie.max() + 1
         model = base.with_term(term.replace(tie=tie))
-        refit = type(homogeneous)(**options).fit(model, experiments)
-        rms0, rms1 = current.rms_error_, refit.rms_error_
+        rms0 = current.rms_error_
         gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
+        # the RMS a kept region has to reach: once the refit cannot, it stops (rejected)
+        needed = np.sqrt(noise**2 + (gap0 / MIN_SHRINK) ** 2)
+        refit = type(homogeneous)(**{**options, "abandon_above": needed}).fit(model,
+                                                                        experiments)
+        rms1 = refit.rms_error_
         gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))
         shrink = gap0 / gap1 if gap1 > 0 else np.inf
         # likelihood ratio with the residual of the model without it as the variance
         bic = count * np.log(max(rms0, 1e-300) ** 2 / max(rms1, 1e-300) ** 2) \
             - extra * np.log(count)
         keep = bool(shrink >= MIN_SHRINK and bic > 0)
+        given_up = bool(refit.abandoned_)
         region["evidence"] = {"tested": True, "rms_without": rms0, "rms_with": rms1,
-                              "gap_shrink": shrink, "bic_gain": float(bic), "kept": keep}
+                              "gap_shrink": shrink, "bic_gain": float(bic), "kept": keep,
+                              "given_up": given_up}
         if progress is not None:
             progress(f"region {index + 1} ({region['label']} {region['quantity']}, "
                      f"{region['size']} items): RMS {length_text(rms0)} -> "
                      f"{length_text(rms1)} per marker, the misfit above the noise "
                      + ("vanishes" if np.isinf(shrink) else f"shrinks {shrink:.2g}x")
-                     + f": {'kept' if keep else 'model error, not tissue'}")
+                     + f": {'kept' if keep else 'model error, not tissue'}"
+                     + (f" (given up: it cannot come below {length_text(needed)})"
+                        if given_up else ""))
         if keep:
             kept.append(region)
             current = refit
