@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from neurofuzzy.diagnosis import diagnose
-from neurofuzzy.learn import GradientLearner
+from neurofuzzy.learn import GradientLearner, Parameterization
+from neurofuzzy.learn.mesh_check import mesh_check
 from neurofuzzy.learn.prior import FuzzyPrior
 from neurofuzzy.rules import resolve
 
@@ -38,11 +39,21 @@ def inclusion():
 
 @pytest.mark.slow
 def test_a_mismatched_mesh_is_said_to_miss_and_its_intervals_hold_the_truth(plain):
-    """The homogeneous fit stays above the noise and says so; with the mesh check, the 95 %
-    intervals hold the continuum's E, ν and η."""
+    """The homogeneous fit stays above the noise and says so; with the mesh check (one
+    Gauss-Newton step on the mesh refined once), the 95 % intervals hold the continuum's E, ν
+    and η, and the step says what the refit says: the RMS on the refined mesh within 2 %."""
     start, experiment = plain
-    fitted = GradientLearner(substeps="auto", mesh_check=True).fit(start.tied("global"),
-                                                                   experiment)
+    fitted = GradientLearner(substeps="auto", mesh_check="step").fit(start.tied("global"),
+                                                                     experiment)
+    check = fitted.mesh_check_
+    assert "too far" not in check.how and "Gauss-Newton step" in check.how
+    parameters = Parameterization(fitted.model_)
+    refit = mesh_check(fitted, [experiment], parameters, parameters.initial())
+    assert abs(check.rms_refined / refit.rms_refined - 1.0) < 0.02
+    moved, moved_refit = check.theta_refined - check.theta, refit.theta_refined - refit.theta
+    assert np.all(np.sign(moved) == np.sign(moved_refit))
+    assert np.all((np.abs(moved) > 0.6 * np.abs(moved_refit))
+                  & (np.abs(moved) < 1.5 * np.abs(moved_refit)))
     assert not fitted.lack_of_fit_.explained and fitted.lack_of_fit_.ratio > 1.4
     assert "misses something" in fitted.lack_of_fit_.verdict
     for name, value in TRUTH.items():

@@ -103,14 +103,45 @@ def test_the_mesh_check_widens_the_intervals_by_the_move_on_the_refined_mesh():
         low, high = checked.intervals_[name]
         assert low < value < high
     assert checked.to_dict()["mesh_check"]["refined_elements"] == 8 * truth.mesh.n_tetrahedra
+    # two cells of 1 cm: one Gauss-Newton step on the refined mesh moves E too far to be
+    # trusted (by a factor of seven, where the refit moves it three times), so it is refitted
+    step = GradientLearner(substeps=steps, mesh_check="step").fit(truth, experiment)
+    assert "too far to trust" in step.to_dict()["mesh_check"]["how"]
+    assert np.allclose(step.mesh_check_.theta_refined, check.theta_refined)
+    assert step.intervals_ == checked.intervals_
 
 
 def test_the_mesh_check_needs_elements(tmp_path, cube_model, cube_experiment):
     with pytest.raises(InputError, match="mesh check"):
         GradientLearner(mesh_check=True).fit(cube_model, cube_experiment)
+    with pytest.raises(InputError, match="'step' or 'refit'"):
+        GradientLearner(mesh_check="refined").fit(cube_model, cube_experiment)
     from neurofuzzy.io import save_experiment
 
     path = save_experiment(cube_experiment, tmp_path / "cube.npz")
     done = cli("fit", path, "--mesh-check")
     assert done.returncode == 2 and "--mesh-check" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_fit_says_what_its_intervals_hold(tmp_path):
+    """Without a mesh check, an element model's intervals are said to hold the noise alone;
+    with ``--mesh-check`` (one Gauss-Newton step by default), the noise and the mesh."""
+    from neurofuzzy.io import save_experiment, save_model
+
+    truth = element_block((2, 2, 2))
+    data, steps = record(truth, frames=20)
+    nodes, weights = interior_points(truth.mesh, 20, seed=3)
+    experiment = markers_to_experiment(as_recording(nodes, weights, data, noise=2e-6),
+                                       truth.mesh, forces=data.forces_per_frame()).experiment
+    path = save_experiment(experiment, tmp_path / "block.npz")
+    model = save_model(truth.tied("global"), tmp_path / "block.yaml")
+    plain = cli("fit", path, "--start", model, "--substeps", str(steps))
+    assert plain.returncode == 0, plain.stderr
+    assert "(the noise alone" in plain.stdout and "--mesh-check" in plain.stdout
+    checked = cli("fit", path, "--start", model, "--substeps", str(steps), "--mesh-check")
+    assert checked.returncode == 0, checked.stderr
+    assert "(the noise and the mesh: on the mesh refined once, youngs modulus" in checked.stdout
+    with pytest.raises(SystemExit) as stopped:      # argparse's own message, exit 2
+        cli("fit", path, "--start", model, "--mesh-check", "twice")
+    assert stopped.value.code == 2

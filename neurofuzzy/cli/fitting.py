@@ -85,11 +85,24 @@ def fit(args) -> int:
             print(_validation_line(result["validation"]))
         for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
+        if getattr(learner, "intervals_", None) and learner.model_.elements is not None:
+            print(_intervals_line(getattr(learner, "mesh_check_", None)))
         if result.get("prior"):
             print(f"prior: weight {result['prior']['alpha']:.3g} ({result['prior']['how']}); "
                   f"{result['regions_found_words']}")
         written(args.out, args.report, exported.get("pvd"), exported.get("xdmf"))
     return 0
+
+
+def _intervals_line(check) -> str:
+    """What the 95 % intervals of an element model hold: the noise alone, said plainly, or
+    the noise and the mesh (how far the values moved on the mesh refined once)."""
+    if check is None:
+        return ("  (the noise alone: a coarse mesh biases every value by more than the noise "
+                "may show; --mesh-check adds the mesh's share)")
+    moves = ", ".join(f"{name.replace('_', ' ')} {v['mesh']:.4g} -> {v['refined']:.4g}"
+                      for name, v in check.values.items())
+    return f"  (the noise and the mesh: on the mesh refined once, {moves})"
 
 
 def _held_out(text: str | None, experiments) -> float | list[str] | None:
@@ -139,7 +152,7 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
                            learn_masses=args.learn_masses, substeps=substeps,
                            learning_rate=args.learning_rate,
                            mass_learning_rate=args.mass_learning_rate,
-                           mesh_check=args.mesh_check, names=inputs, progress=progress,
+                           mesh_check=args.mesh_check or False, names=inputs, progress=progress,
                            validate_on=validate_on)
     learner, record, experiments = outcome.learner, outcome.record, outcome.experiments
     if out:

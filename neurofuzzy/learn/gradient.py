@@ -78,10 +78,14 @@ class GradientLearner(Learner):
     prior : FuzzyPrior, optional
         The rule base's description of every region as a penalty on the material parameters
         (:mod:`.prior`); its weight fixed or chosen by the discrepancy principle.
-    mesh_check : bool
-        After the fit, refit on the mesh refined once and widen the intervals by how far the
-        values move (:mod:`.mesh_check`; element models; costs a fit of about 16 times the
-        work).
+    mesh_check : bool, "step" or "refit"
+        After the fit, estimate how far the values move on the mesh refined once and widen
+        the intervals by it (:mod:`.mesh_check`; element models): ``"step"``, one
+        Gauss–Newton step on the refined mesh from the fitted values
+        (:func:`~.mesh_check.linearised_mesh_check`; about one Jacobian of the refined model,
+        a sixth of the refit's work on the 7.5 mm probed block), or ``"refit"`` (or True),
+        the whole refit (about 16 times the work of the fit). False: the intervals hold the
+        noise alone, although a coarse mesh biases every value (``intervals_how`` says so).
     offsets : bool or "auto"
         Fit every marker's rest position along with the parameters (a constant offset per
         marker and coordinate, eliminated exactly: :func:`~neurofuzzy.observation.remove_offsets`),
@@ -172,6 +176,9 @@ class GradientLearner(Learner):
                              key="method")
         auto = check_substeps(self.substeps) == "auto"
         offsets = self.offsets_ = fits_offsets(self.offsets, experiments)
+        if self.mesh_check not in (False, True, "step", "refit", None):
+            raise InputError(f"got {self.mesh_check!r}; expected False, 'step' or 'refit'",
+                             key="mesh_check")
         if self.mesh_check and model.elements is None:
             raise InputError("the mesh check refines tetrahedral elements; a spring network's "
                              "constants belong to its mesh", key="mesh_check")

@@ -74,7 +74,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         prior="default", method: str = "gradient",
         cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
-        learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool = False,
+        learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool | str = False,
         names: Sequence[str] | None = None, progress: bool = False,
         validate_on=None) -> FitOutcome:
     """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
@@ -127,8 +127,9 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         Simulation steps per frame (``"auto"``: the fewest the data follow).
     learning_rate, mass_learning_rate : float
         The paper's learner's rates (``method="paper"``).
-    mesh_check : bool
-        When the fitted element model misses the data, refit it on its mesh refined once.
+    mesh_check : bool, "step" or "refit"
+        How far the values move on the mesh refined once widens the intervals: one
+        Gauss–Newton step there (``"step"``) or the whole refit (``"refit"`` or True).
     names : sequence of str, optional
         How the summary names the experiments (default: their files).
     progress : bool

@@ -37,9 +37,10 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         Paper method only: η for springs and η_m for masses.
     prior : FuzzyPrior, optional
         Gradient method only: the rule base as a prior (:func:`make_prior`).
-    mesh_check : bool
-        Gradient method only: refit on the mesh refined once and widen the intervals
-        (:mod:`neurofuzzy.learn.mesh_check`).
+    mesh_check : bool, "step" or "refit"
+        Gradient method only: how far the values move on the mesh refined once, by one
+        Gauss–Newton step (``"step"``) or the whole refit (``"refit"`` or True), widens the
+        intervals (:mod:`neurofuzzy.learn.mesh_check`).
     progress : bool
         Report progress on stderr.
 
