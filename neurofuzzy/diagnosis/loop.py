@@ -90,9 +90,10 @@ class Diagnosis:
     lack_of_fit : LackOfFit or None
         The final model's RMS error against the marker noise, with its verdict.
     mesh : dict or None
-        When the final model still misses the data: the same model refitted on its mesh
-        refined once (``nodes``, ``elements``, ``rms``, ``ratio`` to the noise and the share of
-        the misfit above the noise it ``explains``).
+        When the final model still misses the data: the same model's fit on its mesh refined
+        once, by one Gauss–Newton step from the fitted values (``nodes``, ``elements``,
+        ``rms``, ``ratio`` to the noise, the share of the misfit above the noise it
+        ``explains``, and ``how``).
     provisional : str or None
         Why the answer is provisional (the diagnosis ran out of ``max_time`` with work left:
         what it did not do); None for a complete diagnosis.
@@ -140,8 +141,8 @@ class Diagnosis:
                 "unexplained misfit: nothing in the catalogue explains it; ")
         text += self.lack_of_fit.verdict.replace("; run `neurofuzzy diagnose`", "")
         if self.mesh is not None:
-            text += (f". Refined once ({self.mesh['elements']} elements), the same model "
-                     f"reaches {self.mesh['ratio']:.2f}x the noise: the mesh explains "
+            text += (f". Refined once ({self.mesh['elements']} elements), a step of the same "
+                     f"model's fit reaches {self.mesh['ratio']:.2f}x the noise: the mesh explains "
                      f"{self.mesh['explains']:.0%} of the misfit"
                      + (" (a finer mesh is what the model needs)"
                         if self.mesh["explains"] >= 0.5 else ""))
