@@ -94,6 +94,11 @@ def fit(args) -> int:
     return 0
 
 
+def _mesh_check(args) -> bool | str:
+    """The learner's ``mesh_check`` of ``--mesh-check`` (one step) and ``--mesh-check-refit``."""
+    return "refit" if args.mesh_check_refit else "step" if args.mesh_check else False
+
+
 def _intervals_line(check) -> str:
     """What the 95 % intervals of an element model hold: the noise alone, said plainly, or
     the noise and the mesh (how far the values moved on the mesh refined once)."""
@@ -152,7 +157,7 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
                            learn_masses=args.learn_masses, substeps=substeps,
                            learning_rate=args.learning_rate,
                            mass_learning_rate=args.mass_learning_rate,
-                           mesh_check=args.mesh_check or False, names=inputs, progress=progress,
+                           mesh_check=_mesh_check(args), names=inputs, progress=progress,
                            validate_on=validate_on)
     learner, record, experiments = outcome.learner, outcome.record, outcome.experiments
     if out:

@@ -74,8 +74,8 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         prior="default", method: str = "gradient",
         cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
-        learning_rate: float = 0.1, mass_learning_rate: float = 0.1, mesh_check: bool | str = False,
-        names: Sequence[str] | None = None, progress: bool = False,
+        learning_rate: float = 0.1, mass_learning_rate: float = 0.1,
+        mesh_check: bool | str = False, names: Sequence[str] | None = None, progress: bool = False,
         validate_on=None) -> FitOutcome:
     """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
     Python.

@@ -20,7 +20,7 @@ METHODS = ("gradient", "paper")
 def make_learner(method: str = "gradient", *, cycles: int | None = None,
                  learn_masses: bool = False, substeps: int | str = "auto",
                  learning_rate: float = 0.1, mass_learning_rate: float = 0.1, prior=None,
-                 mesh_check: bool = False, progress: bool = False) -> Learner:
+                 mesh_check: bool | str = False, progress: bool = False) -> Learner:
     """The learner of ``neurofuzzy fit --method METHOD`` with its options (unfitted).
 
     Parameters
