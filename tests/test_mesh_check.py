@@ -139,12 +139,18 @@ def test_fit_says_what_its_intervals_hold(tmp_path):
                                        truth.mesh, forces=data.forces_per_frame()).experiment
     path = save_experiment(experiment, tmp_path / "block.npz")
     model = save_model(truth.tied("global"), tmp_path / "block.yaml")
-    plain = cli("fit", path, "--start", model, "--substeps", str(steps))
+    plain = cli("fit", path, "--start", model, "--substeps", str(steps), "--report",
+                tmp_path / "plain.html")
     assert plain.returncode == 0, plain.stderr
     assert "(the noise alone" in plain.stdout and "--mesh-check" in plain.stdout
-    checked = cli("fit", path, "--start", model, "--substeps", str(steps), "--mesh-check")
+    assert "These intervals hold the noise alone" in (tmp_path / "plain.html").read_text()
+    checked = cli("fit", path, "--start", model, "--substeps", str(steps), "--mesh-check",
+                  "--report", tmp_path / "checked.html")
     assert checked.returncode == 0, checked.stderr
     assert "(the noise and the mesh: on the mesh refined once, youngs modulus" in checked.stdout
+    page = (tmp_path / "checked.html").read_text()
+    assert "95 % interval" in page and "hold the noise and the mesh" in page
+    assert "one Gauss-Newton step" in page
     refit = cli("fit", path, "--start", model, "--substeps", str(steps), "--mesh-check-refit",
                 "--json")
     assert refit.returncode == 0, refit.stderr

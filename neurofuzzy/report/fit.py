@@ -49,6 +49,7 @@ def identifiability_html(learner) -> tuple[str, list]:
         text += f"<p>What the data cannot determine:</p><ul>{items}</ul>"
     else:
         text += "<p>Every parameter is determined by the data.</p>"
+    text += _intervals_html(learner)
     lack_of_fit = getattr(learner, "lack_of_fit_", None)
     if lack_of_fit is not None and not lack_of_fit.explained:
         text += ("<p><b>But the model does not explain the data to the noise</b> ("
@@ -58,6 +59,29 @@ def identifiability_html(learner) -> tuple[str, list]:
                  "the tissue's. Run <code>neurofuzzy diagnose</code> to find what is "
                  "missing.</p>")
     return text, suggestions
+
+
+def _intervals_html(learner) -> str:
+    """The 95 % intervals of an element model and what they hold: the noise and the mesh
+    (the mesh check's move on the refined mesh, and how it was taken), or the noise alone,
+    said plainly (issue 48: a fit at the noise may still be biased by its mesh)."""
+    bounds = getattr(learner, "intervals_", None)
+    if not bounds or learner.model_.elements is None:
+        return ""
+    rows = [[name, f"{low:.4g} .. {high:.4g}"] for name, (low, high) in bounds.items()]
+    text = table_html(["parameter", "95 % interval"], rows[:40])
+    check = getattr(learner, "mesh_check_", None)
+    if check is None:
+        return text + ("<p class='note'>These intervals hold the noise alone: no mesh check "
+                       "ran, and a coarse mesh biases every value by more than the noise may "
+                       "show, even when the fit is at the noise (<code>fit --mesh-check</code> "
+                       "adds the mesh's share).</p>")
+    moves = "; ".join(f"{html.escape(name.replace('_', ' '))} {v['mesh']:.4g} → "
+                      f"{v['refined']:.4g}" for name, v in check.values.items())
+    return text + (f"<p class='note'>These intervals hold the noise and the mesh: on the mesh "
+                   f"refined once ({check.elements[1]} tetrahedra), {moves} "
+                   f"({html.escape(check.how)}); twice that move is added to the standard "
+                   "error in quadrature.</p>")
 
 
 def fit_report(start, learner, path, *, title: str | None = None,
