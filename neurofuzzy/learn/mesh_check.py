@@ -182,12 +182,18 @@ def linearised_mesh_check(model, experiments: Sequence, parameters, theta: np.nd
     from ._sensitivity import Sensitivity
     from .steps import auto_substeps
 
+    if parameters.learn_masses:
+        raise InputError("the mesh check keeps the densities, not learned node masses; fit "
+                         "without learning masses", key="mesh_check")
     watch = Stopwatch()
     fine_model, refinement = refine_model(model)
     fine_experiments = [refine_experiment(e, fine_model.mesh, refinement) for e in experiments]
-    fine = Sensitivity(Parameterization(fine_model, learn_masses=parameters.learn_masses,
-                                        learn_effects=parameters.effects != []),
+    fine = Sensitivity(Parameterization(fine_model, learn_effects=parameters.effects != []),
                        model.length_unit, offsets=offsets)
+    if fine.parameters.names() != parameters.names():    # children share their parents'
+        raise InputError("the refined model's parameters are not the fitted model's: "
+                         "the mesh check needs tie groups that refinement keeps",
+                         key="mesh_check")
     steps = max(auto_substeps(fine_model, e.dt) for e in fine_experiments)
     starts = [(0,)] * len(fine_experiments)
     jacobian, runs = passes.jacobian(fine, fine_experiments, theta, starts, 2 * steps)
