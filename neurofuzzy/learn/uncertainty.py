@@ -102,11 +102,18 @@ def intervals_dict(learner) -> dict:
     return json_safe({
         "intervals": {name: list(bounds) for name, bounds in learner.intervals_.items()},
         "intervals_how": ("95 %: the standard error (the larger of the plain and the "
-                          "cluster-robust estimate)" + (
-                              f" and twice the change on the refined mesh ({check.how}), in "
-                              "quadrature" if check else "; the noise alone: no mesh check, "
-                              "and a coarse mesh biases the values by more than the noise may "
-                              "show" if learner.model_.elements is not None else "")
+                          "cluster-robust estimate)" + _mesh_part(learner, check)
                           + "; relative (a factor either way) for moduli, viscosities, "
                           "stiffness, damping and masses"),
         "mesh_check": check.to_dict() if check else None})
+
+
+def _mesh_part(learner, check) -> str:
+    """What the intervals hold besides the standard error: the mesh check's move, or, for an
+    element model without one, the plain statement that they hold the noise alone."""
+    if check is not None:
+        return f" and twice the change on the refined mesh ({check.how}), in quadrature"
+    if learner.model_.elements is not None:
+        return ("; the noise alone: no mesh check, and a coarse mesh biases the values by "
+                "more than the noise may show")
+    return ""
