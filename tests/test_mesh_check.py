@@ -109,6 +109,11 @@ def test_the_mesh_check_widens_the_intervals_by_the_move_on_the_refined_mesh():
     assert "too far to trust" in step.to_dict()["mesh_check"]["how"]
     assert np.allclose(step.mesh_check_.theta_refined, check.theta_refined)
     assert step.intervals_ == checked.intervals_
+    # every element its own E, nu and eta (144 parameters): the refit, not 144 refined tangents
+    each = GradientLearner(substeps=steps, mesh_check="step", max_iterations=3).fit(
+        truth.tied("none"), experiment)
+    assert "144 parameters: more than 64 columns" in each.mesh_check_.how
+    assert each.mesh_check_.change.shape == (144,)
 
 
 def test_the_mesh_check_needs_elements(tmp_path, cube_model, cube_experiment):
