@@ -105,9 +105,7 @@ def _intervals_line(check) -> str:
     if check is None:
         return ("  (the noise alone: a coarse mesh biases every value by more than the noise "
                 "may show; --mesh-check adds the mesh's share)")
-    moves = ", ".join(f"{name.replace('_', ' ')} {v['mesh']:.4g} -> {v['refined']:.4g}"
-                      for name, v in check.values.items())
-    return f"  (the noise and the mesh: on the mesh refined once, {moves})"
+    return f"  (the noise and the mesh: on the mesh refined once, {check.moves()})"
 
 
 def _held_out(text: str | None, experiments) -> float | list[str] | None:

@@ -60,6 +60,11 @@ class MeshCheck:
     values: dict = field(default_factory=dict)
     how: str = "refit on the mesh refined once (each tetrahedron in eight)"
 
+    def moves(self, arrow: str = "->") -> str:
+        """``"youngs modulus a -> b, poisson ratio …"``: the values on the two meshes."""
+        return ", ".join(f"{name.replace('_', ' ')} {v['mesh']:.4g} {arrow} {v['refined']:.4g}"
+                         for name, v in self.values.items())
+
     def to_dict(self) -> dict:
         from ..io.writing import json_safe
 
@@ -149,17 +154,20 @@ def mesh_check(learner, experiments: Sequence, parameters, theta: np.ndarray) ->
     refit = type(learner)(**options).fit(fine_model, fine_experiments)
     theta_refined = Parameterization(refit.model_, learn_effects=parameters.effects != []
                                      ).initial()
-    values = {}
-    for name in ("youngs_modulus", "poisson_ratio", "viscosity"):
-        values[name] = {"mesh": float(np.median(getattr(model.elements, name))),
-                        "refined": float(np.median(getattr(refit.model_.elements, name)))}
     return MeshCheck(names=parameters.names(), theta=theta, theta_refined=theta_refined,
                      change=np.abs(theta_refined - theta),
                      nodes=(model.n_nodes, fine_model.n_nodes),
                      elements=(model.mesh.n_tetrahedra, fine_model.mesh.n_tetrahedra),
                      rms_refined=refit.rms_error_, seconds=watch.seconds,
-                     values=values)
+                     values=_values(model, refit.model_))
 
+
+def _values(model, refined) -> dict:
+    """``{E, ν, η: {"mesh", "refined"}}``: the elements' medians on the fitted mesh and on
+    the refined one."""
+    return {name: {"mesh": float(np.median(getattr(model.elements, name))),
+                   "refined": float(np.median(getattr(refined.elements, name)))}
+            for name in ("youngs_modulus", "poisson_ratio", "viscosity")}
 
 
 def linearised_mesh_check(model, experiments: Sequence, parameters, theta: np.ndarray, *,
@@ -202,22 +210,18 @@ def linearised_mesh_check(model, experiments: Sequence, parameters, theta: np.nd
     residuals = 2.0 * passes.stacked(runs) - once
     if not np.all(np.abs(residuals) < passes.DIVERGED / 2):
         return None
-    data = jacobian
+    rows, right = jacobian, residuals          # the prior's rows stacked under the data's
     terms, scale = prior if prior is not None else (None, 0.0)
-    stacked_residuals = residuals
     if terms is not None:
-        jacobian = np.vstack([jacobian, scale * terms.jacobian(theta).toarray()])
-        stacked_residuals = np.concatenate([residuals, scale * terms.residuals(theta)])
-    step = -np.linalg.lstsq(jacobian, stacked_residuals, rcond=None)[0]
-    left = residuals + data @ step
+        rows = np.vstack([jacobian, scale * terms.jacobian(theta).toarray()])
+        right = np.concatenate([residuals, scale * terms.residuals(theta)])
+    step = -np.linalg.lstsq(rows, right, rcond=None)[0]
+    left = residuals + jacobian @ step
     rms_refined = passes.per_marker(float(left @ left), runs, model.length_unit)
-    moved = parameters.model(theta + step)
-    values = {name: {"mesh": float(np.median(getattr(model.elements, name))),
-                     "refined": float(np.median(getattr(moved.elements, name)))}
-              for name in ("youngs_modulus", "poisson_ratio", "viscosity")}
     return MeshCheck(names=parameters.names(), theta=theta, theta_refined=theta + step,
                      change=np.abs(step), nodes=(model.n_nodes, fine_model.n_nodes),
                      elements=(model.mesh.n_tetrahedra, fine_model.mesh.n_tetrahedra),
-                     rms_refined=rms_refined, seconds=watch.seconds, values=values,
+                     rms_refined=rms_refined, seconds=watch.seconds,
+                     values=_values(model, parameters.model(theta + step)),
                      how="one Gauss-Newton step of the refit on the mesh refined once (each "
                          "tetrahedron in eight), from the fitted values")

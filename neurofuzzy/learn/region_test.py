@@ -107,8 +107,8 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
         gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
         # the RMS a kept region has to reach: once the refit cannot, it stops (rejected)
         needed = np.sqrt(noise**2 + (gap0 / MIN_SHRINK) ** 2)
-        refit = type(homogeneous)(**{**options, "abandon_above": needed}).fit(model,
-                                                                        experiments)
+        learner = type(homogeneous)(**{**options, "abandon_above": needed})
+        refit = learner.fit(model, experiments)
         rms1 = refit.rms_error_
         gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))
         shrink = gap0 / gap1 if gap1 > 0 else np.inf

@@ -64,34 +64,37 @@ def assess(learner, sensitivity, parameters, experiments, theta, method) -> None
         n_nuisance=3 * sum(rows for _, rows in shapes) if sensitivity.offsets else 0)
     learner.std_errors_ = learner.identifiability_.std_errors
     spread = learner.std_errors_
-    check = None
-    if learner.mesh_check == "step" and parameters.size > STEP_COLUMNS:
-        from .mesh_check import mesh_check
-
-        check = mesh_check(learner, experiments, parameters, theta)
-        check.how += (f" ({parameters.size} parameters: more than {STEP_COLUMNS} columns of "
-                      "the refined model's Jacobian cost more than the refit)")
-    elif learner.mesh_check == "step":
-        from .mesh_check import linearised_mesh_check
-
-        check = linearised_mesh_check(
-            learner.model_, experiments, parameters, theta, offsets=sensitivity.offsets,
-            prior=(learner._prior_terms, learner._prior_scale))
-        if check is None or np.max(check.change) > STEP_TRUSTED:
-            from .mesh_check import mesh_check
-
-            check = mesh_check(learner, experiments, parameters, theta)
-            check.how += (" (one Gauss-Newton step there moved a value too far to trust, by "
-                          f"more than {STEP_TRUSTED:g} in the learner's log or logit "
-                          "parameters)")
-    elif learner.mesh_check:
-        from .mesh_check import mesh_check
-
-        check = mesh_check(learner, experiments, parameters, theta)
-    learner.mesh_check_ = check
+    learner.mesh_check_ = check = (_mesh_check(learner, sensitivity, parameters, experiments,
+                                               theta) if learner.mesh_check else None)
     if check is not None:
         spread = np.sqrt(spread**2 + (MESH_ERROR_FACTOR * check.change) ** 2)
     learner.intervals_ = intervals(parameters, theta, spread)
+
+
+def _mesh_check(learner, sensitivity, parameters, experiments, theta):
+    """The learner's mesh check: one Gauss–Newton step (``"step"``) where it can be trusted,
+    else the whole refit, whose ``how`` then says why."""
+    from .mesh_check import linearised_mesh_check, mesh_check
+
+    why = None
+    if learner.mesh_check == "step" and parameters.size > STEP_COLUMNS:
+        why = (f"{parameters.size} parameters: more than {STEP_COLUMNS} columns of the refined "
+               "model's Jacobian cost more than the refit")
+    elif learner.mesh_check == "step":
+        check = linearised_mesh_check(
+            learner.model_, experiments, parameters, theta, offsets=sensitivity.offsets,
+            prior=(learner._prior_terms, learner._prior_scale))
+        if check is None:
+            why = "the refined model diverged at the fitted values"
+        elif np.max(check.change) > STEP_TRUSTED:
+            why = (f"one Gauss-Newton step there moved a value too far to trust, by more than "
+                   f"{STEP_TRUSTED:g} in the learner's log or logit parameters")
+        else:
+            return check
+    check = mesh_check(learner, experiments, parameters, theta)
+    if why:
+        check.how += f" ({why})"
+    return check
 
 
 def intervals(parameters, theta: np.ndarray, spread: np.ndarray) -> dict:

@@ -76,10 +76,9 @@ def _intervals_html(learner) -> str:
                        "ran, and a coarse mesh biases every value by more than the noise may "
                        "show, even when the fit is at the noise (<code>fit --mesh-check</code> "
                        "adds the mesh's share).</p>")
-    moves = "; ".join(f"{html.escape(name.replace('_', ' '))} {v['mesh']:.4g} → "
-                      f"{v['refined']:.4g}" for name, v in check.values.items())
     return text + (f"<p class='note'>These intervals hold the noise and the mesh: on the mesh "
-                   f"refined once ({check.elements[1]} tetrahedra), {moves} "
+                   f"refined once ({check.elements[1]} tetrahedra), "
+                   f"{html.escape(check.moves('→'))} "
                    f"({html.escape(check.how)}); twice that move is added to the standard "
                    "error in quadrature.</p>")
 
