@@ -87,7 +87,9 @@ def test_the_mesh_check_widens_the_intervals_by_the_move_on_the_refined_mesh():
     nodes, weights = interior_points(truth.mesh, 20, seed=3)
     experiment = markers_to_experiment(as_recording(nodes, weights, data, noise=2e-6),
                                        truth.mesh, forces=data.forces_per_frame()).experiment
-    plain = GradientLearner(substeps=steps).fit(truth, experiment)
+    plain = GradientLearner(substeps=steps, mesh_check=False).fit(truth, experiment)
+    assert plain.mesh_check_ is None and plain.intervals_hold_.startswith(
+        "the noise alone: no mesh check (mesh_check=False")
     checked = GradientLearner(substeps=steps, mesh_check=True).fit(truth, experiment)
     check = checked.mesh_check_
     assert check.elements == (truth.mesh.n_tetrahedra, 8 * truth.mesh.n_tetrahedra)
@@ -109,17 +111,31 @@ def test_the_mesh_check_widens_the_intervals_by_the_move_on_the_refined_mesh():
     assert "too far to trust" in step.to_dict()["mesh_check"]["how"]
     assert np.allclose(step.mesh_check_.theta_refined, check.theta_refined)
     assert step.intervals_ == checked.intervals_
+    # by default the step is kept and said to be untrusted (the refit would cost sixteen
+    # fits): the intervals still hold the mesh's move, wider than the noise's
+    auto = GradientLearner(substeps=steps).fit(truth, experiment)
+    assert "too far to trust" in auto.mesh_check_.how
+    assert "mesh_check='refit'" in auto.mesh_check_.how
+    assert auto.intervals_hold_.startswith("the noise and the mesh: on the mesh refined once")
+    for name, (low, high) in auto.intervals_.items():
+        low0, high0 = plain.intervals_[name]
+        assert low < low0 <= high0 < high
     # every element its own E, nu and eta (144 parameters): the refit, not 144 refined tangents
     each = GradientLearner(substeps=steps, mesh_check="step", max_iterations=3).fit(
         truth.tied("none"), experiment)
     assert "144 parameters: more than 64 columns" in each.mesh_check_.how
     assert each.mesh_check_.change.shape == (144,)
+    # ... and by default none, said plainly
+    each = GradientLearner(substeps=steps, max_iterations=3).fit(truth.tied("none"), experiment)
+    assert each.mesh_check_ is None
+    assert each.intervals_hold_.startswith("the noise alone: a fit of 144 parameters is not "
+                                           "checked by default")
 
 
 def test_the_mesh_check_needs_elements(tmp_path, cube_model, cube_experiment):
     with pytest.raises(InputError, match="mesh check"):
         GradientLearner(mesh_check=True).fit(cube_model, cube_experiment)
-    with pytest.raises(InputError, match="'step' or 'refit'"):
+    with pytest.raises(InputError, match="'auto', 'step', 'refit' or False"):
         GradientLearner(mesh_check="refined").fit(cube_model, cube_experiment)
     from neurofuzzy.io import save_experiment
 
@@ -130,9 +146,10 @@ def test_the_mesh_check_needs_elements(tmp_path, cube_model, cube_experiment):
 
 
 def test_fit_says_what_its_intervals_hold(tmp_path):
-    """Without a mesh check, an element model's intervals are said to hold the noise alone;
-    with ``--mesh-check`` (one Gauss-Newton step), the noise and the mesh;
-    ``--mesh-check-refit`` refits there."""
+    """By default an element model's intervals hold the noise and the mesh (one Gauss-Newton
+    step on the refined mesh), and the text, the report and the JSON say so; with
+    ``--no-mesh-check`` they are said to hold the noise alone; ``--mesh-check-refit`` refits
+    there."""
     import json
 
     from neurofuzzy.io import save_experiment, save_model
@@ -144,19 +161,26 @@ def test_fit_says_what_its_intervals_hold(tmp_path):
                                        truth.mesh, forces=data.forces_per_frame()).experiment
     path = save_experiment(experiment, tmp_path / "block.npz")
     model = save_model(truth.tied("global"), tmp_path / "block.yaml")
-    plain = cli("fit", path, "--start", model, "--substeps", str(steps), "--report",
-                tmp_path / "plain.html")
+    plain = cli("fit", path, "--start", model, "--substeps", str(steps), "--no-mesh-check",
+                "--report", tmp_path / "plain.html")
     assert plain.returncode == 0, plain.stderr
-    assert "(the noise alone" in plain.stdout and "--mesh-check" in plain.stdout
+    assert "(they hold the noise alone: no mesh check" in plain.stdout
+    assert "--no-mesh-check" in plain.stdout
     assert "These intervals hold the noise alone" in (tmp_path / "plain.html").read_text()
-    checked = cli("fit", path, "--start", model, "--substeps", str(steps), "--mesh-check",
-                  "--report", tmp_path / "checked.html")
+    checked = cli("fit", path, "--start", model, "--substeps", str(steps), "--report",
+                  tmp_path / "checked.html")
     assert checked.returncode == 0, checked.stderr
-    assert "(the noise and the mesh: on the mesh refined once, youngs modulus" in checked.stdout
+    assert ("(they hold the noise and the mesh: on the mesh refined once (384 tetrahedra), "
+            "youngs modulus") in checked.stdout
     page = (tmp_path / "checked.html").read_text()
     assert "95 % interval" in page and "hold the noise and the mesh" in page
     assert "one Gauss-Newton step" in page
+    summary = json.loads((tmp_path / "checked.json").read_text())
+    assert summary["intervals_hold"].startswith("the noise and the mesh")
     refit = cli("fit", path, "--start", model, "--substeps", str(steps), "--mesh-check-refit",
                 "--json")
     assert refit.returncode == 0, refit.stderr
-    assert json.loads(refit.stdout)["mesh_check"]["how"].startswith("refit on the mesh")
+    summary = json.loads(refit.stdout)
+    assert summary["mesh_check"]["how"].startswith("refit on the mesh")
+    assert "twice the change on the refined mesh" in summary["intervals_how"]
+    assert summary["intervals_hold"].startswith("the noise and the mesh")

@@ -86,7 +86,7 @@ def fit(args) -> int:
         for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
         if getattr(learner, "intervals_", None) and learner.model_.elements is not None:
-            print(_intervals_line(getattr(learner, "mesh_check_", None)))
+            print(f"  (they hold {learner.intervals_hold_})")
         if result.get("prior"):
             print(f"prior: weight {result['prior']['alpha']:.3g} ({result['prior']['how']}); "
                   f"{result['regions_found_words']}")
@@ -95,17 +95,11 @@ def fit(args) -> int:
 
 
 def _mesh_check(args) -> bool | str:
-    """The learner's ``mesh_check`` of ``--mesh-check`` (one step) and ``--mesh-check-refit``."""
-    return "refit" if args.mesh_check_refit else "step" if args.mesh_check else False
-
-
-def _intervals_line(check) -> str:
-    """What the 95 % intervals of an element model hold: the noise alone, said plainly, or
-    the noise and the mesh (how far the values moved on the mesh refined once)."""
-    if check is None:
-        return ("  (the noise alone: a coarse mesh biases every value by more than the noise "
-                "may show; --mesh-check adds the mesh's share)")
-    return f"  (the noise and the mesh: on the mesh refined once, {check.moves()})"
+    """The learner's ``mesh_check``: ``"auto"`` unless ``--mesh-check`` (one step, any
+    element model), ``--mesh-check-refit`` or ``--no-mesh-check``."""
+    if args.no_mesh_check:
+        return False
+    return "refit" if args.mesh_check_refit else "step" if args.mesh_check else "auto"
 
 
 def _held_out(text: str | None, experiments) -> float | list[str] | None:

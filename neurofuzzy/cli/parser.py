@@ -73,15 +73,21 @@ def build_parser() -> argparse.ArgumentParser:
                           "estimate each marker's rest point from every scan (a noisy "
                           "reference otherwise puts its noise into every residual; it also "
                           "absorbs a wrong model's error, so use it once the model is right)")
-    fit.add_argument("--mesh-check", action="store_true",
-                     help="after the fit, estimate how far the values move on the mesh "
-                          "refined once (each tetrahedron in eight) by one Gauss-Newton step "
-                          "there (about one Jacobian of the refined model) and widen the 95 %% "
-                          "intervals by it: the discretisation error no standard error sees, "
-                          "even when the fit is at the noise (element models)")
-    fit.add_argument("--mesh-check-refit", action="store_true",
-                     help="the same with the whole refit on the refined mesh (about 16 times "
-                          "the work of the fit)")
+    checks = fit.add_mutually_exclusive_group()
+    checks.add_argument("--mesh-check", action="store_true",
+                        help="the mesh check for any element model. By default an element "
+                             "model of at most 64 parameters gets it: after the fit, how far "
+                             "the values move on the mesh refined once (each tetrahedron in "
+                             "eight), by one Gauss-Newton step there (about half a fit), "
+                             "widens the 95 %% intervals: the discretisation error no "
+                             "standard error sees, even when the fit is at the noise. With "
+                             "this flag a fit of every element gets it too, by the whole "
+                             "refit where the step cannot be trusted")
+    checks.add_argument("--mesh-check-refit", action="store_true",
+                        help="the mesh check by the whole refit on the refined mesh (about "
+                             "16 times the work of the fit)")
+    checks.add_argument("--no-mesh-check", action="store_true",
+                        help="no mesh check: the intervals hold the noise alone (said so)")
     fit.add_argument("--learning-rate", type=float, default=0.1,
                      help="paper method: η for springs (default 0.1)")
     fit.add_argument("--mass-learning-rate", type=float, default=0.1,

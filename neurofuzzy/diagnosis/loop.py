@@ -205,7 +205,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         note(progress, message)
 
     clock = Clock(max_time)
-    fitted = clock.timed(lambda: GradientLearner(substeps=substeps).fit(model, experiments))
+    fitted = clock.timed(lambda: GradientLearner(substeps=substeps, mesh_check=False).fit(
+        model, experiments))
     current, rms, steps = fitted.model_, fitted.rms_error_, fitted.substeps_
     rms_start, verdict = rms, fitted.lack_of_fit_
     say(f"diagnose: fitted the model as it is, {verdict.short}")

@@ -66,7 +66,8 @@ def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps
     if not staged and substeps == "auto":
         substeps = max(auto_substeps(start, e.dt) for e in experiments)
     return GradientLearner(substeps=substeps, windows=None if staged else (),
-                           abandon_above=abandon_above).fit(start, experiments)
+                           abandon_above=abandon_above, mesh_check=False).fit(start,
+                                                                             experiments)
 
 
 def _with_candidate(candidate: Candidate, model, evidence, experiments):
@@ -92,4 +93,5 @@ def switches(candidate: Candidate) -> bool:
 def confirm(refit, experiments):
     """The winner's refit, made at one step (:func:`refit_candidate`), fitted as every fit
     is: at two steps and extrapolated (Richardson), from where the refit ended."""
-    return GradientLearner(substeps="auto", windows=()).fit(refit.model_, experiments)
+    return GradientLearner(substeps="auto", windows=(), mesh_check=False).fit(refit.model_,
+                                                                              experiments)

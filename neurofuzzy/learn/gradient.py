@@ -78,14 +78,17 @@ class GradientLearner(Learner):
     prior : FuzzyPrior, optional
         The rule base's description of every region as a penalty on the material parameters
         (:mod:`.prior`); its weight fixed or chosen by the discrepancy principle.
-    mesh_check : bool, "step" or "refit"
+    mesh_check : "auto", "step", "refit" or False
         After the fit, estimate how far the values move on the mesh refined once and widen
-        the intervals by it (:mod:`.mesh_check`; element models): ``"step"``, one
-        Gauss–Newton step on the refined mesh from the fitted values
+        the intervals by it (:mod:`.mesh_check`; element models). ``"auto"`` (the default):
+        one Gauss–Newton step on the refined mesh from the fitted values
         (:func:`~.mesh_check.linearised_mesh_check`; about one Jacobian of the refined model,
-        a sixth of the refit's work on the 7.5 mm probed block), or ``"refit"`` (or True),
-        the whole refit (about 16 times the work of the fit). False: the intervals hold the
-        noise alone, although a coarse mesh biases every value (``intervals_how`` says so).
+        half a fit's time on the 7.5 mm probed block) for an element model of at most
+        ``STEP_COLUMNS`` (64) parameters, none for a fit of every element or a spring
+        network. ``"step"``: the step for any element model, and the whole refit where the
+        step cannot be trusted. ``"refit"`` (or True): the whole refit (about 16 times the
+        work of the fit). False: none. ``intervals_hold_`` says what the intervals hold: the
+        noise and the mesh, or the noise alone and why.
     offsets : bool or "auto"
         Fit every marker's rest position along with the parameters (a constant offset per
         marker and coordinate, eliminated exactly: :func:`~neurofuzzy.observation.remove_offsets`),
@@ -126,6 +129,9 @@ class GradientLearner(Learner):
         (:mod:`.uncertainty`), widened by the mesh check when it ran.
     mesh_check_ : MeshCheck or None
         With ``mesh_check``: how far the values move on the mesh refined once.
+    intervals_hold_ : str
+        What ``intervals_`` hold: the noise and the mesh (the move on the refined mesh), or
+        the noise alone and why no mesh check ran.
     offsets_ : bool
         Whether the markers' rest positions were fitted.
     abandoned_ : bool
@@ -151,7 +157,7 @@ class GradientLearner(Learner):
                  substeps: int | str = 1, windows: Sequence[int] | None = None,
                  method: str = "auto", max_iterations: int = 100, tolerance: float = 1e-10,
                  bounds: float = 1e3, prior=None, offsets: bool | str = "auto",
-                 mesh_check: bool = False, abandon_above: float | None = None,
+                 mesh_check: bool | str = "auto", abandon_above: float | None = None,
                  progress: bool = False):
         self.learn_masses = learn_masses
         self.learn_effects = learn_effects
@@ -176,10 +182,10 @@ class GradientLearner(Learner):
                              key="method")
         auto = check_substeps(self.substeps) == "auto"
         offsets = self.offsets_ = fits_offsets(self.offsets, experiments)
-        if self.mesh_check not in (False, True, "step", "refit", None):
-            raise InputError(f"got {self.mesh_check!r}; expected False, 'step' or 'refit'",
-                             key="mesh_check")
-        if self.mesh_check and model.elements is None:
+        if self.mesh_check not in (False, True, "auto", "step", "refit", None):
+            raise InputError(f"got {self.mesh_check!r}; expected 'auto', 'step', 'refit' or "
+                             "False", key="mesh_check")
+        if self.mesh_check and self.mesh_check != "auto" and model.elements is None:
             raise InputError("the mesh check refines tetrahedral elements; a spring network's "
                              "constants belong to its mesh", key="mesh_check")
         watch = Stopwatch()       # the kernels' compilation left out

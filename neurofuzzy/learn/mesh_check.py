@@ -204,10 +204,14 @@ def linearised_mesh_check(model, experiments: Sequence, parameters, theta: np.nd
                          key="mesh_check")
     steps = max(auto_substeps(fine_model, e.dt) for e in fine_experiments)
     starts = [(0,)] * len(fine_experiments)
-    jacobian, runs = passes.jacobian(fine, fine_experiments, theta, starts, 2 * steps)
-    once = np.concatenate([fine.run(theta, e, substeps=steps).residuals.ravel()
-                           for e in fine_experiments])
-    residuals = 2.0 * passes.stacked(runs) - once
+    # the Jacobian at the stable step (its O(h) error changes the step by O(h) of itself), the
+    # residuals also at twice as many steps, then extrapolated: on the default 4 mm mesh of
+    # the scikit-fem block (38,400 refined tetrahedra), 34 s instead of 55 s with the
+    # Jacobian at 2n; the moves of E and ν the same to 0.2 %, η's (0.01) to 0.001
+    jacobian, runs = passes.jacobian(fine, fine_experiments, theta, starts, steps)
+    twice = passes.side_by_side(fine, lambda e, s: fine.run(theta, e, substeps=2 * steps),
+                                fine_experiments, starts)
+    residuals = 2.0 * passes.stacked(twice) - passes.stacked(runs)
     if not np.all(np.abs(residuals) < passes.DIVERGED / 2):
         return None
     rows, right = jacobian, residuals          # the prior's rows stacked under the data's

@@ -64,37 +64,72 @@ def assess(learner, sensitivity, parameters, experiments, theta, method) -> None
         n_nuisance=3 * sum(rows for _, rows in shapes) if sensitivity.offsets else 0)
     learner.std_errors_ = learner.identifiability_.std_errors
     spread = learner.std_errors_
-    learner.mesh_check_ = check = (_mesh_check(learner, sensitivity, parameters, experiments,
-                                               theta) if learner.mesh_check else None)
+    check, skipped = _mesh_check(learner, sensitivity, parameters, experiments, theta)
+    learner.mesh_check_ = check
     if check is not None:
         spread = np.sqrt(spread**2 + (MESH_ERROR_FACTOR * check.change) ** 2)
     learner.intervals_ = intervals(parameters, theta, spread)
+    learner.intervals_hold_ = _holds(learner.model_, check, skipped)
 
 
 def _mesh_check(learner, sensitivity, parameters, experiments, theta):
-    """The learner's mesh check: one Gauss–Newton step (``"step"``) where it can be trusted,
-    else the whole refit, whose ``how`` then says why."""
+    """``(check, skipped)``: the learner's mesh check, or None and why none ran.
+
+    ``"auto"`` (the default): one Gauss–Newton step on the refined mesh for an element model
+    of at most :data:`STEP_COLUMNS` parameters, none otherwise; a step that moves a value by
+    more than :data:`STEP_TRUSTED` is kept and said to be untrusted (the refit would cost
+    about sixteen fits). ``"step"``: the step where it can be trusted, else the whole refit,
+    whose ``how`` says why. ``"refit"`` or True: the whole refit."""
     from .mesh_check import linearised_mesh_check, mesh_check
 
+    how = learner.mesh_check
+    if not how:
+        return None, "no mesh check (mesh_check=False, --no-mesh-check)"
+    if how == "auto" and learner.model_.elements is None:
+        return None, "a spring network, whose constants belong to its mesh"
+    if how == "auto" and parameters.size > STEP_COLUMNS:
+        return None, (f"a fit of {parameters.size} parameters is not checked by default; the "
+                      "refit on the refined mesh checks it at about sixteen fits' cost "
+                      "(mesh_check='refit', --mesh-check-refit)")
     why = None
-    if learner.mesh_check == "step" and parameters.size > STEP_COLUMNS:
+    if how == "step" and parameters.size > STEP_COLUMNS:
         why = (f"{parameters.size} parameters: more than {STEP_COLUMNS} columns of the refined "
                "model's Jacobian cost more than the refit")
-    elif learner.mesh_check == "step":
+    elif how in ("step", "auto"):
         check = linearised_mesh_check(
             learner.model_, experiments, parameters, theta, offsets=sensitivity.offsets,
             prior=(learner._prior_terms, learner._prior_scale))
+        untrusted = (f"one Gauss-Newton step there moved a value too far to trust, by more "
+                     f"than {STEP_TRUSTED:g} in the learner's log or logit parameters")
+        if check is None and how == "auto":
+            return None, "the model refined once diverged at the fitted values"
         if check is None:
             why = "the refined model diverged at the fitted values"
+        elif np.max(check.change) > STEP_TRUSTED and how == "auto":
+            check.how += (f" ({untrusted}: the mesh is too coarse for these values; the refit, "
+                          "mesh_check='refit', measures the move)")
+            return check, None
         elif np.max(check.change) > STEP_TRUSTED:
-            why = (f"one Gauss-Newton step there moved a value too far to trust, by more than "
-                   f"{STEP_TRUSTED:g} in the learner's log or logit parameters")
+            why = untrusted
         else:
-            return check
+            return check, None
     check = mesh_check(learner, experiments, parameters, theta)
     if why:
         check.how += f" ({why})"
-    return check
+    return check, None
+
+
+def _holds(model, check, skipped: str | None) -> str:
+    """What a fit's 95 % intervals hold, said once for the fit's text, its report and its
+    JSON: the noise and the mesh (the move on the mesh refined once), or the noise alone and
+    why (for an element model, with the warning that a coarse mesh biases every value)."""
+    if check is not None:
+        return (f"the noise and the mesh: on the mesh refined once ({check.elements[1]} "
+                f"tetrahedra), {check.moves()} ({check.how})")
+    if model.elements is None:
+        return "the noise"
+    return (f"the noise alone: {skipped}; a coarse mesh biases every value by more than the "
+            "noise may show")
 
 
 def intervals(parameters, theta: np.ndarray, spread: np.ndarray) -> dict:
@@ -115,18 +150,10 @@ def intervals_dict(learner) -> dict:
     return json_safe({
         "intervals": {name: list(bounds) for name, bounds in learner.intervals_.items()},
         "intervals_how": ("95 %: the standard error (the larger of the plain and the "
-                          "cluster-robust estimate)" + _mesh_part(learner, check)
+                          "cluster-robust estimate)"
+                          + (" and twice the change on the refined mesh, in quadrature"
+                             if check is not None else "")
                           + "; relative (a factor either way) for moduli, viscosities, "
                           "stiffness, damping and masses"),
+        "intervals_hold": getattr(learner, "intervals_hold_", None),
         "mesh_check": check.to_dict() if check else None})
-
-
-def _mesh_part(learner, check) -> str:
-    """What the intervals hold besides the standard error: the mesh check's move, or, for an
-    element model without one, the plain statement that they hold the noise alone."""
-    if check is not None:
-        return f" and twice the change on the refined mesh ({check.how}), in quadrature"
-    if learner.model_.elements is not None:
-        return ("; the noise alone: no mesh check, and a coarse mesh biases the values by "
-                "more than the noise may show")
-    return ""

@@ -75,7 +75,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         cycles: int | None = None,
         learn_masses: bool = False, substeps: int | str = "auto",
         learning_rate: float = 0.1, mass_learning_rate: float = 0.1,
-        mesh_check: bool | str = False, names: Sequence[str] | None = None, progress: bool = False,
+        mesh_check: bool | str = "auto", names: Sequence[str] | None = None, progress: bool = False,
         validate_on=None) -> FitOutcome:
     """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
     Python.
@@ -127,9 +127,12 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         Simulation steps per frame (``"auto"``: the fewest the data follow).
     learning_rate, mass_learning_rate : float
         The paper's learner's rates (``method="paper"``).
-    mesh_check : bool, "step" or "refit"
+    mesh_check : "auto", "step", "refit" or False
         How far the values move on the mesh refined once widens the intervals: one
-        Gauss–Newton step there (``"step"``) or the whole refit (``"refit"`` or True).
+        Gauss–Newton step there (``"auto"``, the default: for an element model of at most 64
+        parameters; ``"step"``: for any element model, refitted where the step cannot be
+        trusted) or the whole refit (``"refit"`` or True); False: none (the intervals hold
+        the noise alone, and the summary's ``intervals_hold`` says so).
     names : sequence of str, optional
         How the summary names the experiments (default: their files).
     progress : bool
@@ -172,7 +175,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
                      model_source=start if isinstance(start, str | os.PathLike) else None,
                      physical=begun.how in ("model", "rules"))
     require_motion(experiments)
-    if mesh_check and begun.model.elements is None:
+    if mesh_check and mesh_check != "auto" and begun.model.elements is None:
         raise InputError("refines tetrahedral elements; this fit's model is a spring network "
                          "(give a model or experiment with tetrahedra, or --elements tetra)",
                          key="--mesh-check")

@@ -20,7 +20,7 @@ METHODS = ("gradient", "paper")
 def make_learner(method: str = "gradient", *, cycles: int | None = None,
                  learn_masses: bool = False, substeps: int | str = "auto",
                  learning_rate: float = 0.1, mass_learning_rate: float = 0.1, prior=None,
-                 mesh_check: bool | str = False, progress: bool = False) -> Learner:
+                 mesh_check: bool | str = "auto", progress: bool = False) -> Learner:
     """The learner of ``neurofuzzy fit --method METHOD`` with its options (unfitted).
 
     Parameters
@@ -37,10 +37,11 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         Paper method only: η for springs and η_m for masses.
     prior : FuzzyPrior, optional
         Gradient method only: the rule base as a prior (:func:`make_prior`).
-    mesh_check : bool, "step" or "refit"
+    mesh_check : "auto", "step", "refit" or False
         Gradient method only: how far the values move on the mesh refined once, by one
-        Gauss–Newton step (``"step"``) or the whole refit (``"refit"`` or True), widens the
-        intervals (:mod:`neurofuzzy.learn.mesh_check`).
+        Gauss–Newton step (``"auto"``: element models of at most 64 parameters; ``"step"``)
+        or the whole refit (``"refit"`` or True), widens the intervals
+        (:mod:`neurofuzzy.learn.mesh_check`).
     progress : bool
         Report progress on stderr.
 
@@ -63,7 +64,7 @@ def make_learner(method: str = "gradient", *, cycles: int | None = None,
         if prior is not None:
             raise InputError("the paper's learner takes no prior; use the gradient method or "
                              "--prior off", key="prior")
-        if mesh_check:
+        if mesh_check and mesh_check != "auto":
             raise InputError("the paper's learner fits spring networks, whose constants "
                              "belong to their mesh: the mesh check needs elements and the "
                              "gradient method", key="mesh_check")

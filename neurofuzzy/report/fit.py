@@ -62,25 +62,19 @@ def identifiability_html(learner) -> tuple[str, list]:
 
 
 def _intervals_html(learner) -> str:
-    """The 95 % intervals of an element model and what they hold: the noise and the mesh
-    (the mesh check's move on the refined mesh, and how it was taken), or the noise alone,
-    said plainly (issue 48: a fit at the noise may still be biased by its mesh)."""
+    """The 95 % intervals of an element model and what they hold (the learner's
+    ``intervals_hold_``): the noise and the mesh (the move on the refined mesh, and how it
+    was taken), or the noise alone and why (issue 48: a fit at the noise may still be biased
+    by its mesh)."""
     bounds = getattr(learner, "intervals_", None)
     if not bounds or learner.model_.elements is None:
         return ""
     rows = [[name, f"{low:.4g} .. {high:.4g}"] for name, (low, high) in bounds.items()]
     text = table_html(["parameter", "95 % interval"], rows[:40])
-    check = getattr(learner, "mesh_check_", None)
-    if check is None:
-        return text + ("<p class='note'>These intervals hold the noise alone: no mesh check "
-                       "ran, and a coarse mesh biases every value by more than the noise may "
-                       "show, even when the fit is at the noise (<code>fit --mesh-check</code> "
-                       "adds the mesh's share).</p>")
-    return text + (f"<p class='note'>These intervals hold the noise and the mesh: on the mesh "
-                   f"refined once ({check.elements[1]} tetrahedra), "
-                   f"{html.escape(check.moves('→'))} "
-                   f"({html.escape(check.how)}); twice that move is added to the standard "
-                   "error in quadrature.</p>")
+    hold = html.escape(getattr(learner, "intervals_hold_", "the noise alone"))
+    widened = ("; twice the move is added to the standard error in quadrature"
+               if getattr(learner, "mesh_check_", None) is not None else "")
+    return text + f"<p class='note'>These intervals hold {hold}{widened}.</p>"
 
 
 def fit_report(start, learner, path, *, title: str | None = None,
@@ -148,6 +142,9 @@ def fit_report(start, learner, path, *, title: str | None = None,
     if getattr(learner, "identifiability_", None) is not None:
         data.update(learner.identifiability_.to_dict())
         data["unidentifiable"] = suggestions
+    if getattr(learner, "intervals_", None):
+        data["intervals"] = {name: list(bounds) for name, bounds in learner.intervals_.items()}
+        data["intervals_hold"] = getattr(learner, "intervals_hold_", None)
     if files:
         links = {label: _relative(target, Path(path).parent) for label, target in files.items()}
         sections.append(("Files", "<ul>" + "".join(
