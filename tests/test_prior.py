@@ -349,6 +349,11 @@ def test_fit_uses_the_prior_with_tie_none_and_reports_regions(recording, tmp_pat
         {"elements", "nodes", "centroid", "quantity", "value", "label", "degree"}
         <= set(entry) for entry in result["regions_found"])
     assert "firm" in json.dumps(result["regions_rest"])
+    # what the region test could have found here, in words and in the JSON
+    assert "the region test's power here" in result["regions_found_words"]
+    assert result["regions_power"]["contrast"] == 5.0
+    assert len(result["regions_power"]["sizes"]) == 4
+    assert "power here: a lump 5x stiffer" in page
 
 
 def test_fit_prior_options(recording):

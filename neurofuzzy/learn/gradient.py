@@ -31,6 +31,7 @@ from .identifiability import structurally_unidentifiable
 from .lack_of_fit import length_text
 from .steps import (auto_substeps, fits_offsets, parameter_bounds, stable_at_one_step,
                     stable_start)
+from .power import describe_power, detection_limit
 from .region_test import homogeneous_fit, supported_regions
 from .regions import regions_found
 from .uncertainty import assess, intervals_dict
@@ -143,7 +144,9 @@ class GradientLearner(Learner):
         which every region found is tested (:mod:`.region_test`).
     regions_ : dict or None
         With a prior: the regions found that the data support (:mod:`.region_test`;
-        ``"regions"``, ``"rejected"``, ``"rest"``).
+        ``"regions"``, ``"rejected"``, ``"rest"``) and the test's power on these data
+        (``"power"``, :func:`.power.detection_limit`: how small a lump five times stiffer it
+        would keep, and at how many places).
     prior_ : dict or None
         With a prior: its weight ``alpha`` (``w = α σ²``), the noise level ``noise`` (metres)
         it was measured against, how it was chosen, the fits the choice took and the sets.
@@ -274,6 +277,9 @@ class GradientLearner(Learner):
                 regions_found(self.model_, self.prior), self.homogeneous_, experiments,
                 progress=(lambda line: note(True, f"regions found: {line}"))
                 if self.progress else None)
+            self.regions_["power"] = power = detection_limit(self.homogeneous_, experiments)
+            note(self.progress and power is not None,
+                 f"regions found: {describe_power(power)}")
         self.history_ = np.minimum.accumulate([energy for energy, _ in self._trace])  # best so far
         self.seconds_ = watch.seconds
         return self

@@ -23,6 +23,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..forces import tetrahedron_geometry
+from .power import describe_power
 from .prior import _elements_sharing_a_face, _spring_factor, _springs_sharing_a_node
 
 __all__ = ["MIN_NODES", "describe_regions", "regions_found"]
@@ -239,10 +240,11 @@ def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm")
                 if entry.get("evidence", {}).get("tested")]
     dropped = (f" ({len(rejected)} candidate region(s) explained the data no better than "
                "the homogeneous model: model error, not tissue)" if rejected else "")
+    power = f"; {describe_power(result['power'])}" if result.get("power") else ""
     if not parts:
-        return (f"no region differs from the description ({rest}){dropped}" if rest else
-                f"no region differs from the description{dropped}")
-    return "; ".join(parts) + (f"; the rest: {rest}" if rest else "") + dropped
+        return (f"no region differs from the description ({rest}){dropped}{power}" if rest
+                else f"no region differs from the description{dropped}{power}")
+    return "; ".join(parts) + (f"; the rest: {rest}" if rest else "") + dropped + power
 
 
 def _word(rules, output, value) -> tuple[str, float]:

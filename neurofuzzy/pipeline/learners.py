@@ -109,7 +109,9 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
     start has a rule base or tissues, ``materials``
     (per region E, ν, η, ρ and words; :func:`~neurofuzzy.tissues.materials`), and after a
     fit with a prior ``regions_found`` (:func:`~neurofuzzy.learn.regions.regions_found`),
-    ``regions_rest`` and ``regions_found_words``.
+    ``regions_rest``, ``regions_rejected``, ``regions_power`` (the region test's power on
+    these data: :func:`~neurofuzzy.learn.power.detection_limit`) and
+    ``regions_found_words``.
 
     Parameters
     ----------
@@ -143,6 +145,7 @@ def fit_summary(learner: Learner, start, *, method: str, tie: str,
         found = learner.regions_ or regions_found(learner.model_, learner.prior)
         result.update(regions_found=found["regions"], regions_rest=found["rest"],
                       regions_rejected=found.get("rejected", []),
+                      regions_power=found.get("power"),
                       regions_found_words=describe_regions(found))
     return result
 

@@ -167,7 +167,8 @@ def prior_section(plt, learner, data) -> tuple[str, str]:
     from ..learn.regions import describe_regions, item_values, regions_found
 
     found = getattr(learner, "regions_", None) or regions_found(learner.model_, learner.prior)
-    data.update(prior=learner.prior_, regions_found=found["regions"])
+    data.update(prior=learner.prior_, regions_found=found["regions"],
+                regions_power=found.get("power"))
     model, prior = learner.model_, learner.prior
     kind, values = item_values(model)
     items = model.mesh.tetrahedra if kind == "elements" else model.mesh.springs
