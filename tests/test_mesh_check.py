@@ -130,6 +130,14 @@ def test_the_mesh_check_widens_the_intervals_by_the_move_on_the_refined_mesh():
     assert each.mesh_check_ is None
     assert each.intervals_hold_.startswith("the noise alone: a fit of 144 parameters is not "
                                            "checked by default")
+    # a fit the check cannot take (learned node masses) is fitted and says why it has none;
+    # asked for explicitly, the check refuses
+    masses = GradientLearner(substeps=steps, learn_masses=True, max_iterations=3).fit(
+        truth, experiment)
+    assert masses.mesh_check_ is None and "learned node masses" in masses.intervals_hold_
+    with pytest.raises(InputError, match="learned node masses"):
+        GradientLearner(substeps=steps, learn_masses=True, max_iterations=3,
+                        mesh_check="step").fit(truth, experiment)
 
 
 def test_the_mesh_check_needs_elements(tmp_path, cube_model, cube_experiment):

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..io.writing import json_safe
 from .identifiability import analyse
 from .lack_of_fit import lack_of_fit
@@ -96,9 +97,14 @@ def _mesh_check(learner, sensitivity, parameters, experiments, theta):
         why = (f"{parameters.size} parameters: more than {STEP_COLUMNS} columns of the refined "
                "model's Jacobian cost more than the refit")
     elif how in ("step", "auto"):
-        check = linearised_mesh_check(
-            learner.model_, experiments, parameters, theta, offsets=sensitivity.offsets,
-            prior=(learner._prior_terms, learner._prior_scale))
+        try:
+            check = linearised_mesh_check(
+                learner.model_, experiments, parameters, theta, offsets=sensitivity.offsets,
+                prior=(learner._prior_terms, learner._prior_scale))
+        except InputError as error:      # learned masses, tie groups refinement splits
+            if how != "auto":
+                raise
+            return None, f"no mesh check for this fit: {error.detail}"
         untrusted = (f"one Gauss-Newton step there moved a value too far to trust, by more "
                      f"than {STEP_TRUSTED:g} in the learner's log or logit parameters")
         if check is None and how == "auto":
