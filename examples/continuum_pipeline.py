@@ -123,8 +123,11 @@ def pipeline(out: Path, mesh_options: list[str]) -> tuple[dict, str]:
     run("import", "markers.csv", "--topology", "model.yaml", "--forces", "probe.csv",
         "--out", "trial.npz")
     springs = ["--elements", "springs"] if "springs" in mesh_options else []
+    # the table gives the values recovered, not their intervals: no mesh check (which would
+    # double each element fit's time on the default mesh)
     fitted = json.loads(run("fit", "trial.npz", "--rules", "liver", "--tissue", "liver",
-                            *springs, "--out", "fitted.yaml", "--json", "--quiet"))
+                            *springs, "--no-mesh-check", "--out", "fitted.yaml", "--json",
+                            "--quiet"))
     return fitted, summary
 
 
