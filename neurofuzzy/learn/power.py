@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .region_test import MIN_SHRINK
+from .region_test import MIN_SHRINK, measured_count, verdict
 
 __all__ = ["detection_limit", "describe_power", "LumpCheck", "CONTRAST", "FRACTIONS", "PLACES_PER_SIDE"]
 
@@ -108,8 +108,7 @@ class LumpCheck:
         self.noise = homogeneous.lack_of_fit_.noise
         self.rms = passes.per_marker(float(self.residual @ self.residual), self.runs,
                                      self.unit)
-        self.gap = np.sqrt(max(self.rms**2 - self.noise**2, 0.0))
-        self.count = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
+        self.count = measured_count(experiments)
         self._sensitivity, self._bases = sensitivity, {self.steps: self.residual}
         self._theta = parameters.initial()
 
@@ -152,10 +151,9 @@ class LumpCheck:
         # its own directions and leaves the rest
         left = self.residual - (signature - self.basis @ (self.basis.T @ signature))
         rms = passes.per_marker(float(left @ left), self.runs, self.unit)
-        gap = np.sqrt(max(rms**2 - self.noise**2, 0.0))
-        bic = self.count * np.log(max(rms, 1e-300) ** 2 / max(self.rms, 1e-300) ** 2) \
-            - 3 * np.log(self.count)
-        return bool(gap >= MIN_SHRINK * self.gap and bic > 0)
+        # the region test's verdict: the homogeneous model of these data (rms) against it
+        # with the lump's elements freed (back to the fit's own residual)
+        return verdict(rms, self.rms, self.noise, self.count, extra=3)[2]
 
 
 def describe_power(power: dict | None) -> str:

@@ -78,6 +78,24 @@ def homogeneous_fit(learner, model, experiments):
     return type(learner)(**options).fit(homogeneous_start(model), experiments)
 
 
+def measured_count(experiments) -> int:
+    """The measured values (three per marker and frame after the first) of ``experiments``."""
+    return sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
+
+
+def verdict(rms0: float, rms1: float, noise: float, count: int, extra: int):
+    """``(shrink, bic, keep)`` of a region that takes the RMS per marker from ``rms0`` to
+    ``rms1`` with ``extra`` parameters (module docstring): the misfit above the noise must
+    shrink ``MIN_SHRINK`` times and the likelihood ratio beat the BIC."""
+    gap0 = np.sqrt(max(rms0**2 - noise**2, 0.0))
+    gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))
+    shrink = gap0 / gap1 if gap1 > 0 else np.inf
+    # likelihood ratio with the residual of the model without it as the variance
+    bic = count * np.log(max(rms0, 1e-300) ** 2 / max(rms1, 1e-300) ** 2) \
+        - extra * np.log(count)
+    return shrink, float(bic), bool(shrink >= MIN_SHRINK and bic > 0)
+
+
 def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -> dict:
     """``found`` (:func:`~.regions.regions_found`) with every region tested (module
     docstring), largest first, each against the homogeneous fit with the regions kept so far
@@ -88,7 +106,7 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
     given up once it could no longer reach ``MIN_SHRINK`` (its RMS is then where it stopped)."""
     current = homogeneous
     noise = homogeneous.lack_of_fit_.noise
-    count = sum(3 * int(e.observation.seen[1:].sum()) for e in experiments)
+    count = measured_count(experiments)
     options = {**homogeneous.get_params(), "progress": False}
     options["tolerance"] = max(options["tolerance"], REFIT_TOLERANCE)
     kept, rejected = [], []
@@ -110,15 +128,10 @@ def supported_regions(found: dict, homogeneous, experiments, *, progress=None) -
         learner = type(homogeneous)(**{**options, "abandon_above": needed})
         refit = learner.fit(model, experiments)
         rms1 = refit.rms_error_
-        gap1 = np.sqrt(max(rms1**2 - noise**2, 0.0))
-        shrink = gap0 / gap1 if gap1 > 0 else np.inf
-        # likelihood ratio with the residual of the model without it as the variance
-        bic = count * np.log(max(rms0, 1e-300) ** 2 / max(rms1, 1e-300) ** 2) \
-            - extra * np.log(count)
-        keep = bool(shrink >= MIN_SHRINK and bic > 0)
+        shrink, bic, keep = verdict(rms0, rms1, noise, count, extra)
         given_up = bool(refit.abandoned_)
         region["evidence"] = {"tested": True, "rms_without": rms0, "rms_with": rms1,
-                              "gap_shrink": shrink, "bic_gain": float(bic), "kept": keep,
+                              "gap_shrink": shrink, "bic_gain": bic, "kept": keep,
                               "given_up": given_up}
         if progress is not None:
             progress(f"region {index + 1} ({region['label']} {region['quantity']}, "
