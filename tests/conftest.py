@@ -38,7 +38,15 @@ def pytest_configure(config):
     all of them), and the kernels compiled once, side by side, before the workers start
     (:mod:`neurofuzzy.warmup`; about 1¾ minutes on two cores when the cache is cold, a few
     seconds when it is warm). Otherwise every worker, and every command a test runs, would
-    compile the kernels it meets while the cache is still cold."""
+    compile the kernels it meets while the cache is still cold.
+
+    The workers, and every command they run, then keep to their share of the cores: numba's
+    threads per worker (``NUMBA_NUM_THREADS``, set before they start) are the cores over the
+    workers, one each for ``-n 2`` on two cores. Two workers whose kernels each split over
+    both cores asked them for four threads, and the oversubscribed threads wasted a third of
+    the time: four of the longest slow tests took 244 s side by side, 166 s with a thread
+    each. The results do not depend on the thread count: ``tests/test_threads.py`` checks
+    two threads against one, in a process of its own where the workers have one."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return
     if getattr(config.option, "maxschedchunk", 0) is None:
@@ -50,7 +58,19 @@ def pytest_configure(config):
         compile_kernels()
     except RuntimeError as error:       # the tests that meet the broken kernel will say more
         print(f"neurofuzzy: {error}", file=sys.stderr)
+        _share_the_cores(config.option.numprocesses)
         return
     print(f"neurofuzzy: the kernels compiled or loaded before the workers start "
           f"({time.perf_counter() - began:.0f} s)", file=sys.stderr)
+    _share_the_cores(config.option.numprocesses)
+
+
+def _share_the_cores(workers) -> None:
+    """``NUMBA_NUM_THREADS`` for the test workers about to start: the cores over the workers
+    (unless the caller chose). Set after the kernels are compiled here: numba refuses a
+    thread count that changes in a process once its threads run."""
+    import os
+
+    if isinstance(workers, int) and workers > 1 and "NUMBA_NUM_THREADS" not in os.environ:
+        os.environ["NUMBA_NUM_THREADS"] = str(max(1, (os.cpu_count() or 1) // workers))
 

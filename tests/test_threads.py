@@ -1,6 +1,7 @@
 """The element passes on both cores: the same numbers as on one, for large models run from the
 main thread only (:mod:`neurofuzzy.simulation.threads`)."""
 
+import re
 import threading
 
 import numba
@@ -95,3 +96,21 @@ def test_stiffness_on_two_threads_equals_one(threads):
     np.testing.assert_allclose(two.force, one.force, rtol=1e-12, atol=1e-14)
     difference = abs(two.stiffness - one.stiffness).max()
     assert difference <= 1e-12 * abs(one.stiffness).max()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS >= 2, reason="they run in this process")
+def test_the_two_thread_checks_in_a_process_of_two_threads():
+    """Where numba has one thread (the test workers of ``-n 2`` on two cores keep one each,
+    tests/conftest.py) the checks above skip: they run here, in a process with two."""
+    import os
+    import subprocess
+    import sys
+
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", __file__, "-m", "slow or not slow", "-k",
+         "two_threads_equal", "-p", "no:xdist", "-p", "no:cacheprovider", "-q"],
+        env={**os.environ, "NUMBA_NUM_THREADS": "2"}, capture_output=True, text=True,
+        check=False, timeout=900)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
+    assert re.search(r"\b3 passed\b", result.stdout) and "skipped" not in result.stdout
