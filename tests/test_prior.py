@@ -315,6 +315,11 @@ def test_diagnosis_locates_its_inclusion_element_by_element(tmp_path):
     result = diagnose(start, data, substeps=substeps, max_effects=1,
                       prior=FuzzyPrior(RULES, start))
     assert result.names == ["stiff_inclusion"]
+    # the map came first: the scan's ball (two of the six) and the map's region, both stiff,
+    # were refitted, and the region won (issue 48, item 2)
+    assert sorted(result.effects[0].elements) == np.flatnonzero(inside).tolist()
+    inclusions = [c for c in result.candidates if "inclusion" in c.name]
+    assert [(c.name, c.seeded) for c in inclusions] == [("stiff_inclusion", True)] * 2
     located = result.localisation
     assert [(r["label"], sorted(r["elements"])) for r in located.regions] == [
         ("hard", np.flatnonzero(inside).tolist())]

@@ -17,7 +17,7 @@ from ..progress import note
 from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
-from .localise import INCLUSIONS, Localisation, localise
+from .localise import INCLUSIONS, Localisation, localise, seeded
 from .refits import confirm, refit_candidate, switches, to_refit
 from .scoring import Candidate, confidence, gap, nothing_left
 from .trajectory import TrajectoryEvidence
@@ -181,9 +181,11 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         lacks an effect fits neither exactly).
     prior : FuzzyPrior, optional
         The rule base as a prior (:class:`~neurofuzzy.learn.prior.FuzzyPrior` of ``model``):
-        when an inclusion is found, every element (or spring) of ``model`` is fitted with it
-        and the regions found locate the inclusion item by item (``localisation``). Costs
-        one per-item fit with the prior's weight search.
+        once an inclusion is a candidate to refit, every element (or spring) of the fitted
+        model is fitted with it, and the regions found give the inclusion its items and its
+        sign, or drop it when they hold none of other stiffness
+        (:func:`~neurofuzzy.diagnosis.localise.seeded`); they locate an inclusion found item
+        by item (``localisation``). Costs one per-item fit with the prior's weight search.
     mesh_check : bool
         When the final element model still misses the data, refit it on its mesh refined
         once to say how much of the misfit is the mesh's (``mesh``; a fit of about 16 times
@@ -212,6 +214,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     say(f"diagnose: fitted the model as it is, {verdict.short}")
     findings, rounds = [], []
     ranked: list[Candidate] = []
+    located = None        # the per-item map with the prior, made once an inclusion is a candidate
     for _ in range(max_effects):
         noise_rms = verdict.noise
         evidence = (TrajectoryEvidence.of(current, experiments, steps,
@@ -235,6 +238,23 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                       "winner": "none"}
         rounds.append(round_info)
         tried = to_refit(ranked, evidence, verdict, rms, say)
+        if prior is not None and any(c.name in INCLUSIONS for c in tried):
+            if located is None:
+                say("diagnose: an inclusion is a candidate; fitting every "
+                    f"{'spring' if model.elements is None else 'element'} with the rule base "
+                    "as a prior, to give it the region and sign of the map")
+                # from the start model's values (with the effects found so far), as the
+                # localisation always started: from the homogeneous fit's, the 5x inclusion
+                # of tests/test_lack_of_fit_continuum.py came out as 9 elements 5.2 mm off
+                located = localise(model.with_effects(*current.effects), experiments, prior,
+                                   substeps=substeps, progress=progress)
+                say(f"diagnose: {located.words}")
+            tried, words = seeded(tried, located, current, evidence)
+            for line in words:
+                say(f"diagnose: {line}")
+            ranked = sorted([c for c in ranked if c.name not in INCLUSIONS]
+                            + [c for c in tried if c.seeded], key=lambda c: -c.score)
+            round_info["candidates"] = ranked
         if not tried:
             break
         gap_before = gap(rms, noise_rms)
@@ -320,6 +340,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     inclusions = [f for f in findings if f.name in INCLUSIONS]
     if prior is not None and inclusions and clock.out():
         clock.left_out("the inclusion not located item by item")
+    elif prior is not None and inclusions and located is not None:
+        localisation = located.covering(inclusions)
     elif prior is not None and inclusions:
         say("diagnose: locating the inclusion item by item (a fit of every "
             f"{'spring' if model.elements is None else 'element'} with the rule base as a prior)")

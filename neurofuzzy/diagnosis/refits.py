@@ -8,7 +8,7 @@ import numpy as np
 from ..effects import SoftInclusion, StiffInclusion
 from ..experiment import duration
 from ..learn import GradientLearner, auto_substeps
-from .scoring import Candidate, nothing_left
+from .scoring import INCLUSIONS, Candidate, nothing_left
 
 __all__ = ["to_refit", "refit_candidate", "confirm", "switches", "MIN_EVIDENCE",
            "MAX_REFITS"]
@@ -65,9 +65,12 @@ def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps
     start = _with_candidate(candidate, model, evidence, experiments)
     if not staged and substeps == "auto":
         substeps = max(auto_substeps(start, e.dt) for e in experiments)
-    return GradientLearner(substeps=substeps, windows=None if staged else (),
-                           abandon_above=abandon_above, mesh_check=False).fit(start,
-                                                                             experiments)
+    refit = GradientLearner(substeps=substeps, windows=None if staged else (),
+                            abandon_above=abandon_above, mesh_check=False).fit(start,
+                                                                              experiments)
+    if candidate.name in INCLUSIONS:       # the sign the refit ended with names it
+        candidate.name = INCLUSIONS[0 if np.mean(refit.model_.effects[-1].params) > 0 else 1]
+    return refit
 
 
 def _with_candidate(candidate: Candidate, model, evidence, experiments):
@@ -75,8 +78,13 @@ def _with_candidate(candidate: Candidate, model, evidence, experiments):
     if switches(candidate):
         # not a patch: the elements take the law or relax, and everything is refitted
         return candidate.effect.switch(model, duration(experiments))
-    effect = candidate.effect.with_params(evidence.initial_params(candidate.effect))
-    if effect.name in ("stiff_inclusion", "soft_inclusion"):
+    params = evidence.initial_params(candidate.effect)
+    effect = candidate.effect.with_params(params)
+    if effect.name in INCLUSIONS and candidate.seeded:
+        # the map's sign: the linearised step starts the refit when it agrees, else none
+        agrees = np.mean(params) * (1.0 if effect.name == INCLUSIONS[0] else -1.0) > 0
+        effect = candidate.effect.with_params(params if agrees else np.zeros_like(params))
+    elif effect.name in INCLUSIONS:
         kind = StiffInclusion if np.mean(effect.params) > 0 else SoftInclusion
         effect = kind(effect.params, **effect.options)
         candidate.name = effect.name

@@ -9,8 +9,13 @@ import numpy as np
 
 from .residuals import Samples, templates
 
-__all__ = ["Candidate", "score_candidates", "confidence", "initial_params", "significant",
-           "gap", "nothing_left"]
+__all__ = ["INCLUSIONS", "Candidate", "score_candidates", "confidence", "initial_params",
+           "significant", "gap", "nothing_left"]
+
+
+#: The inclusions, stiff then soft: the diagnosis's effects that the regions found can
+#: localise, named by the sign of their fitted extra stiffness.
+INCLUSIONS = ("stiff_inclusion", "soft_inclusion")
 
 
 @dataclass
@@ -24,12 +29,15 @@ class Candidate:
     springs: list = field(default_factory=list)
     nodes: list = field(default_factory=list)
     elements: list = field(default_factory=list)
+    seeded: bool = False      # an inclusion given its region and sign by the per-item map
 
     def to_dict(self) -> dict:
         out = {"name": self.name, "score": self.score, "explained": self.explained,
                "springs": self.springs, "nodes": self.nodes}
         if self.elements:
             out["elements"] = self.elements
+        if self.seeded:
+            out["seeded"] = True
         return out
 
 

@@ -264,7 +264,6 @@ class TrajectoryEvidence(TakenByEffects):
         sensitivities with and without each candidate's."""
         if not candidates:
             return []
-        self._candidate_columns = {}
         switches = [c for c in candidates if c.switches_material]
         for effect in switches:
             self._candidate_columns[id(effect)] = self._switched(effect)
