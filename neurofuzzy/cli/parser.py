@@ -157,10 +157,11 @@ def build_parser() -> argparse.ArgumentParser:
     diagnose.add_argument("--out", help="write the final model (with the effects) as YAML")
     diagnose.add_argument("--report", help="write an HTML report (and a .json twin)")
     diagnose.add_argument("--localise", action="store_true",
-                          help="when an inclusion is found, also fit every element (or "
-                               "spring) with the rule base as a prior and report where the "
-                               "tissue differs from its description (needs --rules and "
-                               "--tissue; costs one such fit)")
+                          help="once an inclusion is a candidate, fit every element (or "
+                               "spring) with the rule base as a prior: the regions found "
+                               "sign the inclusion and are refitted beside it (none: it is "
+                               "dropped), and say where the tissue differs from its "
+                               "description (needs --rules and --tissue; costs one such fit)")
     diagnose.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     diagnose.add_argument("--quiet", action="store_true", help="no progress on stderr")
     diagnose.set_defaults(run=fitting.diagnose)
