@@ -215,6 +215,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     findings, rounds = [], []
     ranked: list[Candidate] = []
     located = None        # the per-item map with the prior, made once an inclusion is a candidate
+    mapped_with = 0       # ... with this many of the effects found
     for _ in range(max_effects):
         noise_rms = verdict.noise
         evidence = (TrajectoryEvidence.of(current, experiments, steps,
@@ -239,7 +240,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         rounds.append(round_info)
         tried = to_refit(ranked, evidence, verdict, rms, say)
         if prior is not None and any(c.name in INCLUSIONS for c in tried):
-            if located is None:
+            if located is None or mapped_with != len(current.effects):
+                # made again once an effect was found: the map fitted what it now explains
                 say("diagnose: an inclusion is a candidate; fitting every "
                     f"{'spring' if model.elements is None else 'element'} with the rule base "
                     "as a prior, to give it the region and sign of the map")
@@ -248,6 +250,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 # of tests/test_lack_of_fit_continuum.py came out as 9 elements 5.2 mm off
                 located = localise(model.with_effects(*current.effects), experiments, prior,
                                    substeps=substeps, progress=progress)
+                mapped_with = len(current.effects)
                 say(f"diagnose: {located.words}")
             tried, words = seeded(tried, located, current, evidence)
             for line in words:
