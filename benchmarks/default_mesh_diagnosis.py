@@ -7,7 +7,8 @@ homogeneous model tied globally, as ``neurofuzzy diagnose`` does.
     python benchmarks/default_mesh_diagnosis.py                 # all three, about 45 minutes
     python benchmarks/default_mesh_diagnosis.py --only gravity
     python benchmarks/default_mesh_diagnosis.py --prior     # with the rule base as a prior
-    python benchmarks/default_mesh_diagnosis.py --prior --pitch 0.0075    # 7.5 mm voxels
+    python benchmarks/default_mesh_diagnosis.py --prior --pitch 0.0075 \
+        --json benchmarks/default_mesh_diagnosis_prior_7.5mm.json      # 7.5 mm voxels
 
 With ``--prior`` (``diagnose --rules liver --tissue liver --localise``) an inclusion that is a
 candidate is first given the region and sign of the per-element map, or dropped when the map
