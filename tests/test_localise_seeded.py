@@ -61,6 +61,10 @@ def test_the_ball_takes_the_sign_of_the_map_and_its_region_is_refitted_beside_it
     scanned.name = "soft_inclusion"
     tried, _ = seeded([scanned], _map(model, region, 25000.0, "hard"), model, _evidence())
     assert [c.name for c in tried] == ["stiff_inclusion"] * 2
+    # a region of every element is harder or softer than the model fitted
+    every = list(range(model.mesh.n_tetrahedra))
+    tried, _ = seeded([scanned], _map(model, every, 7000.0, "hard"), model, _evidence())
+    assert [c.name for c in tried] == ["stiff_inclusion"] * 2
     # a ball that is the region is refitted once
     tried, _ = seeded([scanned], _map(model, ball, 25000.0, "hard"), model, _evidence())
     assert [sorted(c.elements) for c in tried] == [ball]

@@ -29,7 +29,6 @@ from .scoring import INCLUSIONS
 __all__ = ["Localisation", "localise", "seeded", "INCLUSIONS"]
 
 
-
 @dataclass
 class Localisation:
     """Result of :func:`localise`.
@@ -141,7 +140,10 @@ def seeded(tried, located: Localisation, model, evidence) -> tuple[list, list[st
         region = max(regions, key=lambda r: (len(set(ball) & set(r[kind])), r["size"]))
         inside = np.zeros(len(values), bool)
         inside[region[kind]] = True
-        cls = (StiffInclusion if np.median(values[inside]) > np.median(values[~inside])
+        # harder or softer than the rest (a region of every item: than the model fitted)
+        rest = (values[~inside] if not inside.all()
+                else item_values(model)[1]["youngs_modulus"])
+        cls = (StiffInclusion if np.median(values[inside]) > np.median(rest)
                else SoftInclusion)
         both = [ball] + ([sorted(region[kind])] if sorted(region[kind]) != ball else [])
         signed = evidence.score([_inclusion(cls, model, items, kind) for items in both])

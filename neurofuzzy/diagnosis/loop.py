@@ -181,9 +181,10 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         lacks an effect fits neither exactly).
     prior : FuzzyPrior, optional
         The rule base as a prior (:class:`~neurofuzzy.learn.prior.FuzzyPrior` of ``model``):
-        once an inclusion is a candidate to refit, every element (or spring) of the fitted
-        model is fitted with it, and the regions found give the inclusion its items and its
-        sign, or drop it when they hold none of other stiffness
+        once an inclusion is a candidate to refit, every element (or spring) of ``model``
+        (with the effects found so far) is fitted with it, and the region found under the
+        inclusion gives it its sign and is refitted beside it, or drops it when the regions
+        hold none of other stiffness
         (:func:`~neurofuzzy.diagnosis.localise.seeded`); they locate an inclusion found item
         by item (``localisation``). Costs one per-item fit with the prior's weight search.
     mesh_check : bool

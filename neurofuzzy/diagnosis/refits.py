@@ -68,8 +68,9 @@ def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps
     refit = GradientLearner(substeps=substeps, windows=None if staged else (),
                             abandon_above=abandon_above, mesh_check=False).fit(start,
                                                                               experiments)
-    if candidate.name in INCLUSIONS:       # the sign the refit ended with names it
-        candidate.name = INCLUSIONS[0 if np.mean(refit.model_.effects[-1].params) > 0 else 1]
+    extra = np.mean(refit.model_.effects[-1].params) if candidate.name in INCLUSIONS else 0
+    if extra:                             # the sign the refit ended with names an inclusion
+        candidate.name = INCLUSIONS[0 if extra > 0 else 1]
     return refit
 
 
