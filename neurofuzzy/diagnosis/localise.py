@@ -136,8 +136,9 @@ def seeded(tried, located: Localisation, model, evidence) -> tuple[list, list[st
             words.append(f"{candidate.name} not refitted: the fit of every item with the "
                          "prior finds no region of other stiffness")
             continue
-        ball = sorted(getattr(candidate, kind))
-        region = max(regions, key=lambda r: (len(set(ball) & set(r[kind])), r["size"]))
+        ball = set(getattr(candidate, kind))
+        region = max(regions, key=lambda r: (len(ball & set(r[kind])), r["size"]))
+        items = set(region[kind])
         inside = np.zeros(len(values), bool)
         inside[region[kind]] = True
         # harder or softer than the rest (a region of every item: than the model fitted)
@@ -145,14 +146,14 @@ def seeded(tried, located: Localisation, model, evidence) -> tuple[list, list[st
                 else item_values(model)[1]["youngs_modulus"])
         cls = (StiffInclusion if np.median(values[inside]) > np.median(rest)
                else SoftInclusion)
-        both = [ball] + ([sorted(region[kind])] if sorted(region[kind]) != ball else [])
-        signed = evidence.score([_inclusion(cls, model, items, kind) for items in both])
+        both = [ball] + ([items] if items != ball else [])
+        signed = evidence.score([_inclusion(cls, model, sorted(each), kind) for each in both])
         for entry in signed:
             entry.seeded = True
         out.extend(signed)
         words.append(f"{cls.name}, as the map's {region['label']} region of "
                      f"{region['size']} {kind} says; it is refitted beside the scan's ball "
-                     f"of {len(ball)} ({len(set(ball) & set(region[kind]))} in both)")
+                     f"of {len(ball)} ({len(ball & items)} in both)")
     return out, words
 
 
