@@ -145,3 +145,74 @@ def test_the_ball_scan_scores_exactly_only_a_shortlist_that_holds_the_best():
     shortlist = evidence.shortlist(balls)
     assert len(shortlist) <= len(balls) // 2
     assert any(np.array_equal(best, members) for members in shortlist)
+
+
+def test_the_finer_ball_scan_is_skipped_only_where_it_cannot_lift_an_inclusion_to_the_bar():
+    """While the model explains the data to the noise, an inclusion must explain
+    ``MIN_EXPLAINED`` of the misfit above it. A first scan whose best ball explains less than
+    ``FINER_SCAN_SHARE`` of that gives its ball as the region without the finer scan (81
+    sensitivity columns on the 4 mm block); one that explains more is refined as ever."""
+    from neurofuzzy.diagnosis.trajectory import (FINER_SCAN_SHARE, MIN_EXPLAINED,
+                                                 TrajectoryEvidence)
+    from neurofuzzy.learn import GradientLearner
+
+    truth = block()
+    centroids = truth.mesh.rest_positions[truth.mesh.tetrahedra].mean(axis=1)
+    inside = np.flatnonzero(np.all(np.abs(centroids - (0.015, 0.02, 0.015)) < 0.01, axis=1))
+    relaxing = truth.with_elements(relaxation_moduli=[0.5], relaxation_times=[0.015])
+    # relaxing data leave a misfit no ball explains; a stiff region, one the best ball does
+    for data, expect_finer in ((measured(relaxing, force=0.1), False),
+                               (measured(truth.with_effects(
+                                   StiffInclusion.of_elements(truth, inside, 4 * E))), True)):
+        fitted = GradientLearner(substeps="auto").fit(start(), data)
+        evidence = TrajectoryEvidence.of(fitted.model_, [data], fitted.substeps_,
+                                         fitted.lack_of_fit_.noise_per_coordinate,
+                                         at_noise=True)
+        scored, gains = [], evidence.ball_gains
+
+        def counted(balls, target=None):
+            scored.append(gains(balls, target))
+            return scored[-1]
+
+        evidence.ball_gains = counted
+        region = evidence.element_region(set())
+        first = scored[0].max() / evidence.excess
+        assert evidence.excess > 0
+        assert (first >= FINER_SCAN_SHARE * MIN_EXPLAINED) == expect_finer
+        assert len(scored) == (2 if expect_finer else 1)
+        assert region
+        if not expect_finer:          # without the flag the finer scan is made
+            evidence.at_noise, scored[:] = False, []
+            evidence.element_region(set())
+            assert len(scored) == 2
+
+
+def test_relaxation_is_probed_a_little_of_the_way_where_its_secant_is_linear():
+    """The evidence of ``relaxation`` is the secant of a switch to relaxing elements. The
+    whole switch (g = 0.5) is far outside the linear range; a twentieth of it explains much
+    more of the misfit of a Kelvin–Voigt fit to relaxing data, and is what is scored."""
+    from neurofuzzy.diagnosis.trajectory import TrajectoryEvidence
+    from neurofuzzy.effects import Relaxation
+    from neurofuzzy.effects.relaxation import PROBE_RELATIVE_MODULUS
+    from neurofuzzy.experiment import duration
+    from neurofuzzy.learn import GradientLearner
+
+    truth = block().with_elements(relaxation_moduli=[0.5], relaxation_times=[0.015])
+    data = measured(truth, force=0.1)
+    fitted = GradientLearner(substeps="auto").fit(start(), data)
+    evidence = TrajectoryEvidence.of(fitted.model_, [data], fitted.substeps_,
+                                     fitted.lack_of_fit_.noise_per_coordinate)
+    relaxation = Relaxation([0.0])
+    probe = relaxation.probe_switch(fitted.model_, duration([data]))
+    assert np.allclose(probe.elements.relaxation_moduli, PROBE_RELATIVE_MODULUS)
+    assert np.allclose(probe.elements.relaxation_times,
+                       relaxation.switch(fitted.model_, duration([data]))
+                       .elements.relaxation_times)
+    (scored,) = evidence.score([relaxation])
+
+    class Whole(Relaxation):
+        probe_switch = staticmethod(Relaxation.switch)
+
+    (whole,) = evidence.score([Whole([0.0])])
+    assert scored.score > 10
+    assert scored.explained > 2 * whole.explained

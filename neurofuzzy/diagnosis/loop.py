@@ -220,7 +220,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     for _ in range(max_effects):
         noise_rms = verdict.noise
         evidence = (TrajectoryEvidence.of(current, experiments, steps,
-                                          verdict.noise_per_coordinate)
+                                          verdict.noise_per_coordinate, verdict.explained)
                     if in_trajectory_space else Evidence.of(current, experiments, steps))
         if in_trajectory_space and nothing_left(verdict, rms, evidence.size):
             # the answer is none whatever the candidates score: their evidence (a scan of

@@ -14,15 +14,21 @@ mean error. An inclusion is searched as a ball of elements with extra Young's mo
 centred on a grid of ``SCAN_PER_SIDE`` points along the object's longest side with radii of
 ``SCAN_RADII`` of that side, each scored by the share of the residual it explains once the
 model's own columns are projected out (its sensitivity column from a forward pass, a
-simulation's cost each: only for a shortlist of balls, chosen by the projection of every
-ball's column on the residual, all from one backward sweep); then around the best, balls on a
-grid twice as fine with radii 0.7, 1 and 1.4 times its radius, each scored.
-The best ball of the second scan is the region. (A compact region is what the catalogue's
-inclusion is; scoring whole regions rather than the many small blocks they are made of keeps
-surface markers, which see the inside only through smooth, overlapping sensitivities, from
-smearing it: a regression on blocks put it 6 mm from a 5× stiffer sphere on 7.5 mm voxels,
-and refitted shrank the gap only 1.3 times; the ball scan puts it within 3 mm and the refit
-shrinks the gap 3.1 times.)
+simulation's cost each: only for a shortlist of balls, chosen by the projection of every ball's
+column on the residual, all from one backward sweep); then around the best, balls on a grid
+twice as fine with radii 0.7, 1 and 1.4 times its radius, each scored. The best ball of the
+second scan is the region. (A compact region is what the catalogue's inclusion is; scoring
+whole regions rather than the many small blocks they are made of keeps surface markers, which
+see the inside only through smooth, overlapping sensitivities, from smearing it: a regression
+on blocks put it 6 mm from a 5× stiffer sphere on 7.5 mm voxels, and refitted shrank the gap
+only 1.3 times; the ball scan puts it within 3 mm and the refit shrinks the gap 3.1 times.)
+
+While the model explains the data to the noise, an inclusion must explain ``MIN_EXPLAINED`` of
+the misfit above it to be refitted; a first scan whose best ball explains less than
+``FINER_SCAN_SHARE`` of that skips the second scan (the region is that ball), which cannot lift
+it so far: the second scan's best explained 1.2 to 1.35 times the first's on the probed block
+(a 5x and a 1.5x stiffer sphere, a relaxing block), and on the 4 mm voxels it is 81 sensitivity
+columns, 83 of a diagnosis's 199 s.
 
 A linearised explanation underestimates what a refit achieves when the model is far off
 (hidden gravity makes the fit without it soften the whole block), so candidates are refitted
@@ -46,7 +52,7 @@ from .residuals import Residuals, orthonormal
 from .scoring import Candidate, residual_sum_of_squares
 
 __all__ = ["TrajectoryEvidence", "SCAN_PER_SIDE", "SCAN_RADII", "REFINE_RADII",
-           "MIN_EXPLAINED"]
+           "MIN_EXPLAINED", "FINER_SCAN_SHARE"]
 
 #: Ball centres per side of the object's bounding box in the first inclusion scan.
 SCAN_PER_SIDE = 4
@@ -62,6 +68,9 @@ SHORTLIST_POWERS = (0.5, 1.0, 1.5, 2.0)
 #: Least fraction of the residual above the noise a candidate's linearised fit must explain to
 #: be refitted while the model explains the data to the noise.
 MIN_EXPLAINED = 0.1
+#: Least fraction of ``MIN_EXPLAINED`` the first scan's best ball must explain, while the
+#: model explains the data to the noise, for the finer scan to be made (module docstring).
+FINER_SCAN_SHARE = 0.5
 
 
 def _balls(centroids, centres, radii, taken) -> list[np.ndarray]:
@@ -95,6 +104,9 @@ class TrajectoryEvidence(TakenByEffects):
         Their sensitivities to the model's own parameters.
     noise : float
         Marker noise per coordinate (in units of ``length_unit``).
+    at_noise : bool
+        Does the model explain the data to the noise (its lack of fit's verdict)? Then a
+        candidate must explain ``min_explained`` of the misfit above the noise.
     """
 
     model: object
@@ -104,15 +116,18 @@ class TrajectoryEvidence(TakenByEffects):
     residual: np.ndarray = field(repr=False, default=None)
     base: np.ndarray = field(repr=False, default=None)
     noise: float = 0.0
+    at_noise: bool = False
     _runs: list | None = field(repr=False, default=None)
     _candidate_columns: dict = field(repr=False, default_factory=dict)
 
     @classmethod
-    def of(cls, model, experiments, substeps: int, noise: float) -> TrajectoryEvidence:
+    def of(cls, model, experiments, substeps: int, noise: float,
+           at_noise: bool = False) -> TrajectoryEvidence:
         """The evidence of ``model`` fitted to ``experiments`` at ``substeps``, with the
-        marker noise per coordinate ``noise`` (m) of its lack of fit."""
+        marker noise per coordinate ``noise`` (m) of its lack of fit and its verdict
+        ``at_noise`` (explained)."""
         length = model.length_unit
-        evidence = cls(model, list(experiments), int(substeps), length)
+        evidence = cls(model, list(experiments), int(substeps), length, at_noise=at_noise)
         evidence.residual, columns = evidence._sensitivities([])
         evidence.base = columns[0]
         evidence.noise = noise / length
@@ -163,15 +178,26 @@ class TrajectoryEvidence(TakenByEffects):
         best = self._best_ball(balls, centroids)
         if best is None:
             return []
-        centre, radius = best
+        centre, radius, gain = best
+        if self.at_noise and gain < FINER_SCAN_SHARE * self.min_explained * self.excess:
+            return self._members(centroids, centre, radius, taken)
         finer = [centre + 0.5 * step * (np.array(index) - 1) for index in np.ndindex(3, 3, 3)]
         # every ball of the finer scan scored exactly: their gains are within a few per
         # cent of each other, too close for the shortlist's proxies
         best = self._best_ball(_balls(centroids, finer, [f * radius for f in REFINE_RADII],
                                       taken), centroids, shortlisted=False)
-        centre, radius = best
+        return self._members(centroids, *best[:2], taken)
+
+    @staticmethod
+    def _members(centroids, centre, radius, taken) -> list[int]:
         members = np.flatnonzero(np.linalg.norm(centroids - centre, axis=1) <= radius)
         return sorted(int(k) for k in members if k not in taken)
+
+    @property
+    def excess(self) -> float:
+        """What the model's own parameters leave of the residual's sum of squares above the
+        noise's (units of ``length_unit`` squared; the share a candidate explains is of this)."""
+        return residual_sum_of_squares(self.base, self.residual) - self.size * self._sigma2
 
     def first_scan(self, taken: set[int]):
         """``(centroids, balls, step)``: the elements' centroids, the balls of the first
@@ -188,17 +214,19 @@ class TrajectoryEvidence(TakenByEffects):
                                  taken), step
 
     def _best_ball(self, balls, centroids, shortlisted: bool = True):
-        """``(centre, radius)`` of the ball whose extra Young's modulus explains most of the
-        residual left by the model's own parameters (None without balls): the balls of
+        """``(centre, radius, gain)`` of the ball whose extra Young's modulus explains most
+        of the residual left by the model's own parameters (None without balls): the balls of
         :meth:`shortlist` (``shortlisted``) or all scored exactly."""
         if not balls:
             return None
         target = self._target()
         if shortlisted:
             balls = self.shortlist(balls, target)
-        members = balls[int(np.argmax(self.ball_gains(balls, target)))]
+        gains = self.ball_gains(balls, target)
+        members = balls[int(np.argmax(gains))]
         centre = centroids[members].mean(axis=0)
-        return centre, float(np.linalg.norm(centroids[members] - centre, axis=1).max()) + 1e-12
+        return (centre, float(np.linalg.norm(centroids[members] - centre, axis=1).max())
+                + 1e-12, float(gains.max()))
 
     def _target(self) -> np.ndarray:
         """The residual the model's own parameters leave (projected off their columns)."""
@@ -274,7 +302,7 @@ class TrajectoryEvidence(TakenByEffects):
         columns = [None] + [self._candidate_columns[id(c)] for c in candidates]
         target = self.residual
         n = target.size
-        sigma2 = max(self.noise, 1e-12 * float(np.abs(target).max() or 1.0)) ** 2
+        sigma2 = self._sigma2
         rss_base = residual_sum_of_squares(self.base, target)
         excess = rss_base - n * sigma2
         scored = []
@@ -293,10 +321,10 @@ class TrajectoryEvidence(TakenByEffects):
 
     def _switched(self, effect) -> np.ndarray:
         """(n_residuals, 1): the change of the residual when the elements' material is
-        switched (``effect.switch``: a law, a Prony term), the secant of the switch from one
-        compiled run of the switched model at the fitted values (its tangent would need the
-        numpy path, tens of times slower, or has none: relaxation)."""
-        switched = effect.switch(self.model, duration(self.experiments))
+        switched (``effect.probe_switch``: a law, a little of a Prony term), the secant of
+        the switch from one compiled run of the switched model at the fitted values (its
+        tangent would need the numpy path, tens of times slower, or has none: relaxation)."""
+        switched = effect.probe_switch(self.model, duration(self.experiments))
         parameters = Parameterization(switched)
         sensitivity = Sensitivity(parameters, self.length_unit,
                                   offsets=fits_offsets("auto", self.experiments))
@@ -327,6 +355,11 @@ class TrajectoryEvidence(TakenByEffects):
         return (solution / norms)[self.base.shape[1]:]
 
     min_explained = MIN_EXPLAINED
+
+    @property
+    def _sigma2(self) -> float:
+        """The noise's variance per coordinate (a floor of rounding for noise-free data)."""
+        return max(self.noise, 1e-12 * float(np.abs(self.residual).max() or 1.0)) ** 2
 
     @property
     def noise_rms(self) -> float:

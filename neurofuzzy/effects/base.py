@@ -65,6 +65,12 @@ class Effect(ForceTerm):
         carries for it, by name (the diagnosis' finding reports it)."""
         return {label: 1.0 for label in self.labels}
 
+    def probe_switch(self, model, duration: float):
+        """For an entry that switches the material, the switched model whose change of the
+        residual is the diagnosis's evidence for it (a secant): the switch itself unless the
+        entry can switch a little of the way, which keeps the secant in the linear range."""
+        return self.switch(model, duration)
+
     @property
     def parameter_names(self) -> tuple[str, ...]:
         return tuple(f"{self.name}.{label}" for label in self.labels)
