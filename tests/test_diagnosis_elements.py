@@ -216,3 +216,17 @@ def test_relaxation_is_probed_a_little_of_the_way_where_its_secant_is_linear():
     (whole,) = evidence.score([Whole([0.0])])
     assert scored.score > 10
     assert scored.explained > 2 * whole.explained
+
+
+def test_a_relaxation_refit_starts_where_the_linearised_fit_of_its_probe_points():
+    """The switch a refit starts from: g = the share of the probe the linearised fit asks for
+    times the probe's g, bounded; g = 0.5 without a share."""
+    from neurofuzzy.effects.relaxation import MAX_START, PROBE_RELATIVE_MODULUS, Relaxation
+
+    model = block()
+    for share, g in ((None, 0.5), (2.74, 2.74 * PROBE_RELATIVE_MODULUS),
+                     (-3.0, PROBE_RELATIVE_MODULUS), (1e3, MAX_START),
+                     (float("nan"), 0.5)):
+        switched = Relaxation.switch(model, 0.33, share=share)
+        assert np.allclose(switched.elements.relaxation_moduli, g)
+        assert np.allclose(switched.elements.relaxation_times, 0.33 / 5)

@@ -77,8 +77,10 @@ def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps
 def _with_candidate(candidate: Candidate, model, evidence, experiments):
     """``model`` with the candidate's effect at its linearised parameters, or switched."""
     if switches(candidate):
-        # not a patch: the elements take the law or relax, and everything is refitted
-        return candidate.effect.switch(model, duration(experiments))
+        # not a patch: the elements take the law or relax (as much as the linearised fit of
+        # the probe asks for), and everything is refitted
+        share = float(evidence.initial_params(candidate.effect)[0])
+        return candidate.effect.switch(model, duration(experiments), share=share)
     params = evidence.initial_params(candidate.effect)
     effect = candidate.effect.with_params(params)
     if effect.name in INCLUSIONS and candidate.seeded:

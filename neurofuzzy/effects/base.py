@@ -56,8 +56,9 @@ class Effect(ForceTerm):
 
     _labels: ClassVar[tuple[str, ...]] = ()
     #: True for a catalogue entry that the diagnosis applies by switching the elements'
-    #: material (``switch(model, duration) -> model``: a law, a Prony term) instead of adding
-    #: it as a force term
+    #: material (``switch(model, duration, share=None) -> model``: a law, a Prony term, with
+    #: ``share`` the linearised fit's multiple of :meth:`probe_switch` where the switch can be
+    #: partial) instead of adding it as a force term
     switches_material: ClassVar[bool] = False
 
     def switched_values(self, model) -> dict[str, float]:

@@ -45,9 +45,9 @@ class Hyperelasticity(Effect):
     switches_material = True
 
     @classmethod
-    def switch(cls, model, duration: float):
+    def switch(cls, model, duration: float, share: float | None = None):
         """``model`` with neo-Hookean elements (what the diagnosis refits when the candidate
-        wins; ``duration`` unused)."""
+        wins; ``duration`` and the linearised ``share`` unused: a law is switched whole)."""
         return model.with_elements(law=cls.switches_to)
 
     @staticmethod

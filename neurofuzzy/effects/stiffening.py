@@ -74,9 +74,9 @@ class NonlinearStiffening(SpringEffect):
         return {"stiffening": float(np.median(model.elements.stiffening))}
 
     @staticmethod
-    def switch(model, duration: float):
+    def switch(model, duration: float, share: float | None = None):
         """``model`` with Yeoh elements of the default C₂₀/C₁₀ (what the diagnosis refits
-        when the entry wins on an element model; ``duration`` unused)."""
+        when the entry wins on an element model; ``duration`` and ``share`` unused)."""
         return model.with_elements(law="yeoh", stiffening=DEFAULT_STIFFENING)
 
     @property
