@@ -230,3 +230,30 @@ def test_a_relaxation_refit_starts_where_the_linearised_fit_of_its_probe_points(
         switched = Relaxation.switch(model, 0.33, share=share)
         assert np.allclose(switched.elements.relaxation_moduli, g)
         assert np.allclose(switched.elements.relaxation_times, 0.33 / 5)
+
+
+def test_the_winner_is_confirmed_without_fitting_again_at_the_step_its_refit_was_made():
+    """The diagnosis refits at one step and confirms the winner at two (Richardson); with
+    ``fitted_at`` the confirmation does not fit again at the first, which the refit did: the
+    same values from fewer simulations."""
+    from neurofuzzy.diagnosis.refits import confirm
+    from neurofuzzy.learn import GradientLearner, auto_substeps
+
+    data = measured(block(30 * E), force=1.0)     # stiff: stable only at several steps
+    begin = block(20 * E)
+    k = auto_substeps(begin, DT)
+    refit = GradientLearner(substeps=k, windows=(), mesh_check=False).fit(begin, data)
+    assert refit.substeps_ == k > 1
+    again = GradientLearner(substeps="auto", windows=(), mesh_check=False).fit(refit.model_,
+                                                                                data)
+    confirmed = confirm(refit, [data])
+    # the fitted model is stiffer than the start and would take more steps by itself; its
+    # refit's are stable, so they are the first of the two
+    assert auto_substeps(refit.model_, DT) > k
+    assert confirmed.substeps_ == 2 * k
+    # to the noise, and the values of a fit at the fitted model's own steps (other steps:
+    # equal up to the integrator's error on our discrete data)
+    assert confirmed.lack_of_fit_.explained and again.lack_of_fit_.explained
+    assert confirmed.model_.elements.youngs_modulus == pytest.approx(
+        again.model_.elements.youngs_modulus, rel=5e-3)
+    assert len(confirmed.history_) < len(again.history_)

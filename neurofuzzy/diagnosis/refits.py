@@ -103,6 +103,7 @@ def switches(candidate: Candidate) -> bool:
 
 def confirm(refit, experiments):
     """The winner's refit, made at one step (:func:`refit_candidate`), fitted as every fit
-    is: at two steps and extrapolated (Richardson), from where the refit ended."""
-    return GradientLearner(substeps="auto", windows=(), mesh_check=False).fit(refit.model_,
-                                                                              experiments)
+    is: at two steps and extrapolated (Richardson), from where the refit ended, which is its
+    fit at the first of them when that is the refit's step."""
+    return GradientLearner(substeps="auto", windows=(), mesh_check=False,
+                           fitted_at=refit.substeps_).fit(refit.model_, experiments)

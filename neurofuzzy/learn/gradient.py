@@ -103,6 +103,11 @@ class GradientLearner(Learner):
         most half the cost can go) is above it, the fit ends where it is and ``abandoned_``
         is True (Levenberg–Marquardt on the whole recording only). The diagnosis gives it
         the best refit so far, so that a candidate which cannot overtake it stops early.
+    fitted_at : int, optional
+        The substeps per frame at which the start model is already fitted (the diagnosis's
+        winning refit, made at one step): with ``substeps="auto"`` they are the fit's first
+        step when the start is stable there, and it is not fitted there again, only at twice
+        as many steps (Richardson).
     progress : bool
         Report progress on stderr.
 
@@ -161,7 +166,7 @@ class GradientLearner(Learner):
                  method: str = "auto", max_iterations: int = 100, tolerance: float = 1e-10,
                  bounds: float = 1e3, prior=None, offsets: bool | str = "auto",
                  mesh_check: bool | str = "auto", abandon_above: float | None = None,
-                 progress: bool = False):
+                 fitted_at: int | None = None, progress: bool = False):
         self.learn_masses = learn_masses
         self.learn_effects = learn_effects
         self.substeps = substeps
@@ -174,6 +179,7 @@ class GradientLearner(Learner):
         self.offsets = offsets
         self.mesh_check = mesh_check
         self.abandon_above = abandon_above
+        self.fitted_at = fitted_at
         self.progress = progress
 
     def fit(self, model: Model,
@@ -196,6 +202,9 @@ class GradientLearner(Learner):
         # for a start that continuous physics fits with substeps)
         initial_steps = (max(auto_substeps(model, e.dt) for e in experiments) if auto
                          else int(self.substeps))
+        if auto and self.fitted_at and stable_at_one_step(model, experiments,
+                                                          substeps=self.fitted_at):
+            initial_steps = int(self.fitted_at)
         self.rms_error_initial_ = rms_error(model, experiments, substeps=initial_steps,
                                             offsets=offsets)
         # one step per frame (the paper's network) is tried only where it is stable
@@ -218,11 +227,13 @@ class GradientLearner(Learner):
         active = np.setdiff1d(np.arange(parameters.size),
                               structurally_unidentifiable(parameters))
 
-        searched = (None, 0)    # the prior's search's fit at its chosen weight, substeps
+        # a start fitted already (the prior's search's fit at its chosen weight, or the
+        # caller's ``fitted_at``) and its substeps
+        searched = (theta, self.fitted_at) if auto and self.fitted_at else (None, 0)
 
         def fit(start, substeps, windows):
             if (start is searched[0] and substeps == searched[1]) or self.abandoned_:
-                return start    # the search fitted this weight already: not twice
+                return start    # fitted there already: not twice
             return self._fit_stages(sensitivity, experiments, start, substeps, windows, method,
                                     lower, upper, active)
 

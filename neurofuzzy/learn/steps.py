@@ -63,11 +63,12 @@ def auto_substeps(model: Model, dt: float) -> int:
     return max(1, int(np.ceil(max(by_accuracy, by_stability))))
 
 
-def stable_at_one_step(model: Model, experiments: Sequence[Experiment]) -> bool:
-    """Is one step per frame (the paper's network) stable for ``model`` on every
-    experiment?"""
+def stable_at_one_step(model: Model, experiments: Sequence[Experiment],
+                       substeps: int = 1) -> bool:
+    """Is one step per frame (the paper's network), or ``substeps`` per frame, stable for
+    ``model`` on every experiment?"""
     limit = stability_limit(model).max_step
-    return all(e.dt <= limit for e in experiments)
+    return all(e.dt <= substeps * limit for e in experiments)
 
 
 def parameter_bounds(parameters, theta: np.ndarray, factor: float):
