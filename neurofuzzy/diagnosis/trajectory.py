@@ -26,9 +26,9 @@ only 1.3 times; the ball scan puts it within 3 mm and the refit shrinks the gap 
 While the model explains the data to the noise, an inclusion must explain ``MIN_EXPLAINED`` of
 the misfit above it to be refitted; a first scan whose best ball explains less than
 ``FINER_SCAN_SHARE`` of that skips the second scan (the region is that ball), which cannot lift
-it so far: the second scan's best explained 1.2 to 1.35 times the first's on the probed block
-(a 5x and a 1.5x stiffer sphere, a relaxing block), and on the 4 mm voxels it is 81 sensitivity
-columns, 83 of a diagnosis's 199 s.
+it so far: the second scan's best explained 1.2 to 1.5 times the first's on the probed block
+(a 5x and a 1.5x stiffer sphere on 7.5 mm voxels, a 1.5x one and a relaxing block on 4 mm),
+and on the 4 mm voxels it is 81 sensitivity columns, 83 of a diagnosis's 199 s.
 
 A linearised explanation underestimates what a refit achieves when the model is far off
 (hidden gravity makes the fit without it soften the whole block), so candidates are refitted
