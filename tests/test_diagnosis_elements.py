@@ -189,7 +189,7 @@ def test_the_finer_ball_scan_is_skipped_only_where_it_cannot_lift_an_inclusion_t
 
 def test_relaxation_is_probed_a_little_of_the_way_where_its_secant_is_linear():
     """The evidence of ``relaxation`` is the secant of a switch to relaxing elements. The
-    whole switch (g = 0.5) is far outside the linear range; a twentieth of it explains much
+    whole switch (g = 0.5) is far outside the linear range; a tenth of it explains much
     more of the misfit of a Kelvin–Voigt fit to relaxing data, and is what is scored."""
     from neurofuzzy.diagnosis.trajectory import TrajectoryEvidence
     from neurofuzzy.effects import Relaxation

@@ -64,7 +64,7 @@ class Relaxation(Effect):
         as in :meth:`switch`): the secant of the diagnosis's evidence. The whole switch's
         secant is far outside the linear range: on sfepy's relaxing block (g = 0.5, τ = 50 ms)
         fitted as SVK with damping on 4 mm voxels, it explained 1 % of the misfit above the
-        noise, a twentieth of the way 22 %."""
+        noise, a tenth of the way (g = 0.05) 22 %."""
         return model.with_elements(**relaxation_fields([(PROBE_RELATIVE_MODULUS,
                                                          _start_time(duration))]))
 
