@@ -257,3 +257,33 @@ def test_the_winner_is_confirmed_without_fitting_again_at_the_step_its_refit_was
     assert confirmed.model_.elements.youngs_modulus == pytest.approx(
         again.model_.elements.youngs_modulus, rel=5e-3)
     assert len(confirmed.history_) < len(again.history_)
+
+
+def test_a_relaxation_refit_starts_from_the_linearised_step_of_its_own_parameters_too():
+    """A Prony term's g makes the elements stiffer at once, which the fitted E had made up
+    for: the refit of relaxation starts from the model's own parameters moved by the
+    linearised fit with the probe, and that start is nearer the data than the fitted
+    values with the same g."""
+    from neurofuzzy.diagnosis.refits import _with_candidate
+    from neurofuzzy.diagnosis.trajectory import TrajectoryEvidence
+    from neurofuzzy.effects import Relaxation
+    from neurofuzzy.experiment import duration, rms_error
+    from neurofuzzy.learn import GradientLearner
+
+    truth = block().with_elements(relaxation_moduli=[0.5], relaxation_times=[0.015])
+    data = measured(truth, force=0.1)
+    fitted = GradientLearner(substeps="auto").fit(start(), data)
+    evidence = TrajectoryEvidence.of(fitted.model_, [data], fitted.substeps_,
+                                     fitted.lack_of_fit_.noise_per_coordinate)
+    (candidate,) = evidence.score([Relaxation([0.0])])
+    stepped = _with_candidate(candidate, fitted.model_, evidence, [data])
+    own, share = evidence.linearised_step(candidate.effect)
+    plain = Relaxation.switch(fitted.model_, duration([data]), share=float(share[0]))
+    assert np.allclose(stepped.elements.relaxation_moduli, plain.elements.relaxation_moduli)
+    assert not np.allclose(stepped.elements.youngs_modulus, plain.elements.youngs_modulus)
+    steps = fitted.substeps_
+    assert (rms_error(stepped, [data], substeps=steps)
+            < rms_error(plain, [data], substeps=steps))
+    # from another model than the evidence's (the start's values) only g is linearised
+    again = _with_candidate(candidate, start(), evidence, [data])
+    assert np.allclose(again.elements.youngs_modulus, start().elements.youngs_modulus)

@@ -82,8 +82,12 @@ def _with_candidate(candidate: Candidate, model, evidence, experiments):
     if switches(candidate):
         # not a patch: the elements take the law or relax (as much as the linearised fit of
         # the probe asks for), and everything is refitted
-        share = float(evidence.initial_params(candidate.effect)[0])
-        return candidate.effect.switch(model, duration(experiments), share=share)
+        own, share = evidence.linearised_step(candidate.effect)
+        if candidate.effect.switches_partly and model is evidence.model:
+            # from the fitted model, its own parameters take the step the linearised fit
+            # takes with the probe (relaxation's g shifts the stiffness E must make up for)
+            model = evidence.stepped(own)
+        return candidate.effect.switch(model, duration(experiments), share=float(share[0]))
     params = evidence.initial_params(candidate.effect)
     effect = candidate.effect.with_params(params)
     if effect.name in INCLUSIONS and candidate.seeded:

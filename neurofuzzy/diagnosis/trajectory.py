@@ -52,7 +52,7 @@ from .residuals import Residuals, orthonormal
 from .scoring import Candidate, residual_sum_of_squares
 
 __all__ = ["TrajectoryEvidence", "SCAN_PER_SIDE", "SCAN_RADII", "REFINE_RADII",
-           "MIN_EXPLAINED", "FINER_SCAN_SHARE"]
+           "MIN_EXPLAINED", "FINER_SCAN_SHARE", "MAX_OWN_STEP"]
 
 #: Ball centres per side of the object's bounding box in the first inclusion scan.
 SCAN_PER_SIDE = 4
@@ -71,6 +71,9 @@ MIN_EXPLAINED = 0.1
 #: Least fraction of ``MIN_EXPLAINED`` the first scan's best ball must explain, while the
 #: model explains the data to the noise, for the finer scan to be made (module docstring).
 FINER_SCAN_SHARE = 0.5
+#: The most factor a partial switch's linearised step moves a model's own parameter by
+#: (:meth:`TrajectoryEvidence.stepped`).
+MAX_OWN_STEP = 2.0
 
 
 def _balls(centroids, centres, radii, taken) -> list[np.ndarray]:
@@ -347,12 +350,27 @@ class TrajectoryEvidence(TakenByEffects):
 
     def initial_params(self, effect) -> np.ndarray:
         """The candidate's parameters of the linearised refit (the Gauss–Newton step)."""
+        return self.linearised_step(effect)[1]
+
+    def linearised_step(self, effect) -> tuple[np.ndarray, np.ndarray]:
+        """``(own, params)``: the Gauss–Newton step of the model's own parameters (those of
+        :class:`~neurofuzzy.learn.Parameterization` of :attr:`model`) and the candidate's
+        parameters, fitted together to the residual."""
         extra = self._candidate_columns[id(effect)]
         both = np.concatenate([self.base, extra], axis=1)
         norms = np.linalg.norm(both, axis=0)
         norms[norms == 0] = 1.0
         solution, *_ = np.linalg.lstsq(both / norms, -self.residual, rcond=None)
-        return (solution / norms)[self.base.shape[1]:]
+        solution = solution / norms
+        return solution[:self.base.shape[1]], solution[self.base.shape[1]:]
+
+    def stepped(self, own: np.ndarray):
+        """:attr:`model` with its own parameters moved by ``own`` (:meth:`linearised_step`),
+        each by at most a factor of ``MAX_OWN_STEP`` (they are logarithms): a linearisation
+        from far off can ask for a step no refit should start from."""
+        parameters = Parameterization(self.model)
+        limit = np.log(MAX_OWN_STEP)
+        return parameters.model(parameters.initial() + np.clip(own, -limit, limit))
 
     min_explained = MIN_EXPLAINED
 

@@ -60,6 +60,10 @@ class Effect(ForceTerm):
     #: ``share`` the linearised fit's multiple of :meth:`probe_switch` where the switch can be
     #: partial) instead of adding it as a force term
     switches_material: ClassVar[bool] = False
+    #: True for a switch that can go part of the way (:meth:`probe_switch` is a small one
+    #: and ``switch`` takes its linearised ``share``): the diagnosis then starts its refit
+    #: from the linearised step of the model's own parameters too
+    switches_partly: ClassVar[bool] = False
 
     def switched_values(self, model) -> dict[str, float]:
         """For an entry that switches the material, what the switched and refitted ``model``

@@ -44,6 +44,7 @@ class Relaxation(Effect):
     unit = (0, 0, 0)
     _labels = ("share",)
     switches_material = True
+    switches_partly = True
 
     @staticmethod
     def switch(model, duration: float, share: float | None = None):
