@@ -71,8 +71,8 @@ MIN_EXPLAINED = 0.1
 #: Least fraction of ``MIN_EXPLAINED`` the first scan's best ball must explain, while the
 #: model explains the data to the noise, for the finer scan to be made (module docstring).
 FINER_SCAN_SHARE = 0.5
-#: The most factor a partial switch's linearised step moves a model's own parameter by
-#: (:meth:`TrajectoryEvidence.stepped`).
+#: The most factor a partial switch's linearised step moves a model's own E or η by (the
+#: same bound on the learner's coordinates of the others: :meth:`TrajectoryEvidence.stepped`).
 MAX_OWN_STEP = 2.0
 
 
@@ -366,7 +366,8 @@ class TrajectoryEvidence(TakenByEffects):
 
     def stepped(self, own: np.ndarray):
         """:attr:`model` with its own parameters moved by ``own`` (:meth:`linearised_step`),
-        each by at most a factor of ``MAX_OWN_STEP`` (they are logarithms): a linearisation
+        each by at most ``log(MAX_OWN_STEP)`` in the learner's coordinates (the logarithms of
+        E and η: a factor of 2; ν's and the effects' are scaled otherwise): a linearisation
         from far off can ask for a step no refit should start from."""
         parameters = Parameterization(self.model)
         limit = np.log(MAX_OWN_STEP)
