@@ -186,3 +186,45 @@ def test_the_learner_abandons_a_fit_that_cannot_come_below_the_leader():
         model(3000.0, 4.0), data)
     assert not kept.abandoned_ and kept.n_cycles_ == whole.n_cycles_
     assert kept.rms_error_ == whole.rms_error_
+
+
+def test_a_fit_ends_where_it_leaves_the_range_it_can_be_trusted_in():
+    """``leave`` is asked at every Jacobian: the first point it refuses ends the fit there
+    (the learner then goes on at finer steps), before any further evaluation."""
+    residuals, jacobian, _, calls = _problem(0.05)
+    lower, upper = np.full(3, -np.inf), np.full(3, np.inf)
+    asked = []
+    solution = _lm.levenberg_marquardt(
+        residuals, jacobian, np.array([1.5, 0.4, 2.8]), lower, upper, max_evaluations=100,
+        tolerance=1e-10, leave=lambda x: asked.append(x.copy()) or len(asked) == 3)
+    assert solution.reason == "left the trusted range" and len(asked) == 3
+    assert np.array_equal(solution.x, asked[-1]) and calls["jacobian"] == 3
+
+
+def test_a_model_that_misses_stops_at_its_robust_standard_errors():
+    """A straight line fitted to a smooth curve: the residuals are the curve's, correlated
+    from one time to the next, so the data hold far less than their number says. Given the
+    clusters' sandwich (``meat``), the fit stops once its steps are a tenth of the robust
+    standard errors: sooner than on the plain ones, at the same cost within 1e-4."""
+    from neurofuzzy.learn.identifiability import cluster_meat
+
+    t = np.linspace(0.0, 1.0, 1200)
+    curve = np.sin(3.0 * t) + 0.2 * t**3
+    shapes = [(40, 10)]                     # 40 frames of 10 "markers", 3 coordinates
+
+    def residuals(x):
+        return x[0] * np.exp(x[1] * t) + x[2] * t - curve
+
+    def jacobian(x):
+        return np.column_stack([np.exp(x[1] * t), x[0] * t * np.exp(x[1] * t), t])
+
+    lower, upper = np.full(3, -np.inf), np.full(3, np.inf)
+    start = np.array([1.0, -1.0, 0.5])
+    plain = _lm.levenberg_marquardt(residuals, jacobian, start, lower, upper,
+                                    max_evaluations=500, tolerance=1e-14)
+    robust = _lm.levenberg_marquardt(residuals, jacobian, start, lower, upper,
+                                     max_evaluations=500, tolerance=1e-14,
+                                     meat=lambda J, r: cluster_meat(J, r, shapes))
+    assert robust.reason == "step below the standard errors"
+    assert robust.evaluations < plain.evaluations
+    assert robust.cost == pytest.approx(plain.cost, rel=1e-4)

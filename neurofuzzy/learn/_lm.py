@@ -14,12 +14,24 @@ Cholesky of them took 70 ms instead of 0.2 ms on a 2-core machine with another j
 
 Stopping: the relative cost change or the relative step below ``tolerance`` (as before); a
 step that is statistically nothing, every parameter moving less than ``STEP_OF_STD_ERROR`` of
-its standard error (``σ² (JᵀJ)⁻¹`` with ``σ²`` the residual variance); or residuals at the
-rounding floor of the simulation (RMS below ``FLOOR``). On exact data the standard errors
-shrink with the residual, so the statistical test never stops a fit early; on noisy data, or
-for a model that lacks an effect, it ends the long plateaus where the cost creeps down by
-amounts far below anything the data can tell apart. Both tests come before the next
-Jacobian, the costliest pass, so the stop does not pay for one it would not use.
+its standard error (``σ² (JᵀJ)⁻¹`` with ``σ²`` the residual variance, or, given the
+residuals' clusters, the cluster-robust ``(JᵀJ)⁻¹ B (JᵀJ)⁻¹`` the fit reports, whichever
+calls the step nothing); or residuals at the rounding floor of the simulation (RMS below
+``FLOOR``). On exact data the standard errors shrink with the residual, so the statistical
+test never stops a fit early; on noisy data, or for a model that lacks an effect, it ends
+the long plateaus where the cost creeps down by amounts far below anything the data can tell
+apart. Both tests come before the next Jacobian, the costliest pass, so the stop does not
+pay for one it would not use.
+
+The robust errors matter for a model that lacks something. Its residuals are smooth along a
+marker's track and across a frame, so the data hold far fewer independent values than their
+number, and ``σ² (JᵀJ)⁻¹`` is far too small: steps that change nothing the data can tell
+apart still count as significant on it (``tests/test_lm.py``: a curve the model cannot
+follow, fitted to the same cost within 10⁻⁴ in fewer evaluations).
+
+A fit whose simulation runs beyond its stable step creeps as well, on the rounding the
+unstable modes amplify; that is the learner's to prevent (``leave``, below, and
+:class:`~.gradient.GradientLearner`'s ``substeps="auto"``).
 """
 
 from __future__ import annotations
@@ -68,7 +80,8 @@ def _damped_step(normal, gradient, damping):
 
 
 def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluations: int,
-                        tolerance: float, both=None, give_up=None) -> Solution:
+                        tolerance: float, both=None, give_up=None, meat=None,
+                        leave=None) -> Solution:
     """Minimise ``½‖r(x)‖²`` within the box ``[lower, upper]`` (steps are clipped to it).
 
     ``residuals(x)`` returns r (m,), ``jacobian(x)`` returns J (m, n). ``max_evaluations``
@@ -88,10 +101,19 @@ def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluation
     fit with the reason ``"given up"``. Farther from a minimum the linearisation can promise
     far too little: fitting a damped oscillation from a start at 200 times the least cost,
     the first three floors were 39, 7 and 3 times it.
+
+    ``meat(J, r)``, when given, returns ``B`` of the cluster-robust sandwich at a Jacobian
+    (:func:`~.identifiability.cluster_meat`; None when the clusters are too few): a step is
+    then also statistically nothing when it is below ``STEP_OF_STD_ERROR`` of the robust
+    standard errors (module docstring).
+
+    ``leave(x)``, when given, is asked at every Jacobian whether the point is outside the
+    range the residuals can be trusted in (the simulation's stable step); yes ends the fit
+    there with the reason ``"left the trusted range"``.
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
-                         tolerance, give_up)
+                         tolerance, give_up, meat, leave)
 
 
 def floor(normal, gradient, cost) -> float:
@@ -104,7 +126,7 @@ def floor(normal, gradient, cost) -> float:
 
 
 def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
-              tolerance, give_up=None) -> Solution:
+              tolerance, give_up=None, meat=None, leave=None) -> Solution:
     x = np.clip(np.asarray(x0, float), lower, upper)
     r, J = both(x) if both is not None else (residuals(x), None)
     cost = 0.5 * float(r @ r)
@@ -114,9 +136,12 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
     if J is None:
         J = jacobian(x)
     normal = J.T @ J
+    robust = None if meat is None else _robust_covariance(normal, meat(J, r))
     damping = INITIAL_DAMPING
     speculate = True        # evaluate the next trial with its Jacobian (``both``)
     while True:
+        if leave is not None and leave(x):
+            return Solution(x, cost, evaluations, "left the trusted range")
         gradient = J.T @ r
         if give_up is not None:
             least = floor(normal, gradient, cost)
@@ -160,10 +185,12 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
         if 2.0 * cost <= FLOOR**2 * len(r):
             return Solution(x, cost, evaluations, "residuals at the rounding floor")
         # the standard errors of the last Jacobian: the step just taken is that one's step
-        if _insignificant(step, normal, cost, len(r)):
+        if (_insignificant(step, normal, cost, len(r))
+                or _insignificant_robust(step, robust)):
             return Solution(x, cost, evaluations, "step below the standard errors")
         J = J_trial if J_trial is not None else jacobian(x)
         normal = J.T @ J
+        robust = None if meat is None else _robust_covariance(normal, meat(J, r))
         speculate = trials == 1
 
 
@@ -186,3 +213,34 @@ def _insignificant(step, normal, cost, m) -> bool:
     # the step along direction k against that direction's standard error σ / √λ_k
     whitened = np.abs(vectors.T @ step) * np.sqrt(np.maximum(values, 0.0))
     return bool(np.all(whitened <= STEP_OF_STD_ERROR * np.sqrt(variance)))
+
+
+def _robust_covariance(normal, meat) -> np.ndarray | None:
+    """The cluster-robust sandwich ``(JᵀJ)⁺ B (JᵀJ)⁺`` (None without ``B``)."""
+    if meat is None:
+        return None
+    try:
+        values, vectors = np.linalg.eigh(normal)
+    except np.linalg.LinAlgError:
+        return None
+    keep = values > 1e-12 * max(float(values.max(initial=0.0)), 1e-300)
+    inverse = (vectors[:, keep] / values[keep]) @ vectors[:, keep].T
+    return inverse @ meat @ inverse
+
+
+def _insignificant_robust(step, covariance) -> bool:
+    """Is ``step`` below ``STEP_OF_STD_ERROR`` of the robust standard error along every
+    direction of ``covariance`` (eigenvectors; a direction without variance counts only when
+    the step has no component along it)?"""
+    if covariance is None or not np.any(step):
+        return False
+    try:
+        values, vectors = np.linalg.eigh(covariance)
+    except np.linalg.LinAlgError:
+        return False
+    along = np.abs(vectors.T @ step)
+    scale = np.sqrt(np.maximum(values, 0.0))
+    tiny = scale <= 1e-300
+    if np.any(along[tiny] > 0):
+        return False
+    return bool(np.all(along[~tiny] <= STEP_OF_STD_ERROR * scale[~tiny]))

@@ -10,6 +10,8 @@ from scipy.optimize import minimize
 from ..errors import NeurofuzzyError
 from . import _passes as passes
 from ._lm import levenberg_marquardt
+from .identifiability import cluster_meat
+from .steps import stable_at_one_step
 
 #: A Jacobian pass costing at most this many residual passes is run with the trial steps
 #: after a step accepted at its first trial (:func:`._lm.levenberg_marquardt`'s ``both``): a
@@ -21,11 +23,16 @@ ABANDON_AFTER = 2
 
 
 def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, upper,
-             active, tolerance, abandon=None):
+             active, tolerance, abandon=None, guard=False):
     """The parameters ``theta`` with their ``active`` entries fitted by Levenberg–Marquardt
     (the prior's terms, when the learner has one, stacked under the data's residuals);
     given up, ``learner.abandoned_`` set, once Gauss–Newton predicts at two Jacobians in a
-    row that the RMS error per marker cannot come below ``abandon`` (metres)."""
+    row that the RMS error per marker cannot come below ``abandon`` (metres). With
+    ``guard``: ended, ``learner._left`` set, at a Jacobian whose values are not stable at
+    ``substeps`` (:func:`.steps.stable_at_one_step`), and stopped also by steps below the
+    cluster-robust standard errors (:mod:`._lm`; trusted only at stable steps: the rounding
+    an unstable simulation amplifies widens them, and stopped a fit of a stiff block a
+    quarter short of its modulus)."""
     def full(x):
         values = theta.copy()
         values[active] = x
@@ -66,18 +73,27 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
         learner.abandoned_ = strikes >= ABANDON_AFTER
         return learner.abandoned_
 
+    def meat(J, r):        # the cluster-robust sandwich's B: clusters of the last runs
+        return cluster_meat(J, r, [run.residuals.shape[:2] for run in learner._last.runs])
+
+    def leave(x):
+        learner._left = not stable_at_one_step(sensitivity.parameters.model(full(x)),
+                                               experiments, substeps)
+        return learner._left
+
     result = levenberg_marquardt(
         residuals, jacobian, theta[active], lower[active], upper[active],
         max_evaluations=int(learner.max_iterations), tolerance=tolerance,
-        both=both if cheap else None, give_up=None if abandon is None else give_up)
+        both=both if cheap else None, give_up=None if abandon is None else give_up,
+        meat=meat if guard else None, leave=leave if guard else None)
     return full(result.x)
 
 
 def solve_lbfgs(learner, sensitivity, experiments, theta, starts, substeps, lower, upper,
-                active, tolerance, abandon=None):
+                active, tolerance, abandon=None, guard=False):
     """The parameters ``theta`` with their ``active`` entries fitted by L-BFGS-B with the
     adjoint gradient (for Jacobians too large to hold; ``abandon`` is not used: without a
-    Jacobian there is no prediction of the least error)."""
+    Jacobian there is no prediction of the least error; nor is ``guard``)."""
     def objective(x):
         values = theta.copy()
         values[active] = x

@@ -44,7 +44,8 @@ MAX_JACOBIAN_ENTRIES = 3e7
 DEFAULT_WINDOW = 25
 #: Relative tolerance on the cost of the stages before the last (windows, beginnings).
 STAGE_TOLERANCE = 1e-3
-
+#: Times a fit with ``stable_steps`` moves on to finer steps.
+MAX_MOVES = 4
 
 
 class GradientLearner(Learner):
@@ -108,6 +109,16 @@ class GradientLearner(Learner):
         winning refit, made at one step): with ``substeps="auto"`` they are the fit's first
         step when the start is stable there, and it is not fitted there again, only at twice
         as many steps (Richardson).
+    extrapolate : bool
+        With ``substeps="auto"``: fit at ``k`` and ``2k`` substeps and extrapolate (the
+        default), or at ``k`` only (False; the diagnosis compares its candidates so).
+    stable_steps : bool
+        With ``substeps="auto"``: once the values leave the stable range of the steps they
+        are fitted at (a growing viscosity shortens the stable step), fit on at the steps
+        they need (:func:`auto_substeps`): beyond its stable step a simulation amplifies
+        rounding, and the fit creeps on that noise (docs/benchmarks.md); and stop at steps
+        below the cluster-robust standard errors too. Off by default until its cost is
+        settled: it more than doubled the slow validation tests' time.
     progress : bool
         Report progress on stderr.
 
@@ -166,7 +177,8 @@ class GradientLearner(Learner):
                  method: str = "auto", max_iterations: int = 100, tolerance: float = 1e-10,
                  bounds: float = 1e3, prior=None, offsets: bool | str = "auto",
                  mesh_check: bool | str = "auto", abandon_above: float | None = None,
-                 fitted_at: int | None = None, progress: bool = False):
+                 fitted_at: int | None = None, extrapolate: bool = True,
+                 stable_steps: bool = False, progress: bool = False):
         self.learn_masses = learn_masses
         self.learn_effects = learn_effects
         self.substeps = substeps
@@ -180,6 +192,8 @@ class GradientLearner(Learner):
         self.mesh_check = mesh_check
         self.abandon_above = abandon_above
         self.fitted_at = fitted_at
+        self.extrapolate = extrapolate
+        self.stable_steps = stable_steps
         self.progress = progress
 
     def fit(self, model: Model,
@@ -208,9 +222,9 @@ class GradientLearner(Learner):
         self.rms_error_initial_ = rms_error(model, experiments, substeps=initial_steps,
                                             offsets=offsets)
         # one step per frame (the paper's network) is tried only where it is stable
-        discrete = not auto or stable_at_one_step(model, experiments)
+        discrete = not auto or (self.extrapolate and stable_at_one_step(model, experiments))
         self.n_cycles_ = 0
-        self.abandoned_ = False
+        self.abandoned_ = self._left = False
         self._trace = []        # (E, RMS) of every simulation of the data
         self._last = None       # the last simulation of the data (passes.Last)
         model = stable_start(model, min(e.dt for e in experiments)
@@ -231,11 +245,23 @@ class GradientLearner(Learner):
         # caller's ``fitted_at``) and its substeps
         searched = (theta, self.fitted_at) if auto and self.fitted_at else (None, 0)
 
-        def fit(start, substeps, windows):
+        def fit(start, substeps, windows, guard=False):
+            """``start`` fitted at ``substeps`` (with ``guard``, at as many more as the values
+            need to stay stable; ``self._at``: the substeps it ended at)."""
+            self._at = substeps
             if (start is searched[0] and substeps == searched[1]) or self.abandoned_:
                 return start    # fitted there already: not twice
-            return self._fit_stages(sensitivity, experiments, start, substeps, windows, method,
-                                    lower, upper, active)
+            theta = self._fit_stages(sensitivity, experiments, start, substeps, windows,
+                                     method, lower, upper, active, guard=guard)
+            for _ in range(MAX_MOVES):
+                if not self._left:
+                    break
+                # the values left the step's stable range: on at the steps they need
+                self._left, self._at = False, max(
+                    auto_substeps(parameters.model(theta), e.dt) for e in experiments)
+                theta = self._fit_stages(sensitivity, experiments, theta, self._at, (),
+                                         method, lower, upper, active, guard=True)
+            return theta
 
         self._prior_terms, self._prior_scale, self.prior_ = None, 0.0, None
         self.homogeneous_ = self.regions_ = None
@@ -251,25 +277,28 @@ class GradientLearner(Learner):
         best = (np.inf, theta, initial_steps)
         if discrete:
             substeps = 1 if auto else int(self.substeps)
-            theta = fit(theta, substeps, self.windows)
+            theta = fit(theta, substeps, self.windows)     # the network's own step
             best = (passes.rms(sensitivity, experiments, theta, substeps, self._last), theta,
                     substeps)
         exact = best[0] <= 1e-9 * sensitivity.length_unit     # the discrete model fits exactly
         if auto and not exact:
             # Continuous physics: fit with k and 2k substeps and extrapolate the O(h) bias of
             # semi-implicit Euler away (Richardson): θ∞ ≈ 2 θ(2k) - θ(k).
-            k = initial_steps
-            theta_k = fit(theta, k, () if discrete else self.windows)
-            theta_2k = fit(theta_k, 2 * k, ())
+            guard = bool(self.stable_steps)
+            theta_k = fit(theta, initial_steps, () if discrete else self.windows, guard=guard)
+            k = self._at
+            theta_2k = fit(theta_k, 2 * k, (), guard=guard) if self.extrapolate else theta_k
             if not discrete:      # nothing fitted at one step per frame to fall back on
-                best = (passes.rms(sensitivity, experiments, theta_2k, 2 * k, self._last),
-                        theta_2k, 2 * k)
+                best = (passes.rms(sensitivity, experiments, theta_2k, self._at, self._last),
+                        theta_2k, self._at)
             theta_inf = np.clip(2 * theta_2k - theta_k, lower, upper)
-            rms_inf = passes.rms(sensitivity, experiments, theta_inf, 2 * k)
-            if rms_inf < best[0]:
-                best = (rms_inf, theta_inf, 2 * k)
-                self.extrapolated_ = True
-            if not discrete and stable_at_one_step(parameters.model(best[1]), experiments):
+            if self.extrapolate and self._at == 2 * k:
+                rms_inf = passes.rms(sensitivity, experiments, theta_inf, 2 * k)
+                if rms_inf < best[0]:
+                    best = (rms_inf, theta_inf, 2 * k)
+                    self.extrapolated_ = True
+            if (not discrete and self.extrapolate
+                    and stable_at_one_step(parameters.model(best[1]), experiments)):
                 # a start unstable at one step per frame may end stable there: data of the
                 # paper's network (one step per frame) are fitted exactly only at that step
                 theta_1 = fit(best[1], 1, self.windows)
@@ -311,7 +340,7 @@ class GradientLearner(Learner):
         return "lm" if n_residuals * parameters.size <= MAX_JACOBIAN_ENTRIES else "lbfgs"
 
     def _fit_stages(self, sensitivity, experiments, theta, substeps, windows, method, lower,
-                    upper, active) -> np.ndarray:
+                    upper, active, guard=False) -> np.ndarray:
         """Stages of growing difficulty, then the whole trajectory.
 
         With every free node measured throughout: multiple shooting, windows restarted from
@@ -348,9 +377,12 @@ class GradientLearner(Learner):
             begun = len(self._trace)
             theta = solver(self, sensitivity, data, theta, starts, substeps, lower, upper,
                            active, tolerance,
-                           abandon=self.abandon_above if window == longest else None)
+                           abandon=self.abandon_above if window == longest else None,
+                           guard=guard)
             best = min(self._trace[begun:] or self._trace[-1:])   # this stage's, not earlier
             progress.update(stage + 1, f"{what}, RMS {length_text(best[1])} per marker")
+            if self._left:
+                break
         return theta
 
     def _record(self, runs, length_unit: float) -> None:
