@@ -118,7 +118,7 @@ class GradientLearner(Learner):
         they need (:func:`auto_substeps`): beyond its stable step a simulation amplifies
         rounding, and the fit creeps on that noise (docs/benchmarks.md); and stop at steps
         below the cluster-robust standard errors too. Off by default until its cost is
-        settled: it more than doubled the slow validation tests' time.
+        settled: two slow validation tests took 25 times as long with it.
     progress : bool
         Report progress on stderr.
 
