@@ -31,7 +31,8 @@ follow, fitted to the same cost within 10⁻⁴ in fewer evaluations).
 
 A fit whose simulation runs beyond its stable step creeps as well, on the rounding the
 unstable modes amplify; that is the learner's to prevent (``leave``, below, and
-:class:`~.gradient.GradientLearner`'s ``substeps="auto"``).
+:class:`~.gradient.GradientLearner`'s ``stable_steps``), and the robust stop is asked for
+only then: the amplified rounding widens the robust errors too.
 """
 
 from __future__ import annotations
