@@ -202,8 +202,9 @@ def test_a_fit_ends_where_it_leaves_the_range_it_can_be_trusted_in():
 
 
 def test_a_model_that_misses_stops_at_its_robust_standard_errors():
-    """A straight line fitted to a smooth curve: the residuals are the curve's, correlated
-    from one time to the next, so the data hold far less than their number says. Given the
+    """An exponential and a line fitted to a curve they cannot follow: the residuals are
+    smooth, correlated from one time to the next, so the data hold far less than their
+    number says. Given the
     clusters' sandwich (``meat``), the fit stops once its steps are a tenth of the robust
     standard errors: sooner than on the plain ones, at the same cost within 1e-4."""
     from neurofuzzy.learn.identifiability import cluster_meat
