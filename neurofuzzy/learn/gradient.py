@@ -111,7 +111,7 @@ class GradientLearner(Learner):
         as many steps (Richardson).
     extrapolate : bool
         With ``substeps="auto"``: fit at ``k`` and ``2k`` substeps and extrapolate (the
-        default), or at ``k`` only (False; the diagnosis compares its candidates so).
+        default), or at ``k`` only (False: one step, as the diagnosis's refits are made).
     stable_steps : bool
         With ``substeps="auto"``: once the values leave the stable range of the steps they
         are fitted at (a growing viscosity shortens the stable step), fit on at the steps
@@ -291,8 +291,8 @@ class GradientLearner(Learner):
             if not discrete:      # nothing fitted at one step per frame to fall back on
                 best = (passes.rms(sensitivity, experiments, theta_2k, self._at, self._last),
                         theta_2k, self._at)
-            theta_inf = np.clip(2 * theta_2k - theta_k, lower, upper)
             if self.extrapolate and self._at == 2 * k:
+                theta_inf = np.clip(2 * theta_2k - theta_k, lower, upper)
                 rms_inf = passes.rms(sensitivity, experiments, theta_inf, 2 * k)
                 if rms_inf < best[0]:
                     best = (rms_inf, theta_inf, 2 * k)
