@@ -19,7 +19,7 @@ __all__ = ["EXTRAS", "require", "require_in_script", "missing"]
 #: extra → the packages it installs, as (import name, what pip calls it); pyproject.toml's
 #: ``[project.optional-dependencies]`` (tests/test_extras.py checks that they agree)
 EXTRAS: dict[str, tuple[tuple[str, str], ...]] = {
-    "validation": (("skfem", "scikit-fem"), ("felupe", "felupe")),
+    "validation": (("skfem", "scikit-fem"), ("felupe", "felupe"), ("tensortrax", "tensortrax")),
     "validation-nonlinear": (("skfem", "scikit-fem"), ("sfepy", "sfepy")),
     "batch": (("dask", "dask"), ("distributed", "distributed")),
     "studio": (("starlette", "starlette"), ("uvicorn", "uvicorn")),

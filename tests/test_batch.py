@@ -224,9 +224,11 @@ def data_file(tmp_path):
     ("id,group,experiments,relaxation\na,x,a.npz,4\n",
      "cohort.csv:2: relaxation: got 4 Prony terms; expected 1 to 3"),
     ("id,group,experiments,law,stiffening\na,x,a.npz,yeoh,-1\n",
-     "cohort.csv:2: stiffening: got '-1'; expected Yeoh's C20/C10, a number >= 0"),
+     "cohort.csv:2: stiffening: got '-1'; expected the law's own constant (Yeoh's C20/C10, "
+     "Mooney-Rivlin's C01/C10), a number >= 0"),
     ("id,group,experiments,stiffening\na,x,a.npz,1\n",
-     "cohort.csv:2: stiffening: a stiffening is Yeoh's C20/C10; give law: yeoh"),
+     "cohort.csv:2: stiffening: a stiffening is the law's own constant (Yeoh's C20/C10, "
+     "Mooney-Rivlin's C01/C10); give law: yeoh or law: mooney-rivlin"),
 ])
 def test_bad_manifests_exit_2_naming_the_file_and_line(tmp_path, data_file, text, message):
     path = tmp_path / "cohort.csv" if text is None else _manifest(tmp_path, text)

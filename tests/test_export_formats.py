@@ -48,7 +48,8 @@ SOFA = {
                            {"name", "indices", "forces", "totalForce"}),
 }
 
-#: the parameters of FEBio's Yeoh material (FEYeoh, FEUncoupledMaterial)
+#: the parameters of FEBio's Yeoh material (FEYeoh, FEUncoupledMaterial); its Mooney-Rivlin
+#: material's (FEMooneyRivlin: c1, c2 and FEUncoupledMaterial's) are among them
 YEOH = {"c1", "c2", "c3", "c4", "c5", "c6", "k", "pressure_model"}
 #: FEBio 4.0's reader (febiosoftware/FEBio, FEBioXML/*Section*.cpp, the classes' ADD_PARAMETER
 #: names): element -> (required attributes, allowed attributes, allowed children).
@@ -97,10 +98,11 @@ FEBIO = {
 #: registered type names (REGISTER_FECORE_CLASS) and enumerations the file may use
 FEBIO_TYPES = {
     "Module": {"solid"}, "solver": {"solid"}, "Elements": {"tet4"},
-    "material": {"isotropic elastic", "solid mixture", "neo-Hookean", "viscoelastic", "Yeoh"},
+    "material": {"isotropic elastic", "solid mixture", "neo-Hookean", "viscoelastic", "Yeoh",
+                 "Mooney-Rivlin"},
     "solid": {"isotropic elastic", "neo-Hookean", "Newtonian viscous solid", "viscoelastic",
-              "Yeoh"},
-    "elastic": {"isotropic elastic", "neo-Hookean", "Yeoh"},
+              "Yeoh", "Mooney-Rivlin"},
+    "elastic": {"isotropic elastic", "neo-Hookean", "Yeoh", "Mooney-Rivlin"},
     "bc": {"zero displacement"}, "nodal_load": {"nodal_force"}, "body_load": {"body force"},
     "discrete_material": {"linear spring"}, "load_controller": {"loadcurve"},
     "plotfile": {"febio"},
@@ -472,6 +474,23 @@ def test_exports_carry_the_elements_relaxation(tmp_path):
                           experiment=data).notes
         relax = [note for note in notes if "relax" in note]
         assert len(relax) == 1 and "differ by" in relax[0], notes
+
+
+def test_exports_carry_mooney_rivlin_elements(tmp_path):
+    """FEBio writes its Mooney-Rivlin solid for Mooney–Rivlin elements: c1 = C10, c2 = C01 =
+    r C10 with C10 + C01 = mu/2, k and pressure_model as Yeoh's (FEMooneyRivlin)."""
+    model = two_regions()
+    mooney = model.with_elements(law=np.where(model.elements.region == 1, 3, 0),
+                                 stiffening=0.5)
+    tumour = _febio_solids(mooney, tmp_path / "m.feb", pressed(mooney))["tumour"]
+    assert tumour.get("type") == "Mooney-Rivlin"
+    E = float(mooney.elements.youngs_modulus[mooney.elements.region == 1][0])
+    nu = float(mooney.elements.poisson_ratio[mooney.elements.region == 1][0])
+    mu = E / (2 * (1 + nu))
+    assert float(tumour.find("c1").text) == pytest.approx(mu / 3, rel=1e-12)
+    assert float(tumour.find("c2").text) == pytest.approx(mu / 6, rel=1e-12)
+    assert float(tumour.find("k").text) == pytest.approx(E / (3 * (1 - 2 * nu)), rel=1e-12)
+    assert tumour.find("pressure_model").text == "2"
 
 
 def test_exports_carry_yeoh_elements(tmp_path):

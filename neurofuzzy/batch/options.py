@@ -43,10 +43,15 @@ def fit_options(text: dict, problem) -> dict:
         try:
             value = float(stiffening_array(float(text["stiffening"]), 1)[0])
         except (ValueError, InputError):            # checked by the model's own rule
-            raise problem(f"got {text['stiffening']!r}; expected Yeoh's C20/C10, a number "
-                          ">= 0", "stiffening") from None
-        if options.get("law") != "yeoh":
-            raise problem("a stiffening is Yeoh's C20/C10; give law: yeoh", "stiffening")
+            raise problem(f"got {text['stiffening']!r}; expected the law's own constant "
+                          "(Yeoh's C20/C10, Mooney-Rivlin's C01/C10), a number >= 0",
+                          "stiffening") from None
+        from ..forces.laws import STIFFENING_CONSTANT, law_number
+
+        if law_number(options.get("law", 0)) not in STIFFENING_CONSTANT:
+            raise problem("a stiffening is the law's own constant (Yeoh's C20/C10, Mooney-"
+                          "Rivlin's C01/C10); give law: yeoh or law: mooney-rivlin",
+                          "stiffening")
         options["stiffening"] = value
     if text.get("relaxation"):
         from ..forces.relaxation import start_terms

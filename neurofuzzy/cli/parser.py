@@ -390,13 +390,15 @@ def _start_options(command) -> None:
     command.add_argument("--law", choices=LAWS, default=None,
                          help="the tetrahedral elements' material law: st-venant-kirchhoff "
                               "(SVK; softens beyond about 30 %% compression), neo-hookean "
-                              "(stiffens as it is squeezed) or yeoh (stiffens more, by a "
-                              "fitted C20/C10); all have the same E and ν at small strain "
+                              "(stiffens as it is squeezed), yeoh (stiffens more, by a "
+                              "fitted C20/C10) or mooney-rivlin (SOFA's and FEBio's, with "
+                              "a fitted C01/C10); all have the same E and ν at small strain "
                               "(default: the start model's own, else st-venant-kirchhoff)")
     command.add_argument("--stiffening", type=float, metavar="C", default=None,
                          help="with --law yeoh: Yeoh's C20/C10 to start from (>= 0; default "
                               "the start model's own, else 1: 1.65 times as stiff as "
-                              "neo-Hookean at 30 %% compression); fitted per region")
+                              "neo-Hookean at 30 %% compression); with --law mooney-rivlin "
+                              "its C01/C10 (default 1); fitted per region")
     command.add_argument("--relaxation", metavar="TERMS", default=None,
                          help="the tetrahedral elements relax (Prony series on top of their "
                               "law, FEBio's convention: E is the long-term modulus): a number "

@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..forces.laws import LAWS
+from ..forces.laws import LAW_RECORDS, LAWS
 from ..learn.load_step_fit import fit_load_steps
 
 __all__ = ["LoadStepDiagnosis", "diagnose_load_steps", "THRESHOLD"]
@@ -95,7 +95,7 @@ def _candidates(model, data):
         changed = replace(path, components="xyz")
         out.append(("plate_bonding", model, replace(data, driven=(changed, *data.driven[1:]))))
     current = _law(model)
-    for law in LAWS:
+    for law in (record.name for record in LAW_RECORDS if record.switch):
         if law != current:
             out.append((f"hyperelasticity ({law})", model.with_elements(law=law), data))
     return out

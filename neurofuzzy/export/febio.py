@@ -15,9 +15,11 @@ reads the model and the load back from them:
 - ``Material`` per part: ``isotropic elastic`` (``E``, ``v``, ``density``), which is
   St. Venant–Kirchhoff (σ = J⁻¹ F (λ tr E I + 2μ E) Fᵀ, ``FEIsotropicElastic::Stress``) as
   our element, or ``neo-Hookean`` (``E``, ``v``) for neo-Hookean elements, FEBio's coupled
-  compressible neo-Hookean solid as ours (:data:`FEBIO_LAWS`), or ``Yeoh`` (``c1`` = C₁₀,
-  ``c2`` = C₂₀, bulk modulus ``k`` with ``pressure_model`` 2, Abaqus' ``K/2 (J - 1)²``:
-  ``FEYeoh`` and ``FEUncoupledMaterial::U``) for Yeoh elements, our law; with viscosity a
+  compressible neo-Hookean solid as ours, or ``Yeoh`` (``c1`` = C₁₀, ``c2`` = C₂₀, bulk
+  modulus ``k`` with ``pressure_model`` 2, Abaqus' ``K/2 (J - 1)²``: ``FEYeoh`` and
+  ``FEUncoupledMaterial::U``) for Yeoh elements, our law, and ``Mooney-Rivlin`` (``c1`` =
+  C₁₀, ``c2`` = C₀₁, ``k`` likewise: ``FEMooneyRivlin``) for Mooney–Rivlin elements (each
+  law's ``febio`` in :data:`neurofuzzy.forces.laws.LAW_RECORDS`); with viscosity a
   ``solid mixture`` of it and a ``Newtonian viscous solid`` of shear viscosity ``mu`` = βμ
   and bulk viscosity ``kappa`` = βK (β = η/E, K the bulk modulus), our Kelvin–Voigt stress
   at small strain (FEBio's viscous stress is Cauchy in the rate of deformation, ours second
@@ -48,7 +50,7 @@ import numpy as np
 from xml.sax.saxutils import quoteattr
 
 from ..forces.springs import spring_constants
-from ..forces.laws import LAWS
+from ..forces.laws import LAW_RECORDS
 from .base import load_components, material_groups, prepare, region_densities, time_step
 from .metadata import header_lines, volumetric_note
 
@@ -153,14 +155,6 @@ def feb(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     return "\n".join(out) + "\n", notes
 
 
-#: FEBio's material for each of our laws: ``isotropic elastic`` (E, v) is St. Venant–Kirchhoff,
-#: ``neo-Hookean`` (E, v) the coupled compressible neo-Hookean solid (``FENeoHookean``:
-#: W = μ/2 (I₁ - 3) - μ ln J + λ/2 (ln J)²), ours; ``Yeoh`` (c1, c2, k) the uncoupled Yeoh
-#: solid, ours with Abaqus' volumetric energy (``pressure_model`` 2).
-FEBIO_LAWS = {"st-venant-kirchhoff": "isotropic elastic", "neo-hookean": "neo-Hookean",
-              "yeoh": "Yeoh"}
-
-
 def _materials(groups, densities, runs) -> list[str]:
     if not groups:
         return []
@@ -168,13 +162,10 @@ def _materials(groups, densities, runs) -> list[str]:
     for index, group in enumerate(groups, start=1):
         E, nu, beta = group.youngs_modulus, group.poisson_ratio, group.damping_time
         density = float(densities[group.region])
-        elastic = f"<E>{E!r}</E><v>{nu!r}</v>"
-        kind = FEBIO_LAWS[LAWS[group.law]]
-        if kind == "Yeoh":
-            # C10 = μ/2, C20 = c C10, K = λ + 2μ/3 = E / (3 (1 - 2ν)), U = K/2 (J - 1)²
-            c10 = E / (4 * (1 + nu))
-            elastic = (f"<c1>{c10!r}</c1><c2>{group.stiffening * c10!r}</c2>"
-                       f"<k>{E / (3 * (1 - 2 * nu))!r}</k><pressure_model>2</pressure_model>")
+        # the law's record: isotropic elastic (E, v) is St. Venant-Kirchhoff, neo-Hookean
+        # (E, v) the coupled compressible solid (FENeoHookean), ours; Yeoh and Mooney-Rivlin
+        # (c1, c2, k) the uncoupled solids with Abaqus' volumetric energy (pressure_model 2)
+        kind, elastic = LAW_RECORDS[group.law].febio(E, nu, group.stiffening)
         if group.relaxation:
             # FEBio's viscoelastic solid: the same convention as ours (g0 = 1, the elastic
             # law the long-term response), the law inside it

@@ -15,6 +15,7 @@ law                       ``D(G)``            ``θ(G)``     ``N(G)``
 ``st-venant-kirchhoff``   ``G``               ``tr G``     ``I``
 ``neo-hookean``           ``½ (I - C⁻¹)``     ``ln J``     ``C⁻¹``
 ``yeoh``                  see below           ``J - 1``    ``J C⁻¹``
+``mooney-rivlin``         see below           ``J - 1``    ``J C⁻¹``
 ========================  ==================  ===========  ==============
 
 (``C = I + 2G = FᵀF``, ``J = det F``). The neo-Hookean law is the coupled compressible solid
@@ -33,6 +34,12 @@ bulk modulus ``K = λ + 2μ/3``: ``D = ½ (1 + 2c (Ī₁ - 3)) J^(-2/3) (I - I�
 for every ``c``; it stiffens with strain as ``c`` grows. Why Yeoh for tissue:
 :class:`neurofuzzy.validation.nonlinear.Yeoh`.
 
+The ``mooney-rivlin`` law is the uncoupled Mooney–Rivlin solid of FEBio, SOFA, Abaqus and
+FElupe, ``Ψ = C₁₀ (Ī₁ - 3) + C₀₁ (Ī₂ - 3) + K/2 (J - 1)²`` with ``C₁₀ + C₀₁ = μ/2`` and
+``C₀₁ = r C₁₀`` for the element's own constant ``r`` (its ``stiffening``, ``C01/C10``): the
+same E and ν at small strain for every ``r``. Every law's names, constant and FEBio material
+are one record, :data:`LAW_RECORDS`.
+
 The derivatives of the stress (:meth:`ElementStress.jvp`, :meth:`ElementStress.vjp`,
 :meth:`ElementStress.partials`) and ``∂D/∂c`` (:func:`stiffening_slope`) are the kernels'
 complex-step derivatives of it.
@@ -40,34 +47,99 @@ complex-step derivatives of it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import InputError, closest_name
 
+
+def _elastic_moduli(E: float, nu: float, c: float) -> str:
+    return f"<E>{E!r}</E><v>{nu!r}</v>"
+
+
+def _uncoupled(c1: float, c2: float, E: float, nu: float) -> str:
+    """FEBio's uncoupled solid's ``c1``, ``c2`` with ``K = λ + 2μ/3 = E / (3 (1 - 2ν))`` and
+    Abaqus' volumetric energy ``U = K/2 (J - 1)²`` (``pressure_model`` 2), ours."""
+    return (f"<c1>{c1!r}</c1><c2>{c2!r}</c2><k>{E / (3 * (1 - 2 * nu))!r}</k>"
+            "<pressure_model>2</pressure_model>")
+
+
+@dataclass(frozen=True)
+class Law:
+    """One material law of the elements: what the toolkit reads, says and writes about it.
+
+    Its stress is the kernels' (:mod:`neurofuzzy.kernels.laws`, the same name and number);
+    this record is everything else: the names a user may type, its own constant, whether the
+    diagnosis offers a switch to it, and its material in FEBio.
+
+    Attributes
+    ----------
+    name : str
+        As in model files, ``--law`` and the kernels' :data:`~neurofuzzy.kernels.laws.LAWS`.
+    summary : str
+        One line for ``--help`` and the docs.
+    aliases : tuple of str
+        Short names accepted for it (compared without hyphens).
+    constant : str or None
+        The name of the element's own constant of the law (``element_stiffening``, fitted
+        per region as ``log_stiffening``), None for a law without one.
+    switch : bool
+        The load-step diagnosis offers a switch to it (a law that one mode of deformation can
+        tell apart from the others).
+    febio : callable
+        ``(E, ν, c) -> (type, parameters)``: FEBio's material and its parameters' XML.
+    """
+
+    name: str
+    summary: str
+    aliases: tuple[str, ...] = ()
+    constant: str | None = None
+    switch: bool = True
+    febio: Callable = field(default=lambda E, nu, c: ("isotropic elastic",
+                                                     _elastic_moduli(E, nu, c)))
+
+
+#: The laws in the order of their numbers (``model.elements.law``, the kernels' numbers).
+LAW_RECORDS = (
+    Law("st-venant-kirchhoff", "SVK; softens beyond about 30 % compression",
+        aliases=("svk", "stvk")),
+    Law("neo-hookean", "stiffens as it is squeezed", aliases=("neohookean", "nh"),
+        febio=lambda E, nu, c: ("neo-Hookean", _elastic_moduli(E, nu, c))),
+    # C10 = μ/2, C20 = c C10
+    Law("yeoh", "stiffens more, by a fitted C20/C10", constant="C20/C10",
+        febio=lambda E, nu, c: ("Yeoh", _uncoupled(E / (4 * (1 + nu)),
+                                                   c * E / (4 * (1 + nu)), E, nu))),
+    # C10 + C01 = μ/2, C01 = r C10: one mode of deformation (a compression, an indentation)
+    # cannot split the I1 and I2 parts, so the diagnosis does not switch to it by itself
+    Law("mooney-rivlin", "the second invariant too, by a fitted C01/C10 (SOFA's and FEBio's "
+        "MooneyRivlin)", aliases=("mr",), constant="C01/C10", switch=False,
+        febio=lambda E, nu, c: ("Mooney-Rivlin", _uncoupled(
+            E / (4 * (1 + nu) * (1 + c)), c * E / (4 * (1 + nu) * (1 + c)), E, nu))),
+)
 #: The laws by name; a law's number (``model.elements.law``) is its position here, the same in
 #: the compiled kernels (:mod:`neurofuzzy.kernels.laws`, checked by the tests).
-LAWS = ("st-venant-kirchhoff", "neo-hookean", "yeoh")
+LAWS = tuple(law.name for law in LAW_RECORDS)
 #: Short names accepted for the laws.
-ALIASES = {"svk": "st-venant-kirchhoff", "stvk": "st-venant-kirchhoff",
-           "neohookean": "neo-hookean", "nh": "neo-hookean"}
+ALIASES = {alias: law.name for law in LAW_RECORDS for alias in law.aliases}
 #: Yeoh's law, whose elements carry a stiffening constant (``element_stiffening``).
 YEOH = LAWS.index("yeoh")
-#: The laws whose elements carry their own stiffening constant (``element_stiffening``,
-#: learned as ``log_stiffening``), with its name: a law added with a constant is named here
-#: once, and the learner, files, exports, words and report treat its elements' constant as
-#: Yeoh's (elements of the other laws keep theirs unused).
-STIFFENING_CONSTANT = {YEOH: "C20/C10"}
+#: The laws whose elements carry their own constant (``element_stiffening``, learned as
+#: ``log_stiffening``), with its name (from :data:`LAW_RECORDS`): the learner, files, exports,
+#: words and report treat every such constant alike (elements of the other laws keep theirs
+#: unused).
+STIFFENING_CONSTANT = {number: law.constant for number, law in enumerate(LAW_RECORDS)
+                       if law.constant}
 
 
 def stiffens(law) -> np.ndarray:
     """bool, the shape of ``law`` (law numbers): which elements' law has its own stiffening
     constant (:data:`STIFFENING_CONSTANT`)."""
     return np.isin(law, tuple(STIFFENING_CONSTANT))
-#: Yeoh's ``C₂₀/C₁₀`` of an element when none is given: in uniaxial stress (ν = 0.45) 1.65
-#: times as stiff as neo-Hookean at 30 % compression, 2.2 times at 40 %, 1.35 times at 30 %
-#: extension
+#: The law's own constant of an element when none is given. Yeoh's ``C₂₀/C₁₀`` 1: in
+#: uniaxial stress (ν = 0.45) 1.65 times as stiff as neo-Hookean at 30 % compression, 2.2
+#: times at 40 %, 1.35 times at 30 % extension. Mooney–Rivlin's ``C₀₁/C₁₀`` 1: ``C₁₀ = C₀₁``
 DEFAULT_STIFFENING = 1.0
 
 
@@ -109,9 +181,10 @@ def law_numbers(value, n: int) -> np.ndarray:
 
 
 def stiffening_array(value, n: int) -> np.ndarray:
-    """(n,) Yeoh ``C₂₀/C₁₀`` of n elements: ``None`` for :data:`DEFAULT_STIFFENING`, one value
-    for all, or one per element. Elements of the other laws keep theirs unused (so a model
-    whose elements later become Yeoh's starts from it, the default unless given).
+    """(n,) the law's own constant (Yeoh's ``C₂₀/C₁₀``, Mooney–Rivlin's ``C₀₁/C₁₀``) of n
+    elements: ``None`` for :data:`DEFAULT_STIFFENING`, one value for all, or one per element.
+    Elements of the other laws keep theirs unused (so a model whose elements later become
+    Yeoh's starts from it, the default unless given).
 
     Raises
     ------
@@ -126,9 +199,10 @@ def stiffening_array(value, n: int) -> np.ndarray:
     bad = ~(np.isfinite(array) & (array >= 0))
     if np.any(bad):
         first = int(np.flatnonzero(bad)[0])
-        raise InputError(f"element {first} has stiffening {array[first]:g}; Yeoh's C20/C10 "
-                         "must be a number >= 0 (0 is the neo-Hookean solid; a negative one "
-                         "softens with strain and loses stability)", key="element_stiffening")
+        raise InputError(f"element {first} has stiffening {array[first]:g}; the law's own "
+                         "constant (Yeoh's C20/C10, Mooney-Rivlin's C01/C10) must be a number "
+                         ">= 0 (0 is the neo-Hookean solid; a negative one can lose "
+                         "stability)", key="element_stiffening")
     return array
 
 

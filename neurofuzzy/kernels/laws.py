@@ -29,10 +29,19 @@ write it.
   (``(Ī₁ - 3)²`` is of fourth order in the strain); stiffer than neo-Hookean in compression
   and tension alike as ``c`` grows (why Yeoh: :class:`neurofuzzy.validation.nonlinear.Yeoh`).
 
-Adding a law: write its function here, give it the next number in :data:`LAWS` and a branch
-in :func:`elastic`; its forward and reverse derivatives then come from it by complex step
-(below), and ``tests/test_kernels_law.py`` checks them, ``∂θ/∂G`` and the small-strain limit
-for every entry of :data:`LAWS`.
+- :func:`mooney_rivlin`: the uncoupled Mooney–Rivlin solid of FEBio (``Mooney-Rivlin``),
+  SOFA (``MooneyRivlin``), Abaqus and FElupe, ``Ψ = C₁₀ (Ī₁ - 3) + C₀₁ (Ī₂ - 3) + K/2 (J - 1)²``
+  (``Ī₂ = J^(-4/3) I₂``) with ``C₁₀ + C₀₁ = μ/2``, ``C₀₁ = r C₁₀`` (``r`` the element's
+  ``stiffening``, its own constant ``C01/C10``) and ``K = λ + 2μ/3`` as Yeoh's: linear
+  elasticity with the same E, ν at small strain for any ``r``; ``r = 0`` is the uncoupled
+  neo-Hookean solid.
+
+Adding a law: write its function here, name it in :data:`KERNEL_LAWS` (the next number) with a
+branch in :func:`elastic`, and give it a record in :data:`neurofuzzy.forces.laws.LAW_RECORDS`
+(its names, its constant, its FEBio material); its forward and reverse derivatives then come
+from it by complex step (below), and ``tests/test_kernels_law.py`` checks them, ``∂θ/∂G``, the
+small-strain limit and its constant for every entry of :data:`LAWS`; the force, stiffness and
+adjoint checks of ``tests/test_terms_registry.py`` run for every law too.
 
 Derivatives: :func:`stress_jvp` (the sensitivities) and :func:`stress_vjp` (the adjoint) are
 generated from :func:`stress` by complex-step differentiation: numba compiles it for complex
@@ -46,11 +55,18 @@ Symmetric 3×3 matrices are tuples of six entries ``(00, 11, 22, 01, 02, 12)``.
 import numba
 import numpy as np
 
-#: Law numbers, as stored per element (``model.elements.law``): name → number.
-LAWS = {"st-venant-kirchhoff": 0, "neo-hookean": 1, "yeoh": 2}
+#: The laws of the kernels in the order of their numbers (``model.elements.law``): their name
+#: and whether the stress depends on the element's own constant (``stiffening``).
+KERNEL_LAWS = (("st-venant-kirchhoff", False), ("neo-hookean", False), ("yeoh", True),
+               ("mooney-rivlin", True))
+#: Law numbers: name → number.
+LAWS = {name: number for number, (name, _) in enumerate(KERNEL_LAWS)}
 ST_VENANT_KIRCHHOFF = LAWS["st-venant-kirchhoff"]
 NEO_HOOKEAN = LAWS["neo-hookean"]
 YEOH = LAWS["yeoh"]
+MOONEY_RIVLIN = LAWS["mooney-rivlin"]
+#: Per law number: its stress depends on its own constant.
+OWN_CONSTANT = tuple(own for _, own in KERNEL_LAWS)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -115,6 +131,31 @@ def yeoh(G, shear, pressure, stiffening):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def mooney_rivlin(G, shear, pressure, ratio):
+    """``S = 2C₁₀ J^(-2/3) (I - I₁/3 C⁻¹) + 2C₀₁ J^(-4/3) (I₁ I - C - 2/3 I₂ C⁻¹)
+    + (π + shear θ/3) J C⁻¹`` with ``2C₁₀ = ½ shear / (1 + r)``, ``C₀₁ = r C₁₀``
+    (``r = ratio``) and ``θ = J - 1``."""
+    k, det = _cofactors(G)
+    c00, c11, c22 = 1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2]
+    c01, c02, c12 = 2.0 * G[3], 2.0 * G[4], 2.0 * G[5]
+    i1 = c00 + c11 + c22
+    i2 = 0.5 * (i1 * i1 - (c00 * c00 + c11 * c11 + c22 * c22
+                           + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)))
+    j = np.sqrt(det)
+    j23 = np.exp(np.log(det) / -3.0)                  # J^(-2/3) = (det C)^(-1/3)
+    theta = j - 1.0
+    first = 0.5 * shear / (1.0 + ratio) * j23          # 2 C₁₀ J^(-2/3)
+    second = ratio * first * j23                       # 2 C₀₁ J^(-4/3)
+    diagonal = first + second * i1                     # times I
+    # … - second C + scale C⁻¹, C⁻¹ = k / det
+    scale = ((pressure + shear * theta / 3.0) * j - first * i1 / 3.0
+             - second * 2.0 * i2 / 3.0) / det
+    return ((diagonal - second * c00 + scale * k[0], diagonal - second * c11 + scale * k[1],
+             diagonal - second * c22 + scale * k[2], -second * c01 + scale * k[3],
+             -second * c02 + scale * k[4], -second * c12 + scale * k[5]), theta)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def elastic(law, G, shear, pressure, stiffening):
     """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`) with the law's own
     constant ``stiffening`` (ignored by laws without one)."""
@@ -122,6 +163,8 @@ def elastic(law, G, shear, pressure, stiffening):
         return neo_hookean(G, shear, pressure)
     if law == YEOH:
         return yeoh(G, shear, pressure, stiffening)
+    if law == MOONEY_RIVLIN:
+        return mooney_rivlin(G, shear, pressure, stiffening)
     return st_venant_kirchhoff(G, shear, pressure)
 
 
@@ -152,7 +195,8 @@ def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffe
     kappa : float
         Strain stiffening ``κ`` (Pa) of the ``nonlinear_stiffening`` effect; 0 for none.
     stiffening : float
-        The law's own stiffening constant ``c`` (Yeoh's ``C₂₀/C₁₀``; ignored by the others).
+        The law's own constant ``c`` (Yeoh's ``C₂₀/C₁₀``, Mooney–Rivlin's ``C₀₁/C₁₀``;
+        ignored by the others).
     """
     S, _ = elastic(law, G, shear, pressure, stiffening)
     stiff = 0.0 * kappa
@@ -223,7 +267,7 @@ def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa
     # from the law (S_law(G; 1, 0, c) is the shear's part, N the pressure's)
     unit_shear = elastic(law, G, 1.0, 0.0, stiffening)[0]
     l_stiffening = 0.0
-    if law == YEOH:
+    if OWN_CONSTANT[law]:
         l_stiffening = _inner(LS, stress_jvp(law, G, Gd, zero, zero, shear, shear_rate,
                                              pressure, pressure_rate, kappa, stiffening,
                                              0.0, 0.0, 0.0, 0.0, 0.0, 1.0))

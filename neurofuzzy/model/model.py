@@ -353,7 +353,7 @@ class Model:
             for law, name in STIFFENING_CONSTANT.items():
                 own = elements.law == law
                 if own.any():
-                    lines.append(f"  {LAWS[law].capitalize()} stiffening {name}: "
+                    lines.append(f"  {LAWS[law].capitalize()} {name}: "
                                  f"{describe(elements.stiffening[own])}")
             for k in range(elements.n_relaxation_terms):
                 lines.append(f"  relaxation term {k + 1}: relative modulus "

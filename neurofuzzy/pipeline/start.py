@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..experiment import Experiment, check_experiments, duration
-from ..forces.laws import LAWS
+from ..forces.laws import LAWS, STIFFENING_CONSTANT
 from ..forces.relaxation import relaxation_fields, start_terms
 from ..learn import StartModel, estimate_start
 from ..forces import Springs
@@ -96,15 +96,18 @@ def start_model(experiments: Experiment | Sequence[Experiment], *,
     if not changes:
         return begun
     changed = begun.model.with_elements(**changes)
-    yeoh = changed.elements.stiffens
-    if stiffening is not None and not yeoh.any():
-        raise InputError(f"a stiffening ({stiffening!r}) is Yeoh's C20/C10; this start has no "
-                         "Yeoh elements (add --law yeoh)", key="--stiffening")
+    own = changed.elements.stiffens
+    if stiffening is not None and not own.any():
+        raise InputError(f"a stiffening ({stiffening!r}) is the law's own constant (Yeoh's "
+                         "C20/C10, Mooney-Rivlin's C01/C10); this start has no elements of "
+                         "such a law (add --law yeoh or --law mooney-rivlin)",
+                         key="--stiffening")
     if law is not None:
         note(progress, f"material law: {LAWS[int(changed.elements.law[0])]}")
-    if (law is not None or stiffening is not None) and yeoh.any():
-        note(progress, "Yeoh stiffening C20/C10: "
-             f"{float(np.mean(changed.elements.stiffening[yeoh])):.3g}")
+    if (law is not None or stiffening is not None) and own.any():
+        number = int(changed.elements.law[own][0])
+        note(progress, f"{LAWS[number].capitalize()} {STIFFENING_CONSTANT[number]}: "
+             f"{float(np.mean(changed.elements.stiffening[own])):.3g}")
     if relaxation is not None:
         note(progress, "relaxation: " + ", ".join(
             f"g {g:.3g}, tau {t:.3g} s" for g, t in zip(changed.elements.relaxation_moduli[0],
