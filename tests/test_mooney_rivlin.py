@@ -50,6 +50,16 @@ def test_the_records_and_the_kernels_name_the_same_laws_in_the_same_order():
     assert law_number("MR") == MR
 
 
+def test_its_constant_has_no_words_where_yeoh_s_has():
+    """Yeoh's C20/C10 comes back as the rule base's ``strain_stiffening`` (words of
+    stiffening); Mooney–Rivlin's C01/C10 is not a stiffening and gets no such word."""
+    from neurofuzzy.constants.elements import element_values
+
+    everything = np.ones(24, bool)
+    assert element_values(_block(0.5, law="yeoh"), everything)["strain_stiffening"] == 0.5
+    assert "strain_stiffening" not in element_values(_block(0.5), everything)
+
+
 @pytest.mark.parametrize("ratio", [0.0, 0.4, 2.5])
 def test_the_stress_is_felupe_s_mooney_rivlin_solid(ratio):
     """First Piola–Kirchhoff stress ``F S`` at large random deformations (stretches up to

@@ -49,7 +49,8 @@ def element_values(model: Model, chosen: np.ndarray) -> dict[str, float]:
     ``relaxation_modulus``, the relative modulus that relaxes away in all (``Σ gᵢ``: the
     material is ``1 + Σ gᵢ`` times stiffer at once), and ``relaxation_time``, its times'
     mean weighted by their moduli (geometric; τ itself for one term), medians over the
-    elements; for Yeoh elements ``strain_stiffening``, the median of their ``C₂₀/C₁₀``."""
+    elements; for the elements of a law whose constant has words (its record's ``quantity``:
+    Yeoh's ``strain_stiffening``), the median of their constant."""
     values = {
         "youngs_modulus": float(np.median(model.elements.youngs_modulus[chosen])),
         "poisson_ratio": float(np.median(model.elements.poisson_ratio[chosen])),
@@ -63,9 +64,12 @@ def element_values(model: Model, chosen: np.ndarray) -> dict[str, float]:
         times = np.exp((weights * np.log(model.elements.relaxation_times[chosen])).sum(axis=1))
         values["relaxation_modulus"] = float(np.median(total))
         values["relaxation_time"] = float(np.median(times))
-    stiffening = chosen & model.elements.stiffens
-    if np.any(stiffening):
-        values["strain_stiffening"] = float(np.median(model.elements.stiffening[stiffening]))
+    from ..forces.laws import LAW_OF_QUANTITY
+
+    for quantity, law in LAW_OF_QUANTITY.items():
+        own = chosen & (model.elements.law == law)
+        if np.any(own):
+            values[quantity] = float(np.median(model.elements.stiffening[own]))
     return values
 
 

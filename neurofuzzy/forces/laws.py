@@ -85,6 +85,10 @@ class Law:
     constant : str or None
         The name of the element's own constant of the law (``element_stiffening``, fitted
         per region as ``log_stiffening``), None for a law without one.
+    quantity : str or None
+        The rule base's quantity its constant is in words (``strain_stiffening`` for Yeoh's
+        C20/C10: words of it make elements of this law, and the fitted constant comes back
+        as those words); None for a constant that has no words.
     switch : bool
         The load-step diagnosis offers a switch to it (a law that one mode of deformation can
         tell apart from the others).
@@ -96,6 +100,7 @@ class Law:
     summary: str
     aliases: tuple[str, ...] = ()
     constant: str | None = None
+    quantity: str | None = None
     switch: bool = True
     febio: Callable = field(default=lambda E, nu, c: ("isotropic elastic",
                                                      _elastic_moduli(E, nu, c)))
@@ -109,6 +114,7 @@ LAW_RECORDS = (
         febio=lambda E, nu, c: ("neo-Hookean", _elastic_moduli(E, nu, c))),
     # C10 = μ/2, C20 = c C10
     Law("yeoh", "stiffens more, by a fitted C20/C10", constant="C20/C10",
+        quantity="strain_stiffening",
         febio=lambda E, nu, c: ("Yeoh", _uncoupled(E / (4 * (1 + nu)),
                                                    c * E / (4 * (1 + nu)), E, nu))),
     # C10 + C01 = μ/2, C01 = r C10: one mode of deformation (a compression, an indentation)
@@ -131,6 +137,9 @@ YEOH = LAWS.index("yeoh")
 #: unused).
 STIFFENING_CONSTANT = {number: law.constant for number, law in enumerate(LAW_RECORDS)
                        if law.constant}
+#: The laws whose constant is a quantity of the rule base's words: quantity → law number.
+LAW_OF_QUANTITY = {law.quantity: number for number, law in enumerate(LAW_RECORDS)
+                   if law.quantity}
 
 
 def stiffens(law) -> np.ndarray:

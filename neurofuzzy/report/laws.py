@@ -31,10 +31,11 @@ def law_section(plt, model) -> tuple[str, str] | None:
         laws = np.unique(model.elements.law[chosen])
         own = LAWS[int(laws[0])] if len(laws) == 1 else None
         stiffening = chosen & model.elements.stiffens
-        c = float(np.median(model.elements.stiffening[stiffening])) if stiffening.any() \
-            else DEFAULT_STIFFENING
+        fitted_c = float(np.median(model.elements.stiffening[stiffening])) \
+            if stiffening.any() else DEFAULT_STIFFENING
         for number, law in enumerate(LAWS):
             fitted = law == own
+            c = fitted_c if fitted else DEFAULT_STIFFENING       # another law's: its default
             curve = uniaxial_stress(law, E, nu, 1.0 + STRAINS, c)
             constant = STIFFENING_CONSTANT.get(number)
             style = "-" if fitted else (":" if constant else "--")
@@ -49,11 +50,13 @@ def law_section(plt, model) -> tuple[str, str] | None:
     ax.legend(fontsize=8)
     text = (f"<p>Material law of the elements: {model.elements.law_names()}. The curves are the "
             "uniaxial stress of each region's fitted E and ν (the median of its elements) "
-            "under its law (solid) and under the other laws (dashed, Yeoh's dotted, same "
-            "colour): the same slope at rest, apart under strong compression, where St. "
-            "Venant–Kirchhoff softens (its curve turns back, or ends where it has no state "
-            "with free sides), neo-Hookean stiffens and Yeoh stiffens more, by its "
-            "C20/C10.</p>")
+            "under its law (solid) and under the other laws (dashed; dotted for a law with a "
+            "constant of its own, at the fitted value for the region's law, else at its "
+            f"default {DEFAULT_STIFFENING:g}; same colour): the same slope at rest, apart "
+            "under strong compression, where St. Venant–Kirchhoff softens (its curve turns "
+            "back, or ends where it has no state with free sides), neo-Hookean stiffens, "
+            "Yeoh stiffens more, by its C20/C10, and Mooney–Rivlin's C01/C10 makes it "
+            "stiffer than neo-Hookean in compression and softer in tension.</p>")
     return "Material law", (text + figure_html(figure, "uniaxial stress-strain curves")
                             + _relaxation(plt, model))
 

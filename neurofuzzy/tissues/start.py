@@ -150,7 +150,8 @@ def _spring_value(quantities, material, direct, factor, source):
 
 #: the quantities of a Prony term's words
 RELAXATION = ("relaxation_modulus", "relaxation_time")
-#: the quantity of Yeoh's stiffening in words
+#: the quantity of Yeoh's stiffening in words (the law whose record names it:
+#: :data:`~neurofuzzy.forces.laws.LAW_OF_QUANTITY`)
 STIFFENING = "strain_stiffening"
 
 
@@ -203,7 +204,9 @@ def element_model(rules, mesh, names, values, element_tissue, *, node_region) ->
     if any(value is not None for value in stiffening):
         yeoh = np.array([value is not None for value in stiffening])
         c = np.array([0.0 if value is None else value for value in stiffening])
-        laws = np.where(yeoh, "yeoh", "st-venant-kirchhoff")
+        from ..forces.laws import LAW_OF_QUANTITY
+
+        laws = np.where(yeoh, LAW_OF_QUANTITY[STIFFENING], 0)
         model = model.with_elements(law=laws[element_tissue], stiffening=c[element_tissue])
     if not any(relaxation):
         return model
