@@ -252,7 +252,8 @@ def simulate_experiment(model: Model, *, dt: float, n_frames: int,
                         external_forces: np.ndarray | None = None, substeps: int | str = 1,
                         noise: float = 0.0, seed: int | None = 0,
                         observed: np.ndarray | None = None,
-                        with_masses: bool = True, source: str = "<simulated>") -> Experiment:
+                        with_masses: bool = True, source: str = "<simulated>",
+                        integrator: str = "explicit") -> Experiment:
     """Synthetic data: simulate ``model`` from rest and record it as an :class:`Experiment`.
 
     Parameters
@@ -270,9 +271,13 @@ def simulate_experiment(model: Model, *, dt: float, n_frames: int,
         Nodes to record; the others are stored as NaN.
     with_masses : bool
         Store the true masses as known ``masses``.
+    integrator : {"explicit", "implicit"}
+        As :func:`~neurofuzzy.simulation.implicit.integrate`.
     """
-    trajectory = simulate(model, dt=dt, n_frames=n_frames, external_forces=external_forces,
-                          substeps=substeps)
+    from .simulation.implicit import integrate
+
+    trajectory = integrate(model, integrator, dt=dt, n_frames=n_frames,
+                           external_forces=external_forces, substeps=substeps)
     positions = trajectory.positions.copy()
     if noise > 0:
         rng = np.random.default_rng(seed)

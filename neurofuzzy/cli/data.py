@@ -51,7 +51,8 @@ def simulate(args) -> int:
     with outputs, naming(args.model):
         experiment = simulate_experiment(model, dt=args.dt or CUBE["dt"], n_frames=args.frames,
                                          external_forces=loads, substeps=substeps,
-                                         noise=args.noise, seed=args.seed, source=args.out)
+                                         noise=args.noise, seed=args.seed, source=args.out,
+                                         integrator=args.integrator)
         save_experiment(experiment, out)
     print(f"wrote {args.out}: {experiment.n_frames} frames of {experiment.n_nodes} nodes")
     return 0

@@ -3,11 +3,13 @@
 (:mod:`~neurofuzzy.simulation.stability`) and the steppers that run it, the numpy reference
 and the compiled one (:mod:`~neurofuzzy.simulation.steppers`); the force's stiffness and damping
 matrices (:mod:`~neurofuzzy.simulation.tangents`) and the static equilibrium under driven
-boundaries and loads (:mod:`~neurofuzzy.simulation.static`)."""
+boundaries and loads (:mod:`~neurofuzzy.simulation.static`); backward Euler steps at a
+simulator's step (:mod:`~neurofuzzy.simulation.implicit`)."""
 
 from .integration import State, Trajectory, check_substeps, internal_forces, simulate, step
 from .stability import (STABILITY_SAFETY, StabilityLimit, check_time_step, required_substeps,
                         stability_limit)
+from .implicit import simulate_implicit
 from .static import ConvergenceError, Driven, Equilibrium, equilibrium
 from .steppers import euler_update, numba_available
 from .tangents import Tangents, tangents
@@ -21,6 +23,7 @@ __all__ = [
     "step",
     "euler_update",
     "simulate",
+    "simulate_implicit",
     "stability_limit",
     "check_time_step",
     "check_substeps",
