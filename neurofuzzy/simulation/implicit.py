@@ -21,6 +21,12 @@ far less than it does, which is what a fit for the simulator's step must account
 
 Elements that relax (Prony terms) are refused: their internal variables have no implicit
 update yet.
+
+:func:`implicit_sensitivities` differentiates the trajectory of converged backward Euler steps
+by each group's E, ν and η: differentiating the step's equation ``R(v₁; x₀, v₀, θ) = 0`` gives
+``(M + hC + h²K) dv₁ = M dv₀ - hK dx₀ + h ∂F/∂θ`` at ``(x₁, v₁)``, ``dx₁ = dx₀ + h dv₁``, with
+``∂F/∂θ`` exact from the elements' forces per unit of ``2μ``, ``λ``, ``2μβ`` and ``λβ``
+(:func:`~neurofuzzy.simulation.tangents.unit_forces`; the forces are linear in each).
 """
 
 from __future__ import annotations
@@ -33,9 +39,12 @@ from ..errors import InputError
 from ..model import Model
 from .integration import Trajectory, _frame_forces, _state
 from .static import ConvergenceError, _factor
-from .tangents import tangents
+from .tangents import tangents, unit_forces
 
-__all__ = ["simulate_implicit", "integrate"]
+__all__ = ["simulate_implicit", "integrate", "implicit_sensitivities", "PARAMETERS"]
+
+#: The element constants :func:`implicit_sensitivities` differentiates by, in its columns' order
+PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
 
 #: m/s: a Newton update this small has converged whatever the velocity (a body at rest)
 VELOCITY_FLOOR = 1e-14
@@ -180,3 +189,102 @@ def _solve_step(matrix, right, factor):
             return x, factor
     factor = _factor(matrix)
     return factor.solve(right), factor
+
+
+def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
+                           external_forces: np.ndarray | None = None,
+                           initial_positions: np.ndarray | None = None,
+                           initial_velocities: np.ndarray | None = None, substeps: int = 1,
+                           groups: np.ndarray | None = None,
+                           tolerance: float = 1e-11) -> tuple[Trajectory, np.ndarray]:
+    """Converged backward Euler steps and their derivatives by each element group's E, ν, η
+    (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        Elements (one E, ν, η per group) with no springs, effects or relaxation.
+    dt, n_frames, external_forces, initial_positions, initial_velocities, substeps
+        As :func:`simulate_implicit` (the start does not depend on the constants).
+    groups : (n_elements,) int, optional
+        The element groups (default: one).
+    tolerance : float
+        Newton's tolerance on each step's velocity (the derivatives are those of the solved
+        step).
+
+    Returns
+    -------
+    trajectory : Trajectory
+    derivatives : (n_frames, 3 n_groups, n_nodes, 3) float
+        ``∂positions/∂θ``, column ``k n_groups + g`` by constant ``PARAMETERS[k]`` of group
+        ``g`` (m per Pa, m, m per Pa·s).
+    """
+    n = model.n_nodes
+    if model.elements is None or model.springs is not None or model.effects:
+        raise InputError("the implicit step's derivatives cover element models without "
+                         "springs or effects", key="model")
+    k = model.mesh.n_tetrahedra
+    groups = np.zeros(k, np.intp) if groups is None else np.asarray(groups, np.intp)
+    if groups.shape != (k,) or groups.min(initial=0) < 0:
+        raise InputError(f"groups must be ({k},) non-negative ints; got {groups.shape}",
+                         key="groups")
+    n_groups = int(groups.max(initial=0)) + 1
+    values = []
+    for name in PARAMETERS:
+        per_element = np.asarray(getattr(model.elements, name), float)
+        first = np.zeros(n_groups)
+        first[groups] = per_element
+        if not np.allclose(per_element, first[groups], rtol=1e-12, atol=0.0):
+            raise InputError(f"the elements of a group must share their {name}",
+                             key="groups")
+        values.append(first)
+    E, nu, eta = values
+    a, b, da, db = (np.asarray(x, float) for x in _lame(nu))
+    run = simulate_implicit(model, dt=dt, n_frames=1, initial_positions=initial_positions,
+                            initial_velocities=initial_velocities)
+    p, v = run.positions[0], run.velocities[0]
+    forces = _frame_forces(external_forces, int(n_frames), n)
+    free_nodes = np.ones(n, bool)
+    free_nodes[model.mesh.fixed] = False
+    free = np.repeat(free_nodes, 3)
+    h = float(dt) / int(substeps)
+    mass = np.repeat(np.asarray(model.node_mass, float), 3)[free]
+    columns = 3 * n_groups
+    dx, dv = np.zeros((columns, int(free.sum()))), np.zeros((columns, int(free.sum())))
+    positions = np.empty((int(n_frames), n, 3))
+    velocities = np.empty_like(positions)
+    derivatives = np.zeros((int(n_frames), columns, n, 3))
+    positions[0], velocities[0] = p, v
+    factor = None
+    for frame in range(1, int(n_frames)):
+        load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
+        for _ in range(int(substeps)):
+            p, v, factor = _step(model, p, v, h, load, free, mass, 50, tolerance, factor)
+            state = tangents(model, p, v)
+            stiffness = state.stiffness[free][:, free]
+            matrix = (sp.diags(mass) + h * state.damping[free][:, free]
+                      + (h * h) * stiffness).tocsr()
+            units = unit_forces(model, p, groups, velocities=v).reshape(n_groups, 4, -1)
+            units = units[:, :, free]
+            by = np.concatenate([2 * b[:, None] * units[:, 0] + a[:, None] * units[:, 1],
+                                 2 * db[:, None] * (E[:, None] * units[:, 0]
+                                                    + eta[:, None] * units[:, 2])
+                                 + da[:, None] * (E[:, None] * units[:, 1]
+                                                  + eta[:, None] * units[:, 3]),
+                                 2 * b[:, None] * units[:, 2] + a[:, None] * units[:, 3]])
+            right = mass * dv - h * (stiffness @ dx.T).T + h * by
+            for c in range(columns):
+                dv[c], factor = _solve_step(matrix, right[c], factor)
+            dx = dx + h * dv
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(dx))):
+            raise ConvergenceError(f"the implicit step diverged at frame {frame}", key="dt")
+        positions[frame], velocities[frame] = p, v
+        derivatives[frame][:, free_nodes] = dx.reshape(columns, -1, 3)
+    return (Trajectory(positions=positions, velocities=velocities, dt=float(dt),
+                       substeps=int(substeps), final_internal=None), derivatives)
+
+
+def _lame(nu):
+    from ..forces.tetra_geometry import lame_factors
+
+    return lame_factors(nu)

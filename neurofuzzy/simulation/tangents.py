@@ -259,7 +259,8 @@ def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarr
 
 
 def unit_forces(model: Model, positions: np.ndarray,
-                groups: np.ndarray | None = None) -> np.ndarray:
+                groups: np.ndarray | None = None,
+                velocities: np.ndarray | None = None) -> np.ndarray:
     """The elements' force per unit of their constants, at rest velocity and long time:
     ``(n_groups, 2, n_nodes, 3)``, ``[g, 0]`` the force of the elements of group ``g`` with
     ``2μ = 1`` and ``λ = 0``, ``[g, 1]`` with ``2μ = 0`` and ``λ = 1`` (Pa⁻¹ · N).
@@ -268,6 +269,10 @@ def unit_forces(model: Model, positions: np.ndarray,
     averages in the ``λ`` of the elements), so the elements' elastic force is exactly
     ``Σ_g 2μ_g F[g, 0] + λ_g F[g, 1]``: its derivatives by the material constants, from the
     one per-element function. ``groups`` (n_elements,) int: the groups (default one).
+
+    With ``velocities`` (n_nodes, 3), the viscous ones too: ``(n_groups, 4, n_nodes, 3)``,
+    ``[g, 2]`` the force with ``2μβ = 1`` and ``[g, 3]`` with ``λβ = 1`` (Pa⁻¹ s⁻¹ · N) at
+    those velocities, the Kelvin–Voigt stress being linear in both likewise.
     """
     from ..kernels.stiffness import element_tangents
     from .steppers import _prepared
@@ -281,18 +286,20 @@ def unit_forces(model: Model, positions: np.ndarray,
     if groups.shape != (k,):
         raise InputError(f"groups must have shape ({k},); got {groups.shape}", key="groups")
     p = np.array(positions, dtype=float, order="C")
-    zero_v = np.zeros_like(p)
+    zero_v = (np.zeros_like(p) if velocities is None
+              else np.array(velocities, dtype=float, order="C"))
     zeros_k, zeros_n = np.zeros(k), np.zeros(n)
-    out = np.zeros((groups.max(initial=-1) + 1, 2, n, 3))
+    out = np.zeros((groups.max(initial=-1) + 1, 2 if velocities is None else 4, n, 3))
     for g in range(len(out)):
         member = (groups == g).astype(float)
         corner = np.zeros(n)
         np.add.at(corner, tets, (0.25 * volume * member)[:, None])
         node_lam = np.divide(corner, node_volume, out=np.zeros(n), where=node_volume > 0)
-        for which in (0, 1):
-            shear, lam = (member, zeros_k) if which == 0 else (zeros_k, member)
-            layout = (*elements[:5], shear, zeros_k, lam, zeros_k, elements[9], node_volume,
-                      node_lam if which else zeros_n, zeros_n, np.zeros_like(elements[13]),
+        for which in range(out.shape[1]):       # the one constant set to 1: 2μ, λ, 2μβ, λβ
+            unit = [member if which == c else zeros_k for c in range(4)]
+            layout = (*elements[:5], unit[0], unit[2], unit[1], unit[3], elements[9],
+                      node_volume, node_lam if which == 1 else zeros_n,
+                      node_lam if which == 3 else zeros_n, np.zeros_like(elements[13]),
                       np.zeros((k, 0)), elements[15], np.zeros((k, 0, 6)))
             element_tangents(p, zero_v, layout, 0.0, out[g, which], np.empty((0, 12, 12)),
                              np.empty((0, 12, 12)), np.zeros((0, 3, 12)))
