@@ -74,3 +74,18 @@ def assert_gradient_exact(sensitivity, theta, experiment, substeps):
                    ) / (2 * step[k])
         assert gradient[k] == pytest.approx(numeric, rel=1e-5, abs=1e-9 * np.abs(gradient).max())
     return loss, gradient, run
+
+
+def pressed_on_top(model, newtons, frames=150, **options):
+    """An experiment of ``model`` pressed down on its top face by ``newtons`` (spread over the
+    face's nodes) for ``frames`` frames of 1 ms, at its stable substeps (``options`` go to
+    :func:`~neurofuzzy.experiment.simulate_experiment`: noise, seed)."""
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.simulation import required_substeps
+
+    rest = model.mesh.rest_positions
+    load = np.zeros((model.n_nodes, 3))
+    top = np.flatnonzero(np.isclose(rest[:, 2], rest[:, 2].max()))
+    load[top, 2] = -newtons / len(top)
+    return simulate_experiment(model, dt=1e-3, n_frames=frames, external_forces=load,
+                               substeps=required_substeps(model, 1e-3), **options)

@@ -10,15 +10,13 @@ import json
 import numpy as np
 import pytest
 
-from helpers import cli
+from helpers import cli, pressed_on_top
 from neurofuzzy.datasets import kuhn_block
-from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.forces.laws import LAWS, STIFFENING_CONSTANT, law_number
 from neurofuzzy.io import load_model, save_experiment, save_model
 from neurofuzzy.kernels.laws import elastic
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import Model
-from neurofuzzy.simulation import required_substeps
 
 MR = law_number("mooney-rivlin")
 E, NU = 6000.0, 0.45
@@ -28,15 +26,6 @@ def _block(ratio=1.0, cells=(2, 2, 1), law="mooney-rivlin"):
     mesh = from_tetra(*kuhn_block(cells, 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=2.0,
                            density=1000.0, law=law, stiffening=ratio)
-
-
-def _pressed(model, newtons, frames=40, **options):
-    rest = model.mesh.rest_positions
-    load = np.zeros((model.n_nodes, 3))
-    top = np.flatnonzero(np.isclose(rest[:, 2], rest[:, 2].max()))
-    load[top, 2] = -newtons / len(top)
-    return simulate_experiment(model, dt=1e-3, n_frames=frames, external_forces=load,
-                               substeps=required_substeps(model, 1e-3), **options)
 
 
 def test_the_records_and_the_kernels_name_the_same_laws_in_the_same_order():
@@ -95,7 +84,8 @@ def test_fit_with_the_mooney_rivlin_law_from_the_command_line(tmp_path):
     twice the constant; the JSON and the
     model file keep the law and the constant."""
     truth = _block(0.5)
-    path = save_experiment(_pressed(truth, 0.4, noise=2e-6, seed=1), tmp_path / "pressed.npz")
+    path = save_experiment(pressed_on_top(truth, 0.4, frames=40, noise=2e-6, seed=1),
+                           tmp_path / "pressed.npz")
     start = save_model(_block(None, law="st-venant-kirchhoff").with_elements(
         youngs_modulus=np.full(24, 8000.0)), tmp_path / "start.yaml")
     result = cli("fit", path, "--start", start, "--law", "mooney-rivlin", "--stiffening", "1",

@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 import yaml
 
-from helpers import cli
+from helpers import cli, pressed_on_top
 from neurofuzzy.datasets import kuhn_block
 from neurofuzzy.errors import InputError
-from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.io import load_model, save_experiment, save_model
 from neurofuzzy.learn import Parameterization, Sensitivity
 from neurofuzzy.mesh import from_tetra
@@ -29,13 +28,7 @@ def _block(stiffening=1.0, cells=(2, 2, 2), volumetric="nodal", law="yeoh"):
                            stiffening=stiffening)
 
 
-def _pressed(model, newtons, frames=150, **options):
-    rest = model.mesh.rest_positions
-    load = np.zeros((model.n_nodes, 3))
-    top = np.flatnonzero(np.isclose(rest[:, 2], rest[:, 2].max()))
-    load[top, 2] = -newtons / len(top)
-    return simulate_experiment(model, dt=1e-3, n_frames=frames, external_forces=load,
-                               substeps=required_substeps(model, 1e-3), **options)
+_pressed = pressed_on_top
 
 
 def test_stiffening_changes_nothing_at_small_strain_and_much_at_large():
