@@ -51,12 +51,19 @@ def fit(args) -> int:
     from .steps import fit_load_steps
 
     if is_load_steps_file(args.experiments[0]):
+        if args.target:
+            raise InputError("is for time series run by a simulator; load steps are "
+                             "equilibria, the same at any step", key="--target")
         return fit_load_steps(args)
     if args.reference_noise:
         raise InputError("is for a load-step file's scans (each marker's rest point "
                          "estimated from every scan); time series take the first frame as "
                          "measured", key="--reference-noise")
     validate_on = _held_out(args.validate_on, args.experiments)
+    if args.dt is not None and not args.target:
+        raise InputError("is the step of a --target simulator; give --target too", key="--dt")
+    if args.dt is not None:
+        positive(args.dt, "--dt")
     progress = not args.quiet   # on stderr: --json output on stdout stays one object
     positive(args.cycles, "--cycles", integer=True)
     positive(args.learning_rate, "--learning-rate")
@@ -83,6 +90,11 @@ def fit(args) -> int:
         print(f"lack of fit: {learner.lack_of_fit_.verdict}")
         if "validation" in result:
             print(_validation_line(result["validation"]))
+        if "target" in result:
+            from ..learn.target import describe
+
+            print(describe(result["target"])
+                  + (f"; {args.out} holds the values for it" if args.out else ""))
         for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
         if getattr(learner, "intervals_", None) and learner.model_.elements is not None:
@@ -152,8 +164,18 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
                            mesh_check=_mesh_check(args), names=inputs, progress=progress,
                            validate_on=validate_on)
     learner, record, experiments = outcome.learner, outcome.record, outcome.experiments
+    saved = learner.model_
+    if args.target:
+        from ..learn.target import fit_for_target
+
+        aimed = fit_for_target(learner.model_, experiments, target=args.target,
+                               dt=0.016 if args.dt is None else args.dt,
+                               substeps=learner.substeps_)
+        record = {**record, "target": aimed.record()}
+        outcome.summary["target"] = aimed.record()
+        saved = aimed.model
     if out:
-        save_model(learner.model_, out, fit=record)
+        save_model(saved, out, fit=record)
     files = {"fitted model": args.out} if args.out else {}
     exported = {}
     if export:

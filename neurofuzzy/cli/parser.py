@@ -100,6 +100,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write the fitted model's simulation of the first experiment next "
                           "to the measurement as ParaView files (VTU series + PVD, XDMF); "
                           "the report links them")
+    fit.add_argument("--target", choices=("mujoco",), default=None,
+                     help="then fit E, ν, η as this simulator runs them (its element, backward "
+                          "Euler at --dt) into --out; prints errors beside a naive export's")
+    fit.add_argument("--dt", type=float, default=None, metavar="STEP",
+                     help="with --target: its step (s; default 0.016), whole frames")
     fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     fit.add_argument("--quiet", action="store_true", help="no progress on stderr")
     fit.set_defaults(run=fitting.fit)

@@ -62,7 +62,9 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         Sets the time step (``experiment.dt / substeps``) and lets the header measure what
         the volumetric form changes.
     fit : dict, optional
-        The model file's fit record (its lack of fit goes into the header).
+        The model file's fit record (its lack of fit goes into the header). A record of a fit
+        for MuJoCo (``fit --target mujoco``, its ``target``) sets the time step and
+        integrator it was fitted for.
     substeps : int or "auto"
         Steps per frame of the experiment (``"auto"``: the fewest stable ones).
     name : str
@@ -79,8 +81,14 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     runs = prepared.model
     if runs.elements is not None:
         runs = runs.with_elements(volumetric="element")
-    h, steps = time_step(runs, experiment, substeps)
+    aimed = (fit or {}).get("target") or {}
     notes = list(prepared.notes)
+    if aimed.get("simulator") == "mujoco":            # fitted for MuJoCo's element and step
+        h, steps, integrator = float(aimed["dt"]), None, str(aimed["integrator"])
+        notes.append(f"time step {h:g} s and the {integrator} integrator: E, nu and eta were "
+                     "fitted for them (fit --target mujoco); run it at that step")
+    else:
+        (h, steps), integrator = time_step(runs, experiment, substeps), "Euler"
     if np.any(prepared.constant_load):
         notes.append("unmodeled_load: MJCF holds no constant force; apply it with "
                      "data.xfrc_applied (see simulate_mujoco)")
@@ -115,7 +123,7 @@ def mjcf(model, *, experiment=None, fit: dict | None = None, substeps="auto",
                                      experiment=experiment, time_step=h, steps=steps))
     out = [f"<mujoco model={quoteattr(name)}>",
            "<!--\n" + comment.replace("--", "- -") + "\n-->",
-           f'  <option timestep="{h!r}" integrator="Euler" '
+           f'  <option timestep="{h!r}" integrator="{integrator}" '
            f'gravity="{_numbers(prepared.gravity)}"/>',
            "  <custom>",
            f"    <text name=\"neurofuzzy\" data={quoteattr(json.dumps(block))}/>",
@@ -178,14 +186,18 @@ def simulate_mujoco(mjcf_file, experiment, *, constant_load=None) -> np.ndarray:
     experiment : Experiment
         The load (``external_forces``, applied to the node bodies through
         ``data.xfrc_applied``, held for a frame as our stepper holds it), the initial
-        positions and the frame spacing ``dt``, a whole multiple of the file's time step.
+        positions and the frame spacing ``dt``, a whole multiple of the file's time step, or
+        a whole fraction of it (a file fitted for a simulator's step, ``fit --target``): then
+        one step per ``k`` frames under their mean load, as
+        :func:`neurofuzzy.simulation.implicit.resampled` takes them.
     constant_load : (n_nodes, 3) float, optional
         N, added to the load at every frame (an ``unmodeled_load`` effect).
 
     Returns
     -------
     (n_frames, n_nodes, 3) float
-        Node positions at every frame; fixed nodes stay at their rest positions.
+        Node positions at every frame (at every ``k``-th frame for a step of ``k`` frames);
+        fixed nodes stay at their rest positions.
     """
     from ..extras import require
 
@@ -198,6 +210,12 @@ def simulate_mujoco(mjcf_file, experiment, *, constant_load=None) -> np.ndarray:
     else:
         handle = mujoco.MjModel.from_xml_path(os.fspath(mjcf_file))
     data = mujoco.MjData(handle)
+    frames_per_step = handle.opt.timestep / experiment.dt
+    if round(frames_per_step) > 1 and abs(frames_per_step - round(frames_per_step)) \
+            <= 1e-6 * frames_per_step:
+        from ..simulation.implicit import resampled
+
+        experiment = resampled(experiment, experiment.dt * round(frames_per_step))
     steps = experiment.dt / handle.opt.timestep
     if abs(steps - round(steps)) > 1e-6 * steps:
         raise InputError(f"the experiment's frame spacing {experiment.dt} s is not a whole "

@@ -6,8 +6,9 @@ the textbook element). :func:`fit_implicit` identifies the elements' E, ν and �
 that integrator uses them, from marker recordings whose frames are its steps (or a whole
 number of them): Levenberg–Marquardt (:mod:`._lm`) on the markers' residuals with the exact
 Jacobian of the converged steps (:func:`~neurofuzzy.simulation.implicit.implicit_sensitivities`,
-checked against central differences), in ``log E``, ``logit 2ν`` and ``log η`` within a factor
-:data:`FACTOR` of the start (ν within (0, 0.5)).
+checked against central differences), in ``log E``, ``logit 2ν`` and ``log η``, E within a
+factor :data:`FACTOR` of the start, η within it above and :data:`VISCOSITY_FLOOR` of it below,
+ν within (0, 0.5).
 
 What it is for, and what it is not yet: data made with the same integrator come back within
 0.1 % (``tests/test_implicit.py``); fitting a recording of real tissue (or another solver) for a
@@ -28,10 +29,12 @@ from ..model import Model
 from ..simulation.implicit import PARAMETERS, implicit_sensitivities
 from ._lm import levenberg_marquardt
 
-__all__ = ["ImplicitFit", "fit_implicit", "FACTOR"]
+__all__ = ["ImplicitFit", "fit_implicit", "FACTOR", "VISCOSITY_FLOOR"]
 
-#: E and η are fitted within this factor of their start
+#: E is fitted within this factor of its start, η up to it and down to a thousandth of it (a
+#: large implicit step damps by itself, and the fit may want almost no viscosity beside it)
 FACTOR = 10.0
+VISCOSITY_FLOOR = 1e-3
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,9 @@ class ImplicitFit:
         Simulations with their derivatives.
     reason : str
         Why Levenberg–Marquardt stopped.
+    at_bound : tuple of str
+        The constants that ended at a bound of the search (in some group): the data ask for
+        a value beyond it, or do not tell it (η where the step's own damping exceeds it).
     """
 
     model: Model
@@ -58,6 +64,7 @@ class ImplicitFit:
     rms_error: float
     evaluations: int
     reason: str
+    at_bound: tuple = ()
 
 
 def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *,
@@ -129,7 +136,7 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                          np.log(first["viscosity"])])
     spread = np.log(FACTOR)
     lower = np.concatenate([x0[:n_groups] - spread, np.full(n_groups, -12.0),
-                            x0[2 * n_groups:] - spread])
+                            x0[2 * n_groups:] + np.log(VISCOSITY_FLOOR)])
     upper = np.concatenate([x0[:n_groups] + spread, np.full(n_groups, 12.0),
                             x0[2 * n_groups:] + spread])
     solution = levenberg_marquardt(lambda x: both(x)[0], lambda x: both(x)[1], x0, lower,
@@ -137,7 +144,11 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                                    tolerance=tolerance, both=both)
     count = sum(int(e.observation.seen[1:].sum()) for e in experiments)
     E, nu, eta = constants(solution.x)
+    edge = (np.isclose(solution.x, lower, rtol=0.0, atol=1e-6)
+            | np.isclose(solution.x, upper, rtol=0.0, atol=1e-6)).reshape(3, n_groups)
     return ImplicitFit(model=model_at(solution.x),
                        values=dict(zip(PARAMETERS, (E, nu, eta))),
                        rms_error=float(np.sqrt(2 * solution.cost / max(count, 1))),
-                       evaluations=solution.evaluations, reason=solution.reason)
+                       evaluations=solution.evaluations, reason=solution.reason,
+                       at_bound=tuple(name for name, hit in zip(PARAMETERS, edge)
+                                      if hit.any()))
