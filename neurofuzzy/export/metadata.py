@@ -168,8 +168,10 @@ def _measured(model, other, what: str, experiment, steps: int | None) -> str:
     from ..experiment import simulate_like
     from ..simulation import required_substeps
 
-    # the target's steps, unless the model needs more to be stable
-    steps = max(steps or 1, required_substeps(model, experiment.dt))
+    # the target's steps, unless either model needs more to be stable (the textbook element
+    # beside the nodal form, stiffer as ν nears 0.5, needs more than the model itself)
+    steps = max(steps or 1, required_substeps(model, experiment.dt),
+                required_substeps(other, experiment.dt))
     with np.errstate(all="ignore"):
         own = simulate_like(model, experiment, steps)
         changed = simulate_like(other, experiment, steps)

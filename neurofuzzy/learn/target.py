@@ -32,7 +32,7 @@ from ..model import Model
 from ..simulation.implicit import resampled, simulate_implicit
 from .implicit_fit import fit_implicit
 
-__all__ = ["TARGETS", "TargetFit", "fit_for_target", "resampled", "describe"]
+__all__ = ["TARGETS", "TargetFit", "fit_for_target", "rms_at_step", "describe"]
 
 #: The simulators a fit can target: their element, law and integrator (as written to their
 #: files).
@@ -125,15 +125,18 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
                           max_evaluations=max_evaluations)
     own = [simulate_like(model, e, substeps)[::int(round(dt / e.dt))] for e in experiments]
     return TargetFit(model=fitted.model, target=target, integrator=chosen["integrator"],
-                     dt=float(dt), rms_error=_rms(fitted.model, steps),
-                     naive_rms_error=_rms(naive, steps),
-                     own_rms_error=_rms(None, steps, own), evaluations=fitted.evaluations,
+                     dt=float(dt), rms_error=rms_at_step(fitted.model, steps),
+                     naive_rms_error=rms_at_step(naive, steps),
+                     own_rms_error=rms_at_step(None, steps, own),
+                     evaluations=fitted.evaluations,
                      at_bound=fitted.at_bound)
 
 
-def _rms(model, experiments, positions=None) -> float:
-    """Markers' RMS distance (m), frames 1 onwards: ``model`` run by the target's step, or
-    the given ``positions`` per experiment."""
+def rms_at_step(model, experiments, positions=None) -> float:
+    """Markers' RMS distance (m), frames 1 onwards, of experiments at a simulator's step
+    (:func:`~neurofuzzy.simulation.implicit.resampled`): ``model`` run by backward Euler
+    steps with one Newton iteration (MuJoCo's ``discrete``), or the given ``positions`` per
+    experiment."""
     total, count = 0.0, 0
     for index, experiment in enumerate(experiments):
         run = positions[index] if positions is not None else simulate_implicit(

@@ -114,10 +114,13 @@ def marker_points() -> np.ndarray:
 
 def probed_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = None,
                  gravity: bool = False, noise: float = 20e-6, rest_frames: int = 30,
-                 frames: int = 101, seed: int = 0, cell: float = 0.005) -> Recording:
+                 frames: int = 101, seed: int = 0, cell: float = 0.005,
+                 profile: np.ndarray | None = None) -> Recording:
     """The block's markers, recorded for ``rest_frames`` frames at rest and then ``frames``
     frames while the probe pushes (from its first touch). With ``gravity`` the block is let go
-    under its weight as the probe touches; with an ``inclusion`` the sphere is stiffer."""
+    under its weight as the probe touches; with an ``inclusion`` the sphere is stiffer.
+    ``profile`` ((rest_frames + frames,) floats) scales the probe's force frame by frame (a
+    ramp, a release; default a step to the full force at the touch), kept in ``truth``."""
     from .continuum import ContinuumSolver
     from ..mesh import kuhn_block
     from ..markers import MarkerData
@@ -142,6 +145,12 @@ def probed_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
     n_frames = rest_frames + frames
     loads = np.zeros((n_frames, len(load)))
     loads[rest_frames:] = load
+    if profile is not None:
+        profile = np.asarray(profile, float)
+        if profile.shape != (n_frames,):
+            raise InputError(f"got shape {profile.shape}; expected ({n_frames},)",
+                             key="profile")
+        loads = profile[:, None] * load[None]
     points = marker_points()
     moved = solver.at(solver.dynamic(loads, dt=BLOCK["dt"], n_frames=n_frames), points)
     rng = np.random.default_rng(seed)
@@ -151,7 +160,7 @@ def probed_block(*, poisson_ratio: float = 0.45, inclusion: Inclusion | None = N
                          source=f"<scikit-fem block, nu {poisson_ratio}, seed {seed}>")
     truth = {"youngs_modulus": modulus, "poisson_ratio": poisson_ratio,
              "viscosity": BLOCK["viscosity"], "density": BLOCK["density"], "noise": noise,
-             "inclusion": inclusion, "gravity": gravity}
+             "inclusion": inclusion, "gravity": gravity, "profile": profile}
     return Recording(markers, points, rest_frames, truth)
 
 
@@ -216,7 +225,8 @@ def block_experiment(recording: Recording, mesh):
     """The recording imported on ``mesh`` (``neurofuzzy import markers.csv --forces
     probe.csv``): markers embedded at their rest positions (the mean of the frames at rest),
     the probe's force (``recording.truth["force"]``, the block's 0.05 N if it names none)
-    spread over its contact patch from the frame it touches."""
+    spread over its contact patch from the frame it touches (or scaled by the recording's
+    ``profile``)."""
     from ..markers import markers_to_experiment
     from ..mesh import patch_loads
 
@@ -224,6 +234,8 @@ def block_experiment(recording: Recording, mesh):
     load = patch_loads(mesh, BLOCK["probe"], BLOCK["radius"], (0.0, 0.0, -force))
     forces = np.zeros((recording.n_frames, mesh.n_nodes, 3))
     forces[recording.touch:] = load
+    if recording.truth.get("profile") is not None:
+        forces = recording.truth["profile"][:, None, None] * load[None]
     return markers_to_experiment(recording.markers, mesh, forces=forces,
                                  source=recording.markers.source).experiment
 
