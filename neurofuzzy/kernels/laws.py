@@ -58,6 +58,8 @@ Symmetric 3×3 matrices are tuples of six entries ``(00, 11, 22, 01, 02, 12)``.
 import numba
 import numpy as np
 
+from .tuples import _sym_inverse as _inverse
+
 #: The laws of the kernels in the order of their numbers (``model.elements.law``): their name
 #: and whether the stress depends on the element's own constant (``stiffening``).
 KERNEL_LAWS = (("st-venant-kirchhoff", False), ("neo-hookean", False), ("yeoh", True),
@@ -69,9 +71,11 @@ NEO_HOOKEAN = LAWS["neo-hookean"]
 YEOH = LAWS["yeoh"]
 MOONEY_RIVLIN = LAWS["mooney-rivlin"]
 COROTATIONAL = LAWS["corotational"]
-#: Denman–Beavers iterations of the corotational law's stretch ``U = √C``: from ``I`` they
-#: reach round-off for principal stretches from 0.2 to 5 (checked by the tests)
+#: Denman–Beavers iterations of the corotational law's stretch ``U = √C``, at most: from ``I``
+#: they reach round-off for principal stretches from 0.2 to 5 (checked by the tests); they stop
+#: one iteration after the change ``|Y - Z⁻¹|`` (twice the step) falls below ROOT_TOLERANCE
 ROOT_ITERATIONS = 9
+ROOT_TOLERANCE = 1e-9
 #: Per law number: its stress depends on its own constant.
 OWN_CONSTANT = tuple(own for _, own in KERNEL_LAWS)
 
@@ -163,17 +167,6 @@ def mooney_rivlin(G, shear, pressure, ratio):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _inverse(S):
-    """The inverse of a symmetric matrix of six entries."""
-    k00 = S[1] * S[2] - S[5] * S[5]
-    k01 = S[4] * S[5] - S[3] * S[2]
-    k02 = S[3] * S[5] - S[4] * S[1]
-    det = S[0] * k00 + S[3] * k01 + S[4] * k02
-    return (k00 / det, (S[0] * S[2] - S[4] * S[4]) / det, (S[0] * S[1] - S[3] * S[3]) / det,
-            k01 / det, k02 / det, (S[3] * S[4] - S[0] * S[5]) / det)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
 def corotational(G, shear, pressure):
     """Linear elasticity in the element's rotating frame, ``P = R (λ tr ε I + 2μ ε)`` with
     ``F = R U`` and ``ε = U - I`` (SOFA's corotational tetrahedra with polar rotations): as a
@@ -184,12 +177,19 @@ def corotational(G, shear, pressure):
          2.0 * G[5])
     Z = (Y[0] * 0.0 + 1.0, Y[0] * 0.0 + 1.0, Y[0] * 0.0 + 1.0, Y[0] * 0.0, Y[0] * 0.0,
          Y[0] * 0.0)
+    settled = False
     for _ in range(ROOT_ITERATIONS):
         Yi, Zi = _inverse(Y), _inverse(Z)
+        change = abs((Y[0] - Zi[0]).real) + abs((Y[1] - Zi[1]).real) + abs(
+            (Y[2] - Zi[2]).real) + abs((Y[3] - Zi[3]).real) + abs((Y[4] - Zi[4]).real) + abs(
+            (Y[5] - Zi[5]).real)
         Y = (0.5 * (Y[0] + Zi[0]), 0.5 * (Y[1] + Zi[1]), 0.5 * (Y[2] + Zi[2]),
              0.5 * (Y[3] + Zi[3]), 0.5 * (Y[4] + Zi[4]), 0.5 * (Y[5] + Zi[5]))
         Z = (0.5 * (Z[0] + Yi[0]), 0.5 * (Z[1] + Yi[1]), 0.5 * (Z[2] + Yi[2]),
              0.5 * (Z[3] + Yi[3]), 0.5 * (Z[4] + Yi[4]), 0.5 * (Z[5] + Yi[5]))
+        if settled:                  # one more step after the values settled: the complex
+            break                    # step's derivative part converges as fast, a step later
+        settled = change < ROOT_TOLERANCE
     theta = Y[0] + Y[1] + Y[2] - 3.0
     return ((shear * (1.0 - Z[0]) + pressure * Z[0], shear * (1.0 - Z[1]) + pressure * Z[1],
              shear * (1.0 - Z[2]) + pressure * Z[2], (pressure - shear) * Z[3],
