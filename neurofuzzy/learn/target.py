@@ -92,7 +92,7 @@ def describe(record: dict) -> str:
 
 
 def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment], *,
-                   target: str = "mujoco", dt: float = 0.016, substeps: int = 1,
+                   target: str = "mujoco", dt: float = 0.016, substeps: int | str = "auto",
                    max_evaluations: int = 40) -> TargetFit:
     """Fit ``model``'s E, ν, η for ``target``'s element and step ``dt`` (module docstring).
 
@@ -107,8 +107,9 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
         A key of :data:`TARGETS`.
     dt : float
         The target's step (s).
-    substeps : int
-        Our explicit step's substeps per frame for our own model's error.
+    substeps : int or "auto"
+        Our explicit step's substeps per frame for our own model's error (default: the
+        fewest stable ones).
     """
     if target not in TARGETS:
         raise InputError(f"got {target!r}; expected one of {sorted(TARGETS)}", key="--target")
