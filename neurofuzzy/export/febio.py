@@ -80,13 +80,6 @@ def feb(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     note = volumetric_note(prepared.model, "FEBio", experiment, steps)
     if note:
         notes.append(note)
-    if runs.elements is not None:
-        unwritten = [LAW_RECORDS[law].name for law in np.unique(runs.elements.law)
-                     if LAW_RECORDS[law].febio is None]
-        if unwritten:
-            notes.append(f"FEBio has no {', '.join(unwritten)} solid: those elements are "
-                         "written as its isotropic elastic (St. Venant-Kirchhoff) solid, the "
-                         "same E and nu at small strain")
     mesh = runs.mesh
     stiffness, damping, rest_length = spring_constants(runs)
     springs = np.flatnonzero(stiffness > 0)
@@ -172,8 +165,7 @@ def _materials(groups, densities, runs) -> list[str]:
         # the law's record: isotropic elastic (E, v) is St. Venant-Kirchhoff, neo-Hookean
         # (E, v) the coupled compressible solid (FENeoHookean), ours; Yeoh and Mooney-Rivlin
         # (c1, c2, k) the uncoupled solids with Abaqus' volumetric energy (pressure_model 2)
-        kind, elastic = (LAW_RECORDS[group.law].febio or LAW_RECORDS[0].febio)(
-            E, nu, group.stiffening)
+        kind, elastic = LAW_RECORDS[group.law].febio(E, nu, group.stiffening)
         if group.relaxation:
             # FEBio's viscoelastic solid: the same convention as ours (g0 = 1, the elastic
             # law the long-term response), the law inside it

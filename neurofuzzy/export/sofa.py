@@ -10,8 +10,7 @@ and plugin against a table taken from those sources):
   ``EdgeSetTopologyContainer`` (``position``, ``edges``), with their geometry algorithms;
 - ``MechanicalObject`` (``position``), ``DiagonalMass`` (``vertexMass``: our lumped node
   masses), ``FixedProjectiveConstraint`` (``indices``);
-- ``TetrahedronFEMForceField`` (``method="large"``: corotational linear elasticity;
-  ``"polar"`` when every element is of our ``corotational`` law, which it then is) with
+- ``TetrahedronFEMForceField`` (``method="large"``: corotational linear elasticity) with
   ``youngModulus`` and ``poissonRatio`` per element (both vectors since v24.12; a single
   value when they are uniform, which older versions read too);
 - ``SpringForceField`` with ``spring="i j stiffness damping rest_length …"`` (per spring);
@@ -81,14 +80,9 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     if prepared.node_drag:
         notes.append("node_drag is not exported: SOFA's Rayleigh mass damping is "
                      "proportional to each node's mass, the drag is not")
-    from ..forces.laws import LAWS
-
-    # elements all of the corotational law are SOFA's own (polar rotations): nothing to say
-    own = runs.elements is not None and np.all(runs.elements.law == LAWS.index("corotational"))
     for note in (volumetric_note(prepared.model, "SOFA", experiment, steps),
-                 None if own else law_note(prepared.model, "SOFA", "TetrahedronFEMForceField "
-                                           "(corotational linear elasticity)", experiment,
-                                           steps),
+                 law_note(prepared.model, "SOFA", "TetrahedronFEMForceField (corotational "
+                          "linear elasticity)", experiment, steps),
                  relaxation_note(prepared.model, "SOFA", experiment, steps)):
         if note:
             notes.append(note)
@@ -106,10 +100,9 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
             notes.append(f"Rayleigh stiffness damping is one value per solver in SOFA: the "
                          f"elements' eta/E ({ratio.min():.4g} .. {ratio.max():.4g} s) merged "
                          f"into their volume-weighted mean {beta:.6g} s")
-        if not own:
-            notes.append("SOFA's TetrahedronFEMForceField is corotational linear elasticity "
-                         "(method 'large'): equal to our St. Venant-Kirchhoff element at "
-                         "small strain, not at large strain")
+        notes.append("SOFA's TetrahedronFEMForceField is corotational linear elasticity "
+                     "(method 'large'): equal to our St. Venant-Kirchhoff element at small "
+                     "strain, not at large strain")
         if beta > 0 and np.any(stiffness > 0):
             notes.append("the solver's Rayleigh damping also damps the springs (beta times "
                          "their stiffness), which neurofuzzy does not")
@@ -145,8 +138,6 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
         lines += [f"TETRAHEDRA = {_array(mesh.tetrahedra, False)}",
                   f"YOUNGS_MODULUS = {_uniform_or_list(runs.elements.youngs_modulus)}   # Pa",
                   f"POISSON_RATIO = {_uniform_or_list(runs.elements.poisson_ratio)}",
-                  f"METHOD = {'polar' if own else 'large'!r}   # the elements' rotations "
-                  "(polar: our corotational law's)",
                   f"RAYLEIGH_STIFFNESS = {beta!r}   # s, eta / E",
                   f"REGION_NAMES = {json.dumps(list(runs.region_names))}",
                   f"ELEMENT_REGION = {_array(runs.elements.region, False)}   # index into "
@@ -205,7 +196,7 @@ def createScene(root):
     if FIXED:
         tissue.addObject("FixedProjectiveConstraint", indices=FIXED)
     if "TETRAHEDRA" in globals():
-        tissue.addObject("TetrahedronFEMForceField", name="elements", method=METHOD,
+        tissue.addObject("TetrahedronFEMForceField", name="elements", method="large",
                          youngModulus=YOUNGS_MODULUS, poissonRatio=POISSON_RATIO)
     if SPRINGS:
         tissue.addObject("SpringForceField", name="springs", spring=SPRINGS)

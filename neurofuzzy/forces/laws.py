@@ -92,9 +92,8 @@ class Law:
     switch : bool
         The load-step diagnosis offers a switch to it (a law that one mode of deformation can
         tell apart from the others).
-    febio : callable or None
-        ``(E, ν, c) -> (type, parameters)``: FEBio's material and its parameters' XML; None
-        where FEBio has none (written as St. Venant–Kirchhoff's, said in the notes).
+    febio : callable
+        ``(E, ν, c) -> (type, parameters)``: FEBio's material and its parameters' XML.
     """
 
     name: str
@@ -103,7 +102,7 @@ class Law:
     constant: str | None = None
     quantity: str | None = None
     switch: bool = True
-    febio: Callable | None = field(default=lambda E, nu, c: ("isotropic elastic",
+    febio: Callable = field(default=lambda E, nu, c: ("isotropic elastic",
                                                      _elastic_moduli(E, nu, c)))
 
 
@@ -124,11 +123,6 @@ LAW_RECORDS = (
         "MooneyRivlin)", aliases=("mr",), constant="C01/C10", switch=False,
         febio=lambda E, nu, c: ("Mooney-Rivlin", _uncoupled(
             E / (4 * (1 + nu) * (1 + c)), c * E / (4 * (1 + nu) * (1 + c)), E, nu))),
-    # FEBio has no corotational solid: its isotropic elastic (SVK) is the same at small
-    # strain, and the export says the law was changed (febio None)
-    Law("corotational", "linear elasticity in the element's rotating frame, SOFA's "
-        "TetrahedronFEMForceField (polar) and real-time engines'", aliases=("corotated",),
-        switch=False, febio=None),
 )
 #: The laws by name; a law's number (``model.elements.law``) is its position here, the same in
 #: the compiled kernels (:mod:`neurofuzzy.kernels.laws`, checked by the tests).

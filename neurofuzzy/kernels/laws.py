@@ -35,9 +35,6 @@ write it.
   ``stiffening``, its own constant ``C01/C10``) and ``K = λ + 2μ/3`` as Yeoh's: linear
   elasticity with the same E, ν at small strain for any ``r``; ``r = 0`` is the uncoupled
   neo-Hookean solid.
-- :func:`corotational`: linear elasticity in each element's rotating frame (``F = R U``,
-  strain ``U - I``): SOFA's ``TetrahedronFEMForceField`` with polar rotations and the element
-  of many real-time engines; its uniaxial nominal stress is ``E (λ - 1)`` at any stretch.
 
 Adding a law: write its function here, name it in :data:`KERNEL_LAWS` (the next number) with a
 branch in :func:`elastic`, and give it a record in :data:`neurofuzzy.forces.laws.LAW_RECORDS`
@@ -58,24 +55,16 @@ Symmetric 3×3 matrices are tuples of six entries ``(00, 11, 22, 01, 02, 12)``.
 import numba
 import numpy as np
 
-from .tuples import _sym_inverse as _inverse
-
 #: The laws of the kernels in the order of their numbers (``model.elements.law``): their name
 #: and whether the stress depends on the element's own constant (``stiffening``).
 KERNEL_LAWS = (("st-venant-kirchhoff", False), ("neo-hookean", False), ("yeoh", True),
-               ("mooney-rivlin", True), ("corotational", False))
+               ("mooney-rivlin", True))
 #: Law numbers: name → number.
 LAWS = {name: number for number, (name, _) in enumerate(KERNEL_LAWS)}
 ST_VENANT_KIRCHHOFF = LAWS["st-venant-kirchhoff"]
 NEO_HOOKEAN = LAWS["neo-hookean"]
 YEOH = LAWS["yeoh"]
 MOONEY_RIVLIN = LAWS["mooney-rivlin"]
-COROTATIONAL = LAWS["corotational"]
-#: Denman–Beavers iterations of the corotational law's stretch ``U = √C``, at most: from ``I``
-#: they reach round-off for principal stretches from 0.2 to 5 (checked by the tests); they stop
-#: one iteration after the change ``|Y - Z⁻¹|`` (twice the step) falls below ROOT_TOLERANCE
-ROOT_ITERATIONS = 9
-ROOT_TOLERANCE = 1e-9
 #: Per law number: its stress depends on its own constant.
 OWN_CONSTANT = tuple(own for _, own in KERNEL_LAWS)
 
@@ -167,36 +156,6 @@ def mooney_rivlin(G, shear, pressure, ratio):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def corotational(G, shear, pressure):
-    """Linear elasticity in the element's rotating frame, ``P = R (λ tr ε I + 2μ ε)`` with
-    ``F = R U`` and ``ε = U - I`` (SOFA's corotational tetrahedra with polar rotations): as a
-    law of the Green strain ``S = shear (I - U⁻¹) + π U⁻¹`` with ``θ = tr U - 3``
-    (``U = √(I + 2G)`` and ``U⁻¹`` by Denman–Beavers' iteration, analytic, so complex step
-    differentiates it)."""
-    Y = (1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2], 2.0 * G[3], 2.0 * G[4],
-         2.0 * G[5])
-    Z = (Y[0] * 0.0 + 1.0, Y[0] * 0.0 + 1.0, Y[0] * 0.0 + 1.0, Y[0] * 0.0, Y[0] * 0.0,
-         Y[0] * 0.0)
-    settled = False
-    for _ in range(ROOT_ITERATIONS):
-        Yi, Zi = _inverse(Y), _inverse(Z)
-        change = abs((Y[0] - Zi[0]).real) + abs((Y[1] - Zi[1]).real) + abs(
-            (Y[2] - Zi[2]).real) + abs((Y[3] - Zi[3]).real) + abs((Y[4] - Zi[4]).real) + abs(
-            (Y[5] - Zi[5]).real)
-        Y = (0.5 * (Y[0] + Zi[0]), 0.5 * (Y[1] + Zi[1]), 0.5 * (Y[2] + Zi[2]),
-             0.5 * (Y[3] + Zi[3]), 0.5 * (Y[4] + Zi[4]), 0.5 * (Y[5] + Zi[5]))
-        Z = (0.5 * (Z[0] + Yi[0]), 0.5 * (Z[1] + Yi[1]), 0.5 * (Z[2] + Yi[2]),
-             0.5 * (Z[3] + Yi[3]), 0.5 * (Z[4] + Yi[4]), 0.5 * (Z[5] + Yi[5]))
-        if settled:                  # one more step after the values settled: the complex
-            break                    # step's derivative part converges as fast, a step later
-        settled = change < ROOT_TOLERANCE
-    theta = Y[0] + Y[1] + Y[2] - 3.0
-    return ((shear * (1.0 - Z[0]) + pressure * Z[0], shear * (1.0 - Z[1]) + pressure * Z[1],
-             shear * (1.0 - Z[2]) + pressure * Z[2], (pressure - shear) * Z[3],
-             (pressure - shear) * Z[4], (pressure - shear) * Z[5]), theta)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
 def elastic(law, G, shear, pressure, stiffening):
     """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`) with the law's own
     constant ``stiffening`` (ignored by laws without one)."""
@@ -206,8 +165,6 @@ def elastic(law, G, shear, pressure, stiffening):
         return yeoh(G, shear, pressure, stiffening)
     if law == MOONEY_RIVLIN:
         return mooney_rivlin(G, shear, pressure, stiffening)
-    if law == COROTATIONAL:
-        return corotational(G, shear, pressure)
     return st_venant_kirchhoff(G, shear, pressure)
 
 

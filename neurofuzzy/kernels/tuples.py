@@ -104,14 +104,3 @@ def _edges_of_tangent(x, n0, n1, n2, n3, B, q):
     D = _differences(x, n0, n1, n2, n3, q)
     return _mul(D, (B[0, 0], B[0, 1], B[0, 2], B[1, 0], B[1, 1], B[1, 2], B[2, 0], B[2, 1],
                     B[2, 2]))
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _sym_inverse(S):
-    """The inverse of a symmetric matrix given by six entries ``(00, 11, 22, 01, 02, 12)``."""
-    k00 = S[1] * S[2] - S[5] * S[5]
-    k01 = S[4] * S[5] - S[3] * S[2]
-    k02 = S[3] * S[5] - S[4] * S[1]
-    det = S[0] * k00 + S[3] * k01 + S[4] * k02
-    return (k00 / det, (S[0] * S[2] - S[4] * S[4]) / det, (S[0] * S[1] - S[3] * S[3]) / det,
-            k01 / det, k02 / det, (S[3] * S[4] - S[0] * S[5]) / det)

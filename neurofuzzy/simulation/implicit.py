@@ -16,9 +16,8 @@ compiled effects), and the sparse factorisation of the static solve
 matrix moves little). ``iterations=1`` is the **linearly implicit** step of real-time engines
 (one linear solve from the last velocity, SOFA's and MuJoCo's); more iterations solve the
 step to ``tolerance``. Unconditionally stable for a linear model, it damps motion faster than
-the step resolves (numerical damping of order ``h ω²``): at 16 ms the model of a soft block
-rings far less than the block does, which a fit for the simulator's step must account for
-(:mod:`neurofuzzy.learn.target`).
+the step resolves (numerical damping of order ``h ω²``): at 16 ms a block of soft tissue rings
+far less than it does, which is what a fit for the simulator's step must account for.
 
 Elements that relax (Prony terms) are refused: their internal variables have no implicit
 update yet.
