@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import InputError
 from ..experiment import Experiment
 from ..model import Model
-from ..simulation.implicit import PARAMETERS, implicit_sensitivities
+from ..simulation.implicit import PARAMETERS, implicit_sensitivities, simulate_implicit
 from ._lm import levenberg_marquardt
 
 __all__ = ["ImplicitFit", "fit_implicit", "FACTOR", "VISCOSITY_FLOOR"]
@@ -139,7 +139,21 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                             x0[2 * n_groups:] + np.log(VISCOSITY_FLOOR)])
     upper = np.concatenate([x0[:n_groups] + spread, np.full(n_groups, 12.0),
                             x0[2 * n_groups:] + spread])
-    solution = levenberg_marquardt(lambda x: both(x)[0], lambda x: both(x)[1], x0, lower,
+    def residuals(x):
+        """The residuals alone (a trial step): the same converged steps, no derivatives."""
+        current = model_at(x)
+        rows = []
+        for experiment in experiments:
+            run = simulate_implicit(current, dt=experiment.dt, n_frames=experiment.n_frames,
+                                    external_forces=experiment.external_forces,
+                                    initial_positions=experiment.initial_positions(),
+                                    initial_velocities=experiment.initial_velocities(),
+                                    substeps=substeps, iterations=50, tolerance=1e-11)
+            observation = experiment.observation
+            rows.append(observation.residuals(run.positions)[1:][observation.seen[1:]].ravel())
+        return np.concatenate(rows)
+
+    solution = levenberg_marquardt(residuals, lambda x: both(x)[1], x0, lower,
                                    upper, max_evaluations=max_evaluations,
                                    tolerance=tolerance, both=both)
     count = sum(int(e.observation.seen[1:].sum()) for e in experiments)

@@ -243,9 +243,9 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
         values.append(first)
     E, nu, eta = values
     a, b, da, db = (np.asarray(x, float) for x in _lame(nu))
-    run = simulate_implicit(model, dt=dt, n_frames=1, initial_positions=initial_positions,
-                            initial_velocities=initial_velocities)
-    p, v = run.positions[0], run.velocities[0]
+    p = _state(initial_positions, model.mesh.rest_positions, n, "initial_positions")
+    v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
+    v[model.mesh.fixed] = 0.0
     forces = _frame_forces(external_forces, int(n_frames), n)
     free_nodes = np.ones(n, bool)
     free_nodes[model.mesh.fixed] = False
