@@ -2,18 +2,22 @@
 reference nobody here wrote, what a fit from load steps recovers from that reference's data,
 and how long a fit takes as the mesh grows.
 
-    python benchmarks/load_steps.py [--cells 4 6 8] [--data-cells 6 8] [--fit-cells 4 6 8]
+    python benchmarks/load_steps.py [--cells 4 6 8] [--graded-cells 8 12] [--data-cells 6 8]
+                                    [--graded-data-cells 12] [--fit-cells 4 6 8]
 
 Part 1, locking: a 2 cm neo-Hookean cube (E 6 kPa) on a fixed anvil, its top bonded to a
 plate moved down 5, 12.5 and 18 %; the plate's force by our linear tetrahedra in the nodal
 volumetric form (the default) and the element form (one volume constraint per tetrahedron)
 against FElupe's (:mod:`neurofuzzy.validation.plates`: quadratic tetrahedra in the three-field
-form, extrapolated from 6 and 8 cells; the recordings ``tests/data/plates_nu*.npz``). Part 2,
-the fit on those recordings: 343 beads with 20 µm noise on every scan (the reference too),
+form, extrapolated from 6 and 8 cells; the recordings ``tests/data/plates_nu*.npz``), also on
+blocks graded toward their faces (``kuhn_block(grading=GRADING)``: the bonded edges are
+singular, and most of the linear elements' error is there). Part 2, the fit on those
+recordings: 343 beads with 20 µm noise on every scan (the reference too),
 embedded where the reference scan saw them, a load cell with 1 % noise or none, fitted on
-Kuhn blocks of ``--data-cells``, with the reference scan taken as exact and with
-``reference_noise``. Part 3, speed: the seconds of ``fit_load_steps`` (three load steps, 125
-markers, with and without a load cell; our own data) on Kuhn blocks of 4³ to 8³ cells.
+Kuhn blocks of ``--data-cells`` (and graded ones of ``--graded-data-cells``), with the
+reference scan taken as exact and with ``reference_noise``. Part 3, speed: the seconds of
+``fit_load_steps`` (three load steps, 125 markers, with and without a load cell; our own
+data) on Kuhn blocks of 4³ to 8³ cells.
 Prints the tables and writes ``benchmarks/load_steps.json``.
 """
 
@@ -39,11 +43,12 @@ from neurofuzzy.simulation.static import Driven, equilibrium  # noqa: E402
 
 SIZE, E = 0.02, 6000.0
 DATA = ROOT / "tests" / "data"
+GRADING = 0.8
 RATIOS = tuple(nu for nu in (0.45, 0.49, 0.499) if (DATA / f"plates_nu{nu}.npz").exists())
 
 
-def _model(cells, nu, volumetric="nodal", law="st-venant-kirchhoff"):
-    points, tetrahedra = kuhn_block((cells,) * 3, SIZE / cells)
+def _model(cells, nu, volumetric="nodal", law="st-venant-kirchhoff", grading=0.0):
+    points, tetrahedra = kuhn_block((cells,) * 3, SIZE / cells, grading=grading)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     return Model.continuum(mesh, youngs_modulus=E, poisson_ratio=nu, viscosity=1.0,
                            density=1000.0, volumetric=volumetric, law=law)
@@ -57,29 +62,31 @@ def _recording(nu):
     return np.load(DATA / f"plates_nu{nu}.npz")
 
 
-def locking(cells):
+def locking(cells, graded_cells=()):
     rows = []
+    variants = ([("nodal", n, 0.0) for n in cells] + [("element", n, 0.0) for n in cells]
+                + [("nodal", n, GRADING) for n in graded_cells])
     for nu in RATIOS:
         recorded = _recording(nu)
         reference = recorded["force"][:, 2]
         rows.append({"nu": nu, "element": "FElupe P2/P1/P1, extrapolated",
                      "force": reference.tolist(), "error": [0.0] * len(reference)})
-        for volumetric in ("nodal", "element"):
-            for n in cells:
-                model = _model(n, nu, volumetric, law="neo-hookean")
-                top = _top(model)
-                forces, positions = [], None
-                start = time.perf_counter()
-                for strain in recorded["strains"]:
-                    result = equilibrium(model, driven=Driven(top, (0, 0, -strain * SIZE)),
-                                         start=positions, increments=4)
-                    positions = result.positions
-                    forces.append(result.reaction_on(top)[2])
-                forces = np.array(forces)
-                rows.append({"nu": nu, "element": f"P1 {volumetric} {n}^3",
-                             "force": forces.tolist(),
-                             "error": (forces / reference - 1).tolist(),
-                             "seconds": time.perf_counter() - start})
+        for volumetric, n, grading in variants:
+            model = _model(n, nu, volumetric, law="neo-hookean", grading=grading)
+            top = _top(model)
+            forces, positions = [], None
+            start = time.perf_counter()
+            for strain in recorded["strains"]:
+                result = equilibrium(model, driven=Driven(top, (0, 0, -strain * SIZE)),
+                                     start=positions, increments=4)
+                positions = result.positions
+                forces.append(result.reaction_on(top)[2])
+            forces = np.array(forces)
+            rows.append({"nu": nu, "element": f"P1 {volumetric} {n}^3"
+                         + (f" graded {grading}" if grading else ""),
+                         "cells": n, "grading": grading, "force": forces.tolist(),
+                         "error": (forces / reference - 1).tolist(),
+                         "seconds": time.perf_counter() - start})
     return rows
 
 
@@ -99,13 +106,13 @@ def _lab_data(recorded, mesh, load_cell, seed=0):
                      reaction if load_cell else None)
 
 
-def independent(cells):
+def independent(cells, graded_cells=()):
     rows = []
     for nu in RATIOS:
         recorded = _recording(nu)
-        for n in cells:
-            model = _model(n, nu, law="neo-hookean").with_elements(youngs_modulus=3000.0,
-                                                                   poisson_ratio=0.3)
+        for n, grading in [(n, 0.0) for n in cells] + [(n, GRADING) for n in graded_cells]:
+            model = _model(n, nu, law="neo-hookean", grading=grading).with_elements(
+                youngs_modulus=3000.0, poisson_ratio=0.3)
             for load_cell in (False, True):
                 data = _lab_data(recorded, model.mesh, load_cell)
                 for reference_noise in (False, True):
@@ -113,7 +120,7 @@ def independent(cells):
                     fit = fit_load_steps(model, data, marker_noise=20e-6, validate_on=[3],
                                          reference_noise=reference_noise)
                     rows.append({
-                        "nu": nu, "cells": n, "load_cell": load_cell,
+                        "nu": nu, "cells": n, "grading": grading, "load_cell": load_cell,
                         "reference_noise": reference_noise,
                         "seconds": time.perf_counter() - start,
                         "nu_error": fit.poisson_ratio_ - nu,
@@ -151,23 +158,26 @@ def speed(cells):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cells", type=int, nargs="+", default=[4, 6, 8])
+    parser.add_argument("--graded-cells", type=int, nargs="*", default=[8, 12])
     parser.add_argument("--data-cells", type=int, nargs="+", default=[6, 8])
+    parser.add_argument("--graded-data-cells", type=int, nargs="*", default=[12])
     parser.add_argument("--fit-cells", type=int, nargs="+", default=[4, 6, 8])
     args = parser.parse_args(argv)
-    table = locking(args.cells)
+    table = locking(args.cells, args.graded_cells)
     print("bonded compression 5 / 12.5 / 18 %, neo-Hookean: plate force against FElupe's")
-    print(f"{'nu':>6}  {'element':<31} {'force (N)':>26}  {'error':>22}")
+    print(f"{'nu':>6}  {'element':<35} {'force (N)':>26}  {'error':>22}")
     for row in table:
         force = " ".join(f"{-f:.4f}" for f in row["force"])
         error = " ".join(f"{100 * e:+6.1f}%" for e in row["error"])
-        print(f"{row['nu']:>6}  {row['element']:<31} {force:>26}  {error:>22}")
-    fits = independent(args.data_cells)
+        print(f"{row['nu']:>6}  {row['element']:<35} {force:>26}  {error:>22}")
+    fits = independent(args.data_cells, args.graded_data_cells)
     print("\nfit of FElupe's data (343 beads, 20 um noise on every scan, step 3 held out)")
-    print(f"{'nu':>6} {'cells':>5} {'load cell':>9} {'ref. noise':>10} {'s':>6} "
+    print(f"{'nu':>6} {'cells':>9} {'load cell':>9} {'ref. noise':>10} {'s':>6} "
           f"{'nu err':>7} {'E err':>7} {'fit/noise':>9} {'held-out':>8}")
     for row in fits:
         e = "unid." if row["E_error"] is None else f"{100 * row['E_error']:+.1f}%"
-        print(f"{row['nu']:>6} {row['cells']:>5} {str(row['load_cell']):>9} "
+        cells = f"{row['cells']}" + (" graded" if row["grading"] else "")
+        print(f"{row['nu']:>6} {cells:>9} {str(row['load_cell']):>9} "
               f"{str(row['reference_noise']):>10} {row['seconds']:>6.1f} "
               f"{row['nu_error']:>+7.4f} {e:>7} {row['fitted_x_noise']:>9.2f} "
               f"{row['held_out_x_noise']:>8.2f}")

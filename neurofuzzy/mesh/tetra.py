@@ -226,19 +226,40 @@ def lattice_to_tetra(mesh: Mesh, *, bounds=None) -> Mesh:
     return split.with_fixed(mesh.fixed)
 
 
-def kuhn_block(shape, spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def kuhn_block(shape, spacing: float = 1.0, *,
+               grading=0.0) -> tuple[np.ndarray, np.ndarray]:
     """A conforming tetrahedral block: ``shape`` cubic cells per axis, each split into the six
     Kuhn tetrahedra around its (0,0,0)–(1,1,1) diagonal.
+
+    ``grading`` (``a``, one for all axes or one per axis, ``0 <= a < 1``) makes the cells
+    finer toward the block's faces and coarser in its middle, the block's size unchanged: a
+    node at the fraction ``ξ`` of an axis moves to ``ξ - a sin(2πξ) / (2π)``, so the cells at
+    the faces are ``1 - a`` and those in the middle ``1 + a`` times the uniform size (every
+    cell stays a box, so every tetrahedron stays positive). Where plates are bonded to the top
+    and bottom faces, the edges they make with the free sides are singular, and most of a
+    linear tetrahedron's error there is at those edges: on a 2 cm gel cube between bonded
+    plates, 12 cells a side, ``grading=0.8`` takes the plate force's error against a converged
+    reference from 6.8 % to 2.7 % at ν 0.499 and 5 % strain, with the same 10,368 tetrahedra
+    (``benchmarks/load_steps.py``).
 
     Returns
     -------
     points : (n_nodes, 3) float
-        Grid nodes, ``spacing`` apart, the block's corner at the origin.
+        Grid nodes, ``spacing`` apart (before grading), the block's corner at the origin.
     tetrahedra : (6 · n_cells, 4) int
     """
     shape = tuple(int(n) for n in shape)
     node_shape = tuple(n + 1 for n in shape)
-    points = np.argwhere(np.ones(node_shape, bool)).astype(float) * spacing
+    grid = np.argwhere(np.ones(node_shape, bool)).astype(float)
+    grading = np.broadcast_to(np.asarray(grading, float), (3,))
+    if not np.all((grading >= 0) & (grading < 1)):
+        raise InputError(f"grading must be at least 0 and below 1 on every axis, not "
+                         f"{grading.tolist()}", key="grading")
+    points = grid * spacing
+    if grading.any():
+        fraction = grid / np.maximum(np.array(shape, float), 1)
+        graded = fraction - grading * np.sin(2 * np.pi * fraction) / (2 * np.pi)
+        points = graded * np.array(shape, float) * spacing
     tetrahedra = kuhn_tetrahedra(np.argwhere(np.ones(shape, bool)),
                                  lambda corners: np.ravel_multi_index(corners.T, node_shape))
     return points, tetrahedra
