@@ -76,13 +76,26 @@ def test_fit_target_mujoco_then_export_runs_in_mujoco_with_the_reported_error(tm
     path = save_experiment(data, tmp_path / "pressed.npz")
     start = save_model(_block(youngs_modulus=8000.0, viscosity=2.0), tmp_path / "start.yaml")
     result = cli("fit", path, "--start", start, "--tie", "global", "--target", "mujoco",
-                 "--dt", "0.016", "--json", "--out", tmp_path / "aimed.yaml")
+                 "--dt", "0.016", "--json", "--out", tmp_path / "aimed.yaml",
+                 "--report", tmp_path / "report.html")
     assert result.returncode == 0, result.stderr
-    record = json.loads(result.stdout)["target"]
+    summary = json.loads(result.stdout)
+    record = summary["target"]
     assert record["simulator"] == "mujoco" and record["dt"] == 0.016
     assert record["rms_error"] <= record["naive_rms_error"] * (1 + 1e-9)
     aimed = load_model(tmp_path / "aimed.yaml")
     assert aimed.elements.volumetric == "element"
+    # the values for MuJoCo are the file's; the accurate ones the fit's (they differ)
+    values = record["values"]["object"]
+    assert values["target"]["youngs_modulus"] == pytest.approx(
+        float(aimed.elements.youngs_modulus[0]), rel=1e-12)
+    assert values["accurate"]["youngs_modulus"] == pytest.approx(
+        summary["elements"]["youngs_modulus"][0], rel=1e-12)
+    assert values["target"]["viscosity"] != pytest.approx(values["accurate"]["viscosity"])
+    report = (tmp_path / "report.html").read_text()
+    assert "For MuJoCo at 16 ms" in report and "exported as it is" in report
+    assert f"{1e6 * record['naive_rms_error']:.1f} µm" in report
+    assert json.loads((tmp_path / "report.json").read_text())["target"] == record
     exported = cli("export", tmp_path / "aimed.yaml", path, "--to", "mujoco", "--out",
                    tmp_path / "aimed.xml")
     assert exported.returncode == 0, exported.stderr

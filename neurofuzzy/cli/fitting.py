@@ -195,7 +195,8 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
         from ..report import fit_report
 
         fit_report(outcome.start, learner, report, files=files,
-                   validation=outcome.summary.get("validation"))
+                   validation=outcome.summary.get("validation"),
+                   target=outcome.summary.get("target"))
     return outcome, exported
 
 

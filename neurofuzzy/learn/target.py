@@ -32,7 +32,8 @@ from ..model import Model
 from ..simulation.implicit import resampled, simulate_implicit
 from .implicit_fit import fit_implicit
 
-__all__ = ["TARGETS", "TargetFit", "fit_for_target", "rms_at_step", "describe"]
+__all__ = ["TARGETS", "TargetFit", "fit_for_target", "rms_at_step", "describe",
+           "region_values"]
 
 #: The simulators a fit can target: their element, law and integrator (as written to their
 #: files).
@@ -61,6 +62,8 @@ class TargetFit:
     at_bound : tuple of str
         Constants that ended at a bound of the search (:class:`~.implicit_fit.ImplicitFit`):
         at a large step the integrator's own damping can leave η untold.
+    accurate : Model, optional
+        The accurate fit the target fit started from (its values go into :meth:`record`).
     """
 
     model: Model
@@ -72,13 +75,31 @@ class TargetFit:
     own_rms_error: float
     evaluations: int
     at_bound: tuple = ()
+    accurate: Model | None = None
 
     def record(self) -> dict:
-        """What the model file keeps (``fit: target:``), read by the export."""
+        """What the model file keeps (``fit: target:``), read by the export, and the report
+        draws: the errors, and per region the values for the target beside the accurate
+        fit's (``values``: region → ``{"target": {E, ν, η}, "accurate": {…}}``)."""
+        values = {name: {"target": own} for name, own in region_values(self.model).items()}
+        if self.accurate is not None:
+            for name, own in region_values(self.accurate).items():
+                values.setdefault(name, {})["accurate"] = own
         return {"simulator": self.target, "dt": self.dt, "integrator": self.integrator,
                 "rms_error": self.rms_error, "naive_rms_error": self.naive_rms_error,
-                "own_rms_error": self.own_rms_error, "at_bound": list(self.at_bound)}
+                "own_rms_error": self.own_rms_error, "at_bound": list(self.at_bound),
+                "values": values}
 
+
+def region_values(model: Model) -> dict:
+    """Each region's Young's modulus, Poisson's ratio and viscosity (the mean over its
+    elements: one value where a region is one tie group)."""
+    elements = model.elements
+    region = np.zeros(model.mesh.n_tetrahedra, int) if elements.region is None \
+        else np.asarray(elements.region)
+    return {name: {key: float(np.mean(np.asarray(getattr(elements, key))[region == k]))
+                   for key in ("youngs_modulus", "poisson_ratio", "viscosity")}
+            for k, name in enumerate(model.region_names) if np.any(region == k)}
 
 
 def describe(record: dict) -> str:
@@ -130,7 +151,7 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
                      naive_rms_error=rms_at_step(naive, steps),
                      own_rms_error=rms_at_step(None, steps, own),
                      evaluations=fitted.evaluations,
-                     at_bound=fitted.at_bound)
+                     at_bound=fitted.at_bound, accurate=model)
 
 
 def rms_at_step(model, experiments, positions=None) -> float:

@@ -13,6 +13,7 @@ from ..learn.lack_of_fit import length_text
 from .html import figure_html, pyplot, table_html, write_report
 from .lack_of_fit import lack_of_fit_section
 from .laws import law_section
+from .target import target_section
 
 __all__ = ["fit_report", "identifiability_html", "prior_section"]
 
@@ -78,7 +79,8 @@ def _intervals_html(learner) -> str:
 
 
 def fit_report(start, learner, path, *, title: str | None = None,
-               files: dict | None = None, validation: dict | None = None) -> Path:
+               files: dict | None = None, validation: dict | None = None,
+               target: dict | None = None) -> Path:
     """HTML + JSON report of a fit from ``start`` (a :class:`~neurofuzzy.learn.StartModel`).
 
     With a rule base (``start.rules``; its file and checksum in the JSON's ``rules``), for
@@ -90,7 +92,9 @@ def fit_report(start, learner, path, *, title: str | None = None,
     a suggested extra load case). ``files`` (label → path) are linked, relative to the report
     (e.g. the fitted model and the ParaView files of :func:`neurofuzzy.export.export_paraview`).
     ``validation`` (the fit summary's, :mod:`neurofuzzy.pipeline.validation`): the held-out
-    data's prediction error beside the fitted one.
+    data's prediction error beside the fitted one. ``target`` (``fit --target``'s record,
+    :meth:`~neurofuzzy.learn.target.TargetFit.record`): the simulator's error beside the naive
+    export's, and the values for it.
     """
     plt = pyplot()
     sections, data = [], {}
@@ -127,6 +131,9 @@ def fit_report(start, learner, path, *, title: str | None = None,
             f"{length_text(validation['rms_error'])} per marker{times}; it fits the rest to "
             f"{length_text(validation['fitted_rms_error'])}.").join(("<p>", "</p>"))))
         data["validation"] = validation
+    if target:
+        sections.append(target_section(plt, target))
+        data["target"] = target
     sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
                      "</pre>"))
     law = law_section(plt, learner.model_)
