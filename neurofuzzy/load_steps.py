@@ -21,7 +21,8 @@ from .model import Model
 from .observation import EmbeddedMarkers
 from .simulation.static import Driven, equilibrium
 
-__all__ = ["DrivenPath", "LoadSteps", "marker_paths", "simulate_load_steps"]
+__all__ = ["DrivenPath", "ToolPath", "LoadSteps", "marker_paths", "simulate_load_steps",
+           "tool_at"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,6 +54,37 @@ class DrivenPath:
 
 
 @dataclass(frozen=True, eq=False)
+class ToolPath:
+    """A rigid tool pressed into the body at each load step (an indenter on a stage).
+
+    Parameters
+    ----------
+    tool : Sphere or FlatPunch
+        (:mod:`neurofuzzy.simulation.contact`).
+    positions : (n_steps + 1, 3) float
+        The tool's reference point (a sphere's centre, a punch's face centre) at the
+        reference scan (step 0: touching the surface or clear of it) and at each load step
+        (m).
+    stiffness : float or "auto"
+        The contact penalty (Pa/m; :func:`~neurofuzzy.simulation.contact.contact_with`).
+    name : str
+    """
+
+    tool: object
+    positions: np.ndarray
+    stiffness: float | str = "auto"
+    name: str = "indenter"
+
+    def contact(self, model: Model):
+        """The tool's :class:`~neurofuzzy.simulation.contact.Contact` with ``model`` (at
+        step 0)."""
+        from .simulation.contact import contact_with
+
+        return contact_with(model, self.tool, np.asarray(self.positions, float)[0],
+                            stiffness=self.stiffness)
+
+
+@dataclass(frozen=True, eq=False)
 class LoadSteps:
     """Markers scanned at a few load steps of a displacement-controlled test.
 
@@ -68,11 +100,14 @@ class LoadSteps:
         is required).
     reaction : (n_steps, 3) float, optional
         The load cell's reading at each step: the total force the first driven set exerts on
-        the body (N).
+        the body (N), or the tool's when there is one.
     truth : dict
         Ground truth of synthetic data: reported, never read by a fitter.
     source : str
         Where the data came from, for messages.
+    tool : ToolPath, optional
+        A rigid tool pressed into the body (then ``driven`` may be empty: the sets that hold
+        the body, such as symmetry planes).
     """
 
     mesh: Mesh
@@ -81,6 +116,7 @@ class LoadSteps:
     reaction: np.ndarray | None = None
     truth: dict = field(default_factory=dict)
     source: str = "<load steps>"
+    tool: ToolPath | None = None
 
     def __post_init__(self):
         src = self.source
@@ -97,9 +133,12 @@ class LoadSteps:
             raise InputError("needs the reference scan and at least one load step",
                              source=src, key="markers")
         driven = tuple(self.driven)
-        if not driven or not all(isinstance(d, DrivenPath) for d in driven):
-            raise InputError("needs at least one DrivenPath (what moved the body)",
-                             source=src, key="driven")
+        if (not driven and self.tool is None) or not all(isinstance(d, DrivenPath)
+                                                         for d in driven):
+            raise InputError("needs at least one DrivenPath or a ToolPath (what moved the "
+                             "body)", source=src, key="driven")
+        if self.tool is not None:
+            self._check_tool(n_steps, src)
         fixed = set(np.asarray(self.mesh.fixed).tolist())
         for path in driven:
             if np.asarray(path.displacement).dtype.kind not in "iuf":
@@ -136,6 +175,32 @@ class LoadSteps:
                                  f"({n_steps}, 3) (one force per load step); got "
                                  f"{reaction.shape}", source=src, key="reaction")
         object.__setattr__(self, "driven", driven)
+
+    def _check_tool(self, n_steps, src):
+        from .simulation.contact import FlatPunch, Sphere
+
+        tool = self.tool
+        if not isinstance(tool, ToolPath) or not isinstance(tool.tool, (Sphere, FlatPunch)):
+            raise InputError("tool must be a ToolPath of a Sphere or a FlatPunch", source=src,
+                             key="tool")
+        positions = np.asarray(tool.positions, float)
+        if positions.shape != (n_steps + 1, 3) or not np.all(np.isfinite(positions)):
+            raise InputError(f"the tool {tool.name!r} needs a finite position at the reference "
+                             f"scan and at each of the {n_steps} load steps, shape "
+                             f"({n_steps + 1}, 3); got {positions.shape}", source=src,
+                             key="tool")
+        rest = self.mesh.rest_positions
+        gap = tool.tool.gap(rest, positions[0])[0]
+        if np.any(gap < -1e-9 * float(np.ptp(rest, axis=0).max())):
+            raise InputError(f"the tool {tool.name!r} starts inside the body (node "
+                             f"{int(np.argmin(gap))} lies {-1e3 * float(gap.min()):.3g} mm "
+                             "inside it at the reference scan): place it on the surface or "
+                             "clear of it at step 0", source=src, key="tool")
+        largest = np.linalg.norm(np.diff(positions, axis=0), axis=1).max()
+        if largest > tool.tool.radius:
+            raise InputError(f"the tool {tool.name!r} jumps {1e3 * largest:.3g} mm between "
+                             f"two steps, more than its radius ({1e3 * tool.tool.radius:.3g} "
+                             "mm): give the steps in between", source=src, key="tool")
 
     def _check_markers(self, src):
         try:
@@ -174,19 +239,21 @@ class LoadSteps:
         paths, rest = marker_paths(self.markers, markers, source=self.source,
                                    taken=() if replace else self.driven)
         return LoadSteps(self.mesh, paths if replace else self.driven + paths, rest,
-                         self.reaction, self.truth, self.source)
+                         self.reaction, self.truth, self.source, self.tool)
 
 
 def simulate_load_steps(model: Model, driven, markers: EmbeddedMarkers, *,
                         load_cell: bool = True, marker_noise: float = 0.0,
                         force_noise: float = 0.0, increments: int = 2,
-                        seed: int = 0) -> LoadSteps:
+                        seed: int = 0, tool: ToolPath | None = None) -> LoadSteps:
     """Synthetic :class:`LoadSteps` of ``model``: the equilibria at each step of ``driven``
-    (DrivenPaths), the markers' positions there (``markers.positions`` gives only the number
-    of scans; their weights place them), with Gaussian noise of ``marker_noise`` (m) and, with
-    ``load_cell``, the first driven set's reaction with noise of ``force_noise`` (N)."""
+    (DrivenPaths) and ``tool``, the markers' positions there (``markers.positions`` gives only
+    the number of scans; their weights place them), with Gaussian noise of ``marker_noise``
+    (m) and, with ``load_cell``, the first driven set's reaction (the tool's force, with a
+    tool) with noise of ``force_noise`` (N)."""
     driven = tuple(driven)
     n_steps = markers.positions.shape[0] - 1
+    touch = None if tool is None else tool.contact(model)
     H = markers.operator(model.n_nodes)
     rng = np.random.default_rng(seed)
     scans = [H @ model.mesh.rest_positions]
@@ -194,10 +261,12 @@ def simulate_load_steps(model: Model, driven, markers: EmbeddedMarkers, *,
     positions = None
     for step in range(1, n_steps + 1):
         result = equilibrium(model, driven=[path.at(step) for path in driven],
-                             start=positions, increments=increments)
+                             start=positions, increments=increments,
+                             **tool_at(tool, touch, step))
         positions = result.positions
         scans.append(H @ positions)
-        forces.append(result.reaction_on(driven[0].nodes))
+        forces.append(result.contact_force if tool is not None
+                      else result.reaction_on(driven[0].nodes))
     scans = np.array(scans)
     scans[1:] += rng.normal(scale=marker_noise, size=scans[1:].shape) if marker_noise else 0.0
     reaction = np.array(forces)
@@ -209,7 +278,17 @@ def simulate_load_steps(model: Model, driven, markers: EmbeddedMarkers, *,
         "true_poisson_ratio": np.asarray(elements.poisson_ratio)}
     return LoadSteps(model.mesh, driven,
                      EmbeddedMarkers(markers.nodes, markers.weights, scans, markers.names),
-                     reaction if load_cell else None, truth, "<simulated load steps>")
+                     reaction if load_cell else None, truth, "<simulated load steps>", tool)
+
+
+def tool_at(tool: ToolPath | None, contact, step: int) -> dict:
+    """:func:`~neurofuzzy.simulation.static.equilibrium`'s ``contact`` and ``tool_start``
+    keywords at load step ``step`` (none without a tool): the tool moved from its place at
+    the step before."""
+    if tool is None:
+        return {}
+    positions = np.asarray(tool.positions, float)
+    return {"contact": contact.at(positions[step]), "tool_start": positions[step - 1]}
 
 
 def marker_paths(markers: EmbeddedMarkers | None, chosen, *, source: str = "<load steps>",

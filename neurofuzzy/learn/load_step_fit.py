@@ -16,6 +16,10 @@ its start value; Poisson's ratio (and the law's shape) still are identified. Sca
 separate load steps are seldom registered exactly to each other: a rigid transform per step
 (a nuisance, on by default) moves each scan onto the model's markers before the residual is
 taken (Kabsch's closed form, alternating with the material's steps).
+
+An indenter (``LoadSteps.tool``, :mod:`neurofuzzy.simulation.contact`) presses the body at
+each step; the load cell reads its force, whose derivative is the contact's stiffness times
+the positions' (the equilibrium's stiffness, which the sensitivities solve with, holds it).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError
+from ..load_steps import tool_at
 from ..model import Model
 from ..simulation.static import equilibrium
 from ..simulation.tangents import unit_forces
@@ -135,34 +140,38 @@ def _kabsch(measured, model):
 
 def _forward(model, data, theta, steps, want_jacobian, warm=None, gradient_of=None):
     """The model of ``θ`` through every step: markers (n_steps, n_markers, 3), the first
-    driven set's reaction (n_steps, 3), their derivatives by θ, and each marker's
-    deformation gradient per step (by ``gradient_of``, a :class:`MarkerGradients`; else
-    None). ``warm`` (step → (positions, factorisation)) holds the equilibria of a nearby
+    driven set's reaction or the tool's force (n_steps, 3), their derivatives by θ, each
+    marker's deformation gradient per step (by ``gradient_of``, a :class:`MarkerGradients`;
+    else None). ``warm`` (step → (positions, factorisation)) holds the equilibria of a nearby
     ``θ``: each step's Newton starts there (one or two iterations instead of a solve from the
-    last step) and solves with that step's factorisation as GMRES's preconditioner (a few
-    triangular solves instead of a new factorisation), and is updated."""
+    last step), solving with that step's factorisation as GMRES's preconditioner; updated."""
     E, nu, _, _, dconst = _constants(theta)
     current = model.with_elements(youngs_modulus=E, poisson_ratio=nu)
     H = (sp.csr_matrix((0, model.n_nodes)) if data.markers is None
          else data.markers.operator(model.n_nodes))
-    measured_set = np.asarray(data.driven[0].nodes)
+    tool = data.tool                                        # κ from the start's E, not θ's
+    touch, measured_set = ((tool.contact(model), None) if tool is not None
+                           else (None, np.asarray(data.driven[0].nodes)))
     markers, reactions, d_markers, d_reactions, gradients = [], [], [], [], []
     positions = None
     for step in range(1, max(steps) + 1):
+        contact = tool_at(tool, touch, step)
         if warm is not None and step in warm:
+            contact.pop("tool_start", None)
             result = equilibrium(current, driven=data.boundary(step), start=warm[step][0],
-                                 factor=warm[step][1])
+                                 factor=warm[step][1], **contact)
         else:
             result = equilibrium(current, driven=data.boundary(step), start=positions,
                                  increments=2 if step == 1 else 1,
-                                 factor=None if step == 1 else result.factor)
+                                 factor=None if step == 1 else result.factor, **contact)
         positions = result.positions
         if warm is not None:
             warm[step] = (positions, result.factor)
         markers.append(H @ positions)
         if gradient_of is not None:
             gradients.append(gradient_of.at(positions))
-        reactions.append(result.reaction_on(measured_set))
+        reactions.append(result.reaction_on(measured_set) if tool is None
+                         else result.contact_force)
         if not want_jacobian:
             continue
         K = result.stiffness
@@ -173,6 +182,11 @@ def _forward(model, data, theta, steps, want_jacobian, warm=None, gradient_of=No
         dp = np.zeros((len(theta), 3 * model.n_nodes))
         dp[:, free] = result.solve_free(dF[:, free].T).T
         d_markers.append(np.stack([H @ d.reshape(-1, 3) for d in dp]))
+        if tool is not None:
+            # the tool's force depends on the positions alone: d(Σ f)/dθ = -Σ K_tool dp
+            K_tool = contact["contact"].stiffness_matrix(positions)
+            d_reactions.append(-(K_tool @ dp.T).T.reshape(len(theta), -1, 3).sum(axis=1))
+            continue
         # reaction R_c = -(F + f)_c:  dR_c = -∂F_c/∂θ + K_cf dp_f
         on_set = np.zeros(3 * model.n_nodes, bool)
         on_set[(3 * measured_set[:, None] + np.arange(3)).ravel()] = True

@@ -113,6 +113,10 @@ class Equilibrium:
         iteration assembled it.
     held : (n_held,) int
         The held degrees of freedom (node-major ``3 i + k``).
+    factor : SuperLU or None
+        The factorisation the last Newton iteration solved with (for nearby solves).
+    contact_forces : (n_nodes, 3) float or None
+        The force a tool in ``contact`` exerts on each node (:attr:`contact_force` sums it).
     """
 
     positions: np.ndarray
@@ -122,6 +126,12 @@ class Equilibrium:
     stiffness: object = None
     held: np.ndarray | None = None
     factor: object = None
+    contact_forces: np.ndarray | None = None
+
+    @property
+    def contact_force(self) -> np.ndarray | None:
+        """(3,) the tool's total force on the body (``contact``), or None."""
+        return None if self.contact_forces is None else self.contact_forces.sum(axis=0)
 
     def solve_free(self, right: np.ndarray, tolerance: float = 1e-10) -> np.ndarray:
         """``K_ff⁻¹ right`` (free degrees of freedom; ``right`` (n_free,) or (n_free, k)) with
@@ -146,7 +156,8 @@ class Equilibrium:
 def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
                 load: np.ndarray | None = None, start: np.ndarray | None = None,
                 increments: int = 1, tolerance: float = 1e-8,
-                max_iterations: int = 30, factor=None) -> Equilibrium:
+                max_iterations: int = 30, factor=None, contact=None,
+                tool_start=None) -> Equilibrium:
     """The static equilibrium of ``model``: its fixed nodes at rest, the ``driven`` sets moved,
     ``load`` (n_nodes, 3) N applied (module docstring).
 
@@ -173,6 +184,13 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         degrees of freedom (the same step at nearby material parameters): Newton's systems
         are solved by GMRES preconditioned by it, refactorised only where that does not
         converge (:func:`_solve`). Each Newton iteration reuses the last factorisation so.
+    contact : Contact, optional
+        A rigid tool pressed against the surface (:func:`~neurofuzzy.simulation.contact.
+        contact_with`): its penalty force joins the body's force and its derivative the
+        stiffness; :attr:`Equilibrium.contact_force` is the tool's force on the body.
+    tool_start : (3,) float, optional
+        The tool's position at ``start`` (default: ``contact``'s own): the increments move it
+        from there.
     """
     n = model.n_nodes
     rest = model.mesh.rest_positions
@@ -185,6 +203,21 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     if int(increments) < 1:
         raise InputError(f"increments must be at least 1; got {increments}", key="increments")
     free = np.setdiff1d(np.arange(3 * n), held)
+    tool_end = None if contact is None else contact.position
+    tool_from = tool_end if tool_start is None or contact is None else np.asarray(
+        tool_start, float)
+
+    def state_at(positions, fraction, matrices=True):
+        """The model's force and stiffness, with the tool's at its place at ``fraction``."""
+        state = tangents(model, positions, long_time=True, damping=False, matrices=matrices)
+        if contact is None:
+            return state
+        touch = contact.at(tool_from + fraction * (tool_end - tool_from))
+        force = state.force + touch.forces(positions)
+        stiffness = (None if state.stiffness is None
+                     else state.stiffness + touch.stiffness_matrix(positions))
+        return type(state)(force, stiffness, None)
+
     p = np.array(rest if start is None else start, dtype=float)
     if p.shape != (n, 3) or not np.all(np.isfinite(p)):
         raise InputError(f"start must be finite positions of shape ({n}, 3); got {p.shape}",
@@ -201,13 +234,13 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         # predictor: the free nodes follow the driven ones linearly
         move = target - p[held]
         if np.any(move):
-            K = tangents(model, p.reshape(n, 3), long_time=True, damping=False).stiffness
+            K = state_at(p.reshape(n, 3), fraction).stiffness
             coupling = K[free][:, held] @ move
             change, factor = _solve(K[free][:, free], coupling, factor, NEWTON_RTOL)
             p[free] -= change
         p[held] = target
         for _ in range(max_iterations):
-            state = tangents(model, p.reshape(n, 3), long_time=True, damping=False)
+            state = state_at(p.reshape(n, 3), fraction)
             out = state.force.ravel() + load_now
             scale = max(np.abs(out[held]).max(initial=0.0), np.abs(load_now).max(), 1e-300)
             residual = np.abs(out[free]).max(initial=0.0)
@@ -216,9 +249,12 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             delta, factor = _solve(state.stiffness[free][:, free], out[free], factor,
                                    NEWTON_RTOL)
             iterations += 1
-            p[free] += _line_search(model, p, free, delta, load_now, residual)
+            force_at = lambda q: state_at(q, fraction, matrices=False).force  # noqa: E731
+            p[free] += (_line_search(force_at, p, free, delta, load_now, residual)
+                        if contact is None else
+                        _energy_search(force_at, p, free, delta, load_now, out[free]))
             if np.abs(delta).max() <= 1e-4 * tolerance * size:
-                state = tangents(model, p.reshape(n, 3), long_time=True, matrices=False)
+                state = state_at(p.reshape(n, 3), fraction, matrices=False)
                 out = state.force.ravel() + load_now
                 residual = np.abs(out[free]).max(initial=0.0)
                 break
@@ -231,9 +267,10 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     reaction[held] = -(state.force.ravel()[held] + load_now[held])
     stiffness = state.stiffness
     if stiffness is None:
-        stiffness = tangents(model, p.reshape(n, 3), long_time=True, damping=False).stiffness
+        stiffness = state_at(p.reshape(n, 3), 1.0).stiffness
+    touched = None if contact is None else contact.forces(p.reshape(n, 3))
     return Equilibrium(p.reshape(n, 3), reaction.reshape(n, 3), iterations, float(residual),
-                       stiffness, held, factor)
+                       stiffness, held, factor, touched)
 
 
 def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarray]:
@@ -288,17 +325,54 @@ def _factor(matrix):
                      options={"SymmetricMode": True})
 
 
-def _line_search(model, p, free, delta, load, residual, shrink=0.5, tries=8):
+def _line_search(force_at, p, free, delta, load, residual, shrink=0.5, tries=8):
     """The Newton step ``delta`` scaled back (halved up to ``tries`` times) until the largest
-    out-of-balance force falls; the full step when none does (Newton's own way out)."""
-    n = model.n_nodes
+    out-of-balance force falls; the full step when none does (Newton's own way out).
+    ``force_at(positions)`` is the body's force (n_nodes, 3)."""
     step = 1.0
     for _ in range(tries):
         trial = p.copy()
         trial[free] += step * delta
-        force = tangents(model, trial.reshape(n, 3), long_time=True,
-                         matrices=False).force.ravel() + load
+        force = force_at(trial.reshape(-1, 3)).ravel() + load
         if np.all(np.isfinite(force)) and np.abs(force[free]).max() < residual:
             return step * delta
         step *= shrink
     return delta
+
+
+def _energy_search(force_at, p, free, delta, load, out, tries=8):
+    """The Newton step ``delta`` scaled to where the energy stops falling along it: the
+    out-of-balance force's component along the step, ``s(α) = r(p + α δ)·δ``, positive at
+    ``α = 0``, is brought below half its start (regula falsi between the last ``α`` where it
+    is positive and the first where it is negative). Where a tool's penalty switches on and
+    off at nodes entering and leaving contact, the largest force need not fall along a good
+    step, and full steps cycle; the energy (elastic and penalty, both with continuous
+    gradients) does fall."""
+    start = float(out @ delta)
+    if not start > 0:
+        return delta
+
+    def slope(alpha):
+        trial = p.copy()
+        trial[free] += alpha * delta
+        force = force_at(trial.reshape(-1, 3)).ravel() + load
+        value = float(force[free] @ delta)
+        return value if np.isfinite(value) else -np.inf
+
+    low, s_low, high = 0.0, start, 1.0
+    s_high = slope(high)
+    if s_high >= -0.5 * start:
+        return delta
+    alpha = high
+    for _ in range(tries):
+        alpha = high if not np.isfinite(s_high) else low + (high - low) * s_low / (
+            s_low - s_high)
+        alpha = min(max(alpha, low + 0.05 * (high - low)), high - 0.05 * (high - low))
+        value = slope(alpha)
+        if abs(value) <= 0.5 * start:
+            break
+        if value > 0:
+            low, s_low = alpha, value
+        else:
+            high, s_high = alpha, value
+    return alpha * delta

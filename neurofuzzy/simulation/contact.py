@@ -1,0 +1,235 @@
+"""Rigid tools in frictionless contact with the tissue's surface: a sphere or a flat
+cylindrical punch pressed into it (issue 46's indenters), for the static equilibrium
+(:func:`~neurofuzzy.simulation.static.equilibrium`'s ``contact``).
+
+**The method: a node-to-rigid-surface penalty.** Every node of the body's surface carries its
+share ``A_a`` of the surface area (a third of each surface triangle's at rest). Where a node
+lies inside the tool by the depth ``d_a = max(0, -g_a)`` (``g`` the signed distance to the
+tool's surface, negative inside), the tool pushes it out along the tool's normal ``n_a`` with
+the force ``f_a = κ A_a d_a n_a``: a contact pressure ``κ d`` (``κ`` in Pa/m). The energy
+``½ κ Σ A_a d_a²`` is what the Newton solve of the equilibrium minimises with the elastic one,
+so the force's exact derivative enters its stiffness and the equilibrium's sensitivities (the
+fit's adjoint) with it. Why a penalty and not an active-set or augmented-Lagrangian constraint:
+it is one more smooth-enough term of the same energy (no multipliers, no change of the
+unknowns, the same sparse solve and line search); its price is a penetration ``p / κ`` under
+a pressure ``p``, which :attr:`Contact.penetration` reports and ``κ`` bounds: by default
+``κ = PENALTY × E / h`` (``E`` the stiffest element's modulus, ``h`` the shortest surface edge
+near the tool), a surface node then sinks about ``1 / PENALTY`` of what the tissue under it
+gives way, and the force on a sphere at Hertz's depth is within a few tenths of a per cent of
+the constraint's (``tests/test_contact.py``).
+
+Frictionless: the force is along the tool's normal; a node slides freely along its surface.
+The tools are rigid and placed by the position of a reference point (a sphere's centre, the
+centre of a punch's flat face) for each solve; their orientation is fixed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import InputError
+
+__all__ = ["Sphere", "FlatPunch", "Contact", "contact_with", "PENALTY", "surface_areas"]
+
+#: The default penalty: ``κ = PENALTY × E / h`` (module docstring).
+PENALTY = 100.0
+
+
+def _finite_positive(value, key: str) -> float:
+    value = float(value)
+    if not (np.isfinite(value) and value > 0):
+        raise InputError(f"got {value!r}; expected a positive length in metres", key=key)
+    return value
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A rigid sphere of ``radius`` (m), placed by its centre."""
+
+    radius: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", _finite_positive(self.radius, "radius"))
+
+    def gap(self, points: np.ndarray, centre: np.ndarray):
+        """``(g, n, curvature)`` per point: the signed distance to the sphere's surface
+        (negative inside), the outward normal, and ``1 / r`` (the normal's rate of turning
+        per unit of sideways motion, for the stiffness)."""
+        offset = points - centre
+        distance = np.linalg.norm(offset, axis=1)
+        safe = np.where(distance > 0, distance, 1.0)
+        normal = offset / safe[:, None]
+        normal[distance == 0] = (0.0, 0.0, 1.0)
+        return distance - self.radius, normal, 1.0 / safe
+
+    def describe(self) -> str:
+        return f"sphere of radius {1e3 * self.radius:g} mm"
+
+
+@dataclass(frozen=True)
+class FlatPunch:
+    """A rigid flat-ended cylinder of ``radius`` (m), placed by the centre of its flat face;
+    ``axis`` points from the face into the punch (default ``+z``: a punch pressing down)."""
+
+    radius: float
+    axis: tuple = (0.0, 0.0, 1.0)
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", _finite_positive(self.radius, "radius"))
+        axis = np.asarray(self.axis, float)
+        if axis.shape != (3,) or not np.all(np.isfinite(axis)) or not np.any(axis):
+            raise InputError(f"got {self.axis!r}; expected a non-zero (3,) direction",
+                             key="axis")
+        object.__setattr__(self, "axis", tuple(axis / np.linalg.norm(axis)))
+
+    def gap(self, points: np.ndarray, centre: np.ndarray):
+        """``(g, n, curvature)`` per point: minus the height above the face for points over
+        it (within the radius; ``+inf`` beside it), the face's normal ``-axis``, no turning."""
+        axis = np.asarray(self.axis)
+        offset = points - centre
+        height = offset @ axis
+        sideways = np.linalg.norm(offset - height[:, None] * axis, axis=1)
+        gap = np.where(sideways <= self.radius, -height, np.inf)
+        return gap, np.broadcast_to(-axis, points.shape), np.zeros(len(points))
+
+    def describe(self) -> str:
+        return f"flat punch of radius {1e3 * self.radius:g} mm"
+
+
+def surface_areas(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(nodes, areas)``: the surface nodes of ``mesh`` and a third of the rest area of each
+    surface triangle at its corners."""
+    from ..mesh.surface import surface_triangles
+
+    faces = surface_triangles(mesh)
+    corners = mesh.rest_positions[faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                         corners[:, 2] - corners[:, 0]), axis=1)
+    share = np.bincount(faces.ravel(), np.repeat(area / 3, 3), minlength=mesh.n_nodes)
+    nodes = np.flatnonzero(share > 0)
+    return nodes, share[nodes]
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A tool at one position against a body's surface nodes (:func:`contact_with`).
+
+    Attributes
+    ----------
+    tool : Sphere or FlatPunch
+    position : (3,) float
+        The tool's reference point (m).
+    stiffness : float
+        The penalty ``κ`` (Pa/m).
+    nodes, areas : (m,) int, (m,) float
+        The surface nodes the tool may touch and their shares of the surface area (m²).
+    """
+
+    tool: object
+    position: np.ndarray
+    stiffness: float
+    nodes: np.ndarray
+    areas: np.ndarray = field(repr=False)
+
+    def at(self, position) -> Contact:
+        """The same contact with the tool moved to ``position``."""
+        position = np.asarray(position, float)
+        if position.shape != (3,) or not np.all(np.isfinite(position)):
+            raise InputError(f"a tool's position must be 3 finite numbers; got {position!r}",
+                             key="tool")
+        return Contact(self.tool, position, self.stiffness, self.nodes, self.areas)
+
+    def _depths(self, positions: np.ndarray):
+        gap, normal, curvature = self.tool.gap(positions[self.nodes], self.position)
+        return np.maximum(-gap, 0.0), normal, curvature
+
+    def forces(self, positions: np.ndarray) -> np.ndarray:
+        """(n_nodes, 3): the force the tool exerts on every node."""
+        depth, normal, _ = self._depths(positions)
+        out = np.zeros_like(positions, dtype=float)
+        out[self.nodes] = (self.stiffness * self.areas * depth)[:, None] * normal
+        return out
+
+    def force_on_body(self, positions: np.ndarray) -> np.ndarray:
+        """(3,): the total force the tool exerts on the body (what a load cell on the tool
+        reads, with the sign of a plate's reaction: pressing down is negative ``z``)."""
+        return self.forces(positions).sum(axis=0)
+
+    def penetration(self, positions: np.ndarray) -> float:
+        """The deepest a surface node lies inside the tool (m): the penalty's error."""
+        return float(self._depths(positions)[0].max(initial=0.0))
+
+    def touching(self, positions: np.ndarray) -> np.ndarray:
+        """The surface nodes inside the tool."""
+        return self.nodes[self._depths(positions)[0] > 0]
+
+    def stiffness_matrix(self, positions: np.ndarray) -> sp.csr_array:
+        """``-∂forces/∂positions`` (3 n_nodes square, node-major): per touching node
+        ``κ A (n nᵀ - d/r (I - n nᵀ))`` (``r`` the sphere's distance to it; a punch's face
+        does not turn, so ``κ A n nᵀ``)."""
+        depth, normal, curvature = self._depths(positions)
+        on = depth > 0
+        n = positions.shape[0]
+        if not on.any():
+            return sp.csr_array((3 * n, 3 * n))
+        weight = (self.stiffness * self.areas)[on]
+        normal = np.asarray(normal)[on]
+        outer = normal[:, :, None] * normal[:, None, :]
+        turning = (depth * curvature)[on][:, None, None]
+        blocks = weight[:, None, None] * (outer - turning * (np.eye(3) - outer))
+        dofs = 3 * self.nodes[on][:, None] + np.arange(3)
+        rows = np.repeat(dofs, 3, axis=1).ravel()
+        cols = np.tile(dofs, (1, 3)).ravel()
+        return sp.csr_array((blocks.ravel(), (rows, cols)), shape=(3 * n, 3 * n))
+
+
+def contact_with(model, tool, position, *, stiffness: float | str = "auto") -> Contact:
+    """The contact of ``tool`` at ``position`` with ``model``'s surface.
+
+    Parameters
+    ----------
+    model : Model
+        An element model (its elements' Young's modulus sets the default penalty).
+    tool : Sphere or FlatPunch
+    position : (3,) float
+        The tool's reference point (m): a sphere's centre, a punch's face centre.
+    stiffness : float or "auto"
+        The penalty ``κ`` (Pa/m); ``"auto"``: ``PENALTY × E / h`` (module docstring).
+    """
+    if not isinstance(tool, (Sphere, FlatPunch)):
+        raise InputError(f"got {type(tool).__name__}; a tool is a Sphere or a FlatPunch",
+                         key="tool")
+    nodes, areas = surface_areas(model.mesh)
+    if stiffness == "auto":
+        stiffness = PENALTY * _stiffest(model) / _shortest_edge_near(model, tool, position,
+                                                                     nodes)
+    stiffness = float(stiffness)
+    if not (np.isfinite(stiffness) and stiffness > 0):
+        raise InputError(f"got {stiffness!r}; expected a positive penalty in Pa/m",
+                         key="stiffness")
+    return Contact(tool, np.zeros(3), stiffness, nodes, areas).at(position)
+
+
+def _stiffest(model) -> float:
+    if model.elements is None:
+        raise InputError("contact needs an element model (its Young's modulus sets the "
+                         "penalty); give stiffness= for a spring network", key="stiffness")
+    return float(np.max(model.elements.youngs_modulus))
+
+
+def _shortest_edge_near(model, tool, position, nodes) -> float:
+    """The shortest edge among the surface nodes within two tool radii of ``position``
+    (all surface nodes when none is)."""
+    rest = model.mesh.rest_positions
+    near = np.linalg.norm(rest[nodes] - np.asarray(position, float), axis=1) <= (
+        2 * tool.radius + 1e-12)
+    chosen = np.zeros(model.n_nodes, bool)
+    chosen[nodes[near] if near.any() else nodes] = True
+    springs = np.asarray(model.mesh.springs)
+    edges = springs[chosen[springs].all(axis=1)]
+    if not len(edges):
+        edges = springs
+    return float(np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1).min())
