@@ -206,3 +206,29 @@ def test_a_tool_that_starts_inside_or_jumps_is_refused():
     short = ToolPath(Sphere(0.004), [(0, 0, H + 0.004)])
     with pytest.raises(InputError, match="reference scan and at each of the 2"):
         LoadSteps(model.mesh, (), None, reaction, tool=short)
+
+
+def test_a_load_step_file_keeps_its_indenter(tmp_path):
+    """``save_load_steps`` writes the tool (kind, radius, positions, penalty, name) and
+    ``load_load_steps`` reads it back, so the load cell stays the tool's; a file with part of
+    the tool's keys is refused naming the missing one."""
+    from neurofuzzy.io.load_steps import load_load_steps, save_load_steps
+    from neurofuzzy.io.experiments import read_npz, write_npz
+    from neurofuzzy.load_steps import LoadSteps, ToolPath
+
+    model, _ = _quarter(3, 0.3)
+    for tool in (ToolPath(Sphere(0.004), [(0, 0, H + 0.004), (0, 0, H + 0.0039)]),
+                 ToolPath(FlatPunch(0.002, axis=(0, 0, 2)), [(0, 0, H), (0, 0, H - 1e-4)],
+                          stiffness=5e9, name="punch")):
+        data = LoadSteps(model.mesh, (), None, np.array([[0.0, 0.0, -1e-3]]), tool=tool)
+        back = load_load_steps(save_load_steps(data, tmp_path / "indented.npz"))
+        assert type(back.tool.tool) is type(tool.tool)
+        assert back.tool.tool.radius == tool.tool.radius
+        assert np.array_equal(back.tool.positions, tool.positions)
+        assert back.tool.stiffness == tool.stiffness and back.tool.name == tool.name
+        assert back.driven == () and np.array_equal(back.reaction, data.reaction)
+    raw = read_npz(tmp_path / "indented.npz")
+    del raw["tool_radius"]
+    write_npz(tmp_path / "partial.npz", raw, {})
+    with pytest.raises(InputError, match="tool_radius"):
+        load_load_steps(tmp_path / "partial.npz")

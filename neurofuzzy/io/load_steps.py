@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, closest_name
-from ..load_steps import DrivenPath, LoadSteps
+from ..load_steps import DrivenPath, LoadSteps, ToolPath
 from ..mesh import from_tetra
+from ..simulation.contact import FlatPunch, Sphere
 from .experiments import _markers, read_npz, write_npz
 
 __all__ = ["save_load_steps", "load_load_steps", "is_load_steps_file", "KEYS"]
@@ -23,15 +24,22 @@ __all__ = ["save_load_steps", "load_load_steps", "is_load_steps_file", "KEYS"]
 #: the keys of a load-step file (``true_*`` besides)
 KEYS = ("load_steps", "rest_positions", "tetrahedra", "fixed", "marker_positions",
         "marker_nodes", "marker_weights", "marker_names", "driven_nodes", "driven_set",
-        "driven_displacement", "driven_components", "driven_names", "reaction")
+        "driven_displacement", "driven_components", "driven_names", "reaction",
+        "tool_kind", "tool_radius", "tool_axis", "tool_positions", "tool_stiffness",
+        "tool_name")
+#: an indenter's keys (all or none): its kind (``sphere`` or ``flat punch``), radius (m), a
+#: punch's axis, its positions at steps 0..n (m), the penalty (Pa/m; NaN: automatic), name
+TOOL_KEYS = KEYS[14:]
 #: the markers are optional (a force–displacement curve alone), the rest is required
 REQUIRED = KEYS[:4] + KEYS[8:13]
 #: the dtype kinds each key may have: integers, numbers, text
 KINDS_INTEGER = (("load_steps", "tetrahedra", "fixed", "driven_nodes", "driven_set",
                   "marker_nodes"), "iu", "integers")
 KINDS_NUMBER = (("rest_positions", "marker_positions", "marker_weights",
-                 "driven_displacement", "reaction"), "iuf", "numbers")
-KINDS_TEXT = (("driven_components", "driven_names", "marker_names"), "US", "strings")
+                 "driven_displacement", "reaction", "tool_radius", "tool_axis",
+                 "tool_positions", "tool_stiffness"), "iuf", "numbers")
+KINDS_TEXT = (("driven_components", "driven_names", "marker_names", "tool_kind",
+               "tool_name"), "US", "strings")
 
 
 def is_load_steps_file(path: str | os.PathLike) -> bool:
@@ -51,10 +59,12 @@ def save_load_steps(data: LoadSteps, path: str | os.PathLike) -> Path:
     mesh, markers = data.mesh, data.markers
     out = {"load_steps": np.int64(data.n_steps), "rest_positions": mesh.rest_positions,
            "tetrahedra": mesh.tetrahedra, "fixed": mesh.fixed,
-           "driven_nodes": np.concatenate([np.asarray(d.nodes) for d in data.driven]),
-           "driven_set": np.concatenate([np.full(len(d.nodes), i)
-                                         for i, d in enumerate(data.driven)]),
-           "driven_displacement": np.array([d.displacement for d in data.driven], float),
+           "driven_nodes": np.concatenate([np.asarray(d.nodes, np.int64)
+                                           for d in data.driven] or [np.zeros(0, np.int64)]),
+           "driven_set": np.concatenate([np.full(len(d.nodes), i) for i, d
+                                         in enumerate(data.driven)] or [np.zeros(0, int)]),
+           "driven_displacement": np.array([d.displacement for d in data.driven],
+                                           float).reshape(-1, data.n_steps, 3),
            "driven_components": np.array([d.components for d in data.driven], dtype=str),
            "driven_names": np.array([d.name for d in data.driven], dtype=str)}
     if markers is not None:
@@ -63,7 +73,41 @@ def save_load_steps(data: LoadSteps, path: str | os.PathLike) -> Path:
                    marker_names=np.array(markers.names, dtype=str))
     if data.reaction is not None:
         out["reaction"] = np.asarray(data.reaction, float)
+    if data.tool is not None:
+        out.update(_tool_keys(data.tool))
     return write_npz(path, out, data.truth)
+
+
+def _tool_keys(path: ToolPath) -> dict:
+    tool = path.tool
+    punch = isinstance(tool, FlatPunch)
+    return {"tool_kind": np.array("flat punch" if punch else "sphere"),
+            "tool_radius": np.float64(tool.radius),
+            "tool_axis": np.array(tool.axis if punch else (0.0, 0.0, 1.0), float),
+            "tool_positions": np.asarray(path.positions, float),
+            "tool_stiffness": np.float64(np.nan if path.stiffness == "auto"
+                                         else path.stiffness),
+            "tool_name": np.array(path.name)}
+
+
+def _tool(data) -> ToolPath | None:
+    """The file's indenter (:data:`TOOL_KEYS`, all or none), or None."""
+    given = [key for key in TOOL_KEYS if key in data]
+    if not given:
+        return None
+    if len(given) < len(TOOL_KEYS):
+        missing = sorted(set(TOOL_KEYS) - set(given))
+        raise InputError(f"an indenter needs all of {', '.join(TOOL_KEYS)}; missing "
+                         f"{', '.join(missing)}", key=missing[0])
+    kind = str(data["tool_kind"])
+    if kind not in ("sphere", "flat punch"):
+        raise InputError(f"got {kind!r}; expected 'sphere' or 'flat punch'", key="tool_kind")
+    radius = float(data["tool_radius"])
+    tool = (Sphere(radius) if kind == "sphere"
+            else FlatPunch(radius, tuple(np.asarray(data["tool_axis"], float).ravel())))
+    stiffness = float(data["tool_stiffness"])
+    return ToolPath(tool, np.asarray(data["tool_positions"], float),
+                    "auto" if np.isnan(stiffness) else stiffness, str(data["tool_name"]))
 
 
 def load_load_steps(path: str | os.PathLike) -> LoadSteps:
@@ -106,7 +150,8 @@ def load_load_steps(path: str | os.PathLike) -> LoadSteps:
                                   str(data["driven_components"][i]),
                                   str(data["driven_names"][i])) for i in range(n_sets))
         truth = {key: value for key, value in data.items() if key.startswith("true_")}
-        return LoadSteps(mesh, driven, _markers(data), data.get("reaction"), truth, source)
+        return LoadSteps(mesh, driven, _markers(data), data.get("reaction"), truth, source,
+                         _tool(data))
     except InputError as error:
         if error.source:
             raise

@@ -185,9 +185,10 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         are solved by GMRES preconditioned by it, refactorised only where that does not
         converge (:func:`_solve`). Each Newton iteration reuses the last factorisation so.
     contact : Contact, optional
-        A rigid tool pressed against the surface (:func:`~neurofuzzy.simulation.contact.
-        contact_with`): its penalty force joins the body's force and its derivative the
-        stiffness; :attr:`Equilibrium.contact_force` is the tool's force on the body.
+        A rigid tool pressed against the surface
+        (:func:`~neurofuzzy.simulation.contact.contact_with`): its penalty force joins the
+        body's force and its derivative the stiffness; :attr:`Equilibrium.contact_force` is
+        the tool's force on the body.
     tool_start : (3,) float, optional
         The tool's position at ``start`` (default: ``contact``'s own): the increments move it
         from there.
