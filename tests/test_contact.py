@@ -232,3 +232,25 @@ def test_a_load_step_file_keeps_its_indenter(tmp_path):
     write_npz(tmp_path / "partial.npz", raw, {})
     with pytest.raises(InputError, match="tool_radius"):
         load_load_steps(tmp_path / "partial.npz")
+
+
+def test_the_report_and_the_diagnosis_of_an_indentation_take_the_tool(tmp_path):
+    """The load-step report draws the indenter's force against its depth (not a symmetry
+    plane's zero motion); the load-step diagnosis offers no plate slip for a tool's data (its
+    driven sets are the planes that hold the body) and answers."""
+    from neurofuzzy.diagnosis.load_steps import diagnose_load_steps
+    from neurofuzzy.learn.load_step_fit import fit_load_steps
+    from neurofuzzy.report.load_steps import load_steps_report
+
+    truth, planes = _quarter(3, 0.4)
+    data = _indentation(truth, planes, [1e-4, 2e-4], markers=8, noise=2e-6)
+    start = truth.with_elements(youngs_modulus=4000.0)
+    fit = fit_load_steps(start, data, marker_noise=2e-6, force_noise=1e-8)
+    import html
+
+    page = html.unescape(load_steps_report(start, fit, data,
+                                           tmp_path / "report.html").read_text())
+    assert "<h2>The indenter's force</h2>" in page and "plate force" not in page
+    found = diagnose_load_steps(start, data, max_effects=1)
+    assert not any("plate" in name for name in found.candidates)
+    assert found.to_dict()["plate"] is None

@@ -50,7 +50,8 @@ class LoadStepDiagnosis:
                 "youngs_modulus": self.after.youngs_modulus_,
                 "poisson_ratio": self.after.poisson_ratio_,
                 "unidentifiable": list(self.after.unidentifiable_),
-                "plate": self.data.driven[0].components,
+                "plate": (None if self.data.tool is not None or not self.data.driven
+                          else self.data.driven[0].components),
                 "law": _law(self.after.model_)}
 
     def summary(self) -> str:
@@ -85,10 +86,13 @@ def _chi2(fit, data, sigma_m, sigma_f) -> float:
 def _candidates(model, data):
     """``(name, model, data)`` of every candidate change of the set-up."""
     out = []
-    path = data.driven[0]
-    motion = np.abs(np.asarray(path.displacement, float)[-1])
+    # with an indenter the driven sets hold the body (symmetry planes): no plate to slip
+    path = data.driven[0] if data.driven and data.tool is None else None
+    motion = np.zeros(3) if path is None else np.abs(np.asarray(path.displacement, float)[-1])
     axis = "xyz"[int(np.argmax(motion))]
-    if path.components == "xyz":
+    if path is None:
+        pass
+    elif path.components == "xyz":
         changed = replace(path, components=axis)
         out.append(("plate_slip", model, replace(data, driven=(changed, *data.driven[1:]))))
     elif len(path.components) < 3:

@@ -24,7 +24,8 @@ def load_steps_report(start, fit, data, path, *, title: str = "neurofuzzy: load 
     plt = pyplot()
     labels = labels or {}
     sections = [("Values", _values(start, fit, labels)),
-                ("The plate's force", _force(plt, fit, data))]
+                (f"The {'plate' if data.tool is None else data.tool.name}'s force",
+                 _force(plt, fit, data))]
     if data.markers is not None:
         sections += [("Markers at each step", _markers(plt, fit, data)),
                      ("Registration of the scans", _registration(fit))]
@@ -60,14 +61,20 @@ def _values(start, fit, labels) -> str:
 
 
 def _drive(data) -> tuple[np.ndarray, np.ndarray]:
-    """The first driven set's displacement magnitude per step (m) and its direction."""
-    displacement = np.asarray(data.driven[0].displacement, float)
+    """The indenter's or the first driven set's displacement magnitude per step (m) and its
+    direction."""
+    if data.tool is not None:
+        positions = np.asarray(data.tool.positions, float)
+        displacement = positions[1:] - positions[0]
+    else:
+        displacement = np.asarray(data.driven[0].displacement, float)
     direction = displacement[-1] / max(np.linalg.norm(displacement[-1]), 1e-300)
     return displacement @ direction, direction
 
 
 def _force(plt, fit, data) -> str:
     depth, direction = _drive(data)
+    what = "plate" if data.tool is None else data.tool.name
     figure, ax = plt.subplots(figsize=(5.5, 3.6))
     predicted = np.asarray(fit.reactions_) @ direction
     scale = "" if "youngs_modulus" not in fit.unidentifiable_ else (
@@ -76,12 +83,12 @@ def _force(plt, fit, data) -> str:
     if data.reaction is not None:
         measured = np.asarray(data.reaction) @ direction
         ax.plot(np.r_[0, depth] * 1e3, np.r_[0, measured], "ks", label="load cell")
-    ax.set_xlabel("plate displacement (mm)")
-    ax.set_ylabel("plate force along its motion (N)")
+    ax.set_xlabel(f"{what} displacement (mm)")
+    ax.set_ylabel(f"{what} force along its motion (N)")
     ax.legend(fontsize=8)
     text = ("" if data.reaction is not None else
             "<p class='note'>No force was measured: the curve is the model's prediction.</p>")
-    return figure_html(figure, "plate force against displacement") + text
+    return figure_html(figure, f"{what} force against displacement") + text
 
 
 def _markers(plt, fit, data) -> str:
