@@ -66,7 +66,9 @@ class ToolPath:
         reference scan (step 0: touching the surface or clear of it) and at each load step
         (m).
     stiffness : float or "auto"
-        The contact penalty (Pa/m; :func:`~neurofuzzy.simulation.contact.contact_with`).
+        The contact penalty (Pa/m; :func:`~neurofuzzy.simulation.contact.contact_with`) at
+        the start model's Young's modulus; a fit scales it with E, so that without a load
+        cell the markers cannot tell E through the penalty's give.
     name : str
     """
 

@@ -218,7 +218,7 @@ def import_markers(args) -> int:
     from ..plausibility import check_body_size, check_length_option, check_recording
     from .steps import import_load_steps
 
-    if args.markers is None and args.displacements:
+    if args.markers is None and (args.displacements or args.tool_path):
         return import_load_steps(args)
     if args.markers is None:
         raise InputError("give the marker recording (MARKERS.csv or .c3d), or, for a "
@@ -226,7 +226,7 @@ def import_markers(args) -> int:
                          key="MARKERS")
     if Path(args.markers).suffix.lower() == ".csv" and has_step_column(args.markers):
         return import_load_steps(args)
-    for option in ("displacements", "drive_markers"):
+    for option in ("displacements", "drive_markers", "tool", "tool_path"):
         if getattr(args, option):
             raise InputError("drives nodes at load steps, which go with scans at load steps "
                              "(a marker CSV with a 'step' column); this recording is in time",

@@ -6,11 +6,9 @@ import argparse
 
 from . import batch, data, fitting, misc, steps, studio
 from .common import usage
+from .parser_import import FORMAT_DOC, add_import
 from ..forces.laws import LAWS
 from ..version import __version__
-
-#: where the experiment file (.npz) is documented in the repository
-FORMAT_DOC = "the format: docs/formats.md, section 'Experiment files'"
 
 __all__ = ["build_parser"]
 
@@ -312,75 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the model file to write (the start of 'fit --start')")
     mesh.set_defaults(run=data.mesh)
 
-    importer = commands.add_parser(
-        "import", help="marker recording (CSV or C3D) -> experiment file",
-        description="Attach the markers of an optical recording to the nodes of a model, "
-                    "resample to the model's step and write an experiment file (.npz; "
-                    f"{FORMAT_DOC}; nodes with markers observed; frames where a marker "
-                    "was not seen are gaps, never interpolated across).")
-    importer.add_argument("markers", metavar="MARKERS.csv|MARKERS.c3d", nargs="?",
-                          help="the marker recording (a load-step import may do without: "
-                               "the plate file's load cell alone)")
-    importer.add_argument("--topology", required=True, metavar="MODEL.yaml|EXPERIMENT.npz",
-                          help="the object's nodes and springs: a model (its masses become the "
-                               "experiment's known masses) or another experiment file")
-    importer.add_argument("--map", metavar="MAP.csv",
-                          help="marker,node pairs: each marker follows its node (--attach "
-                               "node); default: no map, markers embedded in the mesh unless "
-                               "--attach node, which takes each marker's nearest node")
-    importer.add_argument("--forces", metavar="FORCES.csv",
-                          help="time,node,fx,fy,fz in N, each row held until the node's next; "
-                               "or time,x,y,z,fx,fy,fz[,radius]: a probe's force at a point "
-                               "(unit in a '# length units: mm' line), a uniform traction "
-                               "within the contact radius, else given to the nearest surface "
-                               "node")
-    importer.add_argument("--attach", choices=("auto", "embed", "node"), default="auto",
-                          help="embed: each marker in the tetrahedron that contains it, "
-                               "observed by barycentric interpolation (lattices are split into "
-                               "tetrahedra for this); node: each marker follows its nearest "
-                               "node (or --map), its frame-0 offset removed; auto (default): "
-                               "node with --map or a time,node,... file, else embed")
-    importer.add_argument("--probe-radius", type=float, default=None, metavar="R",
-                          help="contact radius of the probes of a point-force CSV without a "
-                               "radius column (m): the force becomes a uniform traction on the "
-                               "surface within R of the point")
-    importer.add_argument("--force-spread", type=int, default=None, metavar="K",
-                          help="share each point force among the K nearest surface nodes "
-                               "(inverse-distance weights; default 1)")
-    importer.add_argument("--units", choices=("m", "cm", "mm"),
-                          help="length unit of the marker file (required unless the file "
-                               "states it: a CSV's '# units: mm' line, a C3D's POINT:UNITS; "
-                               "if both, they must agree)")
-    importer.add_argument("--dt", type=float, default=None,
-                          help="the model's step (s) to resample to (default: the topology "
-                               "file's dt, else the capture's frame period)")
-    importer.add_argument("--max-distance", type=float, default=None,
-                          help="farthest a marker may lie from its node (--attach node) or "
-                               "outside the mesh (embed) at the start (m; default half the "
-                               "shortest spring)")
-    importer.add_argument("--displacements", metavar="PLATE.csv",
-                          help="a load-step file's plate (MARKERS.csv with a 'step' column: "
-                               "scans at load steps, step 0 the reference): step,dx,dy,dz"
-                               "[,fx,fy,fz], the top plate's displacement per step and, where "
-                               "a load cell was read, its force ('# length units:' and "
-                               "'# force units:' lines); writes a load-step file")
-    importer.add_argument("--up", default="z", choices=steps.AXES,
-                          help="with --displacements: the axis the plate moves along, "
-                               "pointing away from the fixed bottom (default z; a negative "
-                               "one as --up=-z)")
-    importer.add_argument("--drive-markers", metavar="NAMES",
-                          help="a load-step file's measured boundary: the node under each of "
-                               "these markers (A,B,...) moved along that marker's scans, the "
-                               "markers no longer fitted; with --displacements beside the "
-                               "plate, without it the whole driven boundary")
-    importer.add_argument("--plate", choices=("bonded", "sliding"), default="bonded",
-                          help="with --displacements: the plate holds the top face in every "
-                               "direction (bonded, the default) or only along --up "
-                               "(frictionless, sliding)")
-    importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz",
-                          help="the experiment file to write")
-    importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    importer.set_defaults(run=data.import_markers)
+    add_import(commands, run=data.import_markers)
     return parser
 
 

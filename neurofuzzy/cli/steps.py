@@ -12,7 +12,8 @@ import numpy as np
 from ..errors import InputError
 from .common import Outputs, positive, print_json, written
 
-__all__ = ["import_load_steps", "fit_load_steps", "diagnose_load_steps", "AXES", "axis_of"]
+__all__ = ["import_load_steps", "import_indentation", "fit_load_steps", "diagnose_load_steps",
+           "AXES", "axis_of", "tool_option"]
 
 #: the axes a scan's "up" may be
 AXES = ("x", "y", "z", "-x", "-y", "-z")
@@ -41,6 +42,8 @@ def import_load_steps(args) -> int:
     from ..markers.steps import read_plate, read_step_markers
 
     drivers = [name.strip() for name in (args.drive_markers or "").split(",") if name.strip()]
+    if args.tool or args.tool_path:
+        return import_indentation(args)
     if not args.displacements and not drivers:
         raise InputError("a load-step file (a 'step' column) needs the plate's displacement "
                          "at each step: --displacements PLATE.csv (step,dx,dy,dz[,fx,fy,fz]), "
@@ -230,3 +233,87 @@ def _step_list(text: str | None) -> list[int]:
     except ValueError:
         raise InputError(f"got {text!r}; expected load steps as numbers, e.g. 3 or 2,3",
                          key="--validate-on") from None
+
+
+#: ``--tool`` kinds and their classes' names
+TOOLS = {"sphere": "Sphere", "punch": "FlatPunch"}
+
+
+def tool_option(text: str, up: str):
+    """The tool of ``--tool KIND:R=RADIUS`` (``sphere:R=5mm``, ``punch:R=2mm``; m, cm or mm,
+    metres without a unit); a punch's axis points along ``up``."""
+    from ..markers.units import LENGTH_UNITS
+    from ..simulation import contact
+
+    kind, _, rest = text.partition(":")
+    key, _, value = rest.partition("=")
+    unit = next((u for u in sorted(LENGTH_UNITS, key=len, reverse=True)
+                 if value.strip().endswith(u)), None)
+    number = value.strip()[:-len(unit)] if unit else value.strip()
+    try:
+        radius = float(number) * (LENGTH_UNITS[unit] if unit else 1.0)
+    except ValueError:
+        radius = None
+    if kind not in TOOLS or key.strip().upper() != "R" or radius is None:
+        raise InputError(f"got {text!r}; expected KIND:R=RADIUS with KIND one of "
+                         f"{', '.join(TOOLS)}, e.g. sphere:R=5mm", key="--tool")
+    if kind == "sphere":
+        return contact.Sphere(radius)
+    index, sign = axis_of(up)
+    return contact.FlatPunch(radius, tuple(sign * np.eye(3)[index]))
+
+
+def import_indentation(args) -> int:
+    """``import SCANS.csv --tool sphere:R=5mm --tool-path PATH.csv``: a load-step file of an
+    indenter pressed into the body (held by the model's fixed nodes), the markers embedded at
+    the reference scan, the load cell (if any) the tool's."""
+    from ..io import load_model
+    from ..io.load_steps import save_load_steps
+    from ..load_steps import LoadSteps, ToolPath
+    from ..markers.steps import read_step_markers, read_tool_path
+
+    if not (args.tool and args.tool_path):
+        missing = "--tool-path" if args.tool else "--tool"
+        raise InputError(f"an indenter needs both --tool KIND:R=RADIUS and --tool-path "
+                         f"PATH.csv; {missing} is missing", key=missing)
+    for option in ("displacements", "drive_markers"):
+        if getattr(args, option):
+            raise InputError("an indenter's load steps take no plate: the body is held by the "
+                             "model's fixed nodes and pressed by the tool",
+                             key=f"--{option.replace('_', '-')}")
+    tool = tool_option(args.tool, args.up)
+    positive(args.max_distance, "--max-distance")
+    topology = Path(args.topology)
+    outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path) if p])
+    out = outputs.file(args.out, "--out")
+    model = load_model(topology)
+    mesh = model.mesh
+    if mesh.tetrahedra is None:
+        raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
+                         "mesh --elements tetra)", source=str(topology), key="--topology")
+    scans = read_step_markers(args.markers, units=args.units) if args.markers else None
+    path = read_tool_path(args.tool_path, units=args.units,
+                          n_steps=None if scans is None else scans.positions.shape[0] - 1)
+    if scans is None and path.force is None:
+        raise InputError("without scans the load cell's force is all there is to fit: the "
+                         "tool file needs fx,fy,fz (and a '# force units:' line)",
+                         source=str(args.tool_path), key="--tool-path")
+    markers = None if scans is None else _embedded(mesh, scans, args.max_distance)
+    name = "sphere" if type(tool).__name__ == "Sphere" else "punch"
+    data = LoadSteps(mesh, (), markers, path.force, {}, str(args.tool_path),
+                     ToolPath(tool, path.displacement, name=name))
+    with outputs:
+        save_load_steps(data, out)
+    count = 0 if markers is None else markers.positions.shape[1]
+    depth = float(np.linalg.norm(path.displacement[-1] - path.displacement[0]))
+    summary = {"kind": "load steps", "steps": data.n_steps, "markers": count, "tool": name,
+               "tool_radius": tool.radius, "depth": depth,
+               "load_cell": path.force is not None, "out": str(args.out)}
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"wrote {args.out}: {count} markers at {data.n_steps} load steps, a {name} of "
+              f"radius {1e3 * tool.radius:g} mm pressed {1e3 * depth:.3g} mm"
+              + (", with the load cell's force" if path.force is not None
+                 else ", no force measured"))
+    return 0

@@ -25,7 +25,7 @@ the positions' (the equilibrium's stiffness, which the sensitivities solve with,
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,6 +35,7 @@ from ..load_steps import tool_at
 from ..model import Model
 from ..simulation.static import equilibrium
 from ..simulation.tangents import unit_forces
+from ._load_step_noise import kabsch, marker_rms as rms_of, residual_noise
 from ._reference_scan import MarkerGradients, project
 
 __all__ = ["LoadStepFit", "fit_load_steps"]
@@ -129,13 +130,8 @@ def _constants(theta):
     return E, nu, shear, lam, derivatives
 
 
-def _kabsch(measured, model):
-    """The rigid transform ``(R, t)`` moving ``measured`` (n, 3) closest onto ``model``."""
-    a0, b0 = measured.mean(axis=0), model.mean(axis=0)
-    u, _, vt = np.linalg.svd((measured - a0).T @ (model - b0))
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    R = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return R, b0 - R @ a0
+def _start_modulus(model) -> float:
+    return float(np.max(model.elements.youngs_modulus))
 
 
 def _forward(model, data, theta, steps, want_jacobian, warm=None, gradient_of=None):
@@ -149,9 +145,12 @@ def _forward(model, data, theta, steps, want_jacobian, warm=None, gradient_of=No
     current = model.with_elements(youngs_modulus=E, poisson_ratio=nu)
     H = (sp.csr_matrix((0, model.n_nodes)) if data.markers is None
          else data.markers.operator(model.n_nodes))
-    tool = data.tool                                        # κ from the start's E, not θ's
-    touch, measured_set = ((tool.contact(model), None) if tool is not None
-                           else (None, np.asarray(data.driven[0].nodes)))
+    tool, touch, measured_set = data.tool, None, None
+    if tool is not None:            # the penalty scales with E: the markers then cannot tell E
+        touch = tool.contact(model)
+        touch = replace(touch, stiffness=touch.stiffness * E / _start_modulus(model))
+    else:
+        measured_set = np.asarray(data.driven[0].nodes)
     markers, reactions, d_markers, d_reactions, gradients = [], [], [], [], []
     positions = None
     for step in range(1, max(steps) + 1):
@@ -179,13 +178,17 @@ def _forward(model, data, theta, steps, want_jacobian, warm=None, gradient_of=No
         free = np.setdiff1d(np.arange(3 * model.n_nodes), held)
         units = unit_forces(current, positions)[0].reshape(2, -1)     # (2, 3N)
         dF = dconst.T @ units                                         # (P, 3N)
+        if tool is not None:
+            dF[0] += result.contact_forces.ravel()        # κ ∝ E: ∂f/∂ log E = f
         dp = np.zeros((len(theta), 3 * model.n_nodes))
         dp[:, free] = result.solve_free(dF[:, free].T).T
         d_markers.append(np.stack([H @ d.reshape(-1, 3) for d in dp]))
         if tool is not None:
-            # the tool's force depends on the positions alone: d(Σ f)/dθ = -Σ K_tool dp
+            # d(Σ f)/dθ = -Σ K_tool dp, and Σ f itself by log E
             K_tool = contact["contact"].stiffness_matrix(positions)
-            d_reactions.append(-(K_tool @ dp.T).T.reshape(len(theta), -1, 3).sum(axis=1))
+            d_tool = -(K_tool @ dp.T).T.reshape(len(theta), -1, 3).sum(axis=1)
+            d_tool[0] += result.contact_force
+            d_reactions.append(d_tool)
             continue
         # reaction R_c = -(F + f)_c:  dR_c = -∂F_c/∂θ + K_cf dp_f
         on_set = np.zeros(3 * model.n_nodes, bool)
@@ -268,7 +271,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
         out = scans[:len(markers)].copy()
         for k in range(len(markers)):
             if register and seen[k].sum() >= 3:
-                R, t = _kabsch(scans[k, seen[k]], markers[k, seen[k]])
+                R, t = kabsch(scans[k, seen[k]], markers[k, seen[k]])
                 transforms[k, :3, :3], transforms[k, :3, 3] = R, t
             out[k] = scans[k] @ transforms[k, :3, :3].T + transforms[k, :3, 3]
         return out
@@ -343,7 +346,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
                 break
         if estimate and round_ == 0:
             reference, moved = misfit(markers, grads)[:2]
-            sigma_m, sigma_f = _noise(moved, reference, seen, fitted, reactions, reaction,
+            sigma_m, sigma_f = residual_noise(moved, reference, seen, fitted, reactions, reaction,
                                       sigma_m, sigma_f, marker_noise, force_noise, register,
                                       int(identifiable.sum()))
     J = jacobian(markers, grads, dm, dr)[:, identifiable]
@@ -355,7 +358,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     for i, name in enumerate(names):
         errors[name] = float(np.sqrt(covariance[i, i]) * scale[name])
     moved = misfit(markers, grads)[1]
-    marker_rms = _rms(moved, seen, fitted) if imaged else None
+    marker_rms = rms_of(moved, seen, fitted) if imaged else None
     force_rms = None if reaction is None else float(np.sqrt(np.mean(
         (reaction[[s - 1 for s in fitted]] - reactions[[s - 1 for s in fitted]]) ** 2)))
     validation = None
@@ -364,7 +367,7 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
     moved_all = misfit(everything[1], everything[6])[1]
     if held_out:
         validation = {"steps": held_out, "fitted_rms_error": marker_rms,
-                      "rms_error": _rms(moved_all, seen, held_out) if imaged else None}
+                      "rms_error": rms_of(moved_all, seen, held_out) if imaged else None}
         if reaction is not None:
             validation["force_error"] = float(np.sqrt(np.mean(
                 (reaction[[s - 1 for s in held_out]]
@@ -388,33 +391,3 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
                        np.where(np.isnan(moved_all), everything[1], scans_all - moved_all),
                        everything[2], scans_all, tuple(fitted), fixed,
                        marker_noise is None and imaged)
-
-
-def _rms(moved, seen, steps):
-    """Root mean square of the marker misfit per marker (m) over ``steps``."""
-    values = np.concatenate([np.sum(moved[s - 1][seen[s - 1]] ** 2, axis=-1) for s in steps])
-    return float(np.sqrt(values.mean()))
-
-
-def _noise(moved, reference, seen, fitted, reactions, reaction, sigma_m, sigma_f, given_m,
-           given_f, register, n_parameters):
-    """The markers' and the load cell's noise from the residuals (per coordinate, with the
-    degrees of freedom the fit used: the material's, per scan the registration's six, and
-    per marker its rest position's three when the reference scan's ``reference`` residual
-    is fitted too)."""
-    count = sum(int(seen[s - 1].sum()) * 3 for s in fitted)
-    blocks = 1 + (reaction is not None)
-    used = n_parameters / blocks + (6 * len(fitted) if register else 0)
-    squares = 0.0
-    if reference is not None:
-        count, used = count + reference.size, used + reference.size
-        squares = float(np.sum(reference**2))
-    if given_m is None and count:
-        squares += sum(float(np.sum(moved[s - 1][seen[s - 1]] ** 2)) for s in fitted)
-        sigma_m = np.sqrt(squares / max(count - used, 1))
-    if reaction is not None and given_f is None:
-        rows = [s - 1 for s in fitted]
-        squares = float(np.sum((reaction[rows] - reactions[rows]) ** 2))
-        sigma_f = max(np.sqrt(squares / max(3 * len(rows) - n_parameters / blocks, 1)),
-                      1e-9 * np.abs(reaction).max())
-    return sigma_m, sigma_f

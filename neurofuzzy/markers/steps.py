@@ -17,7 +17,8 @@ from ..errors import InputError
 from .csvtable import number, read_csv_table
 from .units import FORCE_UNITS, LENGTH_UNITS, check_statements, unit_factor
 
-__all__ = ["StepScans", "PlatePath", "read_step_markers", "read_plate", "has_step_column"]
+__all__ = ["StepScans", "PlatePath", "read_step_markers", "read_plate", "read_tool_path",
+           "has_step_column"]
 
 _NO_UNIT = ("states no length unit: add a line '# length units: mm' (m, cm or mm) or pass "
             "--units")
@@ -122,13 +123,39 @@ def read_plate(path: str | os.PathLike, *, n_steps: int | None = None,
     """Read a ``step,dx,dy,dz[,fx,fy,fz]`` CSV: the plate's displacement from rest at steps
     1..``n_steps`` (a step 0 row, if any, must be at rest) and the load cell's force;
     ``n_steps`` None: the file's last step (no scans to match)."""
+    source = str(path)
+    displacement, force = _read_steps(path, ("dx", "dy", "dz"), n_steps, units, "plate")
+    if np.isfinite(displacement[0]).all() and np.abs(displacement[0]).max() > 0:
+        raise InputError("step 0 is the reference: its displacement must be 0 0 0",
+                         source=source)
+    return PlatePath(displacement[1:], None if force is None else force[1:], source)
+
+
+def read_tool_path(path: str | os.PathLike, *, n_steps: int | None = None,
+                   units: str | None = None) -> PlatePath:
+    """Read a ``step,x,y,z[,fx,fy,fz]`` CSV: an indenter's reference point (a sphere's
+    centre, a punch's face centre) at the reference scan (step 0, required) and at steps
+    1..``n_steps``, and its load cell's force (the force the tool exerts on the body);
+    returned as a :class:`PlatePath` whose ``displacement`` holds the (n_steps + 1, 3)
+    positions."""
+    source = str(path)
+    positions, force = _read_steps(path, ("x", "y", "z"), n_steps, units, "tool")
+    if not np.isfinite(positions[0]).all():
+        raise InputError("has no step 0 row: the tool's position at the reference scan is "
+                         "where it starts", source=source)
+    return PlatePath(positions, None if force is None else force[1:], source)
+
+
+def _read_steps(path, columns, n_steps, units, what):
+    """``(values (n_steps + 1, 3) with NaN where a step has no row, force or None)`` of a
+    per-step CSV of ``columns`` and optional ``fx,fy,fz`` (metres and newtons)."""
     path = Path(path)
     source = str(path)
-    header, rows, stated = read_csv_table(path, required=[("step", "time"), ("dx",), ("dy",),
-                                                         ("dz",)])
+    header, rows, stated = read_csv_table(path, required=[("step", "time"),
+                                                          *((c,) for c in columns)])
     if "step" not in header:
-        raise InputError("has a 'time' column: a load-step experiment's plate file gives the "
-                         "displacement per 'step' (0 the reference)", source=source)
+        raise InputError(f"has a 'time' column: a load-step experiment's {what} file gives "
+                         "its place per 'step' (0 the reference)", source=source)
     check_statements(stated, ("units", "length units", "force units"), source)
     unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
                        keys=("units", "length units"), source=source, given=units,
@@ -151,27 +178,23 @@ def read_plate(path: str | os.PathLike, *, n_steps: int | None = None,
         n_steps = int(steps.max())
         if n_steps < 1:
             raise InputError("has only step 0; a fit needs load steps", source=source)
-    displacement = np.full((n_steps + 1, 3), np.nan)
+    values = np.full((n_steps + 1, 3), np.nan)
     force = np.full((n_steps + 1, 3), np.nan)
     for (line, row), step in zip(rows, steps):
         if step > n_steps:
             raise InputError(f"step {step} is not one of the scans' steps 0..{n_steps}",
                              source=source, line=line)
-        if np.isfinite(displacement[step]).any():
+        if np.isfinite(values[step]).any():
             raise InputError(f"step {step} appears twice", source=source, line=line)
-        displacement[step] = [number(row[header[c]], source, line, c) * unit
-                              for c in ("dx", "dy", "dz")]
+        values[step] = [number(row[header[c]], source, line, c) * unit for c in columns]
         if newton is not None:
             force[step] = [number(row[header[c]], source, line, c) * newton
                            for c in ("fx", "fy", "fz")]
-    absent = [s for s in range(1, n_steps + 1) if not np.isfinite(displacement[s]).all()]
+    absent = [s for s in range(1, n_steps + 1) if not np.isfinite(values[s]).all()]
     if absent:
         raise InputError(f"has no row for step(s) {absent}: the scans have steps 1..{n_steps}, "
-                         "and the plate's displacement is needed at each", source=source)
-    if np.isfinite(displacement[0]).all() and np.abs(displacement[0]).max() > 0:
-        raise InputError("step 0 is the reference: its displacement must be 0 0 0",
-                         source=source)
-    if not np.all(np.isfinite(displacement[1:])) or (
+                         f"and the {what}'s place is needed at each", source=source)
+    if not np.all(np.isfinite(values[1:])) or (
             newton is not None and not np.all(np.isfinite(force[1:]))):
         raise InputError("a displacement or force is not finite", source=source)
-    return PlatePath(displacement[1:], None if newton is None else force[1:], source)
+    return values, None if newton is None else force

@@ -1,0 +1,121 @@
+"""An indentation test from the command line, as a lab's files arrive: scans of beads in mm at
+a few load steps, the indenter's path and load cell per step, ``import --tool --tool-path``
+then ``fit``; and each bad input a clear message with exit status 2 and nothing written."""
+
+import json
+
+import numpy as np
+import pytest
+
+from helpers import cli
+from neurofuzzy.io import save_model
+from neurofuzzy.load_steps import ToolPath, simulate_load_steps
+from neurofuzzy.mesh import from_tetra, kuhn_block
+from neurofuzzy.model import Model
+from neurofuzzy.observation import EmbeddedMarkers, embed_points
+from neurofuzzy.simulation.contact import Sphere
+
+WIDTH, HEIGHT, RADIUS = 0.02, 0.01, 0.005
+DEPTHS = (2e-4, 4e-4, 6e-4)
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """A gel block (E 6 kPa, ν 0.45) on a fixed base, a sphere pressed into the middle of its
+    top: the model file a user meshes (the start: E 3 kPa), the scans, the tool's path with
+    its load cell, and the same without the force."""
+    folder = tmp_path_factory.mktemp("indentation")
+    points, tetrahedra = kuhn_block((6, 6, 3), WIDTH / 6)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=1.0,
+                            density=1000.0)
+    save_model(truth.with_elements(youngs_modulus=3000.0), folder / "model.yaml")
+    centre = np.array([WIDTH / 2, WIDTH / 2, HEIGHT + RADIUS])
+    path = centre - np.outer([0.0, *DEPTHS], (0, 0, 1))
+    beads = np.random.default_rng(2).uniform((0.2 * WIDTH, 0.2 * WIDTH, 0.2 * HEIGHT),
+                                             (0.8 * WIDTH, 0.8 * WIDTH, 0.9 * HEIGHT),
+                                             size=(30, 3))
+    nodes, weights, _ = embed_points(mesh, beads)
+    data = simulate_load_steps(truth, [], EmbeddedMarkers(nodes, weights, np.zeros((4, 30, 3))),
+                               marker_noise=2e-6, force_noise=1e-6, seed=4,
+                               tool=ToolPath(Sphere(RADIUS), path))
+    rows = ["# length units: mm", "step,marker,x,y,z"]
+    for step, scan in enumerate(data.markers.positions):
+        rows += [f"{step},bead{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
+                 for i, (x, y, z) in enumerate(scan)]
+    (folder / "scans.csv").write_text("\n".join(rows) + "\n")
+    tool = ["# length units: mm", "# force units: mN", "step,x,y,z,fx,fy,fz",
+            "0," + ",".join(f"{v * 1e3:.6f}" for v in path[0]) + ",0,0,0"]
+    tool += [f"{s},"
+             + ",".join(f"{v * 1e3:.6f}" for v in path[s]) + ","
+             + ",".join(f"{f * 1e3:.6f}" for f in data.reaction[s - 1])
+             for s in range(1, 4)]
+    (folder / "tool.csv").write_text("\n".join(tool) + "\n")
+    (folder / "tool-no-force.csv").write_text("\n".join(
+        ["# length units: mm", "step,x,y,z"]
+        + [f"{s}," + ",".join(f"{v * 1e3:.6f}" for v in path[s]) for s in range(4)]) + "\n")
+    return folder
+
+
+def _import(lab, tool_file, out, *extra, tool="sphere:R=5mm"):
+    return cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--tool", tool,
+               "--tool-path", lab / tool_file, "--out", out, *extra)
+
+
+def test_an_indentation_from_files_fits_e_and_nu_and_says_what_it_cannot(lab, tmp_path):
+    """With the load cell: E and ν near the truth; without it: E unidentifiable, no word,
+    ν found; the report draws the sphere's force."""
+    result = _import(lab, "tool.csv", tmp_path / "pressed.npz", "--json")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    assert summary["tool"] == "sphere" and summary["load_cell"] and summary["markers"] == 30
+    assert summary["depth"] == pytest.approx(6e-4, rel=1e-6)
+    fitted = cli("fit", tmp_path / "pressed.npz", "--start", lab / "model.yaml", "--json",
+                 "--report", tmp_path / "report.html")
+    assert fitted.returncode == 0, fitted.stderr
+    values = json.loads(fitted.stdout)
+    assert values["youngs_modulus"] == pytest.approx(6000.0, rel=0.02)
+    assert values["poisson_ratio"] == pytest.approx(0.45, abs=0.02)
+    assert "sphere" in (tmp_path / "report.html").read_text()
+    assert _import(lab, "tool-no-force.csv", tmp_path / "shape.npz").returncode == 0
+    shape = cli("fit", tmp_path / "shape.npz", "--start", lab / "model.yaml", "--json")
+    assert shape.returncode == 0, shape.stderr
+    record = json.loads(shape.stdout)
+    assert "youngs_modulus" in record["unidentifiable"] and record["youngs_modulus"] is None
+    assert record["poisson_ratio"] == pytest.approx(0.45, abs=0.03)
+
+
+@pytest.mark.parametrize("case, words", [
+    ("inside", "starts inside the body"),
+    ("jump", "more than its radius"),
+    ("no_units", "length unit"),
+    ("no_path", "--tool-path is missing"),
+    ("bad_kind", "KIND:R=RADIUS"),
+    ("with_plate", "take no plate"),
+])
+def test_bad_indentation_input_is_refused_with_exit_2_and_nothing_written(lab, tmp_path, case,
+                                                                         words):
+    text = (lab / "tool-no-force.csv").read_text().splitlines()
+    bad = tmp_path / "bad.csv"
+    out = tmp_path / "out.npz"
+    if case == "inside":
+        bad.write_text("\n".join(text[:2] + ["0,10,10,14"] + text[3:]) + "\n")
+    elif case == "jump":
+        bad.write_text("\n".join(text[:-1] + ["3,10,10,2"]) + "\n")
+    elif case == "no_units":
+        bad.write_text("\n".join(text[1:]) + "\n")
+    else:
+        bad.write_text("\n".join(text) + "\n")
+    if case == "no_path":
+        result = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--tool",
+                     "sphere:R=5mm", "--out", out)
+    elif case == "bad_kind":
+        result = _import(lab, "tool-no-force.csv", out, tool="cone:R=5mm")
+    elif case == "with_plate":
+        result = _import(lab, "tool-no-force.csv", out, "--displacements", bad)
+    else:
+        result = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--tool",
+                     "sphere:R=5mm", "--tool-path", bad, "--out", out)
+    assert result.returncode == 2, result.stderr
+    assert words in result.stderr and "Traceback" not in result.stderr
+    assert not out.exists()
