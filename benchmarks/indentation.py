@@ -35,47 +35,27 @@ sys.path.insert(0, str(ROOT))
 
 from neurofuzzy.learn.load_step_fit import fit_load_steps  # noqa: E402
 from neurofuzzy.load_steps import DrivenPath, LoadSteps, ToolPath  # noqa: E402
-from neurofuzzy.mesh import from_tetra, kuhn_block  # noqa: E402
-from neurofuzzy.model import Model  # noqa: E402
 from neurofuzzy.simulation.contact import PENALTY, Sphere, contact_with  # noqa: E402
 from neurofuzzy.simulation.static import Driven, equilibrium  # noqa: E402
+from neurofuzzy.validation.indentation import (bonded_layer_force, hertz_force,  # noqa: E402
+                                               quarter_block)
 
 E, H, R = 6000.0, 0.02, 0.005
 HALF_WIDTH, STRETCH = 0.02, 4.5          # the quarter's width (m); cells grow by e^(4.5/n)
 
 
 def hertz(nu, depth):
-    return 4 / 3 * E / (1 - nu**2) * np.sqrt(R) * depth**1.5
+    return hertz_force(E, nu, R, depth)
 
 
 def dimitriadis(nu, depth):
-    """Hertz's force on a layer of thickness H bonded to a rigid base (Dimitriadis et al.
-    2002, eq. 12, with their α₀, β₀ of ν)."""
-    chi = np.sqrt(R * depth) / H
-    a0 = -(1.2876 - 1.4678 * nu + 1.3442 * nu**2) / (1 - nu)
-    b0 = (0.6387 - 1.0277 * nu + 1.5164 * nu**2) / (1 - nu)
-    series = (1 - 2 * a0 / np.pi * chi + 4 * a0**2 / np.pi**2 * chi**2
-              - 8 / np.pi**3 * (a0**3 + 4 * np.pi**2 * b0 / 15) * chi**3
-              + 16 * a0 / np.pi**4 * (a0**3 + 3 * np.pi**2 * b0 / 5) * chi**4)
-    return hertz(nu, depth) * series
+    return bonded_layer_force(E, nu, R, depth, H)
 
 
 def quarter(cells, nu):
-    points, tetrahedra = kuhn_block((cells,) * 3, 1.0)
-    xi = points / cells
-
-    def grow(t, length):
-        return length * np.expm1(STRETCH * t) / np.expm1(STRETCH)
-
-    points = np.column_stack([grow(xi[:, 0], HALF_WIDTH), grow(xi[:, 1], HALF_WIDTH),
-                              H - grow(1 - xi[:, 2], H)])
-    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-12)
-    model = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=nu, viscosity=1.0,
-                            density=1000.0)
-    free = np.ones(mesh.n_nodes, bool)
-    free[mesh.fixed] = False
-    planes = [np.flatnonzero((points[:, k] < 1e-12) & free) for k in (0, 1)]
-    return model, planes
+    model, planes = quarter_block(cells, half_width=HALF_WIDTH, height=H, stretch=STRETCH,
+                                  youngs_modulus=E, poisson_ratio=nu)
+    return model, [nodes for nodes, _ in planes]
 
 
 def press(model, planes, depth, stiffness="auto"):

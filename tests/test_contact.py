@@ -6,34 +6,20 @@ import numpy as np
 import pytest
 
 from neurofuzzy.errors import InputError
-from neurofuzzy.mesh import from_tetra, kuhn_block
-from neurofuzzy.model import Model
 from neurofuzzy.simulation.contact import FlatPunch, Sphere, contact_with, surface_areas
 from neurofuzzy.simulation.static import Driven, equilibrium
+from neurofuzzy.validation.indentation import hertz_force, quarter_block
 
 E, H = 6000.0, 0.02          # Pa; the block's height (m)
 
 
 def _quarter(cells, nu, stretch=4.0, width=0.5):
-    """A quarter of a block ``2 width H`` wide and ``H`` tall, its cells shrinking
-    geometrically toward the top corner at ``x = y = 0`` (where a tool presses), the bottom
-    fixed, symmetry planes ``x = 0`` and ``y = 0`` held by sliding."""
-    points, tetrahedra = kuhn_block((cells,) * 3, 1.0)
-    xi = points / cells
-
-    def grow(t, length):
-        return length * np.expm1(stretch * t) / np.expm1(stretch)
-
-    points = np.column_stack([grow(xi[:, 0], width * H), grow(xi[:, 1], width * H),
-                              H - grow(1 - xi[:, 2], H)])
-    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-12)
-    model = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=nu, viscosity=1.0,
-                            density=1000.0)
-    free = np.ones(mesh.n_nodes, bool)
-    free[mesh.fixed] = False
-    planes = [Driven(np.flatnonzero((points[:, k] < 1e-12) & free), (0, 0, 0), "xy"[k])
-              for k in (0, 1)]
-    return model, planes
+    """A quarter of a block ``2 width H`` wide and ``H`` tall pressed at its top middle
+    (:func:`~neurofuzzy.validation.indentation.quarter_block`), its symmetry planes as
+    sliding driven sets."""
+    model, planes = quarter_block(cells, half_width=width * H, height=H, stretch=stretch,
+                                  youngs_modulus=E, poisson_ratio=nu)
+    return model, [Driven(nodes, (0, 0, 0), component) for nodes, component in planes]
 
 
 def _pressed(tool, depth, cells=6, nu=0.3, increments=1):
@@ -105,8 +91,20 @@ def test_a_sphere_pressed_half_a_percent_of_the_block_matches_hertz():
     sphere, depth = Sphere(H / 4), 0.005 * H
     model, contact, found = _pressed(sphere, depth, cells=12, nu=0.3, increments=2)
     force = -4 * found.contact_force[2]
-    hertz = 4 / 3 * E / (1 - 0.3**2) * np.sqrt(sphere.radius) * depth**1.5
-    assert force == pytest.approx(hertz, rel=0.03)
+    assert force == pytest.approx(hertz_force(E, 0.3, sphere.radius, depth), rel=0.03)
+
+
+def test_the_bonded_layer_series_is_dimitriadis_incompressible_one():
+    """At ν = 0.5 the bonded layer's correction is the published ``1 + 1.133 χ + 1.283 χ² +
+    0.769 χ³ + 0.0975 χ⁴`` (to its three or four digits), and Hertz's force as χ → 0."""
+    from neurofuzzy.validation.indentation import bonded_layer_force
+
+    chi = np.array([1e-4, 0.1, 0.3, 0.6])
+    depth = chi**2                                      # R = h = 1
+    ratio = bonded_layer_force(1.0, 0.5, 1.0, depth, 1.0) / hertz_force(1.0, 0.5, 1.0, depth)
+    published = 1 + 1.133 * chi + 1.283 * chi**2 + 0.769 * chi**3 + 0.0975 * chi**4
+    assert np.allclose(ratio, published, rtol=5e-4)
+    assert ratio[0] == pytest.approx(1.0, abs=2e-4)
 
 
 def test_surface_areas_add_up_to_the_surface():

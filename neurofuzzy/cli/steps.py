@@ -33,13 +33,28 @@ def top_face(mesh, up: str) -> np.ndarray:
     return np.flatnonzero(height >= height.max() - 0.25 * mesh.rest_lengths.min())
 
 
+def _specimen(args, topology: Path):
+    """``(mesh, scans or None)`` of a load-step import: the model file's tetrahedral mesh
+    and the scans at load steps (``step,marker,x,y,z``)."""
+    from ..io import load_model
+    from ..markers.steps import read_step_markers
+
+    if topology.suffix.lower() not in (".yaml", ".yml"):
+        raise InputError("a load-step import needs the model (.yaml, from 'neurofuzzy mesh "
+                         "--fix-bottom')", source=str(topology), key="--topology")
+    mesh = load_model(topology).mesh
+    if mesh.tetrahedra is None:
+        raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
+                         "mesh --elements tetra)", source=str(topology), key="--topology")
+    return mesh, read_step_markers(args.markers, units=args.units) if args.markers else None
+
+
 def import_load_steps(args) -> int:
     """``import`` of a ``step,marker,x,y,z`` file: the markers embedded in the topology's
     tetrahedra at the reference scan, the top face driven by the plate file."""
-    from ..io import load_model
     from ..io.load_steps import save_load_steps
     from ..load_steps import DrivenPath, LoadSteps
-    from ..markers.steps import read_plate, read_step_markers
+    from ..markers.steps import read_plate
 
     drivers = [name.strip() for name in (args.drive_markers or "").split(",") if name.strip()]
     if args.tool or args.tool_path:
@@ -57,15 +72,7 @@ def import_load_steps(args) -> int:
     topology = Path(args.topology)
     outputs = Outputs([Path(p) for p in (args.markers, topology, args.displacements) if p])
     out = outputs.file(args.out, "--out")
-    if topology.suffix.lower() not in (".yaml", ".yml"):
-        raise InputError("a load-step import needs the model (.yaml, from 'neurofuzzy mesh "
-                         "--fix-bottom')", source=str(topology), key="--topology")
-    model = load_model(topology)
-    mesh = model.mesh
-    if mesh.tetrahedra is None:
-        raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
-                         "mesh --elements tetra)", source=str(topology), key="--topology")
-    scans = read_step_markers(args.markers, units=args.units) if args.markers else None
+    mesh, scans = _specimen(args, topology)
     if not args.displacements:
         return _import_marker_driven(args, mesh, scans, drivers, outputs, out)
     plate = read_plate(args.displacements, units=args.units,
@@ -267,10 +274,9 @@ def import_indentation(args) -> int:
     """``import SCANS.csv --tool sphere:R=5mm --tool-path PATH.csv``: a load-step file of an
     indenter pressed into the body (held by the model's fixed nodes), the markers embedded at
     the reference scan, the load cell (if any) the tool's."""
-    from ..io import load_model
     from ..io.load_steps import save_load_steps
     from ..load_steps import LoadSteps, ToolPath
-    from ..markers.steps import read_step_markers, read_tool_path
+    from ..markers.steps import read_tool_path
 
     if not (args.tool and args.tool_path):
         missing = "--tool-path" if args.tool else "--tool"
@@ -286,12 +292,7 @@ def import_indentation(args) -> int:
     topology = Path(args.topology)
     outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path) if p])
     out = outputs.file(args.out, "--out")
-    model = load_model(topology)
-    mesh = model.mesh
-    if mesh.tetrahedra is None:
-        raise InputError("has no tetrahedra: load steps are fitted with elements (neurofuzzy "
-                         "mesh --elements tetra)", source=str(topology), key="--topology")
-    scans = read_step_markers(args.markers, units=args.units) if args.markers else None
+    mesh, scans = _specimen(args, topology)
     path = read_tool_path(args.tool_path, units=args.units,
                           n_steps=None if scans is None else scans.positions.shape[0] - 1)
     if scans is None and path.force is None:
