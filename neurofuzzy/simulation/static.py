@@ -24,6 +24,10 @@ the fixed nodes at rest, and every other node where the forces balance,
   sensitivities) and GMRES preconditioned by it solves those systems in a few triangular
   solves (:func:`_solve`; a new factorisation where it does not converge in 60), so a
   fit from three load steps of that block factorises 20 times instead of 93;
+- **a rigid tool in contact** (:mod:`.contact`: a sphere or a flat punch, a penalty on the
+  surface nodes) adds its force and stiffness; its Newton steps are scaled by the energy
+  along them (:func:`_energy_search`), since the largest out-of-balance force need not fall
+  along a good step while nodes enter and leave contact;
 - **relaxation** takes its long-time value (the Prony terms have relaxed: in equilibrium the
   internal variables cancel their share), and **viscosity** does nothing (no velocity).
 
@@ -35,6 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import scipy.sparse.linalg as spla
@@ -219,6 +224,9 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
                      else state.stiffness + touch.stiffness_matrix(positions))
         return type(state)(force, stiffness, None)
 
+    def forces_at(positions, fraction):
+        return state_at(positions, fraction, matrices=False).force
+
     p = np.array(rest if start is None else start, dtype=float)
     if p.shape != (n, 3) or not np.all(np.isfinite(p)):
         raise InputError(f"start must be finite positions of shape ({n}, 3); got {p.shape}",
@@ -250,10 +258,10 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             delta, factor = _solve(state.stiffness[free][:, free], out[free], factor,
                                    NEWTON_RTOL)
             iterations += 1
-            force_at = lambda q: state_at(q, fraction, matrices=False).force  # noqa: E731
-            p[free] += (_line_search(force_at, p, free, delta, load_now, residual)
-                        if contact is None else
-                        _energy_search(force_at, p, free, delta, load_now, out[free]))
+            p[free] += (_line_search(partial(forces_at, fraction=fraction), p, free, delta,
+                                     load_now, residual) if contact is None else
+                        _energy_search(partial(forces_at, fraction=fraction), p, free, delta,
+                                       load_now, out[free]))
             if np.abs(delta).max() <= 1e-4 * tolerance * size:
                 state = state_at(p.reshape(n, 3), fraction, matrices=False)
                 out = state.force.ravel() + load_now
