@@ -62,7 +62,7 @@ def press(model, planes, depth, stiffness="auto"):
     driven = [Driven(nodes, (0, 0, 0), "xy"[k]) for k, nodes in enumerate(planes)]
     contact = contact_with(model, Sphere(R), (0, 0, H + R - depth), stiffness=stiffness)
     start = time.perf_counter()
-    found = equilibrium(model, driven=driven, contact=contact, increments=2,
+    found = equilibrium(model, driven=driven, contact=contact, increments=1,
                         tool_start=(0, 0, H + R))
     return {"force": float(-4 * found.contact_force[2]),
             "penetration": contact.penetration(found.positions),
