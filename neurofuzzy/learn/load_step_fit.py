@@ -18,8 +18,9 @@ separate load steps are seldom registered exactly to each other: a rigid transfo
 taken (Kabsch's closed form, alternating with the material's steps).
 
 An indenter (``LoadSteps.tool``, :mod:`neurofuzzy.simulation.contact`) presses the body at
-each step; the load cell reads its force, whose derivative is the contact's stiffness times
-the positions' (the equilibrium's stiffness, which the sensitivities solve with, holds it).
+each step and the load cell reads its force. The contact's penalty scales with E, so without
+that force the markers cannot tell E through the penalty's give; the force's derivative is
+the contact's stiffness times the positions' plus, by log E, the force itself.
 """
 
 from __future__ import annotations
@@ -346,9 +347,9 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
                 break
         if estimate and round_ == 0:
             reference, moved = misfit(markers, grads)[:2]
-            sigma_m, sigma_f = residual_noise(moved, reference, seen, fitted, reactions, reaction,
-                                      sigma_m, sigma_f, marker_noise, force_noise, register,
-                                      int(identifiable.sum()))
+            sigma_m, sigma_f = residual_noise(moved, reference, seen, fitted, reactions,
+                                              reaction, sigma_m, sigma_f, marker_noise,
+                                              force_noise, register, int(identifiable.sum()))
     J = jacobian(markers, grads, dm, dr)[:, identifiable]
     covariance = np.linalg.pinv(J.T @ J)
     E, nu, *_ = _constants(theta)
