@@ -49,6 +49,18 @@ def _specimen(args, topology: Path):
     return mesh, read_step_markers(args.markers, units=args.units) if args.markers else None
 
 
+def _driver(read, file, option: str, what: str, args, mesh, scans):
+    """``(the driver's per-step file read by read, the embedded markers or None)``; without
+    scans the file must hold the load cell's force, all there is to fit then."""
+    path = read(file, units=args.units,
+                n_steps=None if scans is None else scans.positions.shape[0] - 1)
+    if scans is None and path.force is None:
+        raise InputError("without scans the load cell's force is all there is to fit: the "
+                         f"{what} file needs fx,fy,fz (and a '# force units:' line)",
+                         source=str(file), key=option)
+    return path, None if scans is None else _embedded(mesh, scans, args.max_distance)
+
+
 def import_load_steps(args) -> int:
     """``import`` of a ``step,marker,x,y,z`` file: the markers embedded in the topology's
     tetrahedra at the reference scan, the top face driven by the plate file."""
@@ -75,13 +87,8 @@ def import_load_steps(args) -> int:
     mesh, scans = _specimen(args, topology)
     if not args.displacements:
         return _import_marker_driven(args, mesh, scans, drivers, outputs, out)
-    plate = read_plate(args.displacements, units=args.units,
-                       n_steps=None if scans is None else scans.positions.shape[0] - 1)
-    if scans is None and plate.force is None:
-        raise InputError("without scans the load cell's force is all there is to fit: the "
-                         "plate file needs fx,fy,fz (and a '# force units:' line)",
-                         source=str(args.displacements), key="--displacements")
-    markers = None if scans is None else _embedded(mesh, scans, args.max_distance)
+    plate, markers = _driver(read_plate, args.displacements, "--displacements", "plate",
+                             args, mesh, scans)
     # the face 'mesh --drive-top' chose, else the one farthest along --up
     driven = mesh.driven if mesh.driven.size else top_face(mesh, args.up)
     components = "xyz" if args.plate == "bonded" else args.up[-1]
@@ -293,14 +300,9 @@ def import_indentation(args) -> int:
     outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path) if p])
     out = outputs.file(args.out, "--out")
     mesh, scans = _specimen(args, topology)
-    path = read_tool_path(args.tool_path, units=args.units,
-                          n_steps=None if scans is None else scans.positions.shape[0] - 1)
-    if scans is None and path.force is None:
-        raise InputError("without scans the load cell's force is all there is to fit: the "
-                         "tool file needs fx,fy,fz (and a '# force units:' line)",
-                         source=str(args.tool_path), key="--tool-path")
-    markers = None if scans is None else _embedded(mesh, scans, args.max_distance)
-    name = "sphere" if type(tool).__name__ == "Sphere" else "punch"
+    path, markers = _driver(read_tool_path, args.tool_path, "--tool-path", "tool", args, mesh,
+                            scans)
+    name = args.tool.partition(":")[0]
     data = LoadSteps(mesh, (), markers, path.force, {}, str(args.tool_path),
                      ToolPath(tool, path.displacement, name=name))
     with outputs:
