@@ -258,10 +258,10 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             delta, factor = _solve(state.stiffness[free][:, free], out[free], factor,
                                    NEWTON_RTOL)
             iterations += 1
-            p[free] += (_line_search(partial(forces_at, fraction=fraction), p, free, delta,
-                                     load_now, residual) if contact is None else
-                        _energy_search(partial(forces_at, fraction=fraction), p, free, delta,
-                                       load_now, out[free]))
+            force_at = partial(forces_at, fraction=fraction)
+            p[free] += (_line_search(force_at, p, free, delta, load_now, residual)
+                        if contact is None else
+                        _energy_search(force_at, p, free, delta, load_now, out[free]))
             if np.abs(delta).max() <= 1e-4 * tolerance * size:
                 state = state_at(p.reshape(n, 3), fraction, matrices=False)
                 out = state.force.ravel() + load_now
