@@ -156,6 +156,37 @@ def test_a_fit_that_cannot_beat_the_target_gives_up(target):
         assert np.allclose(asked, free.cost, rtol=0.01) and len(asked) >= 2
 
 
+@pytest.mark.parametrize("target", [0.8, 1.2])
+def test_floors_that_agree_far_from_the_minimum_are_asked_about(target):
+    """Rosenbrock's valley with a residual no parameter moves (0.01, the least cost): Gauss–
+    Newton's floor is the least cost at every point, far below the cost for most of the way
+    down the valley. Agreeing floors are asked about from the second Jacobian on: with a
+    target below the least cost the fit gives up there; with one above, it is the fit
+    without the question, step for step (targets as multiples of the least cost)."""
+    least = 0.5e-4
+    def residuals(x):
+        return np.array([10.0 * (x[1] - x[0] ** 2), 1.0 - x[0], 0.01])
+
+    def jacobian(x):
+        return np.array([[-20.0 * x[0], 10.0], [-1.0, 0.0], [0.0, 0.0]])
+
+    start, box = np.array([-1.2, 1.0]), (np.full(2, -np.inf), np.full(2, np.inf))
+    free = _lm.levenberg_marquardt(residuals, jacobian, start, *box, max_evaluations=200,
+                                   tolerance=1e-12)
+    assert free.cost == pytest.approx(least, rel=1e-4) and free.evaluations > 5
+    asked = []
+    solution = _lm.levenberg_marquardt(
+        residuals, jacobian, start, *box, max_evaluations=200, tolerance=1e-12,
+        give_up=lambda floor: asked.append(floor) or floor > target * least)
+    assert np.allclose(asked, least, rtol=1e-6)
+    if target < 1:
+        assert solution.reason == "given up" and len(asked) == 1
+        assert solution.evaluations <= 3 and solution.cost > 10 * free.cost
+    else:
+        assert solution.reason == free.reason and np.array_equal(solution.x, free.x)
+        assert len(asked) >= 3
+
+
 def test_the_learner_abandons_a_fit_that_cannot_come_below_the_leader():
     """An element fit of noisy data: asked to beat half the noise, it gives up after two
     Jacobians (``abandoned_``) with fewer simulations than the whole fit; asked to beat
@@ -229,3 +260,40 @@ def test_a_model_that_misses_stops_at_its_robust_standard_errors():
     assert robust.reason == "step below the standard errors"
     assert robust.evaluations < plain.evaluations
     assert robust.cost == pytest.approx(plain.cost, rel=1e-4)
+
+
+def test_a_diverged_trial_s_jacobian_pass_stops_where_the_state_diverges():
+    """A trial step too far (E 10⁴ times the data's, at the data's substeps) diverges: the run
+    with tangents ends where the state's run does (the same frames NaN) and leaves the
+    Jacobian's later frames zero, instead of carrying NaN tangents to the last frame; a
+    stable run's Jacobian is finite throughout."""
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.learn import Parameterization, Sensitivity
+    from neurofuzzy.learn.steps import auto_substeps
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import Model
+
+    mesh = from_tetra(*kuhn_block((3, 3, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=2.0,
+                            density=1050.0)
+    load = np.zeros((mesh.n_nodes, 3))
+    load[mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9] = [0, 0, -0.01]
+    steps = auto_substeps(truth, 1e-3)
+    data = simulate_experiment(truth, dt=1e-3, n_frames=30, external_forces=load,
+                               substeps=steps)
+    parameters = Parameterization(truth)
+    sensitivity = Sensitivity(parameters, 0.01)
+    assert sensitivity.compiled
+    theta = parameters.initial()
+    stable = sensitivity.run(theta, data, substeps=steps, tangents=True, threads=2)
+    assert stable.finite and np.all(np.isfinite(stable.jacobian))
+    far = theta.copy()
+    far[parameters.blocks["log_youngs_modulus"].slice] += np.log(1e4)
+    state = sensitivity.run(far, data, substeps=steps)
+    run = sensitivity.run(far, data, substeps=steps, tangents=True, threads=2)
+    diverged = np.flatnonzero(~np.isfinite(state.positions).all(axis=(1, 2)))
+    assert 0 < diverged[0] < data.n_frames - 5 and not run.finite
+    assert np.array_equal(~np.isfinite(run.positions).all(axis=(1, 2)),
+                          ~np.isfinite(state.positions).all(axis=(1, 2)))
+    assert np.all(run.jacobian[diverged[0] - 1:] == 0.0)

@@ -380,6 +380,12 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             euler_update(p, v, force, weight, h)
             # the update is linear: the tangents take the same one, (N, 3, P) seen as (N, 3P)
             euler_update(tp_flat, tv_flat, d_force_flat, weight, h)
+        if not np.isfinite(p.sum()):
+            # diverged (a trial step too far): the rest is not computed, as in the state's
+            # own run (the caller reads the residuals as diverged and never the Jacobian)
+            positions[t:] = np.nan
+            jacobian[t - 1:, :, :, first:first + width] = 0.0
+            return
         positions[t] = p
         for row in range(n_rows):
             out = jacobian[t - 1, row]
