@@ -64,7 +64,7 @@ def test_no_candidate_below_one_at_the_noise_is_refitted(capsys):
     assert result.names == ["gravity"]
     assert result.effects[0].parameters["gz"] == pytest.approx(-9.81, rel=1e-6)
     assert "gravity (ranked 1), refitted" in said and "(ranked 2)" not in said
-    assert "the 4 candidate(s) ranked below it are not refitted" in said
+    assert "the 4 candidate(s) after it are not refitted" in said
 
 
 def test_out_of_time_the_answer_so_far_is_provisional(capsys):
