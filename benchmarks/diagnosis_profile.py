@@ -11,11 +11,15 @@ solvers nobody here wrote, with a hidden effect or none:
 The start is the SVK block ``neurofuzzy mesh`` writes. Every progress line of the diagnosis is
 stamped with the seconds since it began; the phases are the spans between them (the first
 fit, each scoring, each refit, the mesh check); ``fits`` is the whole diagnosis in units of its
-first fit (the model as it is).
+first fit (the model as it is, at the diagnosis's looser tolerance), and with ``--one-fit``
+``fits_of_one_fit`` in units of one default fit of the same model (``GradientLearner()``, what
+``neurofuzzy fit`` runs), timed after the diagnosis in the same run: issue 51's yardstick.
 
     python benchmarks/diagnosis_profile.py                  # every case, ~20 min
     python benchmarks/diagnosis_profile.py --cases none "large strain"
     python benchmarks/diagnosis_profile.py --cases relaxing --max-effects 1 --no-mesh-check
+    python benchmarks/diagnosis_profile.py --cases "large strain" --max-effects 1 \
+        --no-mesh-check --one-fit
 
 Prints a table per case and writes ``benchmarks/diagnosis_profile.json``.
 """
@@ -31,6 +35,7 @@ import time
 from pathlib import Path
 
 from neurofuzzy.diagnosis import diagnose
+from neurofuzzy.learn import GradientLearner
 from neurofuzzy.validation.nonlinear.recordings import stored
 from neurofuzzy.validation.probed_block import block_experiment, block_model, probed_block
 
@@ -62,7 +67,8 @@ class _Stamped(io.TextIOBase):
         return len(text)
 
 
-def profile(case: str, max_effects: int = 3, mesh_check: bool = True) -> dict:
+def profile(case: str, max_effects: int = 3, mesh_check: bool = True,
+            one_fit: bool = False) -> dict:
     source = CASES[case]
     data = stored(source) if isinstance(source, Path) else probed_block(**source)
     start = block_model().tied("global")
@@ -82,7 +88,13 @@ def profile(case: str, max_effects: int = 3, mesh_check: bool = True) -> dict:
     first_fit = phases[0]["seconds"]
     named = next((seconds for seconds, line in stamped.lines
                   if line.startswith(("diagnose: found", "diagnose: none"))), total)
-    return {"case": case, "max_effects": max_effects, "mesh_check": mesh_check,
+    extra = {}
+    if one_fit:             # the same model fitted as `neurofuzzy fit` would, nothing else
+        began = time.perf_counter()
+        GradientLearner(mesh_check=False).fit(start, experiment)
+        extra["one_fit"] = round(time.perf_counter() - began, 1)
+        extra["fits_of_one_fit"] = round(total / extra["one_fit"], 2)
+    return {**extra, "case": case, "max_effects": max_effects, "mesh_check": mesh_check,
             "first_answer": round(named, 1), "elements": start.mesh.n_tetrahedra, "nodes": start.n_nodes,
             "frames": experiment.n_frames, "answer": result.names,
             "expected": EXPECTED[case], "right": result.names[:1] == EXPECTED[case][:1],
@@ -98,16 +110,20 @@ def main(argv=None) -> int:
                         help="as diagnose's (default 3); 1: until the first effect is named")
     parser.add_argument("--no-mesh-check", action="store_true",
                         help="leave out the refit on the refined mesh (16 fits' work)")
+    parser.add_argument("--one-fit", action="store_true",
+                        help="also time one default fit of the model (the yardstick)")
     args = parser.parse_args(argv)
     results = []
     for case in args.cases:
-        result = profile(case, args.max_effects, not args.no_mesh_check)
+        result = profile(case, args.max_effects, not args.no_mesh_check, args.one_fit)
         results.append(result)
         print(f"\n{case}: {result['nodes']} nodes, {result['elements']} tetrahedra, "
               f"{result['frames']} frames -> {', '.join(result['answer'])} "
               f"({'right' if result['right'] else 'expected ' + result['expected'][0]}) in "
               f"{result['seconds']:.0f} s, {result['fits']:.1f} times its first fit; the "
-              f"first answer after {result['first_answer']:.0f} s")
+              f"first answer after {result['first_answer']:.0f} s" + (
+                  f"; one default fit {result['one_fit']:.0f} s, the diagnosis "
+                  f"{result['fits_of_one_fit']:.1f} of them" if args.one_fit else ""))
         for phase in result["phases"]:
             print(f"  {phase['seconds']:7.1f} s  until: {phase['until']}")
     path = Path(__file__).with_suffix(".json")
