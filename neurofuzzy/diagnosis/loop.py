@@ -277,7 +277,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
             # starts well: a refit that stays above the noise is made once more from the
             # start model's values; a law's switch starts there (the fitted values are the
             # old law's: on sfepy's block at 27 % strain the SVK fit's viscosity rose 11x,
-            # and the neo-Hookean refit took 122 s from them, 24 s from the start's)
+            # and the neo-Hookean refit took 122 s from them; from the start's, with the
+            # fitted ones given up as the second start, 32 s)
             starts = [current, model.with_effects(*current.effects)]
             if switches(candidate) and not candidate.effect.switches_partly:
                 starts.reverse()

@@ -45,9 +45,9 @@ def to_refit(ranked, evidence, verdict, rms, say) -> list:
     when a good leader comes early. A switch changes every element, which a linearised step
     underestimates most (sfepy's block at 27 % strain, 4 mm voxels: the law switch explained
     26 % linearly, an inclusion 40 %; refitted, the switch shrank the gap 6.9×, the inclusion
-    1.8×), and its refit starts from the fitted model with no region to find. Refitted after
-    the law switch, the inclusion was given up in 24 s; refitted first, with no leader, it
-    ran 174 s. Within each group the order is the score's."""
+    1.8×), and its refit has no region to find. Refitted after the law switch, the inclusion
+    was given up in 22 s; refitted first, with no leader, it ran 174 s. Within each group
+    the order is the score's."""
     strong = [c for c in ranked if c.score >= MIN_EVIDENCE]
     if verdict.explained:
         strong = [c for c in strong if c.explained >= evidence.min_explained]

@@ -101,9 +101,9 @@ def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluation
 
     ``give_up(floor)``, when given, is asked whether to stop with the cost Gauss–Newton
     predicts as the least reachable from the point (:func:`floor`), at every Jacobian where
-    that prediction is at least ``TRUSTED_FLOOR`` of the cost; a stop it asks for ends the
-    fit with the reason ``"given up"``; and where it agrees with the floor at the last
-    Jacobian within ``AGREEING_FLOORS``. Farther from a minimum the linearisation can promise
+    that prediction is at least ``TRUSTED_FLOOR`` of the cost or agrees with the last
+    Jacobian's within ``AGREEING_FLOORS``; a stop it asks for ends the fit with the reason
+    ``"given up"``. Farther from a minimum the linearisation can promise
     far too little: fitting a damped oscillation from a start at 200 times the least cost,
     the first three floors were 39, 7 and 3 times it (each far below the last). A fit that
     creeps with small damped steps can promise the same all along: the relaxation refit of a
