@@ -18,7 +18,7 @@ from ..io.writing import json_safe
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
 from .localise import INCLUSIONS, Localisation, localise, seeded
-from .refits import FIT_TOLERANCE, confirm, refit_candidate, switches, to_refit
+from .refits import confirm, refit_candidate, switches, to_refit, tolerance
 from .scoring import Candidate, confidence, gap, nothing_left
 from .trajectory import TrajectoryEvidence
 
@@ -209,7 +209,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
 
     clock = Clock(max_time)
     fitted = clock.timed(lambda: GradientLearner(
-        substeps=substeps, mesh_check=False, tolerance=FIT_TOLERANCE).fit(model, experiments))
+        substeps=substeps, mesh_check=False, **tolerance(in_trajectory_space)).fit(
+            model, experiments))
     current, rms, steps = fitted.model_, fitted.rms_error_, fitted.substeps_
     rms_start, verdict = rms, fitted.lack_of_fit_
     say(f"diagnose: fitted the model as it is, {verdict.short}")

@@ -101,10 +101,9 @@ class GradientLearner(Learner):
         An RMS error per marker (metres) the fit has to be able to beat, or it stops: once,
         at two such Jacobians in a row, Gauss–Newton's prediction of the least error reachable
         from there (:func:`._lm.floor`; asked only near a minimum, where it predicts that at
-        most half the cost can go, or where it agrees with the prediction at the Jacobian
-        before) is above it, the fit ends where it is and ``abandoned_`` is True
-        (Levenberg–Marquardt on the whole recording only). The diagnosis gives it
-        the best refit so far, so that a candidate which cannot overtake it stops early.
+        most half the cost can go, or where it agrees with the last one) is above it, the fit
+        ends where it is and ``abandoned_`` is True (Levenberg–Marquardt on the whole
+        recording only). The diagnosis gives it the best refit so far.
     fitted_at : int, optional
         The substeps per frame at which the start model is already fitted (the diagnosis's
         winning refit, made at one step): with ``substeps="auto"`` they are the fit's first
