@@ -12,8 +12,9 @@ The start is the SVK block ``neurofuzzy mesh`` writes. Every progress line of th
 stamped with the seconds since it began; the phases are the spans between them (the first
 fit, each scoring, each refit, the mesh check); ``fits`` is the whole diagnosis in units of its
 first fit (the model as it is, at the diagnosis's looser tolerance), and with ``--one-fit``
-``fits_of_one_fit`` in units of one default fit of the same model (``GradientLearner()``, what
-``neurofuzzy fit`` runs), timed after the diagnosis in the same run: issue 51's yardstick.
+``fits_of_one_fit`` in units of one fit of the same model as ``neurofuzzy fit`` makes it
+(``GradientLearner(substeps="auto")``, its default tolerance), timed after the diagnosis in the
+same run: issue 51's yardstick.
 
     python benchmarks/diagnosis_profile.py                  # every case, ~20 min
     python benchmarks/diagnosis_profile.py --cases none "large strain"
@@ -91,11 +92,12 @@ def profile(case: str, max_effects: int = 3, mesh_check: bool = True,
     extra = {}
     if one_fit:             # the same model fitted as `neurofuzzy fit` would, nothing else
         began = time.perf_counter()
-        GradientLearner(mesh_check=False).fit(start, experiment)
+        GradientLearner(substeps="auto", mesh_check=False).fit(start, experiment)
         extra["one_fit"] = round(time.perf_counter() - began, 1)
         extra["fits_of_one_fit"] = round(total / extra["one_fit"], 2)
     return {**extra, "case": case, "max_effects": max_effects, "mesh_check": mesh_check,
-            "first_answer": round(named, 1), "elements": start.mesh.n_tetrahedra, "nodes": start.n_nodes,
+            "first_answer": round(named, 1), "elements": start.mesh.n_tetrahedra,
+            "nodes": start.n_nodes,
             "frames": experiment.n_frames, "answer": result.names,
             "expected": EXPECTED[case], "right": result.names[:1] == EXPECTED[case][:1],
             "verdict": result.verdict, "seconds": round(total, 1),
