@@ -216,6 +216,7 @@ def diagnose(args) -> int:
     at_least(args.max_effects, 0, "--max-effects")
     positive(args.max_time, "--max-time")
     substeps = _substeps(args.substeps)
+    window = _window(args.window)
     with Outputs(_protected(args)) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
@@ -231,7 +232,8 @@ def diagnose(args) -> int:
             result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
                                    substeps=substeps, prior=prior,
                                    mesh_check=not args.no_mesh_check,
-                                   max_time=args.max_time, progress=progress)
+                                   max_time=args.max_time, window=window,
+                                   progress=progress)
         check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
                       result.rms_after, substeps)
         if out:
@@ -249,8 +251,13 @@ def diagnose(args) -> int:
         for finding in result.effects:
             print(f"  {finding.name} (confidence {finding.confidence:.2f}, runner-up "
                   f"{finding.runner_up}){_where(finding)}: {finding.parameters}")
-        print(f"RMS error per marker: {length_text(result.rms_before)} -> "
-              f"{length_text(result.rms_after)} (marker noise {length_text(result.noise_rms)})")
+        first, every = "", ""
+        if result.window and not result.window["rediagnosed"]:
+            first = f" (first {result.window['frames']} frames)"
+            every = f" (all {result.window['of']})"
+        print(f"RMS error per marker: {length_text(result.rms_before)}{first} -> "
+              f"{length_text(result.rms_after)}{every} (marker noise "
+              f"{length_text(result.noise_rms)})")
         print(f"verdict: {result.verdict}")
         if result.localisation:
             covered = ", ".join(f"{share:.0%}" for share in result.localisation.overlap)
@@ -284,3 +291,15 @@ def _substeps(value):
     from ..simulation import check_substeps
 
     return check_substeps(value, "--substeps")
+
+
+def _window(value: str):
+    """``--window``: 'auto', 'all' or a whole number of frames (at least 2)."""
+    from ..errors import InputError
+
+    if value in ("auto", "all"):
+        return value
+    if not value.isdigit() or int(value) < 2:
+        raise InputError(f"got {value!r}; expected 'auto', 'all' or a whole number of frames "
+                         "(at least 2)", key="--window")
+    return int(value)

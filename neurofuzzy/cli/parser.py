@@ -157,6 +157,10 @@ def build_parser() -> argparse.ArgumentParser:
     diagnose.add_argument("--max-time", type=float, metavar="SECONDS",
                           help="answer after about this many seconds with the best answer so "
                                "far, marked provisional (checked between fits)")
+    diagnose.add_argument("--window", default="auto", metavar="FRAMES|auto|all",
+                          help="diagnose a long recording on its first FRAMES frames of "
+                               "motion, then fit the answer on all of them; 'auto' (default): "
+                               "the first 60 of a recording with more than 120")
     diagnose.add_argument("--out", help="write the final model (with the effects) as YAML")
     diagnose.add_argument("--report", help="write an HTML report (and a .json twin)")
     diagnose.add_argument("--localise", action="store_true",

@@ -15,22 +15,19 @@ from ..progress import note
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
 from .localise import INCLUSIONS, localise, seeded
-from .refits import confirm, refit_candidate, switches, to_refit, tolerance
+from .refits import (MIN_SHRINK, confirm, refit_with_starts, switches, to_refit,
+                     tolerance)
 from .result import Diagnosis, Finding, mesh_share, where
 from .scoring import Candidate, confidence, gap, nothing_left
 from .trajectory import TrajectoryEvidence
+from .window import first_frames, on_all_frames, window_frames
 
 __all__ = ["diagnose", "Diagnosis", "Finding"]
-
-#: Refitting with a candidate must shrink the gap above the noise floor at least this many
-#: times (and the candidate have :data:`~.refits.MIN_EVIDENCE`).
-MIN_SHRINK = 1.5
-
 
 def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
              max_effects: int = 3, substeps: int | str = "auto", prior=None,
              mesh_check: bool = True, max_time: float | None = None,
-             progress: bool = False) -> Diagnosis:
+             window: int | str | None = "auto", progress: bool = False) -> Diagnosis:
     """Find, name and add the effects the model lacks (see the module docstring).
 
     Parameters
@@ -60,6 +57,11 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         Seconds of wall time: once they are spent, no further fit starts and the best answer
         so far is returned, marked :attr:`Diagnosis.provisional` (checked between fits, so
         the answer comes at most one fit late; the first fit always runs).
+    window : "auto", "all", None or int
+        Frames of motion (after the load's onset) to diagnose a long recording on, its
+        answer then fitted on all frames (:mod:`.window`): ``"auto"`` the first
+        :data:`~.window.WINDOW` of recordings in trajectory space with more than
+        :data:`~.window.LONG` times as many; ``"all"`` or None: every frame.
     progress : bool
         Report each round on stderr, each refit with an estimate of the round's time left.
     """
@@ -68,11 +70,31 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     # diagnosed from the free-run marker error (trajectory space)
     in_trajectory_space = model.elements is not None or any(e.markers is not None
                                                      for e in experiments)
+    clock = Clock(max_time)
+    frames = window_frames(experiments, window)
+    options = {"max_effects": max_effects, "substeps": substeps, "prior": prior,
+               "mesh_check": mesh_check, "progress": progress}
+    if frames is None or not in_trajectory_space:
+        return _rounds(model, experiments, clock, in_trajectory_space, **options)
+    total, shown = (max(e.n_frames for e in experiments),
+                    max(e.load_onset for e in experiments) + frames)
+    note(progress, f"diagnose: {total} frames; diagnosing the first {shown} ({frames} of "
+         "motion), then fitting the answer on all")
+    found = _rounds(model, first_frames(experiments, frames), clock, True, **options,
+                    confirm_winner=False)
+    return on_all_frames(found, experiments, frames, clock, lambda line: note(progress, line),
+                         lambda: _rounds(model, experiments, clock, True, **options))
+
+
+def _rounds(model, experiments, clock, in_trajectory_space, *, max_effects, substeps, prior,
+            mesh_check, progress, confirm_winner=True) -> Diagnosis:
+    """The diagnosis's rounds on ``experiments`` (checked), timed by ``clock``; a winner's
+    fit confirmed at two steps unless ``confirm_winner`` is False (a window's answer, which
+    is fitted and confirmed on all frames after)."""
 
     def say(message):
         note(progress, message)
 
-    clock = Clock(max_time)
     fitted = clock.timed(lambda: GradientLearner(
         substeps=substeps, mesh_check=False, **tolerance(in_trajectory_space)).fit(
             model, experiments))
@@ -138,27 +160,10 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                 break
             say(f"diagnose: refitting {candidate.name} ({order + 1} of {len(tried)}; "
                 f"{clock.estimate(len(tried) - order)})")
-            # the fitted model may have bent its own values to make up for what it lacks
-            # (softened the whole block for hidden gravity), far from where the effect's fit
-            # starts well: a refit that stays above the noise is made once more from the
-            # start model's values; a law's switch starts there (the fitted values are the
-            # old law's: on sfepy's block at 27 % strain the SVK fit's viscosity rose 11x,
-            # and the neo-Hookean refit took 122 s from them; from the start's, with the
-            # fitted ones given up as the second start, 32 s)
-            starts = [current, model.with_effects(*current.effects)]
-            if switches(candidate) and not candidate.effect.switches_partly:
-                starts.reverse()
-            refit = clock.timed(lambda: refit_candidate(
-                candidate, starts[0], evidence, experiments, substeps,
-                staged=not in_trajectory_space, abandon_above=leader))
-            if not refit.lack_of_fit_.explained and clock.out():
-                clock.left_out(f"{candidate.name} not refitted from a second start")
-            elif not refit.lack_of_fit_.explained:
-                again = clock.timed(lambda: refit_candidate(
-                    candidate, starts[1], evidence, experiments, substeps,
-                    staged=not in_trajectory_space,
-                    abandon_above=min(leader, refit.rms_error_)))
-                refit = min(refit, again, key=lambda fitted: fitted.rms_error_)
+            refit = refit_with_starts(candidate, current, model.with_effects(*current.effects),
+                                      evidence, experiments, substeps, in_trajectory_space,
+                                      clock, leader=leader, noise_rms=noise_rms,
+                                      gap_before=gap_before)
             gap_after = gap(refit.rms_error_, noise_rms)
             say(f"diagnose: {candidate.name} (ranked {rank + 1}), refitted: " +
                 (f"shrinks the gap {gap_before / gap_after:.2g}x" if gap_after > 0 else
@@ -181,7 +186,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
         if gap_after * MIN_SHRINK > gap_before:
             say("diagnose: no candidate shrinks the gap enough when refitted")
             break
-        if in_trajectory_space and substeps == "auto" and not clock.out():
+        if in_trajectory_space and substeps == "auto" and confirm_winner and not clock.out():
             # the refits compared at one step; the winner's fit confirmed as every fit is
             # (Richardson's two steps), from where its refit ended
             say(f"diagnose: confirming {winner.name} (the fit at two steps, extrapolated)")

@@ -84,6 +84,13 @@ class Diagnosis:
     provisional : str or None
         Why the answer is provisional (the diagnosis ran out of ``max_time`` with work left:
         what it did not do); None for a complete diagnosis.
+    window : dict or None
+        A long recording diagnosed on its first frames (:mod:`.window`): ``frames`` of
+        ``of``, the window's ``rms_before`` and ``rms_after``, and whether its answer
+        ``held`` on all frames (None: not fitted there for want of time) and, when it did not,
+        whether the whole recording was ``rediagnosed``. The findings and
+        :attr:`rms_before` are then the window's; :attr:`model_`, :attr:`rms_after`,
+        :attr:`noise_rms` and :attr:`lack_of_fit` all the frames'. None: all frames.
     """
 
     effects: list
@@ -97,6 +104,7 @@ class Diagnosis:
     lack_of_fit: object = None
     mesh: dict | None = None
     provisional: str | None = None
+    window: dict | None = None
 
     @property
     def unexplained(self) -> bool:
@@ -115,7 +123,18 @@ class Diagnosis:
     def verdict(self) -> str:
         """The answer in words, with the lack of fit of the final model."""
         head = f"provisional ({self.provisional}): " if self.provisional else ""
-        return head + self._verdict()
+        return head + self._verdict() + self._window_words()
+
+    def _window_words(self) -> str:
+        if self.window is None:
+            return ""
+        first, total = self.window["frames"], self.window["of"]
+        if self.window["rediagnosed"]:
+            return (f" (the first {first} frames' answer did not hold on all {total}: all "
+                    "diagnosed)")
+        return f" (diagnosed on the first {first} of {total} frames" + {
+            True: ", the answer fitted on all of them)", None: ")",
+            False: "; that answer does not hold on all of them)"}[self.window["held"]]
 
     def _verdict(self) -> str:
         if self.lack_of_fit is None:
@@ -142,7 +161,7 @@ class Diagnosis:
             "rms_before": self.rms_before, "rms_after": self.rms_after,
             "noise_rms": self.noise_rms, "verdict": self.verdict,
             "lack_of_fit": self.lack_of_fit.to_dict() if self.lack_of_fit else None,
-            "mesh": self.mesh, "provisional": self.provisional,
+            "mesh": self.mesh, "provisional": self.provisional, "window": self.window,
             "candidates": [c.to_dict() for c in self.candidates],
             "rounds": [{"candidates": [c.to_dict() for c in r["candidates"]], "rms": r["rms"],
                         "winner": r["winner"]} for r in self.rounds],
