@@ -60,6 +60,20 @@ def test_the_window_answer_is_fitted_on_all_frames():
     assert json.loads(json.dumps(result.to_dict()))["window"]["held"] is True
 
 
+def test_the_window_answer_is_fitted_on_all_frames_at_the_substeps_given():
+    """``substeps`` given as a number: the fit on all frames is made there (no two-step
+    confirmation, which is the "auto" fit's)."""
+    from neurofuzzy.simulation import stability_limit
+    from test_diagnosis_elements import DT
+
+    steps = int(np.ceil(DT / stability_limit(block()).max_step))
+    result = diagnose(start(), measured(block()), window=SHOWN, mesh_check=False,
+                      substeps=steps)
+    assert result.names == ["none"] and result.window["held"] is True
+    assert rms_error(result.model_, measured(block()), substeps=steps) == pytest.approx(
+        result.rms_after, rel=0.02)
+
+
 def test_a_window_answer_that_fails_on_all_frames_diagnoses_them_all(capsys):
     """The markers drift by 20 noise sigmas, growing steadily, after the window (a camera
     that slipped): the window is at the noise, all frames are not, so the whole recording

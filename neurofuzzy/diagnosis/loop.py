@@ -82,7 +82,8 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
          "motion), then fitting the answer on all")
     found = _rounds(model, first_frames(experiments, frames), clock, True, **options,
                     confirm_winner=False)
-    return on_all_frames(found, experiments, frames, clock, lambda line: note(progress, line),
+    return on_all_frames(found, experiments, frames, substeps, clock,
+                         lambda line: note(progress, line),
                          lambda: _rounds(model, experiments, clock, True, **options))
 
 

@@ -54,9 +54,10 @@ def first_frames(experiments, frames: int) -> list:
     return [e.first_frames(e.load_onset + frames) for e in experiments]
 
 
-def on_all_frames(found, experiments, frames: int, clock, say, rerun):
+def on_all_frames(found, experiments, frames: int, substeps, clock, say, rerun):
     """The window's diagnosis ``found`` with its model fitted on all ``experiments``' frames
-    (from its values): its ``model_``, ``rms_after``, ``noise_rms`` and ``lack_of_fit`` are
+    (from its values, at ``substeps``; ``"auto"``: at the model's stable step, confirmed at
+    two as every winner is): its ``model_``, ``rms_after``, ``noise_rms`` and ``lack_of_fit`` are
     then all the frames', its findings and ``rms_before`` the window's; ``window`` says which
     (:class:`~.result.Diagnosis`). When the window's answer explained its frames but the
     fit on all of them stays above the noise, the answer did not hold: ``rerun()`` diagnoses
@@ -71,11 +72,13 @@ def on_all_frames(found, experiments, frames: int, clock, say, rerun):
         return replace(found, window=about, provisional=clock.provisional)
     say(f"diagnose: fitting the answer ({', '.join(found.names)}) on all {total} frames, "
         f"from the first {shown} frames' values")
-    steps = max(auto_substeps(found.model_, e.dt) for e in experiments)
+    auto = substeps == "auto"
+    steps = max(auto_substeps(found.model_, e.dt) for e in experiments) if auto else substeps
     fitted = clock.timed(lambda: GradientLearner(
         substeps=steps, windows=(), mesh_check=False, tolerance=FIT_TOLERANCE).fit(
             found.model_, experiments))
-    fitted = clock.timed(lambda: confirm(fitted, experiments))
+    if auto:
+        fitted = clock.timed(lambda: confirm(fitted, experiments))
     verdict = fitted.lack_of_fit_
     held = verdict.explained or not found.lack_of_fit.explained
     about.update(held=held)
