@@ -33,6 +33,8 @@ def test_auto_windows_only_recordings_long_against_the_window():
     assert window_frames([_Moving(401)], "all") is None
     assert window_frames([_Moving(401)], None) is None
     assert window_frames([_Moving(401)], 50) == 50
+    assert window_frames([_Moving(401)], np.int64(50)) == 50 == window_frames([_Moving(401)],
+                                                                              50.0)
     assert window_frames([_Moving(401)], 371) is None         # the whole motion: no window
 
 

@@ -88,9 +88,10 @@ class Diagnosis:
         A long recording diagnosed on its first frames (:mod:`.window`): ``frames`` of
         ``of``, the window's ``rms_before`` and ``rms_after``, and whether its answer
         ``held`` on all frames (None: not fitted there for want of time) and, when it did not,
-        whether the whole recording was ``rediagnosed``. The findings and
-        :attr:`rms_before` are then the window's; :attr:`model_`, :attr:`rms_after`,
-        :attr:`noise_rms` and :attr:`lack_of_fit` all the frames'. None: all frames.
+        whether the whole recording was ``rediagnosed``. The findings, :attr:`rms_before`
+        and :attr:`mesh` are then the window's; :attr:`model_`, :attr:`rms_after`,
+        :attr:`noise_rms` and :attr:`lack_of_fit` all the frames' (everything is, once
+        ``rediagnosed``). None: all frames.
     """
 
     effects: list

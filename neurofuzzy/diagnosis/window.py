@@ -19,6 +19,7 @@ frames are not explained, the whole recording is diagnosed after all.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import replace
 
 from ..errors import InputError
@@ -42,7 +43,7 @@ def window_frames(experiments, window) -> int | None:
         return None
     if window == "auto":
         return WINDOW if moving > LONG * WINDOW else None
-    if isinstance(window, bool) or not isinstance(window, (int, float)) or window != window \
+    if isinstance(window, bool) or not isinstance(window, numbers.Real) or window != window \
             or int(window) != window or window < 2:
         raise InputError(f"got {window!r}; expected 'auto', 'all' or a whole number of frames "
                          "(at least 2)", key="window")
@@ -58,7 +59,8 @@ def on_all_frames(found, experiments, frames: int, substeps, clock, say, rerun):
     """The window's diagnosis ``found`` with its model fitted on all ``experiments``' frames
     (from its values, at ``substeps``; ``"auto"``: at the model's stable step, confirmed at
     two as every winner is): its ``model_``, ``rms_after``, ``noise_rms`` and ``lack_of_fit`` are
-    then all the frames', its findings and ``rms_before`` the window's; ``window`` says which
+    then all the frames', its findings, ``rms_before`` and ``mesh`` the window's; ``window``
+    says which
     (:class:`~.result.Diagnosis`). When the window's answer explained its frames but the
     fit on all of them stays above the noise, the answer did not hold: ``rerun()`` diagnoses
     the whole recording, unless ``max_time`` is spent."""
