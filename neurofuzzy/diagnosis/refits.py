@@ -184,7 +184,9 @@ def confirm(refit, experiments):
     fit at the first of them when that is the refit's step. At twice its step the minimum
     moves by the integrator's error, which one Levenberg–Marquardt step takes
     (:data:`CONFIRM_EVALUATIONS`): on sfepy's relaxing block on 4 mm voxels, 39 s against
-    75 s for the fit run to its end, the values equal within 0.2 % and the RMS within 1e-6."""
+    75 s for the fit run to its end, the values equal within 0.2 % and the RMS within 1e-6.
+    A refit whose values ended outside its step's stable range has no fit at that step to
+    start from: it is confirmed by a whole fit from its values."""
     if not stable_at_one_step(refit.model_, experiments, substeps=refit.substeps_):
         # the refit's values left its step's stable range: no fit at that step to start
         # from, so the confirmation is a whole fit from them (two evaluations at steps of
