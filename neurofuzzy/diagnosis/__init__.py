@@ -31,7 +31,8 @@ scored by the sensitivities of the error to their parameters (a linearised refit
 inclusion is a ball of elements with extra Young's modulus. There the candidates are refitted
 at one step (the candidate model's stable substeps; :mod:`.refits`) and only the winner's fit
 is made as every fit is, at two steps and extrapolated (Richardson): the second step, twice as
-fine, was two thirds of every refit's work.
+fine, was two thirds of every refit's work. A recording with many frames of motion is
+diagnosed on its first ones and the answer fitted on all of them (:mod:`.window`).
 
 With the rule base as a prior (``diagnose(..., prior=FuzzyPrior(rules, model))``), an
 inclusion found is also located item by item (:mod:`.localise`): every element or spring is

@@ -9,7 +9,7 @@ from ..effects import SoftInclusion, StiffInclusion
 from ..experiment import duration
 from ..learn import GradientLearner, auto_substeps
 from ..learn.steps import stable_at_one_step
-from .scoring import INCLUSIONS, Candidate, nothing_left
+from .scoring import INCLUSIONS, Candidate, gap, nothing_left
 
 __all__ = ["to_refit", "refit_candidate", "refit_with_starts", "confirm",
            "switches", "MIN_EVIDENCE", "MIN_SHRINK", "MAX_REFITS", "FIT_TOLERANCE",
@@ -119,8 +119,6 @@ def refit_with_starts(candidate: Candidate, fitted, start, evidence, experiments
     :data:`MIN_SHRINK` times from there has no second start: the old law's values are not a
     better start for the new one (on the 401-frame block that start, at 3x the substeps its
     viscosity needs, ran 28 s and was given up)."""
-    from .scoring import gap
-
     staged = not in_trajectory_space
     starts = [fitted, start]
     law = switches(candidate) and not candidate.effect.switches_partly
