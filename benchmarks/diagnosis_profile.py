@@ -126,10 +126,10 @@ def main(argv=None) -> int:
     parser.add_argument("--window", default="auto",
                         help="as diagnose's: auto (default), all, or frames of motion")
     args = parser.parse_args(argv)
-    window = int(args.window) if args.window.isdigit() else args.window
     results = []
     for case in args.cases:
-        result = profile(case, args.max_effects, not args.no_mesh_check, args.one_fit, window)
+        result = profile(case, args.max_effects, not args.no_mesh_check, args.one_fit,
+                         args.window)
         results.append(result)
         print(f"\n{case}: {result['nodes']} nodes, {result['elements']} tetrahedra, "
               f"{result['frames']} frames -> {', '.join(result['answer'])} "

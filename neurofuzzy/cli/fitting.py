@@ -207,6 +207,7 @@ def diagnose(args) -> int:
     if is_load_steps_file(args.experiments[0]):
         return diagnose_load_steps(args)
     from ..diagnosis import diagnose as run_diagnosis
+    from ..diagnosis.window import check_window
     from ..errors import InputError
     from ..io import save_model
     from ..pipeline.learners import make_prior
@@ -216,7 +217,7 @@ def diagnose(args) -> int:
     at_least(args.max_effects, 0, "--max-effects")
     positive(args.max_time, "--max-time")
     substeps = _substeps(args.substeps)
-    window = _window(args.window)
+    window = check_window(args.window, "--window")
     with Outputs(_protected(args)) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
@@ -292,14 +293,3 @@ def _substeps(value):
 
     return check_substeps(value, "--substeps")
 
-
-def _window(value: str):
-    """``--window``: 'auto', 'all' or a whole number of frames (at least 2)."""
-    from ..errors import InputError
-
-    if value in ("auto", "all"):
-        return value
-    if not value.isdigit() or int(value) < 2:
-        raise InputError(f"got {value!r}; expected 'auto', 'all' or a whole number of frames "
-                         "(at least 2)", key="--window")
-    return int(value)

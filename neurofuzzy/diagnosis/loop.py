@@ -20,7 +20,7 @@ from .refits import (MIN_SHRINK, confirm, refit_with_starts, switches, to_refit,
 from .result import Diagnosis, Finding, mesh_share, where
 from .scoring import Candidate, confidence, gap, nothing_left
 from .trajectory import TrajectoryEvidence
-from .window import first_frames, on_all_frames, window_frames
+from .window import first_frames, on_all_frames, span, window_frames
 
 __all__ = ["diagnose", "Diagnosis", "Finding"]
 
@@ -76,8 +76,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
                "mesh_check": mesh_check, "progress": progress}
     if frames is None or not in_trajectory_space:
         return _rounds(model, experiments, clock, in_trajectory_space, **options)
-    total, shown = (max(e.n_frames for e in experiments),
-                    max(e.load_onset for e in experiments) + frames)
+    shown, total = span(experiments, frames)
     note(progress, f"diagnose: {total} frames; diagnosing the first {shown} ({frames} of "
          "motion), then fitting the answer on all")
     found = _rounds(model, first_frames(experiments, frames), clock, True, **options,

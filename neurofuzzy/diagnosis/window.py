@@ -26,7 +26,8 @@ from ..errors import InputError
 from ..learn import GradientLearner, auto_substeps
 from .refits import FIT_TOLERANCE, confirm
 
-__all__ = ["WINDOW", "LONG", "window_frames", "first_frames", "on_all_frames"]
+__all__ = ["WINDOW", "LONG", "check_window", "window_frames", "span", "first_frames",
+           "on_all_frames"]
 
 #: Frames of motion (after the load's onset) a long recording is diagnosed on.
 WINDOW = 60
@@ -35,19 +36,38 @@ WINDOW = 60
 LONG = 2
 
 
+def check_window(window, key: str = "window"):
+    """``window`` as :func:`diagnose` takes it: ``"auto"``, ``"all"`` (also None) or a whole
+    number of frames, at least 2 (a string of digits too, as the command line gives it); an
+    :class:`~neurofuzzy.errors.InputError` naming ``key`` otherwise."""
+    if window is None or window in ("auto", "all"):
+        return window
+    if isinstance(window, str) and window.isdigit():
+        window = int(window)
+    if isinstance(window, bool) or not isinstance(window, numbers.Real) or window != window \
+            or int(window) != window or window < 2:
+        raise InputError(f"got {window!r}; expected 'auto', 'all' or a whole number of frames "
+                         "(at least 2)", key=key)
+    return int(window)
+
+
 def window_frames(experiments, window) -> int | None:
-    """The frames of motion to diagnose on (``window``: ``"auto"``, ``"all"`` or None, or a
-    number of frames), or None for all of them."""
+    """The frames of motion to diagnose on (``window``: see :func:`check_window`), or None
+    for all of them."""
+    window = check_window(window)
     moving = max(e.n_frames - e.load_onset for e in experiments)
     if window is None or window == "all":
         return None
     if window == "auto":
         return WINDOW if moving > LONG * WINDOW else None
-    if isinstance(window, bool) or not isinstance(window, numbers.Real) or window != window \
-            or int(window) != window or window < 2:
-        raise InputError(f"got {window!r}; expected 'auto', 'all' or a whole number of frames "
-                         "(at least 2)", key="window")
-    return int(window) if window < moving else None
+    return window if window < moving else None
+
+
+def span(experiments, frames: int) -> tuple[int, int]:
+    """``(shown, total)``: the frames a window of ``frames`` frames of motion holds (its rest
+    frames too), and the recording's."""
+    return (max(e.load_onset for e in experiments) + frames,
+            max(e.n_frames for e in experiments))
 
 
 def first_frames(experiments, frames: int) -> list:
@@ -64,8 +84,7 @@ def on_all_frames(found, experiments, frames: int, substeps, clock, say, rerun):
     (:class:`~.result.Diagnosis`). When the window's answer explained its frames but the
     fit on all of them stays above the noise, the answer did not hold: ``rerun()`` diagnoses
     the whole recording, unless ``max_time`` is spent."""
-    total = max(e.n_frames for e in experiments)
-    shown = max(e.load_onset for e in experiments) + frames
+    shown, total = span(experiments, frames)
     about = {"frames": shown, "of": total, "rms_before": found.rms_before,
              "rms_after": found.rms_after, "held": None, "rediagnosed": False}
     if clock.out():
