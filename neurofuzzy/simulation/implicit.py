@@ -41,6 +41,7 @@ from ..errors import InputError
 from ..model import Model
 from .integration import Trajectory, _frame_forces, _state
 from .static import ConvergenceError, _factor
+from .step_solve import BodyForce, StepSolver
 from .tangents import tangents, unit_forces
 
 __all__ = ["simulate_implicit", "integrate", "implicit_sensitivities", "resampled",
@@ -120,12 +121,12 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
     positions = np.empty((int(n_frames), n, 3))
     velocities = np.empty_like(positions)
     positions[0], velocities[0] = p, v
-    factor = None
+    body = BodyForce(model)
+    solver = StepSolver(model, body, h, free, mass)
     for frame in range(1, int(n_frames)):
         load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
         for _ in range(int(substeps)):
-            p, v, factor = _step(model, p, v, h, load, free, mass, iterations, tolerance,
-                                 factor)
+            p, v = _step(body, solver, p, v, h, load, free, mass, iterations, tolerance)
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
             raise ConvergenceError(f"the implicit step diverged at frame {frame} (positions "
                                    "became NaN or infinite): an element squeezed flat?",
@@ -155,19 +156,17 @@ def integrate(model: Model, integrator: str, *, dt: float, n_frames: int,
                      key="integrator")
 
 
-def _step(model, p0, v0, h, load, free, mass, iterations, tolerance, factor):
-    """One backward Euler step from ``(p0, v0)``: ``(p1, v1, the factorisation kept)``."""
-    n = model.n_nodes
+def _step(body, solver, p0, v0, h, load, free, mass, iterations, tolerance):
+    """One backward Euler step from ``(p0, v0)``: ``(p1, v1)``, each Newton iteration's
+    linear solve by ``solver`` (:class:`~.step_solve.StepSolver`), the force by ``body``."""
+    n = p0.shape[0]
     x0, w0 = p0.ravel(), v0.ravel()
     w = w0.copy()
     for iteration in range(iterations):
         x = x0 + h * w
-        state = tangents(model, x.reshape(n, 3), w.reshape(n, 3))
-        force = (state.force.ravel() + load)[free]
-        residual = mass * (w[free] - w0[free]) - h * force
-        matrix = (sp.diags(mass) + h * state.damping[free][:, free]
-                  + (h * h) * state.stiffness[free][:, free]).tocsr()
-        delta, factor = _solve_step(matrix, -residual, factor)
+        force = body(x, w)
+        residual = mass * (w[free] - w0[free]) - h * (force + load)[free]
+        delta = solver.solve(-residual, x, w, force)
         w[free] += delta
         if iterations > 1 and np.abs(delta).max() <= tolerance * max(
                 np.abs(w).max(), np.abs(w0).max()) + VELOCITY_FLOOR:
@@ -177,7 +176,7 @@ def _step(model, p0, v0, h, load, free, mass, iterations, tolerance, factor):
             raise ConvergenceError(f"backward Euler's Newton iterations did not converge in "
                                    f"{iterations} at a step of {h:g} s; allow more "
                                    "iterations or take smaller steps", key="iterations")
-    return (x0 + h * w).reshape(n, 3), w.reshape(n, 3), factor
+    return (x0 + h * w).reshape(n, 3), w.reshape(n, 3)
 
 
 def _solve_step(matrix, right, factor):
@@ -259,10 +258,12 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     derivatives = np.zeros((int(n_frames), columns, n, 3))
     positions[0], velocities[0] = p, v
     factor = None
+    body = BodyForce(model)
+    solver = StepSolver(model, body, h, free, mass)
     for frame in range(1, int(n_frames)):
         load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
         for _ in range(int(substeps)):
-            p, v, factor = _step(model, p, v, h, load, free, mass, 50, tolerance, factor)
+            p, v = _step(body, solver, p, v, h, load, free, mass, 50, tolerance)
             state = tangents(model, p, v)
             stiffness = state.stiffness[free][:, free]
             matrix = (sp.diags(mass) + h * state.damping[free][:, free]

@@ -1,0 +1,181 @@
+"""The linear solve of an implicit step, fast enough for a simulator's rate.
+
+Each Newton iteration of a backward Euler step (:mod:`.implicit`) solves
+
+    A δ = r,     A = M + h C + h² K     at the iteration's state (x, v),
+
+with ``K = -∂F/∂x``, ``C = -∂F/∂v``. Assembling ``A`` at every step cost the 10,368-tetrahedron
+block 46 ms a step, and a SuperLU factorisation of it 0.8 s, where a 16 ms step run in real
+time has 16 ms. A :class:`StepSolver` assembles and factorises seldom:
+
+- it keeps the factorisation ``P`` of ``A`` at an earlier state (SuperLU, as the static
+  solve's, :func:`neurofuzzy.simulation.static._factor`) and starts from ``δ = P⁻¹ r``;
+- it checks and corrects that against this state's matrix without assembling it: ``A y`` is
+  ``M y - h (F(x + s h y, v + s y) - F(x, v)) / s``, one more evaluation of the compiled
+  force (:class:`BodyForce`, the stepper's own arithmetic), a forward difference with ``s``
+  scaled to ``√ε`` of the positions (within 1e-7 of the assembled product; ``tests/
+  test_implicit.py``), in GMRES preconditioned on the right by ``P``, on the rows weighted
+  by ``M^{-1/2}``, to a residual ``tolerance`` times the right side's;
+- it factorises ``A`` afresh at this state (assembled from every term's one definition,
+  :func:`~neurofuzzy.simulation.tangents.tangents`) when GMRES does not get there in
+  :data:`RESTART` iterations, and solves again.
+
+Why the weights: ``A ⪰ M`` near equilibrium (``K``, ``C`` positive semi-definite), so the
+error of ``δ`` in the mass norm is at most the weighted residual; at 16 ms the slow motions'
+``A`` is a few times ``M``, so a relative residual of 1e-6 leaves them within about 1e-5.
+
+How far this goes: the kept ``P`` is not ``A`` for long. In nearly incompressible tissue the
+volumetric stress (``λ tr G`` at ν 0.45 is several times ``μ`` at 2 % strain) stiffens and
+softens the soft modes, so a few steps into a push ``P⁻¹A`` spreads over 0.6–1.6 and GMRES
+takes 5 to 15 iterations, each a pair of triangular solves: the step is about twice as fast
+as assembling every step, not the tenfold a real-time 10,368-tetrahedron block would need
+(``docs/benchmarks.md``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .static import _factor
+from .tangents import tangents
+
+__all__ = ["BodyForce", "StepSolver", "TOLERANCE", "RESTART"]
+
+#: relative residual (weighted by M^{-1/2}) a step's solve is corrected to
+TOLERANCE = 1e-6
+#: GMRES iterations preconditioned by the kept factorisation before the matrix is
+#: factorised afresh
+RESTART = 30
+
+
+class BodyForce:
+    """The model's force ``F(x, v)`` (springs, elements, the compiled effects' node drag and
+    constant forces; no external load) at any state, compiled
+    (:func:`neurofuzzy.kernels.body.body_force`), from the stepper's arrays of the model."""
+
+    def __init__(self, model):
+        from .steppers import _prepared
+
+        (drag, kappa, constant, a, b, stiffness, damping, rest, cubic, elements,
+         _) = _prepared(model, 1.0, np.dtype(np.float64))
+        tets = np.zeros((0, 4), np.intp) if elements[0] is None else elements[0]
+        # scratch of its own: the node sums and the internal variables (none: the implicit
+        # step refuses relaxation) are written by the kernel
+        self.elements = (tets, *elements[1:13], np.zeros_like(elements[13]), *elements[14:16],
+                         np.zeros_like(elements[16]))
+        self.springs = (a, b, stiffness, damping, rest, cubic)
+        self.kappa, self.drag = float(kappa), float(drag)
+        self.constant = np.asarray(constant, float)
+        self.n_nodes = model.n_nodes
+
+    def __call__(self, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+        """``F`` at ``(positions, velocities)``, both (n_nodes, 3) or flat; flat (3 n_nodes,)."""
+        from ..kernels.body import body_force
+
+        out = np.empty((self.n_nodes, 3))
+        body_force(np.ascontiguousarray(positions, float).reshape(-1, 3),
+                   np.ascontiguousarray(velocities, float).reshape(-1, 3), self.springs,
+                   self.elements, self.kappa, self.drag, out)
+        out += self.constant
+        return out.ravel()
+
+
+class StepSolver:
+    """Solves ``(M + hC + h²K) δ = r`` at a state by a kept factorisation and GMRES on
+    differences of this state's force (module docstring). One per run: it keeps ``P``.
+
+    Parameters
+    ----------
+    model : Model
+    body : BodyForce
+        The model's force.
+    h : float
+        The step (s).
+    free : (3 n_nodes,) bool
+        The degrees of freedom solved for (the fixed nodes' are not).
+    mass : (n_free,) float
+        Their masses.
+    tolerance : float
+        The relative residual a solve is corrected to (:data:`TOLERANCE`).
+    """
+
+    def __init__(self, model, body: BodyForce, h: float, free: np.ndarray, mass: np.ndarray,
+                 tolerance: float = TOLERANCE):
+        self.model, self.body, self.h = model, body, float(h)
+        self.free, self.mass = free, mass
+        self.weight = 1.0 / np.sqrt(mass)
+        self.tolerance = float(tolerance)
+        self.factor = None
+        #: what the run cost: solves by the kept factorisation, products by differences of
+        #: the force, GMRES iterations, factorisations
+        self.counts = {"solves": 0, "products": 0, "iterations": 0, "factorisations": 0}
+
+    def solve(self, right: np.ndarray, x: np.ndarray, v: np.ndarray,
+              force: np.ndarray) -> np.ndarray:
+        """``δ`` with ``A δ = right`` at the state ``x``, ``v`` (flat, every node) whose force
+        ``F(x, v)`` (flat, no load) is ``force``."""
+        if not np.any(right):
+            return np.zeros_like(right)
+        fresh = self.factor is None
+        if fresh:
+            self._factorise(x, v)
+        delta = self._refined(right, x, v, force)
+        if delta is None and not fresh:
+            self._factorise(x, v)
+            delta = self._refined(right, x, v, force)
+        if delta is None:        # P is this state's A: its solve is the exact one
+            delta = self.factor.solve(right)
+        return delta
+
+    def _refined(self, right, x, v, force):
+        """``P⁻¹ right`` corrected by GMRES to the tolerance, or None where GMRES does not
+        reach it in :data:`RESTART` iterations."""
+        start = self._apply(right)
+        residual = right - self.product(start, x, v, force)
+        goal = self.tolerance * np.linalg.norm(self.weight * right)
+        if np.linalg.norm(self.weight * residual) <= goal:
+            return start
+        # GMRES on the rows weighted by M^{-1/2}, preconditioned on the right by the kept
+        # factorisation (so the residual it minimises is the true one)
+        size = len(right)
+        operator = spla.LinearOperator(
+            (size, size), dtype=float,
+            matvec=lambda u: self.weight * self.product(self._apply(u), x, v, force))
+        iterations = [0]
+
+        def count(_):
+            iterations[0] += 1
+
+        step, info = spla.gmres(operator, self.weight * residual, rtol=0.0, atol=goal,
+                                restart=RESTART, maxiter=1, callback=count,
+                                callback_type="pr_norm")
+        self.counts["iterations"] += iterations[0]
+        return None if info != 0 else start + self._apply(step)
+
+    def product(self, y: np.ndarray, x: np.ndarray, v: np.ndarray,
+                force: np.ndarray) -> np.ndarray:
+        """``A y`` at ``(x, v)`` by a forward difference of the force (module docstring)."""
+        self.counts["products"] += 1
+        full = np.zeros_like(x)
+        full[self.free] = y
+        largest = np.abs(full).max()
+        if largest == 0.0:
+            return np.zeros_like(y)
+        s = np.sqrt(np.finfo(float).eps) * max(np.abs(x).max(), 1e-300) / (self.h * largest)
+        changed = self.body(x + (s * self.h) * full, v + s * full)
+        return self.mass * y - self.h * ((changed - force) / s)[self.free]
+
+    def _apply(self, right):
+        self.counts["solves"] += 1
+        return self.factor.solve(right)
+
+    def _factorise(self, x, v):
+        """``A`` assembled at this state (every term's one definition) and factorised."""
+        n = self.model.n_nodes
+        state = tangents(self.model, x.reshape(n, 3), v.reshape(n, 3))
+        f = self.free
+        self.factor = _factor(sp.diags(self.mass) + self.h * state.damping[f][:, f]
+                               + (self.h * self.h) * state.stiffness[f][:, f])
+        self.counts["factorisations"] += 1
