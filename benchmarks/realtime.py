@@ -1,7 +1,7 @@
 """The real-time factor at a simulator's step (issue 47, item 3): simulated seconds per wall
 second, ours beside MuJoCo's on the same model.
 
-    python benchmarks/realtime.py [--cells 6 12 20] [--steps 10]
+    python benchmarks/realtime.py [--cells 6 12 20] [--steps 30]
 
 For each Kuhn block (a 2 cm cube of ``cells``³ cells, six tetrahedra a cell, bottom fixed,
 St. Venant–Kirchhoff at ν 0.45 in the textbook element form, which is MuJoCo's flex), pushed
@@ -116,7 +116,7 @@ def _factor(value):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cells", type=int, nargs="+", default=[6, 12, 20])
-    parser.add_argument("--steps", type=int, default=10)
+    parser.add_argument("--steps", type=int, default=30)
     parser.add_argument("--explicit-steps", type=int, default=2000)
     parser.add_argument("--out", default=str(Path(__file__).with_suffix(".json")))
     args = parser.parse_args(argv)

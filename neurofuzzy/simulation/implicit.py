@@ -11,13 +11,15 @@ integrator do. :func:`simulate_implicit` takes **backward Euler** steps,
 solved for the new velocity by Newton's method on ``(M + h C + h² K) Δv = -R(v)`` with the
 stiffness ``K = -∂F/∂x`` and damping ``C = -∂F/∂v`` of every term, generated from each item's
 one definition (:mod:`~neurofuzzy.simulation.tangents`; every law, both volumetric forms, the
-compiled effects), and the sparse factorisation of the static solve
-(:mod:`~neurofuzzy.simulation.static`: SuperLU, kept as GMRES's preconditioner while the
-matrix moves little). ``iterations=1`` is the **linearly implicit** step of real-time engines
-(one linear solve from the last velocity, SOFA's and MuJoCo's); more iterations solve the
-step to ``tolerance``. Unconditionally stable for a linear model, it damps motion faster than
-the step resolves (numerical damping of order ``h ω²``): at 16 ms a block of soft tissue rings
-far less than it does, which is what a fit for the simulator's step must account for.
+compiled effects). Each Newton iteration's linear solve (:mod:`.step_solve`) keeps a
+factorisation of that matrix from an earlier step (SuperLU, as the static solve's) and
+corrects its solve by GMRES whose products are differences of the compiled force, so the
+matrix is assembled and factorised only when it has moved too far. ``iterations=1`` is the
+**linearly implicit** step of real-time engines (one linear solve from the last velocity,
+SOFA's and MuJoCo's); more iterations solve the step to ``tolerance``. Unconditionally
+stable for a linear model, it damps motion faster than the step resolves (numerical damping
+of order ``h ω²``): at 16 ms a block of soft tissue rings far less than it does, which is
+what a fit for the simulator's step must account for.
 
 Elements that relax (Prony terms) are refused: their internal variables have no implicit
 update yet.
@@ -52,8 +54,8 @@ PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
 
 #: m/s: a Newton update this small has converged whatever the velocity (a body at rest)
 VELOCITY_FLOOR = 1e-14
-#: relative residual of a step's linear solve by GMRES preconditioned with an earlier step's
-#: factorisation: far below the step's own error
+#: relative residual of the derivatives' linear solves (:func:`implicit_sensitivities`) by
+#: GMRES preconditioned with an earlier step's factorisation
 SOLVE_TOLERANCE = 1e-9
 #: GMRES restart cycles (of 20 iterations) before the step's matrix is factorised afresh.
 #: SciPy's GMRES ends a cycle on the preconditioned residual, which on the pushed blocks left

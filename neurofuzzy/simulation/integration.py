@@ -166,8 +166,8 @@ def simulate(model: Model, *, dt: float, n_frames: int,
         Raise :class:`UnstableTimeStepError` when ``h`` exceeds the stability bound.
     backend : {"auto", "numpy", "numba"}
         Inner loop: the compiled loop (``"auto"``: whenever it computes every effect of the
-        model, :func:`neurofuzzy.simulation.steppers.make_stepper`; its first use in a process loads
-        the kernels, about 0.3 s) or vectorised numpy, the reference of the tests.
+        model, :func:`neurofuzzy.simulation.steppers.make_stepper`; its first use in a process
+        loads the kernels, about 0.3 s) or vectorised numpy, the reference of the tests.
     dtype : numpy dtype
         float64 (default) or float32 for the inner loop.
 
