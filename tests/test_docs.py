@@ -282,7 +282,28 @@ def check_compression(folder, outputs):
     assert record["youngs_modulus"] == pytest.approx(8000, rel=0.1)
 
 
-CHECKS = {"words": check_words, "compression": check_compression, "command-line": check_command_line, "python": check_python,
+def check_indentation(folder, outputs):
+    """The page: the mesh's 5,184 tetrahedra, E as quoted (to 1 %) with ν held at the words'
+    and said so, the load cell's residual as quoted (to 5 %), and the report with the
+    force-depth curve."""
+    page = (DOCS / "tutorials" / "indentation.md").read_text()
+    assert "5184 tetrahedra, the smallest cell 0.18 mm" in outputs[0][1]
+    printed = outputs[3][1]
+    quoted = float(re.search(r"youngs_modulus\s+(\d+) ±", page)[1])
+    fitted = float(re.search(r"youngs_modulus\s+(\d+) ±", printed)[1])
+    assert fitted == pytest.approx(quoted, rel=0.01)
+    assert "poisson_ratio    0.4559 fixed" in printed
+    rms = float(re.search(r"load cell: RMS (\S+) N", printed)[1])
+    quoted_rms = float(re.search(r"Its RMS, (\S+) mN", page)[1])
+    assert 1e3 * rms == pytest.approx(quoted_rms, rel=0.05)
+    report = (folder / "indentation.html").read_text()
+    assert "sphere&#x27;s force" in report           # the force-depth curve's section
+    assert (folder / "fitted.yaml").exists()
+
+
+CHECKS = {"words": check_words, "compression": check_compression,
+          "indentation": check_indentation, "command-line": check_command_line,
+          "python": check_python,
           "prior": check_prior, "missing-effect": check_missing_effect,
           "many-specimens": check_many_specimens, "motion-capture": check_motion_capture,
           "springs-or-elements": check_springs_or_elements, "export": check_export}
