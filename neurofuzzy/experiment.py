@@ -271,7 +271,7 @@ def simulate_experiment(model: Model, *, dt: float, n_frames: int,
         Nodes to record; the others are stored as NaN.
     with_masses : bool
         Store the true masses as known ``masses``.
-    integrator : {"explicit", "implicit"}
+    integrator : {"explicit", "implicit", "bdf2"}
         As :func:`~neurofuzzy.simulation.implicit.integrate`.
     """
     from .simulation.implicit import integrate

@@ -252,11 +252,13 @@ def build_parser() -> argparse.ArgumentParser:
                           help="frames incl. frame 0 (default 251)")
     simulate.add_argument("--substeps", default="1",
                           help="steps per frame, or 'auto': the fewest stable ones (default 1)")
-    simulate.add_argument("--integrator", choices=("explicit", "implicit"), default="explicit",
+    simulate.add_argument("--integrator", choices=("explicit", "implicit", "bdf2"),
+                          default="explicit",
                           help="explicit: the paper's semi-implicit Euler, stable below the "
                                "model's stable step (default); implicit: backward Euler, one "
                                "Newton iteration a step, stable at any step, as a simulator "
-                               "runs at 16 ms (MuJoCo's discrete integrator)")
+                               "runs at 16 ms (MuJoCo's discrete integrator); bdf2: the "
+                               "second-order backward differentiation formula, the same way")
     simulate.add_argument("--noise", type=float, default=0.0,
                           help="marker noise: standard deviation per coordinate (m; default 0)")
     simulate.add_argument("--seed", type=int, default=0,
