@@ -19,8 +19,9 @@ def body_force(p, v, springs, elements, kappa, drag, force):
     """``force = F(p, v)``: the springs ``(a, b, stiffness, damping, rest, cubic)``, the
     elements (the 17 arrays of :func:`~neurofuzzy.simulation.steppers._element_arrays`, with
     ``tets`` of shape (0, 4) for none), the strain stiffening ``kappa`` and a node drag
-    ``drag``; no external load. One thread. Elements that relax would advance their internal
-    variables (``elements[-1]``) as a step does: the implicit step refuses them."""
+    ``drag``; no external load. One thread. Elements that relax read their internal
+    variables (``elements[-1]``) and advance them as a step does
+    (:func:`~neurofuzzy.kernels.relaxation.relax`): pass a copy to keep them."""
     for i in range(p.shape[0]):
         for k in range(3):
             force[i, k] = -drag * v[i, k]

@@ -33,8 +33,14 @@ safe in a stiff body: extrapolated back from the start's acceleration it put a s
 like backward Euler and damps the resolved motion far less (numerical damping of order
 ``h³ω⁴`` against ``hω²``), at the same cost a step.
 
-Elements that relax (Prony terms) are refused: their internal variables have no implicit
-update yet.
+Elements that relax (Prony terms, :mod:`neurofuzzy.kernels.relaxation`) take their internal
+variables one step on at the start of each step, from the state there, ``rᵢ ← aᵢ rᵢ -
+(1 - aᵢ) S_e(x₀)`` with ``aᵢ = exp(-h/τᵢ)`` (the explicit stepper's update), and the step
+solves for the new state with them held: the instantaneous response is implicit, the memory
+lags one step. That is stable at any step (a mode's amplification tends to ``g/(1+g)`` as
+``h → ∞``), first-order in the memory whatever the scheme, and its long-time state is the
+relaxed equilibrium. Their derivatives (:func:`implicit_sensitivities`) are not covered
+yet.
 
 :func:`implicit_sensitivities` differentiates the trajectory of converged backward Euler steps
 by each group's E, ν and η: differentiating the step's equation ``R(v₁; x₀, v₀, θ) = 0`` gives
@@ -94,7 +100,8 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
     Parameters
     ----------
     model : Model
-        Springs, elements and the effects the compiled kernels compute; no relaxation.
+        Springs, elements (their Prony relaxation too) and the effects the compiled kernels
+        compute.
     dt : float
         Time between recorded frames.
     n_frames : int
@@ -132,9 +139,6 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
         if not (isinstance(value, (int, np.integer)) and value >= 1):
             raise InputError(f"got {value!r}; expected a positive integer", key=key)
     _scheme(scheme)
-    if model.n_relaxation_terms:
-        raise InputError("elements that relax (Prony terms) have no implicit step yet; "
-                         "simulate them with the explicit step (simulate)", key="model")
     forces = _frame_forces(external_forces, int(n_frames), n)
     p = _state(initial_positions, model.mesh.rest_positions, n, "initial_positions")
     v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
@@ -147,7 +151,7 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
     positions = np.empty((int(n_frames), n, 3))
     velocities = np.empty_like(positions)
     positions[0], velocities[0] = p, v
-    body = BodyForce(model)
+    body = BodyForce(model, h)
     solvers = _Solvers(model, body, h, free, mass)
     before = None
     for frame in range(1, int(n_frames)):
@@ -157,6 +161,7 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
             before = before or (p, v)
             base = (_history(now, p, before[0]), _history(now, v, before[1]))
             before = (p, v)
+            body.advance(p, v)                       # the relaxation's rᵢ to the step's end
             p, v = _step(body, solvers.of(now), base, v, SCHEMES[now] * h, load, free, mass,
                          iterations, tolerance)
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
@@ -165,7 +170,8 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
                                    key="dt")
         positions[frame], velocities[frame] = p, v
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
-                      substeps=int(substeps), final_internal=None)
+                      substeps=int(substeps),
+                      final_internal=body.internal.copy() if body.relaxes else None)
 
 
 def integrate(model: Model, integrator: str, *, dt: float, n_frames: int,
@@ -291,6 +297,9 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     if model.elements is None or model.springs is not None or model.effects:
         raise InputError("the implicit step's derivatives cover element models without "
                          "springs or effects", key="model")
+    if model.n_relaxation_terms:
+        raise InputError("the implicit step's derivatives do not cover elements that relax "
+                         "(Prony terms) yet; fit them with the explicit step", key="model")
     k = model.mesh.n_tetrahedra
     groups = np.zeros(k, np.intp) if groups is None else np.asarray(groups, np.intp)
     if groups.shape != (k,) or groups.min(initial=0) < 0:
@@ -325,7 +334,7 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     positions[0], velocities[0] = p, v
     factor = None
     _scheme(scheme)
-    body = BodyForce(model)
+    body = BodyForce(model, h)
     solvers = _Solvers(model, body, h, free, mass)
     before, changes_before = None, None
 

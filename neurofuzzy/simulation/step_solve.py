@@ -54,31 +54,50 @@ RESTART = 30
 class BodyForce:
     """The model's force ``F(x, v)`` (springs, elements, the compiled effects' node drag and
     constant forces; no external load) at any state, compiled
-    (:func:`neurofuzzy.kernels.body.body_force`), from the stepper's arrays of the model."""
+    (:func:`neurofuzzy.kernels.body.body_force`), from the stepper's arrays of the model for
+    steps of ``h`` seconds.
 
-    def __init__(self, model):
+    Elements that relax carry their internal variables here (:attr:`internal`, the Prony
+    terms' ``rᵢ`` of :mod:`neurofuzzy.kernels.relaxation`): a call reads them and leaves them
+    as they were (every trial state of a Newton solve sees the same ones); :meth:`advance`
+    takes them one step on from a state, ``rᵢ ← aᵢ rᵢ - (1 - aᵢ) S_e``, as the explicit
+    stepper does after each step."""
+
+    def __init__(self, model, h: float = 1.0):
         from .steppers import _prepared
 
         (drag, kappa, constant, a, b, stiffness, damping, rest, cubic, elements,
-         _) = _prepared(model, 1.0, np.dtype(np.float64))
+         _) = _prepared(model, float(h), np.dtype(np.float64))
         tets = np.zeros((0, 4), np.intp) if elements[0] is None else elements[0]
-        # scratch of its own: the node sums and the internal variables (none: the implicit
-        # step refuses relaxation) are written by the kernel
-        self.elements = (tets, *elements[1:13], np.zeros_like(elements[13]), *elements[14:16],
-                         np.zeros_like(elements[16]))
+        #: the internal variables of the relaxation (n_elements, n_terms, 6), zero at rest
+        self.internal = np.zeros_like(elements[16])
+        self._trial = np.zeros_like(elements[16])
+        # scratch of its own: the node sums and the internal variables the kernel writes
+        self.elements = (tets, *elements[1:13], np.zeros_like(elements[13]), *elements[14:16])
         self.springs = (a, b, stiffness, damping, rest, cubic)
         self.kappa, self.drag = float(kappa), float(drag)
         self.constant = np.asarray(constant, float)
         self.n_nodes = model.n_nodes
+        self.relaxes = self.internal.shape[1] > 0
 
     def __call__(self, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
         """``F`` at ``(positions, velocities)``, both (n_nodes, 3) or flat; flat (3 n_nodes,)."""
+        self._trial[...] = self.internal
+        return self._force(positions, velocities, self._trial)
+
+    def advance(self, positions: np.ndarray, velocities: np.ndarray) -> None:
+        """The relaxation's internal variables one step on from this state (nothing without
+        Prony terms)."""
+        if self.relaxes:
+            self._force(positions, velocities, self.internal)
+
+    def _force(self, positions, velocities, internal):
         from ..kernels.body import body_force
 
         out = np.empty((self.n_nodes, 3))
         body_force(np.ascontiguousarray(positions, float).reshape(-1, 3),
                    np.ascontiguousarray(velocities, float).reshape(-1, 3), self.springs,
-                   self.elements, self.kappa, self.drag, out)
+                   (*self.elements, internal), self.kappa, self.drag, out)
         out += self.constant
         return out.ravel()
 
@@ -175,7 +194,8 @@ class StepSolver:
     def _factorise(self, x, v):
         """``A`` assembled at this state (every term's one definition) and factorised."""
         n = self.model.n_nodes
-        state = tangents(self.model, x.reshape(n, 3), v.reshape(n, 3))
+        state = tangents(self.model, x.reshape(n, 3), v.reshape(n, 3),
+                         self.body.internal if self.body.relaxes else None)
         f = self.free
         self.factor = _factor(sp.diags(self.mass) + self.h * state.damping[f][:, f]
                                + (self.h * self.h) * state.stiffness[f][:, f])
