@@ -98,9 +98,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write the fitted model's simulation of the first experiment next "
                           "to the measurement as ParaView files (VTU series + PVD, XDMF); "
                           "the report links them")
-    fit.add_argument("--target", choices=("mujoco",), default=None,
+    fit.add_argument("--target", choices=("mujoco", "ours"), default=None,
                      help="then fit E, ν, η as this simulator runs them (its element, backward "
-                          "Euler at --dt) into --out; prints errors beside a naive export's")
+                          "Euler at --dt) into --out; prints errors beside a naive export's; "
+                          "ours: our own implicit step on the model's element ('simulate "
+                          "--integrator implicit --dt STEP')")
     fit.add_argument("--dt", type=float, default=None, metavar="STEP",
                      help="with --target: its step (s; default 0.016), whole frames")
     fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")

@@ -1,5 +1,5 @@
 """Parameters that are right in the user's simulator: a fit for its element and step
-(issue 47, item 2, for MuJoCo).
+(issue 47, item 2, for MuJoCo, and for our own implicit step, ``--target ours``).
 
 A model fitted with our explicit step and exported as it is moves differently in a simulator
 that steps at 16 ms with an implicit integrator on another element. :func:`fit_for_target`
@@ -36,9 +36,13 @@ __all__ = ["TARGETS", "TargetFit", "fit_for_target", "rms_at_step", "describe",
            "region_values"]
 
 #: The simulators a fit can target: their element, law and integrator (as written to their
-#: files).
+#: files). ``"ours"``: our own implicit step (:func:`~neurofuzzy.simulation.implicit.
+#: simulate_implicit`, ``simulate --integrator implicit``) on the model's own element and law
+#: (None: kept), for a real-time loop that runs the fitted model at the simulator's step.
 TARGETS = {"mujoco": {"volumetric": "element", "law": "st-venant-kirchhoff",
-                      "integrator": "discrete"}}
+                      "integrator": "discrete", "name": "MuJoCo"},
+           "ours": {"volumetric": None, "law": None, "integrator": "implicit",
+                    "name": "our implicit step"}}
 
 
 @dataclass(frozen=True)
@@ -85,7 +89,8 @@ class TargetFit:
         if self.accurate is not None:
             for name, own in region_values(self.accurate).items():
                 values.setdefault(name, {})["accurate"] = own
-        return {"simulator": self.target, "dt": self.dt, "integrator": self.integrator,
+        return {"simulator": self.target, "name": TARGETS[self.target]["name"],
+                "dt": self.dt, "integrator": self.integrator,
                 "rms_error": self.rms_error, "naive_rms_error": self.naive_rms_error,
                 "own_rms_error": self.own_rms_error, "at_bound": list(self.at_bound),
                 "values": values}
@@ -106,7 +111,8 @@ def describe(record: dict) -> str:
     """One line of a :meth:`TargetFit.record` for the command's output."""
     bound = (f"; {', '.join(record['at_bound'])} at the search's bound (not told at this "
              "step)" if record.get("at_bound") else "")
-    return (f"for {record['simulator']} at {1e3 * record['dt']:g} ms ({record['integrator']}): "
+    return (f"for {record.get('name', record['simulator'])} at {1e3 * record['dt']:g} ms "
+            f"({record['integrator']}): "
             f"RMS {1e6 * record['rms_error']:.1f} µm per marker; a naive export of the fit "
             f"{1e6 * record['naive_rms_error']:.1f} µm, our model "
             f"{1e6 * record['own_rms_error']:.1f} µm{bound}")
@@ -142,7 +148,8 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
     experiments = [experiments] if isinstance(experiments, Experiment) else list(experiments)
     chosen = TARGETS[target]
     steps = [resampled(e, dt) for e in experiments]
-    naive = model.with_elements(volumetric=chosen["volumetric"], law=chosen["law"])
+    naive = model.with_elements(**{key: chosen[key] for key in ("volumetric", "law")
+                                   if chosen[key] is not None})
     fitted = fit_implicit(naive, steps, groups=model.elements.region,
                           max_evaluations=max_evaluations)
     own = [simulate_like(model, e, substeps)[::int(round(dt / e.dt))] for e in experiments]

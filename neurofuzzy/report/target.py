@@ -20,7 +20,7 @@ def target_section(plt, record: dict) -> tuple[str, str]:
     """(title, HTML) of a fit summary's ``target`` record
     (:meth:`~neurofuzzy.learn.target.TargetFit.record`)."""
     step = f"{1e3 * record['dt']:g} ms"
-    simulator = {"mujoco": "MuJoCo"}.get(record["simulator"], record["simulator"])
+    simulator = record.get("name", record["simulator"])
     errors = [("fitted for the simulator", record["rms_error"]),
               ("the fit exported as it is", record["naive_rms_error"]),
               ("our model, our step", record["own_rms_error"])]
@@ -40,8 +40,10 @@ def target_section(plt, record: dict) -> tuple[str, str]:
             f"exported as it is, to {1e6 * record['naive_rms_error']:.1f} µm ({ratio:.2g}× "
             f"that); our own model at the same frames, to {1e6 * record['own_rms_error']:.1f} "
             "µm. The fitted model file holds the values for the simulator, and "
-            f"<code>neurofuzzy export --to {html.escape(record['simulator'])}</code> writes "
-            "that step.</p>")
+            + (f"<code>neurofuzzy simulate MODEL --integrator implicit --dt {record['dt']:g}"
+               "</code> runs them." if record["simulator"] == "ours" else
+               f"<code>neurofuzzy export --to {html.escape(record['simulator'])}</code> "
+               "writes that step.") + "</p>")
     if record.get("at_bound"):
         text += ("<p class='note'>" + html.escape(", ".join(record["at_bound"])) + " ended at "
                  "the search's bound: at this step the integrator's own damping leaves it "
