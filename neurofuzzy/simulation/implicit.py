@@ -245,9 +245,9 @@ def _step(body, solver, base, guess, h, load, free, mass, iterations, tolerance)
             break
     else:
         if iterations > 1:
-            raise ConvergenceError(f"backward Euler's Newton iterations did not converge in "
-                                   f"{iterations} at a step of {h:g} s; allow more "
-                                   "iterations or take smaller steps", key="iterations")
+            raise ConvergenceError(f"the implicit step's Newton iterations did not converge in "
+                                   f"{iterations}; allow more iterations or take smaller "
+                                   "steps", key="iterations")
     return (x0 + h * w).reshape(n, 3), w.reshape(n, 3)
 
 
