@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from importlib.metadata import version
 import os
 import resource
 import sys
@@ -49,7 +50,7 @@ from neurofuzzy.learn import GradientLearner, PaperLearner, estimate_start  # no
 from neurofuzzy.mesh import bottom_layer, from_tetra, from_trimesh, lattice  # noqa: E402
 from neurofuzzy.forces import Springs  # noqa: E402
 from neurofuzzy.model import Model  # noqa: E402
-from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
+from neurofuzzy.simulation import stability_limit  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
 from identification import bench_identification, bench_large_elements  # noqa: E402
@@ -109,7 +110,7 @@ def bench_simulation(results, quick):
     shapes = [(3, 3, 3), (6, 6, 5), (12, 12, 12), (20, 20, 21)]
     if not quick:
         shapes.append((26, 26, 26))
-    backends = ["numpy"] + (["numba"] if numba_available() else [])
+    backends = ["numpy", "numba"]
     rows, table = [], {}
     for shape in shapes:
         mesh = lattice(shape, 0.01).with_fixed(where=bottom_layer)
@@ -129,7 +130,8 @@ def bench_simulation(results, quick):
             rate = steps / seconds
             table.setdefault(backend, {})[mesh.n_springs] = rate * mesh.n_springs
             rows.append((f"simulate {mesh.n_springs:>6} springs ({backend})",
-                         f"{rate:,.0f} steps/s, {rate * mesh.n_springs / 1e6:.1f} M spring-steps/s"))
+                         f"{rate:,.0f} steps/s, "
+                         f"{rate * mesh.n_springs / 1e6:.1f} M spring-steps/s"))
             if shape == (12, 12, 12):
                 results[f"sim_steps_per_s_10k_springs_{backend}"] = rate
     results["sim_spring_steps_per_s"] = {b: {str(k): v for k, v in d.items()}
@@ -144,7 +146,7 @@ def bench_simulation(results, quick):
 def bench_elements(results, quick):
     """Step rate of tetrahedral-element models (SVK + Kelvin–Voigt), numpy and numba."""
     shapes = [(4, 4, 3), (12, 12, 12)] + ([] if quick else [(20, 20, 20)])
-    backends = ["numpy"] + (["numba"] if numba_available() else [])
+    backends = ["numpy", "numba"]
     rows, table = [], {}
     for shape in shapes:
         points, tetrahedra = kuhn_block(shape, 0.03 / max(shape))
@@ -422,7 +424,7 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="smaller problems, under a minute")
     parser.add_argument("--out", default=str(Path(__file__).with_name("results.json")))
     args = parser.parse_args(argv)
-    results = {"quick": args.quick, "numba": numba_available()}
+    results = {"quick": args.quick, "numba": version("numba")}
     rows = []
     started = time.perf_counter()
     sections = [lambda: bench_accumulation(results),

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from importlib.metadata import version
 import os
 import sys
 import tempfile
@@ -39,7 +40,7 @@ import trimesh  # noqa: E402
 import neurofuzzy as nf  # noqa: E402
 from neurofuzzy.datasets import kuhn_block, paper_cube_model  # noqa: E402
 from neurofuzzy.mesh import lattice_to_tetra, read_mesh  # noqa: E402
-from neurofuzzy.simulation import numba_available, stability_limit  # noqa: E402
+from neurofuzzy.simulation import stability_limit  # noqa: E402
 
 #: docs/tutorials/springs-or-elements.md, "The documented pipeline on continuum data",
 #: ν = 0.45, voxel 4 mm
@@ -135,8 +136,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     import mujoco
 
-    backends = ["numpy"] + (["numba"] if numba_available() else [])
-    results = {"quick": args.quick, "mujoco": mujoco.__version__, "numba": numba_available(),
+    backends = ["numpy", "numba"]
+    results = {"quick": args.quick, "mujoco": mujoco.__version__, "numba": version("numba"),
                "models": {}}
     started = time.perf_counter()
     print(f"{'model':<44}{'nodes':>6}{'step (s)':>10}{'MuJoCo':>11}"

@@ -23,7 +23,6 @@ from ..effects.compiled import (CLOSING, STRETCH, constant_force, element_consta
 from ..forces.relaxation import decay
 from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
-from ..simulation import numba_available
 from ..simulation.threads import element_buffers
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
@@ -31,7 +30,7 @@ __all__ = ["compiled_possible", "CompiledModel"]
 
 def compiled_possible(parameters, model) -> bool:
     """True when the compiled kernel computes exactly what the numpy path computes."""
-    return numba_available() and kernel_effects(model)
+    return kernel_effects(model)
 
 
 class CompiledModel:

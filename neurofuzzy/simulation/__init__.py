@@ -11,7 +11,7 @@ from .stability import (STABILITY_SAFETY, StabilityLimit, check_time_step, requi
                         stability_limit)
 from .implicit import simulate_implicit
 from .static import ConvergenceError, Driven, Equilibrium, equilibrium
-from .steppers import euler_update, numba_available
+from .steppers import euler_update
 from .tangents import Tangents, tangents
 
 __all__ = [
@@ -28,7 +28,6 @@ __all__ = [
     "check_time_step",
     "check_substeps",
     "required_substeps",
-    "numba_available",
     "Driven",
     "Equilibrium",
     "equilibrium",

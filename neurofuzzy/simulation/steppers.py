@@ -26,7 +26,7 @@ import numpy as np
 
 from .threads import element_buffers
 
-__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update", "numba_available"]
+__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update"]
 
 
 def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, weight: np.ndarray,
@@ -66,15 +66,6 @@ def _compiled_update():
     from ..kernels.integrator import euler_update
 
     return euler_update
-
-
-def numba_available() -> bool:
-    """True when numba can be imported (a core dependency: always, in a correct install)."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 class NumpyStepper:
@@ -323,8 +314,7 @@ def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64):
     machine code costs about 0.3 s once per process (their first compile on a new machine
     about 9 s); the steps are 6-30 times faster.
     """
-    if backend == "numba" or (backend == "auto" and compiled_terms_only(model)
-                              and numba_available()):
+    if backend == "numba" or (backend == "auto" and compiled_terms_only(model)):
         return NumbaStepper(model, h, dtype)
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"unknown backend {backend!r}")
