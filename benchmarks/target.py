@@ -1,6 +1,6 @@
 """A fit for MuJoCo's step against the naive export, on data nobody here simulated (issue 47).
 
-    python benchmarks/target.py [--pitch 0.0075] [--dt 0.016]
+    python benchmarks/target.py [--pitch 0.0075] [--dt 0.016] [--target mujoco|ours]
 
 scikit-fem's probed block (:mod:`neurofuzzy.validation.probed_block`: quadratic tetrahedra,
 1 kHz, 20 µm noise) pushed three ways: a load ramped over 100 ms, held and released (fitted);
@@ -10,7 +10,8 @@ another ramp to 70 % and release (held out); and the step load of the validation
 The table gives the markers' RMS error at the step's frames of our model (our step), of the
 naive export (the accurate values on MuJoCo's element and step) and of the target fit, on the
 fitted recording and on the held-out one; with MuJoCo installed, the naive export run by
-MuJoCo itself too. About 4 minutes; writes ``benchmarks/target.json``.
+MuJoCo itself too. ``--target ours``: the same for our own implicit step on the model's own
+element (``benchmarks/target_ours.json``). About 4 minutes; writes ``benchmarks/target.json``.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ sys.path.insert(0, str(ROOT))
 
 import neurofuzzy as nf  # noqa: E402
 from neurofuzzy.experiment import simulate_like  # noqa: E402
-from neurofuzzy.learn.target import fit_for_target, rms_at_step  # noqa: E402
+from neurofuzzy.learn.target import TARGETS, fit_for_target, rms_at_step  # noqa: E402
 from neurofuzzy.simulation.implicit import resampled  # noqa: E402
 from neurofuzzy.validation.probed_block import (block_experiment, block_model,  # noqa: E402
                                                 probed_block)
@@ -60,8 +61,14 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pitch", type=float, default=0.0075)
     parser.add_argument("--dt", type=float, default=0.016)
-    parser.add_argument("--out", default=str(Path(__file__).with_suffix(".json")))
+    parser.add_argument("--target", choices=sorted(TARGETS), default="mujoco")
+    parser.add_argument("--out", default=None,
+                        help="default benchmarks/target.json (MuJoCo) or target_ours.json")
     args = parser.parse_args(argv)
+    out = Path(args.out or Path(__file__).with_name(
+        "target.json" if args.target == "mujoco" else f"target_{args.target}.json"))
+    chosen = {key: TARGETS[args.target][key] for key in ("volumetric", "law")
+              if TARGETS[args.target][key] is not None}
     start = block_model(pitch=args.pitch)
     cases = {"ramp": (ramp(0.03, 0.13, 0.33, 0.43), ramp(0.03, 0.08, 0.25, 0.40, 0.7)),
              "step": (None, None)}
@@ -73,10 +80,11 @@ def main(argv=None):
         held = (block_experiment(probed_block(frames=FRAMES, profile=held_profile, seed=1),
                                  start.mesh) if held_profile is not None else None)
         accurate = nf.fit(data, start=start, mesh_check=False).model
-        aimed = fit_for_target(accurate, data, dt=args.dt)
+        aimed = fit_for_target(accurate, data, target=args.target, dt=args.dt)
         row = {"load": name, "own": aimed.own_rms_error, "naive": aimed.naive_rms_error,
                "target": aimed.rms_error, "at_bound": list(aimed.at_bound),
-               "naive_in_mujoco": _mujoco_rms(accurate, data, args.dt),
+               "naive_in_mujoco": (_mujoco_rms(accurate, data, args.dt)
+                                   if args.target == "mujoco" else None),
                "values": {key: float(np.median(getattr(aimed.model.elements, key)))
                           for key in ("youngs_modulus", "poisson_ratio", "viscosity")}}
         if held is not None:
@@ -84,12 +92,11 @@ def main(argv=None):
             k = int(round(args.dt / held.dt))
             row["held_out"] = {
                 "own": rms_at_step(None, [steps], [simulate_like(accurate, held, 8)[::k]]),
-                "naive": rms_at_step(accurate.with_elements(volumetric="element",
-                                                     law="st-venant-kirchhoff"), [steps]),
+                "naive": rms_at_step(accurate.with_elements(**chosen), [steps]),
                 "target": rms_at_step(aimed.model, [steps])}
         rows.append(row)
-    print(f"MuJoCo's step {1e3 * args.dt:g} ms, voxels of {1e3 * args.pitch:g} mm; markers' "
-          "RMS (µm), ratio to our model's")
+    print(f"{TARGETS[args.target]['name']} at {1e3 * args.dt:g} ms, voxels of "
+          f"{1e3 * args.pitch:g} mm; markers' RMS (µm), ratio to our model's")
     print(f"{'load':<6} {'ours':>6} {'naive':>14} {'target':>14} {'naive, MuJoCo':>14} "
           f"{'held out: ours / naive / target':>34}")
     for r in rows:
@@ -102,8 +109,8 @@ def main(argv=None):
             f"{1e6 * held['target']:.1f} ({held['target'] / held['own']:.2f}x)")
         print(f"{r['load']:<6} {1e6 * r['own']:>6.1f} {cell(r['naive'], r['own']):>14} "
               f"{cell(r['target'], r['own']):>14} {mj:>14} {held_text:>34}")
-    Path(args.out).write_text(json.dumps({"dt": args.dt, "pitch": args.pitch, "rows": rows},
-                                         indent=1) + "\n")
+    out.write_text(json.dumps({"target": args.target, "dt": args.dt, "pitch": args.pitch,
+                               "rows": rows}, indent=1) + "\n")
 
 
 if __name__ == "__main__":
