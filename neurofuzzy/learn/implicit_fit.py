@@ -69,9 +69,10 @@ class ImplicitFit:
 
 def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *,
                  substeps: int = 1, groups: np.ndarray | None = None,
-                 max_evaluations: int = 40, tolerance: float = 1e-10) -> ImplicitFit:
-    """Fit every group's E, ν, η so that backward Euler steps of ``h = dt / substeps``
-    reproduce the experiments' markers (module docstring).
+                 max_evaluations: int = 40, tolerance: float = 1e-10,
+                 scheme: str = "euler") -> ImplicitFit:
+    """Fit every group's E, ν, η so that backward Euler (or BDF2) steps of
+    ``h = dt / substeps`` reproduce the experiments' markers (module docstring).
 
     Parameters
     ----------
@@ -86,6 +87,8 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
         one per region).
     max_evaluations, tolerance
         Levenberg–Marquardt's budget and relative stop.
+    scheme : {"euler", "bdf2"}
+        The steps' scheme (:func:`~neurofuzzy.simulation.implicit.simulate_implicit`).
     """
     experiments = [experiments] if isinstance(experiments, Experiment) else list(experiments)
     if not experiments:
@@ -95,7 +98,8 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
     groups = (np.zeros(model.mesh.n_tetrahedra, np.intp) if groups is None
               else np.asarray(groups, np.intp))
     # the model, the groups and their shared values checked before any work
-    implicit_sensitivities(model, dt=experiments[0].dt, n_frames=1, groups=groups)
+    implicit_sensitivities(model, dt=experiments[0].dt, n_frames=1, groups=groups,
+                           scheme=scheme)
     n_groups = int(groups.max(initial=0)) + 1
 
     def constants(x):
@@ -118,7 +122,7 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                 external_forces=experiment.external_forces,
                 initial_positions=experiment.initial_positions(),
                 initial_velocities=experiment.initial_velocities(), substeps=substeps,
-                groups=groups)
+                groups=groups, scheme=scheme)
             observation = experiment.observation
             seen = observation.seen[1:]
             rows.append(observation.residuals(run.positions)[1:][seen].ravel())
@@ -148,7 +152,8 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                                     external_forces=experiment.external_forces,
                                     initial_positions=experiment.initial_positions(),
                                     initial_velocities=experiment.initial_velocities(),
-                                    substeps=substeps, iterations=50, tolerance=1e-11)
+                                    substeps=substeps, iterations=50, tolerance=1e-11,
+                                    scheme=scheme)
             observation = experiment.observation
             rows.append(observation.residuals(run.positions)[1:][observation.seen[1:]].ravel())
         return np.concatenate(rows)
