@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from neurofuzzy.errors import InputError
+from neurofuzzy.mesh import from_tetra, kuhn_block
 from neurofuzzy.simulation.contact import FlatPunch, Sphere, contact_with, surface_areas
 from neurofuzzy.simulation.static import Driven, equilibrium
 from neurofuzzy.validation.indentation import hertz_force, quarter_block
@@ -252,3 +253,35 @@ def test_the_report_and_the_diagnosis_of_an_indentation_take_the_tool(tmp_path):
     found = diagnose_load_steps(start, data, max_effects=1)
     assert not any("plate" in name for name in found.candidates)
     assert found.to_dict()["plate"] is None
+
+
+def _graded_block(n, stretch):
+    """The indentation tutorial's 40 × 40 × 20 mm block, its cells shrinking toward the middle
+    of its top face (m)."""
+    points, tetrahedra = kuhn_block((2 * n, 2 * n, n), 1.0)
+
+    def fine_near_zero(t, length):
+        return length * np.expm1(stretch * t) / np.expm1(stretch)
+
+    across = points[:, :2] / n - 1
+    xy = np.sign(across) * fine_near_zero(np.abs(across), 0.02)
+    z = 0.02 - fine_near_zero(1 - points[:, 2] / n, 0.02)
+    return from_tetra(np.column_stack([xy, z]), tetrahedra)
+
+
+def test_the_cells_across_a_sphere_s_contact_are_counted_where_it_first_touches():
+    """``cells_across_contact``: the tutorial's coarse block (5,184 tetrahedra, E 15 % low)
+    has 2.3 cells across the contact radius at 0.05 mm depth, below ``RESOLVED``, its finer
+    one (12,288, E 1.8 % low) 5.0; the radius is Hertz's √(R δ) at the shallowest step; a
+    flat punch, and a sphere that never presses, give None."""
+    from neurofuzzy.simulation.contact import RESOLVED, cells_across_contact
+
+    path = np.array([[0, 0, 0.025], [0, 0, 0.0248], [0, 0, 0.02495]])
+    a, coarse = cells_across_contact(_graded_block(6, 5.0), Sphere(0.005), path)
+    assert a == pytest.approx(np.sqrt(0.005 * 0.05e-3), rel=1e-9)
+    assert coarse == pytest.approx(2.29, abs=0.01) and coarse < RESOLVED
+    fine = cells_across_contact(_graded_block(8, 5.5), Sphere(0.005), path)[1]
+    assert fine == pytest.approx(4.97, abs=0.01) and fine > RESOLVED
+    assert cells_across_contact(_graded_block(6, 5.0), FlatPunch(0.002), path) is None
+    assert cells_across_contact(_graded_block(6, 5.0), Sphere(0.005), path + [0, 0, 1e-3]) \
+        is None

@@ -293,6 +293,7 @@ def check_indentation(folder, outputs):
     fitted = float(re.search(r"youngs_modulus\s+(\d+) ±", printed)[1])
     assert fitted == pytest.approx(quoted, rel=0.01)
     assert "poisson_ratio    0.4559 fixed" in printed
+    assert "spans 2.3 cells of the mesh under it" in printed         # the mesh's note
     rms = float(re.search(r"load cell: RMS (\S+) N", printed)[1])
     quoted_rms = float(re.search(r"Its RMS, (\S+) mN", page)[1])
     assert 1e3 * rms == pytest.approx(quoted_rms, rel=0.05)
