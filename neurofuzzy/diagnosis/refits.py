@@ -186,10 +186,8 @@ def confirm(refit, experiments):
     A refit whose values ended outside its step's stable range has no fit at that step to
     start from: it is confirmed by a whole fit from its values."""
     if not stable_at_one_step(refit.model_, experiments, substeps=refit.substeps_):
-        # the refit's values left its step's stable range: no fit at that step to start
-        # from, so the confirmation is a whole fit from them (two evaluations at steps of
-        # its own, extrapolated, had made sfepy's 7.5 mm block at 27 % strain 15.3x the
-        # noise from the refit's 9.6x)
+        # two evaluations at steps of their own had made sfepy's 7.5 mm block at 27 % strain
+        # 15.3x the noise from the refit's 9.6x
         return GradientLearner(substeps="auto", windows=(), mesh_check=False).fit(
             refit.model_, experiments)
     return GradientLearner(substeps="auto", windows=(), mesh_check=False,

@@ -138,7 +138,7 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
     for key, value in (("substeps", substeps), ("iterations", iterations)):
         if not (isinstance(value, (int, np.integer)) and value >= 1):
             raise InputError(f"got {value!r}; expected a positive integer", key=key)
-    _scheme(scheme)
+    _check_scheme(scheme)
     forces = _frame_forces(external_forces, int(n_frames), n)
     p = _state(initial_positions, model.mesh.rest_positions, n, "initial_positions")
     v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
@@ -157,9 +157,7 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
     for frame in range(1, int(n_frames)):
         load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
         for _ in range(int(substeps)):
-            now = scheme if before else "euler"      # BDF2's first step is backward Euler's
-            before = before or (p, v)
-            base = (_history(now, p, before[0]), _history(now, v, before[1]))
+            now, base = _base(scheme, (p, v), before)
             before = (p, v)
             body.advance(p, v)                       # the relaxation's rᵢ to the step's end
             p, v = _step(body, solvers.of(now), base, v, SCHEMES[now] * h, load, free, mass,
@@ -197,12 +195,11 @@ def integrate(model: Model, integrator: str, *, dt: float, n_frames: int,
                      key="integrator")
 
 
-def _scheme(scheme: str) -> float:
-    """The share of the step in the position update of ``scheme`` (:data:`SCHEMES`)."""
+def _check_scheme(scheme: str) -> None:
+    """An :class:`~neurofuzzy.errors.InputError` unless ``scheme`` is one of :data:`SCHEMES`."""
     if scheme not in SCHEMES:
         raise InputError(f"got {scheme!r}; expected one of {', '.join(map(repr, SCHEMES))}",
                          key="scheme")
-    return SCHEMES[scheme]
 
 
 class _Solvers:
@@ -220,10 +217,14 @@ class _Solvers:
         return self.made[scheme]
 
 
-def _history(scheme: str, now: np.ndarray, before: np.ndarray) -> np.ndarray:
-    """What a step of ``scheme`` starts from: the state ``now`` (backward Euler) or BDF2's
-    ``(4 now - before) / 3``; for positions, velocities and their derivatives alike."""
-    return now if scheme == "euler" else (4.0 * now - before) / 3.0
+def _base(scheme: str, now: tuple, before: tuple | None) -> tuple[str, tuple]:
+    """``(the step's scheme, what it starts from)`` for the state ``now`` (a pair: positions
+    and velocities, or their derivatives) after ``before`` (None at the run's first step):
+    backward Euler's ``now``, or BDF2's ``(4 now - before) / 3``, whose first step is
+    backward Euler's."""
+    if scheme == "euler" or before is None:
+        return "euler", now
+    return scheme, tuple((4.0 * a - b) / 3.0 for a, b in zip(now, before))
 
 
 def _step(body, solver, base, guess, h, load, free, mass, iterations, tolerance):
@@ -333,7 +334,7 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     derivatives = np.zeros((int(n_frames), columns, n, 3))
     positions[0], velocities[0] = p, v
     factor = None
-    _scheme(scheme)
+    _check_scheme(scheme)
     body = BodyForce(model, h)
     solvers = _Solvers(model, body, h, free, mass)
     before, changes_before = None, None
@@ -352,11 +353,8 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     for frame in range(1, int(n_frames)):
         load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
         for _ in range(int(substeps)):
-            now = scheme if before else "euler"      # BDF2's first step is backward Euler's
-            before, changes_before = before or (p, v), changes_before or (dx, dv)
-            base = (_history(now, p, before[0]), _history(now, v, before[1]))
-            changes = (_history(now, dx, changes_before[0]),
-                       _history(now, dv, changes_before[1]))
+            now, base = _base(scheme, (p, v), before)
+            changes = _base(scheme, (dx, dv), changes_before)[1]
             before, changes_before = (p, v), (dx, dv)
             he = SCHEMES[now] * h
             p, v = _step(body, solvers.of(now), base, v, he, load, free, mass, 50, tolerance)
