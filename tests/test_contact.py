@@ -285,3 +285,22 @@ def test_the_cells_across_a_sphere_s_contact_are_counted_where_it_first_touches(
     assert cells_across_contact(_graded_block(6, 5.0), FlatPunch(0.002), path) is None
     assert cells_across_contact(_graded_block(6, 5.0), Sphere(0.005), path + [0, 0, 1e-3]) \
         is None
+
+
+def test_a_deep_press_in_one_increment_is_cut_back_to_the_same_equilibrium():
+    """A sphere of radius H/2 pressed 20 % of the block's height in one increment: Newton's
+    method from rest does not converge there (nodes enter the contact in bulk; at 3 mm the
+    tangent of the compressed neo-Hookean elements turns indefinite), so the increment is
+    halved until it does, and the equilibrium is the one eight increments find."""
+    model, planes = quarter_block(5, half_width=H, height=H, stretch=2.0,
+                                  youngs_modulus=E, poisson_ratio=0.45, law="neo-hookean")
+    driven = [Driven(nodes, (0, 0, 0), component) for nodes, component in planes]
+    top = np.array([0.0, 0.0, 1.5 * H])
+    found = {}
+    for increments in (1, 8):
+        contact = contact_with(model, Sphere(H / 2), top - (0, 0, 0.2 * H))
+        found[increments] = equilibrium(model, driven=driven, contact=contact,
+                                        increments=increments, tool_start=top)
+    assert np.abs(found[1].positions - found[8].positions).max() < 1e-9 * H
+    assert found[1].contact_force[2] == pytest.approx(found[8].contact_force[2], rel=1e-6)
+    assert found[1].contact_force[2] < 0

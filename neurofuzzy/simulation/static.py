@@ -8,7 +8,8 @@ the fixed nodes at rest, and every other node where the forces balance,
 
 - **load increments**: the driven displacements and the loads are applied in ``increments``
   equal parts, each solved from the last (large strain needs them; one suffices at small
-  strain);
+  strain), and an increment whose Newton iterations do not converge is halved, up to
+  :data:`CUTS` times (automatic cut-back, as in every nonlinear finite-element code);
 - **Newton's method** with the exact stiffness ``K = -∂F/∂p`` of every law and both
   volumetric forms, a predictor that moves the free nodes with the driven ones
   (``Δp_f = -K_ff⁻¹ K_fc Δp_c``), and a backtracking line search on the residual's norm;
@@ -49,6 +50,9 @@ from ..model import Model
 from .tangents import tangents
 
 __all__ = ["Driven", "Equilibrium", "equilibrium", "ConvergenceError"]
+
+#: how many times an increment is halved before :func:`equilibrium` gives up
+CUTS = 6
 
 #: the components a driven set may be held in, by name
 _COMPONENTS = {"x": 0, "y": 1, "z": 2}
@@ -177,13 +181,14 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
         The equilibrium of the previous load step (rest by default): the increments go from
         its driven displacements and load (taken as zero) to these.
     increments : int
-        Equal parts the displacements and load are applied in.
+        Equal parts the displacements and load are applied in (each halved where needed).
     tolerance : float
         Converged when the largest out-of-balance force is ``tolerance`` times the largest
         force on the body (reaction or load), or the Newton step
         ``tolerance`` times 1e-4 of the body's size.
     max_iterations : int
-        Newton iterations per increment before :class:`ConvergenceError`.
+        Newton iterations per increment before it is halved (:class:`ConvergenceError`
+        after :data:`CUTS` halvings).
     factor : SuperLU, optional
         A factorisation of the free stiffness of a nearby equilibrium with the same held
         degrees of freedom (the same step at nearby material parameters): Newton's systems
@@ -235,9 +240,11 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     first = p[held] - rest.ravel()[held]
     size = float(np.ptp(rest, axis=0).max())
     iterations = 0
-    residual = 0.0
-    for step in range(1, int(increments) + 1):
-        fraction = step / int(increments)
+
+    def newton_to(fraction):
+        """Newton's iterations to the equilibrium at ``fraction`` of the way from ``start``
+        (``p`` moves there); ``(state, load, residual)``, or :class:`_Diverged`."""
+        nonlocal factor, iterations
         target = rest.ravel()[held] + first + fraction * (shift - first)
         load_now = fraction * f_ext.ravel()
         # predictor: the free nodes follow the driven ones linearly
@@ -254,10 +261,12 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             scale = max(np.abs(out[held]).max(initial=0.0), np.abs(load_now).max(), 1e-300)
             residual = np.abs(out[free]).max(initial=0.0)
             if residual <= tolerance * scale:
-                break
+                return state, load_now, residual
             delta, factor = _solve(state.stiffness[free][:, free], out[free], factor,
                                    NEWTON_RTOL)
             iterations += 1
+            if contact is not None and not float(out[free] @ delta) > 0:
+                raise _Diverged(residual)     # uphill: the tangent is indefinite here
             force_at = partial(forces_at, fraction=fraction)
             p[free] += (_line_search(force_at, p, free, delta, load_now, residual)
                         if contact is None else
@@ -265,13 +274,29 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             if np.abs(delta).max() <= 1e-4 * tolerance * size:
                 state = state_at(p.reshape(n, 3), fraction, matrices=False)
                 out = state.force.ravel() + load_now
-                residual = np.abs(out[free]).max(initial=0.0)
-                break
-        else:
-            raise ConvergenceError(
-                f"no equilibrium after {max_iterations} Newton iterations at increment {step} "
-                f"of {increments} (out-of-balance force {residual:.3g} N): apply the "
-                "displacements in more increments", key="increments")
+                return state, load_now, np.abs(out[free]).max(initial=0.0)
+        raise _Diverged(residual)
+
+    # increments, each halved up to CUTS times where Newton's method does not converge from
+    # the last equilibrium (nodes entering a tool's contact in bulk, an indefinite tangent)
+    pending = [k / int(increments) for k in range(int(increments), 0, -1)]
+    done, smallest = 0.0, 1.0 / int(increments) / 2**CUTS
+    while pending:
+        fraction, saved = pending[-1], p.copy()
+        try:
+            state, load_now, residual = newton_to(fraction)
+        except _Diverged as why:
+            if fraction - done <= smallest * (1 + 1e-9):
+                raise ConvergenceError(
+                    f"no equilibrium after {max_iterations} Newton iterations at "
+                    f"{100 * fraction:.3g} % of the way (out-of-balance force "
+                    f"{why.residual:.3g} N), even in increments of {100 * smallest:.2g} %: "
+                    "apply the displacements in more increments", key="increments") from None
+            p[:] = saved
+            pending.append(done + 0.5 * (fraction - done))
+            continue
+        pending.pop()
+        done = fraction
     reaction = np.zeros(3 * n)
     reaction[held] = -(state.force.ravel()[held] + load_now[held])
     stiffness = state.stiffness
@@ -280,6 +305,14 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     touched = None if contact is None else contact.forces(p.reshape(n, 3))
     return Equilibrium(p.reshape(n, 3), reaction.reshape(n, 3), iterations, float(residual),
                        stiffness, held, factor, touched)
+
+
+class _Diverged(Exception):
+    """Newton's method left an increment unsolved (its last out-of-balance force)."""
+
+    def __init__(self, residual):
+        super().__init__(residual)
+        self.residual = float(residual)
 
 
 def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarray]:
