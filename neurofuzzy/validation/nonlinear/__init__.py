@@ -6,7 +6,8 @@ strain-stiffening law, and FEBio's quasi-linear Prony-series viscoelasticity on 
 either. :class:`HyperelasticSolver` solves them dynamically at large strain;
 :mod:`.closed_forms` gives uniaxial stress and the standard linear solid's creep and
 relaxation to check it against; :mod:`.recordings` records the probed block of
-:mod:`neurofuzzy.validation.probed_block` with them (up to about 35 % compression under the probe).
+:mod:`neurofuzzy.validation.probed_block` with them (up to about 35 % compression under the probe);
+:mod:`.indentation` presses a rigid sphere deep into a block with sfepy's own contact term.
 
 Needs sfepy (``pip install 'neurofuzzy[validation-nonlinear]'``) for the solver; the closed forms need only numpy and
 scipy.
