@@ -70,19 +70,35 @@ class ToolPath:
         the start model's Young's modulus; a fit scales it with E, so that without a load
         cell the markers cannot tell E through the penalty's give.
     name : str
+    orientations : (n_steps + 1, 4) float, optional
+        The tool's attitude at each step, unit quaternions ``(w, x, y, z)`` turning the
+        tool's own frame (a punch's axis as given) into the world's, as a tracker reports
+        it; None: never turned. A sphere looks the same every way; a punch's face tilts.
+        Within a step's increments the tool keeps the step's attitude.
     """
 
     tool: object
     positions: np.ndarray
     stiffness: float | str = "auto"
     name: str = "indenter"
+    orientations: np.ndarray | None = None
+
+    def tool_at(self, step: int):
+        """The tool as it is turned at step ``step`` (0 the reference)."""
+        if self.orientations is None:
+            return self.tool
+        from scipy.spatial.transform import Rotation
+
+        turn = Rotation.from_quat(np.asarray(self.orientations, float)[step],
+                                  scalar_first=True)
+        return self.tool.turned(turn.as_matrix())
 
     def contact(self, model: Model):
         """The tool's :class:`~neurofuzzy.simulation.contact.Contact` with ``model`` (at
         step 0)."""
         from .simulation.contact import contact_with
 
-        return contact_with(model, self.tool, np.asarray(self.positions, float)[0],
+        return contact_with(model, self.tool_at(0), np.asarray(self.positions, float)[0],
                             stiffness=self.stiffness)
 
 
@@ -191,8 +207,20 @@ class LoadSteps:
                              f"scan and at each of the {n_steps} load steps, shape "
                              f"({n_steps + 1}, 3); got {positions.shape}", source=src,
                              key="tool")
+        if tool.orientations is not None:
+            turns = np.asarray(tool.orientations, float)
+            if turns.shape != (n_steps + 1, 4) or not np.all(np.isfinite(turns)):
+                raise InputError(f"the tool {tool.name!r} needs a finite attitude (qw, qx, qy, "
+                                 f"qz) at each position, shape ({n_steps + 1}, 4); got "
+                                 f"{turns.shape}", source=src, key="tool")
+            size = np.linalg.norm(turns, axis=1)
+            if np.any(np.abs(size - 1) > 1e-3):
+                raise InputError(f"the tool {tool.name!r} has an attitude quaternion of length "
+                                 f"{size[np.argmax(np.abs(size - 1))]:.4g} at step "
+                                 f"{int(np.argmax(np.abs(size - 1)))}: unit quaternions "
+                                 "(w, x, y, z) only", source=src, key="tool")
         rest = self.mesh.rest_positions
-        gap = tool.tool.gap(rest, positions[0])[0]
+        gap = tool.tool_at(0).gap(rest, positions[0])[0]
         if np.any(gap < -1e-9 * float(np.ptp(rest, axis=0).max())):
             raise InputError(f"the tool {tool.name!r} starts inside the body (node "
                              f"{int(np.argmin(gap))} lies {-1e3 * float(gap.min()):.3g} mm "
@@ -290,7 +318,8 @@ def tool_at(tool: ToolPath | None, contact, step: int) -> dict:
     if tool is None:
         return {}
     positions = np.asarray(tool.positions, float)
-    return {"contact": contact.at(positions[step]), "tool_start": positions[step - 1]}
+    return {"contact": contact.at(positions[step], tool.tool_at(step)),
+            "tool_start": positions[step - 1]}
 
 
 def marker_paths(markers: EmbeddedMarkers | None, chosen, *, source: str = "<load steps>",

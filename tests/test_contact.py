@@ -343,3 +343,36 @@ def test_a_deep_indentation_by_another_solver_is_fitted_with_the_mesh_s_bias_sho
     assert both.marker_rms_ / both.marker_scale > 1.3
     assert both.validation_["force_error"] < 3 * deep.FORCE_NOISE * abs(
         recorded["force"][3, 2]) / 4
+
+
+def test_a_turned_punch_on_a_turned_block_gives_the_turned_force():
+    """The tool's attitude (``ToolPath.orientations``): a block and the punch's path both
+    turned by one rotation Q, the punch's attitude Q, give the unturned experiment's forces
+    turned by Q, and the markers' positions turned by Q, at every step."""
+    from scipy.spatial.transform import Rotation
+
+    from neurofuzzy.load_steps import ToolPath, simulate_load_steps
+    from neurofuzzy.model import Model
+    from neurofuzzy.observation import EmbeddedMarkers
+
+    turn = Rotation.from_euler("xyz", [25.0, -40.0, 70.0], degrees=True)
+    Q = turn.as_matrix()
+    points, tetrahedra = kuhn_block((4, 4, 2), H / 4)
+    path = np.array([[H / 2, H / 2, H / 2 + s] for s in (0.0, -2e-4, -4e-4)])
+    got = {}
+    for name, rotation in (("plain", np.eye(3)), ("turned", Q)):
+        mesh = from_tetra(points @ rotation.T, tetrahedra).with_fixed(
+            where=lambda p: np.abs(p @ rotation[:, 2]) < 1e-9)
+        model = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=0.4, viscosity=1.0,
+                                density=1000.0)
+        quaternions = np.tile(turn.as_quat(scalar_first=True) if name == "turned"
+                              else [1.0, 0, 0, 0], (3, 1))
+        tool = ToolPath(FlatPunch(0.003), path @ rotation.T, orientations=quaternions)
+        markers = EmbeddedMarkers(np.array([[40, 41, 45, 46]]), np.full((1, 4), 0.25),
+                                  np.zeros((3, 1, 3)))
+        got[name] = simulate_load_steps(model, [], markers, tool=tool)
+    assert np.abs(got["plain"].reaction[:, 2]).min() > 0
+    assert np.allclose(got["turned"].reaction, got["plain"].reaction @ Q.T, rtol=1e-6,
+                       atol=1e-9 * np.abs(got["plain"].reaction).max())
+    assert np.allclose(got["turned"].markers.positions, got["plain"].markers.positions @ Q.T,
+                       atol=1e-12)

@@ -92,6 +92,8 @@ def test_an_indentation_from_files_fits_e_and_nu_and_says_what_it_cannot(lab, tm
     ("no_path", "--tool-path is missing"),
     ("bad_kind", "KIND:R=RADIUS"),
     ("with_plate", "take no plate"),
+    ("some_quaternion", "names some of qw, qx, qy, qz"),
+    ("zero_quaternion", "is zero or not finite"),
 ])
 def test_bad_indentation_input_is_refused_with_exit_2_and_nothing_written(lab, tmp_path, case,
                                                                          words):
@@ -104,6 +106,13 @@ def test_bad_indentation_input_is_refused_with_exit_2_and_nothing_written(lab, t
         bad.write_text("\n".join(text[:-1] + ["3,10,10,2"]) + "\n")
     elif case == "no_units":
         bad.write_text("\n".join(text[1:]) + "\n")
+    elif case == "some_quaternion":
+        bad.write_text("\n".join(text[:1] + [text[1] + ",qw,qx"]
+                                 + [row + ",1,0" for row in text[2:]]) + "\n")
+    elif case == "zero_quaternion":
+        bad.write_text("\n".join(text[:1] + [text[1] + ",qw,qx,qy,qz"]
+                                 + [row + (",0,0,0,0" if k == 2 else ",1,0,0,0")
+                                    for k, row in enumerate(text[2:])]) + "\n")
     else:
         bad.write_text("\n".join(text) + "\n")
     if case == "no_path":
@@ -119,3 +128,31 @@ def test_bad_indentation_input_is_refused_with_exit_2_and_nothing_written(lab, t
     assert result.returncode == 2, result.stderr
     assert words in result.stderr and "Traceback" not in result.stderr
     assert not out.exists()
+
+
+def test_a_tracked_punch_s_attitude_is_read_and_kept(lab, tmp_path):
+    """A tool path with a tracker's attitude (``qw,qx,qy,qz``, scalar first, here not quite
+    unit): the load-step file keeps the normalised quaternions, and the punch's axis turns
+    with them (90° about x takes its +z axis to -y)."""
+    from scipy.spatial.transform import Rotation
+
+    from neurofuzzy.io.load_steps import load_load_steps
+
+    text = (lab / "tool-no-force.csv").read_text().splitlines()
+    half = np.sqrt(0.5)
+    tilted = tmp_path / "tilted.csv"
+    tilted.write_text("\n".join(text[:1] + [text[1] + ",qw,qx,qy,qz"]
+                                + [row + ",1,0,0,0" for row in text[2:4]]
+                                + [row + f",{1.01 * half},{1.01 * half},0,0"
+                                   for row in text[4:]]) + "\n")
+    out = tmp_path / "steps.npz"
+    result = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--tool",
+                 "punch:R=2mm", "--tool-path", tilted, "--out", out)
+    assert result.returncode == 0, result.stderr
+    path = load_load_steps(out).tool
+    assert np.allclose(np.linalg.norm(path.orientations, axis=1), 1.0)
+    assert np.allclose(path.orientations[-1], [half, half, 0, 0])
+    assert np.allclose(path.tool_at(1).axis, (0, 0, 1))
+    assert np.allclose(path.tool_at(3).axis, (0, -1, 0), atol=1e-12)
+    turn = Rotation.from_quat(path.orientations[3], scalar_first=True).as_matrix()
+    assert np.allclose(path.tool_at(3).axis, turn @ np.array(path.tool.axis))

@@ -304,7 +304,8 @@ def import_indentation(args) -> int:
                             scans)
     name = args.tool.partition(":")[0]
     data = LoadSteps(mesh, (), markers, path.force, {}, str(args.tool_path),
-                     ToolPath(tool, path.displacement, name=name))
+                     ToolPath(tool, path.displacement, name=name,
+                              orientations=path.orientations))
     with outputs:
         save_load_steps(data, out)
     count = 0 if markers is None else markers.positions.shape[1]

@@ -26,10 +26,11 @@ KEYS = ("load_steps", "rest_positions", "tetrahedra", "fixed", "marker_positions
         "marker_nodes", "marker_weights", "marker_names", "driven_nodes", "driven_set",
         "driven_displacement", "driven_components", "driven_names", "reaction",
         "tool_kind", "tool_radius", "tool_axis", "tool_positions", "tool_stiffness",
-        "tool_name")
+        "tool_name", "tool_orientations")
 #: an indenter's keys (all or none): its kind (``sphere`` or ``flat punch``), radius (m), a
-#: punch's axis, its positions at steps 0..n (m), the penalty (Pa/m; NaN: automatic), name
-TOOL_KEYS = KEYS[14:]
+#: punch's axis, its positions at steps 0..n (m), the penalty (Pa/m; NaN: automatic), name;
+#: ``tool_orientations`` (its attitude at steps 0..n, quaternions w, x, y, z) is optional
+TOOL_KEYS = KEYS[14:20]
 #: the markers are optional (a force–displacement curve alone), the rest is required
 REQUIRED = KEYS[:4] + KEYS[8:13]
 #: the dtype kinds each key may have: integers, numbers, text
@@ -37,7 +38,7 @@ KINDS_INTEGER = (("load_steps", "tetrahedra", "fixed", "driven_nodes", "driven_s
                   "marker_nodes"), "iu", "integers")
 KINDS_NUMBER = (("rest_positions", "marker_positions", "marker_weights",
                  "driven_displacement", "reaction", "tool_radius", "tool_axis",
-                 "tool_positions", "tool_stiffness"), "iuf", "numbers")
+                 "tool_positions", "tool_stiffness", "tool_orientations"), "iuf", "numbers")
 KINDS_TEXT = (("driven_components", "driven_names", "marker_names", "tool_kind",
                "tool_name"), "US", "strings")
 
@@ -87,13 +88,17 @@ def _tool_keys(path: ToolPath) -> dict:
             "tool_positions": np.asarray(path.positions, float),
             "tool_stiffness": np.float64(np.nan if path.stiffness == "auto"
                                          else path.stiffness),
-            "tool_name": np.array(path.name)}
+            "tool_name": np.array(path.name),
+            **({} if path.orientations is None
+               else {"tool_orientations": np.asarray(path.orientations, float)})}
 
 
 def _tool(data) -> ToolPath | None:
     """The file's indenter (:data:`TOOL_KEYS`, all or none), or None."""
     given = [key for key in TOOL_KEYS if key in data]
     if not given:
+        if "tool_orientations" in data:
+            raise InputError("has a tool's attitudes but no tool", key="tool_orientations")
         return None
     if len(given) < len(TOOL_KEYS):
         missing = sorted(set(TOOL_KEYS) - set(given))
@@ -106,8 +111,10 @@ def _tool(data) -> ToolPath | None:
     tool = (Sphere(radius) if kind == "sphere"
             else FlatPunch(radius, tuple(np.asarray(data["tool_axis"], float).ravel())))
     stiffness = float(data["tool_stiffness"])
+    turns = data["tool_orientations"] if "tool_orientations" in data else None
     return ToolPath(tool, np.asarray(data["tool_positions"], float),
-                    "auto" if np.isnan(stiffness) else stiffness, str(data["tool_name"]))
+                    "auto" if np.isnan(stiffness) else stiffness, str(data["tool_name"]),
+                    None if turns is None else np.asarray(turns, float))
 
 
 def load_load_steps(path: str | os.PathLike) -> LoadSteps:

@@ -49,6 +49,7 @@ class PlatePath:
     displacement: np.ndarray
     force: np.ndarray | None
     source: str
+    orientations: np.ndarray | None = None
 
 
 def has_step_column(path: str | os.PathLike) -> bool:
@@ -124,7 +125,7 @@ def read_plate(path: str | os.PathLike, *, n_steps: int | None = None,
     1..``n_steps`` (a step 0 row, if any, must be at rest) and the load cell's force;
     ``n_steps`` None: the file's last step (no scans to match)."""
     source = str(path)
-    displacement, force = _read_steps(path, ("dx", "dy", "dz"), n_steps, units, "plate")
+    displacement, force, _ = _read_steps(path, ("dx", "dy", "dz"), n_steps, units, "plate")
     if np.isfinite(displacement[0]).all() and np.abs(displacement[0]).max() > 0:
         raise InputError("step 0 is the reference: its displacement must be 0 0 0",
                          source=source)
@@ -133,22 +134,25 @@ def read_plate(path: str | os.PathLike, *, n_steps: int | None = None,
 
 def read_tool_path(path: str | os.PathLike, *, n_steps: int | None = None,
                    units: str | None = None) -> PlatePath:
-    """Read a ``step,x,y,z[,fx,fy,fz]`` CSV: an indenter's reference point (a sphere's
-    centre, a punch's face centre) at the reference scan (step 0, required) and at steps
-    1..``n_steps``, and its load cell's force (the force the tool exerts on the body);
-    returned as a :class:`PlatePath` whose ``displacement`` holds the (n_steps + 1, 3)
-    positions."""
+    """Read a ``step,x,y,z[,qw,qx,qy,qz][,fx,fy,fz]`` CSV: an indenter's reference point (a
+    sphere's centre, a punch's face centre) at the reference scan (step 0, required) and at
+    steps 1..``n_steps``, its attitude as a tracker gives it (unit quaternions, scalar
+    first; normalised here) and its load cell's force (the force the tool exerts on the
+    body); returned as a :class:`PlatePath` whose ``displacement`` holds the
+    (n_steps + 1, 3) positions and ``orientations`` the (n_steps + 1, 4) attitudes."""
     source = str(path)
-    positions, force = _read_steps(path, ("x", "y", "z"), n_steps, units, "tool")
+    positions, force, turns = _read_steps(path, ("x", "y", "z"), n_steps, units, "tool",
+                                          attitude=True)
     if not np.isfinite(positions[0]).all():
         raise InputError("has no step 0 row: the tool's position at the reference scan is "
                          "where it starts", source=source)
-    return PlatePath(positions, None if force is None else force[1:], source)
+    return PlatePath(positions, None if force is None else force[1:], source, turns)
 
 
-def _read_steps(path, columns, n_steps, units, what):
-    """``(values (n_steps + 1, 3) with NaN where a step has no row, force or None)`` of a
-    per-step CSV of ``columns`` and optional ``fx,fy,fz`` (metres and newtons)."""
+def _read_steps(path, columns, n_steps, units, what, attitude=False):
+    """``(values (n_steps + 1, 3) with NaN where a step has no row, force or None, attitude
+    or None)`` of a per-step CSV of ``columns`` and optional ``fx,fy,fz`` (metres and
+    newtons) and, with ``attitude``, ``qw,qx,qy,qz`` (unit quaternions)."""
     path = Path(path)
     source = str(path)
     header, rows, stated = read_csv_table(path, required=[("step", "time"),
@@ -164,6 +168,11 @@ def _read_steps(path, columns, n_steps, units, what):
     if any(forces) and not all(forces):
         raise InputError("names some of fx, fy, fz; a load cell's force needs all three",
                          source=source)
+    quaternion = ("qw", "qx", "qy", "qz")
+    turned = attitude and any(c in header for c in quaternion)
+    if turned and not all(c in header for c in quaternion):
+        raise InputError("names some of qw, qx, qy, qz; a tool's attitude needs all four "
+                         "(a unit quaternion, scalar first)", source=source)
     newton = None
     if all(forces):
         if "force units" not in stated:
@@ -180,6 +189,7 @@ def _read_steps(path, columns, n_steps, units, what):
             raise InputError("has only step 0; a fit needs load steps", source=source)
     values = np.full((n_steps + 1, 3), np.nan)
     force = np.full((n_steps + 1, 3), np.nan)
+    turns = np.full((n_steps + 1, 4), np.nan) if turned else None
     for (line, row), step in zip(rows, steps):
         if step > n_steps:
             raise InputError(f"step {step} is not one of the scans' steps 0..{n_steps}",
@@ -190,6 +200,12 @@ def _read_steps(path, columns, n_steps, units, what):
         if newton is not None:
             force[step] = [number(row[header[c]], source, line, c) * newton
                            for c in ("fx", "fy", "fz")]
+        if turned:
+            turns[step] = [number(row[header[c]], source, line, c) for c in quaternion]
+            if not np.linalg.norm(turns[step]) > 1e-6:
+                raise InputError(f"step {step}'s attitude qw, qx, qy, qz is zero or not "
+                                 "finite: a unit quaternion is needed", source=source,
+                                 line=line)
     absent = [s for s in range(1, n_steps + 1) if not np.isfinite(values[s]).all()]
     if absent:
         raise InputError(f"has no row for step(s) {absent}: the scans have steps 1..{n_steps}, "
@@ -197,4 +213,6 @@ def _read_steps(path, columns, n_steps, units, what):
     if not np.all(np.isfinite(values[1:])) or (
             newton is not None and not np.all(np.isfinite(force[1:]))):
         raise InputError("a displacement or force is not finite", source=source)
-    return values, None if newton is None else force
+    if turned:
+        turns = turns / np.linalg.norm(turns, axis=1, keepdims=True)
+    return values, None if newton is None else force, turns

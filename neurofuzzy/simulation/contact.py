@@ -72,6 +72,10 @@ class Sphere:
         normal[distance == 0] = (0.0, 0.0, 1.0)
         return distance - self.radius, normal, 1.0 / safe
 
+    def turned(self, rotation) -> Sphere:
+        """The sphere turned by ``rotation`` (3 × 3): itself."""
+        return self
+
     def describe(self) -> str:
         return f"sphere of radius {1e3 * self.radius:g} mm"
 
@@ -101,6 +105,11 @@ class FlatPunch:
         sideways = np.linalg.norm(offset - height[:, None] * axis, axis=1)
         gap = np.where(sideways <= self.radius, -height, np.inf)
         return gap, np.broadcast_to(-axis, points.shape), np.zeros(len(points))
+
+    def turned(self, rotation) -> FlatPunch:
+        """The punch turned by ``rotation`` (3 × 3, the tool's frame to the world's): its
+        axis ``rotation @ axis``."""
+        return FlatPunch(self.radius, tuple(np.asarray(rotation, float) @ np.asarray(self.axis)))
 
     def describe(self) -> str:
         return f"flat punch of radius {1e3 * self.radius:g} mm"
@@ -141,13 +150,15 @@ class Contact:
     nodes: np.ndarray
     areas: np.ndarray = field(repr=False)
 
-    def at(self, position) -> Contact:
-        """The same contact with the tool moved to ``position``."""
+    def at(self, position, tool=None) -> Contact:
+        """The same contact with the tool moved to ``position`` (and, given ``tool``, that
+        tool instead: the same one turned)."""
         position = np.asarray(position, float)
         if position.shape != (3,) or not np.all(np.isfinite(position)):
             raise InputError(f"a tool's position must be 3 finite numbers; got {position!r}",
                              key="tool")
-        return Contact(self.tool, position, self.stiffness, self.nodes, self.areas)
+        return Contact(self.tool if tool is None else tool, position, self.stiffness,
+                       self.nodes, self.areas)
 
     def _depths(self, positions: np.ndarray):
         gap, normal, curvature = self.tool.gap(positions[self.nodes], self.position)
