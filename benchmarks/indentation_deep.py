@@ -40,31 +40,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from neurofuzzy.learn.load_step_fit import fit_load_steps  # noqa: E402
-from neurofuzzy.load_steps import DrivenPath, LoadSteps, ToolPath  # noqa: E402
-from neurofuzzy.observation import EmbeddedMarkers, embed_points  # noqa: E402
+from neurofuzzy.load_steps import ToolPath  # noqa: E402
 from neurofuzzy.simulation.contact import Sphere  # noqa: E402
-from neurofuzzy.validation.indentation import quarter_block  # noqa: E402
+from neurofuzzy.validation.indentation import DEEP  # noqa: E402
 
 DATA = ROOT / "tests" / "data"
-E, H, W, R = 6000.0, 0.02, 0.02, 0.01          # Pa; height, half width, sphere radius (m)
-DEPTHS = np.array([1.0, 2.0, 3.0, 4.0]) * 1e-3
-STRETCH = 2.0                                  # the cells grow by e^(2/n) away from the axis
-FORCE_NOISE, MARKER_NOISE = 0.01, 20e-6        # relative; m
-PENALTY = 1e9             # sfepy's contact stiffness (Pa/m): 3 um deep at the deepest step
-
-
-def centres():
-    """The sphere's centre touching the top, then at each depth."""
-    return np.array([[0.0, 0.0, H + R - d] for d in (0.0, *DEPTHS)])
-
-
-def markers():
-    """20 rest points on the quarter's top face: 5 radii by 4 angles."""
-    radii = np.array([3.0, 6.5, 10.0, 13.5, 17.0]) * 1e-3
-    angles = np.radians([10.0, 35.0, 55.0, 80.0])
-    r, a = np.meshgrid(radii, angles, indexing="ij")
-    return np.column_stack([(r * np.cos(a)).ravel(), (r * np.sin(a)).ravel(),
-                            np.full(r.size, H)])
+E, H = DEEP.youngs_modulus, DEEP.height
+PENALTY = 1e9             # sfepy's contact stiffness (Pa/m): 4 um deep at the deepest step
 
 
 def record(cells, nu, penalty=PENALTY, increments=4):
@@ -74,15 +56,16 @@ def record(cells, nu, penalty=PENALTY, increments=4):
 
     runs = []
     for n in cells:
-        model, _ = quarter_block(n, half_width=W, height=H, stretch=STRETCH)
+        model, _ = DEEP.quarter(n)
         points, tets = model.mesh.rest_positions, model.mesh.tetrahedra
         tol = 1e-9 * H
         start = time.perf_counter()
         got = indent_with_sphere(
-            points, tets, material=NeoHookean(E, nu), radius=R, centres=centres(),
+            points, tets, material=NeoHookean(E, nu), radius=DEEP.radius,
+            centres=DEEP.centres(),
             fixed={"all": lambda x: x[2] < tol, 0: lambda x: x[0] < tol,
                    1: lambda x: x[1] < tol},
-            top=H, markers=markers(), penalty=penalty, increments=increments,
+            top=H, markers=DEEP.markers(), penalty=penalty, increments=increments,
             progress=lambda message: print(f"  {n} cells: {message}", flush=True))
         runs.append({"cells": n, "got": got, "seconds": time.perf_counter() - start})
         print(f"{n} cells: force (quarter) {got.force[:, 2]} N, deepest penetration "
@@ -90,8 +73,9 @@ def record(cells, nu, penalty=PENALTY, increments=4):
               f"{runs[-1]['seconds']:.0f} s", flush=True)
     coarse, fine = runs[0]["got"], runs[-1]["got"]
     out = DATA / f"indentation_nu{nu}.npz"
-    np.savez_compressed(out, markers=markers(), centres=centres(), radius=R, height=H,
-                        half_width=W, youngs_modulus=E, poisson_ratio=nu,
+    np.savez_compressed(out, markers=DEEP.markers(), centres=DEEP.centres(),
+                        radius=DEEP.radius, height=H, half_width=DEEP.half_width,
+                        youngs_modulus=E, poisson_ratio=nu,
                         force=4 * fine.force, force_coarse=4 * coarse.force,
                         displacements=fine.displacements,
                         displacements_coarse=coarse.displacements,
@@ -100,41 +84,38 @@ def record(cells, nu, penalty=PENALTY, increments=4):
     print(f"wrote {out}")
 
 
-def lab_data(recorded, model, planes, *, with_markers=True, seed=0):
-    """The recording as a lab has it: the quarter's share of the force with 1 % noise, the
-    markers' every scan (the rest one too) with 20 µm noise, embedded where the first scan
-    saw them."""
-    rng = np.random.default_rng(seed)
-    force = recorded["force"] / 4
-    reaction = force + FORCE_NOISE * np.abs(force[:, 2:]) * rng.normal(size=force.shape)
+def forward(cells, nu):
+    """Our quarter block's force at the recording's own E and ν, step by step, against the
+    recording's: the discretisation's share of what the fits find."""
+    from neurofuzzy.load_steps import tool_at
+    from neurofuzzy.simulation.static import Driven, equilibrium
+
+    recorded = np.load(DATA / f"indentation_nu{nu}.npz")
+    model, planes = DEEP.quarter(cells, nu, law="neo-hookean")
     tool = ToolPath(Sphere(float(recorded["radius"])), recorded["centres"])
-    paths = tuple(DrivenPath(nodes, np.zeros((len(force), 3)), component, f"plane {component}")
-                  for nodes, component in planes)
-    embedded = None
-    if with_markers:
-        rest = recorded["markers"]
-        scans = np.concatenate([rest[None], rest + recorded["displacements"]])
-        scans = scans + rng.normal(scale=MARKER_NOISE, size=scans.shape)
-        nodes, weights, _ = embed_points(model.mesh, scans[0])
-        embedded = EmbeddedMarkers(nodes, weights, scans)
-    return LoadSteps(model.mesh, paths, embedded, reaction, tool=tool)
+    touch, positions, forces = tool.contact(model), None, []
+    driven = [Driven(nodes, (0, 0, 0), component) for nodes, component in planes]
+    for step in range(1, len(recorded["centres"])):
+        found = equilibrium(model, driven=driven, start=positions, **tool_at(tool, touch, step))
+        positions = found.positions
+        forces.append(-4 * float(found.contact_force[2]))
+    return np.array(forces)
 
 
 def fits(cells, nu):
     """The three fits of the module docstring on the recording of ``nu``."""
     recorded = np.load(DATA / f"indentation_nu{nu}.npz")
-    model, planes = quarter_block(cells, half_width=W, height=H, stretch=STRETCH,
-                                  youngs_modulus=E, poisson_ratio=nu, law="neo-hookean")
-    noise = FORCE_NOISE * np.abs(recorded["force"][:, 2]) / 4
+    model, planes = DEEP.quarter(cells, nu, law="neo-hookean")
+    noise = DEEP.force_noise * np.abs(recorded["force"][:, 2]) / 4
     rows = {}
     for name, markers_on, start_nu, held in (("force and markers", True, 0.3, []),
                                              ("force alone, nu given", False, nu, []),
                                              ("deepest step held out", True, 0.3, [4])):
-        data = lab_data(recorded, model, planes, with_markers=markers_on)
+        data = DEEP.lab_data(recorded, model, planes, with_markers=markers_on)
         start = time.perf_counter()
         fit = fit_load_steps(model.with_elements(youngs_modulus=3000.0,
                                                  poisson_ratio=start_nu), data,
-                             marker_noise=MARKER_NOISE if markers_on else None,
+                             marker_noise=DEEP.marker_noise if markers_on else None,
                              force_noise=float(noise.mean()), validate_on=held,
                              progress=lambda message: print(f"  {message}", file=sys.stderr))
         row = {"seconds": time.perf_counter() - start, "E": fit.youngs_modulus_,
@@ -151,7 +132,12 @@ def fits(cells, nu):
         print(f"{name}: E {fit.youngs_modulus_:.0f} Pa ({100 * row['E_error']:+.1f} %), "
               f"nu {fit.poisson_ratio_:.4f} ({row['nu_error']:+.4f}), "
               f"{row['seconds']:.0f} s", flush=True)
+    ours = forward(cells, nu)
+    print("our force at the truth against the reference's: "
+          + ", ".join(f"{100 * (f / -r - 1):+.1f} %" for f, r
+                      in zip(ours, recorded["force"][:, 2])), flush=True)
     return {"cells": cells, "tetrahedra": model.mesh.n_tetrahedra, "nu": nu,
+            "force_at_the_truth": ours.tolist(),
             "reference_cells": recorded["cells"].tolist(),
             "reference_force": recorded["force"][:, 2].tolist(),
             "reference_force_coarse": recorded["force_coarse"][:, 2].tolist(), "fits": rows}
@@ -174,13 +160,15 @@ def main(argv=None):
     print(f"\nsphere R = 1 cm pressed 1-4 mm (5-20 % of H) into E {E:.0f} Pa, nu {args.nu}: "
           "our fit of sfepy's data")
     print(f"{'cells':>5} {'tets':>6} | {'force+markers: E':>16} {'nu':>8} {'s':>4} | "
-          f"{'force, nu given: E':>18} | {'held out / noise':>16}")
+          f"{'force, nu given: E':>18} | {'held out / noise':>16} | force at the truth")
     for result in results:
         both, alone, held = (result["fits"][name] for name in result["fits"])
         print(f"{result['cells']:>5} {result['tetrahedra']:>6} | "
               f"{100 * both['E_error']:>+15.1f}% {both['nu_error']:>+8.4f} "
               f"{both['seconds']:>4.0f} | {100 * alone['E_error']:>+17.1f}% | "
-              f"{held['held_out_force_error_over_noise']:>16.2f}")
+              f"{held['held_out_force_error_over_noise']:>16.2f} | "
+              + " ".join(f"{100 * (f / -r - 1):+.1f}%" for f, r
+                         in zip(result["force_at_the_truth"], result["reference_force"])))
     out = ROOT / "benchmarks" / "indentation_deep.json"
     out.write_text(json.dumps({"penalty": PENALTY, "fits": results}, indent=1) + "\n")
     print(f"wrote {out}")
