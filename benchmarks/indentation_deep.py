@@ -1,7 +1,7 @@
 """Deep spherical indentation (issue 46): a block pressed to 20 % of its height, the data from
 an independent solver, and what our fit recovers from it.
 
-    python benchmarks/indentation_deep.py [--cells 8 10 12] [--nu 0.45]   # about 15 min
+    python benchmarks/indentation_deep.py [--cells 8 10 12] [--nu 0.45]   # about 25 min
     python benchmarks/indentation_deep.py --record --reference-cells 6 8   # sfepy, slow
 
 The experiment: a 4 × 4 × 2 cm block of neo-Hookean tissue (E 6 kPa) bonded to a rigid base,
