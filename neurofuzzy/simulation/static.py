@@ -241,9 +241,10 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     size = float(np.ptp(rest, axis=0).max())
     iterations = 0
 
-    def newton_to(fraction):
+    def newton_to(fraction, last_try):
         """Newton's iterations to the equilibrium at ``fraction`` of the way from ``start``
-        (``p`` moves there); ``(state, load, residual)``, or :class:`_Diverged`."""
+        (``p`` moves there); ``(state, load, residual)``, or :class:`_Diverged` (an uphill
+        step gives up at once unless this is the ``last_try``)."""
         nonlocal factor, iterations
         target = rest.ravel()[held] + first + fraction * (shift - first)
         load_now = fraction * f_ext.ravel()
@@ -265,7 +266,7 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
             delta, factor = _solve(state.stiffness[free][:, free], out[free], factor,
                                    NEWTON_RTOL)
             iterations += 1
-            if contact is not None and not float(out[free] @ delta) > 0:
+            if contact is not None and not last_try and not float(out[free] @ delta) > 0:
                 raise _Diverged(residual)     # uphill: the tangent is indefinite here
             force_at = partial(forces_at, fraction=fraction)
             p[free] += (_line_search(force_at, p, free, delta, load_now, residual)
@@ -283,14 +284,15 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
     done, smallest = 0.0, 1.0 / int(increments) / 2**CUTS
     while pending:
         fraction, saved = pending[-1], p.copy()
+        last_try = fraction - done <= smallest * (1 + 1e-9)
         try:
-            state, load_now, residual = newton_to(fraction)
+            state, load_now, residual = newton_to(fraction, last_try)
         except _Diverged as why:
-            if fraction - done <= smallest * (1 + 1e-9):
+            if last_try:
                 raise ConvergenceError(
                     f"no equilibrium after {max_iterations} Newton iterations at "
                     f"{100 * fraction:.3g} % of the way (out-of-balance force "
-                    f"{why.residual:.3g} N), even in increments of {100 * smallest:.2g} %: "
+                    f"{float(why.args[0]):.3g} N), even in increments of {100 * smallest:.2g} %: "
                     "apply the displacements in more increments", key="increments") from None
             p[:] = saved
             pending.append(done + 0.5 * (fraction - done))
@@ -308,11 +310,7 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
 
 
 class _Diverged(Exception):
-    """Newton's method left an increment unsolved (its last out-of-balance force)."""
-
-    def __init__(self, residual):
-        super().__init__(residual)
-        self.residual = float(residual)
+    """Newton's method left an increment unsolved (``args[0]``: the out-of-balance force)."""
 
 
 def _constraints(model: Model, sets: list[Driven]) -> tuple[np.ndarray, np.ndarray]:
