@@ -13,15 +13,20 @@ tracked with 20 µm noise.
 The reference (``--record``, writes ``tests/data/indentation_nu<ν>.npz``): sfepy's quadratic
 tetrahedra and its own contact term (:mod:`neurofuzzy.validation.nonlinear.indentation`) on
 a quarter of the block with symmetry planes, on two meshes; the force and the markers are
-taken from the finer one and the difference between the two is reported as the reference's
-own discretisation error.
+taken from the finer one, and the coarser one's force is stored beside them
+(``force_coarse``, in the JSON ``reference_force_coarse``) as a measure of the reference's
+own discretisation error. The experiment itself is
+:data:`neurofuzzy.validation.indentation.DEEP`.
 
 The fit (``fit_load_steps`` on a quarter block of our linear tetrahedra in the nodal form,
 ``--cells`` a side, graded toward the contact):
 
 1. the force curve and the markers: E and ν;
 2. the force curve alone, ν given (the reference's): E;
-3. the deepest step held out of fit 1: its force predicted, against the force noise.
+3. the deepest step held out of fit 1: its force predicted, against the force noise;
+
+and our force at the recording's own E and ν, step by step, against the recording's (the
+discretisation's share of what the fits find).
 
 Prints the tables and writes ``benchmarks/indentation_deep.json``.
 """
