@@ -45,8 +45,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from neurofuzzy.learn.load_step_fit import fit_load_steps  # noqa: E402
-from neurofuzzy.load_steps import ToolPath  # noqa: E402
-from neurofuzzy.simulation.contact import Sphere  # noqa: E402
+from neurofuzzy.load_steps import simulate_load_steps  # noqa: E402
 from neurofuzzy.validation.indentation import DEEP  # noqa: E402
 
 DATA = ROOT / "tests" / "data"
@@ -57,20 +56,15 @@ PENALTY = 1e9             # sfepy's contact stiffness (Pa/m): 4 um deep at the d
 def record(cells, nu, penalty=PENALTY, increments=4):
     """sfepy's indentation on two meshes: the finer one's force and markers, both forces."""
     from neurofuzzy.validation.nonlinear import NeoHookean
-    from neurofuzzy.validation.nonlinear.indentation import indent_with_sphere
+    from neurofuzzy.validation.nonlinear.indentation import indent_quarter
 
     runs = []
     for n in cells:
-        model, _ = DEEP.quarter(n)
-        points, tets = model.mesh.rest_positions, model.mesh.tetrahedra
-        tol = 1e-9 * H
         start = time.perf_counter()
-        got = indent_with_sphere(
-            points, tets, material=NeoHookean(E, nu), radius=DEEP.radius,
-            centres=DEEP.centres(),
-            fixed={"all": lambda x: x[2] < tol, 0: lambda x: x[0] < tol,
-                   1: lambda x: x[1] < tol},
-            top=H, markers=DEEP.markers(), penalty=penalty, increments=increments,
+        got = indent_quarter(
+            DEEP.quarter(n)[0].mesh, material=NeoHookean(E, nu), radius=DEEP.radius,
+            centres=DEEP.centres(), markers=DEEP.markers(), penalty=penalty,
+            increments=increments,
             progress=lambda message: print(f"  {n} cells: {message}", flush=True))
         runs.append({"cells": n, "got": got, "seconds": time.perf_counter() - start})
         print(f"{n} cells: force (quarter) {got.force[:, 2]} N, deepest penetration "
@@ -89,22 +83,13 @@ def record(cells, nu, penalty=PENALTY, increments=4):
     print(f"wrote {out}")
 
 
-def forward(cells, nu):
-    """Our quarter block's force at the recording's own E and ν, step by step, against the
-    recording's: the discretisation's share of what the fits find."""
-    from neurofuzzy.load_steps import tool_at
-    from neurofuzzy.simulation.static import Driven, equilibrium
-
-    recorded = np.load(DATA / f"indentation_nu{nu}.npz")
-    model, planes = DEEP.quarter(cells, nu, law="neo-hookean")
-    tool = ToolPath(Sphere(float(recorded["radius"])), recorded["centres"])
-    touch, positions, forces = tool.contact(model), None, []
-    driven = [Driven(nodes, (0, 0, 0), component) for nodes, component in planes]
-    for step in range(1, len(recorded["centres"])):
-        found = equilibrium(model, driven=driven, start=positions, **tool_at(tool, touch, step))
-        positions = found.positions
-        forces.append(-4 * float(found.contact_force[2]))
-    return np.array(forces)
+def forward(recorded, model, planes):
+    """Our quarter block's force at the recording's own E and ν, step by step (the
+    recording's experiment simulated on ``model``): the discretisation's share of what the
+    fits find."""
+    data = DEEP.lab_data(recorded, model, planes)
+    run = simulate_load_steps(model, data.driven, data.markers, tool=data.tool)
+    return -4 * run.reaction[:, 2]
 
 
 def fits(cells, nu):
@@ -137,7 +122,7 @@ def fits(cells, nu):
         print(f"{name}: E {fit.youngs_modulus_:.0f} Pa ({100 * row['E_error']:+.1f} %), "
               f"nu {fit.poisson_ratio_:.4f} ({row['nu_error']:+.4f}), "
               f"{row['seconds']:.0f} s", flush=True)
-    ours = forward(cells, nu)
+    ours = forward(recorded, model, planes)
     print("our force at the truth against the reference's: "
           + ", ".join(f"{100 * (f / -r - 1):+.1f} %" for f, r
                       in zip(ours, recorded["force"][:, 2])), flush=True)

@@ -12,7 +12,8 @@ pytest.importorskip("sfepy")
 from neurofuzzy.errors import InputError  # noqa: E402
 from neurofuzzy.validation.indentation import bonded_layer_force, quarter_block  # noqa: E402
 from neurofuzzy.validation.nonlinear import NeoHookean  # noqa: E402
-from neurofuzzy.validation.nonlinear.indentation import indent_with_sphere  # noqa: E402
+from neurofuzzy.validation.nonlinear.indentation import (indent_quarter,  # noqa: E402
+                                                          indent_with_sphere)
 
 DATA = Path(__file__).parent / "data"
 H = 0.02
@@ -21,13 +22,11 @@ H = 0.02
 def _indent(stored, cells, centres, markers=None, stretch=2.0):
     model, _ = quarter_block(cells, half_width=float(stored["half_width"]), height=H,
                              stretch=stretch)
-    tol = 1e-9 * H
-    return indent_with_sphere(
-        model.mesh.rest_positions, model.mesh.tetrahedra,
+    return indent_quarter(
+        model.mesh,
         material=NeoHookean(float(stored["youngs_modulus"]), float(stored["poisson_ratio"])),
-        radius=float(stored["radius"]), centres=centres,
-        fixed={"all": lambda x: x[2] < tol, 0: lambda x: x[0] < tol, 1: lambda x: x[1] < tol},
-        top=H, markers=markers, penalty=1e9, increments=2)
+        radius=float(stored["radius"]), centres=centres, markers=markers, penalty=1e9,
+        increments=2)
 
 
 @pytest.mark.slow

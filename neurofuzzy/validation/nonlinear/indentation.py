@@ -35,7 +35,7 @@ from ._sfepy_setup import field_variables, quiet
 from .materials import NeoHookean
 from .solver import HyperelasticSolver
 
-__all__ = ["Indentation", "indent_with_sphere"]
+__all__ = ["Indentation", "indent_with_sphere", "indent_quarter"]
 
 
 @dataclass(frozen=True)
@@ -146,15 +146,23 @@ def indent_with_sphere(points, tetrahedra, *, material: NeoHookean, radius: floa
         with quiet():
             traction = np.asarray(whole.eval_residual(full)).reshape(-1, 3)
         forces.append(-traction.sum(axis=0))          # sfepy's normal points at the centre
-        if len(markers):
-            moved.append(solver.at(full, markers))
-        else:
-            moved.append(np.zeros((0, 3)))
+        moved.append(solver.at(full, markers) if len(markers) else np.zeros((0, 3)))
         current = solver.field.get_coor() + full.reshape(-1, 3)
         deepest.append(max(0.0, float(radius - np.linalg.norm(current - centres[step],
                                                               axis=1).min())))
         say(f"step {step}: force {forces[-1][2]:.4g} N, {count} Newton iterations")
     return Indentation(np.array(forces), np.array(moved), np.array(deepest), count)
+
+
+def indent_quarter(mesh, **keywords) -> Indentation:
+    """:func:`indent_with_sphere` on a quarter block's ``mesh``
+    (:func:`~neurofuzzy.validation.indentation.quarter_block`): its base ``z = 0`` held, its
+    symmetry planes ``x = 0`` and ``y = 0`` held in their normal, the sphere meeting its top."""
+    points = mesh.rest_positions
+    tol = 1e-9 * float(np.ptp(points, axis=0).max())
+    return indent_with_sphere(points, mesh.tetrahedra, top=float(points[:, 2].max()),
+                              fixed={"all": lambda x: x[2] < tol, 0: lambda x: x[0] < tol,
+                                     1: lambda x: x[1] < tol}, **keywords)
 
 
 def _newton(residual, tangent, u, tolerance, where, most=100):
