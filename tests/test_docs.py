@@ -265,9 +265,10 @@ def check_export(folder, outputs):
 
 
 def check_compression(folder, outputs):
-    """The page: ν 0.4791 (±0.005) with Young's modulus unidentifiable and kept, the
-    held-out step's RMS 7.9 µm (to 20 %); with the load cell E within 10 % of the gel's
-    8 kPa and only viscosity and density unidentifiable."""
+    """The page: ν 0.4792 (±0.005) with Young's modulus unidentifiable and kept, the
+    held-out step's RMS 7.9 µm (to 20 %), ν on the mesh refined once as quoted; with the
+    load cell E within 10 % of the gel's 8 kPa, only viscosity and density unidentifiable,
+    E on the refined mesh as quoted and an interval that holds the gel's."""
     page = (DOCS / "tutorials" / "compression.md").read_text()
     printed = outputs[3][1]
     quoted = re.search(r"poisson_ratio\s+(\S+) ±", page)[1]
@@ -277,9 +278,14 @@ def check_compression(folder, outputs):
     held_out = float(re.search(r"held-out steps \[3\]: markers RMS (\S+) µm", printed)[1])
     assert held_out == pytest.approx(7.9, rel=0.2)
     assert (folder / "fitted.yaml").exists()
+    moved = re.search(r"poisson ratio (\S+) -> (\S+) \(one Levenberg", printed)   # mesh check
+    assert float(moved[2]) == pytest.approx(0.489, abs=0.003)
     record = last_json(outputs[-1][1])
     assert record["unidentifiable"] == ["viscosity", "density"]
     assert record["youngs_modulus"] == pytest.approx(8000, rel=0.1)
+    refined = record["mesh_check"]["values"]["youngs_modulus"]["refined"]
+    assert refined == pytest.approx(8105, rel=0.02)
+    assert record["intervals"]["youngs_modulus"] > abs(record["youngs_modulus"] - 8000)
 
 
 def check_indentation(folder, outputs):

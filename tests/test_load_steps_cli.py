@@ -77,8 +77,10 @@ def test_a_compression_test_without_a_load_cell_from_files(lab, tmp_path):
     assert region["youngs_modulus"] is None and "youngs_modulus" not in region["labels"]
     assert "poisson_ratio" in region["labels"]
     assert fitted.is_file()
-    text = cli("fit", steps, "--start", lab / "model.yaml", "--quiet")
+    text = cli("fit", steps, "--start", lab / "model.yaml", "--quiet", "--no-mesh-check")
     assert "not identifiable" in text.stdout and "poisson_ratio" in text.stdout
+    assert "95 % intervals hold the noise alone: no mesh check ran" in text.stdout
+    assert "extrapolated" not in text.stdout
 
 
 def test_with_the_load_cell_youngs_modulus_is_fitted_and_reported(lab, tmp_path):
@@ -90,11 +92,20 @@ def test_with_the_load_cell_youngs_modulus_is_fitted_and_reported(lab, tmp_path)
     assert record["unidentifiable"] == ["viscosity", "density"]
     assert record["youngs_modulus"] == pytest.approx(6000.0, rel=0.03)
     assert record["force_rms_error"] < 3e-3
+    # the mesh check ran by default (162 tetrahedra, 1,296 refined) and widened the intervals
+    check = record["mesh_check"]
+    assert check["refined_elements"] == 8 * 162
+    assert record["intervals_hold"].startswith("the noise and the mesh: on the mesh refined")
+    assert record["intervals"]["youngs_modulus"] > 1.96 * record["standard_errors"][
+        "youngs_modulus"]
+    assert check["values"]["youngs_modulus"]["mesh"] == pytest.approx(record["youngs_modulus"])
     page = report.read_text()
     twin = json.loads(report.with_suffix(".json").read_text())
     measured, predicted = np.array(twin["measured_force"]), np.array(twin["predicted_force"])
     assert np.abs(predicted - measured).max() < 5e-3          # the curve drawn is the fit's
     assert page.count("<img") == 2 and "held out" in page and "not identifiable" in page
+    assert "extrapolated to a fine mesh" in page and "the noise and the mesh" in page
+    assert twin["mesh_check"]["refined_elements"] == 8 * 162
 
 
 def _write(path, lines):

@@ -110,6 +110,14 @@ def require_tissue(rule_base, tissue: str, option: str) -> None:
             source=rule_base.source, key="tissue")
 
 
+def mesh_check_option(args) -> bool | str:
+    """A fit's ``mesh_check``: ``"auto"`` unless ``--mesh-check`` (one step, any element
+    model, any size), ``--mesh-check-refit`` or ``--no-mesh-check``."""
+    if args.no_mesh_check:
+        return False
+    return "refit" if args.mesh_check_refit else "step" if args.mesh_check else "auto"
+
+
 @contextlib.contextmanager
 def naming(source):
     """Errors raised inside that name no file (an unstable time step of a model, a value

@@ -9,7 +9,8 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from .common import Outputs, at_least, positive, print_json, vtu_series, written
+from .common import (Outputs, at_least, mesh_check_option, positive, print_json, vtu_series,
+                     written)
 from ..learn.lack_of_fit import length_text
 from ..pipeline import check_outcome, explained, require_motion
 from ..progress import Stopwatch
@@ -106,14 +107,6 @@ def fit(args) -> int:
     return 0
 
 
-def _mesh_check(args) -> bool | str:
-    """The learner's ``mesh_check``: ``"auto"`` unless ``--mesh-check`` (one step, any
-    element model), ``--mesh-check-refit`` or ``--no-mesh-check``."""
-    if args.no_mesh_check:
-        return False
-    return "refit" if args.mesh_check_refit else "step" if args.mesh_check else "auto"
-
-
 def _held_out(text: str | None, experiments) -> float | list[str] | None:
     """``--validate-on`` of time series: a time (``0.3s`` or ``0.3``) or experiment files."""
     if not text:
@@ -161,7 +154,7 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
                            learn_masses=args.learn_masses, substeps=substeps,
                            learning_rate=args.learning_rate,
                            mass_learning_rate=args.mass_learning_rate,
-                           mesh_check=_mesh_check(args), names=inputs, progress=progress,
+                           mesh_check=mesh_check_option(args), names=inputs, progress=progress,
                            validate_on=validate_on)
     learner, record, experiments = outcome.learner, outcome.record, outcome.experiments
     saved = learner.model_

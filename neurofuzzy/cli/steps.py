@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .common import Outputs, positive, print_json, written
+from .common import Outputs, mesh_check_option, positive, print_json, written
 
 __all__ = ["import_load_steps", "import_indentation", "fit_load_steps", "diagnose_load_steps",
            "AXES", "axis_of", "tool_option"]
@@ -214,7 +214,8 @@ def fit_load_steps(args) -> int:
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         outcome = fit_load_step_file(source, start=args.start, rules=rule_base,
                                      tissue=args.tissue, law=args.law, validate_on=steps,
-                                     reference_noise=args.reference_noise, progress=say)
+                                     reference_noise=args.reference_noise,
+                                     mesh_check=mesh_check_option(args), progress=say)
         result, data, record = outcome.result, outcome.data, outcome.record
         if out:
             save_model(result.model_, out)

@@ -26,7 +26,7 @@ the contact's stiffness times the positions' plus, by log E, the force itself.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,6 +36,7 @@ from ..load_steps import tool_at
 from ..model import Model
 from ..simulation.static import equilibrium
 from ..simulation.tangents import unit_forces
+from ._load_step_result import LoadStepFit
 from ._load_step_noise import kabsch, marker_rms as rms_of, residual_noise
 from ._reference_scan import MarkerGradients, project
 
@@ -49,74 +50,6 @@ STATIC_UNIDENTIFIABLE = ("viscosity", "density")
 #: the least relative fall of the cost that counts as progress: below it the fit has
 #: converged (a fall of 1e-7 of χ² moves E and ν by far less than their standard errors)
 GAIN = 1e-7
-
-
-@dataclass(frozen=True)
-class LoadStepFit:
-    """The outcome of :func:`fit_load_steps` (learned values end in ``_``)."""
-
-    model_: Model
-    youngs_modulus_: float
-    poisson_ratio_: float
-    standard_errors_: dict
-    unidentifiable_: tuple
-    marker_rms_: float
-    force_rms_: float | None
-    marker_noise_: float
-    force_noise_: float | None
-    registration_: np.ndarray
-    validation_: dict | None
-    iterations_: int
-    notes_: tuple
-    markers_: np.ndarray | None = None
-    reactions_: np.ndarray | None = None
-    registered_: np.ndarray | None = None
-    fitted_steps_: tuple = ()
-    fixed_: tuple = ()
-    noise_estimated_: bool = False
-
-    @property
-    def marker_scale(self) -> float:
-        """The RMS per marker that noise alone gives (m): ``√3`` times the noise of one
-        coordinate."""
-        return float(np.sqrt(3.0) * (self.marker_noise_ or 0.0))
-
-    def summary(self) -> str:
-        """A few lines a person reads: the values, what was not identifiable, the errors."""
-        lines = []
-        for name, value, unit in (("youngs_modulus", self.youngs_modulus_, "Pa"),
-                                  ("poisson_ratio", self.poisson_ratio_, "")):
-            if name in self.fixed_:
-                lines.append(f"  {name:<16} {value:.4g} fixed (the start's: a force curve "
-                             "alone cannot separate it from Young's modulus)")
-            elif name in self.unidentifiable_:
-                lines.append(f"  {name:<16} not identifiable from these data (kept at "
-                             f"{value:.4g} {unit}; no word is given for it)".rstrip())
-            else:
-                error = self.standard_errors_.get(name, float("nan"))
-                lines.append(f"  {name:<16} {value:.4g} ± {1.96 * error:.2g} {unit}".rstrip())
-        if self.marker_rms_ is not None and self.noise_estimated_:
-            lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker; the noise, "
-                         f"estimated from these residuals, {self.marker_noise_ * 1e6:.1f} µm per "
-                         "coordinate (a model error would look like noise here: compare "
-                         "with the scanner's, or run diagnose)")
-        elif self.marker_rms_ is not None:
-            lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker, "
-                         f"{self.marker_rms_ / self.marker_scale:.2f}x the noise "
-                         f"({self.marker_noise_ * 1e6:.1f} µm per coordinate)")
-        if self.force_rms_ is not None:
-            lines.append(f"  load cell: RMS {self.force_rms_:.4g} N (noise estimate "
-                         f"{self.force_noise_:.3g} N)")
-        if self.validation_ and self.marker_rms_ is not None:
-            v = self.validation_
-            lines.append(f"  held-out steps {v['steps']}: markers RMS "
-                         f"{v['rms_error'] * 1e6:.1f} µm per marker "
-                         f"({v['rms_error'] / self.marker_scale:.2f}x the noise)")
-        elif self.validation_:
-            v = self.validation_
-            lines.append(f"  held-out steps {v['steps']}: load cell RMS "
-                         f"{v['force_error']:.4g} N")
-        return "\n".join(lines + [f"  note: {note}" for note in self.notes_])
 
 
 def _constants(theta):

@@ -54,6 +54,7 @@ def load_step_start(data, *, start=None, rules=None, tissue: str | None = None,
 def fit_load_step_file(path: str | os.PathLike, *, start=None, rules=None,
                        tissue: str | None = None, law: str | None = None,
                        validate_on: Sequence[int] = (), reference_noise: bool = False,
+                       mesh_check: bool | str = "auto",
                        progress: Callable[[str], None] | None = None) -> LoadStepOutcome:
     """Read the load-step file ``path``, fit it from ``start`` (a model or model file) or
     ``rules`` and ``tissue`` (:func:`load_step_start`), and make the record ``fit --json``
@@ -62,15 +63,23 @@ def fit_load_step_file(path: str | os.PathLike, *, start=None, rules=None,
     ``rms_error`` (the markers', for the tables of fit-many), ``materials`` with no value and
     no word for what is not identifiable, and the notes. ``reference_noise``: each marker's
     rest point estimated from every scan (:func:`~neurofuzzy.learn.load_step_fit.fit_load_steps`).
-    """
+    ``mesh_check`` ("auto", "step", "refit" or False): how far E and ν move on the mesh
+    refined once, which widens the intervals and gives the values extrapolated to a fine
+    mesh (:func:`~neurofuzzy.learn.load_step_mesh_check.with_mesh_check`; "auto" where the
+    refined mesh is small enough to be cheap)."""
     from ..io.load_steps import load_load_steps
     from ..learn.load_step_fit import fit_load_steps
+    from ..learn.load_step_mesh_check import with_mesh_check
     from ..tissues import materials
 
     data = load_load_steps(path)
     model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
     result = fit_load_steps(model, data, validate_on=validate_on,
                             reference_noise=reference_noise, progress=progress)
+    if mesh_check:
+        result = with_mesh_check(result, data, how="step" if mesh_check is True else mesh_check,
+                                 reference_noise=reference_noise, validate_on=validate_on,
+                                 progress=progress)
     found = materials(result.model_, rules, tissue)
     for region in found.values():
         for name in result.unidentifiable_:
@@ -88,5 +97,9 @@ def fit_load_step_file(path: str | os.PathLike, *, start=None, rules=None,
               "validation": result.validation_, "iterations": result.iterations_,
               "registration": result.registration_.tolist(), "materials": found,
               "reference_noise": reference_noise,
+              "intervals": {name: result.interval(name) for name in result.standard_errors_},
+              "intervals_hold": result.intervals_hold,
+              "mesh_check": (None if result.mesh_check_ is None
+                             else result.mesh_check_.to_dict()),
               "notes": list(result.notes_)}
     return LoadStepOutcome(model, data, result, record, rules)

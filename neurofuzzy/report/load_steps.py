@@ -37,7 +37,9 @@ def load_steps_report(start, fit, data, path, *, title: str = "neurofuzzy: load 
               "marker_noise": fit.marker_noise_, "force_rms_error": fit.force_rms_,
               "validation": fit.validation_, "steps": data.n_steps,
               "predicted_force": fit.reactions_,
-              "measured_force": data.reaction, "labels": labels}
+              "measured_force": data.reaction, "labels": labels,
+              "intervals_hold": fit.intervals_hold,
+              "mesh_check": None if fit.mesh_check_ is None else fit.mesh_check_.to_dict()}
     return write_report(path, title, sections, record)
 
 
@@ -48,16 +50,21 @@ def _values(start, fit, labels) -> str:
     after = {"youngs_modulus": fit.youngs_modulus_, "poisson_ratio": fit.poisson_ratio_}
     for name in ("youngs_modulus", "poisson_ratio", "viscosity", "density"):
         if name in fit.fixed_:
-            rows.append([name, before[name], after[name], "fixed", labels.get(name, "-")])
+            rows.append([name, before[name], after[name], "fixed", "-",
+                         labels.get(name, "-")])
             continue
         if name in fit.unidentifiable_:
-            rows.append([name, before.get(name, "-"), "not identifiable", "-", "(no word)"])
+            rows.append([name, before.get(name, "-"), "not identifiable", "-", "-",
+                         "(no word)"])
             continue
-        error = fit.standard_errors_.get(name)
+        half = fit.interval(name)
+        ahead = fit.extrapolated(name)
         rows.append([name, before[name], after[name],
-                     "-" if error is None else f"± {1.96 * error:.3g}",
-                     labels.get(name, "-")])
-    return table_html(["quantity", "start", "fitted", "95 % interval", "word"], rows)
+                     "-" if half is None else f"± {half:.3g}",
+                     "-" if ahead is None else f"{ahead:.4g}", labels.get(name, "-")])
+    held = f"<p class='note'>The 95 % intervals hold {html.escape(fit.intervals_hold)}.</p>"
+    return table_html(["quantity", "start", "fitted", "95 % interval",
+                       "extrapolated to a fine mesh", "word"], rows) + held
 
 
 def _drive(data) -> tuple[np.ndarray, np.ndarray]:
