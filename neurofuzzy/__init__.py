@@ -23,15 +23,16 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
   :class:`PaperLearner`, :class:`GradientLearner`, the rule base as a prior
   :class:`FuzzyPrior`; the one fit pipeline of Python, the command
   and fit-many: :func:`fit` (:class:`FitOutcome`, :class:`FitFailedError`); E and ν from
-  load steps: :func:`fit_load_steps`
+  load steps: :func:`fit_load_steps`, how far they move on the mesh refined once
+  :func:`load_step_mesh_check`
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
 - diagnosis: :func:`diagnose` (:class:`Diagnosis`), of load steps
   :func:`diagnose_load_steps`
 - many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
   :func:`cohort_report`
-- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`load_steps_report`, :func:`export` (MuJoCo, SOFA, FEBio,
-  ParaView), :func:`export_paraview`
+- output: :func:`fit_report`, :func:`diagnosis_report`, :func:`load_steps_report`,
+  :func:`export` (MuJoCo, SOFA, FEBio, ParaView), :func:`export_paraview`
 - the rule studio in the browser: :func:`studio` (``pip install 'neurofuzzy[studio]'``)
 - errors: :class:`NeurofuzzyError`, :class:`InputError`, :class:`UnstableTimeStepError`
 
@@ -63,6 +64,7 @@ _EXPORTS = {
     "LoadSteps": "load_steps", "DrivenPath": "load_steps",
     "simulate_load_steps": "load_steps", "load_load_steps": "io", "save_load_steps": "io",
     "fit_load_steps": "learn.load_step_fit", "diagnose_load_steps": "diagnosis.load_steps",
+    "load_step_mesh_check": "learn.load_step_mesh_check",
     "load_steps_report": "report.load_steps",
     "reference_simulate": "validation.integrators",
     "reference_experiment": "validation.integrators",
@@ -84,7 +86,7 @@ _EXPORTS = {
     "studio": "rulestudio",
 }
 # names whose object has another name in its module
-_ALIASES = {"shipped_rules": "shipped"}
+_ALIASES = {"shipped_rules": "shipped", "load_step_mesh_check": "with_mesh_check"}
 
 
 _exported, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
@@ -128,6 +130,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .load_steps import DrivenPath, LoadSteps, simulate_load_steps  # noqa: F401
     from .io import load_load_steps, save_load_steps  # noqa: F401
     from .learn.load_step_fit import fit_load_steps  # noqa: F401
+    from .learn.load_step_mesh_check import with_mesh_check as load_step_mesh_check  # noqa
     from .diagnosis.load_steps import diagnose_load_steps  # noqa: F401
     from .report.load_steps import load_steps_report  # noqa: F401
 
