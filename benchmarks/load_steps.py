@@ -158,8 +158,8 @@ def mesh_checked(cells, graded_cells=()):
             row = {"nu": nu, "cells": n, "grading": grading,
                    "tetrahedra": model.mesh.n_tetrahedra, "fit_seconds": fitted,
                    "check_seconds": time.perf_counter() - start - fitted}
-            for name, key in (("youngs_modulus", "E"), ("poisson_ratio", "nu")):
-                scale = E if key == "E" else 1.0
+            for name, key in (("youngs_modulus", "E_check"), ("poisson_ratio", "nu_check")):
+                scale = E if name == "youngs_modulus" else 1.0
                 row[key] = {stage: (values[name][stage] - truth[name]) / scale
                             for stage in ("mesh", "refined", "extrapolated")}
                 row[key]["noise_interval"] = 1.96 * fit.standard_errors_[name] / scale
@@ -252,7 +252,7 @@ def _print_checks(rows):
           f"{'nu interval':>16} {'fit s':>6} {'check s':>7}")
     for row in rows:
         cells = f"{row['cells']}" + (" graded" if row["grading"] else "")
-        e, n = row["E"], row["nu"]
+        e, n = row["E_check"], row["nu_check"]
         stages = ("mesh", "refined", "extrapolated")
         print(f"{row['nu']:>6} {cells:>9} "
               + " ".join(f"{100 * e[k]:+6.1f}%" for k in stages)

@@ -338,6 +338,28 @@ def test_a_deep_indentation_by_another_solver_is_fitted_with_the_mesh_s_bias_sho
         recorded["force"][3, 2]) / 4
 
 
+def test_registering_surface_markers_costs_no_iterations_and_widens_nu_s_error():
+    """Twenty surface markers of the deep indentation (sfepy's recording) on a coarse quarter:
+    the scans' registration is in the fit's Jacobian (variable projection), so the fit takes
+    as few iterations with it as without (alternating, it took 28 and stopped short), and
+    Poisson's ratio's standard error grows by what the registration's freedom costs."""
+    from pathlib import Path
+
+    from neurofuzzy.learn.load_step_fit import fit_load_steps
+    from neurofuzzy.validation.indentation import DEEP
+
+    recorded = np.load(Path(__file__).parent / "data" / "indentation_nu0.45.npz")
+    model, planes = DEEP.quarter(4, law="neo-hookean")
+    noise = DEEP.force_noise * np.abs(recorded["force"][:, 2]).mean() / 4
+    fits = {register: fit_load_steps(
+        model.with_elements(youngs_modulus=3000.0, poisson_ratio=0.3),
+        DEEP.lab_data(recorded, model, planes), marker_noise=DEEP.marker_noise,
+        force_noise=noise, validate_on=[4], register=register) for register in (True, False)}
+    assert fits[True].iterations_ <= fits[False].iterations_ + 2 <= 10
+    errors = {k: fit.standard_errors_["poisson_ratio"] for k, fit in fits.items()}
+    assert errors[True] > 1.5 * errors[False]
+
+
 def test_a_turned_punch_on_a_turned_block_gives_the_turned_force():
     """The tool's attitude (``ToolPath.orientations``): a block and the punch's path both
     turned by one rotation Q, the punch's attitude Q, give the unturned experiment's forces

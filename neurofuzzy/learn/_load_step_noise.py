@@ -1,12 +1,12 @@
 """Pieces of :mod:`.load_step_fit` that know no model: each scan's rigid registration
-(Kabsch's closed form), the markers' RMS error over some steps, and the noise estimated from
-the residuals."""
+(Kabsch's closed form) and what it leaves of the markers' derivatives, the markers' RMS error
+over some steps, and the noise estimated from the residuals."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["kabsch", "marker_rms", "residual_noise"]
+__all__ = ["kabsch", "beyond_rigid", "marker_rms", "residual_noise"]
 
 
 def kabsch(measured, model):
@@ -16,6 +16,27 @@ def kabsch(measured, model):
     d = np.sign(np.linalg.det(vt.T @ u.T))
     R = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
     return R, b0 - R @ a0
+
+
+def beyond_rigid(points, change):
+    """``change`` (..., n, 3), a change of the markers at ``points`` (n, 3), less its rigid
+    part (the least-squares translation and small rotation of ``points``).
+
+    A scan registered onto the model's markers by :func:`kabsch` follows any rigid motion of
+    them, so its residual's derivative by a material parameter is the markers' derivative
+    with its rigid part taken out (the variable projection's Jacobian, Kaufman's form).
+    Without it the fit alternated between the material and the registration and converged
+    linearly: on the deep indentation with 20 markers, ν crept 0.0005 an iteration at the
+    30th; with it, five iterations."""
+    arm = points - points.mean(axis=0)
+    n = len(points)
+    basis = np.zeros((n, 3, 6))
+    for a in range(3):
+        basis[:, a, a] = 1.0                               # translations
+        basis[:, :, 3 + a] = np.cross(np.eye(3)[a], arm)   # small rotations about the centre
+    q, _ = np.linalg.qr(basis.reshape(3 * n, 6))
+    flat = change.reshape(-1, 3 * n)
+    return (flat - (flat @ q) @ q.T).reshape(change.shape)
 
 
 def marker_rms(moved, seen, steps):

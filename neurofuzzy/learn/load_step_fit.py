@@ -37,7 +37,7 @@ from ..model import Model
 from ..simulation.static import equilibrium
 from ..simulation.tangents import unit_forces
 from ._load_step_result import LoadStepFit
-from ._load_step_noise import kabsch, marker_rms as rms_of, residual_noise
+from ._load_step_noise import beyond_rigid, kabsch, marker_rms as rms_of, residual_noise
 from ._reference_scan import MarkerGradients, project
 
 __all__ = ["LoadStepFit", "fit_load_steps"]
@@ -215,6 +215,10 @@ def fit_load_steps(model: Model, data, *, marker_noise: float | None = None,
         minus model, registered), and their derivatives by θ."""
         moved = registered(markers) - markers
         d_moved = None if d_markers is None else -np.array(d_markers)
+        for k in range(0 if d_moved is None or not register else len(d_moved)):
+            if seen[k].sum() >= 3:          # the registration follows the rigid part
+                d_moved[k][:, seen[k]] = beyond_rigid(markers[k][seen[k]],
+                                                      d_moved[k][:, seen[k]])
         if gradients is None:
             return None, moved, None, d_moved
         return project(rest_misfit, moved, gradients, seen, fitted, d_moved)
