@@ -59,7 +59,7 @@ class ToolPath:
 
     Parameters
     ----------
-    tool : Sphere or FlatPunch
+    tool : Sphere, FlatPunch or SurfaceTool
         (:mod:`neurofuzzy.simulation.contact`).
     positions : (n_steps + 1, 3) float
         The tool's reference point (a sphere's centre, a punch's face centre) at the
@@ -195,12 +195,12 @@ class LoadSteps:
         object.__setattr__(self, "driven", driven)
 
     def _check_tool(self, n_steps, src):
-        from .simulation.contact import FlatPunch, Sphere
+        from .simulation.contact import TOOLS
 
         tool = self.tool
-        if not isinstance(tool, ToolPath) or not isinstance(tool.tool, (Sphere, FlatPunch)):
-            raise InputError("tool must be a ToolPath of a Sphere or a FlatPunch", source=src,
-                             key="tool")
+        if not isinstance(tool, ToolPath) or not isinstance(tool.tool, TOOLS):
+            raise InputError("tool must be a ToolPath of a Sphere, a FlatPunch or a "
+                             "SurfaceTool", source=src, key="tool")
         positions = np.asarray(tool.positions, float)
         if positions.shape != (n_steps + 1, 3) or not np.all(np.isfinite(positions)):
             raise InputError(f"the tool {tool.name!r} needs a finite position at the reference "

@@ -119,7 +119,7 @@ def test_bad_tools_are_refused_with_what_is_wrong():
     model, _ = _quarter(2, 0.3)
     for make, words in ((lambda: Sphere(-1.0), "positive length"),
                         (lambda: FlatPunch(0.001, axis=(0, 0, 0)), "non-zero"),
-                        (lambda: contact_with(model, "ball", (0, 0, 0)), "Sphere or a FlatPunch"),
+                        (lambda: contact_with(model, "ball", (0, 0, 0)), "a FlatPunch or a SurfaceTool"),
                         (lambda: contact_with(model, Sphere(0.001), (0, np.nan, 0)), "finite"),
                         (lambda: contact_with(model, Sphere(0.001), (0, 0, 0), stiffness=-2),
                          "positive penalty")):

@@ -82,10 +82,13 @@ def add_import(commands, *, run) -> None:
     importer.add_argument("--tool", metavar="KIND:R=RADIUS",
                           help="a load-step file's indenter, rigid and frictionless: "
                                "sphere:R=5mm or punch:R=2mm (a flat punch whose face is "
-                               "normal to --up); with --tool-path")
+                               "normal to --up), or surface:FILE,units=mm, a closed triangle "
+                               "surface (STL, OBJ, PLY, OFF: an instrument's tip) whose "
+                               "origin is the point --tool-path places; with --tool-path")
     importer.add_argument("--tool-path", metavar="PATH.csv",
                           help="with --tool: step,x,y,z[,fx,fy,fz], the tool's reference "
-                               "point (a sphere's centre, a punch's face centre) at the "
+                               "point (a sphere's centre, a punch's face centre, a surface's "
+                               "origin) at the "
                                "reference scan (step 0, clear of the body) and at each step, "
                                "and where a load cell was read the force the tool exerts on "
                                "the body ('# length units:' and '# force units:' lines); the "

@@ -251,16 +251,19 @@ def _step_list(text: str | None) -> list[int]:
 
 
 #: ``--tool`` kinds and their classes' names
-TOOLS = {"sphere": "Sphere", "punch": "FlatPunch"}
+TOOLS = {"sphere": "Sphere", "punch": "FlatPunch", "surface": "SurfaceTool"}
 
 
 def tool_option(text: str, up: str):
     """The tool of ``--tool KIND:R=RADIUS`` (``sphere:R=5mm``, ``punch:R=2mm``; m, cm or mm,
-    metres without a unit); a punch's axis points along ``up``."""
+    metres without a unit; a punch's axis points along ``up``) or ``surface:FILE,units=mm``
+    (:func:`surface_tool`)."""
     from ..markers.units import LENGTH_UNITS
     from ..simulation import contact
 
     kind, _, rest = text.partition(":")
+    if kind == "surface":
+        return surface_tool(rest)
     key, _, value = rest.partition("=")
     unit = next((u for u in sorted(LENGTH_UNITS, key=len, reverse=True)
                  if value.strip().endswith(u)), None)
@@ -270,12 +273,40 @@ def tool_option(text: str, up: str):
     except ValueError:
         radius = None
     if kind not in TOOLS or key.strip().upper() != "R" or radius is None:
-        raise InputError(f"got {text!r}; expected KIND:R=RADIUS with KIND one of "
-                         f"{', '.join(TOOLS)}, e.g. sphere:R=5mm", key="--tool")
+        raise InputError(f"got {text!r}; expected KIND:R=RADIUS with KIND sphere or punch "
+                         "(e.g. sphere:R=5mm), or surface:FILE,units=mm", key="--tool")
     if kind == "sphere":
         return contact.Sphere(radius)
     index, sign = axis_of(up)
     return contact.FlatPunch(radius, tuple(sign * np.eye(3)[index]))
+
+
+def surface_tool(text: str):
+    """The :class:`~neurofuzzy.simulation.contact.SurfaceTool` of ``FILE,units=UNIT``: a
+    closed triangle surface read by trimesh (STL, OBJ, PLY, OFF …) in the length unit given,
+    which no such file states."""
+    import trimesh
+
+    from ..markers.units import LENGTH_UNITS
+    from ..simulation.contact import SurfaceTool
+
+    file, _, unit = text.rpartition(",units=")
+    if not file or unit not in LENGTH_UNITS:
+        raise InputError(f"got surface:{text}; expected surface:FILE,units=UNIT with UNIT one "
+                         f"of {', '.join(LENGTH_UNITS)}: a surface file states no unit, and "
+                         "it is never guessed", key="--tool")
+    if not Path(file).is_file():
+        raise InputError("no such file", source=file, key="--tool")
+    try:
+        surface = trimesh.load(file, force="mesh")          # an STL's corners merged
+        vertices, faces = np.asarray(surface.vertices), np.asarray(surface.faces)
+    except Exception as error:   # trimesh raises what its format's reader raises
+        raise InputError(f"not a readable triangle surface ({type(error).__name__}: "
+                         f"{error})", source=file, key="--tool") from None
+    try:
+        return SurfaceTool(vertices * LENGTH_UNITS[unit], faces)
+    except InputError as error:
+        raise InputError(error.detail, source=file, key="--tool") from None
 
 
 def import_indentation(args) -> int:
@@ -298,7 +329,10 @@ def import_indentation(args) -> int:
     tool = tool_option(args.tool, args.up)
     positive(args.max_distance, "--max-distance")
     topology = Path(args.topology)
-    outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path) if p])
+    surface = args.tool.partition(":")[2].rpartition(",units=")[0] if (
+        args.tool.startswith("surface:")) else None
+    outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path, surface)
+                       if p])
     out = outputs.file(args.out, "--out")
     mesh, scans = _specimen(args, topology)
     path, markers = _driver(read_tool_path, args.tool_path, "--tool-path", "tool", args, mesh,
@@ -317,8 +351,10 @@ def import_indentation(args) -> int:
     if args.json:
         print_json(summary)
     else:
+        size = (f"radius {1e3 * tool.radius:g} mm" if name != "surface" else
+                f"{len(tool.faces)} triangles reaching {1e3 * tool.radius:.3g} mm")
         print(f"wrote {args.out}: {count} markers at {data.n_steps} load steps, a {name} of "
-              f"radius {1e3 * tool.radius:g} mm pressed {1e3 * depth:.3g} mm"
+              f"{size} pressed {1e3 * depth:.3g} mm"
               + (", with the load cell's force" if path.force is not None
                  else ", no force measured"))
     return 0

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InputError, closest_name
 from ..load_steps import DrivenPath, LoadSteps, ToolPath
 from ..mesh import from_tetra
-from ..simulation.contact import FlatPunch, Sphere
+from ..simulation.contact import FlatPunch, Sphere, SurfaceTool
 from .experiments import _markers, read_npz, write_npz
 
 __all__ = ["save_load_steps", "load_load_steps", "is_load_steps_file", "KEYS"]
@@ -26,19 +26,22 @@ KEYS = ("load_steps", "rest_positions", "tetrahedra", "fixed", "marker_positions
         "marker_nodes", "marker_weights", "marker_names", "driven_nodes", "driven_set",
         "driven_displacement", "driven_components", "driven_names", "reaction",
         "tool_kind", "tool_radius", "tool_axis", "tool_positions", "tool_stiffness",
-        "tool_name", "tool_orientations")
-#: an indenter's keys (all or none): its kind (``sphere`` or ``flat punch``), radius (m), a
-#: punch's axis, its positions at steps 0..n (m), the penalty (Pa/m; NaN: automatic), name;
-#: ``tool_orientations`` (its attitude at steps 0..n, quaternions w, x, y, z) is optional
+        "tool_name", "tool_orientations", "tool_vertices", "tool_faces")
+#: an indenter's keys (all or none): its kind (``sphere``, ``flat punch`` or ``surface``),
+#: radius (m; a surface's reach from its reference point), a punch's axis, its positions at
+#: steps 0..n (m), the penalty (Pa/m; NaN: automatic), name; ``tool_orientations`` (its
+#: attitude at steps 0..n, quaternions w, x, y, z) is optional; a surface's ``tool_vertices``
+#: (m, in the tool's frame) and ``tool_faces`` are required for it and refused for another
 TOOL_KEYS = KEYS[14:20]
 #: the markers are optional (a force–displacement curve alone), the rest is required
 REQUIRED = KEYS[:4] + KEYS[8:13]
 #: the dtype kinds each key may have: integers, numbers, text
 KINDS_INTEGER = (("load_steps", "tetrahedra", "fixed", "driven_nodes", "driven_set",
-                  "marker_nodes"), "iu", "integers")
+                  "marker_nodes", "tool_faces"), "iu", "integers")
 KINDS_NUMBER = (("rest_positions", "marker_positions", "marker_weights",
                  "driven_displacement", "reaction", "tool_radius", "tool_axis",
-                 "tool_positions", "tool_stiffness", "tool_orientations"), "iuf", "numbers")
+                 "tool_positions", "tool_stiffness", "tool_orientations", "tool_vertices"),
+                "iuf", "numbers")
 KINDS_TEXT = (("driven_components", "driven_names", "marker_names", "tool_kind",
                "tool_name"), "US", "strings")
 
@@ -82,7 +85,10 @@ def save_load_steps(data: LoadSteps, path: str | os.PathLike) -> Path:
 def _tool_keys(path: ToolPath) -> dict:
     tool = path.tool
     punch = isinstance(tool, FlatPunch)
-    return {"tool_kind": np.array("flat punch" if punch else "sphere"),
+    surface = ({"tool_vertices": tool.vertices, "tool_faces": tool.faces}
+               if isinstance(tool, SurfaceTool) else {})
+    kind = "flat punch" if punch else "surface" if surface else "sphere"
+    return {"tool_kind": np.array(kind), **surface,
             "tool_radius": np.float64(tool.radius),
             "tool_axis": np.array(tool.axis if punch else (0.0, 0.0, 1.0), float),
             "tool_positions": np.asarray(path.positions, float),
@@ -105,10 +111,17 @@ def _tool(data) -> ToolPath | None:
         raise InputError(f"an indenter needs all of {', '.join(TOOL_KEYS)}; missing "
                          f"{', '.join(missing)}", key=missing[0])
     kind = str(data["tool_kind"])
-    if kind not in ("sphere", "flat punch"):
-        raise InputError(f"got {kind!r}; expected 'sphere' or 'flat punch'", key="tool_kind")
+    if kind not in ("sphere", "flat punch", "surface"):
+        raise InputError(f"got {kind!r}; expected 'sphere', 'flat punch' or 'surface'",
+                         key="tool_kind")
+    shape = [key for key in ("tool_vertices", "tool_faces") if key in data]
+    if (kind == "surface") != bool(shape) or len(shape) == 1:
+        raise InputError(f"a {kind} tool " + ("needs both tool_vertices and tool_faces"
+                                              if kind == "surface" else
+                                              f"takes no {shape[0]}"), key="tool_kind")
     radius = float(data["tool_radius"])
     tool = (Sphere(radius) if kind == "sphere"
+            else SurfaceTool(data["tool_vertices"], data["tool_faces"]) if shape
             else FlatPunch(radius, tuple(np.asarray(data["tool_axis"], float).ravel())))
     stiffness = float(data["tool_stiffness"])
     turns = data["tool_orientations"] if "tool_orientations" in data else None

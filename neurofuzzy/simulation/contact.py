@@ -1,5 +1,6 @@
-"""Rigid tools in frictionless contact with the tissue's surface: a sphere or a flat
-cylindrical punch pressed into it (issue 46's indenters), for the static equilibrium
+"""Rigid tools in frictionless contact with the tissue's surface: a sphere, a flat
+cylindrical punch, or any closed triangle surface (an instrument's tip, :class:`SurfaceTool`)
+pressed into it (issue 46's indenters), for the static equilibrium
 (:func:`~neurofuzzy.simulation.static.equilibrium`'s ``contact``).
 
 **The method: a node-to-rigid-surface penalty.** Every node of the body's surface carries its
@@ -20,7 +21,11 @@ the force by 0.05 % (``benchmarks/indentation.py``).
 
 Frictionless: the force is along the tool's normal; a node slides freely along its surface.
 The tools are rigid and placed by the position of a reference point (a sphere's centre, the
-centre of a punch's flat face) for each solve; their orientation is fixed.
+centre of a punch's flat face, a surface tool's origin) for each solve, and turned by the
+attitude a tracker gives (``turned``; :class:`~neurofuzzy.load_steps.ToolPath`). A surface
+tool's signed distance is its nearest triangle's, signed by the winding number; its
+stiffness leaves out the normal's turning at its edges and corners (flat faces do not turn
+it), which the Newton solve's line search absorbs.
 """
 
 from __future__ import annotations
@@ -32,8 +37,8 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 
-__all__ = ["Sphere", "FlatPunch", "Contact", "contact_with", "PENALTY", "surface_areas",
-           "cells_across_contact", "RESOLVED"]
+__all__ = ["Sphere", "FlatPunch", "SurfaceTool", "TOOLS", "Contact", "contact_with",
+           "PENALTY", "surface_areas", "cells_across_contact", "RESOLVED", "CREASE_DEGREES"]
 
 #: The default penalty: ``κ = PENALTY × E / h`` (module docstring).
 PENALTY = 100.0
@@ -115,6 +120,138 @@ class FlatPunch:
         return f"flat punch of radius {1e3 * self.radius:g} mm"
 
 
+@dataclass(frozen=True, eq=False)
+class SurfaceTool:
+    """A rigid tool given as a closed triangle surface (an instrument's tip), in its own
+    frame: the path places its origin (the tool's reference point), and its attitude turns it.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+        The surface's corners in the tool's frame (m).
+    faces : (m, 3) int
+        Its triangles; closed (every edge shared by two), either winding.
+
+    Attributes
+    ----------
+    radius : float
+        How far the surface reaches from the reference point (m): only points within it can
+        touch, and a path that jumps further between two steps is refused.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    radius: float = field(init=False)
+
+    def __post_init__(self):
+        import trimesh
+
+        vertices = np.asarray(self.vertices, float)
+        faces = np.asarray(self.faces)
+        if (vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices))
+                or faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu"
+                or len(faces) < 4 or faces.min() < 0 or faces.max() >= len(vertices)):
+            raise InputError("a tool's surface needs finite (n, 3) vertices and (m ≥ 4, 3) "
+                             "triangles numbering them", key="tool")
+        surface = trimesh.Trimesh(vertices, faces, process=False)
+        if not surface.is_watertight:
+            raise InputError("a tool's surface must be closed (every edge shared by two "
+                             "triangles): its inside is where the tissue cannot be", key="tool")
+        if surface.volume < 0:                       # wound inward: turn it outward
+            faces = faces[:, ::-1]
+        object.__setattr__(self, "vertices", vertices)
+        object.__setattr__(self, "faces", np.ascontiguousarray(faces, dtype=np.int64))
+        object.__setattr__(self, "radius", float(np.linalg.norm(vertices, axis=1).max()))
+        object.__setattr__(self, "_corner_normals", _corner_normals(vertices, self.faces))
+
+    def gap(self, points: np.ndarray, position: np.ndarray):
+        """``(g, n, curvature)`` per point: the signed distance to the surface (negative
+        inside, by the winding number), the outward normal at the nearest surface point
+        (interpolated from its face's corner normals, :func:`_corner_normals`: continuous
+        across a smooth surface's facets, sharp at its creases), and no turning (which the
+        stiffness leaves out). ``+inf`` beyond :attr:`radius`."""
+        import trimesh
+
+        offset = np.asarray(points, float) - np.asarray(position, float)
+        gap = np.full(len(offset), np.inf)
+        normal = np.zeros_like(offset)
+        normal[:, 2] = 1.0
+        near = np.flatnonzero(np.linalg.norm(offset, axis=1) <= self.radius)
+        # in units of the tool's reach: trimesh's tolerances are absolute (1e-8), and a
+        # millimetre tool's faces in metres fell below them (distances off by 0.09 mm)
+        triangles = self.vertices[self.faces] / self.radius
+        chunk = max(1, 2_000_000 // len(triangles))
+        for start in range(0, len(near), chunk):
+            rows = near[start:start + chunk]
+            here = offset[rows] / self.radius
+            closest = trimesh.triangles.closest_point(
+                np.tile(triangles, (len(rows), 1, 1)), np.repeat(here, len(triangles), axis=0)
+            ).reshape(len(rows), len(triangles), 3)
+            away = here[:, None, :] - closest
+            distance = np.linalg.norm(away, axis=2)
+            nearest = np.argmin(distance, axis=1)
+            pick = np.arange(len(rows))
+            d = distance[pick, nearest]
+            inside = _winding(triangles, here) > 0.5
+            # the normal interpolated from the corners' (Phong's) at the nearest point: the
+            # faces' own jump where the nearest face changes, and Newton's method stalls
+            weights = trimesh.triangles.points_to_barycentric(
+                triangles[nearest], closest[pick, nearest])
+            smooth = np.einsum("pk,pkj->pj", weights, self._corner_normals[nearest])
+            normal[rows] = smooth / np.linalg.norm(smooth, axis=1, keepdims=True)
+            gap[rows] = self.radius * np.where(inside, -d, d)
+        return gap, normal, np.zeros(len(offset))
+
+    def turned(self, rotation) -> SurfaceTool:
+        """The surface turned by ``rotation`` (3 × 3, the tool's frame to the world's)."""
+        return SurfaceTool(self.vertices @ np.asarray(rotation, float).T, self.faces)
+
+    def describe(self) -> str:
+        return (f"surface of {len(self.faces)} triangles reaching {1e3 * self.radius:.3g} mm "
+                "from its reference point")
+
+
+#: faces meeting at a smaller angle than this belong to one smooth surface (an icosphere's
+#: facets are 4 to 15 degrees apart); at a larger one the edge is a crease (a box's, a
+#: chamfer's), which keeps each face's own normal up to it
+CREASE_DEGREES = 40.0
+
+
+def _corner_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m, 3, 3): each face's normal at its three corners, the area-weighted mean of the
+    normals of the faces around that corner within :data:`CREASE_DEGREES` of its own (a
+    faceted sphere's normals are then continuous, as Phong's shading makes them, while a
+    box's faces keep their own)."""
+    corners = vertices[faces]
+    weighted = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    unit = weighted / np.linalg.norm(weighted, axis=1, keepdims=True)
+    around = sp.csr_array((np.ones(faces.size), (faces.ravel(),
+                                                 np.repeat(np.arange(len(faces)), 3))),
+                          shape=(len(vertices), len(faces)))
+    start, end = around.indptr[faces.ravel()], around.indptr[faces.ravel() + 1]
+    count = end - start
+    corner = np.repeat(np.arange(faces.size), count)
+    other = around.indices[np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+                           + np.repeat(start, count)]
+    own = corner // 3
+    alike = np.einsum("ij,ij->i", unit[own], unit[other]) > np.cos(np.radians(CREASE_DEGREES))
+    normals = np.zeros((faces.size, 3))
+    np.add.at(normals, corner[alike], weighted[other[alike]])
+    return (normals / np.linalg.norm(normals, axis=1, keepdims=True)).reshape(-1, 3, 3)
+
+
+def _winding(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The winding number of the closed, outward surface ``triangles`` (t, 3, 3) about each
+    of ``points`` (p, 3): 1 inside, 0 outside (the sum of the triangles' solid angles over
+    4π, Van Oosterom and Strackee's formula)."""
+    a, b, c = (triangles[None, :, k, :] - points[:, None, :] for k in range(3))
+    la, lb, lc = (np.linalg.norm(v, axis=2) for v in (a, b, c))
+    triple = np.einsum("ptk,ptk->pt", a, np.cross(b, c))
+    under = (la * lb * lc + np.einsum("ptk,ptk->pt", a, b) * lc
+             + np.einsum("ptk,ptk->pt", a, c) * lb + np.einsum("ptk,ptk->pt", b, c) * la)
+    return np.arctan2(triple, under).sum(axis=1) / (2 * np.pi)
+
+
 def surface_areas(mesh) -> tuple[np.ndarray, np.ndarray]:
     """``(nodes, areas)``: the surface nodes of ``mesh`` and a third of the rest area of each
     surface triangle at its corners."""
@@ -129,13 +266,17 @@ def surface_areas(mesh) -> tuple[np.ndarray, np.ndarray]:
     return nodes, share[nodes]
 
 
+#: the kinds of rigid tool
+TOOLS = (Sphere, FlatPunch, SurfaceTool)
+
+
 @dataclass(frozen=True)
 class Contact:
     """A tool at one position against a body's surface nodes (:func:`contact_with`).
 
     Attributes
     ----------
-    tool : Sphere or FlatPunch
+    tool : Sphere, FlatPunch or SurfaceTool
     position : (3,) float
         The tool's reference point (m).
     stiffness : float
@@ -211,15 +352,15 @@ def contact_with(model, tool, position, *, stiffness: float | str = "auto") -> C
     ----------
     model : Model
         An element model (its elements' Young's modulus sets the default penalty).
-    tool : Sphere or FlatPunch
+    tool : Sphere, FlatPunch or SurfaceTool
     position : (3,) float
         The tool's reference point (m): a sphere's centre, a punch's face centre.
     stiffness : float or "auto"
         The penalty ``κ`` (Pa/m); ``"auto"``: ``PENALTY × E / h`` (module docstring).
     """
-    if not isinstance(tool, (Sphere, FlatPunch)):
-        raise InputError(f"got {type(tool).__name__}; a tool is a Sphere or a FlatPunch",
-                         key="tool")
+    if not isinstance(tool, TOOLS):
+        raise InputError(f"got {type(tool).__name__}; a tool is a Sphere, a FlatPunch or a "
+                         "SurfaceTool", key="tool")
     nodes, areas = surface_areas(model.mesh)
     if stiffness == "auto":
         stiffness = PENALTY * _stiffest(model) / _shortest_edge_near(model, tool, position,
