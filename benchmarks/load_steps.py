@@ -24,8 +24,9 @@ refined once, extrapolated, whether the intervals hold FElupe's values, and the 
 seconds beside the fit's. Part 3, speed: the seconds of
 ``fit_load_steps`` (three load steps, 125 markers, with and without a load cell; our own
 data) on Kuhn blocks of 4³ to 8³ cells.
-Prints the tables and writes ``benchmarks/load_steps.json`` (``--only`` runs the parts named,
-keeping the others' entries of the file).
+Prints the tables and writes ``benchmarks/load_steps.json`` (``--only`` runs the parts named;
+a run replaces the rows it measures again and keeps the file's others). ``--grading`` sets
+the graded blocks' grading (default 0.8).
 """
 
 from __future__ import annotations
@@ -196,29 +197,46 @@ def speed(cells):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cells", type=int, nargs="+", default=[4, 6, 8])
+    parser.add_argument("--cells", type=int, nargs="*", default=[4, 6, 8])
     parser.add_argument("--graded-cells", type=int, nargs="*", default=[8, 12])
-    parser.add_argument("--data-cells", type=int, nargs="+", default=[6, 8])
+    parser.add_argument("--data-cells", type=int, nargs="*", default=[6, 8])
     parser.add_argument("--graded-data-cells", type=int, nargs="*", default=[12])
     parser.add_argument("--fit-cells", type=int, nargs="+", default=[4, 6, 8])
     parser.add_argument("--check-cells", type=int, nargs="*", default=[4, 6, 8])
     parser.add_argument("--graded-check-cells", type=int, nargs="*", default=[8])
     parser.add_argument("--only", nargs="+", choices=PARTS, default=list(PARTS))
+    parser.add_argument("--grading", type=float, default=GRADING,
+                        help="the graded blocks' kuhn_block(grading=...)")
     args = parser.parse_args(argv)
+    global GRADING
+    GRADING = args.grading
     out = ROOT / "benchmarks" / "load_steps.json"
     results = json.loads(out.read_text()) if out.exists() else {}
     if "locking" in args.only:
-        results["locking"] = _print_locking(locking(args.cells, args.graded_cells))
+        _merge(results, "locking", _print_locking(locking(args.cells, args.graded_cells)))
     if "independent" in args.only:
-        results["independent"] = _print_fits(independent(args.data_cells,
-                                                         args.graded_data_cells))
+        _merge(results, "independent", _print_fits(independent(args.data_cells,
+                                                                args.graded_data_cells)))
     if "mesh-check" in args.only:
-        results["mesh_check"] = _print_checks(mesh_checked(args.check_cells,
-                                                           args.graded_check_cells))
+        _merge(results, "mesh_check", _print_checks(mesh_checked(args.check_cells,
+                                                                 args.graded_check_cells)))
     if "speed" in args.only:
-        results["fit"] = _print_speed(speed(args.fit_cells))
+        _merge(results, "fit", _print_speed(speed(args.fit_cells)))
     out.write_text(json.dumps(results, indent=1) + "\n")
     print(f"wrote {out}")
+
+
+#: what tells one row of each part's table from another: a new run replaces the rows it
+#: measured again and keeps the others
+ROW_KEYS = ("nu", "element", "cells", "grading", "load_cell", "reference_noise", "tetrahedra")
+
+
+def _merge(results: dict, part: str, rows: list) -> None:
+    def key(row):
+        return tuple(row.get(name) for name in ROW_KEYS)
+
+    fresh = {key(row) for row in rows}
+    results[part] = [row for row in results.get(part, []) if key(row) not in fresh] + rows
 
 
 def _print_locking(table):
