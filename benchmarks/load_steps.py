@@ -196,6 +196,7 @@ def speed(cells):
 
 
 def main(argv=None):
+    global GRADING
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cells", type=int, nargs="*", default=[4, 6, 8])
     parser.add_argument("--graded-cells", type=int, nargs="*", default=[8, 12])
@@ -208,7 +209,6 @@ def main(argv=None):
     parser.add_argument("--grading", type=float, default=GRADING,
                         help="the graded blocks' kuhn_block(grading=...)")
     args = parser.parse_args(argv)
-    global GRADING
     GRADING = args.grading
     out = ROOT / "benchmarks" / "load_steps.json"
     results = json.loads(out.read_text()) if out.exists() else {}
