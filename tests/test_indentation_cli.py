@@ -156,3 +156,105 @@ def test_a_tracked_punch_s_attitude_is_read_and_kept(lab, tmp_path):
     assert np.allclose(path.tool_at(3).axis, (0, -1, 0), atol=1e-12)
     turn = Rotation.from_quat(path.orientations[3], scalar_first=True).as_matrix()
     assert np.allclose(path.tool_at(3).axis, turn @ np.array(path.tool.axis))
+
+
+def _cluster_c3d(path, tip_path, turns, *, stray=None, hidden=()):
+    """A C3D recording (mm, 100 Hz) of four markers fixed to a tool whose reference point
+    follows ``tip_path`` (m) while it turns by ``turns`` (Rotations), one frame per step;
+    ``stray``: (frame, marker, mm) moved off the rigid body; ``hidden``: (frame, marker)
+    not seen."""
+    import warnings
+
+    import c3d
+
+    arms = np.array([[0.0, 0.0, 0.03], [0.02, 0.0, 0.035], [0.0, 0.015, 0.04],
+                     [-0.01, -0.01, 0.045]])                 # from the tip, at the start
+    writer = c3d.Writer(point_rate=100.0, point_units="mm  ")
+    writer.set_point_labels(["T1", "T2", "T3", "T4"])
+    frames = []
+    for frame, (tip, turn) in enumerate(zip(tip_path, turns)):
+        points = np.zeros((4, 5), np.float32)
+        points[:, :3] = 1e3 * (turn.apply(arms) + tip)
+        if stray is not None and stray[0] == frame:
+            points[stray[1], 0] += stray[2]
+        for f, marker in hidden:
+            if f == frame:
+                points[marker, 3] = -1.0
+        frames.append((points, np.zeros((0, 0), np.float32)))
+    writer.add_frames(frames)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with open(path, "wb") as handle:
+            writer.write(handle)
+    return path
+
+
+def test_a_tracked_tool_from_a_c3d_rigid_body_without_force(lab, tmp_path):
+    """Issue 46: the tool's path as a navigation system gives it, the markers of a rigid body
+    fixed to the tool in a C3D file, no force: the sphere's centre follows the cluster's
+    rigid motion from the reference frame (to the file's float32 precision), the attitude is
+    kept, and the fit finds ν and lists E as unidentifiable with no word."""
+    from scipy.spatial.transform import Rotation
+
+    from neurofuzzy.io.load_steps import load_load_steps
+
+    centre = np.array([WIDTH / 2, WIDTH / 2, HEIGHT + RADIUS])
+    path = centre - np.outer([0.0, *DEPTHS], (0, 0, 1))
+    turns = [Rotation.from_euler("xyz", [3 * k, -2 * k, 5 * k], degrees=True)
+             for k in range(4)]
+    recording = _cluster_c3d(tmp_path / "probe.c3d", path, turns)
+    tip = ",".join(f"{1e3 * v:.6f}" for v in path[0]) + "mm"
+    out = tmp_path / "tracked.npz"
+    done = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--tool",
+               "sphere:R=5mm", "--tool-path", recording, "--tool-frames", "0,1,2,3",
+               "--tool-tip", tip, "--out", out)
+    assert done.returncode == 0, done.stderr
+    assert "no force measured" in done.stdout
+    tool = load_load_steps(out).tool
+    np.testing.assert_allclose(tool.positions, path, atol=2e-7)
+    for turn, quaternion in zip(turns, tool.orientations):
+        assert abs(np.dot(turn.as_quat(scalar_first=True), quaternion)) == pytest.approx(
+            1.0, abs=1e-9)
+    record = json.loads(cli("fit", out, "--start", lab / "model.yaml", "--json",
+                            "--no-mesh-check").stdout)
+    assert record["youngs_modulus"] is None and "youngs_modulus" in record["unidentifiable"]
+    assert record["poisson_ratio"] == pytest.approx(0.45, abs=0.03)
+
+
+@pytest.mark.parametrize("case, words", [
+    ("stray", "stray 1.72 mm (RMS) from one rigid motion"),
+    ("hidden", "2 of the tool's markers are seen"),
+    ("frames", "so 4 frames are needed"),
+    ("no_tip", "needs --tool-frames"),
+    ("tip_unit", "expected X,Y,Z with a unit"),
+    ("csv_frames", "belongs to a C3D tool path"),
+    ("marker", "names no tool marker 'T9'"),
+])
+def test_bad_c3d_tool_paths_are_refused_with_exit_2(lab, tmp_path, case, words):
+    from scipy.spatial.transform import Rotation
+
+    centre = np.array([WIDTH / 2, WIDTH / 2, HEIGHT + RADIUS])
+    path = centre - np.outer([0.0, *DEPTHS], (0, 0, 1))
+    turns = [Rotation.identity()] * 4
+    recording = _cluster_c3d(tmp_path / "probe.c3d", path, turns,
+                             stray=(2, 1, 4.0) if case == "stray" else None,
+                             hidden=[(3, 0), (3, 1)] if case == "hidden" else ())
+    options = {"--tool-path": recording, "--tool-frames": "0,1,2,3",
+               "--tool-tip": "10,10,15mm"}
+    if case == "frames":
+        options["--tool-frames"] = "0,1,2"
+    elif case == "no_tip":
+        del options["--tool-tip"]
+    elif case == "tip_unit":
+        options["--tool-tip"] = "10,10,15"
+    elif case == "csv_frames":
+        options["--tool-path"] = lab / "tool-no-force.csv"
+    elif case == "marker":
+        options["--tool-markers"] = "T1,T2,T9"
+    out = tmp_path / "out.npz"
+    result = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml", "--tool",
+                 "sphere:R=5mm", *[str(x) for pair in options.items() for x in pair],
+                 "--out", out)
+    assert result.returncode == 2, result.stderr
+    assert words in result.stderr and "Traceback" not in result.stderr
+    assert not out.exists()

@@ -86,13 +86,28 @@ def add_import(commands, *, run) -> None:
                                "surface (STL, OBJ, PLY, OFF: an instrument's tip) whose "
                                "origin is the point --tool-path places; with --tool-path")
     importer.add_argument("--tool-path", metavar="PATH.csv",
-                          help="with --tool: step,x,y,z[,fx,fy,fz], the tool's reference "
+                          help="with --tool: step,x,y,z[,qw,qx,qy,qz][,fx,fy,fz], the tool's "
+                               "reference "
                                "point (a sphere's centre, a punch's face centre, a surface's "
                                "origin) at the "
                                "reference scan (step 0, clear of the body) and at each step, "
                                "and where a load cell was read the force the tool exerts on "
-                               "the body ('# length units:' and '# force units:' lines); the "
-                               "body is held by the model's fixed nodes")
+                               "the body ('# length units:' and '# force units:' lines); or a "
+                               "C3D recording of markers fixed to the tool (with "
+                               "--tool-frames and --tool-tip); the body is held by the model's "
+                               "fixed nodes")
+    importer.add_argument("--tool-frames", metavar="F0,F1,...",
+                          help="with --tool-path TOOL.c3d (a tracked rigid body: the markers "
+                               "fixed to the tool): the recording's frame (0 its first) at the "
+                               "reference scan and at each load step")
+    importer.add_argument("--tool-tip", metavar="X,Y,Zmm",
+                          help="with --tool-path TOOL.c3d: the tool's reference point at the "
+                               "reference scan's frame, in the recording's coordinates, with "
+                               "its unit (10,10,25mm); the cluster's rigid motion from there "
+                               "moves and turns the tool")
+    importer.add_argument("--tool-markers", metavar="A,B,C",
+                          help="with --tool-path TOOL.c3d: the labels of the tool's markers "
+                               "(default: every point of the file)")
     importer.add_argument("--out", required=True, metavar="EXPERIMENT.npz",
                           help="the experiment file to write")
     importer.add_argument("--json", action="store_true", help="print one JSON object on stdout")

@@ -281,6 +281,43 @@ def tool_option(text: str, up: str):
     return contact.FlatPunch(radius, tuple(sign * np.eye(3)[index]))
 
 
+def _tool_reader(args):
+    """How ``--tool-path`` is read: a ``step,x,y,z…`` CSV, or a C3D rigid body with
+    ``--tool-frames`` and ``--tool-tip`` (:func:`~neurofuzzy.markers.steps.read_tool_c3d`)."""
+    from functools import partial
+
+    from ..markers.steps import read_tool_c3d, read_tool_path
+    from ..markers.units import LENGTH_UNITS
+
+    c3d = Path(args.tool_path).suffix.lower() == ".c3d"
+    given = [o for o in ("tool_frames", "tool_tip", "tool_markers") if getattr(args, o)]
+    if not c3d:
+        if given:
+            raise InputError(f"--{given[0].replace('_', '-')} belongs to a C3D tool path "
+                             "(--tool-path TOOL.c3d)", key=f"--{given[0].replace('_', '-')}")
+        return read_tool_path
+    for option in ("tool_frames", "tool_tip"):
+        if not getattr(args, option):
+            raise InputError("a C3D tool path needs --tool-frames (the frame of each scan) "
+                             "and --tool-tip (the tool's reference point there, X,Y,Zmm)",
+                             key=f"--{option.replace('_', '-')}")
+    text = args.tool_tip.strip()
+    unit = next((u for u in sorted(LENGTH_UNITS, key=len, reverse=True) if text.endswith(u)),
+                None)
+    try:
+        tip = [float(v) for v in text[:len(text) - len(unit or "")].split(",")]
+        frames = [int(v) for v in args.tool_frames.split(",")]
+    except ValueError:
+        tip, frames = [], []
+    if unit is None or len(tip) != 3 or not np.all(np.isfinite(tip)) or not frames:
+        raise InputError(f"got --tool-tip {args.tool_tip!r} --tool-frames "
+                         f"{args.tool_frames!r}; expected X,Y,Z with a unit (10,10,25mm) and "
+                         "frame numbers (0,120,240)", key="--tool-tip")
+    markers = args.tool_markers.split(",") if args.tool_markers else None
+    return partial(read_tool_c3d, frames=frames, markers=markers,
+                   tip=np.array(tip) * LENGTH_UNITS[unit])
+
+
 def surface_tool(text: str):
     """The :class:`~neurofuzzy.simulation.contact.SurfaceTool` of ``FILE,units=UNIT``: a
     closed triangle surface read by trimesh (STL, OBJ, PLY, OFF …) in the length unit given,
@@ -315,8 +352,6 @@ def import_indentation(args) -> int:
     the reference scan, the load cell (if any) the tool's."""
     from ..io.load_steps import save_load_steps
     from ..load_steps import LoadSteps, ToolPath
-    from ..markers.steps import read_tool_path
-
     if not (args.tool and args.tool_path):
         missing = "--tool-path" if args.tool else "--tool"
         raise InputError(f"an indenter needs both --tool KIND:R=RADIUS and --tool-path "
@@ -335,8 +370,8 @@ def import_indentation(args) -> int:
                        if p])
     out = outputs.file(args.out, "--out")
     mesh, scans = _specimen(args, topology)
-    path, markers = _driver(read_tool_path, args.tool_path, "--tool-path", "tool", args, mesh,
-                            scans)
+    path, markers = _driver(_tool_reader(args), args.tool_path, "--tool-path", "tool", args,
+                            mesh, scans)
     name = args.tool.partition(":")[0]
     data = LoadSteps(mesh, (), markers, path.force, {}, str(args.tool_path),
                      ToolPath(tool, path.displacement, name=name,

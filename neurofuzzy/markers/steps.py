@@ -18,6 +18,7 @@ from .csvtable import number, read_csv_table
 from .units import FORCE_UNITS, LENGTH_UNITS, check_statements, unit_factor
 
 __all__ = ["StepScans", "PlatePath", "read_step_markers", "read_plate", "read_tool_path",
+           "read_tool_c3d", "RIGID_TOLERANCE",
            "has_step_column"]
 
 _NO_UNIT = ("states no length unit: add a line '# length units: mm' (m, cm or mm) or pass "
@@ -147,6 +148,81 @@ def read_tool_path(path: str | os.PathLike, *, n_steps: int | None = None,
         raise InputError("has no step 0 row: the tool's position at the reference scan is "
                          "where it starts", source=source)
     return PlatePath(positions, None if force is None else force[1:], source, turns)
+
+
+#: how far (m, RMS over the markers) a tracked tool's markers may stray from one rigid
+#: motion of their cluster at a chosen frame before the file is refused: a tracker's own
+#: noise is a tenth of a millimetre or less
+RIGID_TOLERANCE = 0.5e-3
+
+
+def read_tool_c3d(path: str | os.PathLike, *, frames, tip, markers=None,
+                  units: str | None = None, n_steps: int | None = None) -> PlatePath:
+    """A tracked tool's pose at each load step from a C3D recording of the markers fixed to
+    it (a rigid body): :class:`PlatePath` as :func:`read_tool_path` gives it, positions and
+    attitudes, no force.
+
+    Parameters
+    ----------
+    path : path-like
+        The C3D file (its ``POINT:UNITS``, or ``units``).
+    frames : sequence of int
+        The file's frame (0 its first) at the reference scan and at each load step.
+    tip : (3,) float
+        The tool's reference point (a sphere's centre, a punch's face centre, a surface
+        tool's origin) at the reference scan's frame, in the recording's coordinates (m).
+        The tool's own frame is the world's there: at each step the cluster's rigid motion
+        from that frame (the least-squares one over the markers seen at both, SciPy's
+        ``Rotation.align_vectors``) moves the point and turns the tool.
+    markers : sequence of str, optional
+        The labels of the tool's markers (default: every point of the file).
+    n_steps : int, optional
+        The scans' load steps, which ``frames`` must match.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from .readers import read_c3d
+
+    source = str(path)
+    data = read_c3d(path, units=units)
+    names = list(data.names) if markers is None else list(markers)
+    unknown = [name for name in names if name not in data.names]
+    if unknown:
+        raise InputError(f"names no tool marker {unknown[0]!r}; the file's points: "
+                         f"{', '.join(data.names)}", source=source, key="--tool-markers")
+    frames = [int(f) for f in frames]
+    if n_steps is not None and len(frames) != n_steps + 1:
+        raise InputError(f"got {len(frames)} frames; the scans have the reference and "
+                         f"{n_steps} load steps, so {n_steps + 1} frames are needed",
+                         source=source, key="--tool-frames")
+    if len(frames) < 2 or min(frames) < 0 or max(frames) >= len(data.times):
+        raise InputError(f"frames {frames}: needs the reference's and at least one load "
+                         f"step's, each one of the file's 0..{len(data.times) - 1}",
+                         source=source, key="--tool-frames")
+    cluster = data.positions[:, [data.names.index(name) for name in names]][frames]
+    tip = np.asarray(tip, float)
+    positions, turns = [tip], [np.array([1.0, 0.0, 0.0, 0.0])]
+    for step, frame in enumerate(frames[1:], start=1):
+        seen = np.isfinite(cluster[0]).all(axis=1) & np.isfinite(cluster[step]).all(axis=1)
+        before, after = cluster[0][seen], cluster[step][seen]
+        if seen.sum() < 3 or np.linalg.matrix_rank(before - before.mean(axis=0),
+                                                   tol=1e-9) < 2:
+            raise InputError(f"frame {frame}: {int(seen.sum())} of the tool's markers are seen "
+                             "there and at the reference's frame, not three apart in a "
+                             "plane: its attitude cannot be told", source=source,
+                             key="--tool-path")
+        centre, centre_after = before.mean(axis=0), after.mean(axis=0)
+        R = Rotation.align_vectors(after - centre_after, before - centre)[0].as_matrix()
+        t = centre_after - R @ centre
+        stray = float(np.sqrt(np.mean(np.sum((before @ R.T + t - after) ** 2, axis=1))))
+        if stray > RIGID_TOLERANCE:
+            raise InputError(f"frame {frame}: the tool's markers stray {1e3 * stray:.3g} mm "
+                             f"(RMS) from one rigid motion, more than "
+                             f"{1e3 * RIGID_TOLERANCE:g} mm: are they all on the tool?",
+                             source=source, key="--tool-markers")
+        positions.append(R @ tip + t)
+        turns.append(Rotation.from_matrix(R).as_quat(scalar_first=True))
+    return PlatePath(np.array(positions), None, source, np.array(turns))
 
 
 def _read_steps(path, columns, n_steps, units, what, attitude=False):
