@@ -81,7 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "standard error sees, even when the fit is at the noise. With "
                              "this flag a fit of every element gets it too, by the whole "
                              "refit where the step cannot be trusted. A load-step file "
-                             "gets it by default where the refined mesh has at most 25,000 "
+                             "gets it by default where the refined mesh has at most 12,000 "
                              "tetrahedra (one Levenberg-Marquardt step there), and it also "
                              "gives E and nu extrapolated to a fine mesh")
     checks.add_argument("--mesh-check-refit", action="store_true",

@@ -35,8 +35,10 @@ __all__ = ["with_mesh_check", "refine_load_steps", "HOW", "AUTO_TETRAHEDRA"]
 
 #: ``how="auto"`` runs the step where the refined mesh has at most this many tetrahedra. Its
 #: price grows faster than the fit's: on FElupe's plates, three load steps (two fitted), the
-#: step on 3,072 refined tetrahedra took 1.6 s after a 0.4 s fit, on 24,576 62 s after 3.3 s
-AUTO_TETRAHEDRA = 25_000
+#: step on 3,072 refined tetrahedra took 1.4 to 3.6 s after fits of 0.3 to 0.9 s, on 10,368
+#: 9 to 28 s after 0.9 to 2.6 s, on 24,576 56 to 160 s after 3 to 9 s (benchmarks/
+#: load_steps.py, the machine shared); beyond this, ``--mesh-check`` asks for it
+AUTO_TETRAHEDRA = 12_000
 
 #: what :func:`with_mesh_check` runs on the refined mesh, by its ``how``
 HOW = {"step": "one Levenberg-Marquardt step of the refit on the mesh refined once (each "
@@ -97,8 +99,8 @@ def with_mesh_check(fit: LoadStepFit, data, *, how: str = "step", register: bool
         if refined > AUTO_TETRAHEDRA:
             return replace(fit, mesh_check_skipped_=(
                 f"the mesh refined once would have {refined} tetrahedra, more than the "
-                f"{AUTO_TETRAHEDRA} checked by default (the check then costs some twenty fits; "
-                "--mesh-check runs it)"))
+                f"{AUTO_TETRAHEDRA} checked by default (the check then costs ten to twenty "
+                "fits; --mesh-check runs it)"))
         how = "step"
     watch = Stopwatch()
     fine_model, refinement = refine_model(fit.model_)
