@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 import neurofuzzy as nf  # noqa: E402
 from neurofuzzy.experiment import simulate_like  # noqa: E402
 from neurofuzzy.learn.target import TARGETS, fit_for_target, rms_at_step  # noqa: E402
-from neurofuzzy.simulation.implicit import resampled  # noqa: E402
+from neurofuzzy.simulation.resampling import resampled  # noqa: E402
 from neurofuzzy.validation.probed_block import (block_experiment, block_model,  # noqa: E402
                                                 probed_block)
 

@@ -17,7 +17,7 @@ from neurofuzzy.io import load_experiment, load_model, save_experiment, save_mod
 from neurofuzzy.learn.target import fit_for_target, rms_at_step
 from neurofuzzy.mesh import from_tetra
 from neurofuzzy.model import Model
-from neurofuzzy.simulation.implicit import resampled
+from neurofuzzy.simulation.resampling import resampled
 
 
 def _block(**values):

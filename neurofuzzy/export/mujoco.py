@@ -189,7 +189,7 @@ def simulate_mujoco(mjcf_file, experiment, *, constant_load=None) -> np.ndarray:
         positions and the frame spacing ``dt``, a whole multiple of the file's time step, or
         a whole fraction of it (a file fitted for a simulator's step, ``fit --target``): then
         one step per ``k`` frames under their mean load, as
-        :func:`neurofuzzy.simulation.implicit.resampled` takes them.
+        :func:`neurofuzzy.simulation.resampling.resampled` takes them.
     constant_load : (n_nodes, 3) float, optional
         N, added to the load at every frame (an ``unmodeled_load`` effect).
 
@@ -213,7 +213,7 @@ def simulate_mujoco(mjcf_file, experiment, *, constant_load=None) -> np.ndarray:
     frames_per_step = handle.opt.timestep / experiment.dt
     if round(frames_per_step) > 1 and abs(frames_per_step - round(frames_per_step)) \
             <= 1e-6 * frames_per_step:
-        from ..simulation.implicit import resampled
+        from ..simulation.resampling import resampled
 
         experiment = resampled(experiment, experiment.dt * round(frames_per_step))
     steps = experiment.dt / handle.opt.timestep

@@ -29,7 +29,8 @@ import numpy as np
 from ..errors import InputError
 from ..experiment import Experiment, simulate_like
 from ..model import Model
-from ..simulation.implicit import resampled, simulate_implicit
+from ..simulation.implicit import simulate_implicit
+from ..simulation.resampling import resampled
 from .implicit_fit import fit_implicit
 
 __all__ = ["TARGETS", "TargetFit", "fit_for_target", "rms_at_step", "describe",
@@ -163,7 +164,7 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
 
 def rms_at_step(model, experiments, positions=None) -> float:
     """Markers' RMS distance (m), frames 1 onwards, of experiments at a simulator's step
-    (:func:`~neurofuzzy.simulation.implicit.resampled`): ``model`` run by backward Euler
+    (:func:`~neurofuzzy.simulation.resampling.resampled`): ``model`` run by backward Euler
     steps with one Newton iteration (MuJoCo's ``discrete``), or the given ``positions`` per
     experiment."""
     total, count = 0.0, 0
