@@ -81,6 +81,11 @@ class Trajectory:
     final_internal : (n_tetrahedra, K, 6) float or None
         The relaxation's internal variables after the last frame (:class:`State`); None
         when the trajectory does not know them (a trajectory from another solver).
+    reactions : (n_frames, n_sets, 3) float or None
+        What each driven set's driver exerts on the body at each frame (N), inertia
+        included (:mod:`.moving`); None without driven sets.
+    tool_forces : (n_frames, 3) float or None
+        What a tool exerts on the body at each frame (N); None without one.
     """
 
     positions: np.ndarray
@@ -88,6 +93,8 @@ class Trajectory:
     dt: float
     substeps: int = 1
     final_internal: np.ndarray | None = None
+    reactions: np.ndarray | None = None
+    tool_forces: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:

@@ -129,6 +129,9 @@ class StepSolver:
         self.weight = 1.0 / np.sqrt(mass)
         self.tolerance = float(tolerance)
         self.factor = None
+        #: a rigid tool's :class:`~.contact.Contact` at this step, or None: its force joins
+        #: the products' differences and its stiffness the factorised matrix
+        self.contact = None
         #: what the run cost: solves by the kept factorisation, products by differences of
         #: the force, GMRES iterations, factorisations
         self.counts = {"solves": 0, "products": 0, "iterations": 0, "factorisations": 0}
@@ -185,7 +188,10 @@ class StepSolver:
         if largest == 0.0:
             return np.zeros_like(y)
         s = np.sqrt(np.finfo(float).eps) * max(np.abs(x).max(), 1e-300) / (self.h * largest)
-        changed = self.body(x + (s * self.h) * full, v + s * full)
+        moved = x + (s * self.h) * full
+        changed = self.body(moved, v + s * full)
+        if self.contact is not None:
+            changed = changed + self.contact.forces(moved.reshape(-1, 3)).ravel()
         return self.mass * y - self.h * ((changed - force) / s)[self.free]
 
     def _apply(self, right):
@@ -198,6 +204,8 @@ class StepSolver:
         state = tangents(self.model, x.reshape(n, 3), v.reshape(n, 3),
                          self.body.internal if self.body.relaxes else None)
         f = self.free
+        stiffness = state.stiffness if self.contact is None else (
+            state.stiffness + self.contact.stiffness_matrix(x.reshape(n, 3)))
         self.factor = _factor(sp.diags(self.mass) + self.h * state.damping[f][:, f]
-                               + (self.h * self.h) * state.stiffness[f][:, f])
+                              + (self.h * self.h) * stiffness[f][:, f])
         self.counts["factorisations"] += 1

@@ -1,0 +1,90 @@
+"""Driven node sets and a rigid tool in the implicit run (``simulate_implicit(driven=...,
+tool=...)``, :mod:`neurofuzzy.simulation.moving`): pushed slowly and held, the run settles
+where the static solve puts the same boundary, to its force; while the plate moves, the
+viscous gel pushes back harder than at rest; bad paths are refused."""
+
+import numpy as np
+import pytest
+
+from neurofuzzy.errors import InputError
+from neurofuzzy.load_steps import DrivenPath, ToolPath
+from neurofuzzy.mesh import from_tetra, kuhn_block
+from neurofuzzy.model import Model
+from neurofuzzy.simulation.contact import Sphere, contact_with
+from neurofuzzy.simulation.implicit import simulate_implicit
+from neurofuzzy.simulation.static import Driven, equilibrium
+
+H, R, FRAMES = 0.02, 0.005, 60
+
+
+@pytest.fixture(scope="module")
+def gel():
+    points, tetrahedra = kuhn_block((4, 4, 4), H / 4)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    return Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=5.0,
+                           density=1000.0, law="neo-hookean")
+
+
+def _top(model):
+    return np.flatnonzero(np.isclose(model.mesh.rest_positions[:, 2], H))
+
+
+def _ramp(amount):
+    """Over 0.3 s to ``amount``, then held for 0.29 s (frames 10 ms apart)."""
+    return np.minimum(np.arange(FRAMES) / 30, 1.0)[:, None] * np.asarray(amount, float)
+
+
+def test_a_plate_ramped_and_held_settles_at_the_static_equilibrium(gel):
+    top = _top(gel)
+    run = simulate_implicit(gel, dt=0.01, n_frames=FRAMES, iterations=10,
+                            driven=[DrivenPath(top, _ramp((0, 0, -0.1 * H)))])
+    held = equilibrium(gel, driven=Driven(top, (0, 0, -0.1 * H)), increments=2)
+    np.testing.assert_allclose(run.positions[-1], held.positions, atol=1e-9)
+    assert run.reactions[-1, 0, 2] == pytest.approx(held.reaction_on(top)[2], rel=1e-6)
+    np.testing.assert_allclose(run.positions[:, top, 2] - gel.mesh.rest_positions[top, 2],
+                               np.repeat(_ramp((0, 0, -0.1 * H))[:, 2:], len(top), axis=1),
+                               atol=1e-15)
+    # half way down the ramp the viscous gel pushes back harder than at rest there, by a
+    # force proportional to its viscosity (the plate's speed is steady there)
+    half = equilibrium(gel, driven=Driven(top, (0, 0, -0.05 * H)), increments=2)
+    excess = run.reactions[15, 0, 2] - half.reaction_on(top)[2]
+    thicker = simulate_implicit(gel.with_elements(viscosity=10.0), dt=0.01, n_frames=16,
+                                iterations=10,
+                                driven=[DrivenPath(top, _ramp((0, 0, -0.1 * H))[:16])])
+    assert excess < 0
+    assert thicker.reactions[15, 0, 2] - half.reaction_on(top)[2] == pytest.approx(
+        2 * excess, rel=0.05)
+
+
+def test_a_sphere_pressed_and_held_settles_at_the_static_contact_force(gel):
+    centre = np.array([H / 2, H / 2, H + R])
+    path = centre + _ramp((0, 0, -1e-3))
+    run = simulate_implicit(gel, dt=0.01, n_frames=FRAMES, tool=ToolPath(Sphere(R), path))
+    held = equilibrium(gel, contact=contact_with(gel, Sphere(R), path[-1]), increments=4,
+                       tool_start=centre)
+    np.testing.assert_allclose(run.tool_forces[-1], held.contact_force, rtol=1e-4,
+                               atol=1e-6 * abs(held.contact_force[2]))
+    assert run.tool_forces[0, 2] == 0.0 and run.tool_forces[20, 2] < 0
+    assert np.abs(run.positions[-1] - held.positions).max() < 1e-8
+
+
+@pytest.mark.parametrize("case, words", [
+    ("short", "needs one finite row per frame"),
+    ("fixed", "overlaps the fixed nodes"),
+    ("inside", "starts inside the body"),
+    ("tool_short", "at each of the 60 frames"),
+])
+def test_bad_moving_boundaries_are_refused(gel, case, words):
+    top = _top(gel)
+    options = {}
+    if case == "short":
+        options["driven"] = [DrivenPath(top, _ramp((0, 0, -1e-3))[:10])]
+    elif case == "fixed":
+        options["driven"] = [DrivenPath(np.array([0, *top]), _ramp((0, 0, -1e-3)))]
+    elif case == "inside":
+        options["tool"] = ToolPath(Sphere(R), np.tile([H / 2, H / 2, H + R - 1e-3],
+                                                      (FRAMES, 1)))
+    else:
+        options["tool"] = ToolPath(Sphere(R), np.tile([H / 2, H / 2, H + R], (10, 1)))
+    with pytest.raises(InputError, match=words):
+        simulate_implicit(gel, dt=0.01, n_frames=FRAMES, **options)
