@@ -3,8 +3,8 @@
 A fit from load steps reads the tissue through linear tetrahedra, which are stiffer than the
 continuum by an amount that shrinks with their size; the fit puts that into E (low, to give
 the measured force) and ν, and the standard errors cannot see it: on FElupe's converged data
-of a gel compressed between bonded plates, a 4³-cell block gives E 15 % low with a standard
-error of 0.3 %. The time fits' mesh check (:mod:`.mesh_check`) answers the same question for
+of a gel compressed between bonded plates, a 4³-cell block gives E 13 to 17 % low where the
+noise's 95 % interval is ±3 %. The time fits' mesh check (:mod:`.mesh_check`) answers the same question for
 marker trajectories; this is its counterpart for load steps. The fitted model is refined once
 (every tetrahedron split into eight, :func:`~.mesh_check.refine_model`), its load steps with it
 (:func:`refine_load_steps`: the markers re-embedded at the same points, every driven set
