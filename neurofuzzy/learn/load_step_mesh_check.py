@@ -4,15 +4,16 @@ A fit from load steps reads the tissue through linear tetrahedra, which are stif
 continuum by an amount that shrinks with their size; the fit puts that into E (low, to give
 the measured force) and ν, and the standard errors cannot see it: on FElupe's converged data
 of a gel compressed between bonded plates, a 4³-cell block gives E 13 to 17 % low where the
-noise's 95 % interval is ±3 %. The time fits' mesh check (:mod:`.mesh_check`) answers the same question for
-marker trajectories; this is its counterpart for load steps. The fitted model is refined once
-(every tetrahedron split into eight, :func:`~.mesh_check.refine_model`), its load steps with it
-(:func:`refine_load_steps`: the markers re-embedded at the same points, every driven set
-grown by the new nodes on its edges, the tool and the load cell as they were), and refitted
-from the fitted values, by one Levenberg–Marquardt step (``how="step"``, the default: two
-equilibria with their derivatives on the refined mesh) or to convergence (``"refit"``). How
-far E and ν move is the estimate of the error left on the fitted mesh; the fit's 95 %
-intervals add :data:`~.uncertainty.MESH_ERROR_FACTOR` times it to the noise's, in quadrature
+noise's 95 % interval is ±3 %. The time fits' mesh check (:mod:`.mesh_check`) answers the
+same question for marker trajectories; this is its counterpart for load steps. The fitted
+model is refined once (every tetrahedron split into eight,
+:func:`~.mesh_check.refine_model`), its load steps with it (:func:`refine_load_steps`: the
+markers re-embedded at the same points, every driven set grown by the new nodes on its
+edges, the tool and the load cell as they were), and refitted from the fitted values, by one
+Levenberg–Marquardt step (``how="step"``, the default: two equilibria with their derivatives
+on the refined mesh) or to convergence (``"refit"``). How far E and ν move is the estimate
+of the error left on the fitted mesh; the fit's 95 % intervals add
+:data:`~.uncertainty.MESH_ERROR_FACTOR` times it to the noise's, in quadrature
 (:meth:`~._load_step_result.LoadStepFit.interval`), and say that they do.
 """
 
@@ -24,11 +25,10 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import InputError
-from ..observation import embed_points
 from ..progress import Stopwatch
 from ._load_step_result import LoadStepFit
 from .load_step_fit import PARAMETERS, fit_load_steps
-from .mesh_check import MeshCheck, refine_model
+from .mesh_check import MeshCheck, reembedded, refine_model
 from .uncertainty import MESH_ERROR_FACTOR
 
 __all__ = ["with_mesh_check", "refine_load_steps", "HOW", "AUTO_TETRAHEDRA"]
@@ -60,13 +60,8 @@ def refine_load_steps(data, refined_mesh, refinement):
         return np.concatenate([nodes, old + np.flatnonzero(member[ends].all(axis=1))])
 
     driven = tuple(replace(path, nodes=grown(np.asarray(path.nodes))) for path in data.driven)
-    markers = data.markers
-    if markers is not None:
-        points = np.einsum("mk,mkj->mj", markers.weights,
-                           data.mesh.rest_positions[markers.nodes])
-        nodes, weights, _ = embed_points(refined_mesh, points)
-        markers = replace(markers, nodes=nodes, weights=weights)
-    return replace(data, mesh=refined_mesh, driven=driven, markers=markers)
+    return replace(data, mesh=refined_mesh, driven=driven,
+                   markers=reembedded(data.markers, data.mesh, refined_mesh))
 
 
 def with_mesh_check(fit: LoadStepFit, data, *, how: str = "step", register: bool = True,

@@ -27,7 +27,7 @@ from ..observation import embed_points
 from ..progress import Stopwatch
 
 __all__ = ["MeshCheck", "mesh_check", "linearised_mesh_check", "refine_model",
-           "refine_experiment"]
+           "refine_experiment", "reembedded"]
 
 
 @dataclass
@@ -127,14 +127,19 @@ def refine_experiment(experiment, refined_mesh, refinement):
                                 np.full((experiment.n_frames, n_new, 3), np.nan)], axis=1)
     observed = np.concatenate([experiment.observed, np.zeros(n_new, bool)])
     node_mass = None
-    markers = experiment.markers
-    if markers is not None:
-        points = np.einsum("mk,mkj->mj", markers.weights,
-                           experiment.mesh.rest_positions[markers.nodes])
-        nodes, weights, _ = embed_points(refined_mesh, points)
-        markers = replace(markers, nodes=nodes, weights=weights)
+    markers = reembedded(experiment.markers, experiment.mesh, refined_mesh)
     return replace(experiment, mesh=refined_mesh, positions=positions, external_forces=forces,
                    observed=observed, node_mass=node_mass, markers=markers)
+
+
+def reembedded(markers, mesh, refined_mesh):
+    """Embedded ``markers`` of ``mesh`` (None passes) embedded in ``refined_mesh`` at the same
+    points at rest."""
+    if markers is None:
+        return None
+    points = np.einsum("mk,mkj->mj", markers.weights, mesh.rest_positions[markers.nodes])
+    nodes, weights, _ = embed_points(refined_mesh, points)
+    return replace(markers, nodes=nodes, weights=weights)
 
 
 def mesh_check(learner, experiments: Sequence, parameters, theta: np.ndarray) -> MeshCheck:
