@@ -93,6 +93,16 @@ class ToolPath:
                                   scalar_first=True)
         return self.tool.turned(turn.as_matrix())
 
+    def check_clear(self, rest: np.ndarray, source: str | None = None) -> None:
+        """An :class:`InputError` when the tool at its first position (and attitude) lies
+        inside the body whose nodes are at ``rest``."""
+        gap = self.tool_at(0).gap(rest, np.asarray(self.positions, float)[0])[0]
+        if np.any(gap < -1e-9 * float(np.ptp(rest, axis=0).max())):
+            raise InputError(f"the tool {self.name!r} starts inside the body (node "
+                             f"{int(np.argmin(gap))} lies {-1e3 * float(gap.min()):.3g} mm "
+                             "inside it at the start): place it on the surface or clear of it",
+                             source=source, key="tool")
+
     def contact(self, model: Model):
         """The tool's :class:`~neurofuzzy.simulation.contact.Contact` with ``model`` (at
         step 0)."""
@@ -219,13 +229,7 @@ class LoadSteps:
                                  f"{size[np.argmax(np.abs(size - 1))]:.4g} at step "
                                  f"{int(np.argmax(np.abs(size - 1)))}: unit quaternions "
                                  "(w, x, y, z) only", source=src, key="tool")
-        rest = self.mesh.rest_positions
-        gap = tool.tool_at(0).gap(rest, positions[0])[0]
-        if np.any(gap < -1e-9 * float(np.ptp(rest, axis=0).max())):
-            raise InputError(f"the tool {tool.name!r} starts inside the body (node "
-                             f"{int(np.argmin(gap))} lies {-1e3 * float(gap.min()):.3g} mm "
-                             "inside it at the reference scan): place it on the surface or "
-                             "clear of it at step 0", source=src, key="tool")
+        tool.check_clear(self.mesh.rest_positions, src)
         largest = np.linalg.norm(np.diff(positions, axis=0), axis=1).max()
         if largest > tool.tool.radius:
             raise InputError(f"the tool {tool.name!r} jumps {1e3 * largest:.3g} mm between "

@@ -265,9 +265,7 @@ def tool_option(text: str, up: str):
     if kind == "surface":
         return surface_tool(rest)
     key, _, value = rest.partition("=")
-    unit = next((u for u in sorted(LENGTH_UNITS, key=len, reverse=True)
-                 if value.strip().endswith(u)), None)
-    number = value.strip()[:-len(unit)] if unit else value.strip()
+    number, unit = _unit_suffix(value)
     try:
         radius = float(number) * (LENGTH_UNITS[unit] if unit else 1.0)
     except ValueError:
@@ -279,6 +277,23 @@ def tool_option(text: str, up: str):
         return contact.Sphere(radius)
     index, sign = axis_of(up)
     return contact.FlatPunch(radius, tuple(sign * np.eye(3)[index]))
+
+
+def _unit_suffix(text: str) -> tuple[str, str | None]:
+    """``("5", "mm")`` of ``"5mm"``: the text before a length unit it ends with, and that unit
+    (None without one)."""
+    from ..markers.units import LENGTH_UNITS
+
+    text = text.strip()
+    unit = next((u for u in sorted(LENGTH_UNITS, key=len, reverse=True) if text.endswith(u)),
+                None)
+    return (text[:-len(unit)] if unit else text), unit
+
+
+def surface_file(tool: str) -> str | None:
+    """The file of ``--tool surface:FILE,units=UNIT`` (None for another tool)."""
+    return tool.partition(":")[2].rpartition(",units=")[0] if tool.startswith(
+        "surface:") else None
 
 
 def _tool_reader(args):
@@ -301,11 +316,9 @@ def _tool_reader(args):
             raise InputError("a C3D tool path needs --tool-frames (the frame of each scan) "
                              "and --tool-tip (the tool's reference point there, X,Y,Zmm)",
                              key=f"--{option.replace('_', '-')}")
-    text = args.tool_tip.strip()
-    unit = next((u for u in sorted(LENGTH_UNITS, key=len, reverse=True) if text.endswith(u)),
-                None)
+    numbers, unit = _unit_suffix(args.tool_tip)
     try:
-        tip = [float(v) for v in text[:len(text) - len(unit or "")].split(",")]
+        tip = [float(v) for v in numbers.split(",")]
         frames = [int(v) for v in args.tool_frames.split(",")]
     except ValueError:
         tip, frames = [], []
@@ -327,7 +340,7 @@ def surface_tool(text: str):
     from ..markers.units import LENGTH_UNITS
     from ..simulation.contact import SurfaceTool
 
-    file, _, unit = text.rpartition(",units=")
+    file, unit = surface_file("surface:" + text), text.rpartition(",units=")[2]
     if not file or unit not in LENGTH_UNITS:
         raise InputError(f"got surface:{text}; expected surface:FILE,units=UNIT with UNIT one "
                          f"of {', '.join(LENGTH_UNITS)}: a surface file states no unit, and "
@@ -364,10 +377,8 @@ def import_indentation(args) -> int:
     tool = tool_option(args.tool, args.up)
     positive(args.max_distance, "--max-distance")
     topology = Path(args.topology)
-    surface = args.tool.partition(":")[2].rpartition(",units=")[0] if (
-        args.tool.startswith("surface:")) else None
-    outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path, surface)
-                       if p])
+    outputs = Outputs([Path(p) for p in (args.markers, topology, args.tool_path,
+                                         surface_file(args.tool)) if p])
     out = outputs.file(args.out, "--out")
     mesh, scans = _specimen(args, topology)
     path, markers = _driver(_tool_reader(args), args.tool_path, "--tool-path", "tool", args,

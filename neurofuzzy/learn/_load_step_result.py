@@ -62,9 +62,7 @@ class LoadStepFit:
             why = self.mesh_check_skipped_ or "no mesh check ran"
             return (f"the noise alone: {why}; a coarse mesh biases E and ν by more than the "
                     "noise may show (with_mesh_check, fit --mesh-check)")
-        how = check.how.replace(" on the mesh refined once (each tetrahedron in eight)", "")
-        return (f"the noise and the mesh: on the mesh refined once ({check.elements[1]} "
-                f"tetrahedra), {check.moves()} ({how})")
+        return check.holds()
 
     def extrapolated(self, name: str) -> float | None:
         """``name``'s value extrapolated to a mesh fine enough, from the mesh check (None

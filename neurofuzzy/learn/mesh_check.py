@@ -65,6 +65,13 @@ class MeshCheck:
         return ", ".join(f"{name.replace('_', ' ')} {v['mesh']:.4g} {arrow} {v['refined']:.4g}"
                          for name, v in self.values.items())
 
+    def holds(self) -> str:
+        """What intervals widened by this check hold, in one sentence (the ``how`` without
+        saying "on the mesh refined once" twice)."""
+        how = self.how.replace(" on the mesh refined once (each tetrahedron in eight)", "")
+        return (f"the noise and the mesh: on the mesh refined once ({self.elements[1]} "
+                f"tetrahedra), {self.moves()} ({how})")
+
     def to_dict(self) -> dict:
         from ..io.writing import json_safe
 

@@ -129,10 +129,8 @@ def _holds(model, check, skipped: str | None) -> str:
     """What a fit's 95 % intervals hold, said once for the fit's text, its report and its
     JSON: the noise and the mesh (the move on the mesh refined once), or the noise alone and
     why (for an element model, with the warning that a coarse mesh biases every value)."""
-    if check is not None:       # how, without saying "on the mesh refined once" twice
-        how = check.how.replace(" on the mesh refined once (each tetrahedron in eight)", "")
-        return (f"the noise and the mesh: on the mesh refined once ({check.elements[1]} "
-                f"tetrahedra), {check.moves()} ({how})")
+    if check is not None:
+        return check.holds()
     if model.elements is None:
         return "the noise"
     return (f"the noise alone: {skipped}; a coarse mesh biases every value by more than the "

@@ -37,6 +37,7 @@ class Moving:
         n = model.n_nodes
         self.driven = tuple(driven)
         self.held = np.zeros(3 * n, bool)
+        self._dofs = []                            # each driven set's held degrees of freedom
         fixed = set(np.asarray(model.mesh.fixed).tolist())
         for path in self.driven:
             if not all(hasattr(path, a) for a in ("nodes", "displacement", "at")):
@@ -56,6 +57,7 @@ class Moving:
                 raise InputError(f"the driven set {path.name!r} holds a degree of freedom "
                                  "another driven set holds", key="driven")
             self.held[dofs] = True
+            self._dofs.append(dofs)
         self.tool, self.contact = tool, None
         if tool is not None:
             if not all(hasattr(tool, a) for a in ("positions", "contact", "tool_at")):
@@ -68,19 +70,14 @@ class Moving:
                 raise InputError(f"the tool {tool.name!r} needs a finite position (and, if "
                                  f"any, attitude) at each of the {n_frames} frames; got "
                                  f"{positions.shape}", key="tool")
+            tool.check_clear(model.mesh.rest_positions)
             self.contact = tool.contact(model)
-            rest = model.mesh.rest_positions
-            gap = tool.tool_at(0).gap(rest, positions[0])[0]
-            if np.any(gap < -1e-9 * float(np.ptp(rest, axis=0).max())):
-                raise InputError(f"the tool {tool.name!r} starts inside the body (node "
-                                 f"{int(np.argmin(gap))}): place it on the surface or clear "
-                                 "of it at frame 0", key="tool")
 
     def start(self, rest: np.ndarray, positions: np.ndarray) -> np.ndarray:
         """``positions`` (n_nodes, 3) with the driven sets where their paths are at frame 0."""
         out = positions.reshape(-1).copy()
-        for path in self.driven:
-            dofs, values = self._target(path, 0, 0.0, rest)
+        if self.driven:
+            dofs, values = self.targets(0, 0.0, rest)
             out[dofs] = values
         return out.reshape(-1, 3)
 
@@ -89,34 +86,33 @@ class Moving:
         from frame ``frame - 1`` to ``frame``, or None without driven sets."""
         if not self.driven:
             return None
-        parts = [self._target(path, frame, fraction, rest) for path in self.driven]
-        return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+        dofs = np.concatenate(self._dofs)
+        shifts = np.concatenate([_between(path.displacement, frame, fraction)[held % 3]
+                                 for path, held in zip(self.driven, self._dofs)])
+        return dofs, rest.reshape(-1)[dofs] + shifts
 
     def touch(self, frame: int, fraction: float):
         """The tool's :class:`~.contact.Contact` at ``fraction`` of the way from frame
         ``frame - 1`` to ``frame`` (the attitude of ``frame``), or None without a tool."""
         if self.tool is None:
             return None
-        positions = np.asarray(self.tool.positions, float)
-        where = positions[max(frame - 1, 0)] + fraction * (positions[frame]
-                                                            - positions[max(frame - 1, 0)])
-        return self.contact.at(where, self.tool.tool_at(frame))
+        return self.contact.at(_between(self.tool.positions, frame, fraction),
+                               self.tool.tool_at(frame))
 
     def reactions(self, balance: np.ndarray) -> np.ndarray | None:
         """(n_sets, 3): ``balance`` (3 n_nodes,), the step's ``M (v₁ - v₀) / h - F - f`` at
         every degree of freedom, summed over each driven set's held ones."""
         if not self.driven:
             return None
-        n = len(balance) // 3
         out = np.zeros((len(self.driven), 3))
-        for k, path in enumerate(self.driven):
-            dofs = path.at(1).dofs(n)[0]
+        for k, dofs in enumerate(self._dofs):
             np.add.at(out[k], dofs % 3, balance[dofs])
         return out
 
-    @staticmethod
-    def _target(path, frame, fraction, rest):
-        shift = np.asarray(path.displacement, float)
-        here = shift[max(frame - 1, 0)] + fraction * (shift[frame] - shift[max(frame - 1, 0)])
-        dofs = path.at(1).dofs(len(rest))[0]
-        return dofs, rest.reshape(-1)[dofs] + here[dofs % 3]
+
+def _between(rows, frame: int, fraction: float) -> np.ndarray:
+    """A path's row ``fraction`` of the way from frame ``frame - 1`` to ``frame`` (frame 0's
+    own at frame 0)."""
+    rows = np.asarray(rows, float)
+    before = rows[max(frame - 1, 0)]
+    return before + fraction * (rows[frame] - before)
