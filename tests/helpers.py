@@ -37,6 +37,31 @@ def soft_tissue_rules(path, name, tissues):
     return load_rules(path)
 
 
+def write_c3d_points(path, labels, frames_mm, rate, invisible=()):
+    """A C3D file at ``path``: the points ``frames_mm`` (n_frames, n_points, 3) in mm, named
+    ``labels``, ``rate`` frames a second; ``invisible`` (frame, point) pairs not seen."""
+    import warnings
+
+    import c3d
+
+    writer = c3d.Writer(point_rate=float(rate), point_units="mm  ")
+    writer.set_point_labels(list(labels))
+    frames = []
+    for t, positions in enumerate(frames_mm):
+        points = np.zeros((len(labels), 5), np.float32)
+        points[:, :3] = positions
+        for frame, column in invisible:
+            if frame == t:
+                points[column, 3] = -1.0
+        frames.append((points, np.zeros((0, 0), np.float32)))
+    writer.add_frames(frames)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with open(path, "wb") as handle:
+            writer.write(handle)
+    return path
+
+
 def cli_process(*args, cwd=None):
     """The installed command in a fresh interpreter, as a user runs it."""
     return subprocess.run([sys.executable, "-m", "neurofuzzy.cli", *map(str, args)],

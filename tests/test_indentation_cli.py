@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from helpers import cli
+from helpers import cli, write_c3d_points
 from neurofuzzy.io import save_model
 from neurofuzzy.load_steps import ToolPath, simulate_load_steps
 from neurofuzzy.mesh import from_tetra, kuhn_block
@@ -163,30 +163,12 @@ def _cluster_c3d(path, tip_path, turns, *, stray=None, hidden=()):
     follows ``tip_path`` (m) while it turns by ``turns`` (Rotations), one frame per step;
     ``stray``: (frame, marker, mm) moved off the rigid body; ``hidden``: (frame, marker)
     not seen."""
-    import warnings
-
-    import c3d
-
     arms = np.array([[0.0, 0.0, 0.03], [0.02, 0.0, 0.035], [0.0, 0.015, 0.04],
                      [-0.01, -0.01, 0.045]])                 # from the tip, at the start
-    writer = c3d.Writer(point_rate=100.0, point_units="mm  ")
-    writer.set_point_labels(["T1", "T2", "T3", "T4"])
-    frames = []
-    for frame, (tip, turn) in enumerate(zip(tip_path, turns)):
-        points = np.zeros((4, 5), np.float32)
-        points[:, :3] = 1e3 * (turn.apply(arms) + tip)
-        if stray is not None and stray[0] == frame:
-            points[stray[1], 0] += stray[2]
-        for f, marker in hidden:
-            if f == frame:
-                points[marker, 3] = -1.0
-        frames.append((points, np.zeros((0, 0), np.float32)))
-    writer.add_frames(frames)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        with open(path, "wb") as handle:
-            writer.write(handle)
-    return path
+    frames = np.array([1e3 * (turn.apply(arms) + tip) for tip, turn in zip(tip_path, turns)])
+    if stray is not None:
+        frames[stray[0], stray[1], 0] += stray[2]
+    return write_c3d_points(path, ["T1", "T2", "T3", "T4"], frames, 100.0, hidden)
 
 
 def test_a_tracked_tool_from_a_c3d_rigid_body_without_force(lab, tmp_path):

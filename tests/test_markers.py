@@ -5,10 +5,11 @@ imported experiment can be compared with the truth.
 """
 
 import json
-import warnings
 
 import numpy as np
 import pytest
+
+from helpers import write_c3d_points
 
 from neurofuzzy.cli import main
 from neurofuzzy.datasets import CUBE, paper_cube_experiment, paper_cube_model
@@ -48,25 +49,9 @@ def write_marker_csv(path, experiment, nodes=SURFACE, *, unit="mm", header=True,
 
 
 def write_c3d(path, experiment, nodes=SURFACE, *, rate=None, invisible=()):
-    import c3d
-
-    rate = rate or 1.0 / experiment.dt
-    writer = c3d.Writer(point_rate=float(rate), point_units="mm  ")
-    writer.set_point_labels([f"M{n}" for n in nodes])
-    frames = []
-    for t in range(experiment.n_frames):
-        points = np.zeros((len(nodes), 5), np.float32)
-        points[:, :3] = experiment.positions[t, nodes] * 1e3
-        for frame, column in invisible:
-            if frame == t:
-                points[column, 3] = -1.0
-        frames.append((points, np.zeros((0, 0), np.float32)))
-    writer.add_frames(frames)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        with open(path, "wb") as handle:
-            writer.write(handle)
-    return path
+    return write_c3d_points(path, [f"M{n}" for n in nodes],
+                            experiment.positions[:, nodes] * 1e3,
+                            rate or 1.0 / experiment.dt, invisible)
 
 
 @pytest.fixture(scope="module")
