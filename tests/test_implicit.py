@@ -165,7 +165,7 @@ def test_the_linearly_implicit_step_is_mujoco_s_discrete_integrator():
 
 
 def test_bad_input_is_refused_with_the_key_named():
-    from neurofuzzy.simulation.implicit import implicit_sensitivities
+    from neurofuzzy.simulation.implicit_derivatives import implicit_sensitivities
 
     model = _block(cells=(2, 2, 1))
     for options, key in (({"substeps": 0}, "substeps"), ({"iterations": 1.5}, "iterations"),
@@ -217,7 +217,7 @@ def test_the_step_s_derivatives_by_e_nu_eta_are_central_differences(law, volumet
     """``implicit_sensitivities``: the derivatives of converged backward Euler (and BDF2)
     steps by each of two groups' E, ν and η against central differences of the simulation
     (measured: within 1e-7 of the largest, every law and form)."""
-    from neurofuzzy.simulation.implicit import PARAMETERS, implicit_sensitivities
+    from neurofuzzy.simulation.implicit_derivatives import PARAMETERS, implicit_sensitivities
 
     base = _block(cells=(2, 2, 1), law=law, volumetric=volumetric)
     groups = (base.mesh.rest_positions[base.mesh.tetrahedra].mean(axis=1)[:, 0]
@@ -276,7 +276,7 @@ def test_a_fit_through_implicit_steps_recovers_e_nu_eta_of_its_own_data(scheme):
 
 def test_the_derivatives_refuse_what_they_do_not_cover():
     from neurofuzzy.effects import Gravity
-    from neurofuzzy.simulation.implicit import implicit_sensitivities
+    from neurofuzzy.simulation.implicit_derivatives import implicit_sensitivities
 
     model = _block(cells=(2, 2, 1))
     with pytest.raises(InputError, match="without springs or effects"):

@@ -88,3 +88,48 @@ def test_bad_moving_boundaries_are_refused(gel, case, words):
         options["tool"] = ToolPath(Sphere(R), np.tile([H / 2, H / 2, H + R], (10, 1)))
     with pytest.raises(InputError, match=words):
         simulate_implicit(gel, dt=0.01, n_frames=FRAMES, **options)
+
+
+@pytest.mark.parametrize("boundary", ["plate", "tool"])
+def test_the_derivatives_of_driven_and_touched_runs_are_central_differences(boundary):
+    """``implicit_sensitivities(driven=…, tool=…, forces=True)``: the derivatives of the
+    markers' positions and of the plate's reaction (or the sphere's force) by E, ν and η,
+    through converged backward Euler steps, against central differences of the run
+    (within 1e-5 of the largest)."""
+    from neurofuzzy.simulation.implicit_derivatives import (PARAMETERS,
+                                                            implicit_sensitivities)
+
+    points, tetrahedra = kuhn_block((2, 2, 2), H / 2)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    model = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=5.0,
+                            density=1000.0, law="neo-hookean")
+    frames = 8
+    path = np.minimum(np.arange(frames) / 4, 1.0)[:, None]
+    if boundary == "plate":
+        options = {"driven": [DrivenPath(_top(model), path * (0, 0, -0.1 * H))]}
+    else:
+        centre = np.array([H / 2, H / 2, H + R])
+        options = {"tool": ToolPath(Sphere(R), centre + path * (0, 0, -1e-3))}
+
+    def run(m):
+        out = simulate_implicit(m, dt=0.01, n_frames=frames, iterations=50,
+                                tolerance=1e-13, **options)
+        force = out.reactions[:, 0] if boundary == "plate" else out.tool_forces
+        return out.positions, force
+
+    trajectory, derivatives, forces = implicit_sensitivities(
+        model, dt=0.01, n_frames=frames, tolerance=1e-13, forces=True, **options)
+    measured = (trajectory.reactions[:, 0] if boundary == "plate"
+                else trajectory.tool_forces)
+    assert np.allclose(measured, run(model)[1], rtol=1e-9, atol=1e-12)
+    d_force = forces.reactions[:, :, 0] if boundary == "plate" else forces.tool_forces
+    assert (forces.tool_forces is None) == (boundary == "plate")
+    for k, name in enumerate(PARAMETERS):
+        step = 1e-6 * getattr(model.elements, name)[0]
+        (up_x, up_f), (down_x, down_f) = (
+            run(model.with_elements(**{name: getattr(model.elements, name)[0] + s}))
+            for s in (step, -step))
+        for got, central in ((derivatives[:, k], (up_x - down_x) / (2 * step)),
+                             (d_force[:, k], (up_f - down_f) / (2 * step))):
+            assert np.abs(central).max() > 0
+            assert np.abs(got - central).max() < 1e-5 * np.abs(central).max(), name

@@ -5,10 +5,11 @@ A model run by a simulator at its own step moves as its implicit integrator make
 the textbook element). :func:`fit_implicit` identifies the elements' E, ν and η per group as
 that integrator uses them, from marker recordings whose frames are its steps (or a whole
 number of them): Levenberg–Marquardt (:mod:`._lm`) on the markers' residuals with the exact
-Jacobian of the converged steps (:func:`~neurofuzzy.simulation.implicit.implicit_sensitivities`,
-checked against central differences), in ``log E``, ``logit 2ν`` and ``log η``, E within a
-factor :data:`FACTOR` of the start, η within it above and :data:`VISCOSITY_FLOOR` of it below,
-ν within (0, 0.5).
+Jacobian of the converged steps
+(:func:`~neurofuzzy.simulation.implicit_derivatives.implicit_sensitivities`, checked against
+central differences), in ``log E``, ``logit 2ν`` and ``log η``, E within a factor
+:data:`FACTOR` of the start, η within it above and :data:`VISCOSITY_FLOOR` of it below, ν
+within (0, 0.5).
 
 What it is for, and what it is not yet: data made with the same integrator come back within
 0.1 % (``tests/test_implicit.py``); fitting a recording of real tissue (or another solver) for a
@@ -26,7 +27,8 @@ import numpy as np
 from ..errors import InputError
 from ..experiment import Experiment
 from ..model import Model
-from ..simulation.implicit import PARAMETERS, implicit_sensitivities, simulate_implicit
+from ..simulation.implicit import simulate_implicit
+from ..simulation.implicit_derivatives import PARAMETERS, implicit_sensitivities
 from ._lm import levenberg_marquardt
 
 __all__ = ["ImplicitFit", "fit_implicit", "FACTOR", "VISCOSITY_FLOOR"]
@@ -46,7 +48,8 @@ class ImplicitFit:
     model : Model
         The start with the fitted E, ν, η of every group.
     values : dict
-        ``{name: (n_groups,) array}`` of :data:`~neurofuzzy.simulation.implicit.PARAMETERS`.
+        ``{name: (n_groups,) array}`` of
+        :data:`~neurofuzzy.simulation.implicit_derivatives.PARAMETERS`.
     rms_error : float
         Root-mean-square marker distance (m), frames 1 onwards, as
         :func:`~neurofuzzy.experiment.rms_error` counts it.

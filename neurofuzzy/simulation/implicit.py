@@ -39,36 +39,25 @@ variables one step on at the start of each step, from the state there, ``rᵢ �
 solves for the new state with them held: the instantaneous response is implicit, the memory
 lags one step. That is stable at any step (a mode's amplification tends to ``g/(1+g)`` as
 ``h → ∞``), first-order in the memory whatever the scheme, and its long-time state is the
-relaxed equilibrium. Their derivatives (:func:`implicit_sensitivities`) are not covered
-yet.
+relaxed equilibrium. Their derivatives are not covered yet.
 
-:func:`implicit_sensitivities` differentiates the trajectory of converged backward Euler steps
-by each group's E, ν and η: differentiating the step's equation ``R(v₁; x₀, v₀, θ) = 0`` gives
-``(M + hC + h²K) dv₁ = M dv₀ - hK dx₀ + h ∂F/∂θ`` at ``(x₁, v₁)``, ``dx₁ = dx₀ + h dv₁``, with
-``∂F/∂θ`` exact from the elements' forces per unit of ``2μ``, ``λ``, ``2μβ`` and ``λβ``
-(:func:`~neurofuzzy.simulation.tangents.unit_forces`; the forces are linear in each); for
-BDF2 the same with ``2h/3`` for ``h`` and the history's ``(4 dx₀ - dx₋₁)/3``,
-``(4 dv₀ - dv₋₁)/3`` for ``dx₀``, ``dv₀``.
+The derivatives of these steps by the elements' constants are
+:mod:`.implicit_derivatives`'s.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import Model
 from .integration import Trajectory, _frame_forces, _state
 from .moving import Moving
-from .static import ConvergenceError, _factor
+from .static import ConvergenceError
 from .step_solve import BodyForce, StepSolver
-from .tangents import tangents, unit_forces
 
-__all__ = ["simulate_implicit", "integrate", "implicit_sensitivities", "PARAMETERS"]
+__all__ = ["simulate_implicit", "integrate"]
 
-#: The element constants :func:`implicit_sensitivities` differentiates by, in its columns' order
-PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
 #: The schemes of :func:`simulate_implicit`, each with the share of the step that multiplies
 #: the new velocity in its position update (backward Euler 1, BDF2 2/3)
 SCHEMES = {"euler": 1.0, "bdf2": 2.0 / 3.0}
@@ -79,15 +68,6 @@ INTEGRATORS = {"implicit": "euler", "bdf2": "bdf2"}
 TOOL_ITERATIONS = 30
 #: m/s: a Newton update this small has converged whatever the velocity (a body at rest)
 VELOCITY_FLOOR = 1e-14
-#: relative residual of the derivatives' linear solves (:func:`implicit_sensitivities`) by
-#: GMRES preconditioned with an earlier step's factorisation
-SOLVE_TOLERANCE = 1e-9
-#: GMRES restart cycles (of 20 iterations) before the step's matrix is factorised afresh.
-#: SciPy's GMRES ends a cycle on the preconditioned residual, which on the pushed blocks left
-#: the true one 10 to 100 times above it: with one cycle (the static solve's ``_solve``) it
-#: reported failure and every step was factorised afresh
-SOLVE_CYCLES = 4
-
 
 def simulate_implicit(model: Model, *, dt: float, n_frames: int,
                       external_forces: np.ndarray | None = None,
@@ -190,10 +170,9 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
         positions[frame], velocities[frame] = p, v
         if touched is not None:
             touched[frame] = solver.contact.force_on_body(p)
-        if reactions is not None:              # M (v₁ - v₀)/h - F - f on the held ones
-            force = body(p, v) + (0.0 if tool is None else solver.contact.forces(p).ravel())
-            reactions[frame] = moving.reactions(
-                every_mass * (v - base[1]).ravel() / (SCHEMES[now] * h) - force - load)
+        if reactions is not None:
+            reactions[frame] = reaction(moving, body, solver.contact, (p, v), base[1],
+                                        SCHEMES[now] * h, every_mass, load)
     return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
                       substeps=int(substeps),
                       final_internal=body.internal.copy() if body.relaxes else None,
@@ -287,131 +266,11 @@ def _step(body, solver, base, guess, h, load, free, mass, iterations, tolerance,
     return (x0 + h * w).reshape(n, 3), w.reshape(n, 3)
 
 
-def _solve_step(matrix, right, factor):
-    """``(matrix⁻¹ right, the factorisation used)``: GMRES preconditioned by ``factor``, an
-    earlier step's factorisation, for up to :data:`SOLVE_CYCLES` cycles; a new factorisation
-    (SuperLU, as the static solve's) where that does not reach :data:`SOLVE_TOLERANCE`."""
-    if factor is not None and np.any(right):
-        preconditioner = spla.LinearOperator(matrix.shape, matvec=factor.solve)
-        x, info = spla.gmres(matrix, right, x0=factor.solve(right), rtol=SOLVE_TOLERANCE,
-                             atol=0.0, restart=20, maxiter=SOLVE_CYCLES, M=preconditioner)
-        if info == 0:
-            return x, factor
-    factor = _factor(matrix)
-    return factor.solve(right), factor
-
-
-def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
-                           external_forces: np.ndarray | None = None,
-                           initial_positions: np.ndarray | None = None,
-                           initial_velocities: np.ndarray | None = None, substeps: int = 1,
-                           groups: np.ndarray | None = None, tolerance: float = 1e-11,
-                           scheme: str = "euler") -> tuple[Trajectory, np.ndarray]:
-    """Converged backward Euler (or BDF2) steps and their derivatives by each element group's
-    E, ν, η (module docstring).
-
-    Parameters
-    ----------
-    model : Model
-        Elements (one E, ν, η per group) with no springs, effects or relaxation.
-    dt, n_frames, external_forces, initial_positions, initial_velocities, substeps, scheme
-        As :func:`simulate_implicit` (the start does not depend on the constants).
-    groups : (n_elements,) int, optional
-        The element groups (default: one).
-    tolerance : float
-        Newton's tolerance on each step's velocity (the derivatives are those of the solved
-        step).
-
-    Returns
-    -------
-    trajectory : Trajectory
-    derivatives : (n_frames, 3 n_groups, n_nodes, 3) float
-        ``∂positions/∂θ``, column ``k n_groups + g`` by constant ``PARAMETERS[k]`` of group
-        ``g`` (m per Pa, m, m per Pa·s).
-    """
-    n = model.n_nodes
-    if model.elements is None or model.springs is not None or model.effects:
-        raise InputError("the implicit step's derivatives cover element models without "
-                         "springs or effects", key="model")
-    if model.n_relaxation_terms:
-        raise InputError("the implicit step's derivatives do not cover elements that relax "
-                         "(Prony terms) yet; fit them with the explicit step", key="model")
-    k = model.mesh.n_tetrahedra
-    groups = np.zeros(k, np.intp) if groups is None else np.asarray(groups, np.intp)
-    if groups.shape != (k,) or groups.min(initial=0) < 0:
-        raise InputError(f"groups must be ({k},) non-negative ints; got {groups.shape}",
-                         key="groups")
-    n_groups = int(groups.max(initial=0)) + 1
-    values = []
-    for name in PARAMETERS:
-        per_element = np.asarray(getattr(model.elements, name), float)
-        first = np.zeros(n_groups)
-        first[groups] = per_element
-        if not np.allclose(per_element, first[groups], rtol=1e-12, atol=0.0):
-            raise InputError(f"the elements of a group must share their {name}",
-                             key="groups")
-        values.append(first)
-    E, nu, eta = values
-    a, b, da, db = (np.asarray(x, float) for x in _lame(nu))
-    p = _state(initial_positions, model.mesh.rest_positions, n, "initial_positions")
-    v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
-    v[model.mesh.fixed] = 0.0
-    forces = _frame_forces(external_forces, int(n_frames), n)
-    free_nodes = np.ones(n, bool)
-    free_nodes[model.mesh.fixed] = False
-    free = np.repeat(free_nodes, 3)
-    h = float(dt) / int(substeps)
-    mass = np.repeat(np.asarray(model.node_mass, float), 3)[free]
-    columns = 3 * n_groups
-    dx, dv = np.zeros((columns, int(free.sum()))), np.zeros((columns, int(free.sum())))
-    positions = np.empty((int(n_frames), n, 3))
-    velocities = np.empty_like(positions)
-    derivatives = np.zeros((int(n_frames), columns, n, 3))
-    positions[0], velocities[0] = p, v
-    factor = None
-    _check_scheme(scheme)
-    body = BodyForce(model, h)
-    solvers = _Solvers(model, body, h, free, mass)
-    before, changes_before = None, None
-
-    def parameter_forces(p, v):
-        """``∂F/∂θ`` (columns, free dofs) at ``(p, v)``."""
-        units = unit_forces(model, p, groups, velocities=v).reshape(n_groups, 4, -1)
-        units = units[:, :, free]
-        return np.concatenate([2 * b[:, None] * units[:, 0] + a[:, None] * units[:, 1],
-                               2 * db[:, None] * (E[:, None] * units[:, 0]
-                                                  + eta[:, None] * units[:, 2])
-                               + da[:, None] * (E[:, None] * units[:, 1]
-                                                + eta[:, None] * units[:, 3]),
-                               2 * b[:, None] * units[:, 2] + a[:, None] * units[:, 3]])
-
-    for frame in range(1, int(n_frames)):
-        load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
-        for _ in range(int(substeps)):
-            now, base = _base(scheme, (p, v), before)
-            changes = _base(scheme, (dx, dv), changes_before)[1]
-            before, changes_before = (p, v), (dx, dv)
-            he = SCHEMES[now] * h
-            p, v = _step(body, solvers.of(now), base, v, he, load, free, mass, 50, tolerance)
-            state = tangents(model, p, v)
-            stiffness = state.stiffness[free][:, free]
-            matrix = (sp.diags(mass) + he * state.damping[free][:, free]
-                      + (he * he) * stiffness).tocsr()
-            right = (mass * changes[1] - he * (stiffness @ changes[0].T).T
-                     + he * parameter_forces(p, v))
-            dv = np.empty_like(right)
-            for c in range(columns):
-                dv[c], factor = _solve_step(matrix, right[c], factor)
-            dx = changes[0] + he * dv
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(dx))):
-            raise ConvergenceError(f"the implicit step diverged at frame {frame}", key="dt")
-        positions[frame], velocities[frame] = p, v
-        derivatives[frame][:, free_nodes] = dx.reshape(columns, -1, 3)
-    return (Trajectory(positions=positions, velocities=velocities, dt=float(dt),
-                       substeps=int(substeps), final_internal=None), derivatives)
-
-
-def _lame(nu):
-    from ..forces.tetra_geometry import lame_factors
-
-    return lame_factors(nu)
+def reaction(moving: Moving, body: BodyForce, contact, state: tuple, base_velocity, h: float,
+             every_mass: np.ndarray, load) -> np.ndarray:
+    """(n_sets, 3): each driven set's share of the step's ``M (v₁ - b_v)/h - F - f`` at the
+    step's end ``state = (p, v)`` (``contact`` the tool's, or None): what its driver
+    exerts on it."""
+    p, v = state
+    force = body(p, v) + (0.0 if contact is None else contact.forces(p).ravel())
+    return moving.reactions(every_mass * (v - base_velocity).ravel() / h - force - load)

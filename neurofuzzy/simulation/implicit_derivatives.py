@@ -1,0 +1,258 @@
+"""The derivatives of implicit steps (:func:`~.implicit.simulate_implicit`) by the elements'
+E, ν and η: what a fit through backward Euler or BDF2 steps needs (:mod:`neurofuzzy.learn.
+implicit_fit`), for loads, driven node sets (a plate on a stage) and a tool in contact.
+
+:func:`implicit_sensitivities` differentiates the trajectory of converged steps: differentiating
+the step's equation ``R(v₁; x₀, v₀, θ) = 0`` gives
+
+    (M + hC + h²K) dv₁ = M dv₀ - hK dx₀ + h ∂F/∂θ    at (x₁, v₁),    dx₁ = dx₀ + h dv₁,
+
+over the free degrees of freedom, with ``∂F/∂θ`` exact from the elements' forces per unit of
+``2μ``, ``λ``, ``2μβ`` and ``λβ`` (:func:`~neurofuzzy.simulation.tangents.unit_forces`; the
+forces are linear in each); for BDF2 the same with ``2h/3`` for ``h`` and the history's
+``(4 dx₀ - dx₋₁)/3``, ``(4 dv₀ - dv₋₁)/3`` for ``dx₀``, ``dv₀``. A driven degree of freedom
+follows its path whatever θ (its derivatives are zero), and a tool's contact adds its penalty
+stiffness to ``K``; a penalty left ``"auto"`` scales with the largest E
+(:func:`~neurofuzzy.simulation.contact.contact_with`), so its force is in that group's
+``∂F/∂E`` too (per unit of E, the contact's force over E). What a driven set's driver
+exerts, ``M (v₁ - v₀)/h - F - f`` summed over the set, then changes by
+``Σ (K dx₁ + C dv₁ - ∂F/∂θ)`` over its degrees of freedom; what the tool exerts on the body,
+by ``-Σ K_c dx₁`` (``K_c`` the contact's stiffness).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import InputError
+from ..model import Model
+from .implicit import SCHEMES, _base, _check_scheme, _Solvers, _step, reaction
+from .integration import Trajectory, _frame_forces, _state
+from .moving import Moving
+from .static import ConvergenceError, _factor
+from .step_solve import BodyForce
+from .tangents import tangents, unit_forces
+
+__all__ = ["implicit_sensitivities", "ForceDerivatives", "PARAMETERS"]
+
+#: The element constants :func:`implicit_sensitivities` differentiates by, in its columns' order
+PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
+#: relative residual of the derivatives' linear solves by GMRES preconditioned with an earlier
+#: step's factorisation
+SOLVE_TOLERANCE = 1e-9
+#: GMRES restart cycles (of 20 iterations) before the step's matrix is factorised afresh.
+#: SciPy's GMRES ends a cycle on the preconditioned residual, which on the pushed blocks left
+#: the true one 10 to 100 times above it: with one cycle (the static solve's ``_solve``) it
+#: reported failure and every step was factorised afresh
+SOLVE_CYCLES = 4
+#: Newton iterations a step may take: the derivatives are those of the solved step
+ITERATIONS = 50
+
+
+@dataclass(frozen=True)
+class ForceDerivatives:
+    """The derivatives of the forces a run's boundaries exert, beside the positions'.
+
+    Attributes
+    ----------
+    reactions : (n_frames, n_columns, n_sets, 3) float or None
+        ``∂Trajectory.reactions/∂θ`` (N per unit of each constant), without driven sets None.
+    tool_forces : (n_frames, n_columns, 3) float or None
+        ``∂Trajectory.tool_forces/∂θ``, without a tool None.
+    """
+
+    reactions: np.ndarray | None
+    tool_forces: np.ndarray | None
+
+
+def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
+                           external_forces: np.ndarray | None = None,
+                           initial_positions: np.ndarray | None = None,
+                           initial_velocities: np.ndarray | None = None, substeps: int = 1,
+                           groups: np.ndarray | None = None, tolerance: float = 1e-11,
+                           scheme: str = "euler", driven=(), tool=None,
+                           forces: bool = False):
+    """Converged backward Euler (or BDF2) steps and their derivatives by each element group's
+    E, ν, η (module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        Elements (one E, ν, η per group) with no springs, effects or relaxation.
+    dt, n_frames, external_forces, initial_positions, initial_velocities, substeps, scheme
+        As :func:`~.implicit.simulate_implicit` (the start does not depend on the constants).
+    groups : (n_elements,) int, optional
+        The element groups (default: one).
+    tolerance : float
+        Newton's tolerance on each step's velocity (the derivatives are those of the solved
+        step).
+    driven, tool
+        Driven node sets (DrivenPaths) and a tool (a ToolPath), one row per frame, as
+        :func:`~.implicit.simulate_implicit` takes them.
+    forces : bool
+        Also return the derivatives of the driven sets' reactions and the tool's force.
+
+    Returns
+    -------
+    trajectory : Trajectory
+        With its ``reactions`` and ``tool_forces`` where there are driven sets or a tool.
+    derivatives : (n_frames, 3 n_groups, n_nodes, 3) float
+        ``∂positions/∂θ``, column ``k n_groups + g`` by constant ``PARAMETERS[k]`` of group
+        ``g`` (m per Pa, m, m per Pa·s).
+    force_derivatives : ForceDerivatives
+        Only with ``forces=True``.
+    """
+    n = model.n_nodes
+    if model.elements is None or model.springs is not None or model.effects:
+        raise InputError("the implicit step's derivatives cover element models without "
+                         "springs or effects", key="model")
+    if model.n_relaxation_terms:
+        raise InputError("the implicit step's derivatives do not cover elements that relax "
+                         "(Prony terms) yet; fit them with the explicit step", key="model")
+    groups, values = _grouped(model, groups)
+    n_groups = len(values[0])
+    _check_scheme(scheme)
+    moving = Moving(model, int(n_frames), driven, tool)
+    rest = model.mesh.rest_positions
+    p = moving.start(rest, _state(initial_positions, rest, n, "initial_positions"))
+    v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
+    free_nodes = np.ones(n, bool)
+    free_nodes[model.mesh.fixed] = False
+    free = np.repeat(free_nodes, 3) & ~moving.held
+    v.reshape(-1)[~free] = 0.0
+    load_rows = _frame_forces(external_forces, int(n_frames), n)
+    h = float(dt) / int(substeps)
+    every_mass = np.repeat(np.asarray(model.node_mass, float), 3)
+    mass = every_mass[free]
+    columns = 3 * n_groups
+    dx, dv = np.zeros((columns, 3 * n)), np.zeros((columns, 3 * n))
+    positions = np.empty((int(n_frames), n, 3))
+    velocities = np.empty_like(positions)
+    derivatives = np.zeros((int(n_frames), columns, n, 3))
+    positions[0], velocities[0] = p, v
+    reactions = d_reactions = touched = d_touched = None
+    if moving.driven:
+        reactions = np.zeros((int(n_frames), len(moving.driven), 3))
+        d_reactions = np.zeros((int(n_frames), columns, len(moving.driven), 3))
+    if tool is not None:
+        touched, d_touched = np.zeros((int(n_frames), 3)), np.zeros((int(n_frames), columns, 3))
+        touched[0] = moving.touch(0, 0.0).force_on_body(p)
+    penalty_column = penalty_scale = None
+    if tool is not None and isinstance(tool.stiffness, str):    # "auto": κ ∝ the largest E
+        penalty_column = int(np.argmax(values[0]))
+        penalty_scale = float(values[0][penalty_column])
+    body = BodyForce(model, h)
+    solvers = _Solvers(model, body, h, free, mass)
+    parameter_forces = _ParameterForces(model, groups, values)
+    before, changes_before, factor = None, None, None
+    for frame in range(1, int(n_frames)):
+        load = 0.0 if load_rows is None else load_rows[min(frame - 1, len(load_rows) - 1)].ravel()
+        for sub in range(int(substeps)):
+            now, base = _base(scheme, (p, v), before)
+            changes = _base(scheme, (dx, dv), changes_before)[1]
+            before, changes_before = (p, v), (dx, dv)
+            he = SCHEMES[now] * h
+            solver = solvers.of(now)
+            fraction = (sub + 1) / int(substeps)
+            solver.contact = moving.touch(frame, fraction)
+            p, v = _step(body, solver, base, v, he, load, free, mass, ITERATIONS, tolerance,
+                         moving.targets(frame, fraction, rest))
+            state = tangents(model, p, v)
+            stiffness = state.stiffness
+            if solver.contact is not None:
+                contact_stiffness = solver.contact.stiffness_matrix(p)
+                stiffness = stiffness + contact_stiffness
+            stiffness = sp.csr_array(stiffness)
+            inner = stiffness[free][:, free]
+            matrix = (sp.diags(mass) + he * state.damping[free][:, free]
+                      + (he * he) * inner).tocsc()
+            d_force = parameter_forces(p, v)                       # (columns, 3 n)
+            if penalty_column is not None and solver.contact is not None:
+                d_force[penalty_column] += solver.contact.forces(p).ravel() / penalty_scale
+            right = (mass * changes[1][:, free] - he * (inner @ changes[0][:, free].T).T
+                     + he * d_force[:, free])
+            dv = np.zeros_like(dv)
+            for c in range(columns):
+                dv[c, free], factor = _solve_step(matrix, right[c], factor)
+            dx = changes[0] + he * dv
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(dx))):
+            raise ConvergenceError(f"the implicit step diverged at frame {frame}", key="dt")
+        positions[frame], velocities[frame] = p, v
+        derivatives[frame] = dx.reshape(columns, n, 3)
+        if reactions is not None:
+            reactions[frame] = reaction(moving, body, solver.contact, (p, v), base[1], he,
+                                        every_mass, load)
+            balance = (stiffness @ dx.T).T + (state.damping @ dv.T).T - d_force
+            d_reactions[frame] = np.stack([moving.reactions(row) for row in balance])
+        if touched is not None:
+            touched[frame] = solver.contact.force_on_body(p)
+            d_touched[frame] = -(contact_stiffness @ dx.T).T.reshape(columns, n, 3).sum(axis=1)
+            if penalty_column is not None:
+                d_touched[frame, penalty_column] += touched[frame] / penalty_scale
+    trajectory = Trajectory(positions=positions, velocities=velocities, dt=float(dt),
+                            substeps=int(substeps), final_internal=None, reactions=reactions,
+                            tool_forces=touched)
+    if forces:
+        return trajectory, derivatives, ForceDerivatives(d_reactions, d_touched)
+    return trajectory, derivatives
+
+
+def _grouped(model: Model, groups) -> tuple[np.ndarray, list]:
+    """``(groups, [E, ν, η] per group)``, refusing groups whose elements differ."""
+    k = model.mesh.n_tetrahedra
+    groups = np.zeros(k, np.intp) if groups is None else np.asarray(groups, np.intp)
+    if groups.shape != (k,) or groups.min(initial=0) < 0:
+        raise InputError(f"groups must be ({k},) non-negative ints; got {groups.shape}",
+                         key="groups")
+    n_groups = int(groups.max(initial=0)) + 1
+    values = []
+    for name in PARAMETERS:
+        per_element = np.asarray(getattr(model.elements, name), float)
+        first = np.zeros(n_groups)
+        first[groups] = per_element
+        if not np.allclose(per_element, first[groups], rtol=1e-12, atol=0.0):
+            raise InputError(f"the elements of a group must share their {name}",
+                             key="groups")
+        values.append(first)
+    return groups, values
+
+
+class _ParameterForces:
+    """``∂F/∂θ`` (columns, 3 n_nodes) at ``(p, v)``: the elements' forces per unit of 2μ, λ,
+    2μβ and λβ of each group (:func:`~.tangents.unit_forces`), chained to E, ν, η."""
+
+    def __init__(self, model, groups, values):
+        from ..forces.tetra_geometry import lame_factors
+
+        self.model, self.groups = model, groups
+        self.E, self.nu, self.eta = values
+        self.a, self.b, self.da, self.db = (np.asarray(x, float)
+                                            for x in lame_factors(self.nu))
+
+    def __call__(self, p, v):
+        units = unit_forces(self.model, p, self.groups, velocities=v)
+        units = units.reshape(len(self.E), 4, -1)
+        a, b, da, db = (x[:, None] for x in (self.a, self.b, self.da, self.db))
+        E, eta = self.E[:, None], self.eta[:, None]
+        return np.concatenate([2 * b * units[:, 0] + a * units[:, 1],
+                               2 * db * (E * units[:, 0] + eta * units[:, 2])
+                               + da * (E * units[:, 1] + eta * units[:, 3]),
+                               2 * b * units[:, 2] + a * units[:, 3]])
+
+
+def _solve_step(matrix, right, factor):
+    """``(matrix⁻¹ right, the factorisation used)``: GMRES preconditioned by ``factor``, an
+    earlier step's factorisation, for up to :data:`SOLVE_CYCLES` cycles; a new factorisation
+    (SuperLU, as the static solve's) where that does not reach :data:`SOLVE_TOLERANCE`."""
+    if factor is not None and np.any(right):
+        preconditioner = spla.LinearOperator(matrix.shape, matvec=factor.solve)
+        x, info = spla.gmres(matrix, right, x0=factor.solve(right), rtol=SOLVE_TOLERANCE,
+                             atol=0.0, restart=20, maxiter=SOLVE_CYCLES, M=preconditioner)
+        if info == 0:
+            return x, factor
+    factor = _factor(matrix)
+    return factor.solve(right), factor
