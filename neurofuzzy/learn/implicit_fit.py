@@ -11,10 +11,18 @@ central differences), in ``log E``, ``logit 2ν`` and ``log η``, E within a fac
 :data:`FACTOR` of the start, η within it above and :data:`VISCOSITY_FLOOR` of it below, ν
 within (0, 0.5).
 
-What it is for, and what it is not yet: data made with the same integrator come back within
-0.1 % (``tests/test_implicit.py``); fitting a recording of real tissue (or another solver) for a
-simulator's step, and writing the result to that simulator (issue 47's ``fit --target``), is
-not built on it yet.
+A recording of a displacement-controlled test in time (issue 45's plate ramped by a stage,
+issue 46's tool pressed along its path) gives the driven sets or the tool
+(``driven=``, ``tool=``, one row per frame as :func:`~neurofuzzy.simulation.simulate_implicit`
+takes them) and, where a load cell recorded it, the force (``reaction=``: the first driven
+set's reaction, or the tool's force on the body, per frame). The markers and the force then
+enter one objective, each residual divided by its own noise (given, or estimated from the
+residuals of a first fit and the fit repeated, as the load-step fit does): the markers' noise
+σ_m per coordinate, the load cell's σ_f per component.
+
+Data made with the same integrator come back within 0.1 % (``tests/test_implicit.py``);
+FElupe's dynamic plate ramp (another solver's quadratic tetrahedra) within the figures of
+``benchmarks/plate_ramp.py``.
 """
 
 from __future__ import annotations
@@ -39,9 +47,15 @@ FACTOR = 10.0
 VISCOSITY_FLOOR = 1e-3
 
 
+#: The markers' noise assumed before it is estimated, as a share of the body's size
+MARKER_NOISE_SHARE = 1e-4
+#: The load cell's noise assumed before it is estimated, as a share of its largest reading
+FORCE_NOISE_SHARE = 1e-2
+
+
 @dataclass(frozen=True)
 class ImplicitFit:
-    """A fit through backward Euler steps.
+    """A fit through backward Euler (or BDF2) steps.
 
     Attributes
     ----------
@@ -60,6 +74,14 @@ class ImplicitFit:
     at_bound : tuple of str
         The constants that ended at a bound of the search (in some group): the data ask for
         a value beyond it, or do not tell it (η where the step's own damping exceeds it).
+    force_rms_error : float or None
+        Root-mean-square difference of the predicted and measured force per component (N),
+        frames 1 onwards; None without a load cell.
+    marker_noise, force_noise : float or None
+        The σ_m (m) and σ_f (N) each residual was divided by (None: markers alone, whose
+        fit does not depend on it).
+    estimated : tuple of str
+        Which of ``"markers"`` and ``"force"`` had their noise estimated from the residuals.
     """
 
     model: Model
@@ -68,21 +90,29 @@ class ImplicitFit:
     evaluations: int
     reason: str
     at_bound: tuple = ()
+    force_rms_error: float | None = None
+    marker_noise: float | None = None
+    force_noise: float | None = None
+    estimated: tuple = ()
 
 
 def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *,
                  substeps: int = 1, groups: np.ndarray | None = None,
                  max_evaluations: int = 40, tolerance: float = 1e-10,
-                 scheme: str = "euler") -> ImplicitFit:
+                 scheme: str = "euler", driven=(), tool=None,
+                 reaction: np.ndarray | None = None, marker_noise: float | None = None,
+                 force_noise: float | None = None) -> ImplicitFit:
     """Fit every group's E, ν, η so that backward Euler (or BDF2) steps of
-    ``h = dt / substeps`` reproduce the experiments' markers (module docstring).
+    ``h = dt / substeps`` reproduce the experiments' markers, and a load cell's force where
+    there is one (module docstring).
 
     Parameters
     ----------
     model : Model
         The start: elements only (no springs, effects or relaxation), one E, ν, η per group.
     experiments : Experiment or sequence of them
-        Their load, start and measured markers (or nodes).
+        Their load, start and measured markers (or nodes). One experiment with ``driven``,
+        ``tool`` or ``reaction``.
     substeps : int
         Implicit steps per frame.
     groups : (n_elements,) int, optional
@@ -91,13 +121,29 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
     max_evaluations, tolerance
         Levenberg–Marquardt's budget and relative stop.
     scheme : {"euler", "bdf2"}
-        The steps' scheme (:func:`~neurofuzzy.simulation.implicit.simulate_implicit`).
+        The steps' scheme (:func:`~neurofuzzy.simulation.simulate_implicit`).
+    driven : sequence of DrivenPath, optional
+        Node sets moved by the stage, one displacement from rest per frame.
+    tool : ToolPath, optional
+        A rigid tool pressed along its path, one position per frame.
+    reaction : (n_frames, 3) float, optional
+        The load cell's reading at each frame (N): what the first driven set's driver (or the
+        tool) exerts on the body; frame 0 is not fitted.
+    marker_noise, force_noise : float, optional
+        σ_m (m) and σ_f (N); with a load cell, each one not given is estimated from the
+        residuals of a first fit and the fit is repeated from there.
     """
     experiments = [experiments] if isinstance(experiments, Experiment) else list(experiments)
     if not experiments:
         raise InputError("no experiment to fit", key="experiments")
     if model.elements is None:
         raise InputError("the implicit fit needs an element model", key="model")
+    moved = {"driven": tuple(driven), "tool": tool}
+    if (driven or tool is not None or reaction is not None) and len(experiments) != 1:
+        raise InputError(f"driven sets, a tool and a load cell describe one recording; got "
+                         f"{len(experiments)} experiments", key="experiments")
+    if reaction is not None:
+        reaction = _checked_reaction(reaction, experiments[0], moved)
     groups = (np.zeros(model.mesh.n_tetrahedra, np.intp) if groups is None
               else np.asarray(groups, np.intp))
     # the model, the groups and their shared values checked before any work
@@ -114,25 +160,39 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
         return model.with_elements(youngs_modulus=E[groups], poisson_ratio=nu[groups],
                                    viscosity=eta[groups])
 
-    def both(x):
+    def passes(x, noise, derivatives):
+        """``(marker residuals, force residuals)`` in m and N, and with ``derivatives``
+        their Jacobians by x, each divided by its noise."""
         current = model_at(x)
         E, nu, eta = constants(x)
         chain = np.concatenate([E, nu * (1 - 2 * nu), eta])      # d constant / d x
         rows, columns = [], []
         for experiment in experiments:
-            run, derivatives = implicit_sensitivities(
-                current, dt=experiment.dt, n_frames=experiment.n_frames,
-                external_forces=experiment.external_forces,
-                initial_positions=experiment.initial_positions(),
-                initial_velocities=experiment.initial_velocities(), substeps=substeps,
-                groups=groups, scheme=scheme)
+            start = {"dt": experiment.dt, "n_frames": experiment.n_frames,
+                     "external_forces": experiment.external_forces,
+                     "initial_positions": experiment.initial_positions(),
+                     "initial_velocities": experiment.initial_velocities(),
+                     "substeps": substeps, "scheme": scheme, **moved}
+            if derivatives:
+                run, d_x, d_f = implicit_sensitivities(current, groups=groups, forces=True,
+                                                       **start)
+            else:
+                run = simulate_implicit(current, iterations=50, tolerance=1e-11, **start)
             observation = experiment.observation
             seen = observation.seen[1:]
-            rows.append(observation.residuals(run.positions)[1:][seen].ravel())
-            moved = np.stack([observation.frames(derivatives[:, c])[1:][seen].ravel()
-                              for c in range(derivatives.shape[1])], axis=1)
-            columns.append(moved * chain[None, :])
-        return np.concatenate(rows), np.concatenate(columns)
+            rows.append(observation.residuals(run.positions)[1:][seen].ravel() / noise[0])
+            if derivatives:
+                columns.append(np.stack([observation.frames(d_x[:, c])[1:][seen].ravel()
+                                         for c in range(d_x.shape[1])], axis=1)
+                               * chain[None, :] / noise[0])
+        if reaction is not None:
+            rows.append((_force(run, tool)[1:] - reaction[1:]).ravel() / noise[1])
+            if derivatives:
+                d_force = d_f.tool_forces if tool is not None else d_f.reactions[:, :, 0]
+                columns.append(d_force[1:].transpose(0, 2, 1).reshape(-1, len(chain))
+                               * chain[None, :] / noise[1])
+        r = np.concatenate(rows)
+        return (r, np.concatenate(columns)) if derivatives else r
 
     first = {}
     for name in PARAMETERS:
@@ -146,31 +206,64 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                             x0[2 * n_groups:] + np.log(VISCOSITY_FLOOR)])
     upper = np.concatenate([x0[:n_groups] + spread, np.full(n_groups, 12.0),
                             x0[2 * n_groups:] + spread])
-    def residuals(x):
-        """The residuals alone (a trial step): the same converged steps, no derivatives."""
-        current = model_at(x)
-        rows = []
-        for experiment in experiments:
-            run = simulate_implicit(current, dt=experiment.dt, n_frames=experiment.n_frames,
-                                    external_forces=experiment.external_forces,
-                                    initial_positions=experiment.initial_positions(),
-                                    initial_velocities=experiment.initial_velocities(),
-                                    substeps=substeps, iterations=50, tolerance=1e-11,
-                                    scheme=scheme)
-            observation = experiment.observation
-            rows.append(observation.residuals(run.positions)[1:][observation.seen[1:]].ravel())
-        return np.concatenate(rows)
-
-    solution = levenberg_marquardt(residuals, lambda x: both(x)[1], x0, lower,
-                                   upper, max_evaluations=max_evaluations,
-                                   tolerance=tolerance, both=both)
     count = sum(int(e.observation.seen[1:].sum()) for e in experiments)
-    E, nu, eta = constants(solution.x)
-    edge = (np.isclose(solution.x, lower, rtol=0.0, atol=1e-6)
-            | np.isclose(solution.x, upper, rtol=0.0, atol=1e-6)).reshape(3, n_groups)
-    return ImplicitFit(model=model_at(solution.x),
-                       values=dict(zip(PARAMETERS, (E, nu, eta))),
-                       rms_error=float(np.sqrt(2 * solution.cost / max(count, 1))),
-                       evaluations=solution.evaluations, reason=solution.reason,
+    size = float(np.ptp(model.mesh.rest_positions, axis=0).max())
+    noise = (marker_noise or MARKER_NOISE_SHARE * size,
+             force_noise or (FORCE_NOISE_SHARE * float(np.abs(reaction).max()) or 1.0
+                             if reaction is not None else 1.0))
+    if reaction is None:
+        noise = (marker_noise or 1.0, 1.0)
+    estimated = () if reaction is None else tuple(
+        name for name, given in (("markers", marker_noise), ("force", force_noise))
+        if given is None)
+    evaluations, x = 0, x0
+    for _ in range(2 if estimated else 1):
+        solution = levenberg_marquardt(lambda x: passes(x, noise, False),
+                                       lambda x: passes(x, noise, True)[1], x, lower, upper,
+                                       max_evaluations=max_evaluations, tolerance=tolerance,
+                                       both=lambda x: passes(x, noise, True))
+        evaluations += solution.evaluations
+        x = solution.x
+        markers = np.asarray(passes(x, (1.0, 1.0), False))
+        force_residuals = markers[3 * count:]
+        markers = markers[:3 * count]
+        if estimated:                # the noise of what was not given, from the residuals
+            noise = (marker_noise or float(np.sqrt(np.mean(markers ** 2))),
+                     force_noise or float(np.sqrt(np.mean(force_residuals ** 2))))
+    E, nu, eta = constants(x)
+    edge = (np.isclose(x, lower, rtol=0.0, atol=1e-6)
+            | np.isclose(x, upper, rtol=0.0, atol=1e-6)).reshape(3, n_groups)
+    return ImplicitFit(model=model_at(x), values=dict(zip(PARAMETERS, (E, nu, eta))),
+                       rms_error=float(np.sqrt(np.sum(markers ** 2) / max(count, 1))),
+                       evaluations=evaluations, reason=solution.reason,
                        at_bound=tuple(name for name, hit in zip(PARAMETERS, edge)
-                                      if hit.any()))
+                                      if hit.any()),
+                       force_rms_error=(None if reaction is None else
+                                        float(np.sqrt(np.mean(force_residuals ** 2)))),
+                       marker_noise=None if reaction is None and marker_noise is None
+                       else noise[0],
+                       force_noise=None if reaction is None else noise[1],
+                       estimated=estimated)
+
+
+def _force(run, tool) -> np.ndarray:
+    """(n_frames, 3): what the load cell reads in ``run``: the tool's force on the body, or
+    the first driven set's reaction."""
+    return run.tool_forces if tool is not None else run.reactions[:, 0]
+
+
+def _checked_reaction(reaction, experiment: Experiment, moved: dict) -> np.ndarray:
+    """``reaction`` as a finite (n_frames, 3) float array, with something to exert it."""
+    if not moved["driven"] and moved["tool"] is None:
+        raise InputError("a load cell's reading needs what it measures: driven sets or a "
+                         "tool", key="reaction")
+    try:
+        reaction = np.asarray(reaction, float)
+    except (TypeError, ValueError):
+        raise InputError("the load cell's reading must be numbers (N)",
+                         key="reaction") from None
+    if reaction.shape != (experiment.n_frames, 3) or not np.all(np.isfinite(reaction)):
+        raise InputError(f"the load cell's reading must be finite of shape "
+                         f"({experiment.n_frames}, 3), one force per frame; got "
+                         f"{reaction.shape}", source=experiment.source, key="reaction")
+    return reaction
