@@ -82,6 +82,10 @@ class ImplicitFit:
         fit does not depend on it).
     estimated : tuple of str
         Which of ``"markers"`` and ``"force"`` had their noise estimated from the residuals.
+    mesh_check : dict or None
+        Set by :func:`~.implicit_mesh_check.implicit_mesh_check`: per constant its
+        ``"mesh"``, ``"refined"`` and ``"extrapolated"`` values (each (n_groups,)), and the
+        two meshes' ``"elements"``.
     """
 
     model: Model
@@ -94,6 +98,14 @@ class ImplicitFit:
     marker_noise: float | None = None
     force_noise: float | None = None
     estimated: tuple = ()
+    mesh_check: dict | None = None
+
+    def extrapolated(self, name: str) -> np.ndarray:
+        """(n_groups,): constant ``name`` extrapolated to a fine mesh by the mesh check, or
+        the fitted value without one."""
+        if self.mesh_check is None:
+            return np.asarray(self.values[name])
+        return np.asarray(self.mesh_check[name]["extrapolated"])
 
 
 def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *,

@@ -28,7 +28,7 @@ from ..errors import InputError
 from ..progress import Stopwatch
 from ._load_step_result import LoadStepFit
 from .load_step_fit import PARAMETERS, fit_load_steps
-from .mesh_check import MeshCheck, reembedded, refine_model
+from .mesh_check import MeshCheck, grown_paths, reembedded, refine_model
 from .uncertainty import MESH_ERROR_FACTOR
 
 __all__ = ["with_mesh_check", "refine_load_steps", "HOW", "AUTO_TETRAHEDRA"]
@@ -51,15 +51,7 @@ def refine_load_steps(data, refined_mesh, refinement):
     (``refinement``'s): the markers re-embedded at their points at rest, each driven set with
     the new nodes halving its own edges (a plate's face stays whole), the fixed nodes as
     :func:`~neurofuzzy.mesh.refine` holds them, the tool and the load cell unchanged."""
-    old = data.mesh.n_nodes
-    ends = np.asarray(refinement.edge_nodes)
-
-    def grown(nodes):
-        member = np.zeros(old, bool)
-        member[nodes] = True
-        return np.concatenate([nodes, old + np.flatnonzero(member[ends].all(axis=1))])
-
-    driven = tuple(replace(path, nodes=grown(np.asarray(path.nodes))) for path in data.driven)
+    driven = grown_paths(data.driven, data.mesh.n_nodes, refinement)
     return replace(data, mesh=refined_mesh, driven=driven,
                    markers=reembedded(data.markers, data.mesh, refined_mesh))
 

@@ -139,6 +139,20 @@ def refine_experiment(experiment, refined_mesh, refinement):
                    observed=observed, node_mass=node_mass, markers=markers)
 
 
+def grown_paths(driven, n_nodes: int, refinement) -> tuple:
+    """DrivenPaths ``driven`` of a mesh of ``n_nodes`` nodes on its refinement
+    (``refinement``): each set with the new nodes halving its own edges (a plate's face stays
+    whole), its path as it was."""
+    ends = np.asarray(refinement.edge_nodes)
+
+    def grown(nodes):
+        member = np.zeros(n_nodes, bool)
+        member[nodes] = True
+        return np.concatenate([nodes, n_nodes + np.flatnonzero(member[ends].all(axis=1))])
+
+    return tuple(replace(path, nodes=grown(np.asarray(path.nodes))) for path in driven)
+
+
 def reembedded(markers, mesh, refined_mesh):
     """Embedded ``markers`` of ``mesh`` (None passes) embedded in ``refined_mesh`` at the same
     points at rest."""
