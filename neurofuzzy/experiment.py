@@ -17,7 +17,7 @@ from .errors import InputError, UnstableTimeStepError
 from .mesh import Mesh
 from .mesh.core import check_coordinates
 from .model import Model, term_values
-from .observation import EmbeddedMarkers, Observation, remove_offsets
+from .observation import EmbeddedMarkers, Observation, remove_offsets, require_motion
 from .simulation import simulate
 
 __all__ = ["Experiment", "simulate_experiment", "check_experiments", "simulate_like",
@@ -55,6 +55,13 @@ class Experiment:
         (:mod:`neurofuzzy.observation`). When given, the markers are what is measured: nodes
         need not be observed (``positions`` may be all NaN), and the learners compare the
         markers' interpolated positions with their measurements.
+    driven : tuple of DrivenPath, optional
+        Node sets a stage moved, one displacement from rest per frame (a plate ramped).
+    reaction : (n_frames, 3) float, optional
+        A load cell's reading per frame (N): the first driven set's reaction, or the tool's.
+    tool : ToolPath, optional
+        A rigid tool pressed along a path, one position per frame. Recordings with these
+        are fitted through implicit steps (:func:`~neurofuzzy.learn.implicit_fit.fit_implicit`).
     """
 
     mesh: Mesh
@@ -66,6 +73,9 @@ class Experiment:
     truth: dict = field(default_factory=dict)
     source: str = "<experiment>"
     markers: EmbeddedMarkers | None = None
+    driven: tuple = ()
+    reaction: np.ndarray | None = None
+    tool: object = None
 
     def __post_init__(self):
         src = self.source
@@ -108,7 +118,7 @@ class Experiment:
             if not np.isfinite(self.markers.positions[0]).all():
                 raise InputError("every marker needs a position at frame 0 (the initial "
                                  "state)", source=src, key="marker_positions")
-        _require_motion(self.mesh, observed, self.markers, src)
+        require_motion(self.mesh, observed, self.markers, src)
         try:
             check_coordinates(positions, "positions")
             if self.markers is not None:
@@ -149,6 +159,13 @@ class Experiment:
                                  source=src, key="masses")
             if not np.all(np.isfinite(masses)) or np.any(masses <= 0):
                 raise InputError("must be positive and finite", source=src, key="masses")
+        if self.driven or self.tool is not None or self.reaction is not None:
+            from .paths import check_moving
+
+            driven, reaction = check_moving(self.mesh, self.driven, self.tool, self.reaction,
+                                            positions.shape[0], src)
+            object.__setattr__(self, "driven", driven)
+            object.__setattr__(self, "reaction", reaction)
         object.__setattr__(self, "dt", float(dt))
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "observed", observed)
@@ -200,8 +217,12 @@ class Experiment:
         markers = self.markers
         if markers is not None:
             markers = replace(markers, positions=markers.positions[:n_frames])
+        cut = {"driven": tuple(replace(d, displacement=d.displacement[:n_frames])
+                               for d in self.driven),
+               "reaction": None if self.reaction is None else self.reaction[:n_frames],
+               "tool": self.tool and self.tool.first_rows(n_frames)}
         return self.replace(positions=self.positions[:n_frames], external_forces=forces,
-                            markers=markers)
+                            markers=markers, **cut)
 
     def tracked(self) -> np.ndarray:
         """(n_nodes,) bool: nodes whose error counts (observed and not fixed)."""
@@ -309,6 +330,10 @@ def check_experiments(model: Model,
         raise InputError("no experiments given", key="experiments")
     the_model = f"the model {model_source}" if model_source else "the model"
     for experiment in experiments:
+        if experiment.driven or experiment.tool is not None:
+            raise InputError("is moved by driven sets or a tool, which implicit steps follow: "
+                             "fit it with learn.implicit_fit.fit_implicit", key="driven",
+                             source=experiment.source)
         mesh = experiment.mesh
         if mesh.n_nodes != model.n_nodes:
             raise InputError(f"has {mesh.n_nodes} nodes; {the_model} has {model.n_nodes}",
@@ -386,22 +411,6 @@ def model_errors(model: Model, experiments: Sequence[Experiment], *,
             diff = remove_offsets(diff, observation.seen[1:])
         errors.append(diff)
     return errors
-
-
-def _require_motion(mesh: Mesh, observed: np.ndarray, markers, source: str) -> None:
-    """Refuse an experiment in which nothing can move, or nothing measured can."""
-    free = mesh.free
-    if not free.any():
-        raise InputError(f"all {mesh.n_nodes} nodes are fixed, so nothing can move; fix only "
-                         "the nodes that are held", source=source, key="fixed")
-    if markers is not None:
-        moves = np.asarray(markers.operator(mesh.n_nodes)[:, free].sum(axis=1)).ravel() > 1e-12
-        if not moves.any():
-            raise InputError("every marker sits on fixed nodes only, so nothing measured can "
-                             "move", source=source, key="marker_nodes")
-    elif not (observed & free).any():
-        raise InputError("every observed node is fixed, so nothing measured can move; observe "
-                         "free nodes", source=source, key="observed")
 
 
 def _float_array(value, source: str, key: str) -> np.ndarray:

@@ -19,97 +19,12 @@ from .errors import InputError, index_of
 from .mesh import Mesh
 from .model import Model
 from .observation import EmbeddedMarkers
+from .paths import (DrivenPath, Span, ToolPath, check_driven, check_reaction,
+                    check_tool)
 from .simulation.static import Driven, equilibrium
 
 __all__ = ["DrivenPath", "ToolPath", "LoadSteps", "marker_paths", "simulate_load_steps",
            "tool_at"]
-
-
-@dataclass(frozen=True, eq=False)
-class DrivenPath:
-    """A set of nodes moved by a known displacement at each load step.
-
-    Parameters
-    ----------
-    nodes : (n,) int
-        The driven nodes (a plate's face).
-    displacement : (n_steps, 3) float
-        Their displacement from rest at steps 1..n_steps (m).
-    components : str
-        The components the driver holds: ``"xyz"`` a bonded plate, the normal alone (e.g.
-        ``"z"``) a frictionless one.
-    name : str
-        How reports call it ("top plate").
-    """
-
-    nodes: np.ndarray
-    displacement: np.ndarray
-    components: str = "xyz"
-    name: str = "plate"
-
-    def at(self, step: int) -> Driven:
-        """The driven set at step ``step`` (1-based; 0 is rest)."""
-        shift = np.zeros(3) if step == 0 else np.asarray(self.displacement, float)[step - 1]
-        return Driven(np.asarray(self.nodes), shift, self.components)
-
-
-@dataclass(frozen=True, eq=False)
-class ToolPath:
-    """A rigid tool pressed into the body at each load step (an indenter on a stage).
-
-    Parameters
-    ----------
-    tool : Sphere, FlatPunch or SurfaceTool
-        (:mod:`neurofuzzy.simulation.contact`).
-    positions : (n_steps + 1, 3) float
-        The tool's reference point (a sphere's centre, a punch's face centre) at the
-        reference scan (step 0: touching the surface or clear of it) and at each load step
-        (m).
-    stiffness : float or "auto"
-        The contact penalty (Pa/m; :func:`~neurofuzzy.simulation.contact.contact_with`) at
-        the start model's Young's modulus; a fit scales it with E, so that without a load
-        cell the markers cannot tell E through the penalty's give.
-    name : str
-    orientations : (n_steps + 1, 4) float, optional
-        The tool's attitude at each step, unit quaternions ``(w, x, y, z)`` turning the
-        tool's own frame (a punch's axis as given) into the world's, as a tracker reports
-        it; None: never turned. A sphere looks the same every way; a punch's face tilts.
-        Within a step's increments the tool keeps the step's attitude.
-    """
-
-    tool: object
-    positions: np.ndarray
-    stiffness: float | str = "auto"
-    name: str = "indenter"
-    orientations: np.ndarray | None = None
-
-    def tool_at(self, step: int):
-        """The tool as it is turned at step ``step`` (0 the reference)."""
-        if self.orientations is None:
-            return self.tool
-        from scipy.spatial.transform import Rotation
-
-        turn = Rotation.from_quat(np.asarray(self.orientations, float)[step],
-                                  scalar_first=True)
-        return self.tool.turned(turn.as_matrix())
-
-    def check_clear(self, rest: np.ndarray, source: str | None = None) -> None:
-        """An :class:`InputError` when the tool at its first position (and attitude) lies
-        inside the body whose nodes are at ``rest``."""
-        gap = self.tool_at(0).gap(rest, np.asarray(self.positions, float)[0])[0]
-        if np.any(gap < -1e-9 * float(np.ptp(rest, axis=0).max())):
-            raise InputError(f"the tool {self.name!r} starts inside the body (node "
-                             f"{int(np.argmin(gap))} lies {-1e3 * float(gap.min()):.3g} mm "
-                             "inside it at the start): place it on the surface or clear of it",
-                             source=source, key="tool")
-
-    def contact(self, model: Model):
-        """The tool's :class:`~neurofuzzy.simulation.contact.Contact` with ``model`` (at
-        step 0)."""
-        from .simulation.contact import contact_with
-
-        return contact_with(model, self.tool_at(0), np.asarray(self.positions, float)[0],
-                            stiffness=self.stiffness)
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,81 +75,20 @@ class LoadSteps:
         if n_steps < 1:
             raise InputError("needs the reference scan and at least one load step",
                              source=src, key="markers")
-        driven = tuple(self.driven)
-        if (not driven and self.tool is None) or not all(isinstance(d, DrivenPath)
-                                                         for d in driven):
+        span = Span(n_steps, n_steps + 1, "load step",
+                    f"the scans have {n_steps} load steps, so",
+                    f"at the reference scan and at each of the {n_steps} load steps")
+        driven = check_driven(self.mesh, self.driven, span, src)
+        if not driven and self.tool is None:
             raise InputError("needs at least one DrivenPath or a ToolPath (what moved the "
                              "body)", source=src, key="driven")
         if self.tool is not None:
-            self._check_tool(n_steps, src)
-        fixed = set(np.asarray(self.mesh.fixed).tolist())
-        for path in driven:
-            if np.asarray(path.displacement).dtype.kind not in "iuf":
-                raise InputError(f"the driven set {path.name!r} has displacements that are not "
-                                 "numbers", source=src, key="driven")
-            shape = np.shape(path.displacement)
-            if shape != (n_steps, 3):
-                raise InputError(f"the driven set {path.name!r} has displacements of shape "
-                                 f"{shape}; the scans have {n_steps} load steps, so expected "
-                                 f"({n_steps}, 3)", source=src, key="driven")
-            nodes = np.asarray(path.nodes)
-            if nodes.size == 0:
-                raise InputError(f"the driven set {path.name!r} is empty", source=src,
-                                 key="driven")
-            overlap = fixed.intersection(nodes.tolist())
-            if overlap:
-                raise InputError(f"the driven set {path.name!r} overlaps the fixed nodes "
-                                 f"({len(overlap)} nodes, e.g. {min(overlap)}): a node is "
-                                 "held by one boundary", source=src, key="driven")
-            try:
-                path.at(1).dofs(self.mesh.n_nodes)
-            except InputError as error:
-                raise InputError(error.detail, source=src, key=error.key) from None
+            check_tool(self.mesh, self.tool, span, src)
         if self.markers is not None:
             self._check_markers(src)
         if self.reaction is not None:
-            try:
-                reaction = np.asarray(self.reaction, float)
-            except (TypeError, ValueError):
-                raise InputError("the load cell's reading must be numbers (N)", source=src,
-                                 key="reaction") from None
-            if reaction.shape != (n_steps, 3) or not np.all(np.isfinite(reaction)):
-                raise InputError(f"the load cell's reading must be finite of shape "
-                                 f"({n_steps}, 3) (one force per load step); got "
-                                 f"{reaction.shape}", source=src, key="reaction")
+            check_reaction(self.reaction, span, src)
         object.__setattr__(self, "driven", driven)
-
-    def _check_tool(self, n_steps, src):
-        from .simulation.contact import TOOLS
-
-        tool = self.tool
-        if not isinstance(tool, ToolPath) or not isinstance(tool.tool, TOOLS):
-            raise InputError("tool must be a ToolPath of a Sphere, a FlatPunch or a "
-                             "SurfaceTool", source=src, key="tool")
-        positions = np.asarray(tool.positions, float)
-        if positions.shape != (n_steps + 1, 3) or not np.all(np.isfinite(positions)):
-            raise InputError(f"the tool {tool.name!r} needs a finite position at the reference "
-                             f"scan and at each of the {n_steps} load steps, shape "
-                             f"({n_steps + 1}, 3); got {positions.shape}", source=src,
-                             key="tool")
-        if tool.orientations is not None:
-            turns = np.asarray(tool.orientations, float)
-            if turns.shape != (n_steps + 1, 4) or not np.all(np.isfinite(turns)):
-                raise InputError(f"the tool {tool.name!r} needs a finite attitude (qw, qx, qy, "
-                                 f"qz) at each position, shape ({n_steps + 1}, 4); got "
-                                 f"{turns.shape}", source=src, key="tool")
-            size = np.linalg.norm(turns, axis=1)
-            if np.any(np.abs(size - 1) > 1e-3):
-                raise InputError(f"the tool {tool.name!r} has an attitude quaternion of length "
-                                 f"{size[np.argmax(np.abs(size - 1))]:.4g} at step "
-                                 f"{int(np.argmax(np.abs(size - 1)))}: unit quaternions "
-                                 "(w, x, y, z) only", source=src, key="tool")
-        tool.check_clear(self.mesh.rest_positions, src)
-        largest = np.linalg.norm(np.diff(positions, axis=0), axis=1).max()
-        if largest > tool.tool.radius:
-            raise InputError(f"the tool {tool.name!r} jumps {1e3 * largest:.3g} mm between "
-                             f"two steps, more than its radius ({1e3 * tool.tool.radius:.3g} "
-                             "mm): give the steps in between", source=src, key="tool")
 
     def _check_markers(self, src):
         try:

@@ -23,7 +23,8 @@ import scipy.sparse as sp
 
 from .errors import InputError
 
-__all__ = ["EmbeddedMarkers", "Observation", "embed_points", "remove_offsets"]
+__all__ = ["EmbeddedMarkers", "Observation", "embed_points", "remove_offsets",
+           "require_motion"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -231,3 +232,19 @@ def _nearest_weights(corners: np.ndarray, point: np.ndarray) -> np.ndarray:
     matrix = np.vstack([corners.T / scale, np.full((1, 4), heavy)])
     target = np.concatenate([point / scale, [heavy]])
     return nnls(matrix, target)[0]
+
+
+def require_motion(mesh, observed: np.ndarray, markers, source: str) -> None:
+    """Refuse an experiment in which nothing can move, or nothing measured can."""
+    free = mesh.free
+    if not free.any():
+        raise InputError(f"all {mesh.n_nodes} nodes are fixed, so nothing can move; fix only "
+                         "the nodes that are held", source=source, key="fixed")
+    if markers is not None:
+        moves = np.asarray(markers.operator(mesh.n_nodes)[:, free].sum(axis=1)).ravel() > 1e-12
+        if not moves.any():
+            raise InputError("every marker sits on fixed nodes only, so nothing measured can "
+                             "move", source=source, key="marker_nodes")
+    elif not (observed & free).any():
+        raise InputError("every observed node is fixed, so nothing measured can move; observe "
+                         "free nodes", source=source, key="observed")

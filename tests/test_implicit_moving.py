@@ -141,7 +141,7 @@ def test_a_fit_from_a_ramped_plate_and_its_load_cell_recovers_e_nu_eta_and_the_n
     from a start 33 % off in E, 0.05 in ν and half η, E, ν and η come back within 2 %, and
     the noise estimated from the residuals is the noise put in, within 15 % (measured:
     +0.19 %, -0.00001, +0.6 %; the noise +0.8 % and +4.8 %)."""
-    from neurofuzzy.experiment import Experiment
+    from neurofuzzy.experiment import Experiment, rms_error
     from neurofuzzy.learn.implicit_fit import fit_implicit
 
     points, tetrahedra = kuhn_block((2, 2, 2), H / 2)
@@ -158,9 +158,10 @@ def test_a_fit_from_a_ramped_plate_and_its_load_cell_recovers_e_nu_eta_and_the_n
     positions = clean.positions + rng.normal(0.0, 2e-6, clean.positions.shape)
     positions[0] = clean.positions[0]
     reaction = clean.reactions[:, 0] + rng.normal(0.0, sigma_f, (frames, 3))
-    data = Experiment(mesh=mesh, dt=0.002, positions=positions)
+    data = Experiment(mesh=mesh, dt=0.002, positions=positions, driven=driven,
+                      reaction=reaction)
     start = truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0)
-    fitted = fit_implicit(start, data, driven=driven, reaction=reaction, scheme="bdf2")
+    fitted = fit_implicit(start, data, scheme="bdf2")
     assert fitted.values["youngs_modulus"][0] == pytest.approx(6000.0, rel=0.02)
     assert fitted.values["poisson_ratio"][0] == pytest.approx(0.45, abs=0.01)
     assert fitted.values["viscosity"][0] == pytest.approx(20.0, rel=0.02)
@@ -168,9 +169,14 @@ def test_a_fit_from_a_ramped_plate_and_its_load_cell_recovers_e_nu_eta_and_the_n
     assert fitted.marker_noise == pytest.approx(2e-6, rel=0.15)
     assert fitted.force_noise == pytest.approx(sigma_f, rel=0.15)
     with pytest.raises(InputError, match="one force per frame"):
-        fit_implicit(start, data, driven=driven, reaction=reaction[:10])
+        data.replace(reaction=reaction[:10])
     with pytest.raises(InputError, match="needs what it measures"):
-        fit_implicit(start, data, reaction=reaction)
+        data.replace(driven=())
+    with pytest.raises(InputError, match="40 frames, so expected"):
+        data.replace(driven=[DrivenPath(_top(truth), np.zeros((10, 3)))])
+    with pytest.raises(InputError, match="which implicit steps follow"):
+        rms_error(truth, data)
+    assert data.first_frames(10).reaction.shape == (10, 3)
 
 
 @pytest.mark.slow
@@ -203,9 +209,9 @@ def test_the_mesh_check_of_a_time_fit_refits_on_the_refined_mesh():
     data = Experiment(mesh=coarse.mesh, dt=dt,
                       positions=np.full((frames, coarse.n_nodes, 3), np.nan),
                       observed=np.zeros(coarse.n_nodes, bool),
-                      markers=EmbeddedMarkers(nodes, weights, seen))
-    options = {"driven": [DrivenPath(_top(coarse), path)], "reaction": run.reactions[:, 0],
-               "scheme": "bdf2", "marker_noise": 1e-6, "force_noise": 1e-3}
+                      markers=EmbeddedMarkers(nodes, weights, seen),
+                      driven=[DrivenPath(_top(coarse), path)], reaction=run.reactions[:, 0])
+    options = {"scheme": "bdf2", "marker_noise": 1e-6, "force_noise": 1e-3}
     fitted = fit_implicit(coarse, data, **options)
     checked = implicit_mesh_check(fitted, data, **options)
     for name, true in (("youngs_modulus", 6000.0), ("poisson_ratio", 0.45),

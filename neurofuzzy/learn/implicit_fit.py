@@ -12,13 +12,13 @@ central differences), in ``log E``, ``logit 2ν`` and ``log η``, E within a fac
 within (0, 0.5).
 
 A recording of a displacement-controlled test in time (issue 45's plate ramped by a stage,
-issue 46's tool pressed along its path) gives the driven sets or the tool
-(``driven=``, ``tool=``, one row per frame as :func:`~neurofuzzy.simulation.simulate_implicit`
-takes them) and, where a load cell recorded it, the force (``reaction=``: the first driven
-set's reaction, or the tool's force on the body, per frame). The markers and the force then
-enter one objective, each residual divided by its own noise (given, or estimated from the
-residuals of a first fit and the fit repeated, as the load-step fit does): the markers' noise
-σ_m per coordinate, the load cell's σ_f per component.
+issue 46's tool pressed along its path) carries its driven sets or tool
+(:attr:`~neurofuzzy.experiment.Experiment.driven`, ``.tool``, one row per frame) and, where a
+load cell recorded it, the force (``.reaction``: the first driven set's reaction, or the
+tool's force on the body, per frame). The markers and the force then enter one objective,
+each residual divided by its own noise (given, or estimated from the residuals of a first fit
+and the fit repeated, as the load-step fit does): the markers' noise σ_m per coordinate, the
+load cell's σ_f per component.
 
 Data made with the same integrator come back within 0.1 % (``tests/test_implicit.py``);
 FElupe's dynamic plate ramp (another solver's quadratic tetrahedra) within the figures of
@@ -111,8 +111,7 @@ class ImplicitFit:
 def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *,
                  substeps: int = 1, groups: np.ndarray | None = None,
                  max_evaluations: int = 40, tolerance: float = 1e-10,
-                 scheme: str = "euler", driven=(), tool=None,
-                 reaction: np.ndarray | None = None, marker_noise: float | None = None,
+                 scheme: str = "euler", marker_noise: float | None = None,
                  force_noise: float | None = None) -> ImplicitFit:
     """Fit every group's E, ν, η so that backward Euler (or BDF2) steps of
     ``h = dt / substeps`` reproduce the experiments' markers, and a load cell's force where
@@ -123,8 +122,7 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
     model : Model
         The start: elements only (no springs, effects or relaxation), one E, ν, η per group.
     experiments : Experiment or sequence of them
-        Their load, start and measured markers (or nodes). One experiment with ``driven``,
-        ``tool`` or ``reaction``.
+        Their load, start, driven sets or tool, measured markers (or nodes) and load cell.
     substeps : int
         Implicit steps per frame.
     groups : (n_elements,) int, optional
@@ -134,13 +132,6 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
         Levenberg–Marquardt's budget and relative stop.
     scheme : {"euler", "bdf2"}
         The steps' scheme (:func:`~neurofuzzy.simulation.simulate_implicit`).
-    driven : sequence of DrivenPath, optional
-        Node sets moved by the stage, one displacement from rest per frame.
-    tool : ToolPath, optional
-        A rigid tool pressed along its path, one position per frame.
-    reaction : (n_frames, 3) float, optional
-        The load cell's reading at each frame (N): what the first driven set's driver (or the
-        tool) exerts on the body; frame 0 is not fitted.
     marker_noise, force_noise : float, optional
         σ_m (m) and σ_f (N); with a load cell, each one not given is estimated from the
         residuals of a first fit and the fit is repeated from there.
@@ -150,12 +141,7 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
         raise InputError("no experiment to fit", key="experiments")
     if model.elements is None:
         raise InputError("the implicit fit needs an element model", key="model")
-    moved = {"driven": tuple(driven), "tool": tool}
-    if (driven or tool is not None or reaction is not None) and len(experiments) != 1:
-        raise InputError(f"driven sets, a tool and a load cell describe one recording; got "
-                         f"{len(experiments)} experiments", key="experiments")
-    if reaction is not None:
-        reaction = _checked_reaction(reaction, experiments[0], moved)
+    forced = [e for e in experiments if e.reaction is not None]
     groups = (np.zeros(model.mesh.n_tetrahedra, np.intp) if groups is None
               else np.asarray(groups, np.intp))
     # the model, the groups and their shared values checked before any work
@@ -178,13 +164,14 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
         current = model_at(x)
         E, nu, eta = constants(x)
         chain = np.concatenate([E, nu * (1 - 2 * nu), eta])      # d constant / d x
-        rows, columns = [], []
+        rows, columns, tail, ends = [], [], [], []           # the markers', the force's
         for experiment in experiments:
             start = {"dt": experiment.dt, "n_frames": experiment.n_frames,
                      "external_forces": experiment.external_forces,
                      "initial_positions": experiment.initial_positions(),
                      "initial_velocities": experiment.initial_velocities(),
-                     "substeps": substeps, "scheme": scheme, **moved}
+                     "substeps": substeps, "scheme": scheme,
+                     "driven": experiment.driven, "tool": experiment.tool}
             if derivatives:
                 run, d_x, d_f = implicit_sensitivities(current, groups=groups, forces=True,
                                                        **start)
@@ -197,14 +184,14 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                 columns.append(np.stack([observation.frames(d_x[:, c])[1:][seen].ravel()
                                          for c in range(d_x.shape[1])], axis=1)
                                * chain[None, :] / noise[0])
-        if reaction is not None:
-            rows.append((_force(run, tool)[1:] - reaction[1:]).ravel() / noise[1])
-            if derivatives:
-                d_force = d_f.tool_forces if tool is not None else d_f.reactions[:, :, 0]
-                columns.append(d_force[1:].transpose(0, 2, 1).reshape(-1, len(chain))
-                               * chain[None, :] / noise[1])
-        r = np.concatenate(rows)
-        return (r, np.concatenate(columns)) if derivatives else r
+            if experiment.reaction is not None:
+                force, d_force = _force(experiment, run, d_f if derivatives else None)
+                tail.append((force[1:] - experiment.reaction[1:]).ravel() / noise[1])
+                if derivatives:
+                    ends.append(d_force[1:].transpose(0, 2, 1).reshape(-1, len(chain))
+                                * chain[None, :] / noise[1])
+        r = np.concatenate(rows + tail)
+        return (r, np.concatenate(columns + ends)) if derivatives else r
 
     first = {}
     for name in PARAMETERS:
@@ -220,12 +207,12 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                             x0[2 * n_groups:] + spread])
     count = sum(int(e.observation.seen[1:].sum()) for e in experiments)
     size = float(np.ptp(model.mesh.rest_positions, axis=0).max())
+    peak = max((float(np.abs(e.reaction).max()) for e in forced), default=0.0)
     noise = (marker_noise or MARKER_NOISE_SHARE * size,
-             force_noise or (FORCE_NOISE_SHARE * float(np.abs(reaction).max()) or 1.0
-                             if reaction is not None else 1.0))
-    if reaction is None:
+             force_noise or FORCE_NOISE_SHARE * peak or 1.0)
+    if not forced:
         noise = (marker_noise or 1.0, 1.0)
-    estimated = () if reaction is None else tuple(
+    estimated = () if not forced else tuple(
         name for name, given in (("markers", marker_noise), ("force", force_noise))
         if given is None)
     evaluations, x = 0, x0
@@ -250,32 +237,16 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                        evaluations=evaluations, reason=solution.reason,
                        at_bound=tuple(name for name, hit in zip(PARAMETERS, edge)
                                       if hit.any()),
-                       force_rms_error=(None if reaction is None else
-                                        float(np.sqrt(np.mean(force_residuals ** 2)))),
-                       marker_noise=None if reaction is None and marker_noise is None
-                       else noise[0],
-                       force_noise=None if reaction is None else noise[1],
+                       force_rms_error=(float(np.sqrt(np.mean(force_residuals ** 2)))
+                                        if forced else None),
+                       marker_noise=noise[0] if forced or marker_noise else None,
+                       force_noise=noise[1] if forced else None,
                        estimated=estimated)
 
 
-def _force(run, tool) -> np.ndarray:
-    """(n_frames, 3): what the load cell reads in ``run``: the tool's force on the body, or
-    the first driven set's reaction."""
-    return run.tool_forces if tool is not None else run.reactions[:, 0]
-
-
-def _checked_reaction(reaction, experiment: Experiment, moved: dict) -> np.ndarray:
-    """``reaction`` as a finite (n_frames, 3) float array, with something to exert it."""
-    if not moved["driven"] and moved["tool"] is None:
-        raise InputError("a load cell's reading needs what it measures: driven sets or a "
-                         "tool", key="reaction")
-    try:
-        reaction = np.asarray(reaction, float)
-    except (TypeError, ValueError):
-        raise InputError("the load cell's reading must be numbers (N)",
-                         key="reaction") from None
-    if reaction.shape != (experiment.n_frames, 3) or not np.all(np.isfinite(reaction)):
-        raise InputError(f"the load cell's reading must be finite of shape "
-                         f"({experiment.n_frames}, 3), one force per frame; got "
-                         f"{reaction.shape}", source=experiment.source, key="reaction")
-    return reaction
+def _force(experiment, run, derivatives):
+    """``(force, its derivatives or None)`` per frame: what ``experiment``'s load cell reads
+    in ``run``, the tool's force on the body or the first driven set's reaction."""
+    if experiment.tool is not None:
+        return run.tool_forces, derivatives and derivatives.tool_forces
+    return run.reactions[:, 0], derivatives and derivatives.reactions[:, :, 0]

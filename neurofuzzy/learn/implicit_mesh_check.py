@@ -21,22 +21,21 @@ import numpy as np
 from ..experiment import Experiment
 from ..progress import Stopwatch
 from .implicit_fit import ImplicitFit, fit_implicit
-from .mesh_check import grown_paths, refine_experiment, refine_model
+from .mesh_check import refine_experiment, refine_model
 from .uncertainty import MESH_ERROR_FACTOR
 
 __all__ = ["implicit_mesh_check"]
 
 
 def implicit_mesh_check(fit: ImplicitFit, experiments: Experiment | Sequence[Experiment], *,
-                        groups: np.ndarray | None = None, driven=(), tool=None,
-                        reaction: np.ndarray | None = None, **options) -> ImplicitFit:
+                        groups: np.ndarray | None = None, **options) -> ImplicitFit:
     """``fit`` (of ``experiments`` by :func:`~.implicit_fit.fit_implicit`) with its
     :attr:`~.implicit_fit.ImplicitFit.mesh_check` (module docstring).
 
     Parameters
     ----------
     fit : ImplicitFit
-    experiments, groups, driven, tool, reaction
+    experiments, groups
         As the fit had them.
     **options
         The fit's other options (``substeps``, ``scheme``, ``max_evaluations``,
@@ -50,10 +49,8 @@ def implicit_mesh_check(fit: ImplicitFit, experiments: Experiment | Sequence[Exp
     fine = [refine_experiment(e, fine_model.mesh, refinement) for e in experiments]
     if groups is not None:
         groups = np.asarray(groups, np.intp)[refinement.parent]
-    refit = fit_implicit(fine_model, fine, groups=groups, tool=tool, reaction=reaction,
-                         driven=grown_paths(driven, fit.model.n_nodes, refinement),
-                         marker_noise=fit.marker_noise, force_noise=fit.force_noise,
-                         **options)
+    refit = fit_implicit(fine_model, fine, groups=groups, marker_noise=fit.marker_noise,
+                         force_noise=fit.force_noise, **options)
     check = {"elements": (fit.model.mesh.n_tetrahedra, fine_model.mesh.n_tetrahedra),
              "rms_refined": refit.rms_error, "seconds": watch.seconds}
     for name, mesh in fit.values.items():

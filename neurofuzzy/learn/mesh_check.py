@@ -125,7 +125,8 @@ def _refined_effect(effect, parent):
 
 def refine_experiment(experiment, refined_mesh, refinement):
     """``experiment`` on the refined mesh: loads and tracked nodes on the same (old) nodes,
-    markers re-embedded at the same points at rest."""
+    markers re-embedded at the same points at rest, driven sets grown by the new nodes on
+    their edges (:func:`grown_paths`)."""
     n_new = refined_mesh.n_nodes - experiment.n_nodes
     forces = experiment.external_forces
     if forces is not None:
@@ -136,7 +137,8 @@ def refine_experiment(experiment, refined_mesh, refinement):
     node_mass = None
     markers = reembedded(experiment.markers, experiment.mesh, refined_mesh)
     return replace(experiment, mesh=refined_mesh, positions=positions, external_forces=forces,
-                   observed=observed, node_mass=node_mass, markers=markers)
+                   observed=observed, node_mass=node_mass, markers=markers,
+                   driven=grown_paths(experiment.driven, experiment.n_nodes, refinement))
 
 
 def grown_paths(driven, n_nodes: int, refinement) -> tuple:
