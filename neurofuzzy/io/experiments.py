@@ -19,6 +19,8 @@ import numpy as np
 from ..errors import InputError, closest_name
 from ..experiment import Experiment
 from ..mesh import Mesh
+from .paths import (DRIVEN_KEYS, OPTIONAL_TOOL_KEYS, TOOL_KEYS, driven_keys, read_driven,
+                    read_tool, tool_keys)
 from .writing import atomic_write
 
 __all__ = ["load_experiment", "save_experiment"]
@@ -26,8 +28,10 @@ __all__ = ["load_experiment", "save_experiment"]
 REQUIRED_KEYS = ("rest_positions", "springs", "dt", "positions")
 #: embedded markers (:class:`~neurofuzzy.observation.EmbeddedMarkers`): all or none
 MARKER_KEYS = ("marker_positions", "marker_nodes", "marker_weights", "marker_names")
+#: what moved the body, one row per frame (:mod:`.paths`): driven sets, a load cell, a tool
+MOVING_KEYS = (*DRIVEN_KEYS, "reaction", *TOOL_KEYS, *OPTIONAL_TOOL_KEYS)
 OPTIONAL_KEYS = ("fixed", "external_forces", "observed", "masses", "spring_groups",
-                 "group_names", "tetrahedra", *MARKER_KEYS)
+                 "group_names", "tetrahedra", *MARKER_KEYS, *MOVING_KEYS)
 #: most bytes the arrays of one experiment file may hold uncompressed
 MAX_EXPERIMENT_BYTES = 2 * 2**30
 
@@ -84,10 +88,13 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
                                          tetrahedra=data.get("tetrahedra")))
     truth = {key: value for key, value in data.items() if key.startswith("true_")}
     markers = check("marker_positions", lambda: _markers(data))
+    driven = check("driven_set", lambda: read_driven(data))
+    tool = check("tool_kind", lambda: read_tool(data))
     return Experiment(mesh=mesh, dt=data["dt"], positions=data["positions"],
                       external_forces=data.get("external_forces"),
                       observed=data.get("observed"), node_mass=data.get("masses"), truth=truth,
-                      source=source, markers=markers)
+                      source=source, markers=markers, driven=driven,
+                      reaction=data.get("reaction"), tool=tool)
 
 
 def read_npz(path: str | os.PathLike, *, max_bytes: int | None = None) -> dict[str, np.ndarray]:
@@ -220,6 +227,12 @@ def save_experiment(experiment: Experiment, path: str | os.PathLike) -> Path:
         data.update(marker_positions=markers.positions, marker_nodes=markers.nodes,
                     marker_weights=markers.weights,
                     marker_names=np.array(markers.names, dtype=str))
+    if experiment.driven:
+        data.update(driven_keys(experiment.driven, experiment.n_frames))
+    if experiment.reaction is not None:
+        data["reaction"] = experiment.reaction
+    if experiment.tool is not None:
+        data.update(tool_keys(experiment.tool))
     return write_npz(path, data, experiment.truth)
 
 
