@@ -49,6 +49,8 @@ def _protected(args) -> list[Path]:
 
 def fit(args) -> int:
     from ..io.load_steps import is_load_steps_file
+    from ..io.paths import is_moved_file
+    from .moving import fit_moved
     from .steps import fit_load_steps
 
     if is_load_steps_file(args.experiments[0]):
@@ -56,6 +58,8 @@ def fit(args) -> int:
             raise InputError("is for time series run by a simulator; load steps are "
                              "equilibria, the same at any step", key="--target")
         return fit_load_steps(args)
+    if is_moved_file(args.experiments[0]):
+        return fit_moved(args)
     if args.reference_noise:
         raise InputError("is for a load-step file's scans (each marker's rest point "
                          "estimated from every scan); time series take the first frame as "

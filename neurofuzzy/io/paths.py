@@ -11,7 +11,7 @@ from ..paths import DrivenPath, ToolPath
 from ..simulation.contact import FlatPunch, Sphere, SurfaceTool
 
 __all__ = ["DRIVEN_KEYS", "TOOL_KEYS", "OPTIONAL_TOOL_KEYS", "driven_keys", "read_driven",
-           "tool_keys", "read_tool"]
+           "tool_keys", "read_tool", "is_moved_file"]
 
 #: the driven sets: every driven node, its set's index, each set's displacement per row
 #: (n_sets, n_rows, 3), held components and name
@@ -117,3 +117,16 @@ def read_tool(data) -> ToolPath | None:
     return ToolPath(tool, np.asarray(data["tool_positions"], float),
                     "auto" if np.isnan(stiffness) else stiffness, str(data["tool_name"]),
                     None if turns is None else np.asarray(turns, float))
+
+
+def is_moved_file(path) -> bool:
+    """True for an experiment file in time (no ``load_steps`` key) with driven sets or a
+    tool (the archive's member list only)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = set(archive.namelist())
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return "load_steps.npy" not in names and bool({"driven_set.npy", "tool_kind.npy"} & names)

@@ -170,6 +170,7 @@ def markers_to_experiment(markers: MarkerData, mesh: Mesh, *, dt: float | None =
     observed = np.zeros(mesh.n_nodes, dtype=bool)
     summary = {"markers": len(names), "dt": float(dt), "frames": n_frames,
                "capture_period": period, "dropped_leading_frames": first,
+               "start_time": float(markers.times[first]),
                "unmatched": [n for n in markers.names if n not in names]}
     embedded = None
     if tetrahedra is None:
