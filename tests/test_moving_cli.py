@@ -84,9 +84,17 @@ def test_a_ramped_plate_with_a_load_cell_is_fitted_from_its_files(lab, tmp_path)
     assert record["noise_estimated"] == ["markers", "force"]
     assert record["marker_noise"] == pytest.approx(2e-6, rel=0.3)
     assert fitted.is_file()
-    text = cli("fit", recording, "--start", lab / "model.yaml", "--quiet", "--no-mesh-check")
+    report = tmp_path / "fit.html"
+    text = cli("fit", recording, "--start", lab / "model.yaml", "--quiet", "--substeps", "2",
+               "--report", report)
     assert text.returncode == 0 and "moved in time: 40 frames" in text.stdout
-    assert "viscosity" in text.stdout and "no mesh check" not in text.stdout
+    assert "on a fine mesh (from 48 and 384 tetrahedra)" in text.stdout   # checked by default
+    assert "extrapolated to a fine mesh" in report.read_text()
+    twin = json.loads(report.with_suffix(".json").read_text())
+    measured, predicted = np.array(twin["measured_force"]), np.array(twin["predicted_force"])
+    assert np.abs(predicted - measured).max() < 4 * record["force_noise"]   # the fit's curve
+    assert twin["youngs_modulus"] == pytest.approx(record["youngs_modulus"], rel=1e-6)
+    assert report.read_text().count("<img") == 2
 
 
 @pytest.mark.parametrize("plate, words", [

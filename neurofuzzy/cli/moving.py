@@ -13,7 +13,7 @@ from .common import Outputs, mesh_check_option, print_json, written
 __all__ = ["fit_moved"]
 
 #: ``fit`` options of the time-series fit that a fit through implicit steps has no use for
-UNUSED = ("validate_on", "target", "dt", "reference_noise", "report")
+UNUSED = ("validate_on", "target", "dt", "reference_noise")
 
 
 def fit_moved(args) -> int:
@@ -36,14 +36,17 @@ def fit_moved(args) -> int:
     source = Path(args.experiments[0])
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
+        report = outputs.file(args.report, "--report", twins=(".json",))
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         outcome = fit_moving_file(source, start=args.start,
                                   rules=rule_base_for(args.rules, args.tissue),
                                   tissue=args.tissue, law=args.law, substeps=substeps,
                                   mesh_check=mesh_check_option(args), progress=say)
+        record, data = outcome.record, outcome.data
         if out:
             save_model(outcome.result.model, out)
-    record, data = outcome.record, outcome.data
+        if report:
+            _report(outcome, substeps, report)
     if args.json:
         print_json(record)
         return 0
@@ -71,5 +74,20 @@ def fit_moved(args) -> int:
             print(f"  {region}: " + ", ".join(f"{k} {v}" for k, v in labels.items()))
     for note in record["notes"]:
         print(f"  note: {note}")
-    written(args.out, None)
+    written(args.out, args.report)
     return 0
+
+
+def _report(outcome, substeps: int, path) -> None:
+    """The report of a fit through implicit steps: the fitted model run as it was fitted."""
+    from ..report.moving import moving_report
+    from ..simulation.implicit import simulate_implicit
+
+    data, fit, record = outcome.data, outcome.result, outcome.record
+    run = simulate_implicit(fit.model, dt=data.dt, n_frames=data.n_frames,
+                            external_forces=data.external_forces,
+                            initial_positions=data.initial_positions(), substeps=substeps,
+                            iterations=50, tolerance=1e-11, scheme=record["scheme"],
+                            driven=data.driven, tool=data.tool)
+    labels = next(iter(record["materials"].values()), {}).get("labels", {})
+    moving_report(outcome.start, fit, data, run, path, labels=labels, notes=record["notes"])
