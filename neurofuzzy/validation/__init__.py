@@ -10,6 +10,9 @@
 - :mod:`.plates`: FElupe's locking-free quadratic tetrahedra (the Hu–Washizu three-field
   form), a neo-Hookean cube compressed between plates, read at embedded beads (the
   ``validation`` extra; the recordings in ``tests/data/plates_nu*.npz``);
+- :mod:`.plate_ramp`: the same cube with inertia and Kelvin–Voigt viscosity, its plate ramped
+  in time (FElupe's elements, a Newmark integration written here; the recordings in
+  ``tests/data/plate_ramp_nu*.npz``);
 - :mod:`.probed_block`: recordings of the probed soft block (scikit-fem, MuJoCo) and the models
   a user would build for it.
 
