@@ -268,7 +268,8 @@ def check_compression(folder, outputs):
     """The page: ν 0.4792 (±0.005) with Young's modulus unidentifiable and kept, the
     held-out step's RMS 7.9 µm (to 20 %), ν on the mesh refined once as quoted; with the
     load cell E within 10 % of the gel's 8 kPa, only viscosity and density unidentifiable,
-    E on the refined mesh as quoted and an interval that holds the gel's."""
+    E on the refined mesh as quoted and an interval that holds the gel's; the plate ramped
+    in time: E, ν, η as quoted and the report with its two plots."""
     page = (DOCS / "tutorials" / "compression.md").read_text()
     printed = outputs[3][1]
     quoted = re.search(r"poisson_ratio\s+(\S+) ±", page)[1]
@@ -280,12 +281,20 @@ def check_compression(folder, outputs):
     assert (folder / "fitted.yaml").exists()
     moved = re.search(r"poisson ratio (\S+) -> (\S+) \(one Levenberg", printed)   # mesh check
     assert float(moved[2]) == pytest.approx(0.489, abs=0.003)
-    record = last_json(outputs[-1][1])
+    record = last_json(outputs[-3][1])
     assert record["unidentifiable"] == ["viscosity", "density"]
     assert record["youngs_modulus"] == pytest.approx(8000, rel=0.1)
     refined = record["mesh_check"]["values"]["youngs_modulus"]["refined"]
     assert refined == pytest.approx(8105, rel=0.02)
     assert record["intervals"]["youngs_modulus"] > abs(record["youngs_modulus"] - 8000)
+    # the plate ramped in time: the values the page quotes, and the report
+    quoted = re.search(r"E = (\S+) Pa, nu = (\S+), viscosity = (\S+) Pa s", page)
+    printed = re.search(r"E = (\S+) Pa, nu = (\S+), viscosity = (\S+) Pa s", outputs[-1][1])
+    assert float(printed[1]) == pytest.approx(float(quoted[1]), rel=0.01)
+    assert float(printed[2]) == pytest.approx(float(quoted[2]), abs=0.002)
+    assert float(printed[3]) == pytest.approx(float(quoted[3]), rel=0.02)
+    assert "with the load cell's force" in outputs[-1][1]
+    assert (folder / "ramp.html").read_text().count("<img") == 2
 
 
 def check_indentation(folder, outputs):

@@ -8,8 +8,8 @@ number of them): Levenberg–Marquardt (:mod:`._lm`) on the markers' residuals w
 Jacobian of the converged steps
 (:func:`~neurofuzzy.simulation.implicit_derivatives.implicit_sensitivities`, checked against
 central differences), in ``log E``, ``logit 2ν`` and ``log η``, E within a factor
-:data:`FACTOR` of the start, η within it above and :data:`VISCOSITY_FLOOR` of it below, ν
-within (0, 0.5).
+:data:`FACTOR` of the start, η within :data:`VISCOSITY_CEILING` times it and
+:data:`VISCOSITY_FLOOR` of it, ν within (0, 0.5).
 
 A recording of a displacement-controlled test in time (issue 45's plate ramped by a stage,
 issue 46's tool pressed along its path) carries its driven sets or tool
@@ -39,12 +39,15 @@ from ..simulation.implicit import simulate_implicit
 from ..simulation.implicit_derivatives import PARAMETERS, implicit_sensitivities
 from ._lm import levenberg_marquardt
 
-__all__ = ["ImplicitFit", "fit_implicit", "FACTOR", "VISCOSITY_FLOOR"]
+__all__ = ["ImplicitFit", "fit_implicit", "FACTOR", "VISCOSITY_FLOOR", "VISCOSITY_CEILING"]
 
 #: E is fitted within this factor of its start, η up to it and down to a thousandth of it (a
 #: large implicit step damps by itself, and the fit may want almost no viscosity beside it)
 FACTOR = 10.0
 VISCOSITY_FLOOR = 1e-3
+#: η may rise to this factor of its start: the words give a tissue's viscosity within an
+#: order of magnitude or two at best (the tutorial's gel: 2.4 Pa·s from the words, 30 fitted)
+VISCOSITY_CEILING = 100.0
 
 
 #: The markers' noise assumed before it is estimated, as a share of the body's size
@@ -204,7 +207,7 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
     lower = np.concatenate([x0[:n_groups] - spread, np.full(n_groups, -12.0),
                             x0[2 * n_groups:] + np.log(VISCOSITY_FLOOR)])
     upper = np.concatenate([x0[:n_groups] + spread, np.full(n_groups, 12.0),
-                            x0[2 * n_groups:] + spread])
+                            x0[2 * n_groups:] + np.log(VISCOSITY_CEILING)])
     count = sum(int(e.observation.seen[1:].sum()) for e in experiments)
     size = float(np.ptp(model.mesh.rest_positions, axis=0).max())
     peak = max((float(np.abs(e.reaction).max()) for e in forced), default=0.0)

@@ -68,6 +68,10 @@ def fit_moving_file(path: str | os.PathLike, *, start=None, rules=None,
     if experiment.reaction is None:
         notes.append("no load cell: E and the viscosity are told by the inertia of the "
                      "motion alone, through the density")
+    if result.estimated:
+        notes.append("the noise of " + " and ".join(result.estimated) + " was estimated from "
+                     "the fit's residuals, which hold any misfit too: compare it with what "
+                     "the instruments are known to do")
     if result.at_bound:
         notes.append("ended at a bound of the search: " + ", ".join(result.at_bound))
     record = {"kind": "moving boundaries", **value,
