@@ -50,6 +50,10 @@ VISCOSITY_FLOOR = 1e-3
 VISCOSITY_CEILING = 100.0
 
 
+#: An estimated noise is at least this share of the body's size (markers) or the load cell's
+#: largest reading (force): residuals of data without noise (or a force that is all zero)
+#: would otherwise weigh their rows infinitely
+NOISE_FLOOR = 1e-9
 #: The markers' noise assumed before it is estimated, as a share of the body's size
 MARKER_NOISE_SHARE = 1e-4
 #: The load cell's noise assumed before it is estimated, as a share of its largest reading
@@ -230,8 +234,10 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
         force_residuals = markers[3 * count:]
         markers = markers[:3 * count]
         if estimated:                # the noise of what was not given, from the residuals
-            noise = (marker_noise or float(np.sqrt(np.mean(markers ** 2))),
-                     force_noise or float(np.sqrt(np.mean(force_residuals ** 2))))
+            noise = (marker_noise or max(float(np.sqrt(np.mean(markers ** 2))),
+                                         NOISE_FLOOR * size),
+                     force_noise or max(float(np.sqrt(np.mean(force_residuals ** 2))),
+                                        NOISE_FLOOR * (peak or 1.0)))
     E, nu, eta = constants(x)
     edge = (np.isclose(x, lower, rtol=0.0, atol=1e-6)
             | np.isclose(x, upper, rtol=0.0, atol=1e-6)).reshape(3, n_groups)
