@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from .csvtable import number, read_csv_table
-from .units import FORCE_UNITS, LENGTH_UNITS, check_statements, unit_factor
+from .units import LENGTH_UNITS, check_statements, load_cell_factor, unit_factor
 
 __all__ = ["StepScans", "PlatePath", "read_step_markers", "read_plate", "read_tool_path",
            "read_tool_c3d", "RIGID_TOLERANCE",
@@ -240,22 +240,12 @@ def _read_steps(path, columns, n_steps, units, what, attitude=False):
     unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
                        keys=("units", "length units"), source=source, given=units,
                        given_as="--units", missing=_NO_UNIT)
-    forces = [c in header for c in ("fx", "fy", "fz")]
-    if any(forces) and not all(forces):
-        raise InputError("names some of fx, fy, fz; a load cell's force needs all three",
-                         source=source)
+    newton = load_cell_factor(header, stated, source)
     quaternion = ("qw", "qx", "qy", "qz")
     turned = attitude and any(c in header for c in quaternion)
     if turned and not all(c in header for c in quaternion):
         raise InputError("names some of qw, qx, qy, qz; a tool's attitude needs all four "
                          "(a unit quaternion, scalar first)", source=source)
-    newton = None
-    if all(forces):
-        if "force units" not in stated:
-            raise InputError("has force columns but no '# force units: N' line (N, mN or kN): "
-                             "a load cell's unit is never guessed", source=source)
-        newton = unit_factor(FORCE_UNITS, what="force", stated=stated, keys=("force units",),
-                             source=source)
     steps = _steps(header, rows, source)
     if not rows:
         raise InputError("no data rows", source=source)

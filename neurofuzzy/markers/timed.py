@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from .csvtable import number, read_csv_table
-from .units import FORCE_UNITS, LENGTH_UNITS, check_statements, unit_factor
+from .units import LENGTH_UNITS, check_statements, load_cell_factor, unit_factor
 
 __all__ = ["read_plate_in_time"]
 
@@ -44,17 +44,7 @@ def read_plate_in_time(path: str | os.PathLike, times: np.ndarray, *,
                        given_as="--units",
                        missing=("states no length unit: add a line '# length units: mm' (m, "
                                 "cm or mm) or pass --units"))
-    forces = [c in header for c in ("fx", "fy", "fz")]
-    if any(forces) and not all(forces):
-        raise InputError("names some of fx, fy, fz; a load cell's force needs all three",
-                         source=source)
-    newton = None
-    if all(forces):
-        if "force units" not in stated:
-            raise InputError("has force columns but no '# force units: N' line (N, mN or kN): "
-                             "a load cell's unit is never guessed", source=source)
-        newton = unit_factor(FORCE_UNITS, what="force", stated=stated, keys=("force units",),
-                             source=source)
+    newton = load_cell_factor(header, stated, source)
     if len(rows) < 2:
         raise InputError("needs at least two rows (times)", source=source)
     clock, values, force = [], [], []

@@ -6,6 +6,7 @@ from __future__ import annotations
 from ..errors import InputError, closest_name
 
 __all__ = ["LENGTH_UNITS", "TIME_UNITS", "FORCE_UNITS", "Stated", "unit_factor",
+           "load_cell_factor",
            "check_statements", "header_statements"]
 
 #: metres per unit of every length unit a file may state
@@ -135,3 +136,19 @@ def header_statements(path) -> Stated:
     except (OSError, UnicodeDecodeError):
         pass
     return stated
+
+
+def load_cell_factor(header: dict, stated, source: str) -> float | None:
+    """Newtons per unit of a file's ``fx,fy,fz`` columns (None without them): all three or
+    none, and a ``# force units:`` line, never guessed."""
+    forces = [c in header for c in ("fx", "fy", "fz")]
+    if any(forces) and not all(forces):
+        raise InputError("names some of fx, fy, fz; a load cell's force needs all three",
+                         source=source)
+    if not all(forces):
+        return None
+    if "force units" not in stated:
+        raise InputError("has force columns but no '# force units: N' line (N, mN or kN): "
+                         "a load cell's unit is never guessed", source=source)
+    return unit_factor(FORCE_UNITS, what="force", stated=stated, keys=("force units",),
+                       source=source)

@@ -133,12 +133,7 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
     forces = _frame_forces(external_forces, int(n_frames), n)
     rest = model.mesh.rest_positions
     moving = Moving(model, int(n_frames), driven, tool)
-    p = moving.start(rest, _state(initial_positions, rest, n, "initial_positions"))
-    v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
-    free_nodes = np.ones(n, bool)
-    free_nodes[model.mesh.fixed] = False
-    free = np.repeat(free_nodes, 3) & ~moving.held
-    v.reshape(-1)[~free] = 0.0
+    p, v, free = start(model, moving, initial_positions, initial_velocities)
     h = float(dt) / int(substeps)
     every_mass = np.repeat(np.asarray(model.node_mass, float), 3)
     mass = every_mass[free]
@@ -274,3 +269,18 @@ def reaction(moving: Moving, body: BodyForce, contact, state: tuple, base_veloci
     p, v = state
     force = body(p, v) + (0.0 if contact is None else contact.forces(p).ravel())
     return moving.reactions(every_mass * (v - base_velocity).ravel() / h - force - load)
+
+
+def start(model: Model, moving: Moving, initial_positions, initial_velocities) -> tuple:
+    """``(positions, velocities, free)`` at a run's start: the given state (rest and still
+    by default) with the driven sets where their paths begin and held degrees of freedom
+    still; ``free`` (3 n_nodes,) bool, the degrees of freedom neither fixed nor driven."""
+    n = model.n_nodes
+    rest = model.mesh.rest_positions
+    p = moving.start(rest, _state(initial_positions, rest, n, "initial_positions"))
+    v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
+    free_nodes = np.ones(n, bool)
+    free_nodes[model.mesh.fixed] = False
+    free = np.repeat(free_nodes, 3) & ~moving.held
+    v.reshape(-1)[~free] = 0.0
+    return p, v, free

@@ -30,8 +30,8 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import Model
-from .implicit import SCHEMES, _base, _check_scheme, _Solvers, _step, reaction
-from .integration import Trajectory, _frame_forces, _state
+from .implicit import SCHEMES, _base, _check_scheme, _Solvers, _step, reaction, start
+from .integration import Trajectory, _frame_forces
 from .moving import Moving
 from .static import ConvergenceError, _factor
 from .step_solve import BodyForce
@@ -118,12 +118,7 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     _check_scheme(scheme)
     moving = Moving(model, int(n_frames), driven, tool)
     rest = model.mesh.rest_positions
-    p = moving.start(rest, _state(initial_positions, rest, n, "initial_positions"))
-    v = _state(initial_velocities, np.zeros((n, 3)), n, "initial_velocities")
-    free_nodes = np.ones(n, bool)
-    free_nodes[model.mesh.fixed] = False
-    free = np.repeat(free_nodes, 3) & ~moving.held
-    v.reshape(-1)[~free] = 0.0
+    p, v, free = start(model, moving, initial_positions, initial_velocities)
     load_rows = _frame_forces(external_forces, int(n_frames), n)
     h = float(dt) / int(substeps)
     every_mass = np.repeat(np.asarray(model.node_mass, float), 3)
