@@ -23,14 +23,15 @@ __all__ = ["DrivenPath", "ToolPath", "Span", "check_driven", "check_tool", "chec
 
 @dataclass(frozen=True, eq=False)
 class DrivenPath:
-    """A set of nodes moved by a known displacement at each load step.
+    """A set of nodes moved by a known displacement at each load step (or frame).
 
     Parameters
     ----------
     nodes : (n,) int
         The driven nodes (a plate's face).
     displacement : (n_steps, 3) float
-        Their displacement from rest at steps 1..n_steps (m).
+        Their displacement from rest at steps 1..n_steps (m); in a recording in time
+        (:class:`~neurofuzzy.experiment.Experiment`) (n_frames, 3), frame 0 included.
     components : str
         The components the driver holds: ``"xyz"`` a bonded plate, the normal alone (e.g.
         ``"z"``) a frictionless one.
@@ -60,7 +61,7 @@ class ToolPath:
     positions : (n_steps + 1, 3) float
         The tool's reference point (a sphere's centre, a punch's face centre) at the
         reference scan (step 0: touching the surface or clear of it) and at each load step
-        (m).
+        (m); in a recording in time (n_frames, 3), one per frame.
     stiffness : float or "auto"
         The contact penalty (Pa/m; :func:`~neurofuzzy.simulation.contact.contact_with`) at
         the start model's Young's modulus; a fit scales it with E, so that without a load

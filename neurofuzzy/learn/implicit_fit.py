@@ -48,8 +48,6 @@ VISCOSITY_FLOOR = 1e-3
 #: η may rise to this factor of its start: the words give a tissue's viscosity within an
 #: order of magnitude or two at best (the tutorial's gel: 2.4 Pa·s from the words, 30 fitted)
 VISCOSITY_CEILING = 100.0
-
-
 #: An estimated noise is at least this share of the body's size (markers) or the load cell's
 #: largest reading (force): residuals of data without noise (or a force that is all zero)
 #: would otherwise weigh their rows infinitely
@@ -166,8 +164,8 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
                                    viscosity=eta[groups])
 
     def passes(x, noise, derivatives):
-        """``(marker residuals, force residuals)`` in m and N, and with ``derivatives``
-        their Jacobians by x, each divided by its noise."""
+        """The residuals, the markers' (m) then the load cells' (N), each divided by its
+        ``noise``; with ``derivatives``, ``(residuals, their Jacobian by x)``."""
         current = model_at(x)
         E, nu, eta = constants(x)
         chain = np.concatenate([E, nu * (1 - 2 * nu), eta])      # d constant / d x
