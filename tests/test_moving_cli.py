@@ -114,3 +114,77 @@ def test_a_bad_plate_file_in_time_is_refused(lab, tmp_path, plate, words):
                "--displacements", tmp_path / "plate.csv", "--out", out)
     assert done.returncode == 2 and words in done.stderr, done.stderr
     assert "Traceback" not in done.stderr and not out.exists()
+
+
+@pytest.fixture(scope="module")
+def pressed(tmp_path_factory):
+    """The gel (4 × 4 × 2 cells, 1 cm high) pressed 1.5 mm by a sphere of 5 mm radius along
+    a path in time, 30 frames 2 ms apart: the model file (the start: E 8 kPa, ν 0.4, η 10),
+    40 beads with 1 µm noise, the tool's path with its load cell (1 % noise)."""
+    from neurofuzzy.paths import ToolPath
+    from neurofuzzy.simulation.contact import Sphere
+
+    folder = tmp_path_factory.mktemp("pressed")
+    points, tetrahedra = kuhn_block((4, 4, 2), SIZE / 4)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=20.0,
+                            density=1000.0, law="neo-hookean")
+    save_model(truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0),
+               folder / "model.yaml")
+    frames = 30
+    centre = np.array([SIZE / 2, SIZE / 2, SIZE / 2 + 0.005])
+    path = centre + np.minimum(np.arange(frames) / 15, 1.0)[:, None] * (0, 0, -1.5e-3)
+    run = simulate_implicit(truth, dt=DT, n_frames=frames, tolerance=1e-12, scheme="bdf2",
+                            tool=ToolPath(Sphere(0.005), path))
+    rng = np.random.default_rng(6)
+    beads = rng.uniform(0.1 * SIZE, 0.9 * SIZE, (40, 3)) * (1, 1, 0.5)
+    nodes, weights, _ = embed_points(mesh, beads)
+    seen = np.einsum("mk,fmkj->fmj", weights, run.positions[:, nodes])
+    seen[1:] += rng.normal(0.0, 1e-6, seen[1:].shape)
+    rows = ["# length units: mm", "time,marker,x,y,z"]
+    for frame, scan in enumerate(seen):
+        rows += [f"{frame * DT:.4f},bead{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
+                 for i, (x, y, z) in enumerate(scan)]
+    (folder / "beads.csv").write_text("\n".join(rows) + "\n")
+    force = run.tool_forces + 0.01 * np.abs(run.tool_forces).max() * rng.normal(
+        size=(frames, 3))
+    lines = ["# length units: mm", "# force units: mN", "time,x,y,z,fx,fy,fz"]
+    lines += [f"{k * DT:.4f}," + ",".join(f"{c * 1e3:.6f}" for c in (*path[k], *force[k]))
+              for k in range(frames)]
+    (folder / "tool.csv").write_text("\n".join(lines) + "\n")
+    return folder
+
+
+@pytest.mark.slow
+def test_a_sphere_pressed_in_time_is_fitted_from_its_files(pressed, tmp_path):
+    """``import … --tool sphere:R=5mm --tool-path TOOL.csv`` of a recording in time, then
+    ``fit``: E, ν and η of the gel within 3 %, 0.01 and 10 % (its own data, BDF2 steps of the
+    frames' 2 ms as they were made)."""
+    recording = tmp_path / "pressed.npz"
+    done = cli("import", pressed / "beads.csv", "--topology", pressed / "model.yaml",
+               "--tool", "sphere:R=5mm", "--tool-path", pressed / "tool.csv", "--out",
+               recording)
+    assert done.returncode == 0, done.stderr
+    assert "the sphere follows" in done.stdout and "load cell" in done.stdout
+    done = cli("fit", recording, "--start", pressed / "model.yaml", "--json", "--quiet",
+               "--no-mesh-check")
+    assert done.returncode == 0, done.stderr
+    record = json.loads(done.stdout)
+    assert record["youngs_modulus"] == pytest.approx(6000.0, rel=0.03)
+    assert record["poisson_ratio"] == pytest.approx(0.45, abs=0.01)
+    assert record["viscosity"] == pytest.approx(20.0, rel=0.1)
+
+
+@pytest.mark.parametrize("options, words", [
+    (("--tool", "sphere:R=5mm"), "--tool-path is missing"),
+    (("--tool", "sphere:R=5mm", "--tool-path", "tool.c3d"), "in time give time,x,y,z"),
+    (("--tool", "sphere:R=5mm", "--tool-path", "tool.csv", "--displacements", "tool.csv"),
+     "a plate or by a tool, one of them"),
+])
+def test_bad_tool_options_in_time_are_refused(pressed, tmp_path, options, words):
+    out = tmp_path / "pressed.npz"
+    options = [pressed / o if o.startswith("tool.") else o for o in options]
+    done = cli("import", pressed / "beads.csv", "--topology", pressed / "model.yaml",
+               *options, "--out", out)
+    assert done.returncode == 2 and words in done.stderr, done.stderr
+    assert not out.exists()

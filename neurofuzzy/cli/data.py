@@ -216,7 +216,8 @@ def import_markers(args) -> int:
     from ..markers import markers_to_experiment, read_marker_map, read_markers
     from ..markers.steps import has_step_column
     from ..plausibility import check_body_size, check_length_option, check_recording
-    from .steps import import_load_steps
+    from .moving import check_moving_options, moved_in_time
+    from .steps import import_load_steps, surface_file
 
     if args.markers is None and (args.displacements or args.tool_path):
         return import_load_steps(args)
@@ -226,13 +227,10 @@ def import_markers(args) -> int:
                          key="MARKERS")
     if Path(args.markers).suffix.lower() == ".csv" and has_step_column(args.markers):
         return import_load_steps(args)
-    for option in ("drive_markers", "tool", "tool_path"):
-        if getattr(args, option):
-            raise InputError("drives nodes at load steps, which go with scans at load steps "
-                             "(a marker CSV with a 'step' column); this recording is in time",
-                             source=str(args.markers), key=f"--{option.replace('_', '-')}")
+    check_moving_options(args)
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces,
-                                args.displacements) if p]
+                                args.displacements, args.tool_path,
+                                args.tool and surface_file(args.tool)) if p]
     positive(args.dt, "--dt")
     positive(args.max_distance, "--max-distance")
     at_least(args.force_spread, 1, "--force-spread")
@@ -268,8 +266,8 @@ def import_markers(args) -> int:
         force_spread=args.force_spread or 1, probe_radius=args.probe_radius,
         attach=args.attach)
     experiment, summary = imported.experiment, imported.summary
-    if args.displacements:
-        experiment = _driven_in_time(args, experiment, summary)
+    if args.displacements or args.tool:
+        experiment = moved_in_time(args, experiment, summary)
     elif args.forces is None:
         print("neurofuzzy: note: no --forces; the experiment has no applied load",
               file=sys.stderr)
@@ -291,36 +289,14 @@ def import_markers(args) -> int:
             print(f"  {summary['offset_markers']} marker(s) lie outside the mesh (up to "
                   f"{1e3 * summary['max_distance_outside']:.3g} mm): their constant offset, "
                   f"from {summary['rest_frames']} frame(s) at rest, is removed")
-        if args.displacements:
-            print(f"  the top plate ({summary['driven_nodes']} nodes, {args.plate}) follows "
-                  f"{args.displacements}" + (", with the load cell's force" if
-                                             summary["load_cell"] else ", no force measured"))
+        if args.displacements or args.tool:
+            print(f"  {summary['moved_by']} follows {args.displacements or args.tool_path}"
+                  + (", with the load cell's force" if summary["load_cell"]
+                     else ", no force measured"))
         if summary["dropped_leading_frames"]:
             print(f"  dropped the first {summary['dropped_leading_frames']} capture frames: "
                   "not every marker was seen yet")
     return 0
-
-
-def _driven_in_time(args, experiment, summary):
-    """``experiment`` with its top face driven by the plate file ``--displacements`` (a
-    ``time`` column, read at the frames' times) and its load cell's force, if any."""
-    from ..markers.timed import read_plate_in_time
-    from ..paths import DrivenPath
-    from .steps import top_face
-
-    mesh = experiment.mesh
-    if mesh.tetrahedra is None:
-        raise InputError("a plate drives a body of elements: make the model with 'neurofuzzy "
-                         "mesh --elements tetra'", source=str(args.topology),
-                         key="--displacements")
-    times = summary["start_time"] + experiment.dt * np.arange(experiment.n_frames)
-    displacement, force = read_plate_in_time(args.displacements, times, units=args.units)
-    nodes = mesh.driven if mesh.driven.size else top_face(mesh, args.up)
-    components = "xyz" if args.plate == "bonded" else args.up[-1]
-    summary.update(driven_nodes=int(len(nodes)), plate=args.plate,
-                   load_cell=force is not None)
-    return experiment.replace(driven=(DrivenPath(nodes, displacement, components,
-                                                 "top plate"),), reaction=force)
 
 
 def _check_force_options(args) -> None:

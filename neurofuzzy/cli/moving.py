@@ -1,5 +1,6 @@
-"""``fit`` of an experiment file in time whose body a stage moved (``import MARKERS.csv
---displacements PLATE.csv`` with a ``time`` column): the fit through implicit steps
+"""Recordings in time whose body a stage moved: ``import MARKERS.csv --displacements
+PLATE.csv`` (or ``--tool sphere:R=5mm --tool-path TOOL.csv``) with a ``time`` column
+(:func:`moved_in_time`), and their ``fit`` through implicit steps
 (:func:`~neurofuzzy.pipeline.moving.fit_moving_file`)."""
 
 from __future__ import annotations
@@ -7,10 +8,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError
 from .common import Outputs, mesh_check_option, print_json, written
 
-__all__ = ["fit_moved"]
+__all__ = ["fit_moved", "check_moving_options", "moved_in_time"]
 
 #: ``fit`` options of the time-series fit that a fit through implicit steps has no use for
 UNUSED = ("validate_on", "target", "dt", "reference_noise")
@@ -91,3 +94,53 @@ def _report(outcome, substeps: int, path) -> None:
                             driven=data.driven, tool=data.tool)
     labels = next(iter(record["materials"].values()), {}).get("labels", {})
     moving_report(outcome.start, fit, data, run, path, labels=labels, notes=record["notes"])
+
+
+def check_moving_options(args) -> None:
+    """What may move the body of a recording in time: a plate (``--displacements``) or a
+    tool (``--tool`` with a CSV ``--tool-path``), one of them; markers driving their nodes
+    belong to load steps."""
+    if args.drive_markers:
+        raise InputError("drives nodes at load steps, which go with scans at load steps (a "
+                         "marker CSV with a 'step' column); this recording is in time",
+                         source=str(args.markers), key="--drive-markers")
+    if bool(args.tool) != bool(args.tool_path):
+        missing = "--tool-path" if args.tool else "--tool"
+        raise InputError(f"a tool needs both --tool KIND:R=RADIUS and --tool-path PATH.csv; "
+                         f"{missing} is missing", key=missing)
+    if args.tool and args.displacements:
+        raise InputError("a recording in time is moved by a plate or by a tool, one of them "
+                         "(the load cell reads it)", key="--tool")
+    if args.tool_path and Path(args.tool_path).suffix.lower() == ".c3d":
+        raise InputError("a C3D tool path is read at load steps (--tool-frames); in time give "
+                         "time,x,y,z[,qw,qx,qy,qz][,fx,fy,fz]", key="--tool-path")
+
+
+def moved_in_time(args, experiment, summary):
+    """``experiment`` moved by the plate file ``--displacements`` (its top face driven) or
+    the tool of ``--tool`` along ``--tool-path`` (each a ``time`` column, read at the frames'
+    times), with its load cell's force, if any."""
+    from ..markers.timed import read_plate_in_time, read_tool_in_time
+    from ..paths import DrivenPath, ToolPath
+    from .steps import tool_option, top_face
+
+    mesh = experiment.mesh
+    if mesh.tetrahedra is None:
+        raise InputError("a plate or a tool presses a body of elements: make the model with "
+                         "'neurofuzzy mesh --elements tetra'", source=str(args.topology),
+                         key="--displacements" if args.displacements else "--tool")
+    times = summary["start_time"] + experiment.dt * np.arange(experiment.n_frames)
+    if args.tool:
+        tool = tool_option(args.tool, args.up)
+        positions, force, turns = read_tool_in_time(args.tool_path, times, units=args.units)
+        name = args.tool.partition(":")[0]
+        summary.update(moved_by=f"the {name}", load_cell=force is not None)
+        return experiment.replace(tool=ToolPath(tool, positions, name=name,
+                                                orientations=turns), reaction=force)
+    displacement, force = read_plate_in_time(args.displacements, times, units=args.units)
+    nodes = mesh.driven if mesh.driven.size else top_face(mesh, args.up)
+    components = "xyz" if args.plate == "bonded" else args.up[-1]
+    summary.update(driven_nodes=int(len(nodes)), plate=args.plate, load_cell=force is not None,
+                   moved_by=f"the top plate ({len(nodes)} nodes, {args.plate})")
+    return experiment.replace(driven=(DrivenPath(nodes, displacement, components,
+                                                 "top plate"),), reaction=force)
