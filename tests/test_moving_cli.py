@@ -24,18 +24,40 @@ def _path(t):
     return -0.1 * SIZE * np.minimum(np.asarray(t) / 0.04, 1.0)
 
 
+def _gel(folder, cells, cell):
+    """The viscous gel (E 6 kPa, ν 0.45, η 20 Pa·s, neo-Hookean) on ``cells`` of side
+    ``cell``, held at its bottom; its start (E 8 kPa, ν 0.4, η 10) written to
+    ``folder / model.yaml``."""
+    points, tetrahedra = kuhn_block(cells, cell)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=20.0,
+                            density=1000.0, law="neo-hookean")
+    save_model(truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0),
+               folder / "model.yaml")
+    return truth
+
+
+def _write_beads(folder, mesh, beads, positions, noise, rng):
+    """``folder / beads.csv``: ``beads`` (m, at rest) embedded in ``mesh`` and moved with its
+    nodes' ``positions`` (one row per 2 ms frame), with ``noise`` (m), in mm."""
+    nodes, weights, _ = embed_points(mesh, beads)
+    seen = np.einsum("mk,fmkj->fmj", weights, positions[:, nodes])
+    seen[1:] += rng.normal(0.0, noise, seen[1:].shape)
+    rows = ["# length units: mm", "time,marker,x,y,z"]
+    for frame, scan in enumerate(seen):
+        rows += [f"{frame * DT:.4f},bead{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
+                 for i, (x, y, z) in enumerate(scan)]
+    (folder / "beads.csv").write_text("\n".join(rows) + "\n")
+
+
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory):
     """A viscous gel (E 6 kPa, ν 0.45, η 20 Pa·s) on a fixed anvil, its top bonded to a plate
     ramped down: the model file (the start: E 8 kPa, ν 0.4, η 10), 30 beads every 2 ms with
     2 µm noise, the plate and its load cell every 1 ms with 1 % noise."""
     folder = tmp_path_factory.mktemp("ramp")
-    points, tetrahedra = kuhn_block((2, 2, 2), SIZE / 2)
-    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=20.0,
-                            density=1000.0, law="neo-hookean")
-    save_model(truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0),
-               folder / "model.yaml")
+    truth = _gel(folder, (2, 2, 2), SIZE / 2)
+    points, mesh = truth.mesh.rest_positions, truth.mesh
     top = np.flatnonzero(np.isclose(points[:, 2], SIZE))
     fine = 2 * FRAMES - 1                        # the stage's 1 ms samples
     times = np.arange(fine) * DT / 2
@@ -45,14 +67,7 @@ def lab(tmp_path_factory):
                             driven=[DrivenPath(top, path)], scheme="bdf2")
     rng = np.random.default_rng(4)
     beads = rng.uniform(0.2 * SIZE, 0.8 * SIZE, (30, 3))
-    nodes, weights, _ = embed_points(mesh, beads)
-    seen = np.einsum("mk,fmkj->fmj", weights, run.positions[::2][:, nodes])
-    seen[1:] += rng.normal(0.0, 2e-6, seen[1:].shape)
-    rows = ["# length units: mm", "time,marker,x,y,z"]
-    for frame, scan in enumerate(seen):
-        rows += [f"{frame * DT:.4f},bead{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
-                 for i, (x, y, z) in enumerate(scan)]
-    (folder / "beads.csv").write_text("\n".join(rows) + "\n")
+    _write_beads(folder, mesh, beads, run.positions[::2], 2e-6, rng)
     force = run.reactions[:, 0]
     force = force + 0.01 * np.abs(force).max() * rng.normal(size=force.shape)
     plate = ["# length units: mm", "# force units: mN", "time,dx,dy,dz,fx,fy,fz"]
@@ -125,12 +140,8 @@ def pressed(tmp_path_factory):
     from neurofuzzy.simulation.contact import Sphere
 
     folder = tmp_path_factory.mktemp("pressed")
-    points, tetrahedra = kuhn_block((4, 4, 2), SIZE / 4)
-    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
-    truth = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.45, viscosity=20.0,
-                            density=1000.0, law="neo-hookean")
-    save_model(truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0),
-               folder / "model.yaml")
+    truth = _gel(folder, (4, 4, 2), SIZE / 4)
+    mesh = truth.mesh
     frames = 30
     centre = np.array([SIZE / 2, SIZE / 2, SIZE / 2 + 0.005])
     path = centre + np.minimum(np.arange(frames) / 15, 1.0)[:, None] * (0, 0, -1.5e-3)
@@ -138,14 +149,7 @@ def pressed(tmp_path_factory):
                             tool=ToolPath(Sphere(0.005), path))
     rng = np.random.default_rng(6)
     beads = rng.uniform(0.1 * SIZE, 0.9 * SIZE, (40, 3)) * (1, 1, 0.5)
-    nodes, weights, _ = embed_points(mesh, beads)
-    seen = np.einsum("mk,fmkj->fmj", weights, run.positions[:, nodes])
-    seen[1:] += rng.normal(0.0, 1e-6, seen[1:].shape)
-    rows = ["# length units: mm", "time,marker,x,y,z"]
-    for frame, scan in enumerate(seen):
-        rows += [f"{frame * DT:.4f},bead{i},{x * 1e3:.6f},{y * 1e3:.6f},{z * 1e3:.6f}"
-                 for i, (x, y, z) in enumerate(scan)]
-    (folder / "beads.csv").write_text("\n".join(rows) + "\n")
+    _write_beads(folder, mesh, beads, run.positions, 1e-6, rng)
     force = run.tool_forces + 0.01 * np.abs(run.tool_forces).max() * rng.normal(
         size=(frames, 3))
     lines = ["# length units: mm", "# force units: mN", "time,x,y,z,fx,fy,fz"]

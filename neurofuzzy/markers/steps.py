@@ -241,11 +241,8 @@ def _read_steps(path, columns, n_steps, units, what, attitude=False):
                        keys=("units", "length units"), source=source, given=units,
                        given_as="--units", missing=_NO_UNIT)
     newton = load_cell_factor(header, stated, source)
-    quaternion = ("qw", "qx", "qy", "qz")
-    turned = attitude and any(c in header for c in quaternion)
-    if turned and not all(c in header for c in quaternion):
-        raise InputError("names some of qw, qx, qy, qz; a tool's attitude needs all four "
-                         "(a unit quaternion, scalar first)", source=source)
+    quaternion = QUATERNION
+    turned = attitude and has_attitude(header, source)
     steps = _steps(header, rows, source)
     if not rows:
         raise InputError("no data rows", source=source)
@@ -282,3 +279,16 @@ def _read_steps(path, columns, n_steps, units, what, attitude=False):
     if turned:
         turns = turns / np.linalg.norm(turns, axis=1, keepdims=True)
     return values, None if newton is None else force, turns
+
+
+#: a tool's attitude columns, a unit quaternion scalar first
+QUATERNION = ("qw", "qx", "qy", "qz")
+
+
+def has_attitude(header: dict, source: str) -> bool:
+    """Whether a tool file gives its attitude: all of :data:`QUATERNION`, or none."""
+    turned = any(c in header for c in QUATERNION)
+    if turned and not all(c in header for c in QUATERNION):
+        raise InputError("names some of qw, qx, qy, qz; a tool's attitude needs all four "
+                         "(a unit quaternion, scalar first)", source=source)
+    return turned

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from .csvtable import number, read_csv_table
+from .steps import QUATERNION, has_attitude
 from .units import LENGTH_UNITS, check_statements, load_cell_factor, unit_factor
 
 __all__ = ["read_plate_in_time", "read_tool_in_time"]
@@ -61,11 +62,8 @@ def _read_in_time(path, times, columns, units, what, attitude=False):
                        missing=("states no length unit: add a line '# length units: mm' (m, "
                                 "cm or mm) or pass --units"))
     newton = load_cell_factor(header, stated, source)
-    quaternion = ("qw", "qx", "qy", "qz")
-    turned = attitude and any(c in header for c in quaternion)
-    if turned and not all(c in header for c in quaternion):
-        raise InputError("names some of qw, qx, qy, qz; a tool's attitude needs all four "
-                         "(a unit quaternion, scalar first)", source=source)
+    quaternion = QUATERNION
+    turned = attitude and has_attitude(header, source)
     if len(rows) < 2:
         raise InputError("needs at least two rows (times)", source=source)
     clock, values, force, turns = [], [], [], []
