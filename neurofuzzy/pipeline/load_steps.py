@@ -38,7 +38,7 @@ def load_step_start(data, *, start=None, rules=None, tissue: str | None = None,
         if model.n_nodes != data.mesh.n_nodes or model.elements is None:
             raise InputError(f"has {model.n_nodes} nodes"
                              + ("" if model.elements is not None else " and no elements")
-                             + f"; the load steps' mesh has {data.mesh.n_nodes} nodes and "
+                             + f"; the data's mesh has {data.mesh.n_nodes} nodes and "
                              "tetrahedra", source=None if isinstance(start, Model)
                              else str(start), key=option)
         model = model.replace(mesh=data.mesh)
