@@ -241,7 +241,6 @@ def _read_steps(path, columns, n_steps, units, what, attitude=False):
                        keys=("units", "length units"), source=source, given=units,
                        given_as="--units", missing=_NO_UNIT)
     newton = load_cell_factor(header, stated, source)
-    quaternion = QUATERNION
     turned = attitude and has_attitude(header, source)
     steps = _steps(header, rows, source)
     if not rows:
@@ -264,7 +263,7 @@ def _read_steps(path, columns, n_steps, units, what, attitude=False):
             force[step] = [number(row[header[c]], source, line, c) * newton
                            for c in ("fx", "fy", "fz")]
         if turned:
-            turns[step] = [number(row[header[c]], source, line, c) for c in quaternion]
+            turns[step] = [number(row[header[c]], source, line, c) for c in QUATERNION]
             if not np.linalg.norm(turns[step]) > 1e-6:
                 raise InputError(f"step {step}'s attitude qw, qx, qy, qz is zero or not "
                                  "finite: a unit quaternion is needed", source=source,

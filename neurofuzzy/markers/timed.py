@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from .csvtable import number, read_csv_table
-from .steps import QUATERNION, has_attitude
+from .steps import _NO_UNIT, QUATERNION, has_attitude
 from .units import LENGTH_UNITS, check_statements, load_cell_factor, unit_factor
 
 __all__ = ["read_plate_in_time", "read_tool_in_time"]
@@ -58,11 +58,8 @@ def _read_in_time(path, times, columns, units, what, attitude=False):
     check_statements(stated, ("units", "length units", "force units"), source)
     unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
                        keys=("units", "length units"), source=source, given=units,
-                       given_as="--units",
-                       missing=("states no length unit: add a line '# length units: mm' (m, "
-                                "cm or mm) or pass --units"))
+                       given_as="--units", missing=_NO_UNIT)
     newton = load_cell_factor(header, stated, source)
-    quaternion = QUATERNION
     turned = attitude and has_attitude(header, source)
     if len(rows) < 2:
         raise InputError("needs at least two rows (times)", source=source)
@@ -74,7 +71,7 @@ def _read_in_time(path, times, columns, units, what, attitude=False):
             force.append([number(row[header[c]], source, line, c) * newton
                           for c in ("fx", "fy", "fz")])
         if turned:
-            turn = np.array([number(row[header[c]], source, line, c) for c in quaternion])
+            turn = np.array([number(row[header[c]], source, line, c) for c in QUATERNION])
             if not np.linalg.norm(turn) > 1e-6:
                 raise InputError(f"the attitude qw, qx, qy, qz at {clock[-1]:g} s is zero or "
                                  "not finite: a unit quaternion is needed", source=source,

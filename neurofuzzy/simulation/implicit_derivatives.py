@@ -161,13 +161,14 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
             if solver.contact is not None:
                 contact_stiffness = solver.contact.stiffness_matrix(p)
                 stiffness = stiffness + contact_stiffness
+                pressing = solver.contact.forces(p)              # (n_nodes, 3) on the body
             stiffness = sp.csr_array(stiffness)
             inner = stiffness[free][:, free]
             matrix = (sp.diags(mass) + he * state.damping[free][:, free]
                       + (he * he) * inner).tocsc()
             d_force = parameter_forces(p, v)                       # (columns, 3 n)
-            if penalty_column is not None and solver.contact is not None:
-                d_force[penalty_column] += solver.contact.forces(p).ravel() / penalty_scale
+            if penalty_column is not None:
+                d_force[penalty_column] += pressing.ravel() / penalty_scale
             right = (mass * changes[1][:, free] - he * (inner @ changes[0][:, free].T).T
                      + he * d_force[:, free])
             dv = np.zeros_like(dv)
@@ -184,7 +185,7 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
             balance = (stiffness @ dx.T).T + (state.damping @ dv.T).T - d_force
             d_reactions[frame] = np.stack([moving.reactions(row) for row in balance])
         if touched is not None:
-            touched[frame] = solver.contact.force_on_body(p)
+            touched[frame] = pressing.sum(axis=0)
             d_touched[frame] = -(contact_stiffness @ dx.T).T.reshape(columns, n, 3).sum(axis=1)
             if penalty_column is not None:
                 d_touched[frame, penalty_column] += touched[frame] / penalty_scale
