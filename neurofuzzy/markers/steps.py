@@ -236,12 +236,7 @@ def _read_steps(path, columns, n_steps, units, what, attitude=False):
     if "step" not in header:
         raise InputError(f"has a 'time' column: a load-step experiment's {what} file gives "
                          "its place per 'step' (0 the reference)", source=source)
-    check_statements(stated, ("units", "length units", "force units"), source)
-    unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
-                       keys=("units", "length units"), source=source, given=units,
-                       given_as="--units", missing=_NO_UNIT)
-    newton = load_cell_factor(header, stated, source)
-    turned = attitude and has_attitude(header, source)
+    unit, newton, turned = path_units(header, stated, source, units, attitude)
     steps = _steps(header, rows, source)
     if not rows:
         raise InputError("no data rows", source=source)
@@ -291,3 +286,16 @@ def has_attitude(header: dict, source: str) -> bool:
         raise InputError("names some of qw, qx, qy, qz; a tool's attitude needs all four "
                          "(a unit quaternion, scalar first)", source=source)
     return turned
+
+
+def path_units(header: dict, stated, source: str, units: str | None,
+               attitude: bool) -> tuple[float, float | None, bool]:
+    """``(metres per length unit, newtons per force unit or None, whether the attitude is
+    given)`` of a plate's or tool's path file, per step or in time: its units lines (or
+    ``--units``), never guessed, and its force and attitude columns all or none."""
+    check_statements(stated, ("units", "length units", "force units"), source)
+    unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
+                       keys=("units", "length units"), source=source, given=units,
+                       given_as="--units", missing=_NO_UNIT)
+    return (unit, load_cell_factor(header, stated, source),
+            attitude and has_attitude(header, source))

@@ -20,8 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from .csvtable import number, read_csv_table
-from .steps import _NO_UNIT, QUATERNION, has_attitude
-from .units import LENGTH_UNITS, check_statements, load_cell_factor, unit_factor
+from .steps import QUATERNION, path_units
 
 __all__ = ["read_plate_in_time", "read_tool_in_time"]
 
@@ -55,12 +54,7 @@ def _read_in_time(path, times, columns, units, what, attitude=False):
         raise InputError(f"has a 'step' column: a recording in time needs the {what}'s place "
                          "per 'time' (seconds); load steps go with scans at load steps",
                          source=source)
-    check_statements(stated, ("units", "length units", "force units"), source)
-    unit = unit_factor(LENGTH_UNITS, what="length", stated=stated,
-                       keys=("units", "length units"), source=source, given=units,
-                       given_as="--units", missing=_NO_UNIT)
-    newton = load_cell_factor(header, stated, source)
-    turned = attitude and has_attitude(header, source)
+    unit, newton, turned = path_units(header, stated, source, units, attitude)
     if len(rows) < 2:
         raise InputError("needs at least two rows (times)", source=source)
     clock, values, force, turns = [], [], [], []
