@@ -2,6 +2,7 @@
 fitted through implicit steps to data from a solver nobody here wrote.
 
     python benchmarks/plate_ramp.py [--cells 4] [--ratios 0.45 0.49 0.499] [--no-check]
+    python benchmarks/plate_ramp.py --at-truth 4 8 12 [--ratios ...]
 
 The recording (``tests/data/plate_ramp_nu*.npz``, made by ``python -m
 neurofuzzy.validation.plate_ramp NU OUT``): FElupe's quadratic tetrahedra in the three-field
@@ -19,6 +20,12 @@ estimated), then its mesh check (:func:`~neurofuzzy.learn.implicit_mesh_check.
 implicit_mesh_check`: refitted on the mesh refined once, each constant extrapolated). Prints
 the table and writes ``benchmarks/plate_ramp.json`` (a run replaces the rows of the ν it
 measures and keeps the others).
+
+``--at-truth CELLS...`` fits nothing: it runs our model at the recording's own E, ν and η on
+each block (BDF2, 1 ms) and prints its plate force over the recording's at chosen frames, and
+the force extrapolated (first order in the cell size) from the two finest blocks: whether our
+discretisation converges to the reference's solution, and how fast during the ramp (where the
+viscous force is a large share) and held (elastic only). JSON key ``at_truth``.
 """
 
 from __future__ import annotations
@@ -41,6 +48,7 @@ from neurofuzzy.load_steps import DrivenPath  # noqa: E402
 from neurofuzzy.mesh import from_tetra, kuhn_block  # noqa: E402
 from neurofuzzy.model import Model  # noqa: E402
 from neurofuzzy.observation import EmbeddedMarkers, embed_points  # noqa: E402
+from neurofuzzy.simulation.implicit import simulate_implicit  # noqa: E402
 
 DATA = ROOT / "tests" / "data"
 NAMES = ("youngs_modulus", "poisson_ratio", "viscosity")
@@ -52,13 +60,14 @@ def recording(nu: float) -> dict:
     return dict(np.load(DATA / f"plate_ramp_nu{nu}.npz"))
 
 
-def lab_data(recorded: dict, cells: int, seed: int = 0):
-    """``(start model, experiment)``: the recording as a lab has it."""
+def lab_data(recorded: dict, cells: int, seed: int = 0, start=None):
+    """``(start model, experiment)``: the recording as a lab has it (the model at ``start``'s
+    values, :data:`START` by default)."""
     size = float(recorded["size"])
     points, tetrahedra = kuhn_block((cells,) * 3, size / cells)
     mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     model = Model.continuum(mesh, density=float(recorded["density"]), law="neo-hookean",
-                            volumetric="nodal", **START)
+                            volumetric="nodal", **(START if start is None else start))
     rng = np.random.default_rng(seed)
     beads = recorded["beads"][None] + np.asarray(recorded["displacements"], float)
     beads = beads + rng.normal(scale=MARKER_NOISE, size=beads.shape)
@@ -108,6 +117,43 @@ def fits(ratios, cells, check=True):
     return rows
 
 
+FRAMES = (3, 6, 12, 21, 30, 39, 45, 51, 60, 120)
+
+
+def at_truth(nu: float, cells) -> dict:
+    """Our plate force at the recording's own constants on each block of ``cells``, over the
+    recording's, at :data:`FRAMES`; and extrapolated from the two finest blocks."""
+    recorded = recording(nu)
+    truth = {"youngs_modulus": float(recorded["youngs_modulus"]), "poisson_ratio": nu,
+             "viscosity": float(recorded["viscosity"])}
+    force = np.asarray(recorded["force"], float)[:, 2]
+    ours = {}
+    for n in cells:
+        model, experiment = lab_data(recorded, n, start=truth)
+        run = simulate_implicit(model, dt=experiment.dt, n_frames=len(force), scheme="bdf2",
+                                driven=experiment.driven, iterations=50, tolerance=1e-11)
+        ours[n] = run.reactions[:, 0, 2]     # the plate on the body, the recording's sign
+        print(f"  nu {nu}: {n} cells run", file=sys.stderr)
+    coarse, fine = sorted(cells)[-2:]
+    ratios = {str(n): [float(ours[n][k] / force[k]) for k in FRAMES] for n in sorted(cells)}
+    ratios["extrapolated"] = [float((ours[fine][k] + (ours[fine][k] - ours[coarse][k])
+                                     * coarse / (fine - coarse)) / force[k]) for k in FRAMES]
+    return {"nu": nu, "frames": list(FRAMES),
+            "force_mN": [float(1e3 * force[k]) for k in FRAMES], "ratio": ratios}
+
+
+def _truth_table(rows):
+    for row in rows:
+        print(f"ν {row['nu']}: our plate force at the truth over the recording's")
+        print("| frame (ms) | recorded (mN) | " + " | ".join(
+            f"{name} cells" if name != "extrapolated" else name for name in row["ratio"])
+            + " |")
+        print("|---" * (2 + len(row["ratio"])) + "|")
+        for i, frame in enumerate(row["frames"]):
+            print(f"| {frame} | {row['force_mN'][i]:.1f} | " + " | ".join(
+                f"{values[i]:.3f}" for values in row["ratio"].values()) + " |")
+
+
 def _table(rows):
     print("| ν | cells (tetrahedra) | E: mesh / refined / extrapolated | ν: mesh / refined / "
           "extrapolated | η: mesh / refined / extrapolated | noise found: markers, force | "
@@ -131,11 +177,21 @@ def main(argv=None):
                         default=[nu for nu in (0.45, 0.49, 0.499)
                                  if (DATA / f"plate_ramp_nu{nu}.npz").exists()])
     parser.add_argument("--no-check", action="store_true", help="no mesh check")
+    parser.add_argument("--at-truth", type=int, nargs="+", metavar="CELLS",
+                        help="no fit: our force at the truth on these blocks (module doc)")
     args = parser.parse_args(argv)
-    rows = fits(args.ratios, args.cells, check=not args.no_check)
-    _table(rows)
     out = ROOT / "benchmarks" / "plate_ramp.json"
     results = json.loads(out.read_text()) if out.exists() else {}
+    if args.at_truth:
+        if len(args.at_truth) < 2:
+            parser.error("--at-truth needs two blocks or more to extrapolate")
+        rows = [at_truth(nu, args.at_truth) for nu in args.ratios]
+        _truth_table(rows)
+        results["at_truth"] = rows
+        out.write_text(json.dumps(results, indent=1))
+        return
+    rows = fits(args.ratios, args.cells, check=not args.no_check)
+    _table(rows)
     key = f"cells_{args.cells}" + ("" if not args.no_check else "_unchecked")
     measured = {row["nu"] for row in rows}       # a run replaces its own ν's rows only
     results[key] = sorted([row for row in results.get(key, []) if row["nu"] not in measured]
