@@ -12,11 +12,11 @@ speed between frames (a ramp and hold), but for a smooth path the driven nodes' 
 a frame is then the last frame's mean, half a frame late. With substeps the reaction reads
 that lag: on :mod:`neurofuzzy.validation.plate_ramp`'s smooth ramp (4 cells, frames 1 ms
 apart) 2 steps a frame read the plate's force up to 7 % of its peak off a run on the path
-sampled at every step, where one step a frame is within 0.3 %. A cubic through the frames
-(spline, PCHIP or Akima) fixes that, but rounds the stop of a ramp and hold: fitted to such
-a recording (``tests/test_moving_cli.py``, frames 2 ms apart, 2 steps each) the force curve
-then missed by 8 to 10× its noise. So give a smooth path at the rate the steps are taken, or
-take one step a frame.
+sampled at every step, where one step a frame is within 0.3 %. A cubic spline through the
+frames fixes that (PCHIP and Akima's cubic in part), but rounds the stop of a ramp and hold:
+fitted to such a recording (``tests/test_moving_cli.py``, frames 2 ms apart, 2 steps each)
+the force curve then missed by 8 to 10× its noise. So give a smooth path at the rate the
+steps are taken, or take one step a frame.
 
 A driven degree of freedom is not solved for: each implicit step gives it the velocity that
 puts it where its path is at the step's end, and the step solves for the others. What the
