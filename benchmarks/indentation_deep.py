@@ -3,6 +3,8 @@ an independent solver, and what our fit recovers from it.
 
     python benchmarks/indentation_deep.py [--cells 8 10 12] [--nu 0.45]   # about 25 min
     python benchmarks/indentation_deep.py --record --reference-cells 6 8   # sfepy, slow
+    python benchmarks/indentation_deep.py --record --nu 0.49 --mixed      # ν ≥ 0.49
+    python benchmarks/indentation_deep.py --check-mixed 6      # the mixed form at ν 0.45
 
 The experiment: a 4 × 4 × 2 cm block of neo-Hookean tissue (E 6 kPa) bonded to a rigid base,
 a rigid sphere of radius 1 cm pressed into the middle of its top by 1, 2, 3 and 4 mm (5 to
@@ -15,7 +17,10 @@ tetrahedra and its own contact term (:mod:`neurofuzzy.validation.nonlinear.inden
 a quarter of the block with symmetry planes, on two meshes; the force and the markers are
 taken from the finer one, and the coarser one's force is stored beside them
 (``force_coarse``, in the JSON ``reference_force_coarse``) as a measure of the reference's
-own discretisation error. The experiment itself is
+own discretisation error. ``--mixed`` records with the mixed displacement–pressure form
+(``formulation`` "mixed" in the file), which does not lock where displacement alone does
+(ν 0.49 and above). ``--check-mixed CELLS`` solves ν 0.45 with it and prints its force
+beside the displacement-only recording's (JSON ``mixed_check``). The experiment itself is
 :data:`neurofuzzy.validation.indentation.DEEP`.
 
 The fit (``fit_load_steps`` on a quarter block of our linear tetrahedra in the nodal form,
@@ -28,7 +33,8 @@ The fit (``fit_load_steps`` on a quarter block of our linear tetrahedra in the n
 and our force at the recording's own E and ν, step by step, against the recording's (the
 discretisation's share of what the fits find).
 
-Prints the tables and writes ``benchmarks/indentation_deep.json``.
+Prints the tables and writes ``benchmarks/indentation_deep.json`` (ν 0.45's fits under
+``fits``, another ν's under ``fits_nu<ν>``; a run replaces only its own).
 """
 
 from __future__ import annotations
@@ -53,7 +59,7 @@ E, H = DEEP.youngs_modulus, DEEP.height
 PENALTY = 1e9             # sfepy's contact stiffness (Pa/m): 4 um deep at the deepest step
 
 
-def record(cells, nu, penalty=PENALTY, increments=4):
+def record(cells, nu, penalty=PENALTY, increments=4, mixed=False):
     """sfepy's indentation on two meshes: the finer one's force and markers, both forces."""
     from neurofuzzy.validation.nonlinear import NeoHookean
     from neurofuzzy.validation.nonlinear.indentation import indent_quarter
@@ -64,7 +70,7 @@ def record(cells, nu, penalty=PENALTY, increments=4):
         got = indent_quarter(
             DEEP.quarter(n)[0].mesh, material=NeoHookean(E, nu), radius=DEEP.radius,
             centres=DEEP.centres(), markers=DEEP.markers(), penalty=penalty,
-            increments=increments,
+            increments=increments, mixed=mixed,
             progress=lambda message: print(f"  {n} cells: {message}", flush=True))
         runs.append({"cells": n, "got": got, "seconds": time.perf_counter() - start})
         print(f"{n} cells: force (quarter) {got.force[:, 2]} N, deepest penetration "
@@ -79,8 +85,30 @@ def record(cells, nu, penalty=PENALTY, increments=4):
                         displacements=fine.displacements,
                         displacements_coarse=coarse.displacements,
                         cells=np.array([run["cells"] for run in runs]),
-                        penetration=fine.penetration)
+                        penetration=fine.penetration,
+                        formulation="mixed" if mixed else "displacement")
     print(f"wrote {out}")
+
+
+def check_mixed(cells):
+    """The mixed form at ν 0.45 on ``cells`` against the displacement-only recording."""
+    from neurofuzzy.validation.nonlinear import NeoHookean
+    from neurofuzzy.validation.nonlinear.indentation import indent_quarter
+
+    recorded = np.load(DATA / "indentation_nu0.45.npz")
+    start = time.perf_counter()
+    got = indent_quarter(DEEP.quarter(cells)[0].mesh, material=NeoHookean(E, 0.45),
+                         radius=DEEP.radius, centres=DEEP.centres(), markers=DEEP.markers(),
+                         penalty=PENALTY, increments=4, mixed=True)
+    force, reference = 4 * got.force[:, 2], recorded["force"][:, 2]
+    moved = float(np.abs(got.displacements - recorded["displacements"]).max())
+    print(f"mixed, {cells} cells (mN): " + " / ".join(f"{-1e3 * f:.2f}" for f in force)
+          + f"; displacement alone, {recorded['cells'][-1]} cells: "
+          + " / ".join(f"{-1e3 * f:.2f}" for f in reference)
+          + f"; markers apart by at most {1e6 * moved:.1f} um", flush=True)
+    return {"cells": cells, "force": force.tolist(), "reference_force": reference.tolist(),
+            "reference_cells": recorded["cells"].tolist(), "markers_apart": moved,
+            "seconds": time.perf_counter() - start}
 
 
 def forward(recorded, model, planes):
@@ -138,10 +166,20 @@ def main(argv=None):
     parser.add_argument("--record", action="store_true")
     parser.add_argument("--reference-cells", type=int, nargs=2, default=[6, 8])
     parser.add_argument("--nu", type=float, default=0.45)
+    parser.add_argument("--mixed", action="store_true",
+                        help="record with displacement and pressure (nearly incompressible)")
     parser.add_argument("--cells", type=int, nargs="+", default=[8, 10, 12])
+    parser.add_argument("--check-mixed", type=int, metavar="CELLS",
+                        help="the mixed form at nu 0.45 against the recording")
     args = parser.parse_args(argv)
+    out = ROOT / "benchmarks" / "indentation_deep.json"
+    kept = json.loads(out.read_text()) if out.exists() else {}
+    if args.check_mixed:
+        kept["mixed_check"] = check_mixed(args.check_mixed)
+        out.write_text(json.dumps(kept, indent=1) + "\n")
+        return
     if args.record:
-        record(args.reference_cells, args.nu)
+        record(args.reference_cells, args.nu, mixed=args.mixed)
         return
     results = []
     for cells in args.cells:
@@ -159,8 +197,8 @@ def main(argv=None):
               f"{held['held_out_force_error_over_noise']:>16.2f} | "
               + " ".join(f"{100 * (f / -r - 1):+.1f}%" for f, r
                          in zip(result["force_at_the_truth"], result["reference_force"])))
-    out = ROOT / "benchmarks" / "indentation_deep.json"
-    out.write_text(json.dumps({"penalty": PENALTY, "fits": results}, indent=1) + "\n")
+    key = "fits" if args.nu == 0.45 else f"fits_nu{args.nu}"    # each ν keeps its own
+    out.write_text(json.dumps({**kept, "penalty": PENALTY, key: results}, indent=1) + "\n")
     print(f"wrote {out}")
 
 
