@@ -12,7 +12,8 @@ quarter block the checks run on.
   planes, its cells shrinking geometrically toward the contact (what
   ``benchmarks/indentation.py`` and ``tests/test_contact.py`` measure on).
 - :data:`DEEP`: the deep-indentation experiment that sfepy recorded
-  (``tests/data/indentation_nu0.45.npz``, :mod:`.nonlinear.indentation`) and
+  (``tests/data/indentation_nu0.45.npz``, :mod:`.nonlinear.indentation`; at ν 0.49 and
+  0.499 in its mixed form, ``indentation_nu0.49.npz`` and ``indentation_nu0.499.npz``) and
   ``benchmarks/indentation_deep.py`` fits, with :meth:`DeepIndentation.lab_data` to turn
   the recording into what a lab has.
 """
@@ -136,5 +137,5 @@ class DeepIndentation:
         return LoadSteps(model.mesh, paths, embedded, reaction, tool=tool)
 
 
-#: the experiment of ``tests/data/indentation_nu0.45.npz``
+#: the experiment of ``tests/data/indentation_nu<ν>.npz`` (ν 0.45, 0.49, 0.499)
 DEEP = DeepIndentation()
