@@ -59,19 +59,24 @@ E, H = DEEP.youngs_modulus, DEEP.height
 PENALTY = 1e9             # sfepy's contact stiffness (Pa/m): 4 um deep at the deepest step
 
 
-def record(cells, nu, penalty=PENALTY, increments=4, mixed=False):
-    """sfepy's indentation on two meshes: the finer one's force and markers, both forces."""
+def _sfepy(cells, nu, mixed, *, penalty=PENALTY, increments=4, progress=None):
+    """sfepy's solve of :data:`DEEP` on a quarter of ``cells`` a side."""
     from neurofuzzy.validation.nonlinear import NeoHookean
     from neurofuzzy.validation.nonlinear.indentation import indent_quarter
 
+    return indent_quarter(DEEP.quarter(cells)[0].mesh, material=NeoHookean(E, nu),
+                          radius=DEEP.radius, centres=DEEP.centres(), markers=DEEP.markers(),
+                          penalty=penalty, increments=increments, mixed=mixed,
+                          progress=progress)
+
+
+def record(cells, nu, penalty=PENALTY, increments=4, mixed=False):
+    """sfepy's indentation on two meshes: the finer one's force and markers, both forces."""
     runs = []
     for n in cells:
         start = time.perf_counter()
-        got = indent_quarter(
-            DEEP.quarter(n)[0].mesh, material=NeoHookean(E, nu), radius=DEEP.radius,
-            centres=DEEP.centres(), markers=DEEP.markers(), penalty=penalty,
-            increments=increments, mixed=mixed,
-            progress=lambda message: print(f"  {n} cells: {message}", flush=True))
+        got = _sfepy(n, nu, mixed, penalty=penalty, increments=increments,
+                     progress=lambda message: print(f"  {n} cells: {message}", flush=True))
         runs.append({"cells": n, "got": got, "seconds": time.perf_counter() - start})
         print(f"{n} cells: force (quarter) {got.force[:, 2]} N, deepest penetration "
               f"{got.penetration.max() * 1e6:.2f} um, {got.iterations} iterations, "
@@ -92,14 +97,9 @@ def record(cells, nu, penalty=PENALTY, increments=4, mixed=False):
 
 def check_mixed(cells):
     """The mixed form at ν 0.45 on ``cells`` against the displacement-only recording."""
-    from neurofuzzy.validation.nonlinear import NeoHookean
-    from neurofuzzy.validation.nonlinear.indentation import indent_quarter
-
     recorded = np.load(DATA / "indentation_nu0.45.npz")
     start = time.perf_counter()
-    got = indent_quarter(DEEP.quarter(cells)[0].mesh, material=NeoHookean(E, 0.45),
-                         radius=DEEP.radius, centres=DEEP.centres(), markers=DEEP.markers(),
-                         penalty=PENALTY, increments=4, mixed=True)
+    got = _sfepy(cells, 0.45, True)
     force, reference = 4 * got.force[:, 2], recorded["force"][:, 2]
     moved = float(np.abs(got.displacements - recorded["displacements"]).max())
     print(f"mixed, {cells} cells (mN): " + " / ".join(f"{-1e3 * f:.2f}" for f in force)
