@@ -256,6 +256,33 @@ def test_the_report_and_the_diagnosis_of_an_indentation_take_the_tool(tmp_path):
     assert found.to_dict()["plate"] is None
 
 
+def test_a_tracked_tool_without_force_gives_nu_and_the_law_and_no_e():
+    """Issue 46's tracked tool: a sphere of radius 1 cm pressed up to 5 % of the height into
+    neo-Hookean tissue, beads with 2 µm noise, no force. Started as St. Venant–Kirchhoff the
+    fit's ν is off; the diagnosis names the neo-Hookean law, ν comes back within 0.01, and E
+    stays unidentifiable: no value and no word for it."""
+    from neurofuzzy.diagnosis.load_steps import diagnose_load_steps
+    from neurofuzzy.load_steps import LoadSteps
+
+    truth, planes = _quarter(4, 0.45)
+    truth = truth.with_elements(law="neo-hookean")
+    pressed = _indentation(truth, planes, [0.0125 * H, 0.025 * H, 0.0375 * H, 0.05 * H],
+                           radius=0.01, noise=2e-6)
+    tracked = LoadSteps(pressed.mesh, pressed.driven, pressed.markers, None,
+                        tool=pressed.tool)
+    start = truth.with_elements(law="st-venant-kirchhoff", youngs_modulus=4000.0,
+                                poisson_ratio=0.3)
+    found = diagnose_load_steps(start, tracked, max_effects=1)
+    assert found.names == ["hyperelasticity (neo-hookean)"]
+    assert abs(found.before.poisson_ratio_ - 0.45) > 0.015
+    answer = found.to_dict()
+    assert answer["law"] == "neo-hookean"
+    assert answer["poisson_ratio"] == pytest.approx(0.45, abs=0.01)
+    assert "youngs_modulus" in answer["unidentifiable"] and answer["youngs_modulus"] is None
+    assert "not identifiable" in found.summary() and "(neo-hookean)" in found.summary()
+    assert found.after.marker_rms_ < found.before.marker_rms_
+
+
 def _graded_block(n, stretch):
     """The indentation tutorial's 40 × 40 × 20 mm block, its cells shrinking toward the middle
     of its top face (m)."""

@@ -14,6 +14,9 @@ A candidate is named when it lowers the misfit's χ² by more than :data:`THRESH
 adds a parameter, so this is the likelihood-ratio test at about 0.2 %); the best one is added
 and the others tried again on top, until none helps; the answer is ``none`` when the first
 round finds nothing.
+
+Without a force measured (scans of a plate or of a tracked tool only), Young's modulus stays
+unidentifiable in every refit: the answer gives ν and the law, and no value for E.
 """
 
 from __future__ import annotations
@@ -47,7 +50,8 @@ class LoadStepDiagnosis:
         return {"answer": self.names, "candidates": self.candidates,
                 "rms_before": self.before.marker_rms_, "rms_after": self.after.marker_rms_,
                 "noise": self.before.marker_scale,
-                "youngs_modulus": self.after.youngs_modulus_,
+                "youngs_modulus": (None if "youngs_modulus" in self.after.unidentifiable_
+                                   else self.after.youngs_modulus_),
                 "poisson_ratio": self.after.poisson_ratio_,
                 "unidentifiable": list(self.after.unidentifiable_),
                 "plate": (None if self.data.tool is not None or not self.data.driven
@@ -56,6 +60,7 @@ class LoadStepDiagnosis:
 
     def summary(self) -> str:
         lines = [f"answer: {', '.join(self.names)}",
+                 f"  the fit with it ({_law(self.after.model_)}):", *self.after.value_lines(),
                  f"  markers: RMS {self.before.marker_rms_ * 1e6:.1f} -> "
                  f"{self.after.marker_rms_ * 1e6:.1f} µm per marker",
                  "  each candidate refitted; the fall of chi2 with the base fit's noise "

@@ -79,8 +79,9 @@ class LoadStepFit:
         coordinate."""
         return float(np.sqrt(3.0) * (self.marker_noise_ or 0.0))
 
-    def summary(self) -> str:
-        """A few lines a person reads: the values, what was not identifiable, the errors."""
+    def value_lines(self) -> list[str]:
+        """E's and ν's lines of :meth:`summary`: each value with its interval, or why it has
+        none (fixed, or not identifiable from these data)."""
         lines = []
         for name, value, unit in (("youngs_modulus", self.youngs_modulus_, "Pa"),
                                   ("poisson_ratio", self.poisson_ratio_, "")):
@@ -94,6 +95,11 @@ class LoadStepFit:
                 half = self.interval(name)
                 half = np.nan if half is None else half
                 lines.append(f"  {name:<16} {value:.4g} ± {half:.2g} {unit}".rstrip())
+        return lines
+
+    def summary(self) -> str:
+        """A few lines a person reads: the values, what was not identifiable, the errors."""
+        lines = self.value_lines()
         if self.marker_rms_ is not None and self.noise_estimated_:
             lines.append(f"  markers: RMS {self.marker_rms_ * 1e6:.1f} µm per marker; the noise, "
                          f"estimated from these residuals, {self.marker_noise_ * 1e6:.1f} µm per "
