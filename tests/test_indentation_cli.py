@@ -83,6 +83,11 @@ def test_an_indentation_from_files_fits_e_and_nu_and_says_what_it_cannot(lab, tm
     record = json.loads(shape.stdout)
     assert "youngs_modulus" in record["unidentifiable"] and record["youngs_modulus"] is None
     assert record["poisson_ratio"] == pytest.approx(0.45, abs=0.03)
+    diagnosed = cli("diagnose", tmp_path / "shape.npz", "--start", lab / "model.yaml",
+                    "--json", "--quiet")
+    assert diagnosed.returncode == 0, diagnosed.stderr
+    answer = json.loads(diagnosed.stdout)        # the diagnosis makes no E up either
+    assert "youngs_modulus" in answer["unidentifiable"] and answer["youngs_modulus"] is None
 
 
 @pytest.mark.parametrize("case, words", [
