@@ -173,6 +173,9 @@ def test_bad_input_is_refused_with_the_key_named():
         arguments = {"dt": 0.016, "n_frames": 3, **options}
         with pytest.raises(InputError, match=key):
             simulate_implicit(model, **arguments)
+        if key != "iterations":              # the derivatives' run takes the same checks
+            with pytest.raises(InputError, match=key):
+                implicit_sensitivities(model, **arguments)
     relaxing = model.with_elements(relaxation_moduli=0.5, relaxation_times=0.05)
     with pytest.raises(InputError, match="Prony"):
         implicit_sensitivities(relaxing, dt=0.016, n_frames=3)

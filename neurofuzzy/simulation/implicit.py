@@ -47,6 +47,8 @@ The derivatives of these steps by the elements' constants are
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import InputError
@@ -119,59 +121,116 @@ def simulate_implicit(model: Model, *, dt: float, n_frames: int,
         When a step's Newton iterations do not converge (with ``iterations > 1``) or the
         state becomes NaN.
     """
-    n = model.n_nodes
     if iterations is None:
         iterations = 1 if tool is None else TOOL_ITERATIONS
-    if not (np.isfinite(dt) and dt > 0):
-        raise InputError(f"got {dt}; expected a positive time step", key="dt")
-    if int(n_frames) < 1:
-        raise InputError(f"got {n_frames}; expected at least 1", key="n_frames")
-    for key, value in (("substeps", substeps), ("iterations", iterations)):
-        if not (isinstance(value, (int, np.integer)) and value >= 1):
-            raise InputError(f"got {value!r}; expected a positive integer", key=key)
-    _check_scheme(scheme)
-    forces = _frame_forces(external_forces, int(n_frames), n)
-    rest = model.mesh.rest_positions
-    moving = Moving(model, int(n_frames), driven, tool)
-    p, v, free = start(model, moving, initial_positions, initial_velocities)
-    h = float(dt) / int(substeps)
-    every_mass = np.repeat(np.asarray(model.node_mass, float), 3)
-    mass = every_mass[free]
-    positions = np.empty((int(n_frames), n, 3))
-    velocities = np.empty_like(positions)
-    positions[0], velocities[0] = p, v
-    touched = None if tool is None else np.zeros((int(n_frames), 3))
-    reactions = None if not moving.driven else np.zeros((int(n_frames), len(moving.driven), 3))
-    if touched is not None:
-        touched[0] = moving.touch(0, 0.0).force_on_body(p)
-    body = BodyForce(model, h)
-    solvers = _Solvers(model, body, h, free, mass)
-    before = None
-    for frame in range(1, int(n_frames)):
-        load = 0.0 if forces is None else forces[min(frame - 1, len(forces) - 1)].ravel()
-        for sub in range(int(substeps)):
-            now, base = _base(scheme, (p, v), before)
-            before = (p, v)
-            body.advance(p, v)                       # the relaxation's rᵢ to the step's end
-            solver = solvers.of(now)
-            solver.contact = moving.touch(frame, (sub + 1) / int(substeps))
-            p, v = _step(body, solver, base, v, SCHEMES[now] * h, load, free, mass,
-                         iterations, tolerance, moving.targets(frame, (sub + 1) / int(substeps),
-                                                               rest))
+    run = ImplicitRun(model, dt=dt, n_frames=n_frames, external_forces=external_forces,
+                      initial_positions=initial_positions,
+                      initial_velocities=initial_velocities, substeps=substeps,
+                      iterations=iterations, tolerance=tolerance, scheme=scheme,
+                      driven=driven, tool=tool)
+    for _ in run.steps():
+        pass
+    return run.trajectory()
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of an :class:`ImplicitRun`, as :meth:`ImplicitRun.steps` yields it."""
+
+    frame: int              # the frame the step ends in (or on)
+    ends_frame: bool        # the frame's last substep: its state is recorded
+    scheme: str             # this step's ("euler" for BDF2's first)
+    h: float                # the step's h in the position update (two thirds of it in BDF2)
+    base: tuple             # (positions, velocities) it stepped from (BDF2: the history's)
+    positions: np.ndarray   # (n_nodes, 3) at its end
+    velocities: np.ndarray
+    contact: object         # the tool's contact during the step, or None
+    load: object            # the external force during it (flat, or 0.0)
+
+
+class ImplicitRun:
+    """The implicit time loop, one for the run of states (:func:`simulate_implicit`) and of
+    their derivatives (:mod:`.implicit_derivatives`): the frames' loads, the driven sets and
+    the tool along their paths, each step solved (:func:`_step`), each frame's state, driven
+    sets' reactions and tool's force recorded. :meth:`steps` yields every step, so a run of
+    derivatives does its own work at each between them. Arguments as
+    :func:`simulate_implicit`'s."""
+
+    def __init__(self, model: Model, *, dt, n_frames, external_forces=None,
+                 initial_positions=None, initial_velocities=None, substeps=1, iterations=1,
+                 tolerance=1e-8, scheme="euler", driven=(), tool=None):
+        if not (np.isfinite(dt) and dt > 0):
+            raise InputError(f"got {dt}; expected a positive time step", key="dt")
+        if int(n_frames) < 1:
+            raise InputError(f"got {n_frames}; expected at least 1", key="n_frames")
+        for key, value in (("substeps", substeps), ("iterations", iterations)):
+            if not (isinstance(value, (int, np.integer)) and value >= 1):
+                raise InputError(f"got {value!r}; expected a positive integer", key=key)
+        _check_scheme(scheme)
+        n, self.n_frames = model.n_nodes, int(n_frames)
+        self.model, self.dt, self.substeps = model, float(dt), int(substeps)
+        self.iterations, self.tolerance, self.scheme = iterations, tolerance, scheme
+        self.loads = _frame_forces(external_forces, self.n_frames, n)
+        self.moving = Moving(model, self.n_frames, driven, tool)
+        self.p, self.v, self.free = start(model, self.moving, initial_positions,
+                                          initial_velocities)
+        self.h = self.dt / self.substeps
+        self.every_mass = np.repeat(np.asarray(model.node_mass, float), 3)
+        self.mass = self.every_mass[self.free]
+        self.positions = np.empty((self.n_frames, n, 3))
+        self.velocities = np.empty_like(self.positions)
+        self.positions[0], self.velocities[0] = self.p, self.v
+        self.touched = None if tool is None else np.zeros((self.n_frames, 3))
+        self.reactions = (None if not self.moving.driven
+                          else np.zeros((self.n_frames, len(self.moving.driven), 3)))
+        if self.touched is not None:
+            self.touched[0] = self.moving.touch(0, 0.0).force_on_body(self.p)
+        self.body = BodyForce(model, self.h)
+        self.solvers = _Solvers(model, self.body, self.h, self.free, self.mass)
+
+    def steps(self):
+        """Take every step, yielding each (:class:`Step`) once solved, its frame recorded
+        when it ends one."""
+        p, v, before = self.p, self.v, None
+        rest = self.model.mesh.rest_positions
+        for frame in range(1, self.n_frames):
+            load = (0.0 if self.loads is None
+                    else self.loads[min(frame - 1, len(self.loads) - 1)].ravel())
+            for sub in range(self.substeps):
+                now, base = _base(self.scheme, (p, v), before)
+                before = (p, v)
+                self.body.advance(p, v)              # the relaxation's rᵢ to the step's end
+                solver = self.solvers.of(now)
+                fraction = (sub + 1) / self.substeps
+                solver.contact = self.moving.touch(frame, fraction)
+                h = SCHEMES[now] * self.h
+                p, v = _step(self.body, solver, base, v, h, load, self.free, self.mass,
+                             self.iterations, self.tolerance,
+                             self.moving.targets(frame, fraction, rest))
+                ends = sub == self.substeps - 1
+                if ends:
+                    self._record(frame, p, v, solver.contact, base, h, load)
+                yield Step(frame, ends, now, h, base, p, v, solver.contact, load)
+
+    def _record(self, frame, p, v, contact, base, h, load):
         if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
             raise ConvergenceError(f"the implicit step diverged at frame {frame} (positions "
                                    "became NaN or infinite): an element squeezed flat?",
                                    key="dt")
-        positions[frame], velocities[frame] = p, v
-        if touched is not None:
-            touched[frame] = solver.contact.force_on_body(p)
-        if reactions is not None:
-            reactions[frame] = reaction(moving, body, solver.contact, (p, v), base[1],
-                                        SCHEMES[now] * h, every_mass, load)
-    return Trajectory(positions=positions, velocities=velocities, dt=float(dt),
-                      substeps=int(substeps),
-                      final_internal=body.internal.copy() if body.relaxes else None,
-                      reactions=reactions, tool_forces=touched)
+        self.positions[frame], self.velocities[frame] = p, v
+        if self.touched is not None:
+            self.touched[frame] = contact.force_on_body(p)
+        if self.reactions is not None:
+            self.reactions[frame] = reaction(self.moving, self.body, contact, (p, v), base[1],
+                                             h, self.every_mass, load)
+
+    def trajectory(self) -> Trajectory:
+        """The run's :class:`~.integration.Trajectory` (after :meth:`steps`)."""
+        return Trajectory(positions=self.positions, velocities=self.velocities, dt=self.dt,
+                          substeps=self.substeps,
+                          final_internal=(self.body.internal.copy() if self.body.relaxes
+                                          else None),
+                          reactions=self.reactions, tool_forces=self.touched)
 
 
 def integrate(model: Model, integrator: str, *, dt: float, n_frames: int,

@@ -30,11 +30,8 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import Model
-from .implicit import SCHEMES, _base, _check_scheme, _Solvers, _step, reaction, start
-from .integration import Trajectory, _frame_forces
-from .moving import Moving
+from .implicit import ImplicitRun, _base
 from .static import ConvergenceError, _factor
-from .step_solve import BodyForce
 from .tangents import tangents, unit_forces
 
 __all__ = ["implicit_sensitivities", "ForceDerivatives", "PARAMETERS"]
@@ -115,83 +112,63 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
                          "(Prony terms) yet; fit them with the explicit step", key="model")
     groups, values = _grouped(model, groups)
     n_groups = len(values[0])
-    _check_scheme(scheme)
-    moving = Moving(model, int(n_frames), driven, tool)
-    rest = model.mesh.rest_positions
-    p, v, free = start(model, moving, initial_positions, initial_velocities)
-    load_rows = _frame_forces(external_forces, int(n_frames), n)
-    h = float(dt) / int(substeps)
-    every_mass = np.repeat(np.asarray(model.node_mass, float), 3)
-    mass = every_mass[free]
+    run = ImplicitRun(model, dt=dt, n_frames=n_frames, external_forces=external_forces,
+                      initial_positions=initial_positions,
+                      initial_velocities=initial_velocities, substeps=substeps,
+                      iterations=ITERATIONS, tolerance=tolerance, scheme=scheme,
+                      driven=driven, tool=tool)
+    free, mass, moving = run.free, run.mass, run.moving
     columns = 3 * n_groups
     dx, dv = np.zeros((columns, 3 * n)), np.zeros((columns, 3 * n))
-    positions = np.empty((int(n_frames), n, 3))
-    velocities = np.empty_like(positions)
     derivatives = np.zeros((int(n_frames), columns, n, 3))
-    positions[0], velocities[0] = p, v
-    reactions = d_reactions = touched = d_touched = None
+    d_reactions = d_touched = None
     if moving.driven:
-        reactions = np.zeros((int(n_frames), len(moving.driven), 3))
         d_reactions = np.zeros((int(n_frames), columns, len(moving.driven), 3))
     if tool is not None:
-        touched, d_touched = np.zeros((int(n_frames), 3)), np.zeros((int(n_frames), columns, 3))
-        touched[0] = moving.touch(0, 0.0).force_on_body(p)
+        d_touched = np.zeros((int(n_frames), columns, 3))
     penalty_column = penalty_scale = None
     if tool is not None and isinstance(tool.stiffness, str):    # "auto": κ ∝ the largest E
         penalty_column = int(np.argmax(values[0]))
         penalty_scale = float(values[0][penalty_column])
-    body = BodyForce(model, h)
-    solvers = _Solvers(model, body, h, free, mass)
     parameter_forces = _ParameterForces(model, groups, values)
-    before, changes_before, factor = None, None, None
-    for frame in range(1, int(n_frames)):
-        load = 0.0 if load_rows is None else load_rows[min(frame - 1, len(load_rows) - 1)].ravel()
-        for sub in range(int(substeps)):
-            now, base = _base(scheme, (p, v), before)
-            changes = _base(scheme, (dx, dv), changes_before)[1]
-            before, changes_before = (p, v), (dx, dv)
-            he = SCHEMES[now] * h
-            solver = solvers.of(now)
-            fraction = (sub + 1) / int(substeps)
-            solver.contact = moving.touch(frame, fraction)
-            p, v = _step(body, solver, base, v, he, load, free, mass, ITERATIONS, tolerance,
-                         moving.targets(frame, fraction, rest))
-            state = tangents(model, p, v)
-            stiffness = state.stiffness
-            if solver.contact is not None:
-                contact_stiffness = solver.contact.stiffness_matrix(p)
-                stiffness = stiffness + contact_stiffness
-                pressing = solver.contact.forces(p)              # (n_nodes, 3) on the body
-            stiffness = sp.csr_array(stiffness)
-            inner = stiffness[free][:, free]
-            matrix = (sp.diags(mass) + he * state.damping[free][:, free]
-                      + (he * he) * inner).tocsc()
-            d_force = parameter_forces(p, v)                       # (columns, 3 n)
-            if penalty_column is not None:
-                d_force[penalty_column] += pressing.ravel() / penalty_scale
-            right = (mass * changes[1][:, free] - he * (inner @ changes[0][:, free].T).T
-                     + he * d_force[:, free])
-            dv = np.zeros_like(dv)
-            for c in range(columns):
-                dv[c, free], factor = _solve_step(matrix, right[c], factor)
-            dx = changes[0] + he * dv
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(dx))):
+    changes_before, factor = None, None
+    for step in run.steps():
+        changes = _base(step.scheme, (dx, dv), changes_before)[1]
+        changes_before = (dx, dv)
+        he, p, v = step.h, step.positions, step.velocities
+        state = tangents(model, p, v)
+        stiffness = state.stiffness
+        if step.contact is not None:
+            contact_stiffness = step.contact.stiffness_matrix(p)
+            stiffness = stiffness + contact_stiffness
+            pressing = step.contact.forces(p)                    # (n_nodes, 3) on the body
+        stiffness = sp.csr_array(stiffness)
+        inner = stiffness[free][:, free]
+        matrix = (sp.diags(mass) + he * state.damping[free][:, free]
+                  + (he * he) * inner).tocsc()
+        d_force = parameter_forces(p, v)                           # (columns, 3 n)
+        if penalty_column is not None:
+            d_force[penalty_column] += pressing.ravel() / penalty_scale
+        right = (mass * changes[1][:, free] - he * (inner @ changes[0][:, free].T).T
+                 + he * d_force[:, free])
+        dv = np.zeros_like(dv)
+        for c in range(columns):
+            dv[c, free], factor = _solve_step(matrix, right[c], factor)
+        dx = changes[0] + he * dv
+        if not step.ends_frame:
+            continue
+        frame = step.frame
+        if not np.all(np.isfinite(dx)):
             raise ConvergenceError(f"the implicit step diverged at frame {frame}", key="dt")
-        positions[frame], velocities[frame] = p, v
         derivatives[frame] = dx.reshape(columns, n, 3)
-        if reactions is not None:
-            reactions[frame] = reaction(moving, body, solver.contact, (p, v), base[1], he,
-                                        every_mass, load)
+        if d_reactions is not None:
             balance = (stiffness @ dx.T).T + (state.damping @ dv.T).T - d_force
             d_reactions[frame] = np.stack([moving.reactions(row) for row in balance])
-        if touched is not None:
-            touched[frame] = pressing.sum(axis=0)
+        if d_touched is not None:
             d_touched[frame] = -(contact_stiffness @ dx.T).T.reshape(columns, n, 3).sum(axis=1)
             if penalty_column is not None:
-                d_touched[frame, penalty_column] += touched[frame] / penalty_scale
-    trajectory = Trajectory(positions=positions, velocities=velocities, dt=float(dt),
-                            substeps=int(substeps), final_internal=None, reactions=reactions,
-                            tool_forces=touched)
+                d_touched[frame, penalty_column] += run.touched[frame] / penalty_scale
+    trajectory = run.trajectory()
     if forces:
         return trajectory, derivatives, ForceDerivatives(d_reactions, d_touched)
     return trajectory, derivatives
