@@ -75,10 +75,47 @@ def fit_specimen(specimen: Specimen) -> dict:
 
 def _fit(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..io.load_steps import is_load_steps_file
+    from ..io.paths import is_moved_file
 
     if len(specimen.experiments) == 1 and is_load_steps_file(specimen.experiments[0]):
         return _fit_load_steps(specimen)
+    if any(is_moved_file(path) for path in specimen.experiments):
+        return _fit_moved(specimen)
     return _fit_time_series(specimen)
+
+
+def _fit_moved(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
+    """A specimen whose body a stage moved in time (a plate ramped, a tool pressed): the fit
+    of ``neurofuzzy fit MOVED.npz`` through implicit steps
+    (:func:`neurofuzzy.pipeline.moving.fit_moving_file`) and its report."""
+    from ..errors import InputError
+    from ..io import save_model
+    from ..io.writing import json_safe
+    from ..pipeline.moving import fit_moving_file, moving_fit_report
+    from ..rules import resolve
+
+    options = specimen.options
+    if len(specimen.experiments) != 1:
+        raise InputError("a recording whose body a stage moved is fitted one at a time: give "
+                         "this specimen one experiment file", key="experiments")
+    if options.get("diagnose"):
+        raise InputError("a recording whose body a stage moved has no diagnosis yet: drop "
+                         "diagnose for this specimen", key="diagnose")
+    substeps = options.get("substeps", "auto")
+    substeps = 1 if substeps in (None, "auto") else int(substeps)
+    rules = resolve(specimen.rules) if specimen.rules else None
+    outcome = fit_moving_file(specimen.experiments[0], start=specimen.start, rules=rules,
+                              tissue=specimen.tissue, law=options.get("law"),
+                              substeps=substeps)
+    fit = dict(outcome.record)
+    with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
+        folder = Path(folder)
+        save_model(outcome.result.model, folder / "fitted.yaml")
+        moving_fit_report(outcome, folder / "report.html", substeps=substeps,
+                          title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})")
+        files = {name: (folder / name).read_bytes() for name in OUTPUT_FILES
+                 if (folder / name).exists()}
+    return json_safe(fit), files
 
 
 def _fit_load_steps(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:

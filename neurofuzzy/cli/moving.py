@@ -22,7 +22,7 @@ UNUSED = ("validate_on", "target", "dt", "reference_noise")
 def fit_moved(args) -> int:
     """``fit`` of one experiment file with driven sets or a tool."""
     from ..io import save_model
-    from ..pipeline.moving import fit_moving_file
+    from ..pipeline.moving import fit_moving_file, moving_fit_report
     from .common import rule_base_for
 
     if len(args.experiments) != 1:
@@ -49,7 +49,7 @@ def fit_moved(args) -> int:
         if out:
             save_model(outcome.result.model, out)
         if report:
-            _report(outcome, substeps, report)
+            moving_fit_report(outcome, report, substeps=substeps)
     if args.json:
         print_json(record)
         return 0
@@ -79,21 +79,6 @@ def fit_moved(args) -> int:
         print(f"  note: {note}")
     written(args.out, args.report)
     return 0
-
-
-def _report(outcome, substeps: int, path) -> None:
-    """The report of a fit through implicit steps: the fitted model run as it was fitted."""
-    from ..report.moving import moving_report
-    from ..simulation.implicit import simulate_implicit
-
-    data, fit, record = outcome.data, outcome.result, outcome.record
-    run = simulate_implicit(fit.model, dt=data.dt, n_frames=data.n_frames,
-                            external_forces=data.external_forces,
-                            initial_positions=data.initial_positions(), substeps=substeps,
-                            iterations=50, tolerance=1e-11, scheme=record["scheme"],
-                            driven=data.driven, tool=data.tool)
-    labels = next(iter(record["materials"].values()), {}).get("labels", {})
-    moving_report(outcome.start, fit, data, run, path, labels=labels, notes=record["notes"])
 
 
 def check_moving_options(args) -> None:

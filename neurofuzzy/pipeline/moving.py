@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import InputError
 from .load_steps import LoadStepOutcome, load_step_start
 
-__all__ = ["fit_moving_file", "AUTO_TETRAHEDRA", "SCHEME"]
+__all__ = ["fit_moving_file", "moving_fit_report", "AUTO_TETRAHEDRA", "SCHEME"]
 
 #: ``mesh_check="auto"`` refits on the refined mesh where it has at most this many
 #: tetrahedra: a fit through implicit steps costs a run with its derivatives per evaluation
@@ -83,6 +83,26 @@ def fit_moving_file(path: str | os.PathLike, *, start=None, rules=None,
               "mesh_check": _check_record(result.mesh_check), "mesh_check_skipped": skipped,
               "materials": found, "notes": notes}
     return LoadStepOutcome(model, experiment, result, record, rules)
+
+
+def moving_fit_report(outcome: LoadStepOutcome, path, *, substeps: int = 1,
+                      title: str | None = None):
+    """Write the report of :func:`fit_moving_file`'s ``outcome`` to ``path`` (HTML, and its
+    JSON twin): the fitted model run through the recording as it was fitted (its steps,
+    solved), drawn against the measurement (:func:`~neurofuzzy.report.moving.moving_report`).
+    """
+    from ..report.moving import moving_report
+    from ..simulation.implicit import simulate_implicit
+
+    data, fit, record = outcome.data, outcome.result, outcome.record
+    run = simulate_implicit(fit.model, dt=data.dt, n_frames=data.n_frames,
+                            external_forces=data.external_forces,
+                            initial_positions=data.initial_positions(), substeps=substeps,
+                            iterations=50, tolerance=1e-11, scheme=record["scheme"],
+                            driven=data.driven, tool=data.tool)
+    labels = next(iter(record["materials"].values()), {}).get("labels", {})
+    return moving_report(outcome.start, fit, data, run, path, labels=labels,
+                         notes=record["notes"], **({} if title is None else {"title": title}))
 
 
 def _check_record(check: dict | None) -> dict | None:
