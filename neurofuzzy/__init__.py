@@ -28,7 +28,7 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
 - diagnosis: :func:`diagnose` (:class:`Diagnosis`), of load steps
-  :func:`diagnose_load_steps`
+  :func:`diagnose_load_steps`, of a plate or tool moved in time :func:`diagnose_moving`
 - many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
   :func:`cohort_report`
 - output: :func:`fit_report`, :func:`diagnosis_report`, :func:`load_steps_report`,
@@ -64,6 +64,7 @@ _EXPORTS = {
     "LoadSteps": "load_steps", "DrivenPath": "load_steps",
     "simulate_load_steps": "load_steps", "load_load_steps": "io", "save_load_steps": "io",
     "fit_load_steps": "learn.load_step_fit", "diagnose_load_steps": "diagnosis.load_steps",
+    "diagnose_moving": "diagnosis.moving",
     "load_step_mesh_check": "learn.load_step_mesh_check",
     "load_steps_report": "report.load_steps",
     "reference_simulate": "validation.integrators",
@@ -132,6 +133,7 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .learn.load_step_fit import fit_load_steps  # noqa: F401
     from .learn.load_step_mesh_check import with_mesh_check as load_step_mesh_check  # noqa
     from .diagnosis.load_steps import diagnose_load_steps  # noqa: F401
+    from .diagnosis.moving import diagnose_moving  # noqa: F401
     from .report.load_steps import load_steps_report  # noqa: F401
 
 from .version import __version__  # noqa: E402, F401  (the package's version, public)

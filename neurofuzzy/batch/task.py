@@ -98,9 +98,6 @@ def _fit_moved(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     if len(specimen.experiments) != 1:
         raise InputError("a recording whose body a stage moved is fitted one at a time: give "
                          "this specimen one experiment file", key="experiments")
-    if options.get("diagnose"):
-        raise InputError("a recording whose body a stage moved has no diagnosis yet: drop "
-                         "diagnose for this specimen", key="diagnose")
     substeps = options.get("substeps", "auto")
     substeps = 1 if substeps in (None, "auto") else int(substeps)
     rules = resolve(specimen.rules) if specimen.rules else None
@@ -113,6 +110,13 @@ def _fit_moved(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
         save_model(outcome.result.model, folder / "fitted.yaml")
         moving_fit_report(outcome, folder / "report.html", substeps=substeps,
                           title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})")
+        if options.get("diagnose"):
+            from ..diagnosis.moving import diagnose_moving
+
+            diagnosis = diagnose_moving(outcome.start, outcome.data, substeps=substeps)
+            fit["diagnosis"] = {"effects": diagnosis.names,
+                                "rms_before": diagnosis.before.rms_error,
+                                "rms_after": diagnosis.after.rms_error}
         files = {name: (folder / name).read_bytes() for name in OUTPUT_FILES
                  if (folder / name).exists()}
     return json_safe(fit), files

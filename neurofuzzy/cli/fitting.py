@@ -199,10 +199,14 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
 
 def diagnose(args) -> int:
     from ..io.load_steps import is_load_steps_file
+    from ..io.paths import is_moved_file
+    from .moving import diagnose_moved
     from .steps import diagnose_load_steps
 
     if is_load_steps_file(args.experiments[0]):
         return diagnose_load_steps(args)
+    if is_moved_file(args.experiments[0]):
+        return diagnose_moved(args)
     from ..diagnosis import diagnose as run_diagnosis
     from ..diagnosis.window import check_window
     from ..errors import InputError

@@ -1,7 +1,8 @@
 """Recordings in time whose body a stage moved: ``import MARKERS.csv --displacements
 PLATE.csv`` (or ``--tool sphere:R=5mm --tool-path TOOL.csv``) with a ``time`` column
 (:func:`moved_in_time`), and their ``fit`` through implicit steps
-(:func:`~neurofuzzy.pipeline.moving.fit_moving_file`)."""
+(:func:`~neurofuzzy.pipeline.moving.fit_moving_file`) and ``diagnose``
+(:func:`~neurofuzzy.diagnosis.moving.diagnose_moving`)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from .common import Outputs, mesh_check_option, print_json, written
 
-__all__ = ["fit_moved", "check_moving_options", "moved_in_time"]
+__all__ = ["fit_moved", "diagnose_moved", "check_moving_options", "moved_in_time"]
 
 #: ``fit`` options of the time-series fit that a fit through implicit steps has no use for
 UNUSED = ("validate_on", "target", "dt", "reference_noise")
@@ -78,6 +79,43 @@ def fit_moved(args) -> int:
     for note in record["notes"]:
         print(f"  note: {note}")
     written(args.out, args.report)
+    return 0
+
+
+def diagnose_moved(args) -> int:
+    """``diagnose`` of one experiment file with driven sets or a tool: plate slip or bonding,
+    the law, each refitted through implicit steps."""
+    from ..diagnosis.moving import diagnose_moving
+    from ..io import load_experiment, save_model
+    from ..pipeline.load_steps import load_step_start
+    from .common import rule_base_for
+
+    if len(args.experiments) != 1:
+        raise InputError("takes one recording of a plate or tool at a time",
+                         key="EXPERIMENT.npz")
+    if args.report:
+        raise InputError("a report of a diagnosis in time is not written yet; use --json, or "
+                         "fit --report", key="--report")
+    substeps = 1 if args.substeps in (None, "auto") else int(args.substeps)
+    if substeps < 1:
+        raise InputError(f"got {args.substeps}; expected a positive integer", key="--substeps")
+    source = Path(args.experiments[0])
+    with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
+        out = outputs.file(args.out, "--out")
+        data = load_experiment(source)
+        model = load_step_start(data, start=args.start,
+                                rules=rule_base_for(args.rules, args.tissue),
+                                tissue=args.tissue, law=getattr(args, "law", None))
+        say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
+        result = diagnose_moving(model, data, substeps=substeps,
+                                 max_effects=args.max_effects, progress=say)
+        if out:
+            save_model(result.after.model, out)
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(result.summary())
+        written(args.out)
     return 0
 
 
