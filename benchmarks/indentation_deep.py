@@ -4,6 +4,7 @@ an independent solver, and what our fit recovers from it.
     python benchmarks/indentation_deep.py [--cells 8 10 12] [--nu 0.45]   # about 25 min
     python benchmarks/indentation_deep.py --record --reference-cells 6 8   # sfepy, slow
     python benchmarks/indentation_deep.py --record --nu 0.49 --mixed      # ν ≥ 0.49
+    python benchmarks/indentation_deep.py --record --nu 0.499 --mixed --increments 8
     python benchmarks/indentation_deep.py --check-mixed 6      # the mixed form at ν 0.45
 
 The experiment: a 4 × 4 × 2 cm block of neo-Hookean tissue (E 6 kPa) bonded to a rigid base,
@@ -90,7 +91,8 @@ def record(cells, nu, penalty=PENALTY, increments=4, mixed=False):
                         displacements=fine.displacements,
                         displacements_coarse=coarse.displacements,
                         cells=np.array([run["cells"] for run in runs]),
-                        penetration=fine.penetration,
+                        penetration=fine.penetration, increments=increments,
+                        seconds=np.array([run["seconds"] for run in runs]),
                         formulation="mixed" if mixed else "displacement")
     print(f"wrote {out}")
 
@@ -168,6 +170,9 @@ def main(argv=None):
     parser.add_argument("--nu", type=float, default=0.45)
     parser.add_argument("--mixed", action="store_true",
                         help="record with displacement and pressure (nearly incompressible)")
+    parser.add_argument("--increments", type=int, default=4,
+                        help="load increments a step in the recording (more where Newton's "
+                             "method stalls: 8 at nu 0.499)")
     parser.add_argument("--cells", type=int, nargs="+", default=[8, 10, 12])
     parser.add_argument("--check-mixed", type=int, metavar="CELLS",
                         help="the mixed form at nu 0.45 against the recording")
@@ -179,7 +184,7 @@ def main(argv=None):
         out.write_text(json.dumps(kept, indent=1) + "\n")
         return
     if args.record:
-        record(args.reference_cells, args.nu, mixed=args.mixed)
+        record(args.reference_cells, args.nu, increments=args.increments, mixed=args.mixed)
         return
     results = []
     for cells in args.cells:

@@ -335,17 +335,18 @@ def test_a_deep_press_in_one_increment_is_cut_back_to_the_same_equilibrium():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("nu, low", [(0.45, 0.08), (0.49, 0.11)])
+@pytest.mark.parametrize("nu, low", [(0.45, 0.08), (0.49, 0.11), (0.499, 0.13)])
 def test_a_deep_indentation_by_another_solver_is_fitted_with_the_mesh_s_bias_shown(nu, low):
     """Issue 46 on data nobody here computed (``tests/data/indentation_nu<ν>.npz``: sfepy's
     quadratic tetrahedra and contact term, a sphere of radius 1 cm pressed 5 to 20 % into a
-    2 cm block, E 6 kPa, ν 0.45, and 0.49 in sfepy's mixed form;
+    2 cm block, E 6 kPa, ν 0.45, and 0.49 and 0.499 in sfepy's mixed form;
     ``benchmarks/indentation_deep.py``), fitted on a coarse quarter of 1,296 linear
     tetrahedra: stiffer than the tissue, so E comes out low (within 8 % at ν 0.45, 11 % at
-    0.49: the stiffer the closer to incompressible), ν within 0.06, and the markers' residual
+    0.49, 13 % at 0.499: the stiffer the closer to incompressible), ν within 0.06, and the
+    markers' residual
     shows the mesh's error above their noise; the held-out deepest step's force is still
     predicted within 3 × its noise. (On 6,000 tetrahedra the benchmark meets the issue's 5 %
-    and 0.03 at both.)"""
+    and 0.03 at all three.)"""
     from pathlib import Path
 
     from neurofuzzy.learn.load_step_fit import fit_load_steps
