@@ -135,6 +135,51 @@ def test_bad_indentation_input_is_refused_with_exit_2_and_nothing_written(lab, t
     assert not out.exists()
 
 
+def _force_file(lab, folder, rows=None, units="# force units: mN"):
+    """``folder / force.csv``: the load cell of ``lab / tool.csv`` in a file of its own
+    (``step,fx,fy,fz``), its ``rows`` (default: all of steps 0..3)."""
+    lines = (lab / "tool.csv").read_text().splitlines()[3:]
+    chosen = [line.split(",") for line in lines]
+    chosen = [row for row in chosen if rows is None or int(row[0]) in rows]
+    text = [units, "step,fx,fy,fz"] + [",".join([row[0], *row[4:7]]) for row in chosen]
+    (folder / "force.csv").write_text("\n".join(line for line in text if line) + "\n")
+    return folder / "force.csv"
+
+
+def test_a_tool_s_load_cell_in_a_file_of_its_own_is_read_as_the_path_s(lab, tmp_path):
+    """``--tool-force FORCE.csv`` (``step,fx,fy,fz``, its units line) beside a path with no
+    force gives the load-step file the same load cell as the path's own columns; given twice,
+    missing a step, without a unit or beside a plate, it is refused (exit 2, nothing
+    written)."""
+    from neurofuzzy.io.load_steps import load_load_steps
+
+    inline, separate = tmp_path / "inline.npz", tmp_path / "separate.npz"
+    assert _import(lab, "tool.csv", inline).returncode == 0
+    force = _force_file(lab, tmp_path)
+    done = _import(lab, "tool-no-force.csv", separate, "--tool-force", force)
+    assert done.returncode == 0, done.stderr
+    assert "with the load cell's force" in done.stdout
+    np.testing.assert_allclose(load_load_steps(separate).reaction,
+                               load_load_steps(inline).reaction, rtol=1e-12)
+    out = tmp_path / "refused.npz"
+    for extra, words in (
+            (("--tool-force", force), "keep one load cell"),
+            (("--tool-force", _force_file(lab, tmp_path, rows=(0, 1, 3))),
+             "has no row for step(s) [2]")):
+        tool = "tool.csv" if words == "keep one load cell" else "tool-no-force.csv"
+        result = _import(lab, tool, out, *extra)
+        assert result.returncode == 2 and words in result.stderr, result.stderr
+        assert "Traceback" not in result.stderr and not out.exists()
+    result = _import(lab, "tool-no-force.csv", out, "--tool-force",
+                     _force_file(lab, tmp_path, units=""))
+    assert result.returncode == 2 and "force units" in result.stderr
+    result = cli("import", lab / "scans.csv", "--topology", lab / "model.yaml",
+                 "--displacements", lab / "tool-no-force.csv", "--tool-force", force,
+                 "--out", out)
+    assert result.returncode == 2 and "--tool-force" in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr and not out.exists()
+
+
 def test_a_tracked_punch_s_attitude_is_read_and_kept(lab, tmp_path):
     """A tool path with a tracker's attitude (``qw,qx,qy,qz``, scalar first, here not quite
     unit): the load-step file keeps the normalised quaternions, and the punch's axis turns

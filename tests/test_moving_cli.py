@@ -193,6 +193,45 @@ def test_bad_tool_options_in_time_are_refused(pressed, tmp_path, options, words)
     assert not out.exists()
 
 
+def test_a_tool_s_load_cell_in_time_in_a_file_of_its_own(pressed, tmp_path):
+    """``--tool-force FORCE.csv`` in time (``time,fx,fy,fz``, sampled at twice the frames'
+    rate, from 1 ms before the first frame): read at the frames as the path's own columns
+    are; a file that ends before the last frame, or the option without a tool, is refused."""
+    from neurofuzzy.io import load_experiment
+
+    rows = [line.split(",") for line in (pressed / "tool.csv").read_text().splitlines()[3:]]
+    times = np.array([float(row[0]) for row in rows])
+    force = np.array([[float(v) for v in row[4:7]] for row in rows])
+    fine = np.arange(-0.001, times[-1] + 1e-9, DT / 2)
+    samples = np.stack([np.interp(fine, times, force[:, k]) for k in range(3)], axis=1)
+    lines = ["# force units: mN", "time,fx,fy,fz"] + [
+        f"{t:.4f}," + ",".join(f"{f:.6f}" for f in values) for t, values in zip(fine, samples)]
+    (tmp_path / "force.csv").write_text("\n".join(lines) + "\n")
+    path = tmp_path / "path.csv"
+    path.write_text("\n".join(["# length units: mm", "time,x,y,z"]
+                              + [",".join(row[:4]) for row in rows]) + "\n")
+    made = {}
+    for name, options in (("inline", ["--tool-path", pressed / "tool.csv"]),
+                          ("separate", ["--tool-path", path, "--tool-force",
+                                        tmp_path / "force.csv"])):
+        made[name] = tmp_path / f"{name}.npz"
+        done = cli("import", pressed / "beads.csv", "--topology", pressed / "model.yaml",
+                   "--tool", "sphere:R=5mm", *options, "--out", made[name])
+        assert done.returncode == 0, done.stderr
+    np.testing.assert_allclose(load_experiment(made["separate"]).reaction,
+                               load_experiment(made["inline"]).reaction, atol=1e-9)
+    (tmp_path / "short.csv").write_text("\n".join(lines[:-4]) + "\n")
+    out = tmp_path / "refused.npz"
+    for options, words in (
+            (["--tool", "sphere:R=5mm", "--tool-path", path, "--tool-force",
+              tmp_path / "short.csv"], "needed at every frame"),
+            (["--tool-force", tmp_path / "force.csv"], "give the tool too")):
+        done = cli("import", pressed / "beads.csv", "--topology", pressed / "model.yaml",
+                   *options, "--out", out)
+        assert done.returncode == 2 and words in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr and not out.exists()
+
+
 @pytest.mark.slow
 def test_fit_many_fits_and_diagnoses_a_ramped_plate_through_implicit_steps(lab, tmp_path):
     """A cohort with a plate ramped in time: fit-many's task fits it as ``fit`` does

@@ -103,7 +103,7 @@ def mesh(args) -> int:
         bounds = None if read.surface_bounds is None else read.surface_bounds * args.scale
         mesh = lattice_to_tetra(mesh, bounds=bounds)
     if args.fix_bottom:
-        from .steps import axis_of
+        from .tools import axis_of
 
         index, sign = axis_of(args.up)
         z = sign * mesh.rest_positions[:, index]
@@ -217,7 +217,8 @@ def import_markers(args) -> int:
     from ..markers.steps import has_step_column
     from ..plausibility import check_body_size, check_length_option, check_recording
     from .moving import check_moving_options, moved_in_time
-    from .steps import import_load_steps, surface_file
+    from .steps import import_load_steps
+    from .tools import surface_file
 
     if args.markers is None and (args.displacements or args.tool_path):
         return import_load_steps(args)
@@ -229,7 +230,7 @@ def import_markers(args) -> int:
         return import_load_steps(args)
     check_moving_options(args)
     inputs = [Path(p) for p in (args.markers, args.topology, args.map, args.forces,
-                                args.displacements, args.tool_path,
+                                args.displacements, args.tool_path, args.tool_force,
                                 args.tool and surface_file(args.tool)) if p]
     positive(args.dt, "--dt")
     positive(args.max_distance, "--max-distance")

@@ -127,6 +127,9 @@ def check_moving_options(args) -> None:
         raise InputError("drives nodes at load steps, which go with scans at load steps (a "
                          "marker CSV with a 'step' column); this recording is in time",
                          source=str(args.markers), key="--drive-markers")
+    if args.tool_force and not args.tool:
+        raise InputError("is a tool's load cell: give the tool too (--tool KIND:R=RADIUS "
+                         "--tool-path PATH.csv)", key="--tool-force")
     if bool(args.tool) != bool(args.tool_path):
         missing = "--tool-path" if args.tool else "--tool"
         raise InputError(f"a tool needs both --tool KIND:R=RADIUS and --tool-path PATH.csv; "
@@ -145,7 +148,8 @@ def moved_in_time(args, experiment, summary):
     times), with its load cell's force, if any."""
     from ..markers.timed import read_plate_in_time, read_tool_in_time
     from ..paths import DrivenPath, ToolPath
-    from .steps import tool_option, top_face
+    from .steps import top_face
+    from .tools import tool_option
 
     mesh = experiment.mesh
     if mesh.tetrahedra is None:
@@ -156,6 +160,14 @@ def moved_in_time(args, experiment, summary):
     if args.tool:
         tool = tool_option(args.tool, args.up)
         positions, force, turns = read_tool_in_time(args.tool_path, times, units=args.units)
+        if args.tool_force:
+            from ..markers.tool_force import read_tool_force
+
+            if force is not None:
+                raise InputError("gives the tool's force in its fx, fy, fz columns and "
+                                 "--tool-force gives it again: keep one load cell",
+                                 source=str(args.tool_path), key="--tool-force")
+            force = read_tool_force(args.tool_force, times=times)
         name = args.tool.partition(":")[0]
         summary.update(moved_by=f"the {name}", load_cell=force is not None)
         return experiment.replace(tool=ToolPath(tool, positions, name=name,

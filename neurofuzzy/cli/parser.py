@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import batch, data, fitting, misc, steps, studio
+from . import batch, data, fitting, misc, studio, tools
 from .common import usage
 from .parser_import import FORMAT_DOC, add_import
 from ..forces.laws import LAWS
@@ -303,7 +303,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the highest nodes (along --up, within a quarter of the shortest "
                            "spring of the maximum) are a plate's face, moved by the stage in "
                            "a load-step test ('import --displacements PLATE.csv' drives them)")
-    mesh.add_argument("--up", default="z", choices=steps.AXES,
+    mesh.add_argument("--up", default="z", choices=tools.AXES,
                       help="the axis pointing up, for --fix-bottom and --drive-top (default "
                            "z): scans whose up is not +z")
     mesh.add_argument("--elements", choices=("tetra", "springs"), default="tetra",

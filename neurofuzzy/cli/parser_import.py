@@ -4,7 +4,7 @@ path."""
 
 from __future__ import annotations
 
-from .steps import AXES
+from .tools import AXES
 
 #: where the experiment file (.npz) is documented in the repository
 FORMAT_DOC = "the format: docs/formats.md, section 'Experiment files'"
@@ -96,6 +96,12 @@ def add_import(commands, *, run) -> None:
                                "C3D recording of markers fixed to the tool (with "
                                "--tool-frames and --tool-tip); the body is held by the model's "
                                "fixed nodes")
+    importer.add_argument("--tool-force", metavar="FORCE.csv",
+                          help="with --tool: the tool's load cell in a file of its own, "
+                               "step,fx,fy,fz (or time,fx,fy,fz for a recording in time) with a "
+                               "'# force units:' line: the force the tool exerts on the body, "
+                               "where the path comes from elsewhere (a tracker's C3D, a robot's "
+                               "log)")
     importer.add_argument("--tool-frames", metavar="F0,F1,...",
                           help="with --tool-path TOOL.c3d (a tracked rigid body: the markers "
                                "fixed to the tool): the recording's frame (0 its first) at the "
