@@ -334,6 +334,27 @@ def test_a_deep_press_in_one_increment_is_cut_back_to_the_same_equilibrium():
     assert found[1].contact_force[2] < 0
 
 
+def test_a_deep_press_that_stalls_st_venant_kirchhoff_says_so_where_neo_hookean_converges():
+    """A sphere of radius 1 cm pressed 3 mm (15 %) into a 2 cm block: the neo-Hookean body's
+    equilibrium is found; the St. Venant–Kirchhoff body, which softens under strong
+    compression, stalls, and the message names the law beside the increments."""
+    from neurofuzzy.simulation.static import ConvergenceError
+
+    top = np.array([0.0, 0.0, H])
+    for law in ("neo-hookean", "st-venant-kirchhoff"):
+        model, planes = _quarter(4, 0.3)
+        model = model.with_elements(law=law)
+        contact = contact_with(model, Sphere(0.01), top + (0, 0, 0.01 - 3e-3))
+        if law == "neo-hookean":
+            found = equilibrium(model, driven=planes, contact=contact,
+                                tool_start=top + (0, 0, 0.01))
+            assert found.contact_force[2] < 0
+            continue
+        with pytest.raises(ConvergenceError, match="more increments; or another law: St. "
+                           "Venant–Kirchhoff softens under strong compression"):
+            equilibrium(model, driven=planes, contact=contact, tool_start=top + (0, 0, 0.01))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("nu, low", [(0.45, 0.08), (0.49, 0.11), (0.499, 0.13)])
 def test_a_deep_indentation_by_another_solver_is_fitted_with_the_mesh_s_bias_shown(nu, low):

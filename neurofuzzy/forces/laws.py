@@ -94,6 +94,8 @@ class Law:
         tell apart from the others).
     febio : callable
         ``(E, ν, c) -> (type, parameters)``: FEBio's material and its parameters' XML.
+    stall : str
+        What a static solve that stalls says of a body of this law (:func:`stall_note`).
     """
 
     name: str
@@ -104,12 +106,16 @@ class Law:
     switch: bool = True
     febio: Callable = field(default=lambda E, nu, c: ("isotropic elastic",
                                                      _elastic_moduli(E, nu, c)))
+    stall: str = ""
 
 
 #: The laws in the order of their numbers (``model.elements.law``, the kernels' numbers).
 LAW_RECORDS = (
+    # measured: a sphere of radius 1 cm pressed 3 mm into a 2 cm block, 6 cells a side
     Law("st-venant-kirchhoff", "SVK; softens beyond about 30 % compression",
-        aliases=("svk", "stvk")),
+        aliases=("svk", "stvk"), stall="St. Venant–Kirchhoff softens under strong "
+        "compression, and a deep press often stalls it where a neo-Hookean body converges "
+        "(--law neo-hookean)"),
     Law("neo-hookean", "stiffens as it is squeezed", aliases=("neohookean", "nh"),
         febio=lambda E, nu, c: ("neo-Hookean", _elastic_moduli(E, nu, c))),
     # C10 = μ/2, C20 = c C10
@@ -140,6 +146,14 @@ STIFFENING_CONSTANT = {number: law.constant for number, law in enumerate(LAW_REC
 #: The laws whose constant is a quantity of the rule base's words: quantity → law number.
 LAW_OF_QUANTITY = {law.quantity: number for number, law in enumerate(LAW_RECORDS)
                    if law.quantity}
+
+
+def stall_note(elements) -> str:
+    """What a stalled static solve adds for the laws of ``elements`` (an ``Elements`` or
+    None): each law's :attr:`Law.stall`, as another thing to try."""
+    used = set() if elements is None else set(np.unique(np.asarray(elements.law)).tolist())
+    return "".join(f"; or another law: {record.stall}" for k, record in enumerate(LAW_RECORDS)
+                   if k in used and record.stall)
 
 
 def stiffens(law) -> np.ndarray:

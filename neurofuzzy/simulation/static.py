@@ -46,6 +46,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..forces.laws import stall_note
 from ..model import Model
 from .tangents import tangents
 
@@ -293,7 +294,8 @@ def equilibrium(model: Model, *, driven: Driven | Sequence[Driven] = (),
                     f"no equilibrium after {max_iterations} Newton iterations at "
                     f"{100 * fraction:.3g} % of the way (out-of-balance force "
                     f"{float(why.args[0]):.3g} N), even in increments of {100 * smallest:.2g} %: "
-                    "apply the displacements in more increments", key="increments") from None
+                    "apply the displacements in more increments" + stall_note(model.elements),
+                    key="increments") from None
             p[:] = saved
             pending.append(done + 0.5 * (fraction - done))
             continue
