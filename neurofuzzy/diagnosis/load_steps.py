@@ -29,7 +29,7 @@ import numpy as np
 from ..forces.laws import LAW_RECORDS, LAWS
 from ..learn.load_step_fit import fit_load_steps
 
-__all__ = ["LoadStepDiagnosis", "diagnose_load_steps", "THRESHOLD"]
+__all__ = ["LoadStepDiagnosis", "diagnose_load_steps", "name_effects", "THRESHOLD"]
 
 #: the fall of χ² a candidate must bring to be named (no candidate adds a parameter)
 THRESHOLD = 10.0
@@ -118,18 +118,32 @@ def diagnose_load_steps(model, data, *, validate_on=(), max_effects: int = 2,
     say("diagnosis of load steps: the base fit")
     base = fit_load_steps(model, data, validate_on=validate_on)
     sigma_m, sigma_f = base.marker_noise_, base.force_noise_
-    best, best_data, best_chi2 = base, data, _chi2(base, data, sigma_m, sigma_f)
+    names, best, best_data, scores = name_effects(
+        base, data, lambda fit: fit.model_,
+        lambda candidate, candidate_data: fit_load_steps(
+            candidate, candidate_data, validate_on=validate_on, marker_noise=sigma_m,
+            force_noise=sigma_f),
+        lambda fit, fitted: _chi2(fit, fitted, sigma_m, sigma_f), max_effects, say)
+    return LoadStepDiagnosis(names, base, best, best_data, scores)
+
+
+def name_effects(base, data, model_of, refit, chi2, max_effects: int, say):
+    """The rounds of a diagnosis of the set-up (module docstring), for load steps and for
+    recordings moved in time alike: ``(names or ["none"], the best fit, its data, every
+    candidate's χ² fall)``, from the ``base`` fit of ``data``; ``model_of(fit)`` is a fit's
+    model, ``refit(model, data)`` fits a candidate, ``chi2(fit, data)`` its misfit with the
+    base fit's noise."""
+    best, best_data, best_chi2 = base, data, chi2(base, data)
     names, scores, tried = [], {}, set()
     for _ in range(max_effects):
         round_best = None
-        for name, candidate, candidate_data in _candidates(best.model_, best_data):
+        for name, candidate, candidate_data in _candidates(model_of(best), best_data):
             kind = name.split(" ")[0]
             if kind in tried:
                 continue
             say(f"  refitting with {name}")
-            fit = fit_load_steps(candidate, candidate_data, validate_on=validate_on,
-                                 marker_noise=sigma_m, force_noise=sigma_f)
-            fall = best_chi2 - _chi2(fit, candidate_data, sigma_m, sigma_f)
+            fit = refit(candidate, candidate_data)
+            fall = best_chi2 - chi2(fit, candidate_data)
             scores[name] = round(float(fall), 3)
             if fall > THRESHOLD and (round_best is None or fall > round_best[0]):
                 round_best = (fall, name, fit, candidate_data)
@@ -139,4 +153,4 @@ def diagnose_load_steps(model, data, *, validate_on=(), max_effects: int = 2,
         best_chi2 -= fall
         names.append(name)
         tried.add(name.split(" ")[0])
-    return LoadStepDiagnosis(names or ["none"], base, best, best_data, scores)
+    return names or ["none"], best, best_data, scores

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..learn.implicit_fit import fit_implicit
-from .load_steps import THRESHOLD, _candidates, _law
+from .load_steps import THRESHOLD, _law, name_effects
 
 __all__ = ["MovingDiagnosis", "diagnose_moving"]
 
@@ -93,26 +93,9 @@ def diagnose_moving(model, experiment, *, substeps: int = 1, max_effects: int = 
     base = refit(model, experiment)
     sigma_m = base.marker_noise or max(base.rms_error / np.sqrt(3.0), 1e-300)
     sigma_f = base.force_noise
-    noise = {"marker_noise": sigma_m, "force_noise": sigma_f}
-    best, best_data = base, experiment
-    best_chi2 = _chi2(base, experiment, sigma_m, sigma_f)
-    names, scores, tried = [], {}, set()
-    for _ in range(max_effects):
-        round_best = None
-        for name, candidate, candidate_data in _candidates(best.model, best_data):
-            kind = name.split(" ")[0]
-            if kind in tried:
-                continue
-            say(f"  refitting with {name}")
-            fit = refit(candidate, candidate_data, **noise)
-            fall = best_chi2 - _chi2(fit, candidate_data, sigma_m, sigma_f)
-            scores[name] = round(float(fall), 3)
-            if fall > THRESHOLD and (round_best is None or fall > round_best[0]):
-                round_best = (fall, name, fit, candidate_data)
-        if round_best is None:
-            break
-        fall, name, best, best_data = round_best
-        best_chi2 -= fall
-        names.append(name)
-        tried.add(name.split(" ")[0])
-    return MovingDiagnosis(names or ["none"], base, best, best_data, scores)
+    names, best, best_data, scores = name_effects(
+        base, experiment, lambda fit: fit.model,
+        lambda candidate, data: refit(candidate, data, marker_noise=sigma_m,
+                                      force_noise=sigma_f),
+        lambda fit, data: _chi2(fit, data, sigma_m, sigma_f), max_effects, say)
+    return MovingDiagnosis(names, base, best, best_data, scores)
