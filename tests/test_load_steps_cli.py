@@ -203,6 +203,19 @@ def test_import_drive_markers_drives_their_nodes(lab, tmp_path):
     assert not (tmp_path / "x.npz").exists()
 
 
+def test_the_time_series_diagnosis_options_are_refused_for_load_steps(lab, tmp_path):
+    """``--localise``, ``--max-time`` and ``--window`` belong to the diagnosis of time series:
+    given for a load-step file, each is refused by name (exit 2, nothing written), not
+    ignored."""
+    steps = tmp_path / "steps.npz"
+    assert _import(lab, "plate.csv", steps).returncode == 0
+    out = tmp_path / "diagnosed.yaml"
+    for option in (["--localise"], ["--max-time", "5"], ["--window", "all"]):
+        done = cli("diagnose", steps, "--start", lab / "model.yaml", *option, "--out", out)
+        assert done.returncode == 2 and option[0] in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr and not out.exists()
+
+
 @pytest.mark.slow
 def test_diagnose_a_load_step_file(lab, tmp_path):
     """The gel is neo-Hookean, the model file St. Venant–Kirchhoff: at 18 % the diagnosis

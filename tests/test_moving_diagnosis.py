@@ -72,7 +72,7 @@ def test_a_slid_plate_and_the_law_are_named_and_the_fit_then_recovers_the_gel():
 def test_the_command_names_nothing_where_the_model_has_what_the_data_need(tmp_path):
     """Bonded neo-Hookean data and a bonded neo-Hookean start: ``diagnose`` answers
     ``none`` (each candidate raises χ²), keeps the fit, and writes the model asked for; a
-    report is refused by name, nothing written."""
+    report and the time-series diagnosis's options are refused by name, nothing written."""
     truth, data = _ramp("xyz", "neo-hookean")
     save_experiment(data, tmp_path / "ramp.npz")
     save_model(truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0),
@@ -85,7 +85,10 @@ def test_the_command_names_nothing_where_the_model_has_what_the_data_need(tmp_pa
     assert all(fall < 0 for fall in answer["candidates"].values())
     assert answer["youngs_modulus"] == pytest.approx(6000.0, rel=0.02)
     assert (tmp_path / "fitted.yaml").is_file()
-    refused = cli("diagnose", tmp_path / "ramp.npz", "--start", tmp_path / "model.yaml",
-                  "--report", tmp_path / "r.html")
-    assert refused.returncode == 2 and "--report" in refused.stderr
-    assert "Traceback" not in refused.stderr and not (tmp_path / "r.html").exists()
+    for option in (["--report", tmp_path / "r.html"], ["--localise"], ["--max-time", "5"],
+                   ["--window", "10"]):
+        refused = cli("diagnose", tmp_path / "ramp.npz", "--start", tmp_path / "model.yaml",
+                      *option, "--out", tmp_path / "again.yaml")
+        assert refused.returncode == 2 and option[0] in refused.stderr, refused.stderr
+        assert "Traceback" not in refused.stderr and not (tmp_path / "r.html").exists()
+        assert not (tmp_path / "again.yaml").exists()

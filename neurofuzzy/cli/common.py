@@ -118,6 +118,16 @@ def mesh_check_option(args) -> bool | str:
     return "refit" if args.mesh_check_refit else "step" if args.mesh_check else "auto"
 
 
+def only_time_series_diagnosis(args, what: str) -> None:
+    """Refuse the options of the time series' diagnosis (``--localise``, ``--max-time``,
+    ``--window``) for a diagnosis of ``what`` that has no use for them."""
+    for option, given in (("--localise", args.localise), ("--max-time", args.max_time),
+                          ("--window", args.window not in (None, "auto"))):
+        if given:
+            raise InputError(f"is for the diagnosis of time series under loads; {what} is "
+                             "diagnosed without it", key=option)
+
+
 @contextlib.contextmanager
 def naming(source):
     """Errors raised inside that name no file (an unstable time step of a model, a value

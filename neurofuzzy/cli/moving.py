@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .common import Outputs, mesh_check_option, print_json, written
+from .common import (Outputs, mesh_check_option, only_time_series_diagnosis,
+                     print_json, written)
 
 __all__ = ["fit_moved", "diagnose_moved", "check_moving_options", "moved_in_time"]
 
@@ -96,6 +97,7 @@ def diagnose_moved(args) -> int:
     if args.report:
         raise InputError("a report of a diagnosis in time is not written yet; use --json, or "
                          "fit --report", key="--report")
+    only_time_series_diagnosis(args, "a recording whose body a stage moved")
     substeps = 1 if args.substeps in (None, "auto") else int(args.substeps)
     if substeps < 1:
         raise InputError(f"got {args.substeps}; expected a positive integer", key="--substeps")

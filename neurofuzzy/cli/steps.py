@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .common import Outputs, mesh_check_option, positive, print_json, written
+from .common import (Outputs, mesh_check_option, only_time_series_diagnosis, positive,
+                     print_json, written)
 from .tools import axis_of, surface_file, tool_option, tool_reader
 
 __all__ = ["import_load_steps", "import_indentation", "fit_load_steps", "diagnose_load_steps",
@@ -162,6 +163,7 @@ def diagnose_load_steps(args) -> int:
         if args.report:
             raise InputError("a report of a load-step diagnosis is not written yet; use "
                              "--json, or fit --report", key="--report")
+        only_time_series_diagnosis(args, "a load-step file")
         data, _, model = _start(args, source)
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         result = diagnose(model, data, progress=say)
