@@ -27,18 +27,12 @@ def fit_moved(args) -> int:
     from ..pipeline.moving import fit_moving_file, moving_fit_report
     from .common import rule_base_for
 
-    if len(args.experiments) != 1:
-        raise InputError("takes one recording of a plate or tool at a time",
-                         key="EXPERIMENT.npz")
+    source, substeps = _one_recording(args)
     for option in UNUSED:
         if getattr(args, option, None):
             raise InputError("is not available for a recording whose body a stage moved (it is "
                              "fitted through implicit steps)",
                              key=f"--{option.replace('_', '-')}")
-    substeps = 1 if args.substeps in (None, "auto") else int(args.substeps)
-    if substeps < 1:
-        raise InputError(f"got {args.substeps}; expected a positive integer", key="--substeps")
-    source = Path(args.experiments[0])
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
@@ -91,17 +85,11 @@ def diagnose_moved(args) -> int:
     from ..pipeline.load_steps import load_step_start
     from .common import rule_base_for
 
-    if len(args.experiments) != 1:
-        raise InputError("takes one recording of a plate or tool at a time",
-                         key="EXPERIMENT.npz")
+    source, substeps = _one_recording(args)
     if args.report:
         raise InputError("a report of a diagnosis in time is not written yet; use --json, or "
                          "fit --report", key="--report")
     only_time_series_diagnosis(args, "a recording whose body a stage moved")
-    substeps = 1 if args.substeps in (None, "auto") else int(args.substeps)
-    if substeps < 1:
-        raise InputError(f"got {args.substeps}; expected a positive integer", key="--substeps")
-    source = Path(args.experiments[0])
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
         data = load_experiment(source)
@@ -119,6 +107,18 @@ def diagnose_moved(args) -> int:
         print(result.summary())
         written(args.out)
     return 0
+
+
+def _one_recording(args) -> tuple[Path, int]:
+    """``(the one experiment file, implicit steps per frame)`` of ``fit`` or ``diagnose`` of
+    a moved recording: ``--substeps`` checked as everywhere, ``auto`` one step a frame."""
+    from ..simulation import check_substeps
+
+    if len(args.experiments) != 1:
+        raise InputError("takes one recording of a plate or tool at a time",
+                         key="EXPERIMENT.npz")
+    substeps = check_substeps(args.substeps, "--substeps")
+    return Path(args.experiments[0]), 1 if substeps == "auto" else substeps
 
 
 def check_moving_options(args) -> None:
