@@ -79,12 +79,25 @@ def _read_in_time(path, times, columns, units, what, attitude=False):
     if not (np.all(np.isfinite(values)) and np.all(np.isfinite(force))):
         raise InputError(f"a {'displacement' if what == 'plate' else 'position'} or force is "
                          "not finite", source=source)
+    at_frames = sampler(clock, times, source, f"the {what}'s place")
+
+    if turned:
+        turns = at_frames(turns)
+        turns = turns / np.linalg.norm(turns, axis=1, keepdims=True)
+    return (at_frames(values), None if newton is None else at_frames(force),
+            turns if turned else None)
+
+
+def sampler(clock: np.ndarray, times, source: str, what: str):
+    """A function reading (n_samples, k) samples taken at ``clock`` (s, increasing) at the
+    frame ``times`` by linear interpolation; an :class:`InputError` naming ``what`` when the
+    file's span does not cover every frame."""
     times = np.asarray(times, float)
     slack = TIME_TOLERANCE * (clock[-1] - clock[0])
     if times[0] < clock[0] - slack or times[-1] > clock[-1] + slack:
         raise InputError(f"covers {clock[0]:g} to {clock[-1]:g} s; the recording's frames run "
-                         f"from {times[0]:g} to {times[-1]:g} s: the {what}'s place is needed "
-                         "at every frame", source=source)
+                         f"from {times[0]:g} to {times[-1]:g} s: {what} is needed at every "
+                         "frame", source=source)
     times = np.clip(times, clock[0], clock[-1])
 
     def at_frames(samples):
@@ -92,8 +105,4 @@ def _read_in_time(path, times, columns, units, what, attitude=False):
         return np.stack([np.interp(times, clock, samples[:, k])
                          for k in range(samples.shape[1])], axis=1)
 
-    if turned:
-        turns = at_frames(turns)
-        turns = turns / np.linalg.norm(turns, axis=1, keepdims=True)
-    return (at_frames(values), None if newton is None else at_frames(force),
-            turns if turned else None)
+    return at_frames

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from .csvtable import number, read_csv_table
-from .timed import TIME_TOLERANCE
+from .timed import sampler
 from .units import load_cell_factor
 
 __all__ = ["read_tool_force"]
@@ -85,11 +85,4 @@ def _in_time(header, rows, newton, times, source) -> np.ndarray:
         force.append(_force(row, header, newton, source, line))
     if len(clock) < 2:
         raise InputError("needs at least two rows (times)", source=source)
-    clock, force = np.array(clock), np.array(force)
-    slack = TIME_TOLERANCE * (clock[-1] - clock[0])
-    if times[0] < clock[0] - slack or times[-1] > clock[-1] + slack:
-        raise InputError(f"covers {clock[0]:g} to {clock[-1]:g} s; the recording's frames run "
-                         f"from {times[0]:g} to {times[-1]:g} s: the load cell's force is "
-                         "needed at every frame", source=source)
-    times = np.clip(times, clock[0], clock[-1])
-    return np.stack([np.interp(times, clock, force[:, k]) for k in range(3)], axis=1)
+    return sampler(np.array(clock), times, source, "the load cell's force")(force)
