@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from neurofuzzy.forces.laws import (LAWS, STIFFENING_CONSTANT, ElementStress, law_number,
-                                   law_numbers, stiffening_slope, stiffens)
+                                   law_numbers, stiffening_slope, stiffens, uniaxial_stress)
 from neurofuzzy.errors import InputError
 from neurofuzzy.kernels.laws import elastic, stress, stress_jvp, stress_vjp, volumetric
 
@@ -206,6 +206,40 @@ def test_the_yeoh_law_is_the_reference_yeoh_solid(stiffening):
     assert np.allclose(S - np.diag(np.diag(S)), 0.0)
 
 
+@pytest.mark.parametrize("size", [0.02, 0.25, 0.5])
+def test_the_corotational_law_is_sofa_s_polar_element(size):
+    """``P = F S`` of the corotational law is ``R (2μ (U - I) + λ tr(U - I) I)``, the force of
+    SOFA's ``TetrahedronFEMForceField`` with ``method="polar"`` (the small-strain stress of
+    the element's displacement rotated back, ``f = R K₀ (Rᵀ x - x₀)``), with ``F = R U`` from
+    SciPy's polar decomposition, for deformations up to half the size of the element (one
+    squeezed to about 40 % of its volume); in uniaxial stress ``E (λ - 1)``, the closed form;
+    zero under a rigid rotation."""
+    from scipy.linalg import expm, polar
+
+    rng = np.random.default_rng(int(100 * size))
+    mu, lam = 2e3, 9e3
+    law = law_number("corotational")
+    for _ in range(5):
+        F = np.eye(3) + size * rng.normal(size=(3, 3))
+        if np.linalg.det(F) <= 0.1:
+            continue
+        R, U = polar(F)
+        G = _six(0.5 * (F.T @ F - np.eye(3)))
+        theta = volumetric(law, G)[0]
+        assert theta == pytest.approx(np.trace(U) - 3, abs=1e-13)
+        S = _full(elastic(law, G, 2 * mu, lam * theta, 0.0)[0])
+        want = R @ (2 * mu * (U - np.eye(3)) + lam * (np.trace(U) - 3) * np.eye(3))
+        assert np.allclose(F @ S, want, rtol=0, atol=1e-11 * np.abs(want).max())
+    # pulled or pressed with free sides, its nominal stress is E (λ - 1) at every stretch λ
+    stretches = np.array([0.6, 0.8, 1.2, 1.5])
+    assert np.allclose(uniaxial_stress("corotational", 6e3, 0.45, stretches),
+                       6e3 * (stretches - 1), rtol=1e-8)
+    spin = expm(np.array([[0.0, -1.2, 0.4], [1.2, 0.0, -0.7], [-0.4, 0.7, 0.0]]))
+    G = _six(0.5 * (spin.T @ spin - np.eye(3)))
+    assert np.allclose(elastic(law, G, 2 * mu, lam * volumetric(law, G)[0], 0.0)[0], 0.0,
+                       atol=1e-9)
+
+
 def test_law_names_numbers_and_mistakes():
     assert law_number("Neo-Hookean") == law_number("neo_hookean") == law_number("nh") == 1
     assert law_number("svk") == 0
@@ -216,6 +250,7 @@ def test_law_names_numbers_and_mistakes():
     with pytest.raises(InputError, match=f"expected 0..{len(LAWS) - 1}"):
         law_numbers(np.array([0, len(LAWS)]), 2)
     assert law_number("MR") == law_number("Mooney_Rivlin") == LAWS.index("mooney-rivlin")
+    assert law_number("Corotated") == law_number("corot") == LAWS.index("corotational")
     with pytest.raises(InputError, match="one per element"):
         law_numbers(["svk"] * 2, 3)
 

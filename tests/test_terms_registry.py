@@ -224,7 +224,13 @@ def test_the_compiled_adjoint_equals_the_reference_wherever_it_runs(model, term)
     assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-10)
     for name, block in parameters.blocks.items():   # each block to its own scale (κ: 1e-18)
         want, got = numpy_path[1][block.slice], compiled[1][block.slice]
-        assert np.abs(got - want).max() <= 1e-9 * np.abs(want).max(), name
+        limit = 1e-9 * np.abs(want).max()
+        if name == "log_stiffening":
+            # the laws' own constant acts at fourth order in the strain (Yeoh) or not at all
+            # at small strain (Mooney-Rivlin): its gradient is 1e-6 to 1e-10 of the others',
+            # so the round-off of the whole gradient's sums sets its floor
+            limit += 1e-14 * np.abs(numpy_path[1]).max()
+        assert np.abs(got - want).max() <= limit, name
     assert np.abs(numpy_path[1]).max() > 0
 
 

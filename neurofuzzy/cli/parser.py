@@ -7,8 +7,13 @@ import argparse
 from . import batch, data, fitting, misc, studio, tools
 from .common import usage
 from .parser_import import FORMAT_DOC, add_import
-from ..forces.laws import LAWS
+from ..forces.laws import LAW_RECORDS, LAWS
 from ..version import __version__
+
+
+def _laws() -> str:
+    """The material laws for ``--help``: each name with its record's summary."""
+    return "; ".join(f"{law.name}: {law.summary}".replace("%", "%%") for law in LAW_RECORDS)
 
 __all__ = ["build_parser"]
 
@@ -101,11 +106,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write the fitted model's simulation of the first experiment next "
                           "to the measurement as ParaView files (VTU series + PVD, XDMF); "
                           "the report links them")
-    fit.add_argument("--target", choices=("mujoco", "ours"), default=None,
+    fit.add_argument("--target", choices=("mujoco", "sofa", "ours"), default=None,
                      help="then fit E, ν, η as this simulator runs them (its element, backward "
                           "Euler at --dt) into --out; prints errors beside a naive export's; "
-                          "ours: our own implicit step on the model's element ('simulate "
-                          "--integrator implicit --dt STEP')")
+                          "sofa: its corotational TetrahedronFEMForceField and "
+                          "EulerImplicitSolver; ours: our own implicit step on the model's "
+                          "element ('simulate --integrator implicit --dt STEP')")
     fit.add_argument("--dt", type=float, default=None, metavar="STEP",
                      help="with --target: its step (s; default 0.016), whole frames")
     fit.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -312,8 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "viscosity (a voxel lattice is split into six tetrahedra per cell); "
                            "springs: the paper's spring network on the mesh's edges")
     mesh.add_argument("--law", choices=LAWS, default=LAWS[0],
-                      help="with --elements tetra: the elements' material law, "
-                           "st-venant-kirchhoff (default), neo-hookean or yeoh")
+                      help="with --elements tetra: the elements' material law (default "
+                           f"{LAWS[0]}). {_laws()}")
     mesh.add_argument("--tie", choices=("global", "groups", "none"), default="groups",
                       help="parameters shared by all items, per group (default) or none, "
                            "within each region; a fit with --start keeps it")
@@ -339,12 +345,9 @@ def _start_options(command) -> None:
                               "experiment has tetrahedra) or the spring network on the mesh's "
                               "edges (the paper's learner always uses springs)")
     command.add_argument("--law", choices=LAWS, default=None,
-                         help="the tetrahedral elements' material law: st-venant-kirchhoff "
-                              "(SVK; softens beyond about 30 %% compression), neo-hookean "
-                              "(stiffens as it is squeezed), yeoh (stiffens more, by a "
-                              "fitted C20/C10) or mooney-rivlin (SOFA's and FEBio's, with "
-                              "a fitted C01/C10); all have the same E and ν at small strain "
-                              "(default: the start model's own, else st-venant-kirchhoff)")
+                         help="the tetrahedral elements' material law, all with the same E "
+                              "and ν at small strain (default: the start model's own, else "
+                              f"{LAWS[0]}). {_laws()}")
     command.add_argument("--stiffening", type=float, metavar="C", default=None,
                          help="with --law yeoh: Yeoh's C20/C10 to start from (>= 0; default "
                               "the start model's own, else 1: 1.65 times as stiff as "

@@ -94,6 +94,9 @@ def feb(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     if runs.elements is not None:
         groups, merged = material_groups(runs, max_materials)
         notes += merged
+        notes += [LAW_RECORDS[law].febio_note
+                  for law in sorted({group.law for group in groups})
+                  if LAW_RECORDS[law].febio_note]
         densities, mismatch = region_densities(runs)
         if mismatch > 1e-6:
             notes.append(f"FEBio takes a density per material: the node masses are matched "

@@ -133,16 +133,19 @@ def volumetric_note(model, target: str, experiment=None, steps: int | None = Non
 
 
 def law_note(model, target: str, element: str, experiment=None,
-             steps: int | None = None) -> str | None:
-    """What running a model with neo-Hookean (or other non-SVK) elements as a target's
-    St. Venant–Kirchhoff-like ``element`` changes: said, and with an experiment measured as in
+             steps: int | None = None, native: str = "st-venant-kirchhoff") -> str | None:
+    """What running a model whose elements are not of the ``native`` law of a target's
+    ``element`` (St. Venant–Kirchhoff for MuJoCo's flex, ``corotational`` for SOFA's
+    tetrahedron) as that element changes: said, and with an experiment measured as in
     :func:`volumetric_note` (both laws simulated by our own stepper under its load)."""
-    if model.elements is None or not np.any(model.elements.law != 0):
+    from ..forces.laws import law_number
+
+    number = law_number(native)
+    if model.elements is None or not np.any(model.elements.law != number):
         return None
     text = (f"the elements' material law ({model.elements.law_names()}) is written as {target}'s "
-            f"{element}: the same E, nu and eta at small strain, but it softens under strong "
-            "compression where the fitted law stiffens")
-    return text + _measured(model, model.with_elements(law=0), "laws", experiment, steps)
+            f"{element}: the same E, nu and eta at small strain, not at large strain")
+    return text + _measured(model, model.with_elements(law=number), "laws", experiment, steps)
 
 
 def relaxation_note(model, target: str, experiment=None, steps: int | None = None) -> str | None:

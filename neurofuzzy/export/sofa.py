@@ -10,7 +10,8 @@ and plugin against a table taken from those sources):
   ``EdgeSetTopologyContainer`` (``position``, ``edges``), with their geometry algorithms;
 - ``MechanicalObject`` (``position``), ``DiagonalMass`` (``vertexMass``: our lumped node
   masses), ``FixedProjectiveConstraint`` (``indices``);
-- ``TetrahedronFEMForceField`` (``method="large"``: corotational linear elasticity) with
+- ``TetrahedronFEMForceField`` (``method="polar"``: corotational linear elasticity with the
+  rotation of each element's polar decomposition, our ``corotational`` law, exactly) with
   ``youngModulus`` and ``poissonRatio`` per element (both vectors since v24.12; a single
   value when they are uniform, which older versions read too);
 - ``SpringForceField`` with ``spring="i j stiffness damping rest_length …"`` (per spring);
@@ -18,9 +19,10 @@ and plugin against a table taken from those sources):
   ``Sofa.Core.Controller`` sets at the start of every step from the frame's row, held for a
   frame as our stepper holds it.
 
-What SOFA does differently: its tetrahedron is corotational linear elasticity, equal to our
-St. Venant–Kirchhoff element at small strain (both exact under rigid rotation, they part at
-large strain), and the textbook per-element one (our ``Tetrahedra(volumetric="element")``); the
+What SOFA does differently: its tetrahedron is corotational linear elasticity, our
+``corotational`` law (``--law corotational``; other laws are written as it, equal at small
+strain, and the notes measure how far they part), and the textbook per-element one (our
+``Tetrahedra(volumetric="element")``); the
 Rayleigh damping factor is one per solver, so regions with different η/E share their
 volume-weighted mean; the implicit Euler integrator damps numerically where our semi-implicit
 Euler does not. The scene was not run here (SOFA is not installable with pip).
@@ -75,14 +77,22 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
     runs = prepared.model
     if runs.elements is not None:
         runs = runs.with_elements(volumetric="element")
-    h, steps = time_step(runs, experiment, substeps)
+    aimed = (fit or {}).get("target") or {}
     notes = list(prepared.notes)
+    if aimed.get("simulator") == "sofa":              # fitted for SOFA's element and step
+        h, steps = float(aimed["dt"]), None
+        notes.append(f"time step {h:g} s: E, nu and eta were fitted for SOFA's implicit Euler "
+                     "step and corotational element at it (fit --target sofa); run it at "
+                     "that step")
+    else:
+        h, steps = time_step(runs, experiment, substeps)
     if prepared.node_drag:
         notes.append("node_drag is not exported: SOFA's Rayleigh mass damping is "
                      "proportional to each node's mass, the drag is not")
     for note in (volumetric_note(prepared.model, "SOFA", experiment, steps),
                  law_note(prepared.model, "SOFA", "TetrahedronFEMForceField (corotational "
-                          "linear elasticity)", experiment, steps),
+                          "linear elasticity, method 'polar')", experiment, steps,
+                          native="corotational"),
                  relaxation_note(prepared.model, "SOFA", experiment, steps)):
         if note:
             notes.append(note)
@@ -100,9 +110,6 @@ def scene(model, *, experiment=None, fit: dict | None = None, substeps="auto",
             notes.append(f"Rayleigh stiffness damping is one value per solver in SOFA: the "
                          f"elements' eta/E ({ratio.min():.4g} .. {ratio.max():.4g} s) merged "
                          f"into their volume-weighted mean {beta:.6g} s")
-        notes.append("SOFA's TetrahedronFEMForceField is corotational linear elasticity "
-                     "(method 'large'): equal to our St. Venant-Kirchhoff element at small "
-                     "strain, not at large strain")
         if beta > 0 and np.any(stiffness > 0):
             notes.append("the solver's Rayleigh damping also damps the springs (beta times "
                          "their stiffness), which neurofuzzy does not")
@@ -196,7 +203,7 @@ def createScene(root):
     if FIXED:
         tissue.addObject("FixedProjectiveConstraint", indices=FIXED)
     if "TETRAHEDRA" in globals():
-        tissue.addObject("TetrahedronFEMForceField", name="elements", method="large",
+        tissue.addObject("TetrahedronFEMForceField", name="elements", method="polar",
                          youngModulus=YOUNGS_MODULUS, poissonRatio=POISSON_RATIO)
     if SPRINGS:
         tissue.addObject("SpringForceField", name="springs", spring=SPRINGS)

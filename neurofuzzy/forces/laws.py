@@ -16,6 +16,7 @@ law                       ``D(G)``            ``θ(G)``     ``N(G)``
 ``neo-hookean``           ``½ (I - C⁻¹)``     ``ln J``     ``C⁻¹``
 ``yeoh``                  see below           ``J - 1``    ``J C⁻¹``
 ``mooney-rivlin``         see below           ``J - 1``    ``J C⁻¹``
+``corotational``          ``I - U⁻¹``         ``tr U - 3`` ``U⁻¹``
 ========================  ==================  ===========  ==============
 
 (``C = I + 2G = FᵀF``, ``J = det F``). The neo-Hookean law is the coupled compressible solid
@@ -37,12 +38,12 @@ for every ``c``; it stiffens with strain as ``c`` grows. Why Yeoh for tissue:
 The ``mooney-rivlin`` law is the uncoupled Mooney–Rivlin solid of FEBio, SOFA, Abaqus and
 FElupe, ``Ψ = C₁₀ (Ī₁ - 3) + C₀₁ (Ī₂ - 3) + K/2 (J - 1)²`` with ``C₁₀ + C₀₁ = μ/2`` and
 ``C₀₁ = r C₁₀`` for the element's own constant ``r`` (its ``stiffening``, ``C01/C10``): the
-same E and ν at small strain for every ``r``. Every law's names, constant and FEBio material
-are one record, :data:`LAW_RECORDS`.
-
-The derivatives of the stress (:meth:`ElementStress.jvp`, :meth:`ElementStress.vjp`,
-:meth:`ElementStress.partials`) and ``∂D/∂c`` (:func:`stiffening_slope`) are the kernels'
-complex-step derivatives of it.
+same E and ν at small strain for every ``r``. The ``corotational`` law is SOFA's
+``TetrahedronFEMForceField`` (``method="polar"``), ``P = R (2μ (U - I) + λ tr(U - I) I)``
+with ``F = R U`` (``U = √C``). Every law's names, constant and FEBio material are one
+record, :data:`LAW_RECORDS`. The derivatives of the stress (:meth:`ElementStress.jvp`,
+:meth:`ElementStress.vjp`, :meth:`ElementStress.partials`) and ``∂D/∂c``
+(:func:`stiffening_slope`) are the kernels' complex-step derivatives of it.
 """
 
 from __future__ import annotations
@@ -96,6 +97,9 @@ class Law:
         ``(E, ν, c) -> (type, parameters)``: FEBio's material and its parameters' XML.
     stall : str
         What a static solve that stalls says of a body of this law (:func:`stall_note`).
+    febio_note : str
+        What the FEBio file says where ``febio`` is not this law but the nearest FEBio has
+        ("" where it is this law).
     """
 
     name: str
@@ -107,6 +111,7 @@ class Law:
     febio: Callable = field(default=lambda E, nu, c: ("isotropic elastic",
                                                      _elastic_moduli(E, nu, c)))
     stall: str = ""
+    febio_note: str = ""
 
 
 #: The laws in the order of their numbers (``model.elements.law``, the kernels' numbers).
@@ -129,6 +134,12 @@ LAW_RECORDS = (
         "MooneyRivlin)", aliases=("mr",), constant="C01/C10", switch=False,
         febio=lambda E, nu, c: ("Mooney-Rivlin", _uncoupled(
             E / (4 * (1 + nu) * (1 + c)), c * E / (4 * (1 + nu) * (1 + c)), E, nu))),
+    # SOFA's TetrahedronFEMForceField ("polar"); an engine's element, not a diagnosis' finding
+    Law("corotational", "linear in each element's stretch rotated back, the element of "
+        "SOFA's TetrahedronFEMForceField and of real-time engines",
+        aliases=("corot", "corotated"), switch=False,
+        febio_note="FEBio has no corotational linear solid: written as its isotropic elastic "
+        "(St. Venant-Kirchhoff), the same E and nu at small strain, not at large strain"),
 )
 #: The laws by name; a law's number (``model.elements.law``) is its position here, the same in
 #: the compiled kernels (:mod:`neurofuzzy.kernels.laws`, checked by the tests).
@@ -234,7 +245,7 @@ class ElementStress:
     """The elements' second Piola–Kirchhoff stress at one state, and its derivatives, for the
     numpy force path: every number comes from the compiled :func:`neurofuzzy.kernels.laws.stress`
     (each element's law with Kelvin–Voigt viscosity and the volumetric stresses, written once),
-    over arrays (:func:`~neurofuzzy.kernels.laws.stress_arrays` and its neighbours).
+    over arrays (:func:`~neurofuzzy.kernels.law_arrays.stress_arrays` and its neighbours).
 
     Attributes
     ----------
@@ -271,7 +282,7 @@ class ElementStress:
         constant). An element squeezed flat gives NaN (the run diverges and says so)."""
         # imported on use, here and below: the model imports this module for the laws'
         # names, and numba should load only when a law is evaluated
-        from ..kernels.laws import volumetric_arrays
+        from ..kernels.law_arrays import volumetric_arrays
 
         K = len(G)
         law, strains, _ = _compiled_arguments(law, G, None)
@@ -298,7 +309,7 @@ class ElementStress:
 
     def stress(self) -> np.ndarray:
         """(K, 3, 3): ``S``."""
-        from ..kernels.laws import stress_arrays
+        from ..kernels.law_arrays import stress_arrays
 
         out = np.empty_like(self.G)
         stress_arrays(self.law, self.G, self.Gd, self.shear, self.shear_rate, self.pressure,
@@ -308,7 +319,7 @@ class ElementStress:
     def jvp(self, dG, dGd, d_pressure, d_pressure_rate) -> np.ndarray:
         """(K, P, 3, 3): ``dS`` along P symmetric strain changes ``dG``, ``dGd`` (K, P, 3, 3)
         with the volumetric stresses' changes ``d_pressure``, ``d_pressure_rate`` (K, P)."""
-        from ..kernels.laws import stress_jvp_arrays
+        from ..kernels.law_arrays import stress_jvp_arrays
 
         K, P = dG.shape[:2]
         out = np.empty((K, P, 3, 3))
@@ -322,7 +333,7 @@ class ElementStress:
         """``(L_G, L_Ġ, l_π, l_π̇)`` for the symmetric cotangent ``LS`` (K, 3, 3) of ``S``:
         (K, 3, 3) twice and (K,) twice (``π``, ``π̇`` held; their own dependence on the
         strains is the caller's)."""
-        from ..kernels.laws import stress_vjp_arrays
+        from ..kernels.law_arrays import stress_vjp_arrays
 
         K = len(self.law)
         LG, LGd, l_pressure = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty((K, 2))
@@ -338,7 +349,7 @@ class ElementStress:
         """``∂S`` (K, 3, 3) by each of ``shear``, ``shear_rate``, ``pressure`` and
         ``pressure_rate`` (``S`` is linear in each, and the strain stiffening's term depends
         on none of them)."""
-        from ..kernels.laws import stress_partials
+        from ..kernels.law_arrays import stress_partials
 
         out = np.empty((len(self.law), 4, 3, 3))
         stress_partials(self.law, self.G, self.Gd, self.shear, self.shear_rate, self.pressure,
@@ -359,7 +370,7 @@ def stiffening_slope(law: np.ndarray, G: np.ndarray, stiffening) -> np.ndarray:
     """(K, 3, 3): ``∂D/∂c`` of every element at its Green strain ``G`` (K, 3, 3), ``c`` the
     law's own constant (:data:`STIFFENING_CONSTANT`; zero for the laws without one), exact
     (the compiled law's complex-step derivative)."""
-    from ..kernels.laws import stiffening_slopes
+    from ..kernels.law_arrays import stiffening_slopes
 
     law, strains, c = _compiled_arguments(law, G, stiffening)
     out = np.empty_like(strains)

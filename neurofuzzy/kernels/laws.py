@@ -36,6 +36,16 @@ write it.
   elasticity with the same E, ν at small strain for any ``r``; ``r = 0`` is the uncoupled
   neo-Hookean solid.
 
+- :func:`corotational`: corotational linear elasticity, the element of SOFA's
+  ``TetrahedronFEMForceField`` (``method="polar"``) and of many real-time engines: the small-strain
+  stress of the stretch ``U - I`` in the element's own rotated frame, ``P = R (2μ (U - I) + λ
+  tr(U - I) I)`` with ``F = R U`` (McAdams et al. 2011's energy ``Ψ = μ |F - R|² + λ/2
+  (tr(U - I))²``). As a stress of ``G``: ``S = 2μ (I - U⁻¹) + π U⁻¹``, ``θ = tr U - 3``,
+  ``U = √C``. Exact under rigid rotation, linear elasticity at small strain; the stretch it
+  sees grows linearly with the displacement where Green's strain grows quadratically, so it
+  neither softens nor stiffens much under strong compression (SVK softens, neo-Hookean
+  stiffens).
+
 Adding a law: write its function here, name it in :data:`KERNEL_LAWS` (the next number) with a
 branch in :func:`elastic`, and give it a record in :data:`neurofuzzy.forces.laws.LAW_RECORDS`
 (its names, its constant, its FEBio material); its forward and reverse derivatives then come
@@ -58,13 +68,14 @@ import numpy as np
 #: The laws of the kernels in the order of their numbers (``model.elements.law``): their name
 #: and whether the stress depends on the element's own constant (``stiffening``).
 KERNEL_LAWS = (("st-venant-kirchhoff", False), ("neo-hookean", False), ("yeoh", True),
-               ("mooney-rivlin", True))
+               ("mooney-rivlin", True), ("corotational", False))
 #: Law numbers: name → number.
 LAWS = {name: number for number, (name, _) in enumerate(KERNEL_LAWS)}
 ST_VENANT_KIRCHHOFF = LAWS["st-venant-kirchhoff"]
 NEO_HOOKEAN = LAWS["neo-hookean"]
 YEOH = LAWS["yeoh"]
 MOONEY_RIVLIN = LAWS["mooney-rivlin"]
+COROTATIONAL = LAWS["corotational"]
 #: Per law number: its stress depends on its own constant.
 OWN_CONSTANT = tuple(own for _, own in KERNEL_LAWS)
 
@@ -156,6 +167,65 @@ def mooney_rivlin(G, shear, pressure, ratio):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _inverse(m):
+    """The inverse of the symmetric matrix of six entries ``m`` (its cofactors over its
+    determinant; a singular one gives NaN, as :func:`_cofactors`)."""
+    k00 = m[1] * m[2] - m[5] * m[5]
+    k11 = m[0] * m[2] - m[4] * m[4]
+    k22 = m[0] * m[1] - m[3] * m[3]
+    k01 = m[4] * m[5] - m[3] * m[2]
+    k02 = m[3] * m[5] - m[4] * m[1]
+    k12 = m[3] * m[4] - m[0] * m[5]
+    det = m[0] * k00 + m[3] * k01 + m[4] * k02
+    if det == 0.0:
+        det = det + np.nan
+    return (k00 / det, k11 / det, k22 / det, k01 / det, k02 / det, k12 / det)
+
+
+#: Denman–Beavers iterations :func:`_root` may take (a stretch of 100 or 1/100 takes 12)
+ROOT_ITERATIONS = 40
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _root(G):
+    """``(U, U⁻¹)`` with ``U = √C``, ``C = I + 2G``, six entries each, by the Denman–Beavers
+    iteration ``Y ← ½ (Y + Z⁻¹)``, ``Z ← ½ (Z + Y⁻¹)`` from ``Y = C``, ``Z = I`` (Higham,
+    *Functions of Matrices*, 6.3: quadratic and numerically stable; both stay symmetric).
+    Every operation is analytic, so the complex step differentiates it: the iteration runs
+    until the real part stops changing and two steps more, for the derivative's part."""
+    y = (1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2], 2.0 * G[3], 2.0 * G[4],
+         2.0 * G[5])
+    zero = G[0] * 0.0
+    z = (zero + 1.0, zero + 1.0, zero + 1.0, zero, zero, zero)
+    settled = 0
+    for _ in range(ROOT_ITERATIONS):
+        yi, zi = _inverse(y), _inverse(z)
+        change, size = 0.0, 1.0
+        for k in range(6):               # the new Y less the old: ½ (Z⁻¹ - Y)
+            change = max(change, abs((zi[k] - y[k]).real))
+            size = max(size, abs(y[k].real))
+        y = (0.5 * (y[0] + zi[0]), 0.5 * (y[1] + zi[1]), 0.5 * (y[2] + zi[2]),
+             0.5 * (y[3] + zi[3]), 0.5 * (y[4] + zi[4]), 0.5 * (y[5] + zi[5]))
+        z = (0.5 * (z[0] + yi[0]), 0.5 * (z[1] + yi[1]), 0.5 * (z[2] + yi[2]),
+             0.5 * (z[3] + yi[3]), 0.5 * (z[4] + yi[4]), 0.5 * (z[5] + yi[5]))
+        if y[0].real != y[0].real:       # NaN: an element squeezed flat
+            break
+        settled = settled + 1 if change <= 1e-15 * size else 0
+        if settled == 3:
+            break
+    return y, z
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def corotational(G, shear, pressure):
+    """``S = shear (I - U⁻¹) + π U⁻¹`` and ``θ = tr U - 3`` (``U = √(I + 2G)``)."""
+    u, ui = _root(G)
+    scale = pressure - shear
+    return ((shear + scale * ui[0], shear + scale * ui[1], shear + scale * ui[2],
+             scale * ui[3], scale * ui[4], scale * ui[5]), u[0] + u[1] + u[2] - 3.0)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def elastic(law, G, shear, pressure, stiffening):
     """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`) with the law's own
     constant ``stiffening`` (ignored by laws without one)."""
@@ -165,6 +235,8 @@ def elastic(law, G, shear, pressure, stiffening):
         return yeoh(G, shear, pressure, stiffening)
     if law == MOONEY_RIVLIN:
         return mooney_rivlin(G, shear, pressure, stiffening)
+    if law == COROTATIONAL:
+        return corotational(G, shear, pressure)
     return st_venant_kirchhoff(G, shear, pressure)
 
 
@@ -273,99 +345,3 @@ def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa
                                              0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
     return (LG, LGd, _inner(LS, unit_shear), _inner(LS, Gd), _inner(LS, N),
             LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G), l_stiffening)
-
-
-# -- the stress over arrays: the numpy path's (neurofuzzy.forces.laws) ----------------------
-@numba.njit(cache=True, nogil=True, inline="always")
-def _entries(M, e, m):
-    """Six entries of the symmetric 3×3 matrix ``M[e, m]``."""
-    return (M[e, m, 0, 0], M[e, m, 1, 1], M[e, m, 2, 2], M[e, m, 0, 1], M[e, m, 0, 2],
-            M[e, m, 1, 2])
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _write(out, e, m, S):
-    """The symmetric 3×3 matrix of six entries ``S`` into ``out[e, m]``."""
-    out[e, m, 0, 0], out[e, m, 1, 1], out[e, m, 2, 2] = S[0], S[1], S[2]
-    out[e, m, 0, 1] = out[e, m, 1, 0] = S[3]
-    out[e, m, 0, 2] = out[e, m, 2, 0] = S[4]
-    out[e, m, 1, 2] = out[e, m, 2, 1] = S[5]
-
-
-@numba.njit(cache=True, nogil=True)
-def volumetric_arrays(law, G, theta, N):
-    """:func:`volumetric` of K elements of laws ``law`` (K,) at symmetric Green strains ``G``
-    (K, 1, 3, 3): ``θ`` into ``theta`` (K,), ``∂θ/∂G`` into ``N`` (K, 1, 3, 3)."""
-    for e in range(law.shape[0]):
-        t, n = volumetric(law[e], _entries(G, e, 0))
-        theta[e] = t
-        _write(N, e, 0, n)
-
-
-@numba.njit(cache=True, nogil=True)
-def stiffening_slopes(law, G, stiffening, out):
-    """``out[e, 0]`` (K, 1, 3, 3): the derivative of element ``e``'s stress of unit shear
-    constant by the law's own constant (:func:`stress_jvp` along ``stiffening``)."""
-    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    for e in range(law.shape[0]):
-        _write(out, e, 0, stress_jvp(law[e], _entries(G, e, 0), zero, zero, zero, 1.0, 0.0,
-                                     0.0, 0.0, 0.0, stiffening[e], 0.0, 0.0, 0.0, 0.0, 0.0,
-                                     1.0))
-
-
-@numba.njit(cache=True, nogil=True)
-def stress_arrays(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening,
-                  out):
-    """``out[e, 0]`` (K, 1, 3, 3): :func:`stress` of K elements at symmetric ``G``, ``Gd``
-    (K, 1, 3, 3) with their constants (K,) each and the strain stiffening ``kappa``."""
-    for e in range(law.shape[0]):
-        _write(out, e, 0, stress(law[e], _entries(G, e, 0), _entries(Gd, e, 0), shear[e],
-                                 shear_rate[e], pressure[e], pressure_rate[e], kappa,
-                                 stiffening[e]))
-
-
-@numba.njit(cache=True, nogil=True)
-def stress_jvp_arrays(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure_rate, kappa,
-                      stiffening, d_pressure, d_pressure_rate, out):
-    """``out[e, m]`` (K, M, 3, 3): :func:`stress_jvp` of element ``e`` along the symmetric
-    strain changes ``dG[e, m]``, ``dGd[e, m]`` and the volumetric stresses' changes
-    ``d_pressure[e, m]``, ``d_pressure_rate[e, m]`` (the other constants held)."""
-    for e in range(law.shape[0]):
-        g, gd = _entries(G, e, 0), _entries(Gd, e, 0)
-        for m in range(dG.shape[1]):
-            _write(out, e, m, stress_jvp(law[e], g, gd, _entries(dG, e, m), _entries(dGd, e, m),
-                                         shear[e], shear_rate[e], pressure[e],
-                                         pressure_rate[e], kappa, stiffening[e], 0.0, 0.0,
-                                         d_pressure[e, m], d_pressure_rate[e, m], 0.0, 0.0))
-
-
-@numba.njit(cache=True, nogil=True)
-def stress_vjp_arrays(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa,
-                      stiffening, LG, LGd, l_pressure):
-    """:func:`stress_vjp` of K elements for the symmetric cotangents ``LS`` (K, 1, 3, 3):
-    ``L_G``, ``L_Ġ`` into ``LG``, ``LGd`` (K, 1, 3, 3), the cotangents of ``π`` and ``π̇``
-    into ``l_pressure`` (K, 2)."""
-    for e in range(law.shape[0]):
-        lg, lgd, _, _, lp, lpr, _, _ = stress_vjp(law[e], _entries(G, e, 0), _entries(Gd, e, 0),
-                                                  _entries(LS, e, 0), shear[e], shear_rate[e],
-                                                  pressure[e], pressure_rate[e], kappa,
-                                                  stiffening[e])
-        _write(LG, e, 0, lg)
-        _write(LGd, e, 0, lgd)
-        l_pressure[e, 0] = lp
-        l_pressure[e, 1] = lpr
-
-
-@numba.njit(cache=True, nogil=True)
-def stress_partials(law, G, Gd, shear, shear_rate, pressure, pressure_rate, stiffening, out):
-    """``out[e, 0..3]`` (K, 4, 3, 3): the derivatives of :func:`stress` of element ``e`` by
-    its ``shear``, ``shear_rate``, ``π`` and ``π̇`` (it is linear in each)."""
-    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    for e in range(law.shape[0]):
-        g, gd = _entries(G, e, 0), _entries(Gd, e, 0)
-        for k in range(4):
-            _write(out, e, k, stress_jvp(law[e], g, gd, zero, zero, shear[e], shear_rate[e],
-                                         pressure[e], pressure_rate[e], 0.0, stiffening[e],
-                                         1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0,
-                                         1.0 if k == 2 else 0.0, 1.0 if k == 3 else 0.0, 0.0,
-                                         0.0))

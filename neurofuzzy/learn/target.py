@@ -1,17 +1,19 @@
 """Parameters that are right in the user's simulator: a fit for its element and step
-(issue 47, item 2, for MuJoCo, and for our own implicit step, ``--target ours``).
+(issue 47, item 2, for MuJoCo, SOFA, and our own implicit step, ``--target ours``).
 
 A model fitted with our explicit step and exported as it is moves differently in a simulator
 that steps at 16 ms with an implicit integrator on another element. :func:`fit_for_target`
 fits E, ν and η **as the target will use them**: on the target's element (MuJoCo's flex is
-the textbook linear tetrahedron of St. Venant–Kirchhoff, :mod:`neurofuzzy.export.mujoco`),
+the textbook linear tetrahedron of St. Venant–Kirchhoff, :mod:`neurofuzzy.export.mujoco`;
+SOFA's ``TetrahedronFEMForceField`` is our ``corotational`` law, :mod:`neurofuzzy.export.sofa`),
 by backward Euler steps of the target's step (:func:`~.implicit_fit.fit_implicit`, exact
 derivatives), on the recording resampled to that step (every ``k``-th frame; the load
 averaged over the ``k`` frames of each step, which keeps its impulse). Its errors are those
 of the target's own step, the linearly implicit one of MuJoCo's ``discrete`` integrator
 (:func:`~neurofuzzy.simulation.implicit.simulate_implicit`, which reproduces it on this element:
-``tests/test_implicit.py``), beside the naive export's (the accurate fit's values on the
-target's element and step) and our own model's at the same frames.
+``tests/test_implicit.py``) and of SOFA's ``EulerImplicitSolver`` (one linear solve a step;
+not run here: SOFA does not install with pip), beside the naive export's (the accurate fit's
+values on the target's element and step) and our own model's at the same frames.
 
 What no fit can do: follow motion faster than the step. A recording that rings (a step load
 on a soft block) keeps its ringing in every model stepped at 16 ms; the errors say how much.
@@ -42,6 +44,8 @@ __all__ = ["TARGETS", "TargetFit", "fit_for_target", "rms_at_step", "describe",
 #: (None: kept), for a real-time loop that runs the fitted model at the simulator's step.
 TARGETS = {"mujoco": {"volumetric": "element", "law": "st-venant-kirchhoff",
                       "integrator": "discrete", "name": "MuJoCo"},
+           "sofa": {"volumetric": "element", "law": "corotational",
+                    "integrator": "EulerImplicitSolver", "name": "SOFA"},
            "ours": {"volumetric": None, "law": None, "integrator": "implicit",
                     "name": "our implicit step"}}
 
