@@ -210,3 +210,25 @@ def test_fit_target_sofa_recovers_the_corotational_element_at_its_step_and_expor
     # a neo-Hookean model written for SOFA says what its corotational element changes
     _, notes = scene(_block(), experiment=data)
     assert any("written as SOFA's TetrahedronFEMForceField" in note for note in notes), notes
+
+
+def test_fit_target_sofa_then_export_writes_its_step_and_element(tmp_path):
+    """The command line: ``fit --target sofa --out`` saves the corotational textbook model
+    and its record; ``export --to sofa`` writes the step it was fitted for and the polar
+    element, and the scene's notes say so."""
+    data = save_experiment(_pressed(_block(), frames=65), tmp_path / "pressed.npz")
+    start = save_model(_block(youngs_modulus=8000.0), tmp_path / "start.yaml")
+    result = cli("fit", data, "--start", start, "--tie", "global", "--target", "sofa",
+                 "--json", "--out", tmp_path / "aimed.yaml")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(result.stdout)["target"]
+    assert record["simulator"] == "sofa" and record["integrator"] == "EulerImplicitSolver"
+    assert record["rms_error"] <= record["naive_rms_error"] * (1 + 1e-9)
+    saved = load_model(tmp_path / "aimed.yaml")
+    assert saved.elements.law_names() == "corotational"
+    exported = cli("export", tmp_path / "aimed.yaml", "--to", "sofa", "--out",
+                   tmp_path / "tissue.py")
+    assert exported.returncode == 0, exported.stderr
+    text = (tmp_path / "tissue.py").read_text()
+    assert "TIME_STEP = 0.016" in text and 'method="polar"' in text
+    assert "fit --target sofa" in exported.stdout + exported.stderr + text

@@ -37,14 +37,14 @@ write it.
   neo-Hookean solid.
 
 - :func:`corotational`: corotational linear elasticity, the element of SOFA's
-  ``TetrahedronFEMForceField`` (``method="polar"``) and of many real-time engines: the small-strain
-  stress of the stretch ``U - I`` in the element's own rotated frame, ``P = R (2μ (U - I) + λ
-  tr(U - I) I)`` with ``F = R U`` (McAdams et al. 2011's energy ``Ψ = μ |F - R|² + λ/2
-  (tr(U - I))²``). As a stress of ``G``: ``S = 2μ (I - U⁻¹) + π U⁻¹``, ``θ = tr U - 3``,
-  ``U = √C``. Exact under rigid rotation, linear elasticity at small strain; the stretch it
-  sees grows linearly with the displacement where Green's strain grows quadratically, so it
-  neither softens nor stiffens much under strong compression (SVK softens, neo-Hookean
-  stiffens).
+  ``TetrahedronFEMForceField`` (``method="polar"``) and of many real-time engines: the
+  small-strain stress of the stretch ``U - I`` in the element's own rotated frame, ``P = R
+  (2μ (U - I) + λ tr(U - I) I)`` with ``F = R U`` (McAdams et al. 2011's energy ``Ψ = μ |F -
+  R|² + λ/2 (tr(U - I))²``). As a stress of ``G``: ``S = 2μ (I - U⁻¹) + π U⁻¹``, ``θ = tr U
+  - 3``, ``U = √C`` by Newton's or the Denman–Beavers iteration (:func:`_root`). Exact under
+  rigid rotation, linear elasticity at small strain; the stretch it sees grows linearly with
+  the displacement where Green's strain grows quadratically, so it neither softens nor
+  stiffens much under strong compression (SVK softens, neo-Hookean stiffens).
 
 Adding a law: write its function here, name it in :data:`KERNEL_LAWS` (the next number) with a
 branch in :func:`elastic`, and give it a record in :data:`neurofuzzy.forces.laws.LAW_RECORDS`
@@ -182,37 +182,83 @@ def _inverse(m):
     return (k00 / det, k11 / det, k22 / det, k01 / det, k02 / det, k12 / det)
 
 
-#: Denman–Beavers iterations :func:`_root` may take (a stretch of 100 or 1/100 takes 12)
+#: Iterations :func:`_root` may take (a stretch of 100 or 1/100 takes 12)
 ROOT_ITERATIONS = 40
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _symmetric_product(a, b):
+    """``sym(a b)`` of two symmetric matrices of six entries (``a b`` itself where they
+    commute)."""
+    return (a[0] * b[0] + a[3] * b[3] + a[4] * b[4],
+            a[3] * b[3] + a[1] * b[1] + a[5] * b[5],
+            a[4] * b[4] + a[5] * b[5] + a[2] * b[2],
+            0.5 * (a[0] * b[3] + a[3] * b[1] + a[4] * b[5] + a[3] * b[0] + a[1] * b[3]
+                   + a[5] * b[4]),
+            0.5 * (a[0] * b[4] + a[3] * b[5] + a[4] * b[2] + a[4] * b[0] + a[5] * b[3]
+                   + a[2] * b[4]),
+            0.5 * (a[3] * b[4] + a[1] * b[5] + a[5] * b[2] + a[4] * b[3] + a[5] * b[1]
+                   + a[2] * b[5]))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _moved(old, new):
+    """The largest change of the real parts of six entries, and the size it is measured by."""
+    change = max(abs((new[0] - old[0]).real), abs((new[1] - old[1]).real),
+                 abs((new[2] - old[2]).real), abs((new[3] - old[3]).real),
+                 abs((new[4] - old[4]).real), abs((new[5] - old[5]).real))
+    return change, max(abs(old[0].real), abs(old[1].real), abs(old[2].real), 1.0)
+
+
+@numba.njit(cache=True, nogil=True)
 def _root(G):
-    """``(U, U⁻¹)`` with ``U = √C``, ``C = I + 2G``, six entries each, by the Denman–Beavers
-    iteration ``Y ← ½ (Y + Z⁻¹)``, ``Z ← ½ (Z + Y⁻¹)`` from ``Y = C``, ``Z = I`` (Higham,
-    *Functions of Matrices*, 6.3: quadratic and numerically stable; both stay symmetric).
-    Every operation is analytic, so the complex step differentiates it: the iteration runs
-    until the real part stops changing and two steps more, for the derivative's part."""
-    y = (1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2], 2.0 * G[3], 2.0 * G[4],
+    """``(U, U⁻¹)`` with ``U = √C``, ``C = I + 2G``, six entries each (Higham, *Functions of
+    Matrices*, ch. 6). Where every strain entry is below 0.2, Newton's iteration ``U ← ½ (U +
+    sym(U⁻¹ C))`` from the series ``I + G - G²/2`` (one step at strains of a few 1e-3, two at
+    a few per cent; Newton's iteration for the root is stable while ``C``'s condition number
+    is below 9, as it is there). Beyond, the Denman–Beavers iteration ``Y ← ½ (Y + Z⁻¹)``,
+    ``Z ← ½ (Z + Y⁻¹)`` from ``Y = C``, ``Z = I``, stable at any strain. Each stops once a
+    step moves the root by less than 1e-10 of its size (quadratic: the step after is at
+    round-off) and, where the strain carries a complex step, takes one step more for the
+    derivative's part: every operation is analytic. A singular ``C`` (an element squeezed
+    flat) gives NaN."""
+    c = (1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2], 2.0 * G[3], 2.0 * G[4],
          2.0 * G[5])
+    extra = 0
+    if (G[0].imag != 0.0 or G[1].imag != 0.0 or G[2].imag != 0.0 or G[3].imag != 0.0
+            or G[4].imag != 0.0 or G[5].imag != 0.0):
+        extra = 1
+    if max(abs(G[0].real), abs(G[1].real), abs(G[2].real), abs(G[3].real), abs(G[4].real),
+           abs(G[5].real)) < 0.2:
+        g2 = _symmetric_product(G, G)
+        u = (1.0 + G[0] - 0.5 * g2[0], 1.0 + G[1] - 0.5 * g2[1], 1.0 + G[2] - 0.5 * g2[2],
+             G[3] - 0.5 * g2[3], G[4] - 0.5 * g2[4], G[5] - 0.5 * g2[5])
+        for _ in range(ROOT_ITERATIONS):
+            q = _symmetric_product(_inverse(u), c)
+            change, size = _moved(u, q)
+            u = (0.5 * (u[0] + q[0]), 0.5 * (u[1] + q[1]), 0.5 * (u[2] + q[2]),
+                 0.5 * (u[3] + q[3]), 0.5 * (u[4] + q[4]), 0.5 * (u[5] + q[5]))
+            if change <= 1e-10 * size:
+                if extra == 0:
+                    break
+                extra -= 1
+        return u, _inverse(u)
+    y = c
     zero = G[0] * 0.0
     z = (zero + 1.0, zero + 1.0, zero + 1.0, zero, zero, zero)
-    settled = 0
     for _ in range(ROOT_ITERATIONS):
         yi, zi = _inverse(y), _inverse(z)
-        change, size = 0.0, 1.0
-        for k in range(6):               # the new Y less the old: ½ (Z⁻¹ - Y)
-            change = max(change, abs((zi[k] - y[k]).real))
-            size = max(size, abs(y[k].real))
+        change, size = _moved(y, zi)
         y = (0.5 * (y[0] + zi[0]), 0.5 * (y[1] + zi[1]), 0.5 * (y[2] + zi[2]),
              0.5 * (y[3] + zi[3]), 0.5 * (y[4] + zi[4]), 0.5 * (y[5] + zi[5]))
         z = (0.5 * (z[0] + yi[0]), 0.5 * (z[1] + yi[1]), 0.5 * (z[2] + yi[2]),
              0.5 * (z[3] + yi[3]), 0.5 * (z[4] + yi[4]), 0.5 * (z[5] + yi[5]))
         if y[0].real != y[0].real:       # NaN: an element squeezed flat
             break
-        settled = settled + 1 if change <= 1e-15 * size else 0
-        if settled == 3:
-            break
+        if change <= 1e-10 * size:
+            if extra == 0:
+                break
+            extra -= 1
     return y, z
 
 
