@@ -212,11 +212,15 @@ def test_fit_target_sofa_recovers_the_corotational_element_at_its_step_and_expor
     assert any("written as SOFA's TetrahedronFEMForceField" in note for note in notes), notes
 
 
-def test_fit_target_sofa_then_export_writes_its_step_and_element(tmp_path):
+def test_fit_target_sofa_then_export_writes_its_step_and_element(tmp_path, monkeypatch):
     """The command line: ``fit --target sofa --out`` saves the corotational textbook model
     and its record; ``export --to sofa`` writes the step it was fitted for and the polar
-    element, and the scene's notes say so."""
-    data = save_experiment(_pressed(_block(), frames=65), tmp_path / "pressed.npz")
+    element, the scene's notes say so, and its load controller gives each 16 ms step the
+    mean of its 16 frames' loads, as the fit took them (run on a stand-in for SOFA)."""
+    from test_export_formats import _Object, run_scene
+
+    recording = _pressed(_block(), frames=65)
+    data = save_experiment(recording, tmp_path / "pressed.npz")
     start = save_model(_block(youngs_modulus=8000.0), tmp_path / "start.yaml")
     result = cli("fit", data, "--start", start, "--tie", "global", "--target", "sofa",
                  "--json", "--out", tmp_path / "aimed.yaml")
@@ -226,9 +230,19 @@ def test_fit_target_sofa_then_export_writes_its_step_and_element(tmp_path):
     assert record["rms_error"] <= record["naive_rms_error"] * (1 + 1e-9)
     saved = load_model(tmp_path / "aimed.yaml")
     assert saved.elements.law_names() == "corotational"
-    exported = cli("export", tmp_path / "aimed.yaml", "--to", "sofa", "--out",
+    exported = cli("export", tmp_path / "aimed.yaml", data, "--to", "sofa", "--out",
                    tmp_path / "tissue.py")
     assert exported.returncode == 0, exported.stderr
     text = (tmp_path / "tissue.py").read_text()
     assert "TIME_STEP = 0.016" in text and 'method="polar"' in text
-    assert "fit --target sofa" in exported.stdout + exported.stderr + text
+    assert "fit --target sofa" in text
+    root = run_scene(tmp_path / "tissue.py", monkeypatch)
+    objects = [o for child in root.children for o in child.objects]
+    load = next(o for o in objects if isinstance(o, _Object) and o.kind == "ConstantForceField")
+    curve = next(o for o in root.objects if not isinstance(o, _Object))
+    nodes = np.array(load.fields["indices"])
+    steps = resampled(recording, 0.016).forces_per_frame()
+    for step in (0, 1, 2):
+        root.time.value = 0.016 * step
+        curve.onAnimateBeginEvent(None)
+        assert np.allclose(load.forces.value, steps[step, nodes], rtol=1e-12, atol=1e-15)

@@ -10,12 +10,12 @@ from .parser_import import FORMAT_DOC, add_import
 from ..forces.laws import LAW_RECORDS, LAWS
 from ..version import __version__
 
+__all__ = ["build_parser"]
+
 
 def _laws() -> str:
     """The material laws for ``--help``: each name with its record's summary."""
     return "; ".join(f"{law.name}: {law.summary}".replace("%", "%%") for law in LAW_RECORDS)
-
-__all__ = ["build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:

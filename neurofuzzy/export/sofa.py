@@ -215,13 +215,18 @@ def createScene(root):
 
 
 def _load_curve(root, load):
-    """A controller that holds row t of LOAD from frame t to t + 1."""
+    """A controller that holds row t of LOAD from frame t to t + 1; a step longer than a frame
+    (a file fitted for SOFA's step) takes the mean of its frames' rows, as the fit did."""
     import Sofa.Core
+
+    frames = max(1, int(round(TIME_STEP / FRAME_DT)))
 
     class LoadCurve(Sofa.Core.Controller):
         def onAnimateBeginEvent(self, event):
             frame = min(int(root.time.value / FRAME_DT + 1e-9), len(LOAD) - 1)
-            load.forces.value = LOAD[frame]
+            rows = LOAD[frame:frame + frames]
+            load.forces.value = [[sum(row[node][k] for row in rows) / len(rows)
+                                  for k in range(3)] for node in range(len(rows[0]))]
 
     return LoadCurve(name="loadCurve")
 '''
