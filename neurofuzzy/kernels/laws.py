@@ -89,22 +89,33 @@ def _inner(a, b):
 
 # -- the laws ----------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True, inline="always")
-def _cofactors(G):
-    """The cofactors ``(k00, k11, k22, k01, k02, k12)`` of ``C = I + 2G`` (symmetric) and
-    ``det C``; ``det C = 0`` (an element squeezed flat) becomes NaN: no stress exists there,
-    and the run turns NaN rather than raise."""
-    c00, c11, c22 = 1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2]
-    c01, c02, c12 = 2.0 * G[3], 2.0 * G[4], 2.0 * G[5]
-    k00 = c11 * c22 - c12 * c12
-    k11 = c00 * c22 - c02 * c02
-    k22 = c00 * c11 - c01 * c01
-    k01 = c02 * c12 - c01 * c22
-    k02 = c01 * c12 - c02 * c11
-    k12 = c01 * c02 - c00 * c12
-    det = c00 * k00 + c01 * k01 + c02 * k02
+def _adjugate(m):
+    """The cofactors ``(k00, k11, k22, k01, k02, k12)`` of the symmetric matrix of six
+    entries ``m`` and its determinant; a zero determinant (an element squeezed flat) becomes
+    NaN: no stress exists there, and the run turns NaN rather than raise."""
+    k00 = m[1] * m[2] - m[5] * m[5]
+    k11 = m[0] * m[2] - m[4] * m[4]
+    k22 = m[0] * m[1] - m[3] * m[3]
+    k01 = m[4] * m[5] - m[3] * m[2]
+    k02 = m[3] * m[5] - m[4] * m[1]
+    k12 = m[3] * m[4] - m[0] * m[5]
+    det = m[0] * k00 + m[3] * k01 + m[4] * k02
     if det == 0.0:
         det = det + np.nan
     return (k00, k11, k22, k01, k02, k12), det
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _right_cauchy_green(G):
+    """``C = I + 2G`` (six entries)."""
+    return (1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2], 2.0 * G[3], 2.0 * G[4],
+            2.0 * G[5])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _cofactors(G):
+    """The cofactors of ``C = I + 2G`` and ``det C`` (:func:`_adjugate`)."""
+    return _adjugate(_right_cauchy_green(G))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -168,18 +179,16 @@ def mooney_rivlin(G, shear, pressure, ratio):
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _inverse(m):
-    """The inverse of the symmetric matrix of six entries ``m`` (its cofactors over its
-    determinant; a singular one gives NaN, as :func:`_cofactors`)."""
-    k00 = m[1] * m[2] - m[5] * m[5]
-    k11 = m[0] * m[2] - m[4] * m[4]
-    k22 = m[0] * m[1] - m[3] * m[3]
-    k01 = m[4] * m[5] - m[3] * m[2]
-    k02 = m[3] * m[5] - m[4] * m[1]
-    k12 = m[3] * m[4] - m[0] * m[5]
-    det = m[0] * k00 + m[3] * k01 + m[4] * k02
-    if det == 0.0:
-        det = det + np.nan
-    return (k00 / det, k11 / det, k22 / det, k01 / det, k02 / det, k12 / det)
+    """The inverse of the symmetric matrix of six entries ``m`` (NaN where it is singular)."""
+    k, det = _adjugate(m)
+    return (k[0] / det, k[1] / det, k[2] / det, k[3] / det, k[4] / det, k[5] / det)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _halfway(a, b):
+    """``(a + b) / 2`` of six entries."""
+    return (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2]),
+            0.5 * (a[3] + b[3]), 0.5 * (a[4] + b[4]), 0.5 * (a[5] + b[5]))
 
 
 #: Iterations :func:`_root` may take (a stretch of 100 or 1/100 takes 12)
@@ -222,8 +231,7 @@ def _root(G):
     round-off) and, where the strain carries a complex step, takes one step more for the
     derivative's part: every operation is analytic. A singular ``C`` (an element squeezed
     flat) gives NaN."""
-    c = (1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2], 2.0 * G[3], 2.0 * G[4],
-         2.0 * G[5])
+    c = _right_cauchy_green(G)
     extra = 0
     if (G[0].imag != 0.0 or G[1].imag != 0.0 or G[2].imag != 0.0 or G[3].imag != 0.0
             or G[4].imag != 0.0 or G[5].imag != 0.0):
@@ -236,8 +244,7 @@ def _root(G):
         for _ in range(ROOT_ITERATIONS):
             q = _symmetric_product(_inverse(u), c)
             change, size = _moved(u, q)
-            u = (0.5 * (u[0] + q[0]), 0.5 * (u[1] + q[1]), 0.5 * (u[2] + q[2]),
-                 0.5 * (u[3] + q[3]), 0.5 * (u[4] + q[4]), 0.5 * (u[5] + q[5]))
+            u = _halfway(u, q)
             if change <= 1e-10 * size:
                 if extra == 0:
                     break
@@ -249,10 +256,7 @@ def _root(G):
     for _ in range(ROOT_ITERATIONS):
         yi, zi = _inverse(y), _inverse(z)
         change, size = _moved(y, zi)
-        y = (0.5 * (y[0] + zi[0]), 0.5 * (y[1] + zi[1]), 0.5 * (y[2] + zi[2]),
-             0.5 * (y[3] + zi[3]), 0.5 * (y[4] + zi[4]), 0.5 * (y[5] + zi[5]))
-        z = (0.5 * (z[0] + yi[0]), 0.5 * (z[1] + yi[1]), 0.5 * (z[2] + yi[2]),
-             0.5 * (z[3] + yi[3]), 0.5 * (z[4] + yi[4]), 0.5 * (z[5] + yi[5]))
+        y, z = _halfway(y, zi), _halfway(z, yi)
         if y[0].real != y[0].real:       # NaN: an element squeezed flat
             break
         if change <= 1e-10 * size:
