@@ -26,7 +26,7 @@ from .integrator import euler_update_transpose
 from .springs import CLOSING, CUBIC, STRETCH, partial
 from .stepper import spring_state
 from .tuples import _edges, _full, _green, _mul, _sym_dot, _sym_t_mul
-from .laws import stress, stress_vjp, volumetric
+from .laws import stress_vjp, volumetric
 from .relaxation import relaxed_stress
 
 
@@ -95,10 +95,8 @@ def _element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, g_shear, g_shear_ra
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
         # the relaxed stress: its P = F S is the force's
-        S6, S_el = relaxed_stress(stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                         pressure_rate, kappa, stiffening[e]),
-                                  law[e], G, shear[e], pressure, stiffening[e], relax_g,
-                                  history, e)
+        S6, S_el = relaxed_stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
+                                  pressure_rate, kappa, stiffening[e], relax_g, history, e)
         S = _full(S6)
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]

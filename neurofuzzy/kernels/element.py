@@ -21,7 +21,7 @@ Node values are tuples in node-major order: ``(x0, y0, z0, x1, y1, z1, …)``.
 import numba
 import numpy as np
 
-from .laws import STEP, elastic, stress, volumetric
+from .laws import STEP, elastic, volumetric, with_rates
 from .springs import magnitude
 from .tuples import _full, _green, _mul
 
@@ -81,9 +81,9 @@ def element_force(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, lam
     G, Gd = _green(F, deformation(xd, B))
     pi = lam * volumetric(law, G)[0] + pressure
     pi_rate = lam_rate * (Gd[0] + Gd[1] + Gd[2]) + pressure_rate
-    S = stress(law, G, Gd, shear, shear_rate, pi, pi_rate, kappa, stiffening)
+    S_el = elastic(law, G, shear, pi, stiffening)[0]
+    S = with_rates(S_el, G, Gd, shear_rate, pi_rate, kappa)
     if relax_g != 0.0:
-        S_el = elastic(law, G, shear, pi, stiffening)[0]
         S = (S[0] + relax_g * S_el[0] + relax_r[0], S[1] + relax_g * S_el[1] + relax_r[1],
              S[2] + relax_g * S_el[2] + relax_r[2], S[3] + relax_g * S_el[3] + relax_r[3],
              S[4] + relax_g * S_el[4] + relax_r[4], S[5] + relax_g * S_el[5] + relax_r[5])

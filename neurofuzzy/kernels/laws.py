@@ -300,6 +300,20 @@ def volumetric(law, G):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def with_rates(S, G, Gd, shear_rate, pressure_rate, kappa):
+    """``S + 2κ (G:G) G + shear_rate Ġ + π̇ I``: a law's elastic stress ``S`` (six entries)
+    with strain stiffening and Kelvin–Voigt viscosity added, as :func:`stress` adds them."""
+    stiff = 0.0 * kappa
+    if kappa != 0.0:                   # most models have none: skip its G:G
+        stiff = 2.0 * kappa * _inner(G, G)
+    return (S[0] + stiff * G[0] + shear_rate * Gd[0] + pressure_rate,
+            S[1] + stiff * G[1] + shear_rate * Gd[1] + pressure_rate,
+            S[2] + stiff * G[2] + shear_rate * Gd[2] + pressure_rate,
+            S[3] + stiff * G[3] + shear_rate * Gd[3], S[4] + stiff * G[4] + shear_rate * Gd[4],
+            S[5] + stiff * G[5] + shear_rate * Gd[5])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
     """``S = S_law(G; shear, π, c) + 2κ (G:G) G + shear_rate Ġ + π̇ I`` (six entries).
 
@@ -320,15 +334,8 @@ def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffe
         The law's own constant ``c`` (Yeoh's ``C₂₀/C₁₀``, Mooney–Rivlin's ``C₀₁/C₁₀``;
         ignored by the others).
     """
-    S, _ = elastic(law, G, shear, pressure, stiffening)
-    stiff = 0.0 * kappa
-    if kappa != 0.0:                   # most models have none: skip its G:G
-        stiff = 2.0 * kappa * _inner(G, G)
-    return (S[0] + stiff * G[0] + shear_rate * Gd[0] + pressure_rate,
-            S[1] + stiff * G[1] + shear_rate * Gd[1] + pressure_rate,
-            S[2] + stiff * G[2] + shear_rate * Gd[2] + pressure_rate,
-            S[3] + stiff * G[3] + shear_rate * Gd[3], S[4] + stiff * G[4] + shear_rate * Gd[4],
-            S[5] + stiff * G[5] + shear_rate * Gd[5])
+    return with_rates(elastic(law, G, shear, pressure, stiffening)[0], G, Gd, shear_rate,
+                      pressure_rate, kappa)
 
 
 # -- the derivatives, by complex step ----------------------------------------------------------

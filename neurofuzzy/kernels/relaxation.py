@@ -14,7 +14,7 @@ symmetric matrix, ``(00, 11, 22, 01, 02, 12)``). K = 0: no relaxation, nothing c
 import numba
 import numpy as np
 
-from .laws import elastic, stress_jvp
+from .laws import elastic, stress_jvp, with_rates
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -34,12 +34,15 @@ def relaxed(S, S_el, g, history, e):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def relaxed_stress(S, law, G, shear, pressure, stiffening, g, history, e):
-    """``(S_relaxed, S_e)``: :func:`relaxed` of element ``e``'s stress ``S`` with its
-    law's elastic stress ``S_e`` (``(S, S)`` without Prony terms: nothing computed)."""
-    if g.shape[1] == 0:
-        return S, S
+def relaxed_stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening,
+                   g, history, e):
+    """``(S, S_e)``: element ``e``'s stress (:func:`~neurofuzzy.kernels.laws.stress`'s, with
+    :func:`relaxed`'s Prony terms where ``g`` has any) and its law's elastic stress ``S_e``,
+    the law evaluated once for both."""
     S_el = elastic(law, G, shear, pressure, stiffening)[0]
+    S = with_rates(S_el, G, Gd, shear_rate, pressure_rate, kappa)
+    if g.shape[1] == 0:
+        return S, S_el
     return relaxed(S, S_el, g, history, e), S_el
 
 

@@ -29,7 +29,7 @@ import numpy as np
 from .integrator import euler_update
 from .springs import partial
 from .stepper import _only_svk, _spring
-from .laws import ST_VENANT_KIRCHHOFF, stress, stress_jvp, volumetric
+from .laws import ST_VENANT_KIRCHHOFF, stress_jvp, volumetric
 from .relaxation import relax, relaxation_tangent, relaxed_stress
 from .tuples import (_differences, _dot, _edges, _edges_of_tangent, _full, _green, _mul, _scatter,
                      _sym_dot, _sym_t_mul)
@@ -234,9 +234,8 @@ def _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns
         else:
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
-        S6, S_el = relaxed_stress(stress(own, G, Gd, shear[e], shear_rate[e], pressure,
-                                         pressure_rate, strain_stiffening, stiffening[e]),
-                                  own, G, shear[e], pressure, stiffening[e], relax_g,
+        S6, S_el = relaxed_stress(own, G, Gd, shear[e], shear_rate[e], pressure,
+                                  pressure_rate, strain_stiffening, stiffening[e], relax_g,
                                   history, e)
         S = _full(S6)
         scale = -volume[e]
@@ -278,8 +277,8 @@ def _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns
             # the law's constant is learned by its logarithm: dc/d log c = c
             d_stiffening = stiffening[e] if first + q == stiffening_column[e] else 0.0
             dS6 = stress_jvp(own, G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
-                             pressure_rate, strain_stiffening, stiffening[e], shear_part, rate_part,
-                             d_pressure, d_pressure_rate, d_kappa, d_stiffening)
+                             pressure_rate, strain_stiffening, stiffening[e], shear_part,
+                             rate_part, d_pressure, d_pressure_rate, d_kappa, d_stiffening)
             if n_terms:
                 dS6 = relaxation_tangent(dS6, own, G, Gd, dG, dGd, shear[e], pressure,
                                          stiffening[e], shear_part, d_pressure, d_stiffening,

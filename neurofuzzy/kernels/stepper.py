@@ -224,11 +224,9 @@ def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
                 pressure = lam[e] * volumetric(ST_VENANT_KIRCHHOFF, G)[0]
             pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
         if general:
-            S = stress(law[e], G, Gd, shear[e], shear_rate[e], pressure, pressure_rate, kappa,
-                       stiffening[e])
+            S, S_el = relaxed_stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
+                                     pressure_rate, kappa, stiffening[e], relax_g, history, e)
             if relax_g.shape[1] > 0:
-                S, S_el = relaxed_stress(S, law[e], G, shear[e], pressure, stiffening[e],
-                                         relax_g, history, e)
                 relax(S_el, relax_decay, history, e)
         else:
             S = stress(ST_VENANT_KIRCHHOFF, G, Gd, shear[e], shear_rate[e], pressure,
