@@ -48,11 +48,13 @@ def _ramp(plate: str, law: str) -> tuple[Model, Experiment]:
 
 
 @pytest.mark.slow
-def test_a_slid_plate_and_the_law_are_named_and_the_fit_then_recovers_the_gel():
+def test_a_slid_plate_and_the_law_are_named_and_the_fit_then_recovers_the_gel(tmp_path):
     """Neo-Hookean gel slid on its plate, modelled as bonded St. Venant–Kirchhoff: the
     diagnosis names the slip first (the larger χ² fall), then the law, and the fit with both
-    finds E, ν and η; the misfit falls to the noise."""
+    finds E, ν and η; the misfit falls to the noise. Its report draws both models through the
+    recording: the answer's markers at the noise in every frame, the base fit's far above."""
     from neurofuzzy.diagnosis.moving import diagnose_moving
+    from neurofuzzy.pipeline.moving import moving_diagnosis_report
 
     truth, data = _ramp("z", "neo-hookean")
     start = truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0,
@@ -67,28 +69,45 @@ def test_a_slid_plate_and_the_law_are_named_and_the_fit_then_recovers_the_gel():
     assert found.after.rms_error < 1.5 * np.sqrt(3) * 2e-6 < found.before.rms_error
     assert "plate_slip" in found.summary()
 
+    moving_diagnosis_report(found, data, tmp_path / "diagnosis.html")
+    page = (tmp_path / "diagnosis.html").read_text()
+    assert page.count("<img") == 3 and "plate_slip" in page and "neo-hookean" in page
+    record = json.loads((tmp_path / "diagnosis.json").read_text())
+    assert record["answer"] == found.names and record["law_before"] == "st-venant-kirchhoff"
+    before = np.asarray(record["marker_rms_per_frame_before"])[1:]
+    after = np.asarray(record["marker_rms_per_frame_after"])[1:]
+    assert np.all(after < 3 * np.sqrt(3) * 2e-6) and before.max() > 5 * after.max()
+    measured = np.asarray(record["measured_force"])[:, 2]
+    for key, misfit in (("predicted_force_after", 0.03), ("predicted_force_before", None)):
+        off = np.abs(np.asarray(record[key])[:, 2] - measured).max() / np.abs(measured).max()
+        assert off < misfit if misfit else off > 0.03, (key, off)
+
 
 @pytest.mark.slow
 def test_the_command_names_nothing_where_the_model_has_what_the_data_need(tmp_path):
     """Bonded neo-Hookean data and a bonded neo-Hookean start: ``diagnose`` answers
     ``none`` (each candidate raises χ²), keeps the fit, and writes the model asked for; a
-    report and the time-series diagnosis's options are refused by name, nothing written."""
+    report is written (its JSON twin beside it); the time-series diagnosis's options are
+    refused by name, nothing written."""
     truth, data = _ramp("xyz", "neo-hookean")
     save_experiment(data, tmp_path / "ramp.npz")
     save_model(truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=10.0),
                tmp_path / "model.yaml")
     done = cli("diagnose", tmp_path / "ramp.npz", "--start", tmp_path / "model.yaml",
-               "--json", "--quiet", "--out", tmp_path / "fitted.yaml")
+               "--json", "--quiet", "--out", tmp_path / "fitted.yaml", "--report",
+               tmp_path / "report.html")
     assert done.returncode == 0, done.stderr
     answer = json.loads(done.stdout)
     assert answer["answer"] == ["none"] and answer["plate"] == "xyz"
     assert all(fall < 0 for fall in answer["candidates"].values())
     assert answer["youngs_modulus"] == pytest.approx(6000.0, rel=0.02)
     assert (tmp_path / "fitted.yaml").is_file()
-    for option in (["--report", tmp_path / "r.html"], ["--localise"], ["--max-time", "5"],
-                   ["--window", "10"]):
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["answer"] == ["none"] and len(report["times"]) == FRAMES
+    assert "Answer: <b>none</b>" in (tmp_path / "report.html").read_text()
+    for option in (["--localise"], ["--max-time", "5"], ["--window", "10"]):
         refused = cli("diagnose", tmp_path / "ramp.npz", "--start", tmp_path / "model.yaml",
                       *option, "--out", tmp_path / "again.yaml")
         assert refused.returncode == 2 and option[0] in refused.stderr, refused.stderr
-        assert "Traceback" not in refused.stderr and not (tmp_path / "r.html").exists()
+        assert "Traceback" not in refused.stderr
         assert not (tmp_path / "again.yaml").exists()

@@ -86,12 +86,10 @@ def diagnose_moved(args) -> int:
     from .common import rule_base_for
 
     source, substeps = _one_recording(args)
-    if args.report:
-        raise InputError("a report of a diagnosis in time is not written yet; use --json, or "
-                         "fit --report", key="--report")
     only_time_series_diagnosis(args, "a recording whose body a stage moved")
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
+        report = outputs.file(args.report, "--report", twins=(".json",))
         data = load_experiment(source)
         model = load_step_start(data, start=args.start,
                                 rules=rule_base_for(args.rules, args.tissue),
@@ -101,11 +99,15 @@ def diagnose_moved(args) -> int:
                                  max_effects=args.max_effects, progress=say)
         if out:
             save_model(result.after.model, out)
+        if report:
+            from ..pipeline.moving import moving_diagnosis_report
+
+            moving_diagnosis_report(result, data, report, substeps=substeps)
     if args.json:
         print_json(result.to_dict())
     else:
         print(result.summary())
-        written(args.out)
+        written(args.out, args.report)
     return 0
 
 

@@ -50,7 +50,8 @@ class MovingDiagnosis:
                 "force_rms_after": self.after.force_rms_error, **values,
                 "plate": (None if self.data.tool is not None or not self.data.driven
                           else self.data.driven[0].components),
-                "law": _law(self.after.model)}
+                "law": _law(self.after.model), "law_before": _law(self.before.model),
+                "threshold": THRESHOLD}
 
     def summary(self) -> str:
         values = self.to_dict()

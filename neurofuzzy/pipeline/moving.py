@@ -13,7 +13,8 @@ import numpy as np
 from ..errors import InputError
 from .load_steps import LoadStepOutcome, load_step_start
 
-__all__ = ["fit_moving_file", "moving_fit_report", "AUTO_TETRAHEDRA", "SCHEME"]
+__all__ = ["fit_moving_file", "moving_fit_report", "moving_diagnosis_report", "AUTO_TETRAHEDRA",
+           "SCHEME"]
 
 #: ``mesh_check="auto"`` refits on the refined mesh where it has at most this many
 #: tetrahedra: a fit through implicit steps costs a run with its derivatives per evaluation
@@ -92,17 +93,36 @@ def moving_fit_report(outcome: LoadStepOutcome, path, *, substeps: int = 1,
     solved), drawn against the measurement (:func:`~neurofuzzy.report.moving.moving_report`).
     """
     from ..report.moving import moving_report
-    from ..simulation.implicit import simulate_implicit
 
     data, fit, record = outcome.data, outcome.result, outcome.record
-    run = simulate_implicit(fit.model, dt=data.dt, n_frames=data.n_frames,
-                            external_forces=data.external_forces,
-                            initial_positions=data.initial_positions(), substeps=substeps,
-                            iterations=50, tolerance=1e-11, scheme=record["scheme"],
-                            driven=data.driven, tool=data.tool)
+    run = _run(fit.model, data, substeps, record["scheme"])
     labels = next(iter(record["materials"].values()), {}).get("labels", {})
     return moving_report(outcome.start, fit, data, run, path, labels=labels,
                          notes=record["notes"], **({} if title is None else {"title": title}))
+
+
+def moving_diagnosis_report(diagnosis, experiment, path, *, substeps: int = 1):
+    """Write the report of ``diagnosis`` (:func:`~neurofuzzy.diagnosis.moving.diagnose_moving`
+    of ``experiment``) to ``path`` (HTML, and its JSON twin): the base fit's model run through
+    the recording and the answer's through the recording as the answer changed it (a plate
+    let slide, say), each as fitted (:func:`~neurofuzzy.report.moving.moving_diagnosis_report`).
+    """
+    from ..report.moving import moving_diagnosis_report as report
+
+    return report(diagnosis, experiment,
+                  _run(diagnosis.before.model, experiment, substeps, SCHEME),
+                  _run(diagnosis.after.model, diagnosis.data, substeps, SCHEME), path)
+
+
+def _run(model, data, substeps: int, scheme: str):
+    """``model`` run through the recording ``data`` as its fit ran it (steps solved)."""
+    from ..simulation.implicit import simulate_implicit
+
+    return simulate_implicit(model, dt=data.dt, n_frames=data.n_frames,
+                             external_forces=data.external_forces,
+                             initial_positions=data.initial_positions(), substeps=substeps,
+                             iterations=50, tolerance=1e-11, scheme=scheme,
+                             driven=data.driven, tool=data.tool)
 
 
 def _check_record(check: dict | None) -> dict | None:
