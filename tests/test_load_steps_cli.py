@@ -219,17 +219,29 @@ def test_the_time_series_diagnosis_options_are_refused_for_load_steps(lab, tmp_p
 @pytest.mark.slow
 def test_diagnose_a_load_step_file(lab, tmp_path):
     """The gel is neo-Hookean, the model file St. Venant–Kirchhoff: at 18 % the diagnosis
-    names the law, and the model it writes has it."""
+    names the law, and the model it writes has it. Its report draws both fits: the answer's
+    marker error at no step above the base fit's, its force nearer the load cell's."""
     steps = tmp_path / "steps.npz"
     assert _import(lab, "plate.csv", steps).returncode == 0
     out = tmp_path / "diagnosed.yaml"
     done = cli("diagnose", steps, "--start", lab / "model.yaml", "--law",
-               "st-venant-kirchhoff", "--json", "--quiet", "--out", out)
+               "st-venant-kirchhoff", "--json", "--quiet", "--out", out, "--report",
+               tmp_path / "diagnosis.html")
     assert done.returncode == 0, done.stderr
     record = json.loads(done.stdout)
     assert record["answer"] == ["hyperelasticity (neo-hookean)"]
     assert record["rms_after"] < record["rms_before"]
     assert "neo-hookean" in out.read_text()
+    page = (tmp_path / "diagnosis.html").read_text()
+    assert "Answer: <b>hyperelasticity (neo-hookean)</b>" in page and page.count("<img") == 3
+    report = json.loads((tmp_path / "diagnosis.json").read_text())
+    assert report["law_before"] == "st-venant-kirchhoff" and report["law"] == "neo-hookean"
+    before = np.asarray(report["marker_rms_per_step_before"])
+    after = np.asarray(report["marker_rms_per_step_after"])
+    assert before.shape == after.shape == (3,) and np.all(after <= before * 1.001)
+    measured = np.asarray(report["measured_force"])
+    assert (np.abs(np.asarray(report["predicted_force_after"]) - measured).max()
+            < np.abs(np.asarray(report["predicted_force_before"]) - measured).max())
 
 
 def test_a_load_cell_alone_from_the_command_line(lab, tmp_path):

@@ -160,20 +160,22 @@ def diagnose_load_steps(args) -> int:
     source = Path(args.experiments[0])
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
-        if args.report:
-            raise InputError("a report of a load-step diagnosis is not written yet; use "
-                             "--json, or fit --report", key="--report")
+        report = outputs.file(args.report, "--report", twins=(".json",))
         only_time_series_diagnosis(args, "a load-step file")
         data, _, model = _start(args, source)
         say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
         result = diagnose(model, data, progress=say)
         if out:
             save_model(result.after.model_, out)
+        if report:
+            from ..report.load_steps import load_step_diagnosis_report
+
+            load_step_diagnosis_report(result, data, report)
     if args.json:
         print_json(result.to_dict())
     else:
         print(result.summary())
-        written(args.out)
+        written(args.out, args.report)
     return 0
 
 

@@ -56,7 +56,8 @@ class LoadStepDiagnosis:
                 "unidentifiable": list(self.after.unidentifiable_),
                 "plate": (None if self.data.tool is not None or not self.data.driven
                           else self.data.driven[0].components),
-                "law": _law(self.after.model_)}
+                "law": _law(self.after.model_), "law_before": _law(self.before.model_),
+                "threshold": THRESHOLD}
 
     def summary(self) -> str:
         lines = [f"answer: {', '.join(self.names)}",

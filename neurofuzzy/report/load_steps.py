@@ -11,9 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .answer import answer_section
 from .html import figure_html, pyplot, table_html, write_report
 
-__all__ = ["load_steps_report"]
+__all__ = ["load_steps_report", "load_step_diagnosis_report"]
 
 
 def load_steps_report(start, fit, data, path, *, title: str = "neurofuzzy: load steps",
@@ -41,6 +42,92 @@ def load_steps_report(start, fit, data, path, *, title: str = "neurofuzzy: load 
               "intervals_hold": fit.intervals_hold,
               "mesh_check": None if fit.mesh_check_ is None else fit.mesh_check_.to_dict()}
     return write_report(path, title, sections, record)
+
+
+def load_step_diagnosis_report(diagnosis, data, path, *,
+                               title: str = "neurofuzzy: what the model of the load steps "
+                               "lacks") -> Path:
+    """Write the report of ``diagnosis`` (a ``LoadStepDiagnosis``) of ``data`` (the load steps
+    as the lab gave them): the answer and every candidate's χ² fall, the values and misfits
+    of the base fit and of the fit with the answer, the force against the displacement and
+    the markers' error at each step of both: ``path`` (HTML) and its JSON twin."""
+    plt = pyplot()
+    record = diagnosis.to_dict()
+    before, after = diagnosis.before, diagnosis.after
+    answer = ("with " + ", ".join(diagnosis.names) if diagnosis.names != ["none"] else
+              "nothing added: the base fit")
+    fits = {"base fit": before, answer: after}
+    sections = [("Answer", answer_section(plt, diagnosis.names, record)),
+                ("Before and after", _before_after(before, after, record)),
+                (f"The {'plate' if data.tool is None else data.tool.name}'s force",
+                 _forces(plt, fits, data))]
+    if data.markers is not None:
+        rms = {label: _step_rms(fit) for label, fit in fits.items()}
+        sections.append(("Markers at each step", _step_bars(plt, rms, before.marker_noise_)))
+        record.update({"marker_rms_per_step_before": rms["base fit"],
+                       "marker_rms_per_step_after": rms[answer]})
+    record.update({"measured_force": data.reaction, "predicted_force_before":
+                   before.reactions_, "predicted_force_after": after.reactions_})
+    return write_report(path, title, sections, record)
+
+
+def _before_after(before, after, record) -> str:
+    """The values and misfits of the base fit and of the fit with the answer."""
+    def value(fit, name):
+        return ("not identifiable" if name in fit.unidentifiable_ else
+                float(getattr(fit, name + "_")))
+
+    rows = [[name, value(before, name), value(after, name)]
+            for name in ("youngs_modulus", "poisson_ratio")]
+    rows.append(["law", record["law_before"], record["law"]])
+    if before.marker_rms_ is not None:
+        rows.append(["RMS marker error (µm)", 1e6 * before.marker_rms_,
+                     1e6 * after.marker_rms_])
+    if before.force_rms_ is not None:
+        rows.append(["RMS load-cell error (N)", before.force_rms_, after.force_rms_])
+    return table_html(["quantity", "base fit", "with the answer"], rows)
+
+
+def _forces(plt, fits, data) -> str:
+    """The force against the displacement of each fit (``fits``: label → fit) and of the
+    load cell."""
+    depth, direction = _drive(data)
+    what = "plate" if data.tool is None else data.tool.name
+    figure, ax = plt.subplots(figsize=(5.5, 3.6))
+    for label, fit in fits.items():
+        ax.plot(np.r_[0, depth] * 1e3, np.r_[0, np.asarray(fit.reactions_) @ direction], "o-",
+                label=label)
+    if data.reaction is not None:
+        ax.plot(np.r_[0, depth] * 1e3, np.r_[0, np.asarray(data.reaction) @ direction], "ks",
+                label="load cell")
+    ax.set_xlabel(f"{what} displacement (mm)")
+    ax.set_ylabel(f"{what} force along its motion (N)")
+    ax.legend(fontsize=8)
+    return figure_html(figure, f"{what} force against displacement")
+
+
+def _step_rms(fit) -> np.ndarray:
+    """A fit's RMS marker error per load step, each scan registered."""
+    scans = fit.registered_
+    seen = np.isfinite(scans).all(axis=-1)
+    return np.array([np.sqrt(np.mean(np.sum((scans[k] - fit.markers_[k])[seen[k]] ** 2,
+                                            axis=-1))) for k in range(len(scans))])
+
+
+def _step_bars(plt, rms, noise) -> str:
+    """Each fit's RMS marker error per step (``rms``: label → per step) side by side."""
+    figure, ax = plt.subplots(figsize=(5.5, 3.2))
+    width = 0.8 / len(rms)
+    for index, (label, values) in enumerate(rms.items()):
+        steps = np.arange(1, len(values) + 1)
+        ax.bar(steps + (index - (len(rms) - 1) / 2) * width, values * 1e6, width, label=label)
+    ax.axhline(np.sqrt(3) * noise * 1e6, color="k", ls="--", lw=1,
+               label="the noise (per marker)")
+    ax.set_xlabel("load step")
+    ax.set_ylabel("RMS marker error (µm)")
+    ax.set_xticks(steps)
+    ax.legend(fontsize=8)
+    return figure_html(figure, "marker error per load step")
 
 
 def _values(start, fit, labels) -> str:
@@ -99,10 +186,7 @@ def _force(plt, fit, data) -> str:
 
 
 def _markers(plt, fit, data) -> str:
-    scans = fit.registered_
-    seen = np.isfinite(scans).all(axis=-1)
-    rms = [float(np.sqrt(np.mean(np.sum((scans[k] - fit.markers_[k])[seen[k]] ** 2, axis=-1))))
-           for k in range(data.n_steps)]
+    rms = _step_rms(fit)
     steps = np.arange(1, data.n_steps + 1)
     held = [s not in fit.fitted_steps_ for s in steps]
     figure, ax = plt.subplots(figsize=(5.5, 3.2))

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .answer import answer_section
 from .html import figure_html, pyplot, table_html, write_report
 
 __all__ = ["moving_report", "moving_diagnosis_report"]
@@ -63,7 +64,7 @@ def moving_diagnosis_report(diagnosis, experiment, run_before, run_after, path, 
               answer: _force_of(run_after, diagnosis.data)}
     rms = {"base fit": _marker_rms(run_before, experiment),
            answer: _marker_rms(run_after, diagnosis.data)}
-    sections = [("Answer", _answer(plt, diagnosis.names, record)),
+    sections = [("Answer", answer_section(plt, diagnosis.names, record)),
                 ("Before and after", _before_after(before, after, record)),
                 ("The load cell's force", _force(plt, times, forces, experiment)),
                 ("Markers at each frame", _markers(plt, times, rms, before.marker_noise))]
@@ -73,30 +74,6 @@ def moving_diagnosis_report(diagnosis, experiment, run_before, run_after, path, 
                    "marker_rms_per_frame_before": rms["base fit"],
                    "marker_rms_per_frame_after": rms[answer]})
     return write_report(path, title, sections, record)
-
-
-def _answer(plt, names, record) -> str:
-    """The effects named and a bar of every candidate's χ² fall against the threshold."""
-    falls = sorted(record["candidates"].items(), key=lambda item: -item[1])
-    text = (f"<p>Answer: <b>{html.escape(', '.join(names))}</b>. Each candidate was refitted "
-            "through the same implicit steps and scored by the fall of χ² with the base fit's "
-            f"noise; one is named when χ² falls by more than {record['threshold']:g}, the best "
-            "added and the others tried again on top of it.</p>")
-    if not falls:
-        return text + "<p class='note'>No candidate applies to this set-up.</p>"
-    figure, ax = plt.subplots(figsize=(6.5, 0.5 + 0.45 * len(falls)))
-    labels = [name for name, _ in falls][::-1]
-    values = [fall for _, fall in falls][::-1]
-    ax.barh(labels, values, color=["darkorange" if v > record["threshold"] else "0.6"
-                                   for v in values])
-    ax.axvline(record["threshold"], color="k", ls="--", lw=1, label="threshold")
-    ax.set_xscale("symlog", linthresh=max(record["threshold"], 1.0))
-    ax.set_xlabel("fall of χ² (negative: the candidate fits worse)")
-    ax.legend(fontsize=8)
-    return (text + figure_html(figure, "candidate scores")
-            + table_html(["candidate", "fall of χ²", "named"],
-                         [[name, fall, "yes" if name in names else "no"]
-                          for name, fall in falls]))
 
 
 def _before_after(before, after, record) -> str:
