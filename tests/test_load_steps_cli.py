@@ -320,7 +320,8 @@ def test_mesh_drive_top_names_the_plate_and_import_drives_it(lab, tmp_path):
 def test_fit_many_fits_a_cohort_of_compression_tests(lab, tmp_path):
     """Two specimens measured between plates, one with its load cell: fit-many's task fits
     each as ``fit`` does, writes its report, and the results table holds ν for both, E only
-    where a force identifies it (no value and no word for the other)."""
+    where a force identifies it (no value and no word for the other); the one asked to be
+    diagnosed gets the diagnosis's report too, E not identifiable there either."""
     from neurofuzzy.batch import read_manifest
     from neurofuzzy.batch.table import table_rows
     from neurofuzzy.batch.task import fit_specimen
@@ -328,13 +329,18 @@ def test_fit_many_fits_a_cohort_of_compression_tests(lab, tmp_path):
     for name, plate in (("scans", "plate-no-force.csv"), ("cell", "plate.csv")):
         assert _import(lab, plate, tmp_path / f"{name}.npz").returncode == 0
     (tmp_path / "model.yaml").write_bytes((lab / "model.yaml").read_bytes())
-    (tmp_path / "cohort.csv").write_text("id,group,experiments,start,rules,tissue\n"
-                                         "a,gel,scans.npz,model.yaml,liver,liver\n"
-                                         "b,gel,cell.npz,model.yaml,liver,liver\n")
+    (tmp_path / "cohort.csv").write_text("id,group,experiments,start,rules,tissue,diagnose\n"
+                                         "a,gel,scans.npz,model.yaml,liver,liver,true\n"
+                                         "b,gel,cell.npz,model.yaml,liver,liver,false\n")
     specimens = read_manifest(tmp_path / "cohort.csv")
     records = {s.id: fit_specimen(s) for s in specimens}
     assert all(r["status"] == "ok" for r in records.values()), records
     assert {"fitted.yaml", "report.html", "report.json"} <= set(records["b"]["files"])
+    assert "diagnosis.html" not in records["b"]["files"]
+    diagnosis = json.loads(records["a"]["files"]["diagnosis.json"])       # asked for: drawn
+    assert diagnosis["answer"] == records["a"]["fit"]["diagnosis"]["effects"]
+    assert diagnosis["youngs_modulus"] is None and diagnosis["measured_force"] is None
+    assert b"not identifiable" in records["a"]["files"]["diagnosis.html"]
     rows = {row["id"]: row for row in table_rows(specimens, records)}
     for row in rows.values():
         assert row["poisson_ratio"] == pytest.approx(0.45, abs=0.01)

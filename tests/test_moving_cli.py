@@ -237,7 +237,7 @@ def test_fit_many_fits_and_diagnoses_a_ramped_plate_through_implicit_steps(lab, 
     """A cohort with a plate ramped in time: fit-many's task fits it as ``fit`` does
     (through BDF2 steps, the mesh check, the report drawing the load cell), its row holds E,
     ν and η, and ``diagnose: true`` diagnoses it in time (the gel's own model: nothing
-    named)."""
+    named) and writes the diagnosis's report beside the fit's."""
     from neurofuzzy.batch import read_manifest
     from neurofuzzy.batch.table import table_rows
     from neurofuzzy.batch.task import fit_specimen
@@ -254,7 +254,10 @@ def test_fit_many_fits_and_diagnoses_a_ramped_plate_through_implicit_steps(lab, 
     fit = records["a"]["fit"]
     assert fit["kind"] == "moving boundaries" and fit["mesh_check"]["elements"] == [48, 384]
     assert fit["diagnosis"]["effects"] == ["none"]
-    assert {"fitted.yaml", "report.html", "report.json"} <= set(records["a"]["files"])
+    assert {"fitted.yaml", "report.html", "report.json", "diagnosis.html",
+            "diagnosis.json"} <= set(records["a"]["files"])
+    assert b"specimen a (gel)" in records["a"]["files"]["diagnosis.html"]
+    assert json.loads(records["a"]["files"]["diagnosis.json"])["answer"] == ["none"]
     assert b"load cell" in records["a"]["files"]["report.html"]
     row = next(row for row in table_rows(specimens, records) if row["id"] == "a")
     assert row["youngs_modulus"] == pytest.approx(6000.0, rel=0.03)

@@ -113,10 +113,15 @@ def _fit_moved(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
         if options.get("diagnose"):
             from ..diagnosis.moving import diagnose_moving
 
+            from ..pipeline.moving import moving_diagnosis_report
+
             diagnosis = diagnose_moving(outcome.start, outcome.data, substeps=substeps)
             fit["diagnosis"] = {"effects": diagnosis.names,
                                 "rms_before": diagnosis.before.rms_error,
                                 "rms_after": diagnosis.after.rms_error}
+            moving_diagnosis_report(diagnosis, outcome.data, folder / "diagnosis.html",
+                                    substeps=substeps, title=f"neurofuzzy diagnosis: specimen "
+                                    f"{specimen.id} ({specimen.group})")
         files = {name: (folder / name).read_bytes() for name in OUTPUT_FILES
                  if (folder / name).exists()}
     return json_safe(fit), files
@@ -147,10 +152,15 @@ def _fit_load_steps(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
         if options.get("diagnose"):
             from ..diagnosis.load_steps import diagnose_load_steps
 
+            from ..report.load_steps import load_step_diagnosis_report
+
             diagnosis = diagnose_load_steps(outcome.start, outcome.data)
             fit["diagnosis"] = {"effects": diagnosis.names,
                                 "rms_before": diagnosis.before.marker_rms_,
                                 "rms_after": diagnosis.after.marker_rms_}
+            load_step_diagnosis_report(diagnosis, outcome.data, folder / "diagnosis.html",
+                                       title=f"neurofuzzy diagnosis: specimen {specimen.id} "
+                                       f"({specimen.group})")
         files = {name: (folder / name).read_bytes() for name in OUTPUT_FILES
                  if (folder / name).exists()}
     return json_safe(fit), files

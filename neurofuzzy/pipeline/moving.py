@@ -101,7 +101,8 @@ def moving_fit_report(outcome: LoadStepOutcome, path, *, substeps: int = 1,
                          notes=record["notes"], **({} if title is None else {"title": title}))
 
 
-def moving_diagnosis_report(diagnosis, experiment, path, *, substeps: int = 1):
+def moving_diagnosis_report(diagnosis, experiment, path, *, substeps: int = 1,
+                            title: str | None = None):
     """Write the report of ``diagnosis`` (:func:`~neurofuzzy.diagnosis.moving.diagnose_moving`
     of ``experiment``) to ``path`` (HTML, and its JSON twin): the base fit's model run through
     the recording and the answer's through the recording as the answer changed it (a plate
@@ -111,7 +112,8 @@ def moving_diagnosis_report(diagnosis, experiment, path, *, substeps: int = 1):
 
     return report(diagnosis, experiment,
                   _run(diagnosis.before.model, experiment, substeps, SCHEME),
-                  _run(diagnosis.after.model, diagnosis.data, substeps, SCHEME), path)
+                  _run(diagnosis.after.model, diagnosis.data, substeps, SCHEME), path,
+                  **({} if title is None else {"title": title}))
 
 
 def _run(model, data, substeps: int, scheme: str):
