@@ -181,7 +181,8 @@ def mooney_rivlin(G, shear, pressure, ratio):
 def _inverse(m):
     """The inverse of the symmetric matrix of six entries ``m`` (NaN where it is singular)."""
     k, det = _adjugate(m)
-    return (k[0] / det, k[1] / det, k[2] / det, k[3] / det, k[4] / det, k[5] / det)
+    r = 1.0 / det                                     # one division, not six
+    return (k[0] * r, k[1] * r, k[2] * r, k[3] * r, k[4] * r, k[5] * r)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
