@@ -112,7 +112,6 @@ def _fit_moved(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
                           title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})")
         if options.get("diagnose"):
             from ..diagnosis.moving import diagnose_moving
-
             from ..pipeline.moving import moving_diagnosis_report
 
             diagnosis = diagnose_moving(outcome.start, outcome.data, substeps=substeps)
@@ -151,7 +150,6 @@ def _fit_load_steps(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
                           labels=labels)
         if options.get("diagnose"):
             from ..diagnosis.load_steps import diagnose_load_steps
-
             from ..report.load_steps import load_step_diagnosis_report
 
             diagnosis = diagnose_load_steps(outcome.start, outcome.data)

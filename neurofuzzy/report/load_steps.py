@@ -103,7 +103,11 @@ def _forces(plt, fits, data) -> str:
     ax.set_xlabel(f"{what} displacement (mm)")
     ax.set_ylabel(f"{what} force along its motion (N)")
     ax.legend(fontsize=8)
-    return figure_html(figure, f"{what} force against displacement")
+    unknown = any("youngs_modulus" in fit.unidentifiable_ for fit in fits.values())
+    text = ("" if not unknown else "<p class='note'>No force was measured: E is not "
+            "identified, and the curves are at the start's E (their shape is the finding, not "
+            "their scale).</p>")
+    return figure_html(figure, f"{what} force against displacement") + text
 
 
 def _step_rms(fit) -> np.ndarray:
