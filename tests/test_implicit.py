@@ -176,9 +176,6 @@ def test_bad_input_is_refused_with_the_key_named():
         if key != "iterations":              # the derivatives' run takes the same checks
             with pytest.raises(InputError, match=key):
                 implicit_sensitivities(model, **arguments)
-    relaxing = model.with_elements(relaxation_moduli=0.5, relaxation_times=0.05)
-    with pytest.raises(InputError, match="Prony"):
-        implicit_sensitivities(relaxing, dt=0.016, n_frames=3)
     with pytest.raises(ConvergenceError, match="did not converge"):
         simulate_implicit(model, dt=0.016, n_frames=3, external_forces=_push(model),
                           iterations=2, tolerance=0.0)
@@ -275,6 +272,92 @@ def test_a_fit_through_implicit_steps_recovers_e_nu_eta_of_its_own_data(scheme):
     assert fitted.values["viscosity"][0] == pytest.approx(10.0, rel=0.01)
     assert fitted.rms_error == pytest.approx(np.sqrt(3) * 2e-6, rel=0.15)
     assert np.allclose(fitted.model.elements.youngs_modulus, fitted.values["youngs_modulus"])
+
+
+def _relaxing_plate(law, volumetric, groups=None):
+    """The 2 × 2 × 2 block with two Prony terms (g 0.5 and 0.3, τ 4 and 20 ms), its top
+    driven down 15 % and sideways 3 % over 24 ms and held: ``(model, simulation keywords)``."""
+    from neurofuzzy.paths import DrivenPath
+
+    model = _block(cells=(2, 2, 2), law=law, volumetric=volumetric).with_elements(
+        relaxation_moduli=[0.5, 0.3], relaxation_times=[0.004, 0.02])
+    rest = model.mesh.rest_positions
+    top = np.flatnonzero(np.isclose(rest[:, 2], rest[:, 2].max()))
+    path = np.zeros((10, 3))
+    path[:, 2] = -0.15 * 0.02 * np.minimum(np.arange(10) / 6, 1.0)
+    path[:, 0] = 0.2 * path[:, 2]
+    return model, {"dt": 0.004, "n_frames": 10, "driven": [DrivenPath(top, path, "xyz")]}
+
+
+@pytest.mark.parametrize("law, volumetric, scheme, substeps",
+                         [("neo-hookean", "element", "bdf2", 1),
+                          ("yeoh", "nodal", "euler", 2)])
+def test_the_derivatives_through_relaxing_steps_are_central_differences(law, volumetric,
+                                                                        scheme, substeps):
+    """Elements with Prony terms: the internal variables' own derivatives carried through the
+    steps (:mod:`neurofuzzy.simulation.implicit_relaxation`) make the positions' and the
+    plate's force's derivatives by two groups' E, ν and η central differences of the
+    simulation (measured: within 5e-8 of the largest; without the internal variables'
+    part they were 2 to 40 % off)."""
+    from neurofuzzy.simulation.implicit_derivatives import PARAMETERS, implicit_sensitivities
+
+    base, keywords = _relaxing_plate(law, volumetric)
+    groups = (base.mesh.rest_positions[base.mesh.tetrahedra].mean(axis=1)[:, 0]
+              > 0.01).astype(int)
+    model = base.with_elements(youngs_modulus=np.where(groups, 9000.0, 6000.0),
+                               poisson_ratio=np.where(groups, 0.4, 0.45),
+                               viscosity=np.where(groups, 8.0, 5.0))
+    keywords.update(scheme=scheme, substeps=substeps, tolerance=1e-13)
+    run, derivatives, forces = implicit_sensitivities(model, groups=groups, forces=True,
+                                                      **keywords)
+
+    def simulated(name, group, change):
+        values = getattr(model.elements, name) + change * (groups == group)
+        return simulate_implicit(model.with_elements(**{name: values}), iterations=50,
+                                 **keywords)
+
+    for k, name in enumerate(PARAMETERS):
+        for group in (0, 1):
+            step = 1e-6 * getattr(model.elements, name)[groups == group][0]
+            ahead, back = simulated(name, group, step), simulated(name, group, -step)
+            for got, value in ((derivatives, "positions"), (forces.reactions, "reactions")):
+                central = (getattr(ahead, value) - getattr(back, value)) / (2 * step)
+                assert np.abs(central).max() > 0
+                error = np.abs(got[:, 2 * k + group] - central).max()
+                assert error < 1e-5 * np.abs(central).max(), (name, group, value)
+
+
+def test_a_fit_through_relaxing_implicit_steps_recovers_e_nu_eta():
+    """Markers and the plate's force made by BDF2 steps of the relaxing block (1 µm noise,
+    the force's 1 % of its peak): from E 33 % off, ν 0.05 and η half, the fit through the same
+    steps returns them within 1 %, the Prony terms known (measured: E +0.06 %, ν +0.003 %,
+    η +0.7 %, ten evaluations)."""
+    from neurofuzzy.learn.implicit_fit import fit_implicit
+    from neurofuzzy.observation import EmbeddedMarkers
+
+    truth, keywords = _relaxing_plate("neo-hookean", "nodal")
+    truth = truth.with_elements(viscosity=10.0)
+    clean = simulate_implicit(truth, iterations=50, tolerance=1e-12, scheme="bdf2",
+                              **keywords)
+    rng = np.random.default_rng(3)
+    inner = np.flatnonzero(~np.isin(np.arange(truth.n_nodes), truth.mesh.fixed))
+    beads = clean.positions[:, inner] + rng.normal(0.0, 1e-6, clean.positions[:, inner].shape)
+    beads[0] = clean.positions[0, inner]
+    force = clean.reactions[:, 0]
+    force = force + 0.01 * np.abs(force).max() * rng.normal(size=force.shape)
+    weights = np.zeros((len(inner), 4))
+    weights[:, 0] = 1.0
+    nodes = np.repeat(inner[:, None], 4, axis=1)
+    data = Experiment(mesh=truth.mesh, dt=keywords["dt"],
+                      positions=np.full((keywords["n_frames"], truth.n_nodes, 3), np.nan),
+                      observed=np.zeros(truth.n_nodes, bool),
+                      markers=EmbeddedMarkers(nodes, weights, beads),
+                      driven=tuple(keywords["driven"]), reaction=force)
+    start = truth.with_elements(youngs_modulus=8000.0, poisson_ratio=0.4, viscosity=5.0)
+    fitted = fit_implicit(start, data, scheme="bdf2")
+    assert fitted.values["youngs_modulus"][0] == pytest.approx(6000.0, rel=0.01)
+    assert fitted.values["poisson_ratio"][0] == pytest.approx(0.45, rel=0.01)
+    assert fitted.values["viscosity"][0] == pytest.approx(10.0, rel=0.01)
 
 
 def test_the_derivatives_refuse_what_they_do_not_cover():

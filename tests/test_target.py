@@ -50,6 +50,9 @@ def test_the_recording_resampled_to_the_step_keeps_its_frames_and_impulse():
     for dt in (0.0155, 0.2):
         with pytest.raises(InputError, match="--dt"):
             resampled(data, dt)
+    relaxing = _block().with_elements(relaxation_moduli=[0.5], relaxation_times=[0.05])
+    with pytest.raises(InputError, match="no Prony relaxation"):      # MuJoCo could not run it
+        fit_for_target(relaxing, data, dt=0.016)
 
 
 def test_the_fit_for_the_step_is_no_worse_than_the_naive_export():

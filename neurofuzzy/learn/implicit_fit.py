@@ -125,7 +125,8 @@ def fit_implicit(model: Model, experiments: Experiment | Sequence[Experiment], *
     Parameters
     ----------
     model : Model
-        The start: elements only (no springs, effects or relaxation), one E, ν, η per group.
+        The start: elements only (no springs or effects; Prony terms held), one E, ν, η per
+        group.
     experiments : Experiment or sequence of them
         Their load, start, driven sets or tool, measured markers (or nodes) and load cell.
     substeps : int

@@ -132,7 +132,7 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
     ----------
     model : Model
         The accurate fit (its values start the fit and make the naive export): elements
-        without springs, effects or relaxation; one E, ν, η per region.
+        without springs or effects (Prony terms held); one E, ν, η per region.
     experiments : Experiment or sequence of them
         The recordings, at frames a whole number of which make ``dt``.
     target : str
@@ -150,6 +150,10 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
     if model.elements is None:
         raise InputError("a fit for a simulator's element needs an element model",
                          key="--target")
+    if model.n_relaxation_terms:
+        raise InputError("the simulators' elements have no Prony relaxation, so values "
+                         "fitted with it would not be theirs: fit for the target a model "
+                         "without --relaxation", key="--target")
     experiments = [experiments] if isinstance(experiments, Experiment) else list(experiments)
     chosen = TARGETS[target]
     steps = [resampled(e, dt) for e in experiments]

@@ -39,7 +39,8 @@ variables one step on at the start of each step, from the state there, ``rᵢ �
 solves for the new state with them held: the instantaneous response is implicit, the memory
 lags one step. That is stable at any step (a mode's amplification tends to ``g/(1+g)`` as
 ``h → ∞``), first-order in the memory whatever the scheme, and its long-time state is the
-relaxed equilibrium. Their derivatives are not covered yet.
+relaxed equilibrium. The derivatives carry the internal variables' own
+(:mod:`.implicit_relaxation`).
 
 The derivatives of these steps by the elements' constants are
 :mod:`.implicit_derivatives`'s.

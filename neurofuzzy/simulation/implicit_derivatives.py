@@ -31,6 +31,7 @@ import scipy.sparse.linalg as spla
 from ..errors import InputError
 from ..model import Model
 from .implicit import ImplicitRun, _base
+from .implicit_relaxation import RelaxationTangent
 from .static import ConvergenceError, _factor
 from .tangents import tangents, unit_forces
 
@@ -79,7 +80,7 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     Parameters
     ----------
     model : Model
-        Elements (one E, ν, η per group) with no springs, effects or relaxation.
+        Elements (one E, ν, η per group, their Prony terms too) with no springs or effects.
     dt, n_frames, external_forces, initial_positions, initial_velocities, substeps, scheme
         As :func:`~.implicit.simulate_implicit` (the start does not depend on the constants).
     groups : (n_elements,) int, optional
@@ -107,9 +108,6 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
     if model.elements is None or model.springs is not None or model.effects:
         raise InputError("the implicit step's derivatives cover element models without "
                          "springs or effects", key="model")
-    if model.n_relaxation_terms:
-        raise InputError("the implicit step's derivatives do not cover elements that relax "
-                         "(Prony terms) yet; fit them with the explicit step", key="model")
     groups, values = _grouped(model, groups)
     n_groups = len(values[0])
     run = ImplicitRun(model, dt=dt, n_frames=n_frames, external_forces=external_forces,
@@ -131,12 +129,17 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
         penalty_column = int(np.argmax(values[0]))
         penalty_scale = float(values[0][penalty_column])
     parameter_forces = _ParameterForces(model, groups, values)
-    changes_before, factor = None, None
+    memory = (RelaxationTangent(model, groups, values, run.body.elements[15])
+              if run.body.relaxes else None)
+    changes_before, factor, started = None, None, run.p
     for step in run.steps():
+        if memory is not None:              # the internal variables held through this step
+            memory.advance(started, dx)
         changes = _base(step.scheme, (dx, dv), changes_before)[1]
         changes_before = (dx, dv)
         he, p, v = step.h, step.positions, step.velocities
-        state = tangents(model, p, v)
+        started = p
+        state = tangents(model, p, v, run.body.internal if memory is not None else None)
         stiffness = state.stiffness
         if step.contact is not None:
             contact_stiffness = step.contact.stiffness_matrix(p)
@@ -147,6 +150,8 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
         matrix = (sp.diags(mass) + he * state.damping[free][:, free]
                   + (he * he) * inner).tocsc()
         d_force = parameter_forces(p, v)                           # (columns, 3 n)
+        if memory is not None:
+            d_force += memory.force(p)
         if penalty_column is not None:
             d_force[penalty_column] += pressing.ravel() / penalty_scale
         right = (mass * changes[1][:, free] - he * (inner @ changes[0][:, free].T).T
@@ -207,7 +212,7 @@ class _ParameterForces:
                                             for x in lame_factors(self.nu))
 
     def __call__(self, p, v):
-        units = unit_forces(self.model, p, self.groups, velocities=v)
+        units = unit_forces(self.model, p, self.groups, velocities=v, instantaneous=True)
         units = units.reshape(len(self.E), 4, -1)
         a, b, da, db = (x[:, None] for x in (self.a, self.b, self.da, self.db))
         E, eta = self.E[:, None], self.eta[:, None]

@@ -260,7 +260,8 @@ def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarr
 
 def unit_forces(model: Model, positions: np.ndarray,
                 groups: np.ndarray | None = None,
-                velocities: np.ndarray | None = None) -> np.ndarray:
+                velocities: np.ndarray | None = None, *,
+                instantaneous: bool = False) -> np.ndarray:
     """The elements' force per unit of their constants, at rest velocity and long time:
     ``(n_groups, 2, n_nodes, 3)``, ``[g, 0]`` the force of the elements of group ``g`` with
     ``2μ = 1`` and ``λ = 0``, ``[g, 1]`` with ``2μ = 0`` and ``λ = 1`` (Pa⁻¹ · N).
@@ -273,6 +274,10 @@ def unit_forces(model: Model, positions: np.ndarray,
     With ``velocities`` (n_nodes, 3), the viscous ones too: ``(n_groups, 4, n_nodes, 3)``,
     ``[g, 2]`` the force with ``2μβ = 1`` and ``[g, 3]`` with ``λβ = 1`` (Pa⁻¹ s⁻¹ · N) at
     those velocities, the Kelvin–Voigt stress being linear in both likewise.
+
+    ``instantaneous``: the elements' Prony terms take their share at once (``S_e`` times
+    ``1 + Σᵢ gᵢ``, the internal variables held, as in an implicit step); by default none
+    (their long-time value).
     """
     from ..kernels.stiffness import element_tangents
     from .steppers import _prepared
@@ -300,7 +305,9 @@ def unit_forces(model: Model, positions: np.ndarray,
             layout = (*elements[:5], unit[0], unit[2], unit[1], unit[3], elements[9],
                       node_volume, node_lam if which == 1 else zeros_n,
                       node_lam if which == 3 else zeros_n, np.zeros_like(elements[13]),
-                      np.zeros((k, 0)), elements[15], np.zeros((k, 0, 6)))
+                      *((elements[14], elements[15], np.zeros_like(elements[16]))
+                        if instantaneous else
+                        (np.zeros((k, 0)), np.zeros((k, 0)), np.zeros((k, 0, 6)))))
             element_tangents(p, zero_v, layout, 0.0, out[g, which], np.empty((0, 12, 12)),
                              np.empty((0, 12, 12)), np.zeros((0, 3, 12)))
     return out
