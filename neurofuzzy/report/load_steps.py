@@ -126,7 +126,7 @@ def _step_bars(plt, rms, noise) -> str:
         steps = np.arange(1, len(values) + 1)
         ax.bar(steps + (index - (len(rms) - 1) / 2) * width, values * 1e6, width, label=label)
     ax.axhline(np.sqrt(3) * noise * 1e6, color="k", ls="--", lw=1,
-               label="the noise (per marker)")
+               label="the noise the candidates were scored with (per marker)")
     ax.set_xlabel("load step")
     ax.set_ylabel("RMS marker error (µm)")
     ax.set_xticks(steps)

@@ -67,7 +67,9 @@ def moving_diagnosis_report(diagnosis, experiment, run_before, run_after, path, 
     sections = [("Answer", answer_section(plt, diagnosis.names, record)),
                 ("Before and after", _before_after(before, after, record)),
                 ("The load cell's force", _force(plt, times, forces, experiment)),
-                ("Markers at each frame", _markers(plt, times, rms, before.marker_noise))]
+                ("Markers at each frame", _markers(plt, times, rms, before.marker_noise,
+                                                   "the noise the candidates were scored "
+                                                   "with (per marker)"))]
     record.update({"times": times, "measured_force": experiment.reaction,
                    "predicted_force_before": forces["base fit"],
                    "predicted_force_after": forces[answer],
@@ -139,15 +141,14 @@ def _force(plt, times, predicted, experiment) -> str:
     return figure_html(figure, "force over time") + text
 
 
-def _markers(plt, times, rms, noise) -> str:
+def _markers(plt, times, rms, noise, noise_label="the noise (per marker)") -> str:
     """Each model's RMS marker error per frame (``rms``: label → (frames,)) against the
     noise per marker (``noise`` per coordinate, or None)."""
     figure, ax = plt.subplots(figsize=(5.5, 3.2))
     for label, values in rms.items():
         ax.plot(times[1:] * 1e3, values[1:] * 1e6, "-", label=label)
     if noise is not None:
-        ax.axhline(np.sqrt(3) * noise * 1e6, color="k", ls="--", lw=1,
-                   label="the noise (per marker)")
+        ax.axhline(np.sqrt(3) * noise * 1e6, color="k", ls="--", lw=1, label=noise_label)
     ax.set_xlabel("time (ms)")
     ax.set_ylabel("RMS marker error (µm)")
     ax.legend(fontsize=8)
