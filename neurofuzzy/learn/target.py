@@ -132,7 +132,8 @@ def fit_for_target(model: Model, experiments: Experiment | Sequence[Experiment],
     ----------
     model : Model
         The accurate fit (its values start the fit and make the naive export): elements
-        without springs or effects (Prony terms held); one E, ν, η per region.
+        without springs, effects or Prony terms (refused: the simulators have none); one E,
+        ν, η per region.
     experiments : Experiment or sequence of them
         The recordings, at frames a whole number of which make ``dt``.
     target : str
