@@ -45,7 +45,7 @@ class RelaxationTangent:
     def __init__(self, model, groups, values, decay):
         constants, total = element_constants(model)
         geometry = constants.geometry
-        self.tets = np.asarray(geometry.nodes, np.intp)
+        self.geometry, self.tets = geometry, np.asarray(geometry.nodes, np.intp)
         self.inverse_rest = np.asarray(geometry.inverse_rest, float)
         self.volume = np.asarray(geometry.volume, float)
         self.nodal, self.average = bool(constants.nodal), geometry.average
@@ -66,25 +66,19 @@ class RelaxationTangent:
         self.d_lam = np.concatenate([a[:, None] * member, (da * E)[:, None] * member, zero])
         self.dr = np.zeros((len(self.d_shear), k, self.moduli.shape[1], 3, 3))
 
-    def _deformation(self, x):
-        """``F = Dx B`` of every element (K, 3, 3) from node values ``x`` (…, n_nodes, 3)."""
-        t = self.tets
-        differences = np.stack([x[..., t[:, j], :] - x[..., t[:, 0], :] for j in (1, 2, 3)],
-                               axis=-1)                                   # (…, K, 3, 3)
-        return differences @ self.inverse_rest
-
     def advance(self, x0: np.ndarray, dx0: np.ndarray) -> None:
         """``drᵢ ← aᵢ drᵢ - (1 - aᵢ) dS_e`` from the state the step starts at, ``x0``
         (n_nodes, 3), and its derivatives ``dx0`` (columns, 3 n_nodes)."""
         from ..kernels.law_arrays import stress_arrays, stress_jvp_arrays, volumetric_arrays
 
         k = len(self.tets)
-        F = self._deformation(np.asarray(x0, float).reshape(-1, 3))
-        dF = self._deformation(np.asarray(dx0, float).reshape(len(dx0), -1, 3))
+        geometry = self.geometry
+        F = geometry.edges(np.asarray(x0, float).reshape(-1, 3)) @ self.inverse_rest
+        tangent = np.asarray(dx0, float).reshape(len(dx0), -1, 3).transpose(1, 0, 2)
+        dF = geometry.edges(tangent) @ self.inverse_rest[:, None]           # (K, M, 3, 3)
         G = 0.5 * (np.swapaxes(F, -1, -2) @ F - np.eye(3))[:, None]        # (K, 1, 3, 3)
-        product = np.swapaxes(F, -1, -2)[None] @ dF                        # (M, K, 3, 3)
-        dG = np.ascontiguousarray(np.moveaxis(0.5 * (product + np.swapaxes(product, -1, -2)),
-                                              0, 1))                     # (K, M, 3, 3)
+        product = np.swapaxes(F, -1, -2)[:, None] @ dF
+        dG = np.ascontiguousarray(0.5 * (product + np.swapaxes(product, -1, -2)))
         theta, N = np.zeros(k), np.zeros((k, 1, 3, 3))
         volumetric_arrays(self.law, np.ascontiguousarray(G), theta, N)
         d_theta = np.einsum("kij,kmij->km", N[:, 0], dG)                    # (K, M)
@@ -114,13 +108,10 @@ class RelaxationTangent:
     def force(self, x1: np.ndarray) -> np.ndarray:
         """The force of the stress ``Σᵢ gᵢ drᵢ`` at the state ``x1`` (n_nodes, 3), per column:
         (columns, 3 n_nodes)."""
-        n = np.asarray(x1).reshape(-1, 3).shape[0]
-        F = self._deformation(np.asarray(x1, float).reshape(-1, 3))          # (K, 3, 3)
-        stress = np.einsum("kt,mktij->mkij", self.moduli, self.dr)          # (M, K, 3, 3)
-        columns = -self.volume[None, :, None, None] * (
-            F[None] @ stress @ np.swapaxes(self.inverse_rest, -1, -2)[None])  # node j+1: col j
-        out = np.zeros((len(stress), n, 3))
-        for j in range(3):
-            np.add.at(out, (slice(None), self.tets[:, j + 1]), columns[..., j])
-        np.add.at(out, (slice(None), self.tets[:, 0]), -columns.sum(axis=-1))
-        return out.reshape(len(stress), -1)
+        x1 = np.asarray(x1, float).reshape(-1, 3)
+        F = self.geometry.edges(x1) @ self.inverse_rest                     # (K, 3, 3)
+        stress = np.einsum("kt,mktij->kmij", self.moduli, self.dr)          # (K, M, 3, 3)
+        columns = -self.volume[:, None, None, None] * (
+            F[:, None] @ stress @ np.swapaxes(self.inverse_rest, -1, -2)[:, None])
+        forces = self.geometry.scatter(columns, len(x1))                    # (n_nodes, M, 3)
+        return forces.transpose(1, 0, 2).reshape(len(self.dr), -1)
