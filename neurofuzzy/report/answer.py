@@ -8,7 +8,12 @@ import html
 
 from .html import figure_html, table_html
 
-__all__ = ["answer_section"]
+__all__ = ["answer_label", "answer_section"]
+
+
+def answer_label(names) -> str:
+    """What a figure calls the model with the answer's effects (``names``)."""
+    return "with " + ", ".join(names) if names != ["none"] else "nothing added: the base fit"
 
 
 def answer_section(plt, names, record) -> str:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .answer import answer_section
+from .answer import answer_label, answer_section
 from .html import figure_html, pyplot, table_html, write_report
 
 __all__ = ["load_steps_report", "load_step_diagnosis_report"]
@@ -54,8 +54,7 @@ def load_step_diagnosis_report(diagnosis, data, path, *,
     plt = pyplot()
     record = diagnosis.to_dict()
     before, after = diagnosis.before, diagnosis.after
-    answer = ("with " + ", ".join(diagnosis.names) if diagnosis.names != ["none"] else
-              "nothing added: the base fit")
+    answer = answer_label(diagnosis.names)
     fits = {"base fit": before, answer: after}
     sections = [("Answer", answer_section(plt, diagnosis.names, record)),
                 ("Before and after", _before_after(before, after, record)),

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .answer import answer_section
+from .answer import answer_label, answer_section
 from .html import figure_html, pyplot, table_html, write_report
 
 __all__ = ["moving_report", "moving_diagnosis_report"]
@@ -58,8 +58,7 @@ def moving_diagnosis_report(diagnosis, experiment, run_before, run_after, path, 
     record = diagnosis.to_dict()
     times = experiment.dt * np.arange(experiment.n_frames)
     before, after = diagnosis.before, diagnosis.after
-    answer = ("with " + ", ".join(diagnosis.names) if diagnosis.names != ["none"] else
-              "nothing added: the base fit")
+    answer = answer_label(diagnosis.names)
     forces = {"base fit": _force_of(run_before, experiment),
               answer: _force_of(run_after, diagnosis.data)}
     rms = {"base fit": _marker_rms(run_before, experiment),
