@@ -157,6 +157,8 @@ def _model_data(text, section, key, value):
     (lambda t: t + "extra: " + "[" * 200 + "]" * 200 + "\n", None, "nested more"),
     (lambda t: t.encode("utf-8").replace(b"format", b"f\xffrmat", 1), 2, "not UTF-8"),
     (lambda t: "format: neurofuzzy-model/1\n" + BOMB, 9, "expands to more than"),
+    (lambda t: _model_data(t, None, "effects", [{"name": "hyperelasticity", "params": [1.0]}]),
+     None, "hyperelasticity is a change of the elements' material, not a force"),
 ])
 def test_bad_model_files_name_file_key_and_line(tmp_path, capsys, files, edit, line, words):
     path = tmp_path / "model.yaml"

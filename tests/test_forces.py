@@ -29,8 +29,11 @@ def state(seed):
     return p, v
 
 
-def test_every_registered_effect_is_a_force_term():
-    assert all(issubclass(cls, ForceTerm) for cls in EFFECTS.values())
+def test_every_registered_effect_is_a_force_term_or_a_switch_of_the_material():
+    from neurofuzzy.effects import MaterialSwitch
+
+    for cls in EFFECTS.values():
+        assert issubclass(cls, ForceTerm) != issubclass(cls, MaterialSwitch), cls.__name__
     assert {type(term).__name__ for term in TERMS[1:]} <= {c.__name__ for c in EFFECTS.values()}
 
 

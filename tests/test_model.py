@@ -130,3 +130,34 @@ def test_an_element_model_file_with_idle_springs_loads_without_a_springs_term(tm
     loaded = load_model(path)
     assert loaded.springs is None
     assert np.array_equal(loaded.elements.youngs_modulus, solid.elements.youngs_modulus)
+
+
+def test_a_model_carries_one_drag_and_one_stiffening_of_its_elements_and_compiled_effects():
+    """The kernels hold one node drag and one κ of the elements: a second is refused with
+    what to do; stiffenings of separate spring groups, or gravity twice, are fine. An effect
+    the kernels do not compute is refused by name, not stepped without its force."""
+    from neurofuzzy.effects import Effect, Gravity, NodeDrag, NonlinearStiffening
+    from neurofuzzy.mesh import from_tetra, kuhn_block
+
+    block = Model.continuum(from_tetra(*kuhn_block((2, 2, 2), 0.01)), youngs_modulus=3e3,
+                            poisson_ratio=0.3, viscosity=1.0, density=1000.0)
+    with pytest.raises(InputError, match="a model carries one node_drag; two add up"):
+        block.with_effects(NodeDrag([1.0]), NodeDrag([2.0]))
+    with pytest.raises(InputError, match="one nonlinear_stiffening on elements"):
+        block.with_effects(NonlinearStiffening([1e3], on="elements"),
+                           NonlinearStiffening([2e3], on="elements"))
+    twice = block.with_effects(Gravity([0, 0, -9.81]), Gravity([0, 0, -1.0]), NodeDrag([1.0]))
+    assert len(twice.effects) == 3
+
+    class Unknown(Effect):
+        name = "unknown_force"
+        _labels = ("a",)
+
+        def force(self, model, positions, velocities):
+            return np.zeros_like(positions)
+
+        def parameter_jacobian(self, model, positions, velocities):
+            return np.zeros((len(positions), 1, 3))
+
+    with pytest.raises(InputError, match="unknown_force: the compiled kernels do not"):
+        block.with_effects(Unknown([1.0]))

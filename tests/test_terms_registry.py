@@ -24,6 +24,7 @@ from neurofuzzy.learn._compiled import compiled_possible
 from neurofuzzy.mesh import from_tetra, lattice
 from neurofuzzy.forces import Springs
 from neurofuzzy.model import Model
+from neurofuzzy.errors import InputError
 
 EPS = 1e-6          # relative step of the central differences
 RTOL = 1e-6         # what central differences of a smooth force reach at EPS
@@ -74,12 +75,9 @@ def _with_term(model, term):
     return model if term in model.force_terms else model.with_effects(term)
 
 
-#: the kinds of term the compiled kernels do not compute: the diagnosis' law switch
-#: (``hyperelasticity``: scored by a compiled run of the neo-Hookean model, never simulated
-#: as a patch in a fit), which takes the numpy path. Every other term is compared below.
-NOT_COMPILED = {"hyperelasticity"}
-COMPILED_EXAMPLES = [case for case in EXAMPLES
-                     if case.values[1].name not in NOT_COMPILED]
+#: every kind of term is one the compiled kernels compute (the switches of the material,
+#: ``hyperelasticity`` and ``relaxation``, are no force terms: not in :func:`term_kinds`)
+COMPILED_EXAMPLES = EXAMPLES
 
 
 def _state(model, seed=0):
@@ -96,16 +94,8 @@ def _close(got, want):
     assert np.abs(got - want).max() <= RTOL * scale, (np.abs(got - want).max(), scale)
 
 
-#: catalogue entries with no force of their own: relaxation switches the elements to a Prony
-#: term with internal variables, whose sensitivities tests/test_relaxation.py checks
-NO_FORCE = {"relaxation"}
-
-
 def test_every_kind_of_term_gives_examples_on_springs_or_elements():
     for name, kind in term_kinds().items():
-        if name in NO_FORCE:
-            assert not any(kind.examples(model) for model in MODELS.values()), name
-            continue
         assert any(kind.examples(model) for model in MODELS.values()), name
     assert {"springs", "tetrahedra", "gravity", "node_drag"} <= set(term_kinds())
 
@@ -160,29 +150,29 @@ def test_parameter_tangent_and_adjoint_match_central_differences(model, term):
                                 * np.abs(tangent).max())
 
 
-def test_the_compiled_kernels_compute_every_term_but_the_named_ones():
-    """The kernels compute every kind of term with a force but :data:`NOT_COMPILED`, which
-    take the numpy path (the learner's and ``simulate``'s): a new kind of term the kernels do
-    not compute fails here rather than drop out of the comparisons below unnoticed. An effect
-    says itself whether they do (``compiled_as``)."""
+def test_the_compiled_kernels_compute_every_term():
+    """Every kind of term a model can carry is one the kernels compute: a new kind they do
+    not fails here rather than drop out of the comparisons below unnoticed. An effect says
+    itself how they do (``compiled_as``). The switches of the material are catalogue entries,
+    no force terms, and a model refuses them by name."""
+    from neurofuzzy.effects import EFFECTS, MaterialSwitch
     from neurofuzzy.forces import Springs, Tetrahedra
     from neurofuzzy.forces.base import COMPILED_AS
-    from neurofuzzy.simulation.steppers import NumpyStepper, make_stepper
 
-    not_computed = set()
     for case in EXAMPLES:
         model, term = case.values
         with_term = _with_term(model, term)
-        parameters = Parameterization(with_term)
-        if not compiled_possible(parameters, with_term):
-            not_computed.add(term.name)
-            assert not Sensitivity(parameters, 0.01).compiled
-            assert isinstance(make_stepper(with_term, 1e-4), NumpyStepper)
+        assert compiled_possible(Parameterization(with_term), with_term), term.name
+        assert Sensitivity(Parameterization(with_term), 0.01).compiled, term.name
         if not isinstance(term, (Springs, Tetrahedra)):
-            assert term.compiled_as in (None, *COMPILED_AS), term.name
-            assert (term.compiled_as is None) == (term.name in not_computed), term.name
-    assert not_computed == NOT_COMPILED
-    assert len(COMPILED_EXAMPLES) > len(EXAMPLES) - len(COMPILED_EXAMPLES) > 0
+            assert term.compiled_as in COMPILED_AS, term.name
+    switches = {name for name, kind in EFFECTS.items() if issubclass(kind, MaterialSwitch)}
+    assert switches == {"hyperelasticity", "relaxation"}
+    assert not switches & set(term_kinds())
+    model = MODELS["elements (element)"]
+    for name in switches:
+        with pytest.raises(InputError, match=f"{name} is a change of the elements' material"):
+            model.with_effects(EFFECTS[name]([1.0]))
 
 
 def _compiled_case(model, term):

@@ -1,11 +1,15 @@
-"""Physical effects a model may carry besides its springs, as extra force terms.
+"""Physical effects a model may carry besides its springs, as extra force terms, and the
+switches of the elements' material the diagnosis proposes beside them.
 
 Each effect is one class with a name from the fixed vocabulary of DESIGN.md, a parameter vector
 the learners fit, the force it adds, its derivatives (for the gradient learner) and the
 physical units of its parameters (for the paper's learner). Adding an effect means adding one
 subclass and registering it with :func:`register`; the simulator, both learners, the model
 files and the diagnosis pick it up from the registry (the diagnosis asks every registered class
-for candidates through :meth:`Effect.propose`).
+for candidates through :meth:`Effect.propose`). A switch of the material
+(:class:`MaterialSwitch`: ``hyperelasticity``, ``relaxation``) is a catalogue entry the
+diagnosis proposes and applies by changing the elements; it has no force, and a model never
+carries one.
 
 Modules: :mod:`.base` (the interface, the registry, model-file form), :mod:`.nodes` (gravity,
 node drag, an unmodeled load), :mod:`.springs` (effects along springs), :mod:`.stiffening`
@@ -24,16 +28,15 @@ soft_inclusion         the same with k < 0 (k > -s), δ < 0                    a
 nonlinear_stiffening   every spring gets ``κ (l - L0)³ / L0² u`` extra;      ``κ`` per group;
                        every element the stress ``2 κ (G:G) G`` extra        ``κ`` (Pa)
 unmodeled_load         a constant force ``f`` at one node                     ``f`` (3,)
-hyperelasticity        the share ``s`` of the way from the elements' own      ``s``
-                       law to neo-Hookean: ``s (f_nH - f_own)``; the
-                       diagnosis switches the law instead of keeping it
-relaxation             none of its own: the diagnosis gives every element     ``s``
-                       a Prony term (:mod:`neurofuzzy.forces.relaxation`)
+hyperelasticity        a switch, no force: the diagnosis gives the            none fitted
+                       elements the neo-Hookean law
+relaxation             a switch, no force: the diagnosis gives every          none fitted
+                       element a Prony term (:mod:`neurofuzzy.forces.relaxation`)
 =====================  ====================================================  ===============
 """
 
-from .base import (EFFECTS, Effect, effect_from_dict, effect_to_dict, per_unit_mass_force,
-                   register, term_kinds)
+from .base import (EFFECTS, Effect, Entry, MaterialSwitch, effect_from_dict, effect_to_dict,
+                   per_unit_mass_force, register, term_kinds)
 from .nodes import Gravity, NodeDrag, UnmodeledLoad
 from .inclusions import SoftInclusion, StiffInclusion
 from .springs import SpringEffect
@@ -41,7 +44,8 @@ from .stiffening import NonlinearStiffening
 from .hyperelasticity import Hyperelasticity
 from .relaxation import Relaxation
 
-__all__ = ["Effect", "SpringEffect", "Gravity", "NodeDrag", "StiffInclusion", "SoftInclusion",
-           "NonlinearStiffening", "UnmodeledLoad", "Hyperelasticity", "Relaxation", "EFFECTS",
+__all__ = ["Entry", "Effect", "MaterialSwitch", "SpringEffect", "Gravity", "NodeDrag",
+           "StiffInclusion", "SoftInclusion", "NonlinearStiffening", "UnmodeledLoad",
+           "Hyperelasticity", "Relaxation", "EFFECTS",
            "register", "effect_to_dict", "effect_from_dict", "term_kinds",
            "per_unit_mass_force"]

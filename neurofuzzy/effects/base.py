@@ -1,5 +1,8 @@
-"""The effect interface: :class:`Effect` (a force term with a few learned parameters), the
-registry of effect classes by name, and their model-file form."""
+"""The catalogue of effects: :class:`Entry` (a named change of a model with a few parameters,
+what the diagnosis proposes), its two kinds, :class:`Effect` (a force term with a few learned
+parameters) and :class:`MaterialSwitch` (a change of the elements' material: a law, a Prony
+term; never a force a model carries), the registry of both by name, and the effects'
+model-file form."""
 
 from __future__ import annotations
 
@@ -11,35 +14,36 @@ import numpy as np
 from ..errors import InputError, closest_name
 from ..forces import ForceTerm
 
-__all__ = ["Effect", "EFFECTS", "register", "effect_to_dict", "effect_from_dict",
-           "term_kinds", "per_unit_mass_force"]
+__all__ = ["Entry", "Effect", "MaterialSwitch", "EFFECTS", "register", "effect_to_dict",
+           "effect_from_dict", "term_kinds", "per_unit_mass_force"]
 
-#: Registry of effect classes by name.
-EFFECTS: dict[str, type[Effect]] = {}
+#: Registry of the catalogue's classes by name (effects and switches of the material).
+EFFECTS: dict[str, type[Entry]] = {}
 
 
-def register(cls: type[Effect]) -> type[Effect]:
-    """Class decorator: make an effect known by its ``name``."""
+def register(cls: type[Entry]) -> type[Entry]:
+    """Class decorator: make a catalogue entry known by its ``name``."""
     EFFECTS[cls.name] = cls
     return cls
 
 
-class Effect(ForceTerm):
-    """A force term ``F(p, v; θ)`` with a few learned parameters, added to the spring forces.
+class Entry:
+    """An entry of the catalogue: a name from the vocabulary of DESIGN.md, a few parameters,
+    fixed options, and the instances worth proposing to a diagnosis (:meth:`propose`).
 
     Subclasses set ``name``, ``unit`` (the exponents of length, time and mass of the
-    parameters' unit) and ``_labels`` (or a ``labels`` property), and implement :meth:`force`,
-    :meth:`parameter_jacobian` and :meth:`propose`; forces that depend on the state also
-    implement :meth:`state_jvp` and :meth:`state_vjp` (node-major, see
-    :mod:`neurofuzzy.forces.base`).
+    parameters' unit) and ``_labels`` (or a ``labels`` property).
 
     Parameters
     ----------
     params : (n_params,) float
-        Parameter values (see the table in the module docstring).
+        Parameter values (see the table in :mod:`neurofuzzy.effects`).
     **options
         Fixed, non-learned settings (which springs, which node).
     """
+
+    name: ClassVar[str]
+    unit: ClassVar[tuple[int, int, int]] = (0, 0, 0)
 
     def __init__(self, params, **options):
         self.params = np.array(params, dtype=float).ravel()
@@ -55,10 +59,10 @@ class Effect(ForceTerm):
         return self._labels
 
     _labels: ClassVar[tuple[str, ...]] = ()
-    #: True for a catalogue entry that the diagnosis applies by switching the elements'
-    #: material (``switch(model, duration, share=None) -> model``: a law, a Prony term, with
-    #: ``share`` the linearised fit's multiple of :meth:`probe_switch` where the switch can be
-    #: partial) instead of adding it as a force term
+    #: True for an entry that the diagnosis applies by switching the elements' material
+    #: (``switch(model, duration, share=None) -> model``: a law, a Prony term, with ``share``
+    #: the linearised fit's multiple of :meth:`probe_switch` where the switch can be partial)
+    #: instead of adding it as a force term
     switches_material: ClassVar[bool] = False
     #: True for a switch that can go part of the way (:meth:`probe_switch` is a small one
     #: and ``switch`` takes its linearised ``share``): the diagnosis then starts its refit
@@ -85,25 +89,75 @@ class Effect(ForceTerm):
         a, b, c = self.unit
         return np.full(len(self.params), length**a * time**b * mass**c)
 
-    def with_params(self, params) -> Effect:
+    def with_params(self, params) -> Entry:
         """A copy with new parameter values (same options)."""
         return type(self)(params, **self.options)
 
     @property
     def springs(self) -> np.ndarray:
-        """Springs the effect acts on locally (empty for global effects)."""
+        """Springs the entry acts on locally (empty for global ones)."""
         return np.asarray(self.options.get("springs", []), dtype=int)
 
     @property
     def elements(self) -> np.ndarray:
-        """Tetrahedral elements the effect acts on locally (empty for the others)."""
+        """Tetrahedral elements the entry acts on locally (empty for the others)."""
         return np.asarray(self.options.get("elements", []), dtype=int)
 
     @property
     def nodes(self) -> np.ndarray:
-        """Nodes the effect acts on locally (empty for global effects)."""
+        """Nodes the entry acts on locally (empty for global ones)."""
         node = self.options.get("node")
         return np.zeros(0, dtype=int) if node is None else np.array([int(node)])
+
+    @classmethod
+    def propose(cls, model, evidence) -> list:
+        """Instances of this entry worth scoring against a diagnosis' residuals (zero
+        parameters; the diagnosis estimates them).
+
+        ``evidence`` offers ``present`` (names of the effects the model has),
+        ``mean_force`` ((n_nodes, 3) mean residual force per node), ``taken_nodes`` /
+        ``taken_springs`` (already used by located effects) and ``inclusion_region(taken)``
+        (the compact region of springs whose stiffness change best explains the residual).
+        Default: one global instance when the model does not carry the effect yet.
+        """
+        return [] if cls.name in evidence.present else [cls(np.zeros(len(cls._labels)))]
+
+    def equation(self) -> str:
+        """The entry in words and numbers, e.g. ``F_i += m_i (0, 0, -9.81)``."""
+        return f"{self.name}: {self._values()}"
+
+    def _values(self) -> str:
+        return ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.labels, self.params))
+
+    def __repr__(self) -> str:
+        return self.equation()
+
+
+class MaterialSwitch(Entry):
+    """A change of the elements' material that the diagnosis proposes, scores by a compiled
+    run of the switched model (:meth:`probe_switch`) and, when it wins, refits
+    (:meth:`switch`): a law, a Prony term. Not a force: a model never carries one."""
+
+    switches_material = True
+    _labels = ("share",)
+    #: what a user does instead of adding the entry to a model (the model files' message)
+    instead: ClassVar[str] = ""
+
+    @classmethod
+    def switch(cls, model, duration: float, share: float | None = None):
+        """``model`` with its elements' material switched (``duration`` of the recording,
+        s; ``share`` of :meth:`probe_switch` the linearised fit asks for, where the switch
+        can go part of the way)."""
+        raise NotImplementedError(f"{cls.__name__} does not say how it switches a model")
+
+
+class Effect(Entry, ForceTerm):
+    """A force term ``F(p, v; θ)`` with a few learned parameters, added to the spring forces.
+
+    Subclasses implement :meth:`force`, :meth:`parameter_jacobian` and :meth:`propose`;
+    forces that depend on the state also implement :meth:`state_jvp` and :meth:`state_vjp`
+    (node-major, see :mod:`neurofuzzy.forces.base`).
+    """
 
     @abstractmethod
     def parameter_jacobian(self, model, positions: np.ndarray,
@@ -146,29 +200,6 @@ class Effect(ForceTerm):
         effect on ``model``)."""
         return [(model, cls(np.full(len(cls._labels), 0.5)))]
 
-    @classmethod
-    def propose(cls, model, evidence) -> list:
-        """Instances of this effect worth scoring against a diagnosis' residuals (zero
-        parameters; the diagnosis estimates them).
-
-        ``evidence`` offers ``present`` (names of the effects the model has),
-        ``mean_force`` ((n_nodes, 3) mean residual force per node), ``taken_nodes`` /
-        ``taken_springs`` (already used by located effects) and ``inclusion_region(taken)``
-        (the compact region of springs whose stiffness change best explains the residual).
-        Default: one global instance when the model does not carry the effect yet.
-        """
-        return [] if cls.name in evidence.present else [cls(np.zeros(len(cls._labels)))]
-
-    def equation(self) -> str:
-        """The force term in words and numbers, e.g. ``F_i += m_i (0, 0, -9.81)``."""
-        return f"{self.name}: {self._values()}"
-
-    def _values(self) -> str:
-        return ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.labels, self.params))
-
-    def __repr__(self) -> str:
-        return self.equation()
-
 
 def effect_to_dict(effect: Effect) -> dict:
     """Plain-Python description of an effect (for model files)."""
@@ -187,6 +218,9 @@ def effect_from_dict(data: dict, source: str = "<model>") -> Effect:
         raise InputError(f"unknown effect {name!r}" + (f"; did you mean {hint!r}?" if hint
                                                         else f"; known: {sorted(EFFECTS)}"),
                          source=source, key="effects")
+    if not issubclass(EFFECTS[name], Effect):
+        raise InputError(f"{name} is a change of the elements' material, not a force a model "
+                         f"carries: {EFFECTS[name].instead}", source=source, key="effects")
     options = {key: value for key, value in data.items() if key not in ("name", "params")}
     try:
         return EFFECTS[name](data["params"], **options)
@@ -197,11 +231,13 @@ def effect_from_dict(data: dict, source: str = "<model>") -> Effect:
 
 def term_kinds() -> dict[str, type[ForceTerm]]:
     """Every kind of force term a model can carry, by name: the springs, the tetrahedral
-    elements and every registered effect (:func:`register`). The registry test
-    (``tests/test_terms_registry.py``) checks each on its :meth:`ForceTerm.examples`."""
+    elements and every registered effect (:func:`register`; not the switches of the
+    material). The registry test (``tests/test_terms_registry.py``) checks each on its
+    :meth:`ForceTerm.examples`."""
     from ..forces import Springs, Tetrahedra
 
-    return {Springs.name: Springs, Tetrahedra.name: Tetrahedra, **EFFECTS}
+    return {Springs.name: Springs, Tetrahedra.name: Tetrahedra,
+            **{name: kind for name, kind in EFFECTS.items() if issubclass(kind, Effect)}}
 
 
 def per_unit_mass_force(model, positions, velocities) -> np.ndarray:

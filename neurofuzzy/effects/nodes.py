@@ -44,6 +44,7 @@ class NodeDrag(Effect):
     unit = (0, -1, 1)
     _labels = ("b",)
     compiled_as = "node drag"
+    one_per_model = True
 
     def force(self, model, positions, velocities):
         return -self.params[0] * velocities

@@ -7,20 +7,16 @@ Kelvin–Voigt η: the words then say "hard" and "viscous" for a firm tissue tha
 :mod:`.hyperelasticity` the candidate is a switch of the elements' material, not a force patch:
 the diagnosis scores it by the change of the marker residual when every element takes one
 Prony term (one compiled run of the switched model, :meth:`Relaxation.switch`) and, when it
-wins, refits the switched model, so the model it returns relaxes and carries no effect.
-
-The relaxation's internal variables have no place in a stateless force: the effect has no
-force of its own (:meth:`Relaxation.force` says so) and is never added to a model.
+wins, refits the switched model, so the model it returns relaxes. It is not a force: a model
+never carries it (:class:`~.base.MaterialSwitch`).
 """
 
 from __future__ import annotations
 
-
 import numpy as np
 
-from ..errors import InputError
 from ..forces.relaxation import START_RELATIVE_MODULUS, relaxation_fields
-from .base import Effect, register
+from .base import MaterialSwitch, register
 
 __all__ = ["Relaxation", "PROBE_RELATIVE_MODULUS", "MAX_START"]
 
@@ -37,14 +33,12 @@ def _start_time(duration: float) -> float:
 
 
 @register
-class Relaxation(Effect):
-    """The share ``s`` (1) of the way to elements with one Prony term (module docstring)."""
+class Relaxation(MaterialSwitch):
+    """Give every element one Prony term (module docstring)."""
 
     name = "relaxation"
-    unit = (0, 0, 0)
-    _labels = ("share",)
-    switches_material = True
     switches_partly = True
+    instead = "give the elements Prony terms (fit with --relaxation)"
 
     @staticmethod
     def switch(model, duration: float, share: float | None = None):
@@ -73,19 +67,6 @@ class Relaxation(Effect):
         """The refitted elements' relative modulus g and time τ (s) (medians)."""
         return {"relaxation_modulus": float(np.median(model.elements.relaxation_moduli)),
                 "relaxation_time": float(np.median(model.elements.relaxation_times))}
-
-    def force(self, model, positions, velocities):
-        raise InputError("relaxation is a change of the elements' material (a Prony term with "
-                         "internal variables), not a force a model can carry: fit with "
-                         "--relaxation instead", key="effects")
-
-    parameter_jacobian = force
-
-    @classmethod
-    def examples(cls, model) -> list:
-        """None: it has no force to check (the switched model's derivatives are checked in
-        ``tests/test_relaxation.py``)."""
-        return []
 
     @classmethod
     def propose(cls, model, evidence) -> list:

@@ -65,6 +65,11 @@ class NonlinearStiffening(SpringEffect):
         return "element stiffening" if self.on_elements else "spring cubic"
 
     @property
+    def one_per_model(self) -> bool:
+        """On elements: a model's elements stiffen by one κ."""
+        return self.on_elements
+
+    @property
     def switches_material(self) -> bool:
         """On elements the diagnosis switches their law to Yeoh's (module docstring)."""
         return self.on_elements

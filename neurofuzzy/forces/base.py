@@ -56,10 +56,16 @@ class ForceTerm(ABC):
 
     @property
     def compiled_as(self) -> str | None:
-        """How the compiled kernels compute this term, one of :data:`COMPILED_AS`, or None
-        for a term they cannot (a model with one takes the numpy path). The springs and the
-        elements are the kernels' own; this says it of an effect."""
+        """How the compiled kernels compute this term, one of :data:`COMPILED_AS` (None for
+        the springs and the elements, the kernels' own). A model refuses an effect that says
+        none of them."""
         return None
+
+    @property
+    def one_per_model(self) -> bool:
+        """True for a term of which a model carries at most one (the kernels hold one node
+        drag and one strain stiffening of the elements; two of them add up to one)."""
+        return False
 
     def bound(self, model) -> ForceTerm:
         """This term checked against ``model`` (its mesh and regions), with defaults filled

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import InputError, closest_name
 from ..forces import ForceTerm, Springs, Tetrahedra, region_index, vector
+from ..forces.base import COMPILED_AS
 from ..forces.laws import LAWS, STIFFENING_CONSTANT
 from ..forces.relaxation import relaxation_fields
 from ..mesh import Mesh
@@ -394,7 +395,22 @@ def _ordered(terms) -> tuple:
         raise InputError("a model holds at most one Springs and one Tetrahedra term, got "
                          f"{len(springs)} and {len(elements)}", key="terms")
     for term in terms:
+        if getattr(term, "switches_material", False) and not isinstance(term, ForceTerm):
+            raise InputError(f"{term.name} is a change of the elements' material, not a force "
+                             f"a model carries: {term.instead}", key="terms")
         if not isinstance(term, ForceTerm):
             raise InputError(f"got {type(term).__name__}; every term of a model is a "
                              "ForceTerm (Springs, Tetrahedra or an effect)", key="terms")
-    return (*springs, *elements, *(t for t in terms if not isinstance(t, (Springs, Tetrahedra))))
+    effects = tuple(t for t in terms if not isinstance(t, (Springs, Tetrahedra)))
+    for effect in effects:
+        if effect.compiled_as not in COMPILED_AS:
+            raise InputError(f"{effect.name}: the compiled kernels do not compute it (its "
+                             f"compiled_as is {effect.compiled_as!r}; one of "
+                             f"{', '.join(COMPILED_AS)})", key="effects")
+    single = [effect for effect in effects if effect.one_per_model]
+    for effect in single:
+        if sum(other.name == effect.name for other in single) > 1:
+            raise InputError(f"a model carries one {effect.name}"
+                             f"{' on elements' if effect.options.get('on') else ''}; two "
+                             "add up to one whose parameter is their sum", key="effects")
+    return (*springs, *elements, *effects)
