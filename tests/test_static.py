@@ -290,14 +290,6 @@ def test_a_spring_network_under_gravity_and_a_load_balances_them():
         result.positions - model.mesh.rest_positions).max()
 
 
-def test_a_model_with_effects_the_kernels_do_not_compute_is_refused():
-    from neurofuzzy.effects import NodeDrag
-
-    model = _block(0.3).with_effects(NodeDrag([1.0]), NodeDrag([2.0]))
-    with pytest.raises(InputError, match="another"):
-        tangents(model, model.mesh.rest_positions)
-
-
 def test_a_kept_factorisation_gives_the_same_equilibrium_in_fewer_factorisations(monkeypatch):
     """``factor``: the equilibrium at nearby parameters solved with a kept factorisation as
     GMRES's preconditioner is the one a fresh solve finds, with no new factorisation; one of

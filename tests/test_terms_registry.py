@@ -20,7 +20,6 @@ from neurofuzzy.effects import term_kinds
 from neurofuzzy.experiment import simulate_experiment
 from neurofuzzy.forces.laws import LAWS
 from neurofuzzy.learn import Parameterization, Sensitivity
-from neurofuzzy.learn._compiled import compiled_possible
 from neurofuzzy.mesh import from_tetra, lattice
 from neurofuzzy.forces import Springs
 from neurofuzzy.model import Model
@@ -162,7 +161,6 @@ def test_the_compiled_kernels_compute_every_term():
     for case in EXAMPLES:
         model, term = case.values
         with_term = _with_term(model, term)
-        assert compiled_possible(Parameterization(with_term), with_term), term.name
         assert Sensitivity(Parameterization(with_term), 0.01).compiled, term.name
         if not isinstance(term, (Springs, Tetrahedra)):
             assert term.compiled_as in COMPILED_AS, term.name
@@ -180,7 +178,6 @@ def _compiled_case(model, term):
     on the last node (a term the kernels compute)."""
     with_term = _with_term(model, term)
     parameters = Parameterization(with_term)
-    assert compiled_possible(parameters, with_term), term.name
     load = np.zeros((with_term.n_nodes, 3))
     load[-1] = (0.0, 0.0, -0.01)
     data = simulate_experiment(with_term, dt=2e-4, n_frames=6, external_forces=load,

@@ -299,9 +299,9 @@ class TrajectoryEvidence(TakenByEffects):
         for effect in switches:
             self._candidate_columns[id(effect)] = self._switched(effect)
         others = [c for c in candidates if c not in switches]
-        for group in self._passes(others) if others else []:
-            _, columns = self._sensitivities(group)
-            self._candidate_columns.update(zip(map(id, group), columns[1:]))
+        if others:                  # one compiled forward pass carries them all
+            _, columns = self._sensitivities(others)
+            self._candidate_columns.update(zip(map(id, others), columns[1:]))
         columns = [None] + [self._candidate_columns[id(c)] for c in candidates]
         target = self.residual
         n = target.size
@@ -326,7 +326,7 @@ class TrajectoryEvidence(TakenByEffects):
         """(n_residuals, 1): the change of the residual when the elements' material is
         switched (``effect.probe_switch``: a law, a little of a Prony term), the secant of
         the switch from one compiled run of the switched model at the fitted values (its
-        tangent would need the numpy path, tens of times slower, or has none: relaxation)."""
+        switch has no tangent: a law changes whole, relaxation has internal variables)."""
         switched = effect.probe_switch(self.model, duration(self.experiments))
         parameters = Parameterization(switched)
         sensitivity = Sensitivity(parameters, self.length_unit,
@@ -337,16 +337,6 @@ class TrajectoryEvidence(TakenByEffects):
                     for e in self.experiments]
         change = np.concatenate([run.residuals.ravel() for run in runs]) - self.residual
         return np.nan_to_num(change, nan=0.0, posinf=0.0, neginf=0.0)[:, None]
-
-    def _passes(self, candidates) -> list[list]:
-        """Candidates grouped into forward passes: all that the compiled kernel runs in one,
-        each of the others (numpy path) alone, so one of them does not slow the rest."""
-        compiled, alone = [], []
-        for effect in candidates:
-            probe = Parameterization(self.model.with_effects(effect))
-            fast = Sensitivity(probe, self.length_unit).compiled
-            (compiled if fast else alone).append(effect)
-        return ([compiled] if compiled else []) + [[effect] for effect in alone]
 
     def initial_params(self, effect) -> np.ndarray:
         """The candidate's parameters of the linearised refit (the Gauss–Newton step)."""

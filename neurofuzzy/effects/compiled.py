@@ -15,8 +15,8 @@ once for the stepper (:class:`neurofuzzy.simulation.steppers.NumbaStepper`) and 
 - ``"element stiffening"`` (strain stiffening of the elements): ``κ`` of
   :mod:`neurofuzzy.kernels.laws`.
 
-A model with any other effect (``compiled_as`` None), or more than one node drag or element
-stiffening, takes the numpy path.
+A model carries no other effect, and at most one node drag and one element stiffening
+(:func:`neurofuzzy.model.model._ordered` refuses the rest).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from ..forces.tetra_geometry import ElementConstants
 from ..kernels.springs import CLOSING, CUBIC, STRETCH
 
 __all__ = ["STRETCH", "CLOSING", "CUBIC", "constant_force", "node_drag", "element_inclusion",
-           "element_stiffening", "spring_effect", "kernel_effects", "element_constants",
+           "element_stiffening", "spring_effect", "element_constants",
            "kernel_values", "spring_entries"]
 
 #: the basis of a spring effect's coefficient: ``x`` (inclusions), ``x³`` (stiffening, with
@@ -56,15 +56,6 @@ def element_inclusion(effect) -> bool:
 
 def element_stiffening(effect) -> bool:
     return effect.compiled_as == "element stiffening"
-
-
-def kernel_effects(model) -> bool:
-    """True when the compiled kernels compute every effect of ``model`` (at most one node drag
-    and one strain stiffening)."""
-    drags = sum(node_drag(effect) for effect in model.effects)
-    stiffenings = sum(element_stiffening(effect) for effect in model.effects)
-    return drags <= 1 and stiffenings <= 1 and all(
-        effect.compiled_as is not None for effect in model.effects)
 
 
 def element_constants(model) -> tuple[ElementConstants, dict[str, np.ndarray]]:

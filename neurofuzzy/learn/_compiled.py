@@ -4,11 +4,10 @@ directions, the experiment's loads, window starts and observation operator laid 
 :func:`neurofuzzy.kernels.stepper.frames` (runs of the state alone, and the adjoint's forward
 sweep): one call per experiment, no Python per time step.
 
-Used when numba is installed and every effect of the model is one the kernel knows: gravity
-and unmodeled loads (constant forces), a node drag, inclusions of springs (extra spring
+Every model is one the kernels compute (a model refuses other effects): springs, elements,
+gravity and unmodeled loads (constant forces), a node drag, inclusions of springs (extra spring
 stiffness) and of elements (extra element constants), strain stiffening of springs and of
-elements; node masses learned or fixed. Everything else (the diagnosis' law-switch patches,
-a second drag) takes the numpy reference path.
+elements; node masses learned or fixed.
 """
 
 from __future__ import annotations
@@ -18,19 +17,15 @@ import scipy.sparse as sp
 
 from ..effects import per_unit_mass_force
 from ..effects.compiled import (CLOSING, STRETCH, constant_force, element_constants,
-                                element_inclusion, element_stiffening, kernel_effects,
-                                kernel_values, node_drag, spring_entries)
+                                element_inclusion, element_stiffening, kernel_values,
+                                node_drag, spring_entries)
 from ..forces.relaxation import decay
 from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
 from ..simulation.threads import element_buffers
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
-__all__ = ["compiled_possible", "CompiledModel"]
-
-def compiled_possible(parameters, model) -> bool:
-    """True when the compiled kernel computes exactly what the numpy path computes."""
-    return kernel_effects(model)
+__all__ = ["CompiledModel"]
 
 
 class CompiledModel:

@@ -28,7 +28,7 @@ from ..experiment import Experiment
 from ..forces import incidence, tetrahedron_geometry
 from ..observation import remove_offsets
 from ..simulation import euler_update
-from ._compiled import CompiledModel, compiled_possible
+from ._compiled import CompiledModel
 from ._compiled_gradient import compiled_gradient
 from ._passes import Run, cores
 from ._parameters import (ELEMENT_BLOCKS, Parameterization, element_directions,
@@ -48,9 +48,7 @@ class Sensitivity:
         Residuals are divided by it (dimensionless residuals; e.g. the mean spring length).
     backend : {"auto", "numpy", "numba"}
         Forward passes in the compiled kernel (:mod:`neurofuzzy.kernels.sensitivity`, one call
-        per experiment) or the numpy reference path; ``"auto"`` compiles when numba is
-        installed and every effect of the model is one the kernel computes (node masses
-        learned or fixed; :func:`._compiled.compiled_possible`).
+        per experiment; ``"auto"`` and ``"numba"``) or the numpy reference path.
     offsets : bool
         Fit every measured row's constant offset (the markers' rest positions as nuisance
         parameters, :func:`~neurofuzzy.observation.remove_offsets`): residuals, Jacobians and
@@ -79,10 +77,8 @@ class Sensitivity:
 
     @property
     def compiled(self) -> bool:
-        """Do forward passes run in the compiled kernel (numba, and every force term of the
-        model one it computes)?"""
-        return self.backend != "numpy" and compiled_possible(self.parameters,
-                                                             self.parameters.base)
+        """Do forward passes run in the compiled kernel (not the numpy reference)?"""
+        return self.backend != "numpy"
 
     @property
     def compiled_gradient(self) -> bool:
@@ -179,10 +175,6 @@ class Sensitivity:
         if self.compiled:
             return self._compiled_run(model, experiment, substeps, starts, tangents,
                                       threads if tangents else 1)
-        if self.backend == "numba":
-            raise InputError("the compiled path needs numba and a model whose effects it "
-                             "computes (springs, elements, constant loads, a node drag, "
-                             "inclusions and stiffening of elements)", key="backend")
         weight = model.node_inverse_mass[:, None]          # (N, 1)
         h = experiment.dt / substeps
         loads = experiment.forces_per_frame()

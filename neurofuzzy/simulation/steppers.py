@@ -138,9 +138,6 @@ class NumbaStepper:
     _prepared_lock = threading.Lock()       # load cases and fit-many's workers run in threads
 
     def __init__(self, model, h: float, dtype=np.float64):
-        if not compiled_terms_only(model):
-            raise ValueError("the numba stepper steps springs, elements and the effects the "
-                             "kernels compute (neurofuzzy.effects.compiled)")
         self.h = float(h)
         self.dtype = np.dtype(dtype)
         (self.drag, self.kappa, self.constant, self.a, self.b, self.stiffness, self.damping,
@@ -235,14 +232,6 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
     return arrays
 
 
-def compiled_terms_only(model) -> bool:
-    """True when every force term of ``model`` is one the compiled loop knows (springs,
-    tetrahedral elements and the effects of :func:`neurofuzzy.effects.compiled.kernel_effects`)."""
-    from ..effects.compiled import kernel_effects
-
-    return kernel_effects(model)
-
-
 def _element_arrays(model, dtype, h: float):
     """``(tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
     node_volume, Λ, H, node_strain, g, a, history)`` of the model's elements in the kernel's
@@ -314,7 +303,7 @@ def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64):
     machine code costs about 0.3 s once per process (their first compile on a new machine
     about 9 s); the steps are 6-30 times faster.
     """
-    if backend == "numba" or (backend == "auto" and compiled_terms_only(model)):
+    if backend in ("numba", "auto"):
         return NumbaStepper(model, h, dtype)
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"unknown backend {backend!r}")

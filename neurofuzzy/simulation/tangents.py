@@ -92,12 +92,8 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
         False: no damping matrix (``damping`` None), which a static solve does not need (half
         the element matrices' work).
     """
-    from .steppers import _prepared, compiled_terms_only
+    from .steppers import _prepared
 
-    if not compiled_terms_only(model):
-        raise InputError("the stiffness matrix covers springs, elements and the effects the "
-                         "compiled kernels compute; this model has another "
-                         f"({', '.join(e.name for e in model.effects)})", key="model")
     n = model.n_nodes
     p = np.array(positions, dtype=float, order="C")
     v = np.zeros_like(p) if velocities is None else np.array(velocities, dtype=float, order="C")
