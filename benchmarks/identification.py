@@ -20,14 +20,18 @@ import cProfile
 import pstats
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from neurofuzzy import simulate
 from neurofuzzy.datasets import CUBE, per_spring_cube
 from neurofuzzy.errors import NeurofuzzyError
 from neurofuzzy.learn import GradientLearner, auto_substeps
+
+# the numpy baseline of the ratios is the tests' reference (the package steps by numba only)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import numpy_reference as reference  # noqa: E402
 
 
 def _errors(fitted, truth, moving):
@@ -72,9 +76,9 @@ def _finite_differences(start, data, substeps):
     def residuals(x):
         calls[0] += 1
         try:
-            run = simulate(model(x), dt=data.dt, n_frames=data.n_frames,
-                           external_forces=data.external_forces, substeps=substeps,
-                           check_stability=False, backend="numpy")
+            run = reference.simulate(model(x), dt=data.dt, n_frames=data.n_frames,
+                                     external_forces=data.external_forces, substeps=substeps,
+                                     check_stability=False, backend="numpy")
         except NeurofuzzyError:                    # diverged: a cost the solver rejects
             return np.full(int(tracked.sum()) * 3 * (data.n_frames - 1), 1e3)
         error = (run.positions - data.positions)[1:, tracked] / CUBE["edge_length"]
@@ -126,7 +130,7 @@ def bench_large_elements(results):
     from a start 33 % off (target of the speed issue: under 10 s)."""
     from neurofuzzy.datasets import kuhn_block
     from neurofuzzy.experiment import simulate_experiment
-    from neurofuzzy.learn import Parameterization, Sensitivity
+    from neurofuzzy.learn import Parameterization
     from neurofuzzy.mesh import from_tetra
     from neurofuzzy.model import Model
 
@@ -162,7 +166,7 @@ def bench_large_elements(results):
     theta = parameters.initial()
     times, values = {}, {}
     for backend in ("numba", "numpy"):
-        sensitivity = Sensitivity(parameters, 0.0025, backend=backend)
+        sensitivity = reference.sensitivity(parameters, 0.0025, backend=backend)
         if backend == "numba":                     # loaded from numba's cache once
             sensitivity.gradient(theta, data, substeps=substeps)
         began = time.perf_counter()

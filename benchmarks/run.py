@@ -55,6 +55,10 @@ from neurofuzzy.simulation import stability_limit  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parent))
 from identification import bench_identification, bench_large_elements  # noqa: E402
 
+# the numpy baseline of the ratios is the tests' reference (the package steps by numba only)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import numpy_reference as reference  # noqa: E402
+
 
 def timed(function, repeat=1):
     best = np.inf
@@ -122,10 +126,10 @@ def bench_simulation(results, quick):
         steps = 10 * frames
         for backend in backends:
             if backend == "numba":
-                simulate(model, dt=5e-4, n_frames=2, external_forces=load, backend="numba")
-            seconds, _ = timed(lambda: simulate(model, dt=5e-3, n_frames=frames + 1,
-                                                substeps=10, external_forces=load,
-                                                backend=backend, check_stability=False),
+                simulate(model, dt=5e-4, n_frames=2, external_forces=load)
+            seconds, _ = timed(lambda: reference.simulate(
+                model, dt=5e-3, n_frames=frames + 1, substeps=10, external_forces=load,
+                backend=backend, check_stability=False),
                                repeat=2)
             rate = steps / seconds
             table.setdefault(backend, {})[mesh.n_springs] = rate * mesh.n_springs
@@ -160,10 +164,10 @@ def bench_elements(results, quick):
             steps = 100 if backend == "numpy" else 2000
             steps = max(steps * 10368 // mesh.n_tetrahedra // (4 if quick else 1), 20)
             if backend == "numba":
-                simulate(model, dt=h, n_frames=2, external_forces=load, backend="numba")
-            seconds, _ = timed(lambda: simulate(model, dt=10 * h, n_frames=steps // 10 + 1,
-                                                substeps=10, external_forces=load,
-                                                backend=backend, check_stability=False),
+                simulate(model, dt=h, n_frames=2, external_forces=load)
+            seconds, _ = timed(lambda: reference.simulate(
+                model, dt=10 * h, n_frames=steps // 10 + 1, substeps=10, external_forces=load,
+                backend=backend, check_stability=False),
                                repeat=2)
             rate = 10 * (steps // 10) / seconds
             table.setdefault(backend, {})[mesh.n_tetrahedra] = rate
@@ -204,10 +208,10 @@ def bench_laws(results, quick):
     best = {}
     for _ in range(2 if quick else 3):          # alternate the laws: the machine's drift is shared
         for law, model in models.items():
-            simulate(model, dt=h, n_frames=2, external_forces=load, backend="numba")
+            simulate(model, dt=h, n_frames=2, external_forces=load)
             seconds, _ = timed(lambda: simulate(model, dt=10 * h, n_frames=steps // 10 + 1,
                                                 substeps=10, external_forces=load,
-                                                backend="numba", check_stability=False))
+                                                check_stability=False))
             best[law] = max(best.get(law, 0.0), 10 * (steps // 10) / seconds)
     results["law_steps_per_s_10k_tetrahedra"] = best
     rows = []

@@ -42,6 +42,10 @@ from neurofuzzy.datasets import kuhn_block, paper_cube_model  # noqa: E402
 from neurofuzzy.mesh import lattice_to_tetra, read_mesh  # noqa: E402
 from neurofuzzy.simulation import stability_limit  # noqa: E402
 
+# the numpy baseline of the ratios is the tests' reference (the package steps by numba only)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import numpy_reference as reference  # noqa: E402
+
 #: docs/tutorials/springs-or-elements.md, "The documented pipeline on continuum data",
 #: ν = 0.45, voxel 4 mm
 BLOCK_FIT = {"youngs_modulus": 5945.0, "poisson_ratio": 0.447, "viscosity": 1.99,
@@ -118,13 +122,14 @@ def mujoco_rate(path: Path, load: np.ndarray, steps: int) -> float:
 
 def ours_rate(model, h: float, load: np.ndarray, steps: int, backend: str) -> float:
     frames = steps // RECORD_EVERY + 1
-    nf.simulate(model, dt=RECORD_EVERY * h, n_frames=2, substeps=RECORD_EVERY,
-                external_forces=load, backend=backend, check_stability=False)  # compile
+    reference.simulate(model, dt=RECORD_EVERY * h, n_frames=2, substeps=RECORD_EVERY,
+                       external_forces=load, backend=backend, check_stability=False)  # compile
     best = np.inf
     for _ in range(2):
         started = time.perf_counter()
-        nf.simulate(model, dt=RECORD_EVERY * h, n_frames=frames, substeps=RECORD_EVERY,
-                    external_forces=load, backend=backend, check_stability=False)
+        reference.simulate(model, dt=RECORD_EVERY * h, n_frames=frames,
+                           substeps=RECORD_EVERY, external_forces=load, backend=backend,
+                           check_stability=False)
         best = min(best, time.perf_counter() - started)
     return RECORD_EVERY * (frames - 1) / best
 

@@ -16,11 +16,13 @@ from neurofuzzy.simulation import stability_limit
 # numba is a core dependency: a missing numba fails these tests, it does not skip them
 import numba  # noqa: E402, F401
 
+import numpy_reference as reference
+
 
 def both(start, data, substeps, starts=(0,), shift=0.01, learn_masses=False):
     parameters = Parameterization(start, learn_masses=learn_masses)
     theta = parameters.initial() + shift
-    return [Sensitivity(parameters, 0.01, backend=backend).run(
+    return [reference.sensitivity(parameters, 0.01, backend=backend).run(
         theta, data, substeps=substeps, starts=starts, tangents=True)
         for backend in ("numpy", "numba")]
 
@@ -131,12 +133,11 @@ def test_learned_masses_with_gravity(kind):
     parameters = Parameterization(model, learn_masses=True, learn_effects=False)
     masses = parameters.blocks["log_mass"].slice
     sensitivity = Sensitivity(parameters, 0.01)
-    assert sensitivity.compiled and sensitivity.compiled_gradient
     theta = parameters.initial() + np.random.default_rng(5).normal(0, 0.02, parameters.size)
     whole = sensitivity.run(theta, data, substeps=steps, tangents=True)
     split = sensitivity.run(theta, data, substeps=steps, tangents=True, threads=3)
     assert np.array_equal(split.jacobian, whole.jacobian)
-    numpy_path, compiled = (Sensitivity(parameters, 0.01, backend=backend).gradient(
+    numpy_path, compiled = (reference.sensitivity(parameters, 0.01, backend).gradient(
         theta, data, substeps=steps) for backend in ("numpy", "numba"))
     assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-12)
     scale = np.abs(numpy_path[1][masses]).max()
@@ -149,7 +150,7 @@ def assert_split_equal(model, data, steps, shift=0.01):
     """Columns split over threads (uneven shares, the effects' and the element constants'
     columns in different shares) give the Jacobian of one thread, bit for bit."""
     parameters = Parameterization(model)
-    sensitivity = Sensitivity(parameters, 0.01, backend="numba")
+    sensitivity = Sensitivity(parameters, 0.01)
     theta = parameters.initial() + shift
     whole = sensitivity.run(theta, data, substeps=steps, tangents=True)
     for threads in (2, 5):
@@ -175,7 +176,7 @@ def test_windows_split_over_threads_give_the_jacobian_of_one_thread(relaxation):
     load[mesh.rest_positions[:, 2] > 0.02 - 1e-9, 2] = -0.02
     data = simulate_experiment(model, dt=2e-3, n_frames=31, external_forces=load, substeps=4)
     parameters = Parameterization(model)
-    sensitivity = Sensitivity(parameters, 0.01, backend="numba")
+    sensitivity = Sensitivity(parameters, 0.01)
     theta = parameters.initial() + 0.02
     for starts in ((0, 10, 20), (0, 16)):
         whole = sensitivity.run(theta, data, substeps=4, starts=starts, tangents=True)
@@ -215,7 +216,7 @@ def test_compiled_adjoint_of_springs_with_drag_and_gaps(starts):
     parameters = Parameterization(model, learn_effects=False)
     assert not parameters.effects
     theta = parameters.initial() + np.random.default_rng(3).normal(0, 0.05, parameters.size)
-    numpy_path, compiled = (Sensitivity(parameters, 0.01, backend=backend).gradient(
+    numpy_path, compiled = (reference.sensitivity(parameters, 0.01, backend).gradient(
         theta, data, substeps=2, starts=starts) for backend in ("numpy", "numba"))
     assert numpy_path[0] > 0
     assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-12)
@@ -248,9 +249,8 @@ def test_learned_spring_effects(starts):
     parameters = Parameterization(model)
     assert len(parameters.effects) == 4
     theta = parameters.initial() + np.random.default_rng(5).normal(0, 0.02, parameters.size)
-    sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
+    sensitivities = [reference.sensitivity(parameters, 0.01, backend=backend)
                      for backend in ("numpy", "numba")]
-    assert sensitivities[1].compiled_gradient and not sensitivities[0].compiled_gradient
     numpy_path, compiled = (s.gradient(theta, data, substeps=2, starts=starts)
                             for s in sensitivities)
     assert compiled[0] == pytest.approx(numpy_path[0], rel=1e-12)
@@ -271,7 +271,7 @@ def test_stiffening_of_springs_learned_from_zero():
     column = parameters.blocks["effect:0"].start
     theta = parameters.initial() + 0.05
     theta[column] = 0.0
-    numpy_path, compiled = (Sensitivity(parameters, 0.01, backend=backend).gradient(
+    numpy_path, compiled = (reference.sensitivity(parameters, 0.01, backend).gradient(
         theta, data, substeps=2) for backend in ("numpy", "numba"))
     assert numpy_path[1][column] != 0
     assert compiled[1][column] == pytest.approx(numpy_path[1][column], rel=1e-10)
@@ -316,9 +316,8 @@ def test_compiled_adjoint_of_elements_with_an_inclusion_and_markers(volumetric, 
         (0.002, 0.002, 0.005), (0.028, 0.028, 0.02), (12, 3)))
     parameters = Parameterization(model, learn_effects=False)
     theta = parameters.initial() + rng.normal(0.0, 0.05, parameters.size)
-    sensitivities = [Sensitivity(parameters, 0.01, backend=backend)
+    sensitivities = [reference.sensitivity(parameters, 0.01, backend=backend)
                      for backend in ("numpy", "numba")]
-    assert sensitivities[1].compiled_gradient and not sensitivities[0].compiled_gradient
     for data, starts in ((markers, (0,)), (nodes, (0, 10, 20))):
         numpy_path, compiled = (s.gradient(theta, data, substeps=steps, starts=starts)
                                 for s in sensitivities)
@@ -357,8 +356,8 @@ def test_the_adjoint_pulls_back_a_cotangent_of_one_s_own(volumetric):
     assert np.abs(expected).min() > 0
     assert np.abs(pulled - expected).max() < 1e-9 * np.abs(expected).max()
     with pytest.raises(ValueError, match="compiled"):
-        Sensitivity(parameters, 0.01, backend="numpy").gradient(theta, data, substeps=steps,
-                                                                 cotangent=cotangent)
+        reference.sensitivity(parameters, 0.01, backend="numpy").gradient(
+            theta, data, substeps=steps, cotangent=cotangent)
 
 def test_the_kernels_use_no_more_threads_than_numba_is_allowed(monkeypatch):
     """fit-many's workers set NUMBA_NUM_THREADS=1: load cases and Jacobian columns then run

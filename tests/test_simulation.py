@@ -7,6 +7,8 @@ from neurofuzzy.forces import Springs
 from neurofuzzy.model import Model
 from neurofuzzy.simulation import simulate, stability_limit, step, internal_forces
 
+import numpy_reference as reference
+
 
 def one_spring(stiffness=50.0, damping=0.0, mass=2.0):
     mesh = Mesh(np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([[0, 1]])).with_fixed([0])
@@ -154,8 +156,8 @@ def test_fast_steppers_equal_the_reference_step(backend, rng):
                   (Springs(stiffness=rng.uniform(20, 60, mesh.n_springs),
                            damping=rng.uniform(0.005, 0.02, mesh.n_springs)),))
     loads = rng.normal(0, 0.05, (40, mesh.n_nodes, 3))
-    fast = simulate(model, dt=5e-4, n_frames=40, external_forces=loads, substeps=2,
-                    backend=backend)
+    fast = reference.simulate(model, dt=5e-4, n_frames=40, external_forces=loads,
+                              substeps=2, backend=backend)
     p, v = mesh.rest_positions.copy(), np.zeros((mesh.n_nodes, 3))
     for t in range(1, 40):
         for _ in range(2):
@@ -166,8 +168,7 @@ def test_fast_steppers_equal_the_reference_step(backend, rng):
 
 def test_float32_path_stays_close(cube_model, cube_experiment):
     single = simulate(cube_model, dt=cube_experiment.dt, n_frames=cube_experiment.n_frames,
-                      external_forces=cube_experiment.external_forces, dtype=np.float32,
-                      backend="numpy")
+                      external_forces=cube_experiment.external_forces, dtype=np.float32)
     error = np.abs(single.positions - cube_experiment.positions).max()
     assert 0 < error < 1e-6 * 0.01 * 100          # within 1e-4 edge lengths
 
@@ -190,8 +191,8 @@ def test_the_compiled_stepper_computes_the_kernels_effects_as_the_numpy_one():
                                                                         node=mesh.n_nodes - 1),
             StiffInclusion([3000.0], elements=[0, 1, 2, 3], poisson_ratio=0.45),
             NonlinearStiffening([2000.0], on="elements"))
-        runs = [simulate(model, dt=2e-3, n_frames=30, substeps="auto", backend=backend)
-                for backend in ("numpy", "numba")]
+        runs = [reference.simulate(model, dt=2e-3, n_frames=30, substeps="auto",
+                                   backend=backend) for backend in ("numpy", "numba")]
         assert np.abs(runs[0].positions - mesh.rest_positions).max() > 1e-4      # it moved
         np.testing.assert_allclose(runs[1].positions, runs[0].positions, rtol=0, atol=1e-13)
         np.testing.assert_allclose(runs[1].velocities, runs[0].velocities, rtol=0, atol=1e-10)
@@ -214,31 +215,40 @@ def test_the_compiled_stepper_computes_spring_effects_as_the_numpy_one(rng):
         SoftInclusion.for_model(base, -5.0, springs=np.arange(30, 40)),
         NonlinearStiffening.for_model(base, rng.uniform(2e3, 5e3, n_groups)))
     loads = rng.normal(0, 0.2, (40, mesh.n_nodes, 3))
-    runs = [simulate(model, dt=5e-4, n_frames=40, external_forces=loads, substeps=2,
-                     backend=backend) for backend in ("numpy", "numba")]
+    runs = [reference.simulate(model, dt=5e-4, n_frames=40, external_forces=loads,
+                               substeps=2, backend=backend) for backend in ("numpy", "numba")]
     plain = simulate(base, dt=5e-4, n_frames=40, external_forces=loads, substeps=2)
     assert np.abs(runs[0].positions - plain.positions).max() > 1e-5   # the effects act
     np.testing.assert_allclose(runs[1].positions, runs[0].positions, rtol=0, atol=1e-14)
     np.testing.assert_allclose(runs[1].velocities, runs[0].velocities, rtol=0, atol=1e-11)
 
 
-def test_auto_is_the_compiled_loop_wherever_it_computes_the_model():
-    """``backend="auto"``: the compiled loop is the one production path (the paper cube and a
-    288-element block alike, explicitly numpy only when asked), drag and all."""
-    from neurofuzzy.simulation.steppers import NumbaStepper, NumpyStepper, make_stepper
+def test_the_numpy_reference_steps_by_its_own_loop_and_the_package_by_the_kernel(monkeypatch):
+    """``simulate`` has one inner loop, the compiled one (the paper cube and a 288-element
+    block with a drag alike); the tests' numpy reference steps the same call by numpy, so the
+    comparisons above compare two loops, not one loop with itself."""
+    import neurofuzzy.simulation.integration as integration
     from neurofuzzy.datasets import kuhn_block, paper_cube_model
     from neurofuzzy.effects import NodeDrag
     from neurofuzzy.mesh import from_tetra
 
     mesh = from_tetra(*kuhn_block((4, 4, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
     block = Model.continuum(mesh, youngs_modulus=6000.0, poisson_ratio=0.3,
-                            viscosity=2.0, density=1050.0)
-    cube = paper_cube_model()
-    assert isinstance(make_stepper(block, 2e-4), NumbaStepper)
-    assert isinstance(make_stepper(cube, 1e-3), NumbaStepper)
-    assert isinstance(make_stepper(cube, 1e-3, backend="numpy"), NumpyStepper)
-    one_drag = block.with_effects(NodeDrag([0.03]))
-    assert isinstance(make_stepper(one_drag, 2e-4), NumbaStepper)
+                            viscosity=2.0, density=1050.0).with_effects(NodeDrag([0.03]))
+    made = []
+
+    def spy(kind):
+        def make(*args):
+            made.append(kind.__name__)
+            return kind(*args)
+        return make
+
+    monkeypatch.setattr(reference, "NumpyStepper", spy(reference.NumpyStepper))
+    monkeypatch.setattr(integration, "NumbaStepper", spy(integration.NumbaStepper))
+    for model in (block, paper_cube_model()):
+        simulate(model, dt=1e-3, n_frames=2, substeps="auto")
+        reference.simulate(model, dt=1e-3, n_frames=2, substeps="auto", backend="numpy")
+    assert made == ["NumbaStepper", "NumpyStepper"] * 2
 
 
 def _relaxing_block():
@@ -338,7 +348,7 @@ def test_steppers_of_one_model_share_its_constants_not_their_scratch_space():
 
     def run(scale):
         return simulate(model, dt=1e-3, n_frames=30, external_forces=scale * load,
-                        substeps="auto", backend="numba")
+                        substeps="auto")
 
     alone = [run(scale) for scale in (1.0, 0.5)]
     with ThreadPoolExecutor(2) as pool:

@@ -271,8 +271,6 @@ class TrajectoryEvidence(TakenByEffects):
         parameters = Parameterization(probe)
         sensitivity = Sensitivity(parameters, self.length_unit,
                                   offsets=fits_offsets("auto", self.experiments))
-        if not sensitivity.compiled_gradient:
-            return balls
         theta, first = parameters.initial(), len(self.model.effects)
         products, offset = np.zeros(parameters.size), 0
         for experiment, run in zip(self.experiments, self._runs):

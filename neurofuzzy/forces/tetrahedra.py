@@ -227,8 +227,8 @@ class Tetrahedra(MemberTerm):
         only, and say so here rather than be simulated without it."""
         if self.n_relaxation_terms:
             raise InputError("this model's elements relax (Prony terms), which only the "
-                             "compiled kernels simulate; the numpy path was asked for (an "
-                             "effect the kernels do not compute, or backend='numpy')",
+                             "compiled kernels simulate; the numpy forces (the paper's "
+                             "learner, the tests' reference) have no internal variables",
                              key="element_relaxation_moduli")
         return self.constants(model)
 

@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..experiment import rms_error
 
 @dataclass
 class Run:
@@ -56,12 +55,11 @@ def cores() -> int:
     return max(1, min(available, limit))
 
 
-def side_by_side(sensitivity, run, experiments, starts, *, compiled=None) -> list:
+def side_by_side(run, experiments, starts) -> list:
     """``run(experiment, starts)`` for every experiment: in threads, one per core
-    (:func:`cores`), when the compiled kernel (which releases the GIL) does the work
-    (``compiled``, by default that of the forward passes); one after the other otherwise."""
+    (:func:`cores`; the compiled kernels release the GIL)."""
     workers = min(len(experiments), cores())
-    if workers < 2 or not (sensitivity.compiled if compiled is None else compiled):
+    if workers < 2:
         return [run(e, s) for e, s in zip(experiments, starts)]
     with ThreadPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(run, experiments, starts))
@@ -106,16 +104,13 @@ def stacked(runs) -> np.ndarray:
 
 
 def rms(sensitivity, experiments, theta, substeps, last: Last | None = None) -> float:
-    """:func:`~neurofuzzy.experiment.rms_error` of ``theta``; by the compiled forward pass
-    when there is one (read from ``last`` when that simulated the data there)."""
-    if not sensitivity.compiled:
-        return rms_error(sensitivity.parameters.model(theta), experiments, substeps=substeps,
-                         offsets=sensitivity.offsets)
+    """:func:`~neurofuzzy.experiment.rms_error` of ``theta`` by the compiled forward pass
+    (read from ``last`` when that simulated the data there)."""
     starts = [(0,)] * len(experiments)
     if last is not None and last.at(theta, substeps, starts):
         runs = last.runs
     else:
-        runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
+        runs = side_by_side(lambda e, s: sensitivity.run(
             theta, e, substeps=substeps, starts=s), experiments, starts)
     with np.errstate(over="ignore", invalid="ignore"):
         total = sum(float(np.sum(run.residuals**2)) for run in runs)
@@ -136,7 +131,7 @@ def jacobian(sensitivity, experiments, theta, starts, substeps, *, columns=None)
     residuals are those at ``theta``)."""
     # fewer experiments than cores: each splits its columns over its share of the cores
     threads = max(1, cores() // len(experiments))
-    runs = side_by_side(sensitivity, lambda e, s: sensitivity.run(
+    runs = side_by_side(lambda e, s: sensitivity.run(
         theta, e, substeps=substeps, starts=s, tangents=True, threads=threads),
         experiments, starts)
     blocks = [run.jacobian.reshape(-1, theta.size) for run in runs]

@@ -61,7 +61,7 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
 
     # a Jacobian pass simulates the state and ceil(columns / threads) tangents per thread
     threads = max(1, passes.cores() // len(experiments))
-    cheap = sensitivity.compiled and 1 + -(-len(active) // threads) <= SPECULATE_COST
+    cheap = 1 + -(-len(active) // threads) <= SPECULATE_COST
     strikes = 0             # floors asked about in a row that are above ``abandon``
 
     def give_up(least):
@@ -97,9 +97,8 @@ def solve_lbfgs(learner, sensitivity, experiments, theta, starts, substeps, lowe
     def objective(x):
         values = theta.copy()
         values[active] = x
-        parts = passes.side_by_side(sensitivity, lambda e, s: sensitivity.gradient(
-            values, e, substeps=substeps, starts=s), experiments, starts,
-            compiled=sensitivity.compiled_gradient)
+        parts = passes.side_by_side(lambda e, s: sensitivity.gradient(
+            values, e, substeps=substeps, starts=s), experiments, starts)
         loss = sum(value for value, _, _ in parts)
         grad = np.sum([g for _, g, _ in parts], axis=0)
         runs = [run for _, _, run in parts]

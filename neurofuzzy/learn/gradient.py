@@ -396,7 +396,7 @@ class GradientLearner(Learner):
         self.n_cycles_ += 1
 
     def _residuals(self, sensitivity, experiments, theta, starts, substeps) -> np.ndarray:
-        runs = passes.side_by_side(sensitivity, lambda e, s: sensitivity.run(
+        runs = passes.side_by_side(lambda e, s: sensitivity.run(
             theta, e, substeps=substeps, starts=s), experiments, starts)
         self._record(runs, sensitivity.length_unit)
         self._last = passes.Last(theta.copy(), substeps, starts, runs)

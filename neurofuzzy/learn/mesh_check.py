@@ -237,7 +237,7 @@ def linearised_mesh_check(model, experiments: Sequence, parameters, theta: np.nd
     # the scikit-fem block (38,400 refined tetrahedra), 34 s instead of 55 s with the
     # Jacobian at 2n; the moves of E and ν the same to 0.2 %, η's (0.01) to 0.001
     jacobian, runs = passes.jacobian(fine, fine_experiments, theta, starts, steps)
-    twice = passes.side_by_side(fine, lambda e, s: fine.run(theta, e, substeps=2 * steps),
+    twice = passes.side_by_side(lambda e, s: fine.run(theta, e, substeps=2 * steps),
                                 fine_experiments, starts)
     residuals = 2.0 * passes.stacked(twice) - passes.stacked(runs)
     if not np.all(np.abs(residuals) < passes.DIVERGED / 2):

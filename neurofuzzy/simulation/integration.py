@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import InputError, UnstableTimeStepError
 from ..model import Model
 from .stability import check_time_step, required_substeps
-from .steppers import euler_update, make_stepper
+from .steppers import NumbaStepper, euler_update
 
 __all__ = ["State", "Trajectory", "internal_forces", "step", "simulate", "check_substeps"]
 
@@ -147,7 +147,7 @@ def simulate(model: Model, *, dt: float, n_frames: int,
              initial_velocities: np.ndarray | None = None,
              initial_state: State | None = None,
              substeps: int | str = 1, check_stability: bool = True,
-             backend: str = "auto", dtype=np.float64) -> Trajectory:
+             dtype=np.float64) -> Trajectory:
     """Simulate ``n_frames`` recorded frames, frame 0 being the initial state.
 
     Parameters
@@ -171,10 +171,6 @@ def simulate(model: Model, *, dt: float, n_frames: int,
         are stable.
     check_stability : bool
         Raise :class:`UnstableTimeStepError` when ``h`` exceeds the stability bound.
-    backend : {"auto", "numpy", "numba"}
-        Inner loop: the compiled loop (``"auto"``: whenever it computes every effect of the
-        model, :func:`neurofuzzy.simulation.steppers.make_stepper`; its first use in a process
-        loads the kernels, about 0.3 s) or vectorised numpy, the reference of the tests.
     dtype : numpy dtype
         float64 (default) or float32 for the inner loop.
 
@@ -205,7 +201,7 @@ def simulate(model: Model, *, dt: float, n_frames: int,
         v = _state(initial_velocities, np.zeros((n_nodes, 3)), n_nodes, "initial_velocities")
         internal = _no_internal(model)
     v[model.mesh.fixed] = 0.0
-    stepper = make_stepper(model, dt / substeps, backend, dtype)
+    stepper = NumbaStepper(model, dt / substeps, dtype)
 
     with np.errstate(over="ignore", invalid="ignore"):
         positions, velocities, internal = stepper.trajectory(p, v, forces, n_frames, substeps,

@@ -1,19 +1,11 @@
-"""Fast inner loops of :func:`neurofuzzy.simulation.simulate`: many steps of one model.
+"""The inner loop of :func:`neurofuzzy.simulation.simulate`: many steps of one model.
 
-Two interchangeable backends with one interface, ``advance(p, v, load, n_steps)`` (in place,
-positions and velocities of shape (n_nodes, 3)):
-
-- :class:`NumpyStepper`: vectorised numpy through the spring term's own force; components
-  stored as separate contiguous rows (structure of arrays), gathers and the force
-  accumulation as sparse matrix products (the fastest of ``np.bincount``, ``np.add.at`` and a
-  sparse incidence matrix measured in ``benchmarks/run.py``);
-- :class:`NumbaStepper`: the same arithmetic as one compiled loop over springs, tetrahedral
-  elements and nodes (numba, a core dependency), about six times faster on 10,000 springs.
-
-Both compute exactly what :func:`neurofuzzy.simulation.step` computes (tested equal). The
-compiled loop also computes the effects of :mod:`neurofuzzy.effects.compiled` and the elements'
-Prony relaxation (internal variables: the compiled loop only); models with other effects use the
-numpy stepper, which adds the effect forces at every step.
+:class:`NumbaStepper`, with ``advance(p, v, load, n_steps)`` (in place, positions and
+velocities of shape (n_nodes, 3)) and ``trajectory``, is one compiled loop over springs,
+tetrahedral elements (with their Prony relaxation), the effects of
+:mod:`neurofuzzy.effects.compiled` and nodes (numba, a core dependency): the package's one
+path. The tests check it against the numpy reference (``tests/numpy_reference.py``), which
+steps every term's numpy force and computes what :func:`neurofuzzy.simulation.step` computes.
 """
 
 from __future__ import annotations
@@ -26,15 +18,15 @@ import numpy as np
 
 from .threads import element_buffers
 
-__all__ = ["NumpyStepper", "NumbaStepper", "make_stepper", "euler_update"]
+__all__ = ["NumbaStepper", "euler_update"]
 
 
 def euler_update(p: np.ndarray, v: np.ndarray, force: np.ndarray, weight: np.ndarray,
                  h: float, *, component_major: bool = False) -> None:
     """The semi-implicit Euler update, in place (eqs. 3.2, 3.1): ``v += h W F``, then
     ``p += h v``: the compiled :func:`neurofuzzy.kernels.integrator.euler_update` (the one
-    update of the package) for the numpy paths (:func:`neurofuzzy.simulation.step`, the numpy
-    stepper, the numpy sensitivities, the paper's learner). Linear, so it also advances
+    update of the package) for the numpy paths (:func:`neurofuzzy.simulation.step`, the paper's
+    learner, the tests' numpy reference). Linear, so it also advances
     tangents.
 
     Parameters
@@ -66,61 +58,6 @@ def _compiled_update():
     from ..kernels.integrator import euler_update
 
     return euler_update
-
-
-class NumpyStepper:
-    """Semi-implicit Euler steps on component-major state arrays (3, n_nodes), through the
-    spring term's own force (:meth:`~neurofuzzy.forces.Springs.force_components`)."""
-
-    def __init__(self, model, h: float, dtype=np.float64):
-        from ..forces import incidence
-
-        self.model = model
-        self.h = float(h)
-        self.dtype = np.dtype(dtype)
-        self.springs = springs = model.springs
-        self.incidence = incidence(model.mesh)
-        if self.dtype != np.float64:
-            self.incidence = self.incidence.with_dtype(self.dtype)
-        self.coefficients = None if springs is None else tuple(
-            values.astype(self.dtype)
-            for values in (springs.stiffness, springs.damping, springs.rest_length))
-        self.weight = model.node_inverse_mass.astype(self.dtype)
-        self.fixed = model.mesh.fixed
-        self.other_terms = model.force_terms[springs is not None:]   # elements and effects
-
-    def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
-        """Frames 0..n_frames-1 from ``(p, v)`` and the relaxation's internal variables
-        ``internal`` (n_elements, K, 6); ``loads[t]`` acts from frame t to t + 1 (a single row
-        ``loads[0]`` is held for all frames; ``None`` means no load).
-
-        Returns ``(positions, velocities, internal)``: the frames, of shape (n_frames,
-        n_nodes, 3), and the internal variables after the last one; stops early (the rest
-        NaN) when the state stops being finite. (This stepper computes no relaxation: the
-        numpy force refuses a relaxing model, and ``internal`` is returned as it came.)
-        """
-        positions, velocities = _frames(self, p, v, loads, n_frames, substeps)
-        return positions, velocities, np.array(internal, dtype=float)
-
-    def advance(self, p: np.ndarray, v: np.ndarray, load: np.ndarray | None, n_steps: int):
-        """``n_steps`` steps from ``(p, v)``, written back into ``p`` and ``v``."""
-        h = self.h
-        pt = np.ascontiguousarray(p.T, dtype=self.dtype)
-        vt = np.ascontiguousarray(v.T, dtype=self.dtype)
-        vt[:, self.fixed] = 0.0
-        load_t = None if load is None else np.ascontiguousarray(load.T, dtype=self.dtype)
-        for _ in range(n_steps):
-            force = (np.zeros_like(pt) if self.springs is None else
-                     self.springs.force_components(self.model, pt, vt,
-                                                   incidence_=self.incidence,
-                                                   coefficients=self.coefficients))
-            if load_t is not None:
-                force += load_t
-            for term in self.other_terms:
-                force += term.force(self.model, pt.T, vt.T).T
-            euler_update(pt, vt, force, self.weight, h, component_major=True)
-        p[...] = pt.T
-        v[...] = vt.T
 
 
 class NumbaStepper:
@@ -168,8 +105,13 @@ class NumbaStepper:
         return buffers
 
     def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
-        """As :meth:`NumpyStepper.trajectory`, all frames in one compiled call, the
-        relaxation's internal variables carried from ``internal``."""
+        """Frames 0..n_frames-1 from ``(p, v)`` and the relaxation's internal variables
+        ``internal`` (n_elements, K, 6), all in one compiled call; ``loads[t]`` acts from frame
+        t to t + 1 (a single row ``loads[0]`` is held for all frames; ``None`` means no load).
+
+        Returns ``(positions, velocities, internal)``: the frames, of shape (n_frames,
+        n_nodes, 3), and the internal variables after the last one; the frames after the
+        state stops being finite are NaN."""
         positions = np.empty((n_frames, p.shape[0], 3), dtype=self.dtype)
         velocities = np.empty_like(positions)
         pc = np.array(p, dtype=self.dtype)
@@ -277,34 +219,3 @@ def _compile():
     from ..kernels.stepper import advance, frames
 
     return advance, frames
-
-
-def _frames(stepper, p, v, loads, n_frames, substeps):
-    positions = np.empty((n_frames, p.shape[0], 3))
-    velocities = np.empty_like(positions)
-    p, v = np.array(p, dtype=float), np.array(v, dtype=float)
-    positions[0], velocities[0] = p, v
-    for t in range(1, n_frames):
-        stepper.advance(p, v, None if loads is None else loads[min(t - 1, len(loads) - 1)],
-                        substeps)
-        if not np.isfinite(p.sum()):
-            positions[t:] = velocities[t:] = np.nan
-            break
-        positions[t], velocities[t] = p, v
-    return positions, velocities
-
-
-def make_stepper(model, h: float, backend: str = "auto", dtype=np.float64):
-    """A stepper for ``model``: ``backend`` "numpy", "numba" or "auto".
-
-    ``"auto"`` takes the compiled loop, the toolkit's one production path, whenever it
-    computes every effect of the model (:func:`compiled_terms_only`), and the numpy stepper
-    (the reference of the tests) only for the effects it does not. Loading the kernels' cached
-    machine code costs about 0.3 s once per process (their first compile on a new machine
-    about 9 s); the steps are 6-30 times faster.
-    """
-    if backend in ("numba", "auto"):
-        return NumbaStepper(model, h, dtype)
-    if backend not in ("auto", "numpy", "numba"):
-        raise ValueError(f"unknown backend {backend!r}")
-    return NumpyStepper(model, h, dtype)
