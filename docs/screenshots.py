@@ -43,7 +43,7 @@ def fitted(rules, truth_tissue: str, specimen: str, group: str) -> dict:
     learner = nf.GradientLearner().fit(start.model, data)
     fit = fit_summary(learner, start, method="gradient", tie="global",
                       experiments=[f"{specimen}.npz"])
-    from neurofuzzy.io.writing import json_safe
+    from neurofuzzy.formatting import json_safe
 
     return json_safe({"format": 1, "id": specimen, "group": group, "status": "ok", "fit": fit})
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .datasets import CUBE, paper_cube_experiment, paper_cube_model
 from .learn import GradientLearner, PaperLearner
-from .learn.lack_of_fit import length_text
+from .formatting import length_text
 from .progress import Stopwatch, announced, note
 
 __all__ = ["PAPER_RESULTS", "CubeRun", "paper_experiments", "comparison_table",

@@ -12,7 +12,8 @@ from test_markers_embedded import as_recording, element_block, interior_points, 
 from neurofuzzy.effects import Gravity
 from neurofuzzy.learn import GradientLearner, Parameterization, Sensitivity
 from neurofuzzy.learn.identifiability import analyse
-from neurofuzzy.learn.lack_of_fit import EXPLAINED, length_text
+from neurofuzzy.learn.lack_of_fit import EXPLAINED
+from neurofuzzy.formatting import length_text
 from neurofuzzy.markers import markers_to_experiment
 from neurofuzzy.observation import remove_offsets
 

@@ -163,7 +163,7 @@ def finished(folder: Path, fingerprint: str) -> dict | None:
 
 def write_specimen(folder: Path, specimen: Specimen, fingerprint: str, outcome: dict) -> dict:
     """Write one specimen's outputs atomically (``fit.json`` last) and return its record."""
-    from ..io.writing import json_safe
+    from ..formatting import json_safe
 
     record = {"format": RECORD_FORMAT, "id": specimen.id, "group": specimen.group,
               "status": outcome["status"], "fingerprint": fingerprint,
@@ -212,7 +212,7 @@ def sweep(out: Path, specimens, report: Path | None = None) -> list[Path]:
 
 
 def _write_json(path: Path, value: dict) -> None:
-    from ..io.writing import json_safe
+    from ..formatting import json_safe
 
     with atomic_write(path, "w") as handle:
         json.dump(json_safe(value), handle, indent=1)

@@ -90,7 +90,7 @@ def _fit_moved(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     (:func:`neurofuzzy.pipeline.moving.fit_moving_file`) and its report."""
     from ..errors import InputError
     from ..io import save_model
-    from ..io.writing import json_safe
+    from ..formatting import json_safe
     from ..pipeline.moving import fit_moving_file, moving_fit_report
     from ..rules import resolve
 
@@ -131,7 +131,7 @@ def _fit_load_steps(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     ``neurofuzzy fit STEPS.npz`` (:func:`neurofuzzy.pipeline.load_steps.fit_load_step_file`),
     its report and, when asked for, the load-step diagnosis."""
     from ..io import save_model
-    from ..io.writing import json_safe
+    from ..formatting import json_safe
     from ..pipeline.load_steps import fit_load_step_file
     from ..report.load_steps import load_steps_report
     from ..rules import resolve
@@ -168,7 +168,7 @@ def _fit_time_series(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     from ..io import save_model
     from ..pipeline import fit as fit_pipeline
     from ..report import fit_report
-    from ..io.writing import json_safe
+    from ..formatting import json_safe
 
     options = specimen.options
     experiments = load_specimen_experiments(specimen)

@@ -13,7 +13,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from ..io.writing import json_safe
+from ..formatting import json_safe
 from ..errors import InputError, UnstableTimeStepError
 
 __all__ = ["EXIT_BAD_INPUT", "print_json", "refuse_overwrite", "written", "usage", "Outputs",

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..errors import InputError
 from .common import (Outputs, at_least, mesh_check_option, positive, print_json, vtu_series,
                      written)
-from ..learn.lack_of_fit import length_text
+from ..formatting import length_text
 from ..pipeline import check_outcome, explained, require_motion
 from ..progress import Stopwatch
 

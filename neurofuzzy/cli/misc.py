@@ -36,7 +36,8 @@ def _demo(args, out: Path) -> None:
     runs = paper_experiments(cycles=args.cycles, progress=progress, gradient_for=(3,))
     table = comparison_table(runs)
     print(table)
-    from ..io.writing import atomic_write, json_safe
+    from ..formatting import json_safe
+    from ..io.writing import atomic_write
 
     plot_error_curves(runs, out / "error_per_cycle.png")
     summary = {"runs": [{"experiment": r.experiment, "learner": r.learner, "cycles": r.cycles,

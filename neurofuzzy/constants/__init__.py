@@ -10,10 +10,11 @@ from .elements import DEFAULT_POISSON_RATIO, element_model, element_values, regi
 from .springs import (SPRING_POISSON_RATIO, LatticeGeometry, TetraGeometry, lattice_geometry,
                       spring_geometry, spring_material_values, tetra_geometry,
                       tetrahedron_edge_springs, volume_shares)
-from .values import MATERIAL_VALUES, material_term, quantities, region_quantities
+from .values import (MATERIAL_VALUES, item_values, material_term, quantities,
+                     region_quantities, spring_factor)
 
 __all__ = ["DEFAULT_POISSON_RATIO", "element_model", "element_values", "region_density",
            "SPRING_POISSON_RATIO", "LatticeGeometry", "TetraGeometry", "lattice_geometry",
            "spring_geometry", "spring_material_values", "tetra_geometry",
            "tetrahedron_edge_springs", "volume_shares", "MATERIAL_VALUES", "material_term",
-           "quantities", "region_quantities"]
+           "quantities", "region_quantities", "item_values", "spring_factor"]

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..forces import Springs, Tetrahedra
 from .elements import element_values
-from .springs import spring_material_values
+from .springs import spring_geometry, spring_material_values
 
 __all__ = ["material_term", "quantities", "region_quantities", "MATERIAL_VALUES"]
 
@@ -61,3 +61,22 @@ def region_quantities(model, index: int) -> dict[str, float] | None:
     values, region = MATERIAL_VALUES[type(material_term(model))]
     selection = region(model, index)
     return None if selection is None else values(model, **selection)
+
+
+def spring_factor(model) -> np.ndarray:
+    """``k = E · factor`` of every spring (the rule base's mapping, :mod:`.springs`; 1 where a
+    spring stands for no volume)."""
+    factor = spring_geometry(model.mesh).spring_factor
+    return np.where(factor > 0, factor, 1.0)
+
+
+def item_values(model) -> tuple[str, dict[str, np.ndarray]]:
+    """``("elements", {quantity: per element})`` for element models, else ``("springs",
+    {quantity: the E and η every spring stands for})``."""
+    if model.elements is not None:
+        return "elements", {"youngs_modulus": model.elements.youngs_modulus,
+                            "poisson_ratio": model.elements.poisson_ratio,
+                            "viscosity": model.elements.viscosity}
+    factor = spring_factor(model)
+    return "springs", {"youngs_modulus": model.springs.stiffness / factor,
+                       "viscosity": model.springs.damping / factor}

@@ -21,9 +21,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..constants import item_values
 from ..effects import SoftInclusion, StiffInclusion
 from ..learn import GradientLearner
-from ..learn.regions import describe_regions, item_values, regions_found
+from ..learn.regions import describe_regions, regions_found
 from .scoring import INCLUSIONS
 
 __all__ = ["Localisation", "localise", "seeded", "INCLUSIONS"]

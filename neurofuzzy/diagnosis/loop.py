@@ -9,7 +9,7 @@ import numpy as np
 
 from ..experiment import Experiment, check_experiments
 from ..learn import GradientLearner
-from ..learn.lack_of_fit import length_text
+from ..formatting import length_text
 from ..model import Model
 from ..progress import note
 from .candidates import Evidence, propose_candidates

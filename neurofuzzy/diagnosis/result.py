@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..forces import tetrahedron_geometry
-from ..io.writing import json_safe
+from ..formatting import json_safe
 from ..learn import GradientLearner
 from ..model import Model
 from .localise import Localisation

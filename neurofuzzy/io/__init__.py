@@ -18,7 +18,7 @@ from ..exports import lazy
 
 _EXPORTS = {"load_experiment": "experiments", "save_experiment": "experiments",
             "load_model": "models", "save_model": "models", "load_fit_record": "models",
-            "atomic_write": "writing", "json_safe": "writing",
+            "atomic_write": "writing",
             "load_load_steps": "load_steps", "save_load_steps": "load_steps"}
 
 __all__ = sorted(_EXPORTS)
@@ -30,5 +30,5 @@ __getattr__, __dir__ = lazy(__name__, _EXPORTS)
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly
     from .experiments import load_experiment, save_experiment  # noqa: F401
     from .models import load_fit_record, load_model, save_model  # noqa: F401
-    from .writing import atomic_write, json_safe  # noqa: F401
+    from .writing import atomic_write  # noqa: F401
     from .load_steps import load_load_steps, save_load_steps  # noqa: F401

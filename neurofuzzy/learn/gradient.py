@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..experiment import Experiment, check_experiments, rms_error
 from ..model import Model
 from ..simulation import check_substeps
-from ..progress import Progress, Stopwatch, note
+from ..progress import Progress, Stopwatch
 from ._base import Learner
 from . import _passes as passes
 from ._parameters import Parameterization
@@ -28,12 +28,11 @@ from ._prior_weight import set_prior
 from ._sensitivity import Sensitivity
 from ._solvers import solve_lbfgs, solve_lm
 from .identifiability import structurally_unidentifiable
-from .lack_of_fit import length_text
+from ..formatting import length_text
 from .steps import (auto_substeps, fits_offsets, parameter_bounds, stable_at_one_step,
                     stable_start)
-from .power import describe_power, detection_limit
-from .region_test import homogeneous_fit, supported_regions
-from .regions import regions_found
+from .region_test import homogeneous_fit
+from .regions import supported_regions_found
 from .uncertainty import assess, intervals_dict
 
 __all__ = ["GradientLearner", "auto_substeps", "fits_offsets"]
@@ -162,7 +161,8 @@ class GradientLearner(Learner):
         With a prior: the regions found that the data support (:mod:`.region_test`;
         ``"regions"``, ``"rejected"``, ``"rest"``) and the test's power on these data
         (``"power"``, :func:`.power.detection_limit`: how small a lump five times stiffer it
-        would keep, and at how many places).
+        would keep, and at how many places), and all that in words (``"words"``,
+        :func:`.regions.describe_regions`).
     prior_ : dict or None
         With a prior: its weight ``alpha`` (``w = α σ²``), the noise level ``noise`` (metres)
         it was measured against, how it was chosen, the fits the choice took and the sets.
@@ -313,13 +313,8 @@ class GradientLearner(Learner):
         assess(self, sensitivity, parameters, experiments, theta, method)
         self._last = None       # its runs and Jacobian: not kept (nor pickled) with the result
         if self.prior is not None:
-            self.regions_ = supported_regions(
-                regions_found(self.model_, self.prior), self.homogeneous_, experiments,
-                progress=(lambda line: note(True, f"regions found: {line}"))
-                if self.progress else None)
-            self.regions_["power"] = power = detection_limit(self.homogeneous_, experiments)
-            note(self.progress and power is not None,
-                 f"regions found: {describe_power(power)}")
+            self.regions_ = supported_regions_found(self.model_, self.prior, self.homogeneous_,
+                                                    experiments, progress=self.progress)
         self.history_ = np.minimum.accumulate([energy for energy, _ in self._trace])  # best so far
         self.seconds_ = watch.seconds
         return self

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io.writing import json_safe
+from ..formatting import json_safe
 
 __all__ = ["Identifiability", "analyse"]
 

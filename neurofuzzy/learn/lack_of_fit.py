@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..noise import noise_level
-from ..io.writing import json_safe
+from ..formatting import json_safe, length_text
 
-__all__ = ["LackOfFit", "lack_of_fit", "model_lack_of_fit", "EXPLAINED", "length_text"]
+__all__ = ["LackOfFit", "lack_of_fit", "model_lack_of_fit", "EXPLAINED"]
 
 #: Largest ratio of the RMS error to the marker noise read as "explained to the noise".
 EXPLAINED = 1.2
@@ -42,16 +42,6 @@ EXPLAINED = 1.2
 EXACT = 1e-9
 #: Below this fraction of the motion the noise is not measurable (no tracking is that good).
 NOISE_FLOOR = 1e-4
-
-
-def length_text(metres: float) -> str:
-    """A length with a unit people read: ``41.2 µm``, ``1.23 mm``, ``4.5 cm``."""
-    if not np.isfinite(metres):
-        return str(metres)
-    size = abs(metres)
-    unit, scale = (("m", 1.0) if size >= 1 else ("cm", 1e-2) if size >= 1e-2
-                   else ("mm", 1e-3) if size >= 1e-3 else ("µm", 1e-6))
-    return f"{metres / scale:.3g} {unit}"
 
 
 @dataclass(frozen=True)
@@ -110,7 +100,12 @@ class LackOfFit:
             "verdict": self.verdict, "explained": self.explained,
             "units": "m, per marker (3-D distance; per coordinate is 1/sqrt(3) of it)",
             "noise_per_coordinate": self.noise_per_coordinate, "noise_how": self.noise_how,
-            "explained_up_to": EXPLAINED, "where": self.where, "when": self.when})
+            "explained_up_to": self.explained_up_to, "where": self.where, "when": self.when})
+
+    @property
+    def explained_up_to(self) -> float:
+        """The largest ratio read as "explained to the noise" (:data:`EXPLAINED`)."""
+        return EXPLAINED
 
     @property
     def short(self) -> str:

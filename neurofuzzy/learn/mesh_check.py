@@ -73,7 +73,7 @@ class MeshCheck:
                 f"tetrahedra), {self.moves()} ({how})")
 
     def to_dict(self) -> dict:
-        from ..io.writing import json_safe
+        from ..formatting import json_safe
 
         return json_safe({"refined_nodes": self.nodes[1], "refined_elements": self.elements[1],
                           "change": dict(zip(self.names, self.change)),

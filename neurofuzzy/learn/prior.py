@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..constants import spring_factor
 from ..errors import InputError
 
 __all__ = ["FuzzyPrior", "QuantitySet", "parse_prior", "PRIOR_QUANTITIES"]
@@ -216,7 +217,7 @@ class PriorTerms:
                 continue
             if name in ("log_stiffness", "log_damping"):
                 tie, region = model.springs.tie, model.springs.region
-                offset_items = np.log(parameters.ratio(name) / _spring_factor(model))
+                offset_items = np.log(parameters.ratio(name) / spring_factor(model))
             else:
                 tie, region = model.elements.tie, model.elements.region
                 ratio = parameters.ratio(name)          # (ν has no ratios: one per group)
@@ -307,14 +308,6 @@ class PriorTerms:
             pull = np.sqrt(self.smoothness) * r[n:] / self.spread[a]
             per_row = per_row + np.bincount(a, pull, n) - np.bincount(b, pull, n)
         return np.bincount(self.index, per_row * du, self.n_params)
-
-
-def _spring_factor(model) -> np.ndarray:
-    """``k = E · factor`` of every spring (the rule base's mapping)."""
-    from ..constants import spring_geometry
-
-    factor = spring_geometry(model.mesh).spring_factor
-    return np.where(factor > 0, factor, 1.0)
 
 
 def _neighbour_pairs(model, parameters, row_keys) -> np.ndarray:

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lack_of_fit import length_text
+from ..formatting import length_text
 
 __all__ = ["homogeneous_start", "homogeneous_fit", "supported_regions", "MIN_SHRINK",
            "MAX_TESTED"]

@@ -23,10 +23,13 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..forces import tetrahedron_geometry
-from .power import describe_power
-from .prior import _elements_sharing_a_face, _spring_factor, _springs_sharing_a_node
+from ..progress import note
+from .power import describe_power, detection_limit
+from .region_test import supported_regions
+from ..constants import item_values
+from .prior import _elements_sharing_a_face, _springs_sharing_a_node
 
-__all__ = ["MIN_NODES", "describe_regions", "regions_found"]
+__all__ = ["MIN_NODES", "describe_regions", "regions_found", "supported_regions_found"]
 
 #: Smallest region reported, in nodes' worth of the mesh (its volume, or its springs, per
 #: node): one marker's noise moves the items around its node, so a smaller region is as
@@ -47,18 +50,6 @@ GROW_TOLERANCE = 2.0
 MIN_GROW = 0.05
 
 _QUANTITIES = ("youngs_modulus", "viscosity", "poisson_ratio")
-
-
-def item_values(model) -> tuple[str, dict[str, np.ndarray]]:
-    """``("elements", {quantity: per element})`` for element models, else ``("springs",
-    {quantity: the E and η every spring stands for})``."""
-    if model.elements is not None:
-        return "elements", {"youngs_modulus": model.elements.youngs_modulus,
-                            "poisson_ratio": model.elements.poisson_ratio,
-                            "viscosity": model.elements.viscosity}
-    factor = _spring_factor(model)
-    return "springs", {"youngs_modulus": model.springs.stiffness / factor,
-                       "viscosity": model.springs.damping / factor}
 
 
 def regions_found(model, prior, *, min_nodes: float = MIN_NODES) -> dict:
@@ -255,3 +246,19 @@ def describe_regions(result: dict, *, unit: float = 0.01, unit_name: str = "cm")
 def _word(rules, output, value) -> tuple[str, float]:
     label = rules.describe({output: value})[output]
     return label.term, float(label.degree)
+
+
+def supported_regions_found(model, prior, homogeneous, experiments, *,
+                            progress: bool = False) -> dict:
+    """The regions of ``model`` (fitted with ``prior``) that the data support against the
+    ``homogeneous`` fit (:func:`~.region_test.supported_regions` of :func:`regions_found`),
+    the test's power on ``experiments`` (``"power"``, :func:`~.power.detection_limit`) and
+    all that in words (``"words"``, :func:`describe_regions`); ``progress`` says it on
+    stderr."""
+    found = supported_regions(regions_found(model, prior), homogeneous, experiments,
+                              progress=(lambda line: note(True, f"regions found: {line}"))
+                              if progress else None)
+    found["power"] = power = detection_limit(homogeneous, experiments)
+    note(progress and power is not None, f"regions found: {describe_power(power)}")
+    found["words"] = describe_regions(found)
+    return found

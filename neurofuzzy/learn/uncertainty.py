@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..io.writing import json_safe
+from ..formatting import json_safe
 from .identifiability import analyse
 from .lack_of_fit import lack_of_fit
 

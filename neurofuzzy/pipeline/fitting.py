@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from ..errors import InputError
 from ..experiment import Experiment
-from ..learn.lack_of_fit import length_text
+from ..formatting import length_text
 from ..progress import announced, note
 from .outcome import check_outcome, explained, require_motion
 

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..learn.lack_of_fit import length_text
+from ..constants import item_values
+from ..formatting import length_text
 from .html import figure_html, pyplot, table_html, write_report
 from .lack_of_fit import lack_of_fit_section
 from .laws import law_section
@@ -171,9 +172,7 @@ def prior_section(plt, learner, data) -> tuple[str, str]:
     """The regions found after a fit with the rule base as a prior: in words, and on the
     object (every element or spring coloured by its Young's modulus against the
     description, the regions found ringed)."""
-    from ..learn.regions import describe_regions, item_values, regions_found
-
-    found = getattr(learner, "regions_", None) or regions_found(learner.model_, learner.prior)
+    found = learner.regions_
     data.update(prior=learner.prior_, regions_found=found["regions"],
                 regions_power=found.get("power"))
     model, prior = learner.model_, learner.prior
@@ -191,7 +190,7 @@ def prior_section(plt, learner, data) -> tuple[str, str]:
     figure.colorbar(shown, ax=ax, shrink=0.6, label="log₁₀ (E / described E)")
     ax.set_title(f"{kind}: Young's modulus against the description")
     info = learner.prior_
-    text = (f"<p>{html.escape(describe_regions(found))}.</p><p>Prior weight α = "
+    text = (f"<p>{html.escape(found['words'])}.</p><p>Prior weight α = "
             f"{info['alpha']:.3g} ({html.escape(info['how'])}; marker noise "
             f"{info['noise'] * 1e6:.3g} µm).</p>")
     return "Where the tissue differs from its description", text + figure_html(

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.writing import atomic_write, json_safe
+from ..formatting import json_safe
+from ..io.writing import atomic_write
 
 __all__ = ["write_report", "figure_html", "table_html", "pyplot", "REPORT_MARKER"]
 

@@ -18,7 +18,7 @@ def lack_of_fit_section(plt, lack_of_fit, *, what: str = "the fitted model") -> 
             "marker: the root mean square of the 3-D distance between simulated and measured "
             "marker positions over every measured frame (per coordinate it is 1/√3 of it). "
             f"Marker noise per marker: √3 σ, σ estimated from {html.escape(lack_of_fit.noise_how)}"
-            f". Up to {_limit()}× the noise, a model explains the data.</p>")
+            f". Up to {lack_of_fit.explained_up_to}× the noise, a model explains the data.</p>")
     if not lack_of_fit.per_frame:
         return f"Lack of fit of {what}", text
     figure = plt.figure(figsize=(11, 4.2))
@@ -46,9 +46,3 @@ def lack_of_fit_section(plt, lack_of_fit, *, what: str = "the fitted model") -> 
     when.legend(fontsize=8)
     return (f"Lack of fit of {what}",
             text + figure_html(figure, "RMS error per marker and per frame"))
-
-
-def _limit() -> float:
-    from ..learn.lack_of_fit import EXPLAINED
-
-    return EXPLAINED

@@ -30,7 +30,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from ..errors import InputError
-from ..io.writing import json_safe
+from ..formatting import json_safe
 from .document import RuleDocument, inside
 from .edits import EditError
 from .fits import MAX_FIT_BYTES, find_results, fit_view, read_fit, read_results
