@@ -5,9 +5,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - topology: :class:`Mesh`, :func:`lattice`, :func:`from_trimesh`, :func:`from_tetra`,
   :func:`from_surface_tetra`, :func:`bottom_layer`, :func:`surface_nodes`; mesh files:
   :func:`read_mesh`, :class:`MeshFile`
-- physics: :class:`Model` (a mesh, node masses and force terms; ``SpringMassModel``, its
-  former name, is deprecated), the force terms (:class:`ForceTerm`, :class:`Springs`,
-  :class:`Tetrahedra`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
+- physics: :class:`Model` (a mesh, node masses and force terms), the force terms
+  (:class:`ForceTerm`, :class:`Springs`, :class:`Tetrahedra`) and effects (:class:`Effect`, :class:`Gravity`, :class:`NodeDrag`,
   :class:`StiffInclusion`, :class:`SoftInclusion`, :class:`NonlinearStiffening`,
   :class:`UnmodeledLoad`, :data:`EFFECTS`), :func:`simulate`, :class:`Trajectory`, :class:`State`,
   :func:`stability_limit`, :func:`reference_simulate`
@@ -90,15 +89,7 @@ _EXPORTS = {
 _ALIASES = {"shipped_rules": "shipped", "load_step_mesh_check": "with_mesh_check"}
 
 
-_exported, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
-
-
-def __getattr__(name: str):
-    if name == "SpringMassModel":          # the model's name before terms (deprecated)
-        from . import model
-
-        return model.SpringMassModel
-    return _exported(name)
+__getattr__, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
 
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly

@@ -95,26 +95,21 @@ def test_a_spring_network_and_an_element_model_are_one_class_with_other_terms():
         Model(mesh, 1e-3, (Springs(stiffness=-1.0, damping=0.0),))
 
 
-def test_the_flat_fields_of_models_before_terms_still_work_and_say_what_to_use():
+def test_the_flat_fields_and_the_old_name_of_models_before_terms_are_gone():
+    """Issue 44 removed the deprecated spellings (``Model(mesh, spring_stiffness=…)``,
+    ``model.spring_damping``, ``SpringMassModel``); model files keep their format (``neurofuzzy-model/1``, the same
+    sections before and after terms) and load as they did (tests/test_io.py)."""
+    import neurofuzzy as nf
     from neurofuzzy import model as model_package
-    from neurofuzzy.forces import Springs
 
     mesh = lattice((2, 2, 2))
-    now = Model(mesh, 0.1, (Springs(stiffness=np.arange(1.0, 17.0), damping=0.5),))
-    with pytest.warns(DeprecationWarning, match=r"spring_stiffness=.*give terms: Model\(mesh, "
-                                                r"node_mass, \(Springs\("):
-        before = Model(mesh, node_mass=0.1, spring_stiffness=np.arange(1.0, 17.0),
-                       spring_damping=0.5)
-    assert np.array_equal(before.springs.stiffness, now.springs.stiffness)
-    with pytest.warns(DeprecationWarning, match="use model.springs.damping"):
-        assert np.all(before.spring_damping == 0.5)
-    with pytest.warns(DeprecationWarning, match="model.with_springs"):
-        stiffer = before.replace(spring_stiffness=2 * now.springs.stiffness)
-    assert np.array_equal(stiffer.springs.stiffness, 2 * now.springs.stiffness)
-    with pytest.warns(DeprecationWarning, match="use model.elements is not None"):
-        assert not now.has_elements
-    with pytest.warns(DeprecationWarning, match="use Model"):
-        assert model_package.SpringMassModel is Model
+    with pytest.raises(TypeError):
+        Model(mesh, node_mass=0.1, spring_stiffness=np.arange(1.0, 17.0))
+    with pytest.raises(AttributeError):
+        Model.uniform(mesh, stiffness=1.0, damping=0.5, total_mass=1.0).spring_damping
+    for package in (nf, model_package):
+        with pytest.raises(AttributeError):
+            package.SpringMassModel
 
 
 def test_an_element_model_file_with_idle_springs_loads_without_a_springs_term(tmp_path):

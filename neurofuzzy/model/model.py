@@ -43,7 +43,6 @@ from ..forces.base import COMPILED_AS
 from ..forces.laws import LAWS, STIFFENING_CONSTANT
 from ..forces.relaxation import relaxation_fields
 from ..mesh import Mesh
-from . import legacy
 from .values import PerSpring, Tie, describe, per_spring, tie_index
 
 __all__ = ["Model"]
@@ -70,10 +69,6 @@ class Model:
         The rule-base tissue of every region (default unknown).
     node_region : (n_nodes,) int, optional
         Region of every node (default 0).
-    **fields
-        The flat fields of models before terms (``spring_stiffness``,
-        ``element_youngs_modulus``, ``effects`` …; :mod:`neurofuzzy.model.legacy`), read into
-        terms.
     """
 
     mesh: Mesh
@@ -85,9 +80,7 @@ class Model:
 
     def __init__(self, mesh: Mesh, node_mass, terms: Sequence[ForceTerm] = (), *,
                  region_names: Sequence[str] = ("object",), region_tissues=None,
-                 node_region=None, **fields):
-        if fields:
-            terms = legacy.terms_from_fields(mesh, tuple(terms), fields)
+                 node_region=None):
         names = tuple(str(name) for name in region_names)
         if not names or len(set(names)) != len(names):
             raise InputError(f"got {list(names)}; expected distinct names",
@@ -165,17 +158,13 @@ class Model:
 
     def replace(self, **changes) -> Model:
         """A copy with some fields changed: the model's own (``mesh``, ``node_mass``,
-        ``terms``, ``region_names`` …), ``effects`` (the effects in place of the model's) or
-        a flat field of a term (``spring_stiffness``, ``element_law`` …,
-        :mod:`neurofuzzy.model.legacy`)."""
-        flat = {key: changes.pop(key) for key in list(changes) if key in legacy.FLAT}
+        ``terms``, ``region_names`` …) or ``effects`` (the effects in place of the model's; a
+        term's own fields change with :meth:`with_springs`, :meth:`with_elements`)."""
         effects = changes.pop("effects", None)
         model = replace(self, **changes) if changes else self
         if effects is not None:
             kept = tuple(t for t in model.terms if isinstance(t, (Springs, Tetrahedra)))
             model = replace(model, terms=kept + tuple(effects))
-        if flat:
-            model = replace(model, terms=legacy.terms_with_fields(model, flat))
         return model
 
     # -- construction ---------------------------------------------------------------------
@@ -377,12 +366,6 @@ class Model:
                              + (f", {parts}" if parts else ""))
         lines += [f"  effect: {effect}" for effect in self.effects]
         return "\n".join(lines)
-
-    def __getattr__(self, name):
-        # the flat fields of models before terms (spring_stiffness, element_law, …)
-        if name in legacy.FLAT or name in legacy.DERIVED:
-            return legacy.flat_value(self, name)
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
 
 def _ordered(terms) -> tuple:
