@@ -152,19 +152,26 @@ def test_parameter_tangent_and_adjoint_match_central_differences(model, term):
 
 
 def test_the_compiled_kernels_compute_every_term():
-    """Every kind of term a model can carry is one the kernels compute: a new kind they do
-    not fails here rather than drop out of the comparisons below unnoticed. An effect says
-    itself how they do (``compiled_as``). The switches of the material are catalogue entries,
-    no force terms, and a model refuses them by name."""
+    """Every kind of term a model can carry is one the kernels compute: an effect writes
+    itself into their arrays (``Effect.compile``, abstract: an effect class without it cannot
+    be made), and one that writes nothing fails here rather than drop out of the comparisons
+    below unnoticed. The switches of the material are catalogue entries, no force terms, and
+    a model refuses them by name."""
     from neurofuzzy.effects import EFFECTS, MaterialSwitch
+    from neurofuzzy.effects.compiled import KernelEffects
     from neurofuzzy.forces import Springs, Tetrahedra
-    from neurofuzzy.forces.base import COMPILED_AS
 
     for case in EXAMPLES:
         model, term = case.values
         if not isinstance(term, (Springs, Tetrahedra)):
-            assert term.compiled_as in COMPILED_AS, term.name
-            assert _with_term(model, term).effects[-1] is term
+            with_term = _with_term(model, term)
+            assert with_term.effects[-1] is term
+            plain = KernelEffects(with_term.replace(effects=()))
+            written = KernelEffects(with_term)
+            assert any(not np.array_equal(getattr(plain, slot), getattr(written, slot))
+                       for slot in ("constant", "drag", "kappa", "stretch", "cubic")) or any(
+                not np.array_equal(plain.element[key], written.element[key])
+                for key in plain.element), term.name
     switches = {name for name, kind in EFFECTS.items() if issubclass(kind, MaterialSwitch)}
     assert switches == {"hyperelasticity", "relaxation"}
     assert not switches & set(term_kinds())

@@ -160,6 +160,14 @@ class Effect(Entry, ForceTerm):
     """
 
     @abstractmethod
+    def compile(self, layout, model, column: int | None) -> None:
+        """Write this effect into the compiled kernels' arrays: ``layout`` a
+        :class:`~neurofuzzy.effects.compiled.KernelEffects`, whose slots (a constant force,
+        the node drag, spring stretch or cubic terms, element constants, the elements' κ)
+        it fills; ``column`` its first parameter column when the learners fit it (None:
+        held). The kernels compute every effect through this alone."""
+
+    @abstractmethod
     def parameter_jacobian(self, model, positions: np.ndarray,
                            velocities: np.ndarray) -> np.ndarray:
         """(n_nodes, n_params, 3): derivative of :meth:`force` with respect to ``params``."""

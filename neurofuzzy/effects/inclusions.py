@@ -59,9 +59,15 @@ class _Inclusion(SpringEffect):
     def on_elements(self) -> bool:
         return "elements" in self.options
 
-    @property
-    def compiled_as(self) -> str:
-        return "element constants" if self.on_elements else "spring stretch"
+    def compile(self, layout, model, column):
+        """Extra element constants, or extra stiffness along springs."""
+        if self.on_elements:
+            layout.add_element_constants(
+                self.added_constants(model, self.params[0]),
+                None if column is None else (self.elements, column,
+                                             self.added_constants(model, 1.0)))
+        else:
+            layout.add_spring_stretch(self.per_spring(model), self.learned_springs(model, column))
 
     #: the sign of the examples' extra stiffness
     _sign = 1.0

@@ -10,6 +10,13 @@ from .base import Effect, register
 __all__ = ["Gravity", "NodeDrag", "UnmodeledLoad"]
 
 
+def compile_constant(effect, layout, model, column) -> None:
+    """``effect``'s force, which depends on neither positions nor velocities, in the loads
+    (:meth:`~neurofuzzy.effects.compiled.KernelEffects.add_constant`)."""
+    layout.add_constant(effect.force(model, None, None), column,
+                        None if column is None else effect.parameter_jacobian(model, None, None))
+
+
 @register
 class Gravity(Effect):
     """Uniform acceleration ``g`` (direction and magnitude learned): ``F_i = m_i g``."""
@@ -18,7 +25,10 @@ class Gravity(Effect):
     unit = (1, -2, 0)
     _labels = ("gx", "gy", "gz")
     per_unit_mass = True
-    compiled_as = "constant force"
+
+    def compile(self, layout, model, column):
+        """A state-independent force: added to the loads."""
+        compile_constant(self, layout, model, column)
 
     def force(self, model, positions, velocities):
         return model.node_mass[:, None] * self.params[None, :]
@@ -43,8 +53,10 @@ class NodeDrag(Effect):
     name = "node_drag"
     unit = (0, -1, 1)
     _labels = ("b",)
-    compiled_as = "node drag"
     one_per_model = True
+
+    def compile(self, layout, model, column):
+        layout.add_drag(self.params[0], column)
 
     def force(self, model, positions, velocities):
         return -self.params[0] * velocities
@@ -73,7 +85,10 @@ class UnmodeledLoad(Effect):
     name = "unmodeled_load"
     unit = (1, -2, 1)
     _labels = ("fx", "fy", "fz")
-    compiled_as = "constant force"
+
+    def compile(self, layout, model, column):
+        """A state-independent force: added to the loads."""
+        compile_constant(self, layout, model, column)
 
     def __init__(self, params, *, node, **options):
         super().__init__(params, node=int(node), **options)

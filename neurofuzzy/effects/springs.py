@@ -72,6 +72,15 @@ class SpringEffect(Effect):
         known = np.asarray(self.options["groups"])[index] == group
         return np.where(known, index, -1)
 
+    def learned_springs(self, model, column: int | None):
+        """``(springs, columns)``: the springs with a coefficient and its column, the
+        coefficients learned from ``column`` on (None when they are held)."""
+        if column is None:
+            return None
+        selection = self.selected(model)
+        index = self.parameter_index(model, selection)
+        return selection[index >= 0], column + index[index >= 0]
+
     def per_spring(self, model) -> np.ndarray:
         """(n_springs,) every spring's coefficient (0 off the selection)."""
         selection = self.selected(model)

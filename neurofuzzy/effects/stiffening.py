@@ -60,9 +60,12 @@ class NonlinearStiffening(SpringEffect):
     def on_elements(self) -> bool:
         return self.options.get("on") == "elements"
 
-    @property
-    def compiled_as(self) -> str:
-        return "element stiffening" if self.on_elements else "spring cubic"
+    def compile(self, layout, model, column):
+        """The elements' κ, or a second central force along springs that stiffens."""
+        if self.on_elements:
+            layout.add_stiffening(self.params[0], column)
+        else:
+            layout.add_spring_cubic(self.per_spring(model), self.learned_springs(model, column))
 
     @property
     def one_per_model(self) -> bool:

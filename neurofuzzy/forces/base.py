@@ -26,15 +26,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["ForceTerm", "MemberTerm", "COMPILED_AS", "vector", "region_index"]
-
-#: How the compiled kernels can compute a term beside the springs and elements
-#: (:attr:`ForceTerm.compiled_as`): a force that does not depend on the state, added to the
-#: loads; a drag ``-b v`` on every node; extra stiffness along springs (``x``); a second
-#: central force along springs (``x³``); extra element constants (μ, λ and their rates); the
-#: elements' strain stiffening ``κ``.
-COMPILED_AS = ("constant force", "node drag", "spring stretch", "spring cubic",
-               "element constants", "element stiffening")
+__all__ = ["ForceTerm", "MemberTerm", "vector", "region_index"]
 
 
 class ForceTerm(ABC):
@@ -53,13 +45,6 @@ class ForceTerm(ABC):
     name: ClassVar[str]
     unit: ClassVar[tuple[int, int, int]] = (0, 0, 0)
     per_unit_mass: ClassVar[bool] = False
-
-    @property
-    def compiled_as(self) -> str | None:
-        """How the compiled kernels compute this term, one of :data:`COMPILED_AS` (None for
-        the springs and the elements, the kernels' own). A model refuses an effect that says
-        none of them."""
-        return None
 
     @property
     def one_per_model(self) -> bool:

@@ -16,9 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..effects import per_unit_mass_force
-from ..effects.compiled import (CLOSING, STRETCH, constant_force, element_constants,
-                                element_inclusion, element_stiffening, kernel_values,
-                                node_drag, spring_entries)
+from ..effects.compiled import (CLOSING, STRETCH, KernelEffects, element_constants,
+                                spring_entries)
 from ..forces.relaxation import decay
 from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
@@ -37,22 +36,23 @@ class CompiledModel:
         blocks = parameters.blocks
         # the model's effects are the parameterisation's, in order, when they are learned
         columns = {i: blocks[f"effect:{i}"].start for i in range(len(parameters.effects))}
-        self.springs = self._springs(parameters, model, columns)
-        self.elements = self._elements(parameters, model, n_params, columns)
+        effects = KernelEffects(model, columns)
+        self.springs = self._springs(parameters, model, effects)
+        self.elements = self._elements(parameters, model, n_params, effects)
         self.relaxation = self._relaxation(parameters, model)
-        self.effects = self._effects(model, n_params, columns)
+        self.effects = self._effects(model, n_params, effects)
         self.weight = model.node_inverse_mass
         self.masses = self._masses(parameters, model)
         self.n_params = n_params
 
     @staticmethod
-    def _springs(parameters, model, columns):
+    def _springs(parameters, model, effects):
         """``(a, b, stiffness, damping, rest, q, pointer, column, basis, factor)`` of the
         springs as the kernels step them (:func:`~neurofuzzy.effects.compiled.spring_entries`;
         all springs when they are learned) and the CSR of their magnitudes' parameter
         derivatives (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`)."""
         spring, stiffness, damping, cubic, derivatives = spring_entries(
-            model, columns, every_spring=parameters.learn_springs)
+            model, effects, every_spring=parameters.learn_springs)
         entries = [derivatives]
         if parameters.learn_springs:    # entry j is spring j: ∂m/∂log s = s x, ∂m/∂log c = c ẋ
             own = np.arange(model.n_springs)
@@ -83,7 +83,7 @@ class CompiledModel:
                                            np.zeros((model.n_nodes, 3)))
 
     @staticmethod
-    def _elements(parameters, model, n_params, columns):
+    def _elements(parameters, model, n_params, effects):
         """Element constants (the model's plus its inclusions') and the CSR of their
         derivatives by the parameters, with the node averages' derivatives."""
         n_nodes = model.n_nodes
@@ -93,7 +93,7 @@ class CompiledModel:
                     *(empty,) * 5, False,
                     *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
                     np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1, none)
-        own, total = element_constants(model)
+        own, total = element_constants(model, effects)
         geometry = own.geometry
         # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
         E, nu, eta = (model.elements.youngs_modulus, model.elements.poisson_ratio,
@@ -107,14 +107,8 @@ class CompiledModel:
         entries = [(index, first + tie, 2 * b * E, zero, a * E, zero),
                    (index, first + ties + tie, 2 * db * E * logistic, 2 * db * eta * logistic,
                     da * E * logistic, da * eta * logistic),
-                   (index, first + 2 * ties + tie, zero, 2 * b * eta, zero, a * eta)]
-        for i, effect in enumerate(model.effects):
-            if element_inclusion(effect) and i in columns:
-                region = effect.elements
-                ai, bi, _, _ = lame_factors(effect.options["poisson_ratio"])
-                ones = np.ones(len(region))
-                entries.append((region, np.full(len(region), columns[i]),
-                                2 * bi * ones, 0 * ones, ai * ones, 0 * ones))
+                   (index, first + 2 * ties + tie, zero, 2 * b * eta, zero, a * eta),
+                   *effects.element_derivatives]            # the learned element inclusions
         element, column, *values = (np.concatenate(part) for part in zip(*entries))
         order = np.lexsort((column, element))
         element, column = element[order], column[order].astype(np.intp)
@@ -142,7 +136,7 @@ class CompiledModel:
                   for key in ("shear", "shear_rate", "lam", "lam_rate")),
                 own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
                 pointer, column, *values, d_node_lam, d_node_lam_rate,
-                *CompiledModel._stiffening(model, columns),
+                effects.kappa, effects.kappa_column,
                 stiffening_columns(parameters, model))
 
     @staticmethod
@@ -163,36 +157,17 @@ class CompiledModel:
                 np.array(model.elements.relaxation_times, float, order="C"), columns)
 
     @staticmethod
-    def _stiffening(model, columns):
-        """``(kappa, kappa_column)`` of the elements' strain stiffening (0, -1 without)."""
-        kappa = kernel_values(model)[2]
-        for i, effect in enumerate(model.effects):
-            if element_stiffening(effect):
-                return kappa, int(columns.get(i, -1))
-        return kappa, -1
-
-    @staticmethod
-    def _effects(model, n_params, columns):
-        """``(drag, drag_column, force_direction, constant_force, spans)``: the values of
-        :func:`~neurofuzzy.effects.compiled.kernel_values`, the columns, and the slices of
-        the learned constant forces' columns (those ``force_direction`` fills)."""
-        drag, constant, _ = kernel_values(model)
-        drag_column = -1
+    def _effects(model, n_params, effects):
+        """``(drag, drag_column, force_direction, constant_force, spans)``: the effects' drag
+        and constant forces (:class:`~neurofuzzy.effects.compiled.KernelEffects`) and the
+        slices of the learned constant forces' columns (those ``force_direction`` fills)."""
         # parameters last, as the kernel's tangents; np.zeros maps its pages lazily, so the
         # (N, 3, P) array of a model with thousands of parameters costs no memory until used
         direction = np.zeros((model.n_nodes, 3, n_params))
-        spans = []
-        for i, effect in enumerate(model.effects):
-            column = columns.get(i)
-            if node_drag(effect):
-                drag_column = -1 if column is None else column
-            elif constant_force(effect):
-                if column is not None:
-                    span = slice(column, column + len(effect.params))
-                    direction[:, :, span] = effect.parameter_jacobian(
-                        model, None, None).transpose(0, 2, 1)
-                    spans.append(span)
-        return drag, int(drag_column), direction, constant, spans
+        for span, per_parameter in effects.directions:
+            direction[:, :, span] = per_parameter
+        return (effects.drag, effects.drag_column, direction, effects.constant,
+                [span for span, _ in effects.directions])
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
             columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None,

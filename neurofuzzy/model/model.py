@@ -39,7 +39,6 @@ import numpy as np
 
 from ..errors import InputError, closest_name
 from ..forces import ForceTerm, Springs, Tetrahedra, region_index, vector
-from ..forces.base import COMPILED_AS
 from ..forces.laws import LAWS, STIFFENING_CONSTANT
 from ..forces.relaxation import relaxation_fields
 from ..mesh import Mesh
@@ -385,11 +384,6 @@ def _ordered(terms) -> tuple:
             raise InputError(f"got {type(term).__name__}; every term of a model is a "
                              "ForceTerm (Springs, Tetrahedra or an effect)", key="terms")
     effects = tuple(t for t in terms if not isinstance(t, (Springs, Tetrahedra)))
-    for effect in effects:
-        if effect.compiled_as not in COMPILED_AS:
-            raise InputError(f"{effect.name}: the compiled kernels do not compute it (its "
-                             f"compiled_as is {effect.compiled_as!r}; one of "
-                             f"{', '.join(COMPILED_AS)})", key="effects")
     single = [effect for effect in effects if effect.one_per_model]
     for effect in single:
         if sum(other.name == effect.name for other in single) > 1:

@@ -155,18 +155,18 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
         cache = NumbaStepper._prepared.setdefault(model, {})
         if key in cache:
             return cache[key]
-    from ..effects.compiled import kernel_values, spring_entries
+    from ..effects.compiled import KernelEffects, spring_entries
     from ..forces.springs import spring_constants
 
-    drag, constant, kappa = kernel_values(model)
+    effects = KernelEffects(model)
     # the springs with a force, then those that stiffen once more (the spring effects')
-    springs, stiffness, damping, cubic, _ = spring_entries(model)
-    arrays = (drag, kappa, constant.astype(dtype),
+    springs, stiffness, damping, cubic, _ = spring_entries(model, effects)
+    arrays = (effects.drag, effects.kappa, effects.constant.astype(dtype),
               np.ascontiguousarray(model.mesh.springs[springs, 0]),
               np.ascontiguousarray(model.mesh.springs[springs, 1]),
               stiffness.astype(dtype), damping.astype(dtype),
               spring_constants(model)[2][springs].astype(dtype), cubic.astype(dtype),
-              _element_arrays(model, dtype, h), model.node_inverse_mass.astype(dtype))
+              _element_arrays(model, dtype, h, effects), model.node_inverse_mass.astype(dtype))
     with NumbaStepper._prepared_lock:
         while len(cache) >= 4:                          # a learner tries many steps: keep few
             cache.pop(next(iter(cache)))
@@ -174,7 +174,7 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
     return arrays
 
 
-def _element_arrays(model, dtype, h: float):
+def _element_arrays(model, dtype, h: float, effects):
     """``(tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
     node_volume, Λ, H, node_strain, g, a, history)`` of the model's elements in the kernel's
     layout (the
@@ -194,7 +194,7 @@ def _element_arrays(model, dtype, h: float):
     from ..forces.relaxation import decay
     from ..effects.compiled import element_constants
 
-    materials, total = element_constants(model)        # the inclusions' constants added
+    materials, total = element_constants(model, effects)   # the inclusions' constants added
     geometry = materials.geometry
     nodal = materials.nodal
     n_nodes = model.n_nodes
