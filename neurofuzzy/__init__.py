@@ -44,7 +44,7 @@ set to the function, so no later import of the package replaces it.
 
 from typing import TYPE_CHECKING
 
-from .exports import lazy
+from .lazy import lazy
 
 # name -> module; imported on first use (PEP 562), so ``import neurofuzzy`` and the command
 # line start fast and load scipy, trimesh or meshio only when a part needs them

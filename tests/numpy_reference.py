@@ -298,63 +298,63 @@ class NumpySensitivity(Sensitivity):
             return float("inf"), grad, run
 
         # backward sweep
-        lam_p = np.zeros((self.n_nodes, 3))
-        lam_v = np.zeros((self.n_nodes, 3))
+        bar_p = np.zeros((self.n_nodes, 3))
+        bar_v = np.zeros((self.n_nodes, 3))
         index = len(states)
         n_ties = param.tied.n_ties
         tie = param.tied.tie
         directions = element_directions(model) if model.elements is not None else None
         for t in range(n_frames - 1, 0, -1):
             if t in starts:
-                lam_p[:] = 0.0
-                lam_v[:] = 0.0
+                bar_p[:] = 0.0
+                bar_v[:] = 0.0
                 continue
-            lam_p += observation.adjoint(residuals[t]) * scale     # ∂L/∂p(t)
+            bar_p += observation.adjoint(residuals[t]) * scale     # ∂L/∂p(t)
             for _ in range(substeps):
                 index -= 1
                 _, p, v = states[index]
                 state = self._spring_state(model, p, v)
                 force = self._force(model, p, v, state) + loads[t - 1]
                 # p' = p + h v'
-                lam_vnew = lam_v + h * lam_p
-                lam_vnew[fixed] = 0.0
+                bar_vnew = bar_v + h * bar_p
+                bar_vnew[fixed] = 0.0
                 # v' = v + h W F
-                lam_force = h * weight * lam_vnew
+                bar_force = h * weight * bar_vnew
                 if param.learn_masses:
                     nodes = param.free_nodes
                     inertial = force - per_unit_mass_force(model, p, v)
                     grad[param.blocks["log_mass"].slice] -= np.einsum(
-                        "ij,ij->i", lam_vnew[nodes], h * weight[nodes] * inertial[nodes])
+                        "ij,ij->i", bar_vnew[nodes], h * weight[nodes] * inertial[nodes])
                 springs = model.springs
                 if springs is None:
-                    d_p, d_v = np.zeros_like(lam_force), np.zeros_like(lam_force)
+                    d_p, d_v = np.zeros_like(bar_force), np.zeros_like(bar_force)
                 else:
-                    d_p, d_v, per_spring = springs.vjp(model, lam_force, state)
+                    d_p, d_v, per_spring = springs.vjp(model, bar_force, state)
                 if param.learn_springs:
                     for name, values in (("log_stiffness", springs.stiffness),
                                          ("log_damping", springs.damping)):
                         grad[param.blocks[name].slice] += np.bincount(
                             tie, values * per_spring[name[4:]], n_ties)
                 if model.elements is not None:
-                    per_element = model.elements.parameter_vjp(model, p, v, lam_force)
+                    per_element = model.elements.parameter_vjp(model, p, v, bar_force)
                     for name, direction in directions.items():
                         grad[self.element_slice] += direction.T @ per_element[name]
                     local, columns, block = self._stiffening_forces(model, p, v)
                     if block is not None:
                         geometry = tetrahedron_geometry(model.mesh)
-                        per_yeoh = np.einsum("ejk,ejk->e", lam_force[geometry.nodes], local)
+                        per_yeoh = np.einsum("ejk,ejk->e", bar_force[geometry.nodes], local)
                         yeoh = columns >= 0
                         grad += np.bincount(columns[yeoh], per_yeoh[yeoh], param.size)
                 for i, effect in enumerate(param.effects):
                     jac = effect.parameter_jacobian(model, p, v)
                     grad[param.blocks[f"effect:{i}"].slice] += np.einsum("ipj,ij->p", jac,
-                                                                         lam_force)
+                                                                         bar_force)
                 for term in model.force_terms[springs is not None:]:
-                    e_p, e_v = term.state_vjp(model, p, v, lam_force)
+                    e_p, e_v = term.state_vjp(model, p, v, bar_force)
                     d_p += e_p
                     d_v += e_v
-                lam_p = lam_p + d_p
-                lam_v = lam_vnew + d_v
+                bar_p = bar_p + d_p
+                bar_v = bar_vnew + d_v
         return loss, grad, run
 
 

@@ -126,9 +126,9 @@ class SpringEffect(Effect):
 
     def state_vjp(self, model, positions, velocities, cotangent):
         selection, state, (m, dm_dl, _) = self._parts(model, positions, velocities)
-        lam_f = -incidence(model.mesh).difference(cotangent)[selection]
-        lam_d, _ = central_vjp(state, m, dm_dl, None, lam_f)
-        return -self._scatter(model, selection, lam_d), np.zeros_like(cotangent)
+        bar_f = -incidence(model.mesh).difference(cotangent)[selection]
+        bar_d, _ = central_vjp(state, m, dm_dl, None, bar_f)
+        return -self._scatter(model, selection, bar_d), np.zeros_like(cotangent)
 
     def relative(self, model) -> dict[str, float]:
         """Each coefficient relative to the mean stiffness of its group's selected springs."""

@@ -166,9 +166,9 @@ class NonlinearStiffening(SpringEffect):
         if not self.on_elements:
             return super().state_vjp(model, positions, velocities, cotangent)
         # conservative: ∂F/∂p is symmetric, so (∂F/∂p)ᵀ λ = (∂F/∂p) λ; no velocity part
-        lam_p = self.state_jvp(model, positions, velocities, cotangent[:, None, :],
+        bar_p = self.state_jvp(model, positions, velocities, cotangent[:, None, :],
                                np.zeros_like(cotangent)[:, None, :])[:, 0]
-        return lam_p, np.zeros_like(cotangent)
+        return bar_p, np.zeros_like(cotangent)
 
     def relative(self, model) -> dict[str, float]:
         """κ per group relative to its springs' stiffness, or to the elements' mean shear

@@ -61,11 +61,11 @@ def central_vjp(state, magnitude, d_length, d_closing, cotangent):
     u = state.direction
     along = np.einsum("ij,ij->i", u, cotangent)
     project = cotangent - along[:, None] * u                     # (I - u uᵀ) λ
-    lam_d = (d_length * along)[:, None] * u + (magnitude / state.length)[:, None] * project
-    lam_dv = np.zeros_like(cotangent)
+    bar_d = (d_length * along)[:, None] * u + (magnitude / state.length)[:, None] * project
+    bar_dv = np.zeros_like(cotangent)
     if d_closing is not None:
         dv = state.relative_velocity
         dv_perp = dv - np.einsum("ij,ij->i", dv, u)[:, None] * u
-        lam_d += (d_closing * along / state.length)[:, None] * dv_perp
-        lam_dv = (d_closing * along)[:, None] * u
-    return lam_d, lam_dv
+        bar_d += (d_closing * along / state.length)[:, None] * dv_perp
+        bar_dv = (d_closing * along)[:, None] * u
+    return bar_d, bar_dv

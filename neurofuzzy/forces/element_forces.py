@@ -103,21 +103,21 @@ def element_state_vjp(constants: ElementConstants, positions, velocities, cotang
     state = element_state(constants, positions, velocities)
     B = geometry.inverse_rest
     # cotangent of [f1 f2 f3] (columns): λ_{n_j} - λ_{n_0}
-    lam_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
-    lam_stress = _sym(np.swapaxes(state.F, 1, 2) @ lam_piola)
-    lam_green, lam_green_rate, lam_pressure, lam_pressure_rate = state.at.vjp(lam_stress)
+    bar_piola = -geometry.volume[:, None, None] * (geometry.edges(cotangent) @ B)
+    bar_stress = _sym(np.swapaxes(state.F, 1, 2) @ bar_piola)
+    bar_green, bar_green_rate, bar_pressure, bar_pressure_rate = state.at.vjp(bar_stress)
     # π and π̇ through the volumetric strains θ(G) and θ̇ = tr Ġ
-    lam_theta = constants.pressure_transpose(lam_pressure)[0]
-    lam_theta_rate = constants.pressure_transpose(lam_pressure_rate)[1]
-    lam_green = lam_green + lam_theta[:, None, None] * state.at.N
-    lam_green_rate = lam_green_rate + lam_theta_rate[:, None, None] * np.eye(3)
+    bar_theta = constants.pressure_transpose(bar_pressure)[0]
+    bar_theta_rate = constants.pressure_transpose(bar_pressure_rate)[1]
+    bar_green = bar_green + bar_theta[:, None, None] * state.at.N
+    bar_green_rate = bar_green_rate + bar_theta_rate[:, None, None] * np.eye(3)
     F, F_rate = state.F, state.F_rate
-    lam_F = lam_piola @ state.stress + F @ lam_green + F_rate @ lam_green_rate
-    lam_F_rate = F @ lam_green_rate
+    bar_F = bar_piola @ state.stress + F @ bar_green + F_rate @ bar_green_rate
+    bar_F_rate = F @ bar_green_rate
     # the adjoint of ``edges`` is ``scatter``: column j to node j+1, minus the sum to node 0
     n_nodes = len(positions)
-    return (geometry.scatter(lam_F @ np.swapaxes(B, 1, 2), n_nodes),
-            geometry.scatter(lam_F_rate @ np.swapaxes(B, 1, 2), n_nodes))
+    return (geometry.scatter(bar_F @ np.swapaxes(B, 1, 2), n_nodes),
+            geometry.scatter(bar_F_rate @ np.swapaxes(B, 1, 2), n_nodes))
 
 
 def element_rest_matrices(constants: ElementConstants):

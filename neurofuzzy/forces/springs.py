@@ -225,9 +225,9 @@ class Springs(MemberTerm):
         return maps.accumulate(df)
 
     def state_vjp(self, model, positions, velocities, cotangent, state=None):
-        lam_p, lam_v, _ = self.vjp(model, cotangent, self.state(model, positions, velocities)
+        bar_p, bar_v, _ = self.vjp(model, cotangent, self.state(model, positions, velocities)
                                    if state is None else state)
-        return lam_p, lam_v
+        return bar_p, bar_v
 
     def vjp(self, model, cotangent: np.ndarray, state: SpringState):
         """Reverse derivative of the net spring force for a cotangent ``λ`` (n_nodes, 3).
@@ -236,12 +236,12 @@ class Springs(MemberTerm):
         pull-backs to positions and velocities and ``λ · ∂F/∂s_j``, ``λ · ∂F/∂c_j``.
         """
         law, maps = spring_law(), incidence(model.mesh)
-        lam_f = -maps.difference(cotangent)                 # λ_a - λ_b per spring
-        lam_d, lam_dv = central_vjp(state, *self.magnitude_and_slope(model, state),
-                                    self.damping, lam_f)
+        bar_f = -maps.difference(cotangent)                 # λ_a - λ_b per spring
+        bar_d, bar_dv = central_vjp(state, *self.magnitude_and_slope(model, state),
+                                    self.damping, bar_f)
         # d = p_b - p_a: node b gets +λ_d, node a gets -λ_d
-        along = np.einsum("ij,ij->i", state.direction, lam_f)
-        return (-maps.accumulate(lam_d), -maps.accumulate(lam_dv),
+        along = np.einsum("ij,ij->i", state.direction, bar_f)
+        return (-maps.accumulate(bar_d), -maps.accumulate(bar_dv),
                 {"stiffness": law.partials(law.STRETCH, state.stretch) * along,
                  "damping": law.partials(law.CLOSING, state.stretch, state.closing_speed)
                  * along})

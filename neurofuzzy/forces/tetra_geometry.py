@@ -196,12 +196,12 @@ class ElementConstants:
                 corner_mean @ (broadcast_per_element(self.node_lam_rate, theta[:1])
                                * (average @ theta_rate)))
 
-    def pressure_transpose(self, lam_pressure):
+    def pressure_transpose(self, bar_pressure):
         """The adjoint of :meth:`pressures` for one cotangent of both: cotangents of ``θ``
         (through ``π``) and of ``θ̇`` (through ``π̇``) (K,)."""
         if not self.nodal:
-            return self.lam * lam_pressure, self.lam_rate * lam_pressure
-        at_nodes = self.geometry.corner_mean.T @ lam_pressure
+            return self.lam * bar_pressure, self.lam_rate * bar_pressure
+        at_nodes = self.geometry.corner_mean.T @ bar_pressure
         average = self.geometry.average
         return (average.T @ (self.node_lam * at_nodes),
                 average.T @ (self.node_lam_rate * at_nodes))
@@ -216,12 +216,12 @@ class ElementConstants:
                     + sp.diags(average @ theta_rate) @ (average @ d_lam_rate))
         return sp.csr_matrix(self.geometry.corner_mean @ at_nodes)
 
-    def constants_transpose(self, lam_pressure, theta, theta_rate):
+    def constants_transpose(self, bar_pressure, theta, theta_rate):
         """The adjoint of :meth:`pressure_of_constants`: per-element cotangents (K,) of
         ``λ`` and ``λβ``."""
         if not self.nodal:
-            return lam_pressure * theta, lam_pressure * theta_rate
-        at_nodes = self.geometry.corner_mean.T @ lam_pressure
+            return bar_pressure * theta, bar_pressure * theta_rate
+        at_nodes = self.geometry.corner_mean.T @ bar_pressure
         average = self.geometry.average
         return (average.T @ ((average @ theta) * at_nodes),
                 average.T @ ((average @ theta_rate) * at_nodes))

@@ -14,7 +14,7 @@ simulator with them.
 
 from typing import TYPE_CHECKING
 
-from ..exports import lazy
+from ..lazy import lazy
 
 _EXPORTS = {"load_experiment": "experiments", "save_experiment": "experiments",
             "load_model": "models", "save_model": "models", "load_fit_record": "models",

@@ -20,7 +20,7 @@ from .gradient import GradientLearner
 from .steps import auto_substeps
 from .identifiability import Identifiability
 from .paper import PaperLearner
-from .start import StartModel, estimate_start
+from .equation_error import StartModel, estimate_start
 
 __all__ = ["Learner", "PaperLearner", "GradientLearner", "Identifiability", "auto_substeps",
            "StartModel", "estimate_start", "Parameterization",

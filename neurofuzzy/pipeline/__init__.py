@@ -5,7 +5,7 @@ never moves raises :class:`FitFailedError` in all three. Where a fit starts is
 :func:`start_model` (:mod:`.start`); the learner, the prior and the summary are chosen in
 :mod:`.learners`."""
 
-from ..exports import lazy
+from ..lazy import lazy
 from .fitting import FitOutcome, fit, tie_label
 from .outcome import (FitFailedError, check_outcome, explained, measured_motion,
                       require_motion)

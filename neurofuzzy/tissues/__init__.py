@@ -7,7 +7,7 @@ physics of the values (spring homogenisation, element models) is :mod:`neurofuzz
 This package joins the two and uses a rule base through its methods (``tissue``, ``outputs``,
 ``describe``), so that neither of them imports the other."""
 
-from .start import element_model, initialize
+from .initialize import element_model, initialize
 from .values import material_values, materials
 
 __all__ = ["initialize", "element_model", "material_values", "materials"]
