@@ -16,11 +16,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..effects import per_unit_mass_force
-from ..effects.compiled import (CLOSING, STRETCH, KernelEffects, element_constants,
-                                spring_entries)
+from ..effects.compiled import CLOSING, STRETCH, KernelEffects
 from ..forces.relaxation import decay
-from ..forces.springs import spring_constants
 from ..forces.tetra_geometry import lame_factors
+from ..simulation.layout import element_arrays, spring_arrays
 from ..simulation.threads import element_buffers
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
@@ -51,8 +50,8 @@ class CompiledModel:
         springs as the kernels step them (:func:`~neurofuzzy.effects.compiled.spring_entries`;
         all springs when they are learned) and the CSR of their magnitudes' parameter
         derivatives (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`)."""
-        spring, stiffness, damping, cubic, derivatives = spring_entries(
-            model, effects, every_spring=parameters.learn_springs)
+        *arrays, derivatives = spring_arrays(model, effects,
+                                             every_spring=parameters.learn_springs)
         entries = [derivatives]
         if parameters.learn_springs:    # entry j is spring j: ∂m/∂log s = s x, ∂m/∂log c = c ẋ
             own = np.arange(model.n_springs)
@@ -62,11 +61,8 @@ class CompiledModel:
                                 np.full(len(own), basis), np.asarray(values, float)))
         entry, column, basis, factor = (np.concatenate(part) for part in zip(*entries))
         order = np.lexsort((column, entry))
-        pointer = np.searchsorted(entry[order], np.arange(len(spring) + 1))
-        return (np.ascontiguousarray(model.mesh.springs[spring, 0]),
-                np.ascontiguousarray(model.mesh.springs[spring, 1]), stiffness, damping,
-                np.array(spring_constants(model)[2][spring], float), cubic,
-                pointer.astype(np.intp), column[order].astype(np.intp),
+        pointer = np.searchsorted(entry[order], np.arange(len(arrays[0]) + 1))
+        return (*arrays, pointer.astype(np.intp), column[order].astype(np.intp),
                 basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
 
     @staticmethod
@@ -87,13 +83,12 @@ class CompiledModel:
         """Element constants (the model's plus its inclusions') and the CSR of their
         derivatives by the parameters, with the node averages' derivatives."""
         n_nodes = model.n_nodes
+        arrays = element_arrays(model, effects)
         if model.elements is None:      # tets None: the kernels compile no element code
             empty, none = np.zeros(0), np.zeros(0, np.intp)
-            return (None, np.zeros((0, 3, 3)), empty, none,
-                    *(empty,) * 5, False,
-                    *(empty,) * 3, np.zeros(1, np.intp), none, *(empty,) * 4,
+            return (*arrays, np.zeros(1, np.intp), none, *(empty,) * 4,
                     np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1, none)
-        own, total = element_constants(model, effects)
+        own = model.elements.constants(model)
         geometry = own.geometry
         # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
         E, nu, eta = (model.elements.youngs_modulus, model.elements.poisson_ratio,
@@ -121,23 +116,8 @@ class CompiledModel:
                 per_element = sp.csr_matrix((value, (element, column)),
                                             shape=(len(E), n_params))
                 target[:] = (geometry.average @ per_element).toarray()
-            node_lam = geometry.average @ total["lam"]
-            node_lam_rate = geometry.average @ total["lam_rate"]
-            node_values = (geometry.node_volume, node_lam, node_lam_rate)
-        else:
-            node_values = (np.zeros(n_nodes),) * 3
-        return (np.array(geometry.nodes, np.intp, order="C"),
-                np.ascontiguousarray(geometry.inverse_rest), geometry.volume,
-                # writable copies of the model's read-only arrays: a read-only argument is
-                # another type to numba, and simulate's stepper passes writable ones
-                np.array(own.law, np.intp, order="C"),
-                np.array(model.elements.stiffening, float, order="C"),
-                *(np.ascontiguousarray(total[key], float)
-                  for key in ("shear", "shear_rate", "lam", "lam_rate")),
-                own.nodal, *(np.ascontiguousarray(v, float) for v in node_values),
-                pointer, column, *values, d_node_lam, d_node_lam_rate,
-                effects.kappa, effects.kappa_column,
-                stiffening_columns(parameters, model))
+        return (*arrays, pointer, column, *values, d_node_lam, d_node_lam_rate,
+                effects.kappa, effects.kappa_column, stiffening_columns(parameters, model))
 
     @staticmethod
     def _relaxation(parameters, model):

@@ -155,18 +155,15 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
         cache = NumbaStepper._prepared.setdefault(model, {})
         if key in cache:
             return cache[key]
-    from ..effects.compiled import KernelEffects, spring_entries
-    from ..forces.springs import spring_constants
+    from ..effects.compiled import KernelEffects
+    from .layout import element_arrays, spring_arrays
 
     effects = KernelEffects(model)
     # the springs with a force, then those that stiffen once more (the spring effects')
-    springs, stiffness, damping, cubic, _ = spring_entries(model, effects)
     arrays = (effects.drag, effects.kappa, effects.constant.astype(dtype),
-              np.ascontiguousarray(model.mesh.springs[springs, 0]),
-              np.ascontiguousarray(model.mesh.springs[springs, 1]),
-              stiffness.astype(dtype), damping.astype(dtype),
-              spring_constants(model)[2][springs].astype(dtype), cubic.astype(dtype),
-              _element_arrays(model, dtype, h, effects), model.node_inverse_mass.astype(dtype))
+              *spring_arrays(model, effects, dtype)[:6],
+              element_arrays(model, effects, dtype) + _relaxation_arrays(model, dtype, h),
+              model.node_inverse_mass.astype(dtype))
     with NumbaStepper._prepared_lock:
         while len(cache) >= 4:                          # a learner tries many steps: keep few
             cache.pop(next(iter(cache)))
@@ -174,42 +171,18 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
     return arrays
 
 
-def _element_arrays(model, dtype, h: float, effects):
-    """``(tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
-    node_volume, Λ, H, node_strain, g, a, history)`` of the model's elements in the kernel's
-    layout (the
-    constants of :class:`~neurofuzzy.forces.ElementConstants`; empty when it has none, and
-    ``tets`` None, which the kernels compile without their element code (a spring model
-    waits a third of the time for its first compilation);
-    ``node_strain`` is scratch space of the nodal volumetric form; ``g``, ``a = exp(-h/τ)``
-    and ``history`` (n_elements, K, 6) the Prony terms of steps of ``h`` seconds and their
-    internal variables, :mod:`neurofuzzy.forces.relaxation`)."""
-    if model.elements is None:          # tets None: the kernels compile no element code
-        empty = np.zeros(0, dtype)
-        return (None, np.zeros((0, 3, 3), dtype), empty,
-                np.zeros(0, np.intp), empty, empty, empty, empty, empty, False, empty, empty,
-                empty,
-                np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
+def _relaxation_arrays(model, dtype, h: float) -> tuple:
+    """``(node_strain, g, a, history)`` after the elements' arrays
+    (:func:`~.layout.element_arrays`): ``node_strain`` scratch space of the nodal volumetric
+    form; ``g``, ``a = exp(-h/τ)`` and ``history`` (n_elements, K, 6) the Prony terms of
+    steps of ``h`` seconds and their internal variables (:mod:`neurofuzzy.forces.relaxation`;
+    empty without elements)."""
+    if model.elements is None:
+        return (np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
                 np.zeros((0, 0, 6), dtype))
     from ..forces.relaxation import decay
-    from ..effects.compiled import element_constants
 
-    materials, total = element_constants(model, effects)   # the inclusions' constants added
-    geometry = materials.geometry
-    nodal = materials.nodal
-    n_nodes = model.n_nodes
-    node_values = ((geometry.node_volume, geometry.average @ total["lam"],
-                    geometry.average @ total["lam_rate"]) if nodal else (np.zeros(n_nodes),) * 3)
-    return (np.array(geometry.nodes, np.intp, order="C"),
-            np.ascontiguousarray(geometry.inverse_rest, dtype), geometry.volume.astype(dtype),
-            # copies of the model's (read-only) arrays: a read-only argument is another type to
-            # numba, and the learners pass writable ones (one compiled driver for both)
-            np.array(materials.law, np.intp, order="C"),
-            np.array(model.elements.stiffening, dtype, order="C"),
-            *(np.asarray(total[key], dtype) for key in ("shear", "shear_rate", "lam",
-                                                       "lam_rate")),
-            nodal, *(np.ascontiguousarray(values, dtype) for values in node_values),
-            np.zeros((n_nodes, 2), dtype),
+    return (np.zeros((model.n_nodes, 2), dtype),
             np.array(model.elements.relaxation_moduli, dtype, order="C"),
             np.ascontiguousarray(decay(model.elements.relaxation_times, h), dtype),
             np.zeros((model.mesh.n_tetrahedra, model.n_relaxation_terms, 6), dtype))
