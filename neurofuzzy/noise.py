@@ -13,7 +13,7 @@ import numpy as np
 
 from .experiment import Experiment
 
-__all__ = ["noise_level", "marker_noise"]
+__all__ = ["noise_level", "marker_noise", "time_noise"]
 
 
 def noise_level(experiments: Experiment | Sequence[Experiment]) -> float:
@@ -37,6 +37,25 @@ def noise_level(experiments: Experiment | Sequence[Experiment]) -> float:
     if not squares or not np.concatenate(squares).size:
         return 0.0
     return float(np.sqrt(np.median(np.concatenate(squares)) / 0.455 / 20.0))
+
+
+def time_noise(series: Sequence[np.ndarray]) -> float | None:
+    """Standard deviation of white noise in residuals sampled in time, from their third
+    differences: a model's misfit is smooth in time and drops out of them, white noise of
+    variance σ² gives third differences of variance 20 σ². ``series`` holds arrays (n_frames,
+    ...) with NaN where nothing was measured; only runs of four measured frames count. The
+    mean of the squares (not their median, as :func:`noise_level`'s: these weigh a fit, and
+    the mean scatters less). None with fewer than 20 such differences."""
+    squares = []
+    for values in series:
+        values = np.asarray(values, float)
+        if len(values) >= 4:
+            third = values[3:] - 3 * values[2:-1] + 3 * values[1:-2] - values[:-3]
+            squares.append(third[np.isfinite(third)].ravel() ** 2)
+    squares = np.concatenate(squares) if squares else np.zeros(0)
+    if squares.size < 20:
+        return None
+    return float(np.sqrt(np.mean(squares) / 20.0))
 
 
 def marker_noise(error: np.ndarray, motion: np.ndarray) -> float:

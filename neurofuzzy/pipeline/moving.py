@@ -71,8 +71,9 @@ def fit_moving_file(path: str | os.PathLike, *, start=None, rules=None,
                      "motion alone, through the density")
     if result.estimated:
         notes.append("the noise of " + " and ".join(result.estimated) + " was estimated from "
-                     "the fit's residuals, which hold any misfit too: compare it with what "
-                     "the instruments are known to do")
+                     "the third differences in time of the fit's residuals (a smooth misfit "
+                     "drops out of them; one as fast as the frames would not): compare it with "
+                     "what the instruments are known to do")
     if result.at_bound:
         notes.append("ended at a bound of the search: " + ", ".join(result.at_bound))
     record = {"kind": "moving boundaries", **value,
