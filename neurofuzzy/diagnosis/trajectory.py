@@ -323,7 +323,7 @@ class TrajectoryEvidence(TakenByEffects):
     def _switched(self, effect) -> np.ndarray:
         """(n_residuals, 1): the change of the residual when the elements' material is
         switched (``effect.probe_switch``: a law, a little of a Prony term), the secant of
-        the switch from one compiled run of the switched model at the fitted values (its
+        the switch from one compiled run of the switched model at the fitted values (a
         switch has no tangent: a law changes whole, relaxation has internal variables)."""
         switched = effect.probe_switch(self.model, duration(self.experiments))
         parameters = Parameterization(switched)

@@ -10,7 +10,7 @@ from .base import Effect, register
 __all__ = ["Gravity", "NodeDrag", "UnmodeledLoad"]
 
 
-def compile_constant(effect, layout, model, column) -> None:
+def _compile_constant(effect, layout, model, column) -> None:
     """``effect``'s force, which depends on neither positions nor velocities, in the loads
     (:meth:`~neurofuzzy.effects.compiled.KernelEffects.add_constant`)."""
     layout.add_constant(effect.force(model, None, None), column,
@@ -28,7 +28,7 @@ class Gravity(Effect):
 
     def compile(self, layout, model, column):
         """A state-independent force: added to the loads."""
-        compile_constant(self, layout, model, column)
+        _compile_constant(self, layout, model, column)
 
     def force(self, model, positions, velocities):
         return model.node_mass[:, None] * self.params[None, :]
@@ -88,7 +88,7 @@ class UnmodeledLoad(Effect):
 
     def compile(self, layout, model, column):
         """A state-independent force: added to the loads."""
-        compile_constant(self, layout, model, column)
+        _compile_constant(self, layout, model, column)
 
     def __init__(self, params, *, node, **options):
         super().__init__(params, node=int(node), **options)

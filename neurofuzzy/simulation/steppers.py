@@ -61,10 +61,9 @@ def _compiled_update():
 
 
 class NumbaStepper:
-    """The same step as one compiled loop (requires numba): springs, tetrahedral elements
-    (with their Prony relaxation) and the effects the kernels compute
-    (:mod:`neurofuzzy.effects.compiled`: constant forces, a node drag, inclusions and strain
-    stiffening of springs and of elements)."""
+    """Semi-implicit Euler steps as one compiled loop: springs, tetrahedral elements (with
+    their Prony relaxation) and every effect, as it writes itself into the kernels' arrays
+    (:class:`neurofuzzy.effects.compiled.KernelEffects`)."""
 
     _kernel = None
     _frames_kernel = None
