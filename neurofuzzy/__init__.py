@@ -21,7 +21,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
 - learning: :func:`start_model` (:class:`StartModel`), :func:`estimate_start`,
   :class:`PaperLearner`, :class:`GradientLearner`, the rule base as a prior
   :class:`FuzzyPrior`; the one fit pipeline of Python, the command
-  and fit-many: :func:`fit` (:class:`FitOutcome`, :class:`FitFailedError`); E and ν from
+  and fit-many: :func:`fit` (:class:`FitOptions`, :class:`FitOutcome`,
+  :class:`FitFailedError`); E and ν from
   load steps: :func:`fit_load_steps`, how far they move on the mesh refined once
   :func:`load_step_mesh_check`
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
@@ -76,7 +77,8 @@ _EXPORTS = {
     "embed_points": "observation",
     "GradientLearner": "learn", "PaperLearner": "learn", "start_model": "pipeline",
     "StartModel": "learn", "estimate_start": "learn", "FuzzyPrior": "learn.prior",
-    "fit": "pipeline", "FitOutcome": "pipeline", "FitFailedError": "pipeline",
+    "fit": "pipeline", "FitOptions": "pipeline", "FitOutcome": "pipeline",
+    "FitFailedError": "pipeline",
     "load_rules": "rules", "shipped_rules": "rules",
     "initialize": "tissues", "material_values": "tissues", "materials": "tissues",
     "diagnose": "diagnosis", "Diagnosis": "diagnosis",
@@ -110,7 +112,8 @@ if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported ea
     from .mesh import MeshFile, read_mesh  # noqa: F401
     from .model import Model  # noqa: F401
     from .observation import EmbeddedMarkers, Observation, embed_points  # noqa: F401
-    from .pipeline import FitFailedError, FitOutcome, fit, start_model  # noqa: F401
+    from .pipeline import (FitFailedError, FitOptions, FitOutcome, fit,  # noqa: F401
+                           start_model)
     from .validation.integrators import reference_experiment, reference_simulate  # noqa: F401
     from .report import diagnosis_report, fit_report  # noqa: F401
     from .rules import load_rules  # noqa: F401

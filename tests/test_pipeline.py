@@ -83,3 +83,43 @@ def test_a_path_or_an_experiment_is_taken_and_anything_else_refused():
         nf.fit([3.0])
     with pytest.raises(nf.InputError, match="no experiments"):
         nf.fit([])
+
+
+def test_how_a_fit_learns_is_one_options_value_and_its_shorthands_override_it(soft_start):
+    """``options`` carries the learner's options; a shorthand keyword overrides its field;
+    ``checked=False`` returns a fit that ends worse than a model that never moves (a
+    diagnosis's refit is scored by its error) where the checked fit refuses it."""
+    folder = soft_start
+    options = nf.FitOptions(substeps=1, cycles=1)
+    with pytest.raises(nf.FitFailedError, match="worse than a model that never moves"):
+        nf.fit(folder / "cube.npz", start=folder / "soft.yaml", tie="global", options=options)
+    kept = nf.fit(folder / "cube.npz", start=folder / "soft.yaml", tie="global",
+                  options=options.replace(checked=False))
+    assert kept.rms_error > nf.pipeline.measured_motion(kept.experiments)
+    assert kept.learner.max_iterations == 1 and kept.substeps == 1
+    overridden = nf.fit(folder / "cube.npz", start=folder / "soft.yaml", tie="global",
+                        options=options.replace(checked=False), cycles=3, mesh_check=False)
+    assert overridden.learner.max_iterations == 3 and overridden.learner.mesh_check is False
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"method": "gradiant"}, "did you mean 'gradient'"),
+    ({"cycles": 0}, "expected a positive integer"),
+    ({"cycles": True}, "expected a positive integer"),
+    ({"method": "paper", "windows": ()}, "windows: options of the gradient method"),
+    ({"method": "paper", "mesh_check": "refit"}, "the mesh check needs elements"),
+])
+def test_options_a_fit_cannot_use_are_refused_when_made(options, match):
+    with pytest.raises(nf.InputError, match=match):
+        nf.FitOptions(**options)
+
+
+def test_the_diagnosis_s_options_reach_the_learner():
+    learner = nf.FitOptions(windows=(), tolerance=1e-6, abandon_above=1e-3, fitted_at=2,
+                            mesh_check=False).learner()
+    assert (learner.windows, learner.tolerance, learner.abandon_above, learner.fitted_at) == \
+        ((), 1e-6, 1e-3, 2)
+    default = nf.FitOptions().learner()
+    assert default.windows is None and default.tolerance == 1e-10
+    with pytest.raises(nf.InputError, match="takes no prior"):
+        nf.FitOptions(method="paper").learner(prior=object())

@@ -7,7 +7,7 @@ import math
 
 from ..errors import InputError
 from ..learn.prior import parse_prior
-from ..pipeline.learners import METHODS
+from ..pipeline.options import METHODS
 
 __all__ = ["fit_options"]
 

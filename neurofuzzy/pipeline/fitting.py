@@ -16,6 +16,7 @@ from ..errors import InputError
 from ..experiment import Experiment
 from ..formatting import length_text
 from ..progress import announced, note
+from .options import FitOptions
 from .outcome import check_outcome, explained, require_motion
 
 __all__ = ["FitOutcome", "fit", "tie_label"]
@@ -61,6 +62,11 @@ class FitOutcome:
         """Integration steps per frame with which :attr:`model` reproduces the data."""
         return self.learner.substeps_
 
+    @property
+    def rms_error(self) -> float:
+        """The fitted model's RMS error per marker (metres)."""
+        return self.learner.rms_error_
+
 
 def tie_label(tie: str | None, start) -> str:
     """The tying a fit used, for its record: the option given, else ``"model"`` when a start
@@ -71,12 +77,11 @@ def tie_label(tie: str | None, start) -> str:
 def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, rules=None,
         tissue: str | None = None, tie: str | None = None, elements: bool | None = None,
         law: str | None = None, relaxation=None, stiffening: float | None = None,
-        prior="default", method: str = "gradient",
-        cycles: int | None = None,
-        learn_masses: bool = False, substeps: int | str = "auto",
-        learning_rate: float = 0.1, mass_learning_rate: float = 0.1,
-        mesh_check: bool | str = "auto", names: Sequence[str] | None = None, progress: bool = False,
-        validate_on=None) -> FitOutcome:
+        prior="default", options: FitOptions | None = None, names: Sequence[str] | None = None,
+        validate_on=None, method: str | None = None, cycles: int | None = None,
+        learn_masses: bool | None = None, substeps: int | str | None = None,
+        learning_rate: float | None = None, mass_learning_rate: float | None = None,
+        mesh_check: bool | str | None = None, progress: bool | None = None) -> FitOutcome:
     """Fit a model to ``experiments``: the one fit of the command line, ``fit-many`` and
     Python.
 
@@ -84,7 +89,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
        ``tissue``, else the equation-error estimate), checked against the data
        (:func:`~neurofuzzy.plausibility.check_fit_inputs`);
     2. the prior (:func:`~.learners.make_prior`) and the learner
-       (:func:`~.learners.make_learner`);
+       (:meth:`~.options.FitOptions.learner`);
     3. the fit; a learner's own failure is re-raised as :class:`FitFailedError` with its
        likely cause;
     4. the outcome check (:func:`~.outcome.check_outcome`): a fit whose simulation diverges or
@@ -115,24 +120,11 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     relaxation : int, sequence of (g, τ) or str, optional
         Prony relaxation of the elements to fit (a number of terms, or their start values;
         default the start model's own, else none); see :mod:`neurofuzzy.forces.relaxation`.
-    prior : {"default", "auto", "off"} or float
+    prior : {"default", "auto", "off"}, float or FuzzyPrior
         See :func:`~.learners.make_prior`.
-    method : {"gradient", "paper"}
-    cycles : int, optional
-        Learning cycles (default: the learner's own; this and the next five options are
-        :func:`~.learners.make_learner`'s).
-    learn_masses : bool
-        Learn the node masses too.
-    substeps : int or "auto"
-        Simulation steps per frame (``"auto"``: the fewest the data follow).
-    learning_rate, mass_learning_rate : float
-        The paper's learner's rates (``method="paper"``).
-    mesh_check : "auto", "step", "refit" or False
-        How far the values move on the mesh refined once widens the intervals: one
-        Gauss–Newton step there (``"auto"``, the default: for an element model of at most 64
-        parameters; ``"step"``: for any element model, refitted where the step cannot be
-        trusted) or the whole refit (``"refit"`` or True); False: none (the intervals hold
-        the noise alone, and the summary's ``intervals_hold`` says so).
+    options : FitOptions, optional
+        How the fit learns (:class:`~.options.FitOptions`: the learner, its cycles, substeps,
+        mesh check, progress …); default ``FitOptions()``.
     names : sequence of str, optional
         How the summary names the experiments (default: their files).
     progress : bool
@@ -142,6 +134,9 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         float (every experiment fitted on its frames before it), or load cases (a name, or a
         list of indices into ``experiments`` or names). The summary's ``validation`` holds
         the prediction error beside the fitted one.
+
+    method, cycles, learn_masses, substeps, learning_rate, mass_learning_rate, mesh_check, progress
+        Shorthands of the same fields of ``options``: each one given (not None) overrides it.
 
     Returns
     -------
@@ -154,10 +149,15 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     FitFailedError
         The fit ran but failed (diverged, or worse than a model that never moves).
     """
-    from .learners import fit_record, fit_summary, make_learner, make_prior
+    from .learners import fit_record, fit_summary, make_prior
     from .start import start_model
     from ..plausibility import check_fit_inputs
 
+    options = (FitOptions() if options is None else options).with_shorthands(
+        method=method, cycles=cycles, learn_masses=learn_masses, substeps=substeps,
+        learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
+        mesh_check=mesh_check, progress=progress)
+    method, substeps, progress = options.method, options.substeps, options.progress
     experiments = _experiments(experiments)
     names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]
     split = None
@@ -175,18 +175,20 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
                      model_source=start if isinstance(start, str | os.PathLike) else None,
                      physical=begun.how in ("model", "rules"))
     require_motion(experiments)
-    if mesh_check and mesh_check != "auto" and begun.model.elements is None:
+    if options.mesh_check and options.mesh_check != "auto" and begun.model.elements is None:
         raise InputError("refines tetrahedral elements; this fit's model is a spring network "
                          "(give a model or experiment with tetrahedra, or --elements tetra)",
                          key="--mesh-check")
     chosen_prior = make_prior(begun, prior, tie=tie, method=method)
-    learner = make_learner(method, cycles=cycles, learn_masses=learn_masses, substeps=substeps,
-                           learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
-                           prior=chosen_prior, mesh_check=mesh_check, progress=progress)
-    with explained("fit", experiments, begun.model, substeps), announced(progress):
-        learner.fit(begun.model, experiments)
-    check_outcome("fit", experiments, begun.model, learner.model_, learner.rms_error_initial_,
-                  learner.rms_error_, learner.substeps_)
+    learner = options.learner(chosen_prior)
+    with announced(progress):
+        if options.checked:
+            with explained("fit", experiments, begun.model, substeps):
+                learner.fit(begun.model, experiments)
+            check_outcome("fit", experiments, begun.model, learner.model_,
+                          learner.rms_error_initial_, learner.rms_error_, learner.substeps_)
+        else:
+            learner.fit(begun.model, experiments)
     # the progress lines give each stage's RMS; this is the fitted model's, as the summary's
     note(progress, f"fit: {learner.substeps_} substep(s) per frame kept, RMS "
                    f"{length_text(learner.rms_error_)} per marker")

@@ -1,6 +1,6 @@
-"""The choices of one fit as ``neurofuzzy fit`` makes them: the learner its options choose
-(:func:`make_learner`), the rule base as a prior (:func:`make_prior`), and what it reports:
-the summary of ``--json`` (:func:`fit_summary`) and the fit record a model file keeps
+"""The choices of one fit as ``neurofuzzy fit`` makes them: the rule base as a prior
+(:func:`make_prior`; the learner is :meth:`.options.FitOptions.learner`'s), and what it
+reports: the summary of ``--json`` (:func:`fit_summary`) and the fit record a model file keeps
 (:func:`fit_record`). Used by :func:`~neurofuzzy.pipeline.fit` (so by the command and by
 every specimen of ``fit-many``); the start comes from :func:`~.start.start_model`.
 """
@@ -11,70 +11,7 @@ from collections.abc import Sequence
 
 from ..learn import Learner
 
-__all__ = ["METHODS", "make_learner", "make_prior", "fit_summary", "fit_record"]
-
-#: the learners ``method`` may name
-METHODS = ("gradient", "paper")
-
-
-def make_learner(method: str = "gradient", *, cycles: int | None = None,
-                 learn_masses: bool = False, substeps: int | str = "auto",
-                 learning_rate: float = 0.1, mass_learning_rate: float = 0.1, prior=None,
-                 mesh_check: bool | str = "auto", progress: bool = False) -> Learner:
-    """The learner of ``neurofuzzy fit --method METHOD`` with its options (unfitted).
-
-    Parameters
-    ----------
-    method : {"gradient", "paper"}
-        :class:`~neurofuzzy.learn.GradientLearner` or the paper's
-        :class:`~neurofuzzy.learn.PaperLearner`.
-    cycles : int, optional
-        Learning cycles (paper, default 100) or iterations per stage (gradient, default 100).
-    learn_masses : bool
-    substeps : int or "auto"
-        Gradient method only: integration steps per frame.
-    learning_rate, mass_learning_rate : float
-        Paper method only: η for springs and η_m for masses.
-    prior : FuzzyPrior, optional
-        Gradient method only: the rule base as a prior (:func:`make_prior`).
-    mesh_check : "auto", "step", "refit" or False
-        Gradient method only: how far the values move on the mesh refined once, by one
-        Gauss–Newton step (``"auto"``: element models of at most 64 parameters; ``"step"``)
-        or the whole refit (``"refit"`` or True), widens the intervals
-        (:mod:`neurofuzzy.learn.mesh_check`).
-    progress : bool
-        Report progress on stderr.
-
-    Raises
-    ------
-    InputError
-        An unknown method or a non-positive number of cycles.
-    """
-    from ..errors import InputError, closest_name
-
-    if method not in METHODS:
-        hint = closest_name(str(method), METHODS)
-        raise InputError(f"got {method!r}; expected one of {', '.join(METHODS)}"
-                         + (f" (did you mean {hint!r}?)" if hint else ""), key="method")
-    if cycles is not None and not (isinstance(cycles, int) and cycles >= 1):
-        raise InputError(f"got {cycles!r}; expected a positive integer", key="cycles")
-    if method == "paper":
-        from ..learn import PaperLearner
-
-        if prior is not None:
-            raise InputError("the paper's learner takes no prior; use the gradient method or "
-                             "--prior off", key="prior")
-        if mesh_check and mesh_check != "auto":
-            raise InputError("the paper's learner fits spring networks, whose constants "
-                             "belong to their mesh: the mesh check needs elements and the "
-                             "gradient method", key="mesh_check")
-        return PaperLearner(learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
-                            cycles=cycles or 100, learn_masses=learn_masses, progress=progress)
-    from ..learn import GradientLearner
-
-    return GradientLearner(learn_masses=learn_masses, substeps=substeps,
-                           max_iterations=cycles or 100, prior=prior, mesh_check=mesh_check,
-                           progress=progress)
+__all__ = ["make_prior", "fit_summary", "fit_record"]
 
 
 def make_prior(start, prior="default", *, tie: str | None = None, method: str = "gradient"):
@@ -83,11 +20,18 @@ def make_prior(start, prior="default", *, tie: str | None = None, method: str = 
 
     ``"default"`` is ``"auto"`` for a fit of every spring or element (``tie="none"``) of a
     start with a rule base (``start.rules``), else off; ``"off"``; ``"auto"`` (weight by the
-    discrepancy principle) or a weight ``α`` need the rule base.
+    discrepancy principle) or a weight ``α`` need the rule base. A
+    :class:`~neurofuzzy.learn.prior.FuzzyPrior` already made (the diagnosis's, of the rule
+    base it was given) is used as it is.
     """
     from ..errors import InputError
     from ..learn.prior import FuzzyPrior, parse_prior
 
+    if isinstance(prior, FuzzyPrior):
+        if method != "gradient":
+            raise InputError("the paper's learner takes no prior; use the gradient method or "
+                             "--prior off", key="prior")
+        return prior
     if prior == "default":
         prior = ("auto" if start.rules is not None and tie == "none" and method == "gradient"
                  else "off")
