@@ -146,8 +146,8 @@ def main(argv):
                                substeps=learner.substeps_, stem="organ", every=5)
     files.update({"ParaView series (.pvd)": exported["pvd"],
                   "ParaView time series (.xdmf)": exported["xdmf"]})
-    fit_report(outcome.start, learner,
-               out / "report.html", files=files, title="neurofuzzy: organ from surface markers")
+    fit_report(outcome, out / "report.html", files=files,
+               title="neurofuzzy: organ from surface markers")
 
     print(f"\n{'':<22}{'start (liver)':>14}{'fitted':>12}{'truth':>12}{'error':>9}")
     for name, values in (("stiffness", lambda m: m.springs.stiffness),

@@ -102,9 +102,8 @@ def main(argv):
     outcome = nf.fit(experiment, start=out / "organ.yaml", rules=rules, progress=True)
     start, learner = outcome.start, outcome.learner
     nf.save_model(learner.model_, out / "fitted.yaml")
-    nf.fit_report(start, learner, out / "report.html",
-                  title="neurofuzzy: a liver with a tumour", files={"fitted model":
-                                                                    out / "fitted.yaml"})
+    nf.fit_report(outcome, out / "report.html", title="neurofuzzy: a liver with a tumour",
+                  files={"fitted model": out / "fitted.yaml"})
 
     before = nf.materials(start.model, rules)
     after = nf.materials(learner.model_, rules)

@@ -81,7 +81,10 @@ def test_the_pipeline_through_nf(tmp_path):
 
     model_file = nf.save_model(learner.model_, tmp_path / "fitted.yaml")
     assert isinstance(nf.load_model(model_file), nf.Model)
-    report = nf.fit_report(start, learner, tmp_path / "report.html")
+    outcome = nf.fit(data, rules="liver", tissue="liver", tie="global",
+                     options=nf.FitOptions(mesh_check=False))
+    assert outcome.rms_error == pytest.approx(learner.rms_error_, rel=1e-6, abs=1e-12)
+    report = nf.fit_report(outcome, tmp_path / "report.html")
     assert "fibrotic" not in report.read_text() and "liver" in report.read_text()
     files = nf.export_paraview(tmp_path / "pv", learner.model_, data, every=40)
     assert files["pvd"].exists()

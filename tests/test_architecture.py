@@ -176,6 +176,37 @@ def test_the_reports_draw_what_they_are_handed():
     assert found == set()
 
 
+LEARNERS = {"GradientLearner", "PaperLearner"}
+
+
+def _learner_imports(name: str) -> set[str]:
+    """The learner classes and modules ``name`` imports."""
+    modules = ("neurofuzzy.learn.gradient", "neurofuzzy.learn.paper")
+    return ({target for target, _ in _imports(name) if target in modules}
+            | {f"{target}.{what}" for target, what in _imports(name) if what in LEARNERS})
+
+
+def test_the_diagnosis_and_the_demo_fit_through_nf_fit():
+    """Issue 44: one fit path. The diagnosis's fits and refits, its localisation and the demo
+    call :func:`neurofuzzy.fit` with one :class:`~neurofuzzy.pipeline.FitOptions`; none of
+    them makes a learner itself."""
+    users = ["neurofuzzy.demo"] + [name for name in MODULES
+                                   if name.startswith("neurofuzzy.diagnosis")]
+    found = {f"{name} imports {what}" for name in users for what in _learner_imports(name)}
+    assert found == set()
+    fitting = {name for name in users
+               if ("neurofuzzy.pipeline", "fit") in _imports(name)}
+    assert {"neurofuzzy.demo", "neurofuzzy.diagnosis.refits"} <= fitting
+
+
+def test_the_learner_check_sees_a_learner_import(tmp_path, monkeypatch):
+    path = tmp_path / "refit.py"
+    path.write_text("from ..learn import GradientLearner\nfrom ..learn.paper import x\n")
+    monkeypatch.setitem(MODULES, "neurofuzzy.diagnosis.refit", path)
+    assert _learner_imports("neurofuzzy.diagnosis.refit") == {
+        "neurofuzzy.learn.GradientLearner", "neurofuzzy.learn.paper"}
+
+
 def test_nothing_imports_the_command_line():
     users = [name for name in MODULES if not name.startswith("neurofuzzy.cli")
              and any(t.startswith("neurofuzzy.cli") for t, _ in _imports(name))]
@@ -209,5 +240,6 @@ def test_the_checks_see_a_cycle_and_a_private_import():
     """The checks above are not vacuous."""
     assert _cycles({"a": {"b"}, "b": {"a"}, "c": {"a"}}) == [["a", "b"]]
     assert _private("neurofuzzy.learn._compiled", None)
-    assert _private("neurofuzzy.rules", "_helper") and not _private("neurofuzzy.version", "__version__")
+    assert _private("neurofuzzy.rules", "_helper")
+    assert not _private("neurofuzzy.version", "__version__")
     assert len(_graph()["neurofuzzy.learn.gradient"]) > 3

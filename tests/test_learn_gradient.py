@@ -144,13 +144,17 @@ def test_the_error_curve_has_one_point_per_cycle(tmp_path, cube_experiment, meth
     import re
 
     from neurofuzzy.learn import StartModel
+    from neurofuzzy.pipeline import FitOutcome
     from neurofuzzy.report import fit_report
 
     start = paper_cube_model(stiffness=70.0, damping=0.03, tie="groups")
     learner = GradientLearner(method=method).fit(start, cube_experiment)
     assert learner.n_cycles_ > 2 and len(learner.history_) == learner.n_cycles_
     assert np.all(np.diff(learner.history_) <= 0)              # best so far
-    report = fit_report(StartModel(start, "model", "given"), learner, tmp_path / "fit.html")
+    outcome = FitOutcome(model=learner.model_, learner=learner,
+                         start=StartModel(start, "model", "given"), prior=None,
+                         experiments=[cube_experiment], summary={}, record={})
+    report = fit_report(outcome, tmp_path / "fit.html")
     cycles = int(re.search(r"in (\d+) cycles", report.read_text())[1])
     twin = json.loads(report.with_suffix(".json").read_text())
     assert cycles == learner.n_cycles_ == twin["cycles"] == len(twin["history"])

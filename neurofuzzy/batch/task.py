@@ -189,7 +189,7 @@ def _fit_time_series(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
     with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
         folder = Path(folder)
         save_model(learner.model_, folder / "fitted.yaml")
-        fit_report(outcome.start, learner, folder / "report.html",
+        fit_report(outcome, folder / "report.html",
                    title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})",
                    files={"fitted model": folder / "fitted.yaml"})
         if options.get("diagnose"):

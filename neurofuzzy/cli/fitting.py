@@ -191,9 +191,7 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
     if report:
         from ..report import fit_report
 
-        fit_report(outcome.start, learner, report, files=files,
-                   validation=outcome.summary.get("validation"),
-                   target=outcome.summary.get("target"))
+        fit_report(outcome, report, files=files)
     return outcome, exported
 
 

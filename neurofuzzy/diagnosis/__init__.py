@@ -2,7 +2,7 @@
 
 Each round (DESIGN.md, "Diagnosis"):
 
-1. fit the model as it is (:class:`~neurofuzzy.learn.GradientLearner`);
+1. fit the model as it is (:func:`neurofuzzy.fit`, as every refit);
 2. residuals: the trajectory error of the free run and the one-step residual force
    ``r_i(t) = m_i a_i(t) - F_model,i(p(t), v(t)) - f_ext,i(t)`` with the measured state (positions
    smoothed by a Savitzky–Golay filter when the markers are noisy). One-step residuals do not

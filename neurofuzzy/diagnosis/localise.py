@@ -23,8 +23,8 @@ import numpy as np
 
 from ..constants import item_values
 from ..effects import SoftInclusion, StiffInclusion
-from ..learn import GradientLearner
 from ..learn.regions import describe_regions, regions_found
+from .refits import fitted
 from .scoring import INCLUSIONS
 
 __all__ = ["Localisation", "localise", "seeded", "INCLUSIONS"]
@@ -43,7 +43,7 @@ class Localisation:
     words : str
         Both in words (:func:`~neurofuzzy.learn.regions.describe_regions`).
     learner : GradientLearner
-        The per-item fit with the prior (``model_``, ``prior``, ``prior_``).
+        The fitted learner of the per-item fit with the prior (``model_``, ``prior``, ``prior_``).
     overlap : list of float
         Per inclusion the diagnosis found (in its order): the share of its elements (springs)
         that lie in a region found.
@@ -52,7 +52,7 @@ class Localisation:
     regions: list
     rest: dict
     words: str
-    learner: GradientLearner
+    learner: object
     overlap: list = field(default_factory=list)
 
     def covering(self, findings) -> Localisation:
@@ -90,9 +90,7 @@ def localise(model, experiments, prior, *, findings=(), substeps="auto",
     """
     start = model.replace(effects=tuple(e for e in model.effects
                                         if e.name not in INCLUSIONS)).tied("none")
-    learner = GradientLearner(substeps=substeps, prior=prior, progress=progress,
-                              mesh_check=False)
-    learner.fit(start, experiments)
+    learner = fitted(start, experiments, prior=prior, substeps=substeps, progress=progress)
     found = learner.regions_ or regions_found(learner.model_, prior)
     located = Localisation(regions=found["regions"], rest=found["rest"],
                            words=describe_regions(found), learner=learner)

@@ -8,14 +8,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..experiment import Experiment, check_experiments
-from ..learn import GradientLearner
 from ..formatting import length_text
 from ..model import Model
 from ..progress import note
 from .candidates import Evidence, propose_candidates
 from .clock import Clock
 from .localise import INCLUSIONS, localise, seeded
-from .refits import (MIN_SHRINK, confirm, refit_with_starts, switches, to_refit,
+from .refits import (MIN_SHRINK, confirm, fitted, refit_with_starts, switches, to_refit,
                      tolerance)
 from .result import Diagnosis, Finding, mesh_share, where
 from .scoring import Candidate, confidence, gap, nothing_left
@@ -38,7 +37,7 @@ def diagnose(model: Model, experiments: Experiment | Sequence[Experiment], *,
     max_effects : int
         Stop after this many effects.
     substeps : int or "auto"
-        As in :class:`~neurofuzzy.learn.GradientLearner`; ``"auto"`` decides afresh at every
+        As in :class:`~neurofuzzy.pipeline.FitOptions`; ``"auto"`` decides afresh at every
         fit whether the data follow our discrete network or continuous physics (a model that
         lacks an effect fits neither exactly).
     prior : FuzzyPrior, optional
@@ -95,11 +94,10 @@ def _rounds(model, experiments, clock, in_trajectory_space, *, max_effects, subs
     def say(message):
         note(progress, message)
 
-    fitted = clock.timed(lambda: GradientLearner(
-        substeps=substeps, mesh_check=False, **tolerance(in_trajectory_space)).fit(
-            model, experiments))
-    current, rms, steps = fitted.model_, fitted.rms_error_, fitted.substeps_
-    rms_start, verdict = rms, fitted.lack_of_fit_
+    as_it_is = clock.timed(lambda: fitted(model, experiments, substeps=substeps,
+                                          **tolerance(in_trajectory_space)))
+    current, rms, steps = as_it_is.model_, as_it_is.rms_error_, as_it_is.substeps_
+    rms_start, verdict = rms, as_it_is.lack_of_fit_
     say(f"diagnose: fitted the model as it is, {verdict.short}")
     findings, rounds = [], []
     ranked: list[Candidate] = []

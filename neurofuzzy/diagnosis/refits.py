@@ -7,11 +7,12 @@ import numpy as np
 
 from ..effects import SoftInclusion, StiffInclusion
 from ..experiment import duration
-from ..learn import GradientLearner, auto_substeps
+from ..learn import auto_substeps
 from ..learn.steps import stable_at_one_step
+from ..pipeline import FitOptions, fit
 from .scoring import INCLUSIONS, Candidate, gap, nothing_left
 
-__all__ = ["to_refit", "refit_candidate", "refit_with_starts", "confirm",
+__all__ = ["fitted", "to_refit", "refit_candidate", "refit_with_starts", "confirm",
            "switches", "MIN_EVIDENCE", "MIN_SHRINK", "MAX_REFITS", "FIT_TOLERANCE",
            "CONFIRM_EVALUATIONS", "tolerance"]
 
@@ -28,17 +29,29 @@ MIN_EVIDENCE = 10.0
 #: noisy accelerations the one-step scores can rank a wrong local effect above the global one.
 MAX_REFITS = 5
 #: Relative tolerance of the diagnosis's fit of the model as it is and of its refits, on
-#: the cost and the step (``GradientLearner``'s ``tolerance``; 1e-10 by default), in
-#: trajectory space, where every pass is a simulation: the diagnosis compares RMS errors by
-#: factors (a winner shrinks the gap 1.5×), which a cost 10⁻⁴ short of its minimum moves by
-#: 5·10⁻⁵, and the winner's fit is confirmed at the default (:func:`confirm`). On sfepy's
-#: block at 27 % strain (4 mm voxels) the fit of the SVK model crept from 746.4 to 746.2 µm
-#: over 30 Jacobians, 95 s of its 142. Fits of one-step residuals keep the default: they
-#: are cheap, and on exact data reach the rounding (the cube's hidden gravity: 1e-16 m).
+#: the cost and the step (:class:`~neurofuzzy.pipeline.FitOptions`' ``tolerance``; 1e-10 by
+#: default), in trajectory space, where every pass is a simulation: the diagnosis compares
+#: RMS errors by factors (a winner shrinks the gap 1.5×), which a cost 10⁻⁴ short of its
+#: minimum moves by 5·10⁻⁵, and the winner's fit is confirmed at the default
+#: (:func:`confirm`). On sfepy's block at 27 % strain (4 mm voxels) the fit of the SVK
+#: model crept from 746.4 to 746.2 µm over 30 Jacobians, 95 s of its 142. Fits of one-step
+#: residuals keep the default: they are cheap, and on exact data reach the rounding (the
+#: cube's hidden gravity: 1e-16 m).
 FIT_TOLERANCE = 1e-4
 #: Solver evaluations of the winner's confirmation at twice its refit's step (the start's,
 #: with its Jacobian, and one step's): :func:`confirm`.
 CONFIRM_EVALUATIONS = 2
+
+
+def fitted(model, experiments, *, prior=None, **options):
+    """``model`` fitted to ``experiments`` as the diagnosis fits, through the one fit path
+    (:func:`neurofuzzy.fit`): from the model as it is, no mesh check, unchecked (the
+    diagnosis checked the data once, and ranks its refits by their error), with ``prior``
+    (a :class:`~neurofuzzy.learn.prior.FuzzyPrior`) or none; ``options`` more
+    :class:`~neurofuzzy.pipeline.FitOptions`. Returns the fitted learner."""
+    options = FitOptions(mesh_check=False, checked=False, **options)
+    return fit(experiments, start=model, prior="off" if prior is None else prior,
+               options=options).learner
 
 
 def to_refit(ranked, evidence, verdict, rms, say) -> list:
@@ -89,13 +102,12 @@ def refit_candidate(candidate: Candidate, model, evidence, experiments, substeps
     first per iteration; the relaxation switch on the 4 mm block took 72 s at one step, 486 s
     at both); the winner's fit is confirmed at both (:func:`confirm`). With
     ``abandon_above`` (the best refit's RMS so far) the refit stops once it cannot come
-    below it (:class:`~neurofuzzy.learn.GradientLearner`'s ``abandon_above``)."""
+    below it (:class:`~neurofuzzy.pipeline.FitOptions`' ``abandon_above``)."""
     start = _with_candidate(candidate, model, evidence, experiments)
     if not staged and substeps == "auto":
         substeps = max(auto_substeps(start, e.dt) for e in experiments)
-    refit = GradientLearner(substeps=substeps, windows=None if staged else (),
-                            abandon_above=abandon_above, mesh_check=False,
-                            **tolerance(not staged)).fit(start, experiments)
+    refit = fitted(start, experiments, substeps=substeps, windows=None if staged else (),
+                   abandon_above=abandon_above, **tolerance(not staged))
     extra = np.mean(refit.model_.effects[-1].params) if candidate.name in INCLUSIONS else 0
     if extra:                             # the sign the refit ended with names an inclusion
         candidate.name = INCLUSIONS[0 if extra > 0 else 1]
@@ -164,7 +176,7 @@ def _with_candidate(candidate: Candidate, model, evidence, experiments):
 
 
 def tolerance(in_trajectory_space: bool) -> dict:
-    """The diagnosis's fits' tolerance as the learner's options: :data:`FIT_TOLERANCE` in
+    """The diagnosis's fits' tolerance as their options (:func:`fitted`): :data:`FIT_TOLERANCE` in
     trajectory space, the learner's default otherwise."""
     return {"tolerance": FIT_TOLERANCE} if in_trajectory_space else {}
 
@@ -188,8 +200,6 @@ def confirm(refit, experiments):
     if not stable_at_one_step(refit.model_, experiments, substeps=refit.substeps_):
         # two evaluations at steps of their own had made sfepy's 7.5 mm block at 27 % strain
         # 15.3x the noise from the refit's 9.6x
-        return GradientLearner(substeps="auto", windows=(), mesh_check=False).fit(
-            refit.model_, experiments)
-    return GradientLearner(substeps="auto", windows=(), mesh_check=False,
-                           fitted_at=refit.substeps_,
-                           max_iterations=CONFIRM_EVALUATIONS).fit(refit.model_, experiments)
+        return fitted(refit.model_, experiments, windows=())
+    return fitted(refit.model_, experiments, windows=(), fitted_at=refit.substeps_,
+                  cycles=CONFIRM_EVALUATIONS)

@@ -9,7 +9,6 @@ import numpy as np
 
 from ..forces import tetrahedron_geometry
 from ..formatting import json_safe
-from ..learn import GradientLearner
 from ..model import Model
 from .localise import Localisation
 
@@ -179,11 +178,11 @@ def mesh_share(model, experiments, verdict) -> dict | None:
     from ..learn.mesh_check import linearised_mesh_check
     from ..learn.steps import fits_offsets
 
-    learner = GradientLearner()
-    parameters = Parameterization(model, learn_effects=learner.learn_effects)
+    # the parameters and marker offsets of the diagnosis's fits (the learner's defaults)
+    parameters = Parameterization(model, learn_effects=True)
     try:
         check = linearised_mesh_check(model, experiments, parameters, parameters.initial(),
-                                      offsets=fits_offsets(learner.offsets, experiments))
+                                      offsets=fits_offsets("auto", experiments))
     except InputError:
         return None
     if check is None:

@@ -23,8 +23,8 @@ import numbers
 from dataclasses import replace
 
 from ..errors import InputError
-from ..learn import GradientLearner, auto_substeps
-from .refits import FIT_TOLERANCE, confirm
+from ..learn import auto_substeps
+from .refits import FIT_TOLERANCE, confirm, fitted
 
 __all__ = ["WINDOW", "LONG", "check_window", "window_frames", "span", "first_frames",
            "on_all_frames"]
@@ -95,12 +95,11 @@ def on_all_frames(found, experiments, frames: int, substeps, clock, say, rerun):
         f"from the first {shown} frames' values")
     auto = substeps == "auto"
     steps = max(auto_substeps(found.model_, e.dt) for e in experiments) if auto else substeps
-    fitted = clock.timed(lambda: GradientLearner(
-        substeps=steps, windows=(), mesh_check=False, tolerance=FIT_TOLERANCE).fit(
-            found.model_, experiments))
+    whole = clock.timed(lambda: fitted(found.model_, experiments, substeps=steps, windows=(),
+                                       tolerance=FIT_TOLERANCE))
     if auto:
-        fitted = clock.timed(lambda: confirm(fitted, experiments))
-    verdict = fitted.lack_of_fit_
+        whole = clock.timed(lambda: confirm(whole, experiments))
+    verdict = whole.lack_of_fit_
     held = verdict.explained or not found.lack_of_fit.explained
     about.update(held=held)
     say(f"diagnose: on all {total} frames, {verdict.short}"
@@ -112,6 +111,6 @@ def on_all_frames(found, experiments, frames: int, substeps, clock, say, rerun):
         say(f"diagnose: diagnosing all {total} frames")
         about.update(rediagnosed=True)
         return replace(rerun(), window=about)
-    return replace(found, model_=fitted.model_, rms_after=fitted.rms_error_,
+    return replace(found, model_=whole.model_, rms_after=whole.rms_error_,
                    noise_rms=verdict.noise, lack_of_fit=verdict, window=about,
                    provisional=clock.provisional)

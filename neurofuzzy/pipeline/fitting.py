@@ -171,9 +171,10 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
     begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
                         elements=elements, law=law, relaxation=relaxation,
                         stiffening=stiffening, progress=progress)
-    check_fit_inputs(experiments, begun.model, substeps=substeps,
-                     model_source=start if isinstance(start, str | os.PathLike) else None,
-                     physical=begun.how in ("model", "rules"))
+    if options.checked:
+        check_fit_inputs(experiments, begun.model, substeps=substeps,
+                         model_source=start if isinstance(start, str | os.PathLike) else None,
+                         physical=begun.how in ("model", "rules"))
     require_motion(experiments)
     if options.mesh_check and options.mesh_check != "auto" and begun.model.elements is None:
         raise InputError("refines tetrahedral elements; this fit's model is a spring network "

@@ -59,9 +59,11 @@ class FitOptions:
         Gradient method: the substeps at which the start model was already fitted (the fit
         then goes on at twice them only).
     checked : bool
-        Refuse a fit that diverged or ends worse than a model that never moves
-        (:class:`~neurofuzzy.pipeline.FitFailedError`, default). False: return it as it is
-        (the diagnosis ranks refits by their error).
+        Check the data against the start (its size, frames not hundreds of stable steps
+        apart) and refuse a fit that diverged or ends worse than a model that never moves
+        (:class:`~neurofuzzy.pipeline.FitFailedError`), the default. False: the diagnosis's
+        refits, whose data it checked once and which it ranks by their error: the fit is
+        returned as it ends.
     """
 
     method: str = "gradient"

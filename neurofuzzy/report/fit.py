@@ -79,24 +79,26 @@ def _intervals_html(learner) -> str:
     return text + f"<p class='note'>These intervals hold {hold}{widened}.</p>"
 
 
-def fit_report(start, learner, path, *, title: str | None = None,
-               files: dict | None = None, validation: dict | None = None,
-               target: dict | None = None) -> Path:
-    """HTML + JSON report of a fit from ``start`` (a :class:`~neurofuzzy.learn.StartModel`).
+def fit_report(outcome, path, *, title: str | None = None, files: dict | None = None) -> Path:
+    """HTML + JSON report of a fit: ``outcome`` is what :func:`neurofuzzy.fit` returned (a
+    :class:`~neurofuzzy.pipeline.FitOutcome`: its start, learner and summary).
 
-    With a rule base (``start.rules``; its file and checksum in the JSON's ``rules``), for
-    every region with a tissue: the expert's words,
+    With a rule base (``outcome.start.rules``; its file and checksum in the JSON's ``rules``),
+    for every region with a tissue: the expert's words,
     the start and learned values, the learned words with degrees, each change highlighted, the
     input words that best reproduce the learned values, and the membership functions with the
     before and after values marked.
     Always: the error curve, the learned parameters and what the data cannot determine (with
     a suggested extra load case). ``files`` (label → path) are linked, relative to the report
     (e.g. the fitted model and the ParaView files of :func:`neurofuzzy.export.export_paraview`).
-    ``validation`` (the fit summary's, :mod:`neurofuzzy.pipeline.validation`): the held-out
-    data's prediction error beside the fitted one. ``target`` (``fit --target``'s record,
-    :meth:`~neurofuzzy.learn.target.TargetFit.record`): the simulator's error beside the naive
-    export's, and the values for it.
+    From the summary: ``validation`` (:mod:`neurofuzzy.pipeline.validation`), the held-out
+    data's prediction error beside the fitted one; ``target`` (``fit --target``'s record,
+    :meth:`~neurofuzzy.learn.target.TargetFit.record`), the simulator's error beside the
+    naive export's, and the values for it.
     """
+    start, learner = outcome.start, outcome.learner
+    validation = outcome.summary.get("validation")
+    target = outcome.summary.get("target")
     plt = pyplot()
     sections, data = [], {}
     if start.rules is not None:
@@ -164,8 +166,8 @@ def fit_report(start, learner, path, *, title: str | None = None,
             "rest shape (apply Warp By Vector with <code>displacement_simulated</code>).</p>"))
         data["files"] = links
     tissues = sorted({tissue for _, tissue in _tissues(start)})
-    return write_report(path, title or f"neurofuzzy fit{': ' + ', '.join(tissues) if tissues else ''}",
-                        sections, data)
+    named = f"neurofuzzy fit: {', '.join(tissues)}" if tissues else "neurofuzzy fit"
+    return write_report(path, title or named, sections, data)
 
 
 def prior_section(plt, learner, data) -> tuple[str, str]:
