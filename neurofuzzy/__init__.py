@@ -27,7 +27,8 @@ The whole pipeline, re-exported here (``import neurofuzzy as nf``):
   :func:`load_step_mesh_check`
 - words: :func:`load_rules`, :func:`shipped_rules`, :func:`initialize`,
   :func:`material_values`, :func:`materials`
-- diagnosis: :func:`diagnose` (:class:`Diagnosis`), of load steps
+- diagnosis: :func:`diagnose` (:class:`Diagnosis`), from measured data with the fit's start
+  and checks :func:`diagnose_data` (:class:`DiagnosedData`), of load steps
   :func:`diagnose_load_steps`, of a plate or tool moved in time :func:`diagnose_moving`
 - many specimens: :func:`fit_many` (:class:`Cohort`) on Dask, :func:`read_manifest`,
   :func:`cohort_report`
@@ -81,7 +82,8 @@ _EXPORTS = {
     "FitFailedError": "pipeline",
     "load_rules": "rules", "shipped_rules": "rules",
     "initialize": "tissues", "material_values": "tissues", "materials": "tissues",
-    "diagnose": "diagnosis", "Diagnosis": "diagnosis",
+    "diagnose": "diagnosis", "Diagnosis": "diagnosis", "diagnose_data": "diagnosis",
+    "DiagnosedData": "diagnosis",
     "fit_many": "batch", "Cohort": "batch", "read_manifest": "batch", "cohort_report": "batch",
     "fit_report": "report", "diagnosis_report": "report",
     "export_paraview": "export", "export": "export",
@@ -96,7 +98,7 @@ __getattr__, __dir__ = lazy(__name__, _EXPORTS, _ALIASES)
 
 if TYPE_CHECKING:      # for type checkers and IDEs: the same names, imported eagerly
     from .batch import Cohort, cohort_report, fit_many, read_manifest  # noqa: F401
-    from .diagnosis import Diagnosis, diagnose  # noqa: F401
+    from .diagnosis import DiagnosedData, Diagnosis, diagnose, diagnose_data  # noqa: F401
     from .effects import (EFFECTS, Effect, Gravity, NodeDrag,  # noqa: F401
                           NonlinearStiffening, SoftInclusion, StiffInclusion, UnmodeledLoad)
     from .errors import InputError, NeurofuzzyError, UnstableTimeStepError  # noqa: F401

@@ -97,6 +97,7 @@ def test_the_pipeline_through_nf(tmp_path):
     assert nf.diagnosis_report(result, tmp_path / "diagnosis.html").exists()
 
 
+
 def test_force_terms_and_effects_are_reachable():
     model = nf.Model.uniform(nf.lattice((2, 2, 2)), stiffness=1.0, damping=0.1, total_mass=1.0)
     assert model.force_terms == (model.springs,) and nf.Model is nf.Model

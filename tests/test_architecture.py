@@ -199,6 +199,18 @@ def test_the_diagnosis_and_the_demo_fit_through_nf_fit():
     assert {"neurofuzzy.demo", "neurofuzzy.diagnosis.refits"} <= fitting
 
 
+def test_the_fit_and_diagnose_commands_assemble_no_pipeline():
+    """Issue 44: ``neurofuzzy fit`` and ``neurofuzzy diagnose`` of time series hand their
+    options to the library's pipelines (:func:`neurofuzzy.fit`,
+    :func:`neurofuzzy.diagnosis.diagnose_data`); neither starts, checks or explains a fit
+    itself."""
+    names = {what for target, what in _imports("neurofuzzy.cli.fitting")
+             if target.startswith(("neurofuzzy.pipeline", "neurofuzzy.plausibility"))}
+    assert names & {"start_model", "check_outcome", "explained", "check_fit_inputs",
+                    "make_prior", "require_motion"} == set()
+    assert ("neurofuzzy.diagnosis", "diagnose_data") in _imports("neurofuzzy.cli.fitting")
+
+
 def test_the_learner_check_sees_a_learner_import(tmp_path, monkeypatch):
     path = tmp_path / "refit.py"
     path.write_text("from ..learn import GradientLearner\nfrom ..learn.paper import x\n")

@@ -67,6 +67,32 @@ def test_no_candidate_below_one_at_the_noise_is_refitted(capsys):
     assert "the 4 candidate(s) after it are not refitted" in said
 
 
+def test_diagnose_data_starts_checks_and_answers_as_the_command(tmp_path):
+    """``diagnose_data``, what ``neurofuzzy diagnose`` runs: the fit's start from a model
+    file, the inputs checked, the same answer as :func:`diagnose` of that model."""
+    from neurofuzzy.diagnosis import DiagnosedData, diagnose_data
+    from neurofuzzy.errors import InputError
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.io import save_experiment, save_model
+
+    data = paper_cube_experiment(paper_cube_model().with_effects(Gravity([0.0, 0.0, -9.81])))
+    path = save_experiment(data, tmp_path / "gravity.npz")
+    start = save_model(start_model(), tmp_path / "start.yaml")
+    run = diagnose_data(path, start=start, max_effects=1)
+    direct = diagnose(start_model(), data, max_effects=1)
+    assert isinstance(run, DiagnosedData) and run.diagnosis.names == direct.names == ["gravity"]
+    assert run.diagnosis.rms_after == pytest.approx(direct.rms_after, rel=1e-6, abs=1e-12)
+    assert run.model is run.diagnosis.model_ and run.start.how == "model"
+    summary = run.to_dict()
+    assert summary["answer"] == ["gravity"] and summary["experiments"] == [str(path)]
+    assert summary["start"]["how"] == "model" and "rules" not in summary
+    with pytest.raises(InputError, match="rule base to locate an inclusion"):
+        diagnose_data(data, start=start_model(), localise=True)
+    still = simulate_experiment(TRUTH, dt=data.dt, n_frames=20)
+    with pytest.raises(InputError, match="motion|move"):
+        diagnose_data(still, start=start_model())
+
+
 def test_out_of_time_the_answer_so_far_is_provisional(capsys):
     """max_time spent after the first fit: no candidate is refitted, the answer is what the
     fitted model says (it misses the data: unexplained), marked provisional with what was

@@ -1,7 +1,8 @@
 """``neurofuzzy fit`` and ``neurofuzzy diagnose``: experiments and a start in, a fitted model,
 a report and JSON out. The fit is the library's one pipeline (:func:`neurofuzzy.pipeline.fit`:
-start, prior, learner, outcome check, summary); the start policy of ``diagnose`` is the
-library's :func:`~neurofuzzy.pipeline.start_model`."""
+start, prior, learner, outcome check, summary); the diagnosis's is
+:func:`neurofuzzy.diagnosis.diagnose_data` (the same start, the prior, the diagnosis, the
+outcome check)."""
 
 from __future__ import annotations
 
@@ -12,30 +13,9 @@ from ..errors import InputError
 from .common import (Outputs, at_least, mesh_check_option, positive, print_json, vtu_series,
                      written)
 from ..formatting import length_text
-from ..pipeline import check_outcome, explained, require_motion
 from ..progress import Stopwatch
 
 __all__ = ["fit", "diagnose"]
-
-
-def _start(args, progress: bool):
-    """The experiments named on the command line and the start of their diagnosis."""
-    from ..io import load_experiment
-    from ..pipeline import start_model
-    from ..plausibility import check_fit_inputs
-    from .common import rule_base_for
-
-    inputs = [Path(p) for p in args.experiments]
-    experiments = [load_experiment(p) for p in inputs]
-    rules = rule_base_for(args.rules, args.tissue, quiet=not progress)
-    elements = {"tetra": True, "springs": False}.get(args.elements)
-    start = start_model(experiments, model=args.start, rules=rules, tissue=args.tissue,
-                        tie=args.tie, elements=elements, law=args.law,
-                        relaxation=args.relaxation, stiffening=args.stiffening,
-                        progress=progress)
-    check_fit_inputs(experiments, start.model, substeps=args.substeps, model_source=args.start,
-                     physical=start.how in ("model", "rules"))
-    return inputs, experiments, start
 
 
 def _protected(args) -> list[Path]:
@@ -205,12 +185,11 @@ def diagnose(args) -> int:
         return diagnose_load_steps(args)
     if is_moved_file(args.experiments[0]):
         return diagnose_moved(args)
-    from ..diagnosis import diagnose as run_diagnosis
+    from ..diagnosis import diagnose_data
     from ..diagnosis.window import check_window
-    from ..errors import InputError
     from ..io import save_model
-    from ..pipeline.learners import make_prior
     from ..report import diagnosis_report
+    from .common import rule_base_for
 
     progress = not args.quiet   # on stderr: --json output on stdout stays one object
     at_least(args.max_effects, 0, "--max-effects")
@@ -220,30 +199,22 @@ def diagnose(args) -> int:
     with Outputs(_protected(args)) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
-        inputs, experiments, start = _start(args, progress)
-        require_motion(experiments)
-        prior = None
-        if args.localise:
-            if start.rules is None:
-                raise InputError("needs a rule base to locate an inclusion with "
-                                 "(--rules R --tissue T)", key="--localise")
-            prior = make_prior(start, "auto")
-        with explained("diagnosis", experiments, start.model, substeps):
-            result = run_diagnosis(start.model, experiments, max_effects=args.max_effects,
-                                   substeps=substeps, prior=prior,
-                                   mesh_check=not args.no_mesh_check,
-                                   max_time=args.max_time, window=window,
-                                   progress=progress)
-        check_outcome("diagnosis", experiments, start.model, result.model_, result.rms_before,
-                      result.rms_after, substeps)
+        inputs = [Path(p) for p in args.experiments]
+        run = diagnose_data(inputs, start=args.start,
+                            rules=rule_base_for(args.rules, args.tissue, quiet=not progress),
+                            tissue=args.tissue, tie=args.tie,
+                            elements={"tetra": True, "springs": False}.get(args.elements),
+                            law=args.law, relaxation=args.relaxation,
+                            stiffening=args.stiffening, localise=args.localise,
+                            max_effects=args.max_effects, substeps=substeps,
+                            mesh_check=not args.no_mesh_check, max_time=args.max_time,
+                            window=window, progress=progress)
+        result = run.diagnosis
         if out:
             save_model(result.model_, out)
         if report:
             diagnosis_report(result, report)
-    data = result.to_dict()
-    data.update(experiments=[str(p) for p in inputs], start=start.to_dict())
-    if start.rules is not None:
-        data["rules"] = start.rules.provenance()
+    data = run.to_dict(names=inputs)
     if args.json:
         print_json(data)
     else:

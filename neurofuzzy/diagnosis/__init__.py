@@ -37,12 +37,16 @@ diagnosed on its first ones and the answer fitted on all of them (:mod:`.window`
 With the rule base as a prior (``diagnose(..., prior=FuzzyPrior(rules, model))``), an
 inclusion found is also located item by item (:mod:`.localise`): every element or spring is
 fitted with the prior and the regions found say where the tissue differs from its description.
+
+From measured data, with the start :func:`neurofuzzy.fit` would take and the outcome checked
+as a fit's is, the diagnosis is :func:`diagnose_data` (what ``neurofuzzy diagnose`` runs).
 """
 
+from .from_data import DiagnosedData, diagnose_data
 from .localise import Localisation, localise
 from .loop import Diagnosis, Finding, diagnose
 from .residuals import Residuals, residual_analysis
 from .scoring import Candidate
 
-__all__ = ["diagnose", "Diagnosis", "Finding", "Candidate", "Residuals", "residual_analysis",
+__all__ = ["diagnose", "diagnose_data", "DiagnosedData", "Diagnosis", "Finding", "Candidate", "Residuals", "residual_analysis",
            "localise", "Localisation"]

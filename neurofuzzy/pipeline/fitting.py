@@ -19,7 +19,7 @@ from ..progress import announced, note
 from .options import FitOptions
 from .outcome import check_outcome, explained, require_motion
 
-__all__ = ["FitOutcome", "fit", "tie_label"]
+__all__ = ["FitOutcome", "fit", "tie_label", "experiment_list"]
 
 
 @dataclass(frozen=True)
@@ -158,7 +158,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
         mesh_check=mesh_check, progress=progress)
     method, substeps, progress = options.method, options.substeps, options.progress
-    experiments = _experiments(experiments)
+    experiments = experiment_list(experiments)
     names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]
     split = None
     if validate_on is not None:
@@ -208,7 +208,7 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
                       record=fit_record(learner, names, begun.rules))
 
 
-def _experiments(experiments) -> list[Experiment]:
+def experiment_list(experiments) -> list[Experiment]:
     """``experiments`` as a list of :class:`Experiment` (paths read)."""
     if isinstance(experiments, Experiment | str | os.PathLike):
         experiments = [experiments]
