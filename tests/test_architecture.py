@@ -211,6 +211,18 @@ def test_the_fit_and_diagnose_commands_assemble_no_pipeline():
     assert ("neurofuzzy.diagnosis", "diagnose_data") in _imports("neurofuzzy.cli.fitting")
 
 
+def test_the_fit_report_draws_a_fit_outcome_not_a_learner():
+    """Issue 44: ``report/fit.py`` reads what a :class:`~neurofuzzy.pipeline.FitOutcome`
+    offers; no ``.learner`` and no ``getattr`` guessing which learner made it."""
+    tree = ast.parse((PACKAGE / "report" / "fit.py").read_text(encoding="utf-8"))
+    found = {node.attr for node in ast.walk(tree)
+             if isinstance(node, ast.Attribute) and node.attr == "learner"}
+    found |= {node.func.id for node in ast.walk(tree)
+              if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+              and node.func.id == "getattr"}
+    assert found == set()
+
+
 def test_the_learner_check_sees_a_learner_import(tmp_path, monkeypatch):
     path = tmp_path / "refit.py"
     path.write_text("from ..learn import GradientLearner\nfrom ..learn.paper import x\n")

@@ -73,9 +73,29 @@ def test_a_failed_fit_says_its_rms_per_marker_in_metres(short, final):
     assert np.isfinite(final) == ("-> 1 m, worse than a model that never moves" in message)
 
 
-def test_the_paper_method_fits_the_spring_network(short):
+def test_the_paper_method_fits_the_spring_network(short, tmp_path):
     outcome = nf.fit(short, tie="global", method="paper", cycles=2)
     assert outcome.model.elements is None and outcome.summary["method"] == "paper"
+    # what only the gradient learner estimates is absent, not an error, and the report says so
+    assert outcome.identifiability is None and outcome.intervals == {}
+    assert outcome.prior_weight is None and outcome.regions is None
+    assert outcome.history.shape == (2,) and outcome.n_cycles == 2
+    report = nf.fit_report(outcome, tmp_path / "paper.html").read_text()
+    assert "does not estimate standard errors" in report
+
+
+def test_the_fit_report_draws_the_outcome_it_is_handed(short, tmp_path):
+    """The report reads the outcome (its model, history, lack of fit, identifiability), not a
+    learner: a summary-level change to the outcome shows in the report's JSON twin."""
+    outcome = nf.fit(short, tie="global", options=nf.FitOptions(mesh_check=False))
+    assert outcome.identifiability is not None and outcome.n_cycles == len(outcome.history)
+    nf.fit_report(outcome, tmp_path / "fit.html")
+    twin = json.loads((tmp_path / "fit.json").read_text())
+    assert twin["rms_error"] == pytest.approx(outcome.rms_error, rel=1e-9, abs=1e-15)
+    assert twin["cycles"] == outcome.n_cycles
+    assert twin["lack_of_fit"]["verdict"] == outcome.lack_of_fit.verdict
+    assert twin["std_errors"] == pytest.approx(
+        list(outcome.identifiability.to_dict()["std_errors"]), nan_ok=True)
 
 
 def test_a_path_or_an_experiment_is_taken_and_anything_else_refused():

@@ -182,13 +182,12 @@ def _fit_time_series(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
                            method=options.get("method", "gradient"), cycles=options.get("cycles"),
                            learn_masses=options.get("learn_masses", False),
                            substeps=options.get("substeps", "auto"), names=inputs)
-    learner = outcome.learner
     fit = dict(outcome.summary)
-    fit["quality"] = fit_quality(learner.model_, experiments, learner.substeps_,
-                                 lack_of_fit=learner.lack_of_fit_)
+    fit["quality"] = fit_quality(outcome.model, experiments, outcome.substeps,
+                                 lack_of_fit=outcome.lack_of_fit)
     with tempfile.TemporaryDirectory(prefix="neurofuzzy-fit-many-") as folder:
         folder = Path(folder)
-        save_model(learner.model_, folder / "fitted.yaml")
+        save_model(outcome.model, folder / "fitted.yaml")
         fit_report(outcome, folder / "report.html",
                    title=f"neurofuzzy fit: specimen {specimen.id} ({specimen.group})",
                    files={"fitted model": folder / "fitted.yaml"})
@@ -196,7 +195,7 @@ def _fit_time_series(specimen: Specimen) -> tuple[dict, dict[str, bytes]]:
             from ..diagnosis import diagnose
             from ..report import diagnosis_report
 
-            diagnosis = diagnose(learner.model_, experiments,
+            diagnosis = diagnose(outcome.model, experiments,
                                  substeps=options.get("substeps", "auto"))
             diagnosis_report(diagnosis, folder / "diagnosis.html",
                              title=f"neurofuzzy diagnosis: specimen {specimen.id}")

@@ -62,17 +62,17 @@ def fit(args) -> int:
                                 owns=vtu_series(Path(args.experiments[0]).stem))
         outcome, exported = _fit(args, progress, substeps, out, report, export, outputs,
                                  validate_on)
-    learner, result = outcome.learner, outcome.summary
-    if not learner.lack_of_fit_.explained and not args.quiet:
-        print(f"neurofuzzy: warning: {learner.lack_of_fit_.verdict}", file=sys.stderr)
+    result, lack_of_fit = outcome.summary, outcome.lack_of_fit
+    if not lack_of_fit.explained and not args.quiet:
+        print(f"neurofuzzy: warning: {lack_of_fit.verdict}", file=sys.stderr)
     if args.json:
         print_json(result)
     else:
-        print(learner.model_.summary())
+        print(outcome.model.summary())
         print(f"RMS error per marker: {length_text(result['rms_error_initial'])} -> "
               f"{length_text(result['rms_error'])} ({result['cycles']} cycles, "
               f"{result['seconds']:.1f} s{_compiling(watch)})")
-        print(f"lack of fit: {learner.lack_of_fit_.verdict}")
+        print(f"lack of fit: {lack_of_fit.verdict}")
         if "validation" in result:
             print(_validation_line(result["validation"]))
         if "target" in result:
@@ -80,10 +80,10 @@ def fit(args) -> int:
 
             print(describe(result["target"])
                   + (f"; {args.out} holds the values for it" if args.out else ""))
-        for name, (low, high) in list(getattr(learner, "intervals_", {}).items())[:12]:
+        for name, (low, high) in list(outcome.intervals.items())[:12]:
             print(f"  95 % interval of {name}: {low:.4g} .. {high:.4g}")
-        if getattr(learner, "intervals_", None) and learner.model_.elements is not None:
-            print(f"  (they hold {learner.intervals_hold_})")
+        if outcome.intervals and outcome.model.elements is not None:
+            print(f"  (they hold {outcome.intervals_hold})")
         if result.get("prior"):
             print(f"prior: weight {result['prior']['alpha']:.3g} ({result['prior']['how']}); "
                   f"{result['regions_found_words']}")

@@ -67,6 +67,65 @@ class FitOutcome:
         """The fitted model's RMS error per marker (metres)."""
         return self.learner.rms_error_
 
+    @property
+    def rms_error_initial(self) -> float:
+        """The start model's RMS error per marker (metres)."""
+        return self.learner.rms_error_initial_
+
+    @property
+    def history(self):
+        """The learner's objective per cycle (an array), counted in :attr:`cycle_name`."""
+        import numpy as np
+
+        return np.asarray(self.learner.history_)
+
+    @property
+    def cycle_name(self) -> str:
+        """What one entry of :attr:`history` is (a cycle, an evaluation …)."""
+        return self.learner.cycle_name
+
+    @property
+    def n_cycles(self) -> int:
+        return self.learner.n_cycles_
+
+    @property
+    def learn_masses(self) -> bool:
+        """Whether the masses were learned (else the density is the masses', not a finding)."""
+        return self.learner.learn_masses
+
+    # what only the gradient learner estimates: None (or empty) after the paper's
+    @property
+    def identifiability(self):
+        """Standard errors and unidentifiable parameters
+        (:class:`~neurofuzzy.learn.identifiability.Identifiability`), or None (the paper's
+        learner estimates none)."""
+        return getattr(self.learner, "identifiability_", None)
+
+    @property
+    def intervals(self) -> dict:
+        """95 % intervals per parameter name (empty when none were estimated)."""
+        return getattr(self.learner, "intervals_", None) or {}
+
+    @property
+    def intervals_hold(self) -> str | None:
+        """What :attr:`intervals` hold: the noise alone, or the noise and the mesh."""
+        return getattr(self.learner, "intervals_hold_", None)
+
+    @property
+    def mesh_check(self):
+        """The fit on the mesh refined once, when it was made (else None)."""
+        return getattr(self.learner, "mesh_check_", None)
+
+    @property
+    def prior_weight(self) -> dict | None:
+        """With a prior: its weight ``alpha``, how it was chosen and the marker noise."""
+        return getattr(self.learner, "prior_", None) if self.prior is not None else None
+
+    @property
+    def regions(self) -> dict | None:
+        """With a prior: the regions found (``regions``, ``rest``, ``words``, ``power``)."""
+        return getattr(self.learner, "regions_", None) if self.prior is not None else None
+
 
 def tie_label(tie: str | None, start) -> str:
     """The tying a fit used, for its record: the option given, else ``"model"`` when a start

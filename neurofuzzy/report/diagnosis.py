@@ -111,7 +111,9 @@ def diagnosis_report(diagnosis, path, *, title: str = "neurofuzzy diagnosis") ->
                          figure_html(figure, "candidate scores") + table))
 
     if diagnosis.localisation is not None:
-        heading, text = prior_section(plt, diagnosis.localisation.learner, {})
+        fitted = diagnosis.localisation.learner
+        heading, text = prior_section(plt, fitted.model_, fitted.prior, fitted.regions_,
+                                      fitted.prior_, {})
         covered = ", ".join(f"{share:.0%}" for share in diagnosis.localisation.overlap)
         sections.append((f"{heading}: the inclusion item by item",
                          "<p>Every element (or spring) of the start model fitted with the rule "

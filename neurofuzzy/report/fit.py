@@ -19,12 +19,13 @@ from .target import target_section
 __all__ = ["fit_report", "identifiability_html", "prior_section"]
 
 
-def identifiability_html(learner) -> tuple[str, list]:
-    """Standard errors and unidentifiable parameters in words, with a suggested load case."""
-    identifiability = getattr(learner, "identifiability_", None)
+def identifiability_html(outcome) -> tuple[str, list]:
+    """Standard errors and unidentifiable parameters in words, with a suggested load case
+    (``outcome``: a :class:`~neurofuzzy.pipeline.FitOutcome`)."""
+    identifiability = outcome.identifiability
     if identifiability is None:
         return "<p>The paper's learner does not estimate standard errors.</p>", []
-    model = learner.model_
+    model = outcome.model
     rows = [[name, f"{value:.3g}" if np.isfinite(value) else "undetermined"]
             for name, value in zip(identifiability.names, identifiability.std_errors)]
     text = table_html(["parameter", "standard error (relative)"], rows[:40])
@@ -51,9 +52,9 @@ def identifiability_html(learner) -> tuple[str, list]:
         text += f"<p>What the data cannot determine:</p><ul>{items}</ul>"
     else:
         text += "<p>Every parameter is determined by the data.</p>"
-    text += _intervals_html(learner)
-    lack_of_fit = getattr(learner, "lack_of_fit_", None)
-    if lack_of_fit is not None and not lack_of_fit.explained:
+    text += _intervals_html(outcome)
+    lack_of_fit = outcome.lack_of_fit
+    if not lack_of_fit.explained:
         text += ("<p><b>But the model does not explain the data to the noise</b> ("
                  f"{html.escape(lack_of_fit.short)}): the values are what such a model sees, "
                  "biased by what it misses, and even these standard errors (the larger of the "
@@ -63,25 +64,25 @@ def identifiability_html(learner) -> tuple[str, list]:
     return text, suggestions
 
 
-def _intervals_html(learner) -> str:
-    """The 95 % intervals of an element model and what they hold (the learner's
-    ``intervals_hold_``): the noise and the mesh (the move on the refined mesh, and how it
-    was taken), or the noise alone and why (issue 48: a fit at the noise may still be biased
-    by its mesh)."""
-    bounds = getattr(learner, "intervals_", None)
-    if not bounds or learner.model_.elements is None:
+def _intervals_html(outcome) -> str:
+    """The 95 % intervals of an element model and what they hold (``intervals_hold``): the
+    noise and the mesh (the move on the refined mesh, and how it was taken), or the noise
+    alone and why (issue 48: a fit at the noise may still be biased by its mesh)."""
+    bounds = outcome.intervals
+    if not bounds or outcome.model.elements is None:
         return ""
     rows = [[name, f"{low:.4g} .. {high:.4g}"] for name, (low, high) in bounds.items()]
     text = table_html(["parameter", "95 % interval"], rows[:40])
-    hold = html.escape(getattr(learner, "intervals_hold_", "the noise alone"))
+    hold = html.escape(outcome.intervals_hold or "the noise alone")
     widened = ("; twice the move is added to the standard error in quadrature"
-               if getattr(learner, "mesh_check_", None) is not None else "")
+               if outcome.mesh_check is not None else "")
     return text + f"<p class='note'>These intervals hold {hold}{widened}.</p>"
 
 
 def fit_report(outcome, path, *, title: str | None = None, files: dict | None = None) -> Path:
     """HTML + JSON report of a fit: ``outcome`` is what :func:`neurofuzzy.fit` returned (a
-    :class:`~neurofuzzy.pipeline.FitOutcome`: its start, learner and summary).
+    :class:`~neurofuzzy.pipeline.FitOutcome`: its start, fitted model, history, lack of fit,
+    identifiability and summary).
 
     With a rule base (``outcome.start.rules``; its file and checksum in the JSON's ``rules``),
     for every region with a tissue: the expert's words,
@@ -96,7 +97,7 @@ def fit_report(outcome, path, *, title: str | None = None, files: dict | None = 
     :meth:`~neurofuzzy.learn.target.TargetFit.record`), the simulator's error beside the
     naive export's, and the values for it.
     """
-    start, learner = outcome.start, outcome.learner
+    start, fitted = outcome.start, outcome.model
     validation = outcome.summary.get("validation")
     target = outcome.summary.get("target")
     plt = pyplot()
@@ -105,25 +106,23 @@ def fit_report(outcome, path, *, title: str | None = None, files: dict | None = 
         regions = []
         for region, tissue in _tissues(start):
             words_sections, region_data = _words_sections(
-                start.rules, region, tissue, start.model, learner.model_,
-                masses_learned=learner.learn_masses)
+                start.rules, region, tissue, start.model, fitted,
+                masses_learned=outcome.learn_masses)
             sections += words_sections
             regions.append(region_data)
         data["regions"] = regions
         data["rules"] = start.rules.provenance()
-    history = np.asarray(learner.history_)
+    history = outcome.history
     figure, ax = plt.subplots(figsize=(8, 3.2))
     ax.semilogy(np.arange(1, len(history) + 1), np.maximum(history, 1e-30))
-    ax.set_xlabel(learner.cycle_name)
+    ax.set_xlabel(outcome.cycle_name)
     ax.set_ylabel("E (eq. 2.2, mean spring lengths²)")
     ax.grid(True, which="both", alpha=0.3)
     sections.append(("Error per cycle", figure_html(figure, "error curve") +
-                     f"<p>RMS error per marker {length_text(learner.rms_error_initial_)} → "
-                     f"{length_text(learner.rms_error_)} in {learner.n_cycles_} cycles.</p>"))
-    lack_of_fit = getattr(learner, "lack_of_fit_", None)
-    if lack_of_fit is not None:
-        sections.append(lack_of_fit_section(plt, lack_of_fit))
-        data["lack_of_fit"] = lack_of_fit.to_dict()
+                     f"<p>RMS error per marker {length_text(outcome.rms_error_initial)} → "
+                     f"{length_text(outcome.rms_error)} in {outcome.n_cycles} cycles.</p>"))
+    sections.append(lack_of_fit_section(plt, outcome.lack_of_fit))
+    data["lack_of_fit"] = outcome.lack_of_fit.to_dict()
     if validation:
         what = (f"the frames from {validation['from_time']:g} s on"
                 if "from_time" in validation else ", ".join(validation["experiments"]))
@@ -137,24 +136,25 @@ def fit_report(outcome, path, *, title: str | None = None, files: dict | None = 
     if target:
         sections.append(target_section(plt, target))
         data["target"] = target
-    sections.append(("Learned parameters", "<pre>" + html.escape(learner.model_.summary()) +
+    sections.append(("Learned parameters", "<pre>" + html.escape(fitted.summary()) +
                      "</pre>"))
-    law = law_section(plt, learner.model_)
+    law = law_section(plt, fitted)
     if law is not None:
         sections.append(law)
-    if getattr(learner, "prior", None) is not None:
-        sections.append(prior_section(plt, learner, data))
-    text, suggestions = identifiability_html(learner)
+    if outcome.prior is not None:
+        sections.append(prior_section(plt, fitted, outcome.prior, outcome.regions,
+                                      outcome.prior_weight, data))
+    text, suggestions = identifiability_html(outcome)
     sections.append(("What the data determine", text))
-    data.update({"rms_error_initial": learner.rms_error_initial_,
-                 "rms_error": learner.rms_error_, "history": history,
-                 "cycles": learner.n_cycles_, "unidentifiable": suggestions})
-    if getattr(learner, "identifiability_", None) is not None:
-        data.update(learner.identifiability_.to_dict())
+    data.update({"rms_error_initial": outcome.rms_error_initial,
+                 "rms_error": outcome.rms_error, "history": history,
+                 "cycles": outcome.n_cycles, "unidentifiable": suggestions})
+    if outcome.identifiability is not None:
+        data.update(outcome.identifiability.to_dict())
         data["unidentifiable"] = suggestions
-    if getattr(learner, "intervals_", None):
-        data["intervals"] = {name: list(bounds) for name, bounds in learner.intervals_.items()}
-        data["intervals_hold"] = getattr(learner, "intervals_hold_", None)
+    if outcome.intervals:
+        data["intervals"] = {name: list(bounds) for name, bounds in outcome.intervals.items()}
+        data["intervals_hold"] = outcome.intervals_hold
     if files:
         links = {label: _relative(target, Path(path).parent) for label, target in files.items()}
         sections.append(("Files", "<ul>" + "".join(
@@ -170,14 +170,12 @@ def fit_report(outcome, path, *, title: str | None = None, files: dict | None = 
     return write_report(path, title or named, sections, data)
 
 
-def prior_section(plt, learner, data) -> tuple[str, str]:
+def prior_section(plt, model, prior, found, info, data) -> tuple[str, str]:
     """The regions found after a fit with the rule base as a prior: in words, and on the
-    object (every element or spring coloured by its Young's modulus against the
-    description, the regions found ringed)."""
-    found = learner.regions_
-    data.update(prior=learner.prior_, regions_found=found["regions"],
-                regions_power=found.get("power"))
-    model, prior = learner.model_, learner.prior
+    object (every element or spring of the fitted ``model`` coloured by its Young's modulus
+    against the description of ``prior``, the regions ``found`` ringed; ``info``: the prior's
+    weight, how it was chosen and the marker noise). ``data`` (the JSON twin) gets them."""
+    data.update(prior=info, regions_found=found["regions"], regions_power=found.get("power"))
     kind, values = item_values(model)
     items = model.mesh.tetrahedra if kind == "elements" else model.mesh.springs
     centres = model.mesh.rest_positions[items].mean(axis=1)
@@ -191,7 +189,6 @@ def prior_section(plt, learner, data) -> tuple[str, str]:
         ax.scatter(*centres[entry[kind]].T, s=70, facecolors="none", edgecolors="k")
     figure.colorbar(shown, ax=ax, shrink=0.6, label="log₁₀ (E / described E)")
     ax.set_title(f"{kind}: Young's modulus against the description")
-    info = learner.prior_
     text = (f"<p>{html.escape(found['words'])}.</p><p>Prior weight α = "
             f"{info['alpha']:.3g} ({html.escape(info['how'])}; marker noise "
             f"{info['noise'] * 1e6:.3g} µm).</p>")
