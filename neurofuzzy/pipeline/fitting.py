@@ -186,8 +186,6 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         mesh check, progress …); default ``FitOptions()``.
     names : sequence of str, optional
         How the summary names the experiments (default: their files).
-    progress : bool
-        Report progress on stderr.
     validate_on : float, str or sequence of int or str, optional
         Data kept out of the fit and predicted (:mod:`.validation`): a time in seconds, a
         float (every experiment fitted on its frames before it), or load cases (a name, or a
@@ -195,7 +193,8 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         the prediction error beside the fitted one.
 
     method, cycles, learn_masses, substeps, learning_rate, mass_learning_rate, mesh_check, progress
-        Shorthands of the same fields of ``options``: each one given (not None) overrides it.
+        Shorthands of the same fields of ``options``: each one given (not None) overrides it
+        (``progress=True``: report progress on stderr).
 
     Returns
     -------
