@@ -82,6 +82,32 @@ def test_with_a_load_cell_youngs_modulus_is_found_too(gel):
     assert fit.force_noise_ == pytest.approx(1e-3, rel=0.6)
 
 
+def test_nf_fit_fits_load_steps_as_the_command_does(gel, tmp_path):
+    """``nf.fit`` is the one fit of Python for lab experiments too: load steps (an object or
+    a file) go to the command's load-step fit, with its record; the learners' options that
+    mean nothing there are refused by name, and a lab experiment beside others."""
+    import neurofuzzy as nf
+    from neurofuzzy.io import save_load_steps, save_model
+    from neurofuzzy.pipeline.load_steps import LoadStepOutcome, fit_load_step_file
+
+    start = save_model(_start(gel.mesh), tmp_path / "start.yaml")
+    outcome = nf.fit(gel, start=start, validate_on=[3], mesh_check=False)
+    assert isinstance(outcome, LoadStepOutcome) and outcome.record["kind"] == "load steps"
+    assert outcome.record["youngs_modulus"] == pytest.approx(E, rel=0.03)
+    assert outcome.record["validation"]["steps"] == [3]
+    path = save_load_steps(gel, tmp_path / "steps.npz")
+    direct = fit_load_step_file(path, start=start, validate_on=[3], mesh_check=False)
+    assert nf.fit(path, start=start, validate_on=[3], mesh_check=False).record[
+        "youngs_modulus"] == pytest.approx(direct.record["youngs_modulus"], rel=1e-9)
+    for keywords, name in (({"tie": "global"}, "tie"), ({"cycles": 3}, "cycles"),
+                           ({"method": "paper"}, "method"), ({"substeps": 2}, "substeps"),
+                           ({"validate_on": 0.5}, "validate_on")):
+        with pytest.raises(InputError, match=name):
+            nf.fit(gel, start=start, **keywords)
+    with pytest.raises(InputError, match="fitted on its own"):
+        nf.fit([gel, gel], start=start)
+
+
 def test_scans_out_of_register_are_registered_per_step(gel):
     """Each scan moved by its own rigid transform (a few degrees, a millimetre): with the
     registration the fit is as good as on registered scans; without it, it is not."""

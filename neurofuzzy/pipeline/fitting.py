@@ -16,6 +16,7 @@ from ..errors import InputError
 from ..experiment import Experiment
 from ..formatting import length_text
 from ..progress import announced, note
+from .lab import fit_lab, lab_kind
 from .options import FitOptions
 from .outcome import check_outcome, explained, require_motion
 
@@ -196,9 +197,19 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         Shorthands of the same fields of ``options``: each one given (not None) overrides it
         (``progress=True``: report progress on stderr).
 
+    A lab experiment, one load-step file (``LoadSteps``: scans at equilibria) or one
+    recording whose body a stage moved (an ``Experiment`` with driven sets or a tool), is
+    fitted as ``neurofuzzy fit`` fits it (:mod:`.lab`: E, ν and, in time, η through static or
+    implicit steps), from ``start`` or ``rules`` and ``tissue``, with ``law``, ``validate_on``
+    (load steps by number) and the options ``mesh_check``, ``progress`` and (in time)
+    ``substeps``; the learners' other options are refused by name. It returns a
+    :class:`~.load_steps.LoadStepOutcome` (``result``, ``record``: the object of ``fit
+    --json``).
+
     Returns
     -------
     FitOutcome
+        Or a :class:`~.load_steps.LoadStepOutcome` for a lab experiment.
 
     Raises
     ------
@@ -215,6 +226,15 @@ def fit(experiments: Experiment | str | os.PathLike | Sequence, *, start=None, r
         method=method, cycles=cycles, learn_masses=learn_masses, substeps=substeps,
         learning_rate=learning_rate, mass_learning_rate=mass_learning_rate,
         mesh_check=mesh_check, progress=progress)
+    kind = lab_kind(experiments)
+    if kind is not None:
+        return fit_lab(kind, experiments[0] if isinstance(experiments, list | tuple)
+                       else experiments, start=start, rules=rules, tissue=tissue, law=law,
+                       validate_on=validate_on, options=options,
+                       refused={"tie": tie, "elements": elements, "relaxation": relaxation,
+                                "stiffening": stiffening, "names": names,
+                                "prior": None if isinstance(prior, str) and prior == "default"
+                                else prior})
     method, substeps, progress = options.method, options.substeps, options.progress
     experiments = experiment_list(experiments)
     names = [str(e.source) for e in experiments] if names is None else [str(n) for n in names]

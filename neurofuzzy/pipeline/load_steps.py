@@ -4,7 +4,6 @@ materials and words) — the load-step counterpart of :func:`neurofuzzy.pipeline
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -51,28 +50,31 @@ def load_step_start(data, *, start=None, rules=None, tissue: str | None = None,
     return model.with_elements(law=law) if law else model
 
 
-def fit_load_step_file(path: str | os.PathLike, *, start=None, rules=None,
+def fit_load_step_file(path, *, start=None, rules=None,
                        tissue: str | None = None, law: str | None = None,
                        validate_on: Sequence[int] = (), reference_noise: bool = False,
                        mesh_check: bool | str = "auto",
                        progress: Callable[[str], None] | None = None) -> LoadStepOutcome:
-    """Read the load-step file ``path``, fit it from ``start`` (a model or model file) or
-    ``rules`` and ``tissue`` (:func:`load_step_start`), and make the record ``fit --json``
-    prints: E (None when not identifiable), ν, ``unidentifiable``, standard errors, the
-    markers' and the load cell's errors and noise, the held-out steps, the registration,
-    ``rms_error`` (the markers', for the tables of fit-many), ``materials`` with no value and
-    no word for what is not identifiable, and the notes. ``reference_noise``: each marker's
-    rest point estimated from every scan (:func:`~neurofuzzy.learn.load_step_fit.fit_load_steps`).
-    ``mesh_check`` ("auto", "step", "refit" or False): how far E and ν move on the mesh
-    refined once, which widens the intervals and gives the values extrapolated to a fine
-    mesh (:func:`~neurofuzzy.learn.load_step_mesh_check.with_mesh_check`; "auto" where the
-    refined mesh is small enough to be cheap)."""
+    """Read the load-step file ``path`` (or take a ``LoadSteps``), fit it from ``start`` (a
+    model or model file) or ``rules`` and ``tissue`` (:func:`load_step_start`), and make the
+    record ``fit --json`` prints: E (None when not identifiable), ν, ``unidentifiable``,
+    standard errors, the markers' and the load cell's errors and noise, the held-out steps, the
+    registration, ``rms_error`` (the markers', for the tables of fit-many), ``materials`` with
+    no value and no word for what is not identifiable, and the notes. ``reference_noise``: each
+    marker's rest point estimated from every scan
+    (:func:`~neurofuzzy.learn.load_step_fit.fit_load_steps`). ``mesh_check`` ("auto", "step",
+    "refit" or False): how far E and ν move on the mesh refined once, which widens the
+    intervals and gives the values extrapolated to a fine mesh
+    (:func:`~neurofuzzy.learn.load_step_mesh_check.with_mesh_check`; "auto" where the refined
+    mesh is small enough to be cheap)."""
     from ..io.load_steps import load_load_steps
     from ..learn.load_step_fit import fit_load_steps
     from ..learn.load_step_mesh_check import with_mesh_check
     from ..tissues import materials
 
-    data = load_load_steps(path)
+    from ..load_steps import LoadSteps
+
+    data = path if isinstance(path, LoadSteps) else load_load_steps(path)
     model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
     result = fit_load_steps(model, data, validate_on=validate_on,
                             reference_noise=reference_noise, progress=progress)

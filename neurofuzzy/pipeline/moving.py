@@ -5,7 +5,6 @@ steps, its mesh check, the record with materials and words) — the counterpart 
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 
 import numpy as np
@@ -26,23 +25,25 @@ AUTO_TETRAHEDRA = 3_072
 SCHEME = "bdf2"
 
 
-def fit_moving_file(path: str | os.PathLike, *, start=None, rules=None,
+def fit_moving_file(path, *, start=None, rules=None,
                     tissue: str | None = None, law: str | None = None,
                     mesh_check: bool | str = "auto", substeps: int = 1,
                     progress: Callable[[str], None] | None = None) -> LoadStepOutcome:
-    """Read the experiment file ``path`` (driven sets or a tool, one row per frame, and
-    perhaps a load cell), fit E, ν and η through BDF2 steps of ``dt / substeps``
-    (:func:`~neurofuzzy.learn.implicit_fit.fit_implicit`) from ``start`` or ``rules`` and
-    ``tissue`` (:func:`~.load_steps.load_step_start`), run the mesh check (``"auto"``: where
-    the refined mesh has at most :data:`AUTO_TETRAHEDRA` tetrahedra; ``"step"``: one
-    iteration of the refit; ``"refit"``; False: none) and make the record ``fit --json``
-    prints."""
+    """Read the experiment file ``path`` (or take an ``Experiment``; driven sets or a tool, one
+    row per frame, and perhaps a load cell), fit E, ν and η through BDF2 steps of ``dt /
+    substeps`` (:func:`~neurofuzzy.learn.implicit_fit.fit_implicit`) from ``start`` or
+    ``rules`` and ``tissue`` (:func:`~.load_steps.load_step_start`), run the mesh check
+    (``"auto"``: where the refined mesh has at most :data:`AUTO_TETRAHEDRA` tetrahedra;
+    ``"step"``: one iteration of the refit; ``"refit"``; False: none) and make the record ``fit
+    --json`` prints."""
     from ..io import load_experiment
     from ..learn.implicit_fit import fit_implicit
     from ..learn.implicit_mesh_check import implicit_mesh_check
     from ..tissues import materials
 
-    experiment = load_experiment(path)
+    from ..experiment import Experiment
+
+    experiment = path if isinstance(path, Experiment) else load_experiment(path)
     if not experiment.driven and experiment.tool is None:
         raise InputError("has no driven sets or tool: fit it with the time-series fit",
                          source=str(path), key="driven")
