@@ -143,3 +143,26 @@ def test_the_diagnosis_s_options_reach_the_learner():
     assert default.windows is None and default.tolerance == 1e-10
     with pytest.raises(nf.InputError, match="takes no prior"):
         nf.FitOptions(method="paper").learner(prior=object())
+
+
+def test_a_recording_a_stage_moved_is_routed_to_its_own_fit(short, tmp_path):
+    """``nf.fit`` of a recording whose body a stage moved (driven sets) takes the implicit
+    fit's route (the command's); what that fit does not take is refused before any work."""
+    from neurofuzzy.mesh import from_tetra, kuhn_block
+    from neurofuzzy.paths import DrivenPath
+    from neurofuzzy.pipeline.lab import lab_kind
+
+    points, tetrahedra = kuhn_block((1, 1, 1), 0.01)
+    mesh = from_tetra(points, tetrahedra).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+    top = np.flatnonzero(np.isclose(points[:, 2], 0.01))
+    plate = DrivenPath(top, np.linspace(0.0, -1e-3, 5)[:, None] * np.array([0.0, 0.0, 1.0]))
+    moved = nf.Experiment(mesh=mesh, dt=0.002, positions=np.repeat(points[None], 5, axis=0),
+                          driven=(plate,))
+    assert lab_kind(moved) == lab_kind(save_experiment(moved, tmp_path / "moved.npz")) \
+        == "moving boundaries"
+    assert lab_kind([tmp_path / "moved.npz"]) == "moving boundaries"
+    assert lab_kind([short, save_experiment(short, tmp_path / "cube.npz")]) is None
+    with pytest.raises(nf.InputError, match="^learn_masses: is an option of the learners'"):
+        nf.fit(moved, rules="liver", tissue="liver", learn_masses=True)
+    with pytest.raises(nf.InputError, match="^validate_on: holds no data out"):
+        nf.fit(moved, rules="liver", tissue="liver", validate_on=0.004)
