@@ -28,17 +28,17 @@ def _protected(args) -> list[Path]:
 
 
 def fit(args) -> int:
-    from ..io.load_steps import is_load_steps_file
-    from ..io.paths import is_moved_file
+    from ..pipeline.lab import LOAD_STEPS, MOVING, lab_kind
     from .moving import fit_moved
     from .steps import fit_load_steps
 
-    if is_load_steps_file(args.experiments[0]):
+    kind = lab_kind(args.experiments[0])       # a second file: refused by the lab fits
+    if kind == LOAD_STEPS:
         if args.target:
             raise InputError("is for time series run by a simulator; load steps are "
                              "equilibria, the same at any step", key="--target")
         return fit_load_steps(args)
-    if is_moved_file(args.experiments[0]):
+    if kind == MOVING:
         return fit_moved(args)
     if args.reference_noise:
         raise InputError("is for a load-step file's scans (each marker's rest point "
@@ -176,14 +176,14 @@ def _fit(args, progress, substeps, out, report, export, outputs, validate_on=Non
 
 
 def diagnose(args) -> int:
-    from ..io.load_steps import is_load_steps_file
-    from ..io.paths import is_moved_file
+    from ..pipeline.lab import LOAD_STEPS, MOVING, lab_kind
     from .moving import diagnose_moved
     from .steps import diagnose_load_steps
 
-    if is_load_steps_file(args.experiments[0]):
+    kind = lab_kind(args.experiments[0])
+    if kind == LOAD_STEPS:
         return diagnose_load_steps(args)
-    if is_moved_file(args.experiments[0]):
+    if kind == MOVING:
         return diagnose_moved(args)
     from ..diagnosis import diagnose_data
     from ..diagnosis.window import check_window

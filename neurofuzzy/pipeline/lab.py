@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from .options import FitOptions
 
-__all__ = ["lab_kind", "fit_lab"]
+__all__ = ["lab_kind", "fit_lab", "LOAD_STEPS", "MOVING"]
 
 #: what :func:`lab_kind` answers
 LOAD_STEPS, MOVING = "load steps", "moving boundaries"
