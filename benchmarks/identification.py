@@ -148,19 +148,29 @@ def bench_large_elements(results):
     substeps = auto_substeps(truth, 1e-3)      # the data's own discretisation, fitted as is
     data = simulate_experiment(truth, dt=1e-3, n_frames=41, external_forces=load,
                                substeps=substeps)
+    # the fit as it comes, with the mesh check it runs by default (one Gauss-Newton step on
+    # the mesh refined once, 82,944 tetrahedra): its seconds are the check's own, the fit's
+    # the rest (the speed target is the fit's)
     began = time.perf_counter()
     learner = GradientLearner(substeps=substeps).fit(block(4000.0, 0.4, 3.0), data)
     seconds = time.perf_counter() - began
+    check = learner.mesh_check_
+    checking = check.seconds if check is not None else 0.0
     fitted = learner.model_
     found = (float(fitted.elements.youngs_modulus[0]), float(fitted.elements.poisson_ratio[0]),
              float(fitted.elements.viscosity[0]))
     results["large_elements_per_region"] = {
-        "tetrahedra": mesh.n_tetrahedra, "nodes": mesh.n_nodes, "seconds": seconds,
+        "tetrahedra": mesh.n_tetrahedra, "nodes": mesh.n_nodes, "seconds": seconds - checking,
+        "mesh_check_seconds": checking, "with_mesh_check_seconds": seconds,
         "simulations": learner.n_cycles_, "substeps": learner.substeps_,
         "youngs_modulus": found[0], "poisson_ratio": found[1], "viscosity": found[2]}
     rows = [(f"per-region fit, {mesh.n_tetrahedra} tetrahedra (E, ν, η)",
-             f"{seconds:.0f} s, {learner.n_cycles_} simulations; E {found[0] / 6000 - 1:+.2%}, "
-             f"ν {found[1]:.4f} (0.45), η {found[2] / 2 - 1:+.1%} (target 10 s)")]
+             f"{seconds - checking:.1f} s, {learner.n_cycles_} simulations; E "
+             f"{found[0] / 6000 - 1:+.2%}, ν {found[1]:.4f} (0.45), η {found[2] / 2 - 1:+.1%} "
+             "(target 6 s)"),
+            ("  its default mesh check (one step on the mesh refined once)",
+             f"{checking:.1f} s more" if check is not None
+             else f"none: {learner.intervals_hold_}")]
     # per element: one adjoint gradient of every element's E, ν and η, numpy and compiled
     parameters = Parameterization(block(4000.0, 0.4, 3.0).tied("none"))
     theta = parameters.initial()
