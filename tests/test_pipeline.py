@@ -164,5 +164,7 @@ def test_a_recording_a_stage_moved_is_routed_to_its_own_fit(short, tmp_path):
     assert lab_kind([short, save_experiment(short, tmp_path / "cube.npz")]) is None
     with pytest.raises(nf.InputError, match="^learn_masses: is an option of the learners'"):
         nf.fit(moved, rules="liver", tissue="liver", learn_masses=True)
+    with pytest.raises(nf.InputError, match="^substeps: "):
+        nf.fit(moved, rules="liver", tissue="liver", substeps=0)
     with pytest.raises(nf.InputError, match="^validate_on: holds no data out"):
         nf.fit(moved, rules="liver", tissue="liver", validate_on=0.004)

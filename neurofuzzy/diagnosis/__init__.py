@@ -48,5 +48,5 @@ from .loop import Diagnosis, Finding, diagnose
 from .residuals import Residuals, residual_analysis
 from .scoring import Candidate
 
-__all__ = ["diagnose", "diagnose_data", "DiagnosedData", "Diagnosis", "Finding", "Candidate", "Residuals", "residual_analysis",
-           "localise", "Localisation"]
+__all__ = ["diagnose", "diagnose_data", "DiagnosedData", "Diagnosis", "Finding", "Candidate",
+           "Residuals", "residual_analysis", "localise", "Localisation"]

@@ -88,7 +88,10 @@ def fit_lab(kind: str, experiment, *, start=None, rules=None, tissue: str | None
     if validate_on is not None:
         raise InputError("holds no data out of a recording whose body a stage moved (yet); "
                          "fit it whole", key="validate_on")
-    substeps = 1 if options.substeps == "auto" else options.substeps
+    from ..simulation import check_substeps
+
+    substeps = check_substeps(options.substeps, "substeps")
+    substeps = 1 if substeps == "auto" else substeps
     return fit_moving_file(experiment, start=start, rules=rules, tissue=tissue, law=law,
                            mesh_check=options.mesh_check, substeps=substeps, progress=say)
 
