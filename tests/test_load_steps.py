@@ -106,6 +106,11 @@ def test_nf_fit_fits_load_steps_as_the_command_does(gel, tmp_path):
             nf.fit(gel, start=start, **keywords)
     with pytest.raises(InputError, match="fitted on its own"):
         nf.fit([gel, gel], start=start)
+    # and the diagnosis from data: the time series' options refused by name, before any work
+    for keywords, name in (({"localise": True}, "localise"), ({"max_time": 5.0}, "max_time"),
+                           ({"window": 40}, "window"), ({"substeps": 2}, "substeps")):
+        with pytest.raises(InputError, match=f"^{name}: "):
+            nf.diagnose_data(gel, start=start, **keywords)
 
 
 def test_scans_out_of_register_are_registered_per_step(gel):
@@ -241,7 +246,7 @@ def test_the_diagnosis_names_plate_slip_and_the_law(plate, answer):
     """A neo-Hookean gel compressed to 18 % on a plate it slides on (or is bonded to),
     started as bonded St. Venant–Kirchhoff: the diagnosis names what the set-up's model
     lacks and the misfit falls to the noise; it names nothing that is not there."""
-    from neurofuzzy.diagnosis.load_steps import diagnose_load_steps
+    from neurofuzzy.diagnosis import diagnose_data
 
     mesh = _mesh()
     truth = Model.continuum(mesh, youngs_modulus=E, poisson_ratio=NU, viscosity=1.0,
@@ -252,7 +257,7 @@ def test_the_diagnosis_names_plate_slip_and_the_law(plate, answer):
     bonded = LoadSteps(mesh, (DrivenPath(path.nodes, path.displacement, "xyz"),),
                        data.markers, data.reaction)
     start = _start(mesh).with_elements(law="st-venant-kirchhoff")
-    result = diagnose_load_steps(start, bonded)
+    result = diagnose_data(bonded, start=start)        # the command's route to the diagnosis
     assert result.names == answer
     assert result.after.marker_rms_ < 1.2 * np.sqrt(3) * 20e-6 < result.before.marker_rms_
     assert result.to_dict()["plate"] == plate and result.to_dict()["law"] == "neo-hookean"

@@ -168,3 +168,8 @@ def test_a_recording_a_stage_moved_is_routed_to_its_own_fit(short, tmp_path):
         nf.fit(moved, rules="liver", tissue="liver", substeps=0)
     with pytest.raises(nf.InputError, match="^validate_on: holds no data out"):
         nf.fit(moved, rules="liver", tissue="liver", validate_on=0.004)
+    # its diagnosis from data too: the time series' options refused by name, before any work
+    with pytest.raises(nf.InputError, match="^localise, max_time: are options of the diag"):
+        nf.diagnose_data(moved, rules="liver", tissue="liver", localise=True, max_time=9.0)
+    with pytest.raises(nf.InputError, match="^substeps: "):
+        nf.diagnose_data(moved, rules="liver", tissue="liver", substeps=0)

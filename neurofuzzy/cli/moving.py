@@ -80,9 +80,8 @@ def fit_moved(args) -> int:
 def diagnose_moved(args) -> int:
     """``diagnose`` of one experiment file with driven sets or a tool: plate slip or bonding,
     the law, each refitted through implicit steps."""
-    from ..diagnosis.moving import diagnose_moving
+    from ..diagnosis import diagnose_data
     from ..io import load_experiment, save_model
-    from ..pipeline.load_steps import load_step_start
     from .common import rule_base_for
 
     source, substeps = _one_recording(args)
@@ -91,12 +90,11 @@ def diagnose_moved(args) -> int:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
         data = load_experiment(source)
-        model = load_step_start(data, start=args.start,
-                                rules=rule_base_for(args.rules, args.tissue),
-                                tissue=args.tissue, law=getattr(args, "law", None))
-        say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
-        result = diagnose_moving(model, data, substeps=substeps,
-                                 max_effects=args.max_effects, progress=say)
+        result = diagnose_data(data, start=args.start,
+                               rules=rule_base_for(args.rules, args.tissue),
+                               tissue=args.tissue, law=getattr(args, "law", None),
+                               substeps=substeps, max_effects=args.max_effects,
+                               progress=not args.quiet)
         if out:
             save_model(result.after.model, out)
         if report:

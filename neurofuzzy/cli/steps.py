@@ -137,34 +137,26 @@ def _import_marker_driven(args, mesh, scans, drivers, outputs, out) -> int:
     return 0
 
 
-def _start(args, source):
-    """``(data, rule base, start model)`` of a load-step command."""
-    from ..io.load_steps import load_load_steps
-    from ..pipeline.load_steps import load_step_start
-    from .common import rule_base_for
-
-    if len(args.experiments) != 1:
-        raise InputError("takes one load-step file at a time", key="EXPERIMENT.npz")
-    data = load_load_steps(source)
-    rule_base = rule_base_for(args.rules, args.tissue)
-    return data, rule_base, load_step_start(data, start=args.start, rules=rule_base,
-                                            tissue=args.tissue,
-                                            law=getattr(args, "law", None))
-
-
 def diagnose_load_steps(args) -> int:
-    """``diagnose`` of a load-step file: plate slip or bonding, the law."""
-    from ..diagnosis.load_steps import diagnose_load_steps as diagnose
+    """``diagnose`` of a load-step file: plate slip or bonding, the law
+    (:func:`neurofuzzy.diagnosis.diagnose_data`, as every diagnosis of the command)."""
+    from ..diagnosis import diagnose_data
     from ..io import save_model
+    from ..io.load_steps import load_load_steps
+    from .common import rule_base_for
 
     source = Path(args.experiments[0])
     with Outputs([source] + [Path(p) for p in (args.rules, args.start) if p]) as outputs:
         out = outputs.file(args.out, "--out")
         report = outputs.file(args.report, "--report", twins=(".json",))
         only_time_series_diagnosis(args, "a load-step file")
-        data, _, model = _start(args, source)
-        say = (lambda text: print(text, file=sys.stderr)) if not args.quiet else None
-        result = diagnose(model, data, progress=say)
+        if len(args.experiments) != 1:
+            raise InputError("takes one load-step file at a time", key="EXPERIMENT.npz")
+        data = load_load_steps(source)
+        result = diagnose_data(data, start=args.start,
+                               rules=rule_base_for(args.rules, args.tissue),
+                               tissue=args.tissue, law=getattr(args, "law", None),
+                               max_effects=args.max_effects, progress=not args.quiet)
         if out:
             save_model(result.after.model_, out)
         if report:

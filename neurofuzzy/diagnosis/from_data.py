@@ -14,12 +14,17 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..experiment import Experiment
 from ..formatting import json_safe
 from ..pipeline import check_outcome, explained, require_motion
 from .loop import Diagnosis, diagnose
+
+if TYPE_CHECKING:
+    from .load_steps import LoadStepDiagnosis
+    from .moving import MovingDiagnosis
 
 __all__ = ["DiagnosedData", "diagnose_data"]
 
@@ -65,7 +70,7 @@ def diagnose_data(experiments: Experiment | str | os.PathLike | Sequence, *, sta
                   stiffening: float | None = None, localise: bool = False,
                   max_effects: int = 3, substeps: int | str = "auto", mesh_check: bool = True,
                   max_time: float | None = None, window: int | str | None = "auto",
-                  progress: bool = False) -> DiagnosedData:
+                  progress: bool = False) -> DiagnosedData | LoadStepDiagnosis | MovingDiagnosis:
     """Diagnose measured data from the start :func:`neurofuzzy.fit` would take.
 
     Parameters
@@ -80,9 +85,18 @@ def diagnose_data(experiments: Experiment | str | os.PathLike | Sequence, *, sta
     max_effects, substeps, mesh_check, max_time, window, progress
         As in :func:`~neurofuzzy.diagnosis.diagnose`.
 
+    A lab experiment, one load-step file (``LoadSteps``) or one recording whose body a stage
+    moved (an ``Experiment`` with driven sets or a tool), is diagnosed as ``neurofuzzy
+    diagnose`` diagnoses it (plate slip against bonding, the law:
+    :func:`~.load_steps.diagnose_load_steps`, :func:`~.moving.diagnose_moving`) from
+    ``start`` or ``rules`` and ``tissue``, with ``law``, ``max_effects``, ``progress`` and
+    (in time) ``substeps``; the time series' other options are refused by name, and its
+    answer is returned as it is (a ``LoadStepDiagnosis`` or ``MovingDiagnosis``).
+
     Returns
     -------
     DiagnosedData
+        Or the lab experiment's diagnosis.
 
     Raises
     ------
@@ -93,9 +107,21 @@ def diagnose_data(experiments: Experiment | str | os.PathLike | Sequence, *, sta
     """
     from ..pipeline import start_model
     from ..pipeline.fitting import experiment_list
+    from ..pipeline.lab import lab_kind
     from ..pipeline.learners import make_prior
     from ..plausibility import check_fit_inputs
 
+    kind = lab_kind(experiments)
+    if kind is not None:
+        refused = {"tie": tie, "elements": elements, "relaxation": relaxation,
+                   "stiffening": stiffening, "localise": localise or None,
+                   "max_time": max_time,
+                   "window": None if window in (None, "auto") else window,
+                   "mesh_check": None if mesh_check else False}
+        return _lab(kind, experiments[0] if isinstance(experiments, list | tuple)
+                    else experiments, start=start, rules=rules, tissue=tissue, law=law,
+                    max_effects=max_effects, substeps=substeps, progress=progress,
+                    refused=refused)
     experiments = experiment_list(experiments)
     begun = start_model(experiments, model=start, rules=rules, tissue=tissue, tie=tie,
                         elements=elements, law=law, relaxation=relaxation,
@@ -117,3 +143,42 @@ def diagnose_data(experiments: Experiment | str | os.PathLike | Sequence, *, sta
     check_outcome("diagnosis", experiments, begun.model, found.model_, found.rms_before,
                   found.rms_after, substeps)
     return DiagnosedData(diagnosis=found, start=begun, experiments=experiments)
+
+
+def _lab(kind, experiment, *, start, rules, tissue, law, max_effects, substeps, progress,
+         refused):
+    """The diagnosis of one lab experiment of ``kind``
+    (:func:`~neurofuzzy.pipeline.lab.lab_kind`), as the command runs it; ``refused``: the
+    time series' options given."""
+    from ..io import load_experiment
+    from ..io.load_steps import load_load_steps
+    from ..load_steps import LoadSteps
+    from ..pipeline.lab import LOAD_STEPS
+    from ..pipeline.load_steps import load_step_start
+    from ..progress import note
+    from ..rules import resolve
+    from ..simulation import check_substeps
+
+    given = [name for name, value in refused.items() if value is not None]
+    if given:
+        raise InputError(f"{'is an option' if len(given) == 1 else 'are options'} of the "
+                         f"diagnosis of time series under loads; {kind} are diagnosed without "
+                         "it", key=", ".join(given))
+    say = (lambda text: note(True, text)) if progress else None
+    rules = resolve(rules) if rules is not None else None
+    if kind == LOAD_STEPS:
+        from .load_steps import diagnose_load_steps
+
+        if substeps != "auto":
+            raise InputError("load steps are equilibria: there are no steps in time to "
+                             "divide", key="substeps")
+        data = experiment if isinstance(experiment, LoadSteps) else load_load_steps(experiment)
+        model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
+        return diagnose_load_steps(model, data, max_effects=max_effects, progress=say)
+    from .moving import diagnose_moving
+
+    steps = check_substeps(substeps, "substeps")
+    data = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
+    model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
+    return diagnose_moving(model, data, substeps=1 if steps == "auto" else steps,
+                           max_effects=max_effects, progress=say)
