@@ -158,8 +158,7 @@ def mooney_rivlin(G, shear, pressure, ratio):
     + (π + shear θ/3) J C⁻¹`` with ``2C₁₀ = ½ shear / (1 + r)``, ``C₀₁ = r C₁₀``
     (``r = ratio``) and ``θ = J - 1``."""
     k, det = _cofactors(G)
-    c00, c11, c22 = 1.0 + 2.0 * G[0], 1.0 + 2.0 * G[1], 1.0 + 2.0 * G[2]
-    c01, c02, c12 = 2.0 * G[3], 2.0 * G[4], 2.0 * G[5]
+    c00, c11, c22, c01, c02, c12 = _right_cauchy_green(G)
     i1 = c00 + c11 + c22
     i2 = 0.5 * (i1 * i1 - (c00 * c00 + c11 * c11 + c22 * c22
                            + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)))
