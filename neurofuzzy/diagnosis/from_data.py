@@ -153,32 +153,25 @@ def _lab(kind, experiment, *, start, rules, tissue, law, max_effects, substeps, 
     from ..io import load_experiment
     from ..io.load_steps import load_load_steps
     from ..load_steps import LoadSteps
-    from ..pipeline.lab import LOAD_STEPS
+    from ..pipeline.lab import LOAD_STEPS, lab_steps, refuse_options
     from ..pipeline.load_steps import load_step_start
     from ..progress import note
     from ..rules import resolve
-    from ..simulation import check_substeps
 
-    given = [name for name, value in refused.items() if value is not None]
-    if given:
-        raise InputError(f"{'is an option' if len(given) == 1 else 'are options'} of the "
-                         f"diagnosis of time series under loads; {kind} are diagnosed without "
-                         "it", key=", ".join(given))
+    refuse_options(refused, f"the diagnosis of time series under loads; {kind} are diagnosed "
+                   "without it")
+    steps = lab_steps(kind, substeps)
     say = (lambda text: note(True, text)) if progress else None
     rules = resolve(rules) if rules is not None else None
     if kind == LOAD_STEPS:
         from .load_steps import diagnose_load_steps
 
-        if substeps != "auto":
-            raise InputError("load steps are equilibria: there are no steps in time to "
-                             "divide", key="substeps")
         data = experiment if isinstance(experiment, LoadSteps) else load_load_steps(experiment)
         model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
         return diagnose_load_steps(model, data, max_effects=max_effects, progress=say)
     from .moving import diagnose_moving
 
-    steps = check_substeps(substeps, "substeps")
     data = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
     model = load_step_start(data, start=start, rules=rules, tissue=tissue, law=law)
-    return diagnose_moving(model, data, substeps=1 if steps == "auto" else steps,
+    return diagnose_moving(model, data, substeps=steps,
                            max_effects=max_effects, progress=say)

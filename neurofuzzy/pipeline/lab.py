@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from .options import FitOptions
 
-__all__ = ["lab_kind", "fit_lab", "LOAD_STEPS", "MOVING"]
+__all__ = ["lab_kind", "fit_lab", "refuse_options", "lab_steps", "LOAD_STEPS", "MOVING"]
 
 #: what :func:`lab_kind` answers
 LOAD_STEPS, MOVING = "load steps", "moving boundaries"
@@ -63,22 +63,18 @@ def fit_lab(kind: str, experiment, *, start=None, rules=None, tissue: str | None
     learner_options = [f.name for f in fields(FitOptions)
                        if f.name not in ("mesh_check", "progress", "substeps")
                        and getattr(options, f.name) != getattr(default, f.name)]
-    given = [name for name, value in refused.items() if value is not None] + learner_options
-    if given:
-        takes = ("start, rules, tissue, law and the options mesh_check, progress and substeps"
-                 if kind == MOVING else "start, rules, tissue, law, validate_on (load steps) "
-                 "and the options mesh_check and progress")
-        raise InputError(f"{'is an option' if len(given) == 1 else 'are options'} of the "
-                         f"learners' fit of forces on nodes in time; the fit of {kind} takes "
-                         f"{takes}", key=", ".join(given))
+    takes = ("start, rules, tissue, law and the options mesh_check, progress and substeps"
+             if kind == MOVING else "start, rules, tissue, law, validate_on (load steps) "
+             "and the options mesh_check and progress")
+    refuse_options({**refused, **dict.fromkeys(learner_options, True)},
+                   f"the learners' fit of forces on nodes in time; the fit of {kind} takes "
+                   f"{takes}")
     rules = resolve(rules) if rules is not None else None
     say = (lambda text: note(True, text)) if options.progress else None
     if kind == LOAD_STEPS:
         from .load_steps import fit_load_step_file
 
-        if options.substeps != "auto":
-            raise InputError("load steps are equilibria: there are no steps in time to "
-                             "divide", key="substeps")
+        lab_steps(kind, options.substeps)
         steps = [] if validate_on is None else _steps(validate_on)
         return fit_load_step_file(experiment, start=start, rules=rules, tissue=tissue,
                                   law=law, validate_on=steps, mesh_check=options.mesh_check,
@@ -88,12 +84,33 @@ def fit_lab(kind: str, experiment, *, start=None, rules=None, tissue: str | None
     if validate_on is not None:
         raise InputError("holds no data out of a recording whose body a stage moved (yet); "
                          "fit it whole", key="validate_on")
+    return fit_moving_file(experiment, start=start, rules=rules, tissue=tissue, law=law,
+                           mesh_check=options.mesh_check,
+                           substeps=lab_steps(kind, options.substeps), progress=say)
+
+
+def refuse_options(given: dict, of: str) -> None:
+    """Refuse, by name, every option in ``given`` (name → value) that is not None: they are
+    options ``of`` another kind of experiment (an :class:`InputError` naming them all)."""
+    names = [name for name, value in given.items() if value is not None]
+    if names:
+        raise InputError(f"{'is an option' if len(names) == 1 else 'are options'} of {of}",
+                         key=", ".join(names))
+
+
+def lab_steps(kind: str, substeps) -> int | None:
+    """Implicit steps per frame of a lab experiment of ``kind`` from the ``substeps`` given:
+    a recording in time takes a positive int (``"auto"``: one a frame); load steps are
+    equilibria and take only ``"auto"`` (None)."""
     from ..simulation import check_substeps
 
-    substeps = check_substeps(options.substeps, "substeps")
-    substeps = 1 if substeps == "auto" else substeps
-    return fit_moving_file(experiment, start=start, rules=rules, tissue=tissue, law=law,
-                           mesh_check=options.mesh_check, substeps=substeps, progress=say)
+    if kind == LOAD_STEPS:
+        if substeps != "auto":
+            raise InputError("load steps are equilibria: there are no steps in time to "
+                             "divide", key="substeps")
+        return None
+    steps = check_substeps(substeps, "substeps")
+    return 1 if steps == "auto" else steps
 
 
 def _steps(validate_on) -> list[int]:
