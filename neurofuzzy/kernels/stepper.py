@@ -130,14 +130,9 @@ def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, sh
     ``n_chunks`` runs of consecutive elements, one per thread (:func:`_passes_parallel`)."""
     general = not _only_svk(law, kappa, relax_g.shape[1] > 0)
     if buffers is None:
-        if general:
-            _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                    lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                    relax_g, relax_decay, history, kappa, force, True)
-        else:
-            _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                    lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                    relax_g, relax_decay, history, kappa, force, False)
+        _passes_one_thread(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+                           lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
+                           node_strain, relax_g, relax_decay, history, kappa, force, general)
     else:
         _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
                          lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
@@ -253,8 +248,6 @@ def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
             force[n0, r] -= q1 + q2 + q3
 
 
-
-
 @numba.njit(cache=True, nogil=True, inline="always")
 def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
             lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
@@ -269,6 +262,22 @@ def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
                         node_strain.shape[0], general)
     _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
             lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force, general)
+
+
+@numba.njit(cache=True, nogil=True)
+def _passes_one_thread(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+                       lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
+                       relax_g, relax_decay, history, kappa, force, general):
+    """:func:`_passes` on this thread (not inlined: numba kept it, inlined, in the threaded
+    variant too, and compiled that for 130 s longer)."""
+    if general:
+        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+                lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
+                relax_decay, history, kappa, force, True)
+    else:
+        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+                lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
+                relax_decay, history, kappa, force, False)
 
 
 @numba.njit(cache=True, nogil=True)
