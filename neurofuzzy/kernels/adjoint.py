@@ -45,6 +45,16 @@ def _pull_columns(out, L, B, n0, n1, n2, n3):
 
 
 @numba.njit(cache=True, nogil=True)
+def _stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
+    """:func:`~neurofuzzy.kernels.laws.stress_vjp`, compiled once as a function of its own and
+    called by both places of :func:`_element_vjp`: inlined there twice, every law's
+    complex-step stress was inlined ten times over and the adjoint's first compilation took
+    twice as long."""
+    return stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa,
+                      stiffening)
+
+
+@numba.njit(cache=True, nogil=True)
 def _element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, g_shear, g_shear_rate, g_lam,
                  g_lam_rate, g_stiffening, g_terms, node_strain, node_adjoint, relax_g,
                  relax_decay, history, lam_history, g_relax):
@@ -111,15 +121,15 @@ def _element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, g_shear, g_shear_ra
               scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
         LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, l_kappa, l_stiffening = (
-            stress_vjp(law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate,
-                       kappa, stiffening[e]))
+            _stress_vjp(law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate,
+                        kappa, stiffening[e]))
         g_terms[1] += l_kappa
         if relax_g.shape[1]:
             # S = S_rest + Σ g (S_e + r), r' = a r - (1 - a) S_e: the elastic stress' own
             # cotangent, the internal variables' and the terms' constants'
             L_el = _relaxation_vjp(LS, S_el, relax_g, relax_decay, history, lam_history,
                                    g_relax, e)
-            LG2, _, l_shear2, _, l_pressure2, _, _, l_stiffening2 = stress_vjp(
+            LG2, _, l_shear2, _, l_pressure2, _, _, l_stiffening2 = _stress_vjp(
                 law[e], G, Gd, L_el, shear[e], 0.0, pressure, 0.0, 0.0, stiffening[e])
             LG = (LG[0] + LG2[0], LG[1] + LG2[1], LG[2] + LG2[2], LG[3] + LG2[3],
                   LG[4] + LG2[4], LG[5] + LG2[5])
