@@ -101,7 +101,8 @@ def _static() -> None:
 
 #: part name → its workload, the longest first; parts share no compiled function, so they
 #: compile side by side (cold, with and without the element code, the first two at once
-#: and then the third on two cores: 115, 139 and 29 s, 145 s in all)
+#: and then the third, 2026-12-02 on two cores: 107, 150 and 23 s, 150 s in all; 344 s
+#: before the threaded passes and the adjoint stopped inlining their callees twice)
 PARTS = {"sensitivity": _learner_part, "stepper": _stepper, "static": _static}
 
 

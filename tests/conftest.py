@@ -36,7 +36,7 @@ def pytest_configure(config):
     (``--maxschedchunk 2`` unless given; xdist's default first hands each worker a quarter
     of its share, consecutive tests, so an order of long tests first would give one worker
     all of them), and the kernels compiled once, side by side, before the workers start
-    (:mod:`neurofuzzy.warmup`; about 1¾ minutes on two cores when the cache is cold, a few
+    (:mod:`neurofuzzy.warmup`; about 2½ minutes on two cores when the cache is cold, a few
     seconds when it is warm). Otherwise every worker, and every command a test runs, would
     compile the kernels it meets while the cache is still cold.
 

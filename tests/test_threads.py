@@ -59,7 +59,7 @@ def test_small_models_and_worker_threads_stay_on_one_thread():
 
 
 @two_threads
-@pytest.mark.slow       # the parallel passes compile for about 25 s on a fresh cache
+@pytest.mark.slow       # the parallel passes compile for about a minute on a fresh cache
 @pytest.mark.parametrize("law, relaxing", [("st-venant-kirchhoff", False),
                                            ("neo-hookean", True)])
 def test_steps_on_two_threads_equal_one(threads, law, relaxing):
