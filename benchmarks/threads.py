@@ -1,7 +1,7 @@
 """Both cores for the element passes: the step rate and the stiffness matrix's time of Kuhn
 blocks at 1 and 2 threads, side by side in one run (:mod:`neurofuzzy.simulation.threads`).
 
-    python benchmarks/threads.py [--cells 6 8 12 20] [--steps 2000]
+    python benchmarks/threads.py [--cells 6 8 12 20] [--steps 2000] [--sweeps]
 
 For each block (six tetrahedra a cell, bottom fixed, the nodal volumetric form at ν 0.49), the
 explicit step rate of St. Venant–Kirchhoff (the specialised passes) and of neo-Hookean with one
@@ -11,6 +11,11 @@ implicit step's Jacobian), each at 1 and 2 threads (:func:`numba.set_num_threads
 five, alternately. Blocks under :data:`~neurofuzzy.simulation.threads.PARALLEL_FROM`
 elements stay on one thread by design; their ratio shows what that costs (nothing). Prints
 the table and writes ``benchmarks/threads.json``.
+
+With ``--sweeps``, the learners' derivative sweeps of the same blocks beside them: one run of
+the forward sensitivities with three columns (E, ν and η of one region, as a per-region fit's
+Jacobian) and one adjoint gradient of every element's E, ν and η (as L-BFGS takes it), both
+over a push of 20 frames of 1 ms at the data's substeps (JSON key ``sweeps``).
 """
 
 from __future__ import annotations
@@ -91,10 +96,54 @@ def measure(cells, steps, repeat=5):
     return rows
 
 
+def sweeps(cells, repeat=5):
+    """The seconds of a Jacobian of three columns and of an adjoint gradient at 1 and 2
+    threads, best of ``repeat``, alternately."""
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.learn import Parameterization, auto_substeps
+    from neurofuzzy.learn._sensitivity import Sensitivity
+
+    rows = []
+    for law, relaxing in (("st-venant-kirchhoff", False), ("neo-hookean", True)):
+        model = _block(cells, law, relaxing)
+        rest = model.mesh.rest_positions
+        push = np.zeros((model.n_nodes, 3))
+        push[rest[:, 2] > rest[:, 2].max() - 1e-9] = (1e-3, 0.0, -3e-3)
+        substeps = auto_substeps(model, 1e-3)
+        data = simulate_experiment(model, dt=1e-3, n_frames=21, external_forces=push,
+                                   substeps=substeps)
+        region = Parameterization(model.tied("global"))
+        per_element = Parameterization(model.tied("none"))
+        forward = Sensitivity(region, model.length_unit)
+        backward = Sensitivity(per_element, model.length_unit)
+        row = {"cells": cells, "tetrahedra": model.mesh.n_tetrahedra,
+               "law": law + (" + 1 Prony term" if relaxing else ""), "substeps": substeps}
+        seconds = {(kind, count): np.inf for kind in ("jacobian", "gradient")
+                   for count in (1, 2)}
+        for _ in range(repeat):
+            for count in (1, 2):
+                numba.set_num_threads(count)
+                jacobian = lambda: forward.run(region.initial(), data, tangents=True,  # noqa
+                                               substeps=substeps, threads=count)
+                gradient = lambda: backward.gradient(per_element.initial(), data,  # noqa
+                                                     substeps=substeps)
+                for kind, function in (("jacobian", jacobian), ("gradient", gradient)):
+                    function()
+                    seconds[kind, count] = min(seconds[kind, count], _best(function, 1))
+        for (kind, count), value in seconds.items():
+            row[f"{kind}_s_{count}"] = value
+        row["jacobian_speedup"] = row["jacobian_s_1"] / row["jacobian_s_2"]
+        row["gradient_speedup"] = row["gradient_s_1"] / row["gradient_s_2"]
+        rows.append(row)
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cells", type=int, nargs="+", default=[6, 8, 12, 20])
     parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--sweeps", action="store_true",
+                        help="the learners' derivative sweeps too")
     parser.add_argument("--out", default=str(Path(__file__).with_suffix(".json")))
     args = parser.parse_args(argv)
     if numba.config.NUMBA_NUM_THREADS < 2:
@@ -102,6 +151,8 @@ def main(argv=None):
                  ">= 2)")
     before = numba.get_num_threads()
     rows = [row for cells in args.cells for row in measure(cells, args.steps)]
+    derivative_rows = ([row for cells in args.cells for row in sweeps(cells)] if args.sweeps
+                       else [])
     numba.set_num_threads(before)
     print(f"parallel from {PARALLEL_FROM} elements; numba threading layer "
           f"{numba.threading_layer()}")
@@ -112,8 +163,18 @@ def main(argv=None):
               f"{r['steps_per_s_2']:>10.0f} {r['step_speedup']:>6.2f} "
               f"{r['tangents_s_1']:>8.3f} {r['tangents_s_2']:>7.3f} "
               f"{r['tangents_speedup']:>6.2f}")
-    Path(args.out).write_text(json.dumps({"parallel_from": PARALLEL_FROM, "rows": rows},
-                                         indent=1) + "\n")
+    if derivative_rows:
+        print(f"\n{'tets':>7} {'law':<32} {'J 1 (s)':>8} {'2 (s)':>7} {'ratio':>6} "
+              f"{'grad 1 (s)':>10} {'2 (s)':>7} {'ratio':>6}")
+    for r in derivative_rows:
+        print(f"{r['tetrahedra']:>7} {r['law']:<32} {r['jacobian_s_1']:>8.3f} "
+              f"{r['jacobian_s_2']:>7.3f} {r['jacobian_speedup']:>6.2f} "
+              f"{r['gradient_s_1']:>10.3f} {r['gradient_s_2']:>7.3f} "
+              f"{r['gradient_speedup']:>6.2f}")
+    results = {"parallel_from": PARALLEL_FROM, "rows": rows}
+    if derivative_rows:
+        results["sweeps"] = derivative_rows
+    Path(args.out).write_text(json.dumps(results, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -112,7 +112,7 @@ def test_a_cold_cache_is_announced_and_a_warm_one_is_silent(tmp_path):
 _SPRINGS_ONLY = """
 import json
 from neurofuzzy.datasets import paper_cube_experiment, paper_cube_model
-from neurofuzzy.kernels import adjoint, sensitivity, stepper
+from neurofuzzy.kernels import adjoint, element_jvp, element_vjp, sensitivity, stepper
 from neurofuzzy.learn import GradientLearner
 from neurofuzzy.learn.warmup import Parameterization, Sensitivity
 
@@ -123,8 +123,8 @@ parameters = Parameterization(model.tied("global"))
 Sensitivity(parameters, model.length_unit).run(parameters.initial(), data, tangents=True)
 kernels = {"frames": stepper.frames, "forward": sensitivity.forward,
            "pull_back": adjoint.pull_back, "_element_forces": stepper._element_forces,
-           "_element_tangents": sensitivity._element_tangents,
-           "_element_vjp": adjoint._element_vjp}
+           "element_jvp": element_jvp.element_jvp,
+           "element_vjp": element_vjp.element_vjp}
 print(json.dumps({name: [[str(t) for t in s] for s in kernel.signatures]
                   for name, kernel in kernels.items()}))
 """
@@ -144,5 +144,5 @@ def test_a_spring_model_compiles_no_element_code(tmp_path):
     assert signatures["frames"] and all(s[8] == "none" for s in signatures["frames"])
     assert signatures["forward"] and all(s[12] == "none" for s in signatures["forward"])
     assert signatures["pull_back"] and all(s[6] == "none" for s in signatures["pull_back"])
-    for loop in ("_element_forces", "_element_tangents", "_element_vjp"):
+    for loop in ("_element_forces", "element_jvp", "element_vjp"):
         assert signatures[loop] == [], loop

@@ -1,5 +1,6 @@
-"""The element passes on both cores: the same numbers as on one, for large models run from the
-main thread only (:mod:`neurofuzzy.simulation.threads`)."""
+"""The element passes on both cores (the stepper's, the forward sensitivities' and the element
+stiffness): the same numbers as on one, for large models run from the main thread only
+(:mod:`neurofuzzy.simulation.threads`)."""
 
 import re
 import threading
@@ -84,6 +85,53 @@ def test_steps_on_two_threads_equal_one(threads, law, relaxing):
 
 
 @two_threads
+@pytest.mark.slow       # the tangents' parallel passes compile with the learner's kernels
+@pytest.mark.parametrize("law, relaxing", [("st-venant-kirchhoff", False),
+                                           ("neo-hookean", True)])
+def test_derivatives_on_two_threads_equal_one(threads, monkeypatch, law, relaxing):
+    """The forward sensitivities and the adjoint of a large model split its elements over the
+    threads (every column in one run; :mod:`neurofuzzy.kernels.element_jvp` and
+    :mod:`~neurofuzzy.kernels.element_vjp`): the same Jacobian and gradient as on one thread,
+    for the specialised passes and the general ones with internal variables."""
+    from neurofuzzy.experiment import Experiment
+    from neurofuzzy.learn import Parameterization, _compiled_gradient, auto_substeps
+    from neurofuzzy.learn._compiled import CompiledModel
+    from neurofuzzy.learn._sensitivity import Sensitivity
+
+    model = _block(law=law, relaxing=relaxing)
+    rest = model.mesh.rest_positions
+    push = np.zeros((model.n_nodes, 3))
+    push[rest[:, 2] > rest[:, 2].max() - 1e-9] = (1e-3, 0.0, -3e-3)
+    data = Experiment(model.mesh, 1e-3, np.repeat(rest[None], 4, axis=0),
+                      external_forces=push)
+    parameters = Parameterization(model.tied("global"))
+    sensitivity = Sensitivity(parameters, model.length_unit)
+    chunks, adjoint_chunks = [], []
+    run = CompiledModel.run
+    monkeypatch.setattr(CompiledModel, "run", lambda self, *a, **k: (
+        chunks.append(k.get("chunks")), run(self, *a, **k))[1])
+    monkeypatch.setattr(_compiled_gradient, "element_threads", lambda n: (
+        adjoint_chunks.append(element_threads(n)), adjoint_chunks[-1])[1])
+    results, gradients = [], []
+    substeps = auto_substeps(model, 1e-3)
+    for count in (1, 2):
+        threads(count)
+        results.append(sensitivity.run(parameters.initial(), data, tangents=True,
+                                       substeps=substeps, threads=count))
+        gradients.append(sensitivity.gradient(parameters.initial(), data,
+                                              substeps=substeps)[1])
+    assert chunks == [1, 2] and adjoint_chunks == [1, 2]
+    one, two = results
+    assert np.abs(one.jacobian).max() > 0.0 and np.all(np.isfinite(two.jacobian))
+    np.testing.assert_allclose(two.residuals, one.residuals, rtol=0, atol=1e-12)
+    assert np.abs(two.jacobian - one.jacobian).max() <= 1e-10 * np.abs(one.jacobian).max()
+    # the gradient is Jᵀ r (the adjoint and the tangents agree), on either count
+    expected = one.jacobian.reshape(-1, parameters.size).T @ one.residuals.ravel()
+    np.testing.assert_allclose(gradients[0], expected, rtol=1e-8)
+    assert np.abs(gradients[1] - gradients[0]).max() <= 1e-10 * np.abs(gradients[0]).max()
+
+
+@two_threads
 def test_stiffness_on_two_threads_equals_one(threads):
     model = _block(cells=8)
     p = _disturbed(model, seed=1)
@@ -113,4 +161,4 @@ def test_the_two_thread_checks_in_a_process_of_two_threads():
         env={**os.environ, "NUMBA_NUM_THREADS": "2"}, capture_output=True, text=True,
         check=False, timeout=900)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
-    assert re.search(r"\b3 passed\b", result.stdout) and "skipped" not in result.stdout
+    assert re.search(r"\b5 passed\b", result.stdout) and "skipped" not in result.stdout

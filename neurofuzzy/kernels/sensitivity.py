@@ -13,7 +13,8 @@ reference path (:meth:`neurofuzzy.forces.Springs.state_jvp`, ``parameter_templat
 - tetrahedral elements of each element's law (:mod:`neurofuzzy.kernels.laws`; module
   :mod:`neurofuzzy.forces.tetrahedra`), parameters ``log E``, ``logit 2ν`` and ``log η`` of
   the element's tie group; the volumetric ``π``, ``π̇`` per element or from the node averages
-  (two passes over the elements).
+  (two passes over the elements; :mod:`neurofuzzy.kernels.element_jvp`, on several threads
+  for a large model).
 
 Layout for speed: the tangents are ``(N, 3, P)``, parameters last, so the loop over the
 parameters of one spring reads and writes contiguous memory without a branch (it vectorises);
@@ -26,19 +27,10 @@ Imported only when numba is installed (module-level, ``cache=True``).
 import numba
 import numpy as np
 
+from .element_jvp import CONTRACT, element_jvp
 from .integrator import euler_update
 from .springs import partial
-from .stepper import _only_svk, _spring
-from .laws import ST_VENANT_KIRCHHOFF, stress_jvp, volumetric
-from .relaxation import relax, relaxation_tangent, relaxed_stress
-from .tuples import (_differences, _dot, _edges, _edges_of_tangent, _full, _green, _mul, _scatter,
-                     _sym_dot, _sym_t_mul)
-
-
-#: the tangents' arithmetic may fuse a multiply and an add (one rounding instead of two: FMA,
-#: about 10 % of a tangent sweep of the 10,368-tetrahedron block); nothing else of fast math
-#: (NaN and infinity keep their meaning: a run that leaves the finite numbers is still seen)
-CONTRACT = {"contract"}
+from .stepper import _spring
 
 
 # -- springs -----------------------------------------------------------------------------------
@@ -105,196 +97,6 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
             fbz[q] -= tz[q]
 
 
-# -- tetrahedral elements ----------------------------------------------------------------------
-@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
-def _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
-                    node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
-                    d_node_strain, general):
-    """Nodal volumetric form: ``node_strain[:, 0]``, ``[:, 1]`` the node pressures ``Λ θ̄``
-    and ``H θ̄̇`` and ``d_node_strain[:, q, :]`` their tangents (the node averages of the
-    laws' ``θ`` and of ``θ̇ = tr Ġ`` and of their tangents first)."""
-    n_params = tp.shape[2]
-    node_strain[:] = 0.0
-    d_node_strain[:] = 0.0
-    for e in range(tets.shape[0]):
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        B = inverse_rest[e]
-        F = _edges(p, n0, n1, n2, n3, B)
-        Fd = _edges(v, n0, n1, n2, n3, B)
-        G, Gd = _green(F, Fd)
-        theta, N = volumetric(law[e] if general else ST_VENANT_KIRCHHOFF, G)
-        theta_rate = Gd[0] + Gd[1] + Gd[2]
-        corner = 0.25 * volume[e]
-        for node in (n0, n1, n2, n3):
-            node_strain[node, 0] += corner * theta
-            node_strain[node, 1] += corner * theta_rate
-        if n_params == 0:
-            continue
-        # dθ = N : dG with dG = sym(Fᵀ dF), so dθ = dF : (F N) = Σ dDs ∘ (F N Bᵀ);
-        # dθ̇ = dF : Ḟ + F : dḞ likewise
-        Bt = (B[0, 0], B[1, 0], B[2, 0], B[0, 1], B[1, 1], B[2, 1], B[0, 2], B[1, 2], B[2, 2])
-        A = _mul(_mul(F, _full(N)), Bt)
-        Ar = _mul(F, Bt)
-        Ad = _mul(Fd, Bt)
-        for q in range(n_params):
-            D = _differences(tp, n0, n1, n2, n3, q)
-            W = _differences(tv, n0, n1, n2, n3, q)
-            d_theta = corner * _dot(D, A)
-            d_theta_rate = corner * (_dot(D, Ad) + _dot(W, Ar))
-            for node in (n0, n1, n2, n3):
-                d_node_strain[node, q, 0] += d_theta
-                d_node_strain[node, q, 1] += d_theta_rate
-    for i in range(node_strain.shape[0]):
-        if node_volume[i] > 0.0:
-            theta = node_strain[i, 0] / node_volume[i]
-            theta_rate = node_strain[i, 1] / node_volume[i]
-            node_strain[i, 0] = node_lam[i] * theta
-            node_strain[i, 1] = node_lam_rate[i] * theta_rate
-            for q in range(n_params):
-                d_node_strain[i, q, 0] = (node_lam[i] * d_node_strain[i, q, 0] / node_volume[i]
-                                          + d_node_lam[i, first + q] * theta)
-                d_node_strain[i, q, 1] = (node_lam_rate[i] * d_node_strain[i, q, 1]
-                                          / node_volume[i]
-                                          + d_node_lam_rate[i, first + q] * theta_rate)
-
-
-@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
-def _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening, shear,
-                      shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                      element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate,
-                      d_node_lam, d_node_lam_rate, kappa, kappa_column, stiffening_column,
-                      relax_g, relax_decay,
-                      relax_column, history, d_history, first, node_strain, d_node_strain,
-                      force, d_force):
-    """Element forces and their tangents: each element's law (:mod:`.laws`) with strain
-    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1), the law's own
-    stiffening constant ``stiffening[e]`` (``stiffening_column[e]`` the column of its
-    logarithm, -1 when not learned) and Prony relaxation
-    (:mod:`.relaxation`; ``relax_column[e, k]`` the columns of term k's ``log g`` and
-    ``log τ``, -1 when not learned), whose internal variables ``history`` and their tangents
-    ``d_history`` (n_elements, K, 6, P) it advances; the element's parameter columns (CSR
-    ``element_ptr``/``element_column``, columns ascending) carry the derivatives of its four
-    constants, and with ``nodal`` those of the node averages (``d_node_lam*``). Tangent ``q``
-    is that of parameter ``first + q``.
-
-    The loop is compiled twice (``general`` a constant at each call), as the stepper's
-    (:func:`neurofuzzy.kernels.stepper._element_forces`): for elements that are all
-    St. Venant–Kirchhoff without stiffening or relaxation the law is a constant of the
-    loop."""
-    # (packed in tuples: a call of more than 30 arguments is a call with *args in
-    # CPython 3.11's bytecode, which numba cannot inline)
-    arrays = (tets, inverse_rest, volume, law, stiffening)
-    constants = (shear, shear_rate, lam, lam_rate)
-    node_arrays = (node_volume, node_lam, node_lam_rate, d_node_lam, d_node_lam_rate)
-    columns = (element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate)
-    relaxation = (relax_g, relax_decay, relax_column, history, d_history)
-    if _only_svk(law, kappa, relax_g.shape[1] > 0):
-        _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
-                        kappa_column, stiffening_column, relaxation, first, node_strain,
-                        d_node_strain, force, d_force, False)
-    else:
-        _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
-                        kappa_column, stiffening_column, relaxation, first, node_strain,
-                        d_node_strain, force, d_force, True)
-
-
-@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
-def _tangent_passes(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
-                    kappa_column, stiffening_column, relaxation, first, node_strain,
-                    d_node_strain, force, d_force, general):
-    """:func:`_element_tangents`' passes, for any laws (``general``) or St. Venant–Kirchhoff
-    alone."""
-    tets, inverse_rest, volume, law, stiffening = arrays
-    shear, shear_rate, lam, lam_rate = constants
-    node_volume, node_lam, node_lam_rate, d_node_lam, d_node_lam_rate = node_arrays
-    element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate = columns
-    relax_g, relax_decay, relax_column, history, d_history = relaxation
-    n_params = tp.shape[2]
-    # St. Venant–Kirchhoff alone: no stiffening, no relaxation
-    n_terms = relax_g.shape[1] if general else 0
-    strain_stiffening = kappa if general else 0.0
-    if nodal:
-        _node_pressures(p, v, tp, tv, tets, inverse_rest, volume, law, node_volume, node_lam,
-                        node_lam_rate, d_node_lam, d_node_lam_rate, first, node_strain,
-                        d_node_strain, general)
-    for e in range(tets.shape[0]):
-        own = law[e] if general else ST_VENANT_KIRCHHOFF
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        B = inverse_rest[e]
-        F = _edges(p, n0, n1, n2, n3, B)
-        Fd = _edges(v, n0, n1, n2, n3, B)
-        G, Gd = _green(F, Fd)
-        theta, N = volumetric(own, G)
-        theta_rate = Gd[0] + Gd[1] + Gd[2]
-        if nodal:
-            pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
-                               + node_strain[n3, 0])
-            pressure_rate = 0.25 * (node_strain[n0, 1] + node_strain[n1, 1]
-                                    + node_strain[n2, 1] + node_strain[n3, 1])
-        else:
-            pressure = lam[e] * theta
-            pressure_rate = lam_rate[e] * theta_rate
-        S6, S_el = relaxed_stress(own, G, Gd, shear[e], shear_rate[e], pressure,
-                                  pressure_rate, strain_stiffening, stiffening[e], relax_g,
-                                  history, e)
-        S = _full(S6)
-        scale = -volume[e]
-        _scatter(force, _mul(F, S), B, scale, n0, n1, n2, n3, -1)
-        if n_params == 0:
-            if n_terms:
-                relax(S_el, relax_decay, history, e)
-            continue
-        entry, stop = element_ptr[e], element_ptr[e + 1]
-        while entry < stop and element_column[entry] < first:
-            entry += 1
-        for q in range(n_params):
-            # the state's part: dG, dĠ and the pressures' changes through θ, θ̇
-            dF = _edges_of_tangent(tp, n0, n1, n2, n3, B, q)
-            dFd = _edges_of_tangent(tv, n0, n1, n2, n3, B, q)
-            dG = _sym_t_mul(F, dF)
-            dGa = _sym_t_mul(dF, Fd)
-            dGb = _sym_t_mul(F, dFd)
-            dGd = (dGa[0] + dGb[0], dGa[1] + dGb[1], dGa[2] + dGb[2], dGa[3] + dGb[3],
-                   dGa[4] + dGb[4], dGa[5] + dGb[5])
-            if nodal:
-                d_pressure = 0.25 * (d_node_strain[n0, q, 0] + d_node_strain[n1, q, 0]
-                                     + d_node_strain[n2, q, 0] + d_node_strain[n3, q, 0])
-                d_pressure_rate = 0.25 * (d_node_strain[n0, q, 1] + d_node_strain[n1, q, 1]
-                                          + d_node_strain[n2, q, 1] + d_node_strain[n3, q, 1])
-            else:
-                d_pressure = lam[e] * _sym_dot(N, dG)
-                d_pressure_rate = lam_rate[e] * (dGd[0] + dGd[1] + dGd[2])
-            shear_part = 0.0       # the element's own constants, when q is one of them
-            rate_part = 0.0
-            while entry < stop and element_column[entry] == first + q:
-                shear_part += d_shear[entry]
-                rate_part += d_shear_rate[entry]
-                if not nodal:
-                    d_pressure += d_lam[entry] * theta
-                    d_pressure_rate += d_lam_rate[entry] * theta_rate
-                entry += 1
-            d_kappa = 1.0 if first + q == kappa_column else 0.0
-            # the law's constant is learned by its logarithm: dc/d log c = c
-            d_stiffening = stiffening[e] if first + q == stiffening_column[e] else 0.0
-            dS6 = stress_jvp(own, G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
-                             pressure_rate, strain_stiffening, stiffening[e], shear_part,
-                             rate_part, d_pressure, d_pressure_rate, d_kappa, d_stiffening)
-            if n_terms:
-                dS6 = relaxation_tangent(dS6, own, G, Gd, dG, dGd, shear[e], pressure,
-                                         stiffening[e], shear_part, d_pressure, d_stiffening,
-                                         S_el, relax_g, relax_decay, relax_column, history,
-                                         d_history, e, first + q, q)
-            dS = _full(dS6)
-            dFS = _mul(dF, S)                            # dP = dF S + F dS
-            FdS = _mul(F, dS)
-            dP = (dFS[0] + FdS[0], dFS[1] + FdS[1], dFS[2] + FdS[2], dFS[3] + FdS[3],
-                  dFS[4] + FdS[4], dFS[5] + FdS[5], dFS[6] + FdS[6], dFS[7] + FdS[7],
-                  dFS[8] + FdS[8])
-            _scatter(d_force, dP, B, scale, n0, n1, n2, n3, q)
-        if n_terms:
-            relax(S_el, relax_decay, history, e)
-
-
 # -- one experiment ----------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_column,
@@ -304,12 +106,14 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             d_node_lam_rate, kappa, kappa_column, stiffening_column, relax_g, relax_decay,
             relax_column, drag, drag_column, force_direction, weight, mass_column,
             unit_mass_force, loads, h, n_frames, substeps, first, width, start_index, start_p,
-            start_v, rows_start, rows_node, rows_weight, seen, scale, positions, jacobian):
+            start_v, rows_start, rows_node, rows_weight, seen, scale, positions, jacobian,
+            chunks):
     """Positions (n_frames, N, 3) and columns ``first .. first + width - 1`` of ``jacobian``
     (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured (frame, row), 0
     elsewhere (threads given disjoint columns of one array split an experiment's Jacobian).
     A run of the state alone takes the faster :func:`neurofuzzy.kernels.stepper.frames`.
     ``tets`` None: a model without elements, compiled without the element code (as there).
+    ``chunks``: the threads of the element passes (:func:`.element_jvp.element_jvp`).
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
@@ -339,6 +143,10 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     # starts (a window starts from a measured state; the elements' history goes on)
     history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6))
     d_history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6, width))
+    # the element passes' threads after the first: their own sums and forces
+    others = max(chunks - 1, 0) if tets is not None else 0
+    buffers = (np.zeros((others, n_nodes, 2)), np.zeros((others, n_nodes, width, 2)),
+               np.zeros((others, n_nodes, 3)), np.zeros((others, n_nodes, 3, width)))
     for t in range(n_frames):
         if start_index[t] >= 0:
             p[:] = start_p[start_index[t]]
@@ -363,14 +171,14 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
                              spring_column, spring_basis, spring_factor, first, force, d_force,
                              work)
             if tets is not None:       # None: no elements, and no element code compiled
-                _element_tangents(p, v, tp, tv, tets, inverse_rest, volume, law, stiffening,
-                                  shear, shear_rate, lam, lam_rate, nodal, node_volume,
-                                  node_lam, node_lam_rate, element_ptr, element_column,
-                                  d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-                                  d_node_lam_rate, kappa, kappa_column, stiffening_column,
-                                  relax_g, relax_decay,
-                                  relax_column, history, d_history, first, node_strain,
-                                  d_node_strain, force, d_force)
+                element_jvp(p, v, tp, tv, (tets, inverse_rest, volume, law, stiffening),
+                            (shear, shear_rate, lam, lam_rate), nodal,
+                            (node_volume, node_lam, node_lam_rate, d_node_lam,
+                             d_node_lam_rate),
+                            (element_ptr, element_column, d_shear, d_shear_rate, d_lam,
+                             d_lam_rate), kappa, kappa_column, stiffening_column,
+                            (relax_g, relax_decay, relax_column, history, d_history), first,
+                            node_strain, d_node_strain, force, d_force, buffers)
             for i in range(mass_column.shape[0]):
                 c = mass_column[i] - first
                 if 0 <= c < width:

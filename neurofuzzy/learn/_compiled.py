@@ -151,13 +151,15 @@ class CompiledModel:
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
             columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None,
-            frames: tuple[int, int] | None = None, positions: np.ndarray | None = None):
+            frames: tuple[int, int] | None = None, positions: np.ndarray | None = None,
+            chunks: int = 1):
         """``(positions, jacobian)`` of one experiment; ``states`` maps every window start
         frame to its ``(p, v)``. With ``columns = (first, stop)`` only those columns of the
         Jacobian, written into ``jacobian`` (the state is simulated whole either way). With
         ``frames = (a, b)`` only frames ``a .. b - 1`` (``a`` a window start; models whose
         elements do not relax, so that windows are independent), written into
-        ``positions`` and ``jacobian``."""
+        ``positions`` and ``jacobian``. ``chunks``: the threads of the element passes (one
+        unless run from the main thread, :mod:`neurofuzzy.simulation.threads`)."""
         from ..kernels.sensitivity import forward
 
         if not tangents:        # the state alone: the stepper's driver, the faster sweep
@@ -193,8 +195,13 @@ class CompiledModel:
                     int(substeps), int(first), int(width), start_index[a:b], start_p, start_v,
                     operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
                     operator.data.astype(float), seen[a:b], float(scale),
-                    positions[a:b], jacobian[a:b - 1])
+                    positions[a:b], jacobian[a:b - 1], int(chunks))
         return positions, jacobian
+
+    @property
+    def n_elements(self) -> int:
+        """The tetrahedra the kernels loop over (0 for a model of springs alone)."""
+        return self.elements[0].shape[0] if self.elements[0] is not None else 0
 
     def frames(self, experiment, states, *, substeps: int, keep: bool = False):
         """``(positions, kept)``: the positions (n_frames, N, 3) of one experiment by the
@@ -226,8 +233,7 @@ class CompiledModel:
                    self.effects[0], np.ascontiguousarray(self.weight, dtype=float), loads, h,
                    n_frames, int(substeps), np.empty((n_nodes, 3)), positions,
                    np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept,
-                   element_buffers(elements[0].shape[0] if elements[0] is not None else 0,
-                                   n_nodes))
+                   element_buffers(self.n_elements, n_nodes))
         return positions, (kept if keep else None)
 
 

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..effects.compiled import CUBIC
 from ..forces.relaxation import decay
+from ..simulation.threads import element_threads
 from ._compiled import CompiledModel, _windows
 from ._passes import Run
 
@@ -73,7 +74,8 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts, cotangen
     pull_back(a, b, stiffness, damping, rest, cubic, None if elements[0] is None else elements,
               kappa, relax_g, relax_decay, drag, weight, h, n_frames, int(substeps),
               start_index, states_p, states_v, states_r, states_f, unit_mass_force,
-              frame_adjoint, d_springs, d_elements, g_relax, g_mass, g_load, g_terms)
+              frame_adjoint, d_springs, d_elements, g_relax, g_mass, g_load, g_terms,
+              element_threads(compiled.n_elements))
     for span in spans:
         grad[span] += np.einsum("nk,nkp->p", g_load, direction[:, :, span])
     if drag_column >= 0:

@@ -25,6 +25,7 @@ import numpy as np
 from ..errors import InputError
 from ..experiment import Experiment
 from ..observation import remove_offsets
+from ..simulation.threads import element_threads
 from ._compiled import CompiledModel
 from ._compiled_gradient import compiled_gradient
 from ._passes import Run, cores
@@ -72,22 +73,26 @@ class Sensitivity:
     def run(self, theta: np.ndarray, experiment: Experiment, *, substeps: int = 1,
             starts=(0,), tangents: bool = False, threads: int | None = 1) -> Run:
         """Simulate ``experiment`` with parameters ``theta``; optionally forward sensitivities
-        (in the compiled kernel split by columns over ``threads`` threads: each simulates the
-        state and carries its share of the tangents; None: the cores the kernels may use)."""
+        on up to ``threads`` threads (None: the cores the kernels may use): split by windows,
+        by the elements of a large model, or by columns (each thread simulates the state and
+        carries its share of the tangents)."""
         threads = (cores() if threads is None else threads) if tangents else 1
         model = self.parameters.model(theta)
         states = {t: self._window_state(experiment, t) for t in set(int(t) for t in starts)
                   | {0}}
         compiled = CompiledModel(self.parameters, model)
-        # a thread's share of the columns costs one simulation more than the share itself:
-        # split only into shares of at least one column each
-        bounds = np.linspace(0, compiled.n_params, min(threads, compiled.n_params) + 1)
-        shares = [(int(a), int(b)) for a, b in zip(bounds[:-1].round(), bounds[1:].round())]
-        # windows are independent when no element relaxes (no internal variables go on from
-        # one to the next): each thread then takes a run of whole windows with every column,
-        # and no thread simulates the state of another's frames
+        # the ways to spread one run over threads, the best first: whole windows (when no
+        # element relaxes, no internal variables go on from one window to the next; no thread
+        # simulates the state of another's frames), the element passes of a large model run
+        # from the main thread (every column in one run), or shares of the columns (each
+        # thread simulates the state as well, so only shares of at least one column each)
         spans = (_window_spans(sorted(states), experiment.n_frames, threads)
                  if tangents and threads > 1 and not model.n_relaxation_terms else [])
+        chunks = (min(threads, element_threads(compiled.n_elements))
+                  if tangents and len(spans) < 2 else 1)
+        bounds = np.linspace(0, compiled.n_params, min(threads, compiled.n_params) + 1)
+        shares = ([(int(a), int(b)) for a, b in zip(bounds[:-1].round(), bounds[1:].round())]
+                  if chunks < 2 else [])
 
         if len(spans) > 1 or len(shares) > 1:      # each thread writes its part of one array
             n_frames = experiment.n_frames
@@ -107,7 +112,7 @@ class Sensitivity:
         else:
             positions, jacobian = compiled.run(experiment, states, substeps=substeps,
                                                scale=1.0 / self.length_unit,
-                                               tangents=tangents)
+                                               tangents=tangents, chunks=chunks)
         observation = experiment.observation
         with np.errstate(over="ignore", invalid="ignore"):
             residuals = self._projected(observation.residuals(positions)[1:]
