@@ -239,6 +239,16 @@ def _stage(p, v, elements, kappa, lam_force, out, d_out, adjoint_out, gradients,
                  memory)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _gather(total, parts, i):
+    """Node ``i``'s rows of the other threads' buffers ``parts`` (threads - 1, N, k) added
+    into ``total`` (N, k), and left zero."""
+    for c in range(parts.shape[0]):
+        for k in range(total.shape[1]):
+            total[i, k] += parts[c, i, k]
+            parts[c, i, k] = 0.0
+
+
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _parallel(p, v, elements, kappa, lam_force, d_p, d_v, gradients, g_terms, node_strain,
               node_adjoint, relaxation, buffers):
@@ -260,10 +270,7 @@ def _parallel(p, v, elements, kappa, lam_force, d_p, d_v, gradients, g_terms, no
                    node_strain if c == 0 else strain_part[c - 1], d_p, node_adjoint,
                    gradients, node_strain, node_adjoint, relaxation, lo, hi, np.intp(1))
         for i in numba.prange(n_nodes):
-            for c in range(chunks - 1):
-                for k in range(2):
-                    node_strain[i, k] += strain_part[c, i, k]
-                    strain_part[c, i, k] = 0.0
+            _gather(node_strain, strain_part, i)
             _node_averages(node_strain, node_volume, node_adjoint, i, i + 1)
     kappa_parts = np.zeros(chunks)
     for c in numba.prange(chunks):
@@ -275,15 +282,9 @@ def _parallel(p, v, elements, kappa, lam_force, d_p, d_v, gradients, g_terms, no
                                 node_strain, node_adjoint, relaxation, lo, hi, np.intp(2))
     g_terms[1] += kappa_parts.sum()
     for i in numba.prange(n_nodes):
-        for c in range(chunks - 1):
-            for k in range(3):
-                d_p[i, k] += p_part[c, i, k]
-                d_v[i, k] += v_part[c, i, k]
-                p_part[c, i, k] = 0.0
-                v_part[c, i, k] = 0.0
-            for k in range(2):
-                node_adjoint[i, k] += adjoint_part[c, i, k]
-                adjoint_part[c, i, k] = 0.0
+        _gather(d_p, p_part, i)
+        _gather(d_v, v_part, i)
+        _gather(node_adjoint, adjoint_part, i)
         if nodal:
             g_lam[i] += node_adjoint[i, 0] * node_strain[i, 0]
             g_lam_rate[i] += node_adjoint[i, 1] * node_strain[i, 1]
@@ -295,12 +296,8 @@ def _parallel(p, v, elements, kappa, lam_force, d_p, d_v, gradients, g_terms, no
                d_v if c == 0 else v_part[c - 1], node_adjoint, gradients, node_strain,
                node_adjoint, relaxation, lo, hi, np.intp(3))
     for i in numba.prange(n_nodes):
-        for c in range(chunks - 1):
-            for k in range(3):
-                d_p[i, k] += p_part[c, i, k]
-                d_v[i, k] += v_part[c, i, k]
-                p_part[c, i, k] = 0.0
-                v_part[c, i, k] = 0.0
+        _gather(d_p, p_part, i)
+        _gather(d_v, v_part, i)
 
 
 @numba.njit(cache=True, nogil=True)
