@@ -132,17 +132,17 @@ print(json.dumps({name: [[str(t) for t in s] for s in kernel.signatures]
 
 @pytest.mark.slow
 def test_a_spring_model_compiles_no_element_code(tmp_path):
-    """A model without elements passes ``tets`` (``elements``) None, and numba prunes the
-    element branch of the stepper, the sensitivities and the adjoint: from an empty cache a
-    fit of the cube compiles those three, and none of the element loops (together a minute
-    and a half of compilation, for nothing)."""
+    """A model without elements passes ``tets`` (the learners' ``elements``) None, and numba
+    prunes the element branch of the stepper, the sensitivities and the adjoint: from an
+    empty cache a fit of the cube compiles those three, and none of the element loops
+    (together a minute and a half of compilation, for nothing)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     result = subprocess.run([sys.executable, "-c", _SPRINGS_ONLY], capture_output=True,
                             text=True, env=env, timeout=900)
     assert result.returncode == 0, result.stderr
     signatures = json.loads(result.stdout.strip().splitlines()[-1])
     assert signatures["frames"] and all(s[8] == "none" for s in signatures["frames"])
-    assert signatures["forward"] and all(s[12] == "none" for s in signatures["forward"])
-    assert signatures["pull_back"] and all(s[6] == "none" for s in signatures["pull_back"])
+    assert signatures["forward"] and all(s[2] == "none" for s in signatures["forward"])
+    assert signatures["pull_back"] and all(s[1] == "none" for s in signatures["pull_back"])
     for loop in ("_element_forces", "element_jvp", "element_vjp"):
         assert signatures[loop] == [], loop

@@ -30,11 +30,18 @@ from .stepper import spring_state
 
 
 @numba.njit(cache=True, nogil=True)
-def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, relax_decay,
-              drag, weight, h, n_frames, substeps, start_index, states_p, states_v, states_r,
-              states_f, unit_mass_force, frame_adjoint, d_springs, d_elements, g_relax,
-              g_mass, g_load, g_terms, chunks):
-    """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``; adds
+def pull_back(springs, elements, relaxation, nodes, run, start_index, kept, frame_adjoint,
+              out):
+    """The backward sweep: ``frame_adjoint[t]`` (n_frames, N, 3) is ``∂L/∂p(t)``.
+
+    The model as :meth:`neurofuzzy.learn._compiled.CompiledModel.groups` lays it out (as for
+    :func:`.sensitivity.forward`; ``elements`` None: a model without elements, which numba
+    compiles without the element code, since it prunes a branch on an argument that is
+    None); ``run = (h, n_frames, substeps, chunks)``; ``start_index`` the window starting at
+    each frame (-1: none); ``kept = (states_p, states_v, states_r, states_f)`` what the
+    forward sweep kept of every substep (:meth:`~neurofuzzy.learn._compiled.CompiledModel.frames`).
+
+    Into ``out = (d_springs, d_elements, g_relax, g_mass, g_load, g_terms)``: adds
     ``Σ λ_F · ∂F/∂s_j``, ``Σ λ_F · ∂F/∂c_j`` and (when ``d_springs`` has a third row)
     ``Σ λ_F · ∂F/∂κ_j`` to ``d_springs[:, j]`` (the bases of
     :func:`.sensitivity._spring_tangents`; ``cubic`` the ``q`` of the last springs) over
@@ -48,9 +55,14 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
     the mass (gravity), which ``W F`` does not see. The effects' cotangents: ``Σ λ_F`` per
     node into ``g_load`` (N, 3; a constant force's direction takes it, empty when none is
     learned), ``Σ λ_F · ∂F/∂drag = -Σ λ_F · v`` into ``g_terms[0]`` (when ``g_load`` is not
-    empty) and the elements' ``Σ λ_F · ∂F/∂κ`` into ``g_terms[1]``. ``elements`` None: a
-    model without elements, which numba compiles without the element code (it prunes a
-    branch on an argument that is None)."""
+    empty) and the elements' ``Σ λ_F · ∂F/∂κ`` into ``g_terms[1]``."""
+    a, b, stiffness, damping, rest, cubic = (springs.a, springs.b, springs.stiffness,
+                                             springs.damping, springs.rest, springs.cubic)
+    relax_g, relax_decay = relaxation[0], relaxation[1]
+    weight, drag, unit_mass_force = nodes[0], nodes[1], nodes[5]
+    h, n_frames, substeps, chunks = run
+    states_p, states_v, states_r, states_f = kept
+    d_springs, d_elements, g_relax, g_mass, g_load, g_terms = out
     n_nodes = frame_adjoint.shape[1]
     effects = g_load.shape[0] > 0
     cubic_basis = d_springs.shape[0] > 2
@@ -135,8 +147,8 @@ def pull_back(a, b, stiffness, damping, rest, cubic, elements, kappa, relax_g, r
                 d_v[ib, 1] += cv * uy
                 d_v[ib, 2] += cv * uz
             if elements is not None:   # None: no elements, and no element code compiled
-                element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, d_elements, g_terms,
-                            node_strain, node_adjoint,
+                element_vjp(p, v, elements.arrays, elements.kappa, lam_force, d_p, d_v,
+                            d_elements, g_terms, node_strain, node_adjoint,
                             (relax_g, relax_decay, states_r[step], lam_history, g_relax),
                             buffers)
             for i in range(n_nodes):

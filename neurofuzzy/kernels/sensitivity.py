@@ -99,27 +99,31 @@ def _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring
 
 # -- one experiment ----------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
-def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_column,
-            spring_basis, spring_factor, tets, inverse_rest, volume, law, stiffening, shear,
-            shear_rate, lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, element_ptr,
-            element_column, d_shear, d_shear_rate, d_lam, d_lam_rate, d_node_lam,
-            d_node_lam_rate, kappa, kappa_column, stiffening_column, relax_g, relax_decay,
-            relax_column, drag, drag_column, force_direction, weight, mass_column,
-            unit_mass_force, loads, h, n_frames, substeps, first, width, start_index, start_p,
-            start_v, rows_start, rows_node, rows_weight, seen, scale, positions, jacobian,
-            chunks):
-    """Positions (n_frames, N, 3) and columns ``first .. first + width - 1`` of ``jacobian``
+def forward(state, springs, elements, relaxation, nodes, run, columns, windows, observation,
+            out):
+    """Positions (n_frames, N, 3) and columns ``first .. first + width - 1`` of the Jacobian
     (n_frames - 1, rows, 3, P) = H tp / length_unit at every measured (frame, row), 0
-    elsewhere (threads given disjoint columns of one array split an experiment's Jacobian).
-    A run of the state alone takes the faster :func:`neurofuzzy.kernels.stepper.frames`.
-    ``tets`` None: a model without elements, compiled without the element code (as there).
-    ``chunks``: the threads of the element passes (:func:`.element_jvp.element_jvp`).
+    elsewhere (threads given disjoint columns of one array split an experiment's Jacobian),
+    into ``out = (positions, jacobian)``. A run of the state alone takes the faster
+    :func:`neurofuzzy.kernels.stepper.frames`.
+
+    The model as :meth:`neurofuzzy.learn._compiled.CompiledModel.groups` lays it out:
+    ``springs`` (:class:`~neurofuzzy.learn._compiled.Springs`), ``elements``
+    (:class:`~neurofuzzy.learn._compiled.Elements`, or None: a model without elements,
+    compiled without the element code), ``relaxation = (g, a, columns)`` the Prony terms and
+    ``nodes = (W, drag, drag_column, direction, mass_column, unit_mass_force)``. The state
+    ``(p, v)`` at frame 0 (changed); ``run = (loads, h, n_frames, substeps, chunks)``
+    (``chunks`` the threads of the element passes, :func:`.element_jvp.element_jvp`);
+    ``columns = (first, width)``; ``windows = (start_index, start_p, start_v)``, the window
+    starting at each frame (-1: none) and the windows' states; ``observation = (rows_start,
+    rows_node, rows_weight, seen, scale)``, the observation operator's CSR, the rows seen at
+    each frame and one over the length unit.
 
     Effects: a node drag ``-drag v`` (its coefficient's column ``drag_column``, -1 when not
     learned), constant forces already in ``loads`` with their parameter columns in
-    ``force_direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
-    inclusions and stiffening of springs are in ``stiffness`` and ``cubic`` and the springs'
-    CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element
+    ``direction`` (N, 3, width) (gravity, unmodeled loads; the columns computed);
+    inclusions and stiffening of springs are in the springs' ``stiffness`` and ``cubic`` and
+    their CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element
     constants and their CSR columns; strain stiffening of the elements is ``kappa`` (its
     column ``kappa_column``). The elements' law constants ``stiffening`` (per element) have
     the columns ``stiffening_column``. Learned node masses: ``mass_column`` (N,) the column
@@ -127,6 +131,16 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     ``unit_mass_force`` (N, 3) the forces proportional to the mass (gravity), which ``W F``
     does not see: ``∂(W F)/∂log m = -W (F - F_unit)``.
     """
+    p, v = state
+    (a, b, stiffness, damping, rest, cubic, spring_ptr, spring_column, spring_basis,
+     spring_factor) = springs
+    relax_g, relax_decay, relax_column = relaxation
+    weight, drag, drag_column, force_direction, mass_column, unit_mass_force = nodes
+    loads, h, n_frames, substeps, chunks = run
+    first, width = columns
+    start_index, start_p, start_v = windows
+    rows_start, rows_node, rows_weight, seen, scale = observation
+    positions, jacobian = out
     n_nodes = p.shape[0]
     n_rows = rows_start.shape[0] - 1
     force = np.empty((n_nodes, 3))
@@ -144,7 +158,7 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
     history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6))
     d_history = np.zeros((relax_g.shape[0], relax_g.shape[1], 6, width))
     # the element passes' threads after the first: their own sums and forces
-    others = max(chunks - 1, 0) if tets is not None else 0
+    others = max(chunks - 1, 0) if elements is not None else 0
     buffers = (np.zeros((others, n_nodes, 2)), np.zeros((others, n_nodes, width, 2)),
                np.zeros((others, n_nodes, 3)), np.zeros((others, n_nodes, 3, width)))
     for t in range(n_frames):
@@ -170,13 +184,16 @@ def forward(p, v, a, b, stiffness, damping, rest, cubic, spring_ptr, spring_colu
             _spring_tangents(p, v, tp, tv, a, b, stiffness, damping, rest, cubic, spring_ptr,
                              spring_column, spring_basis, spring_factor, first, force, d_force,
                              work)
-            if tets is not None:       # None: no elements, and no element code compiled
-                element_jvp(p, v, tp, tv, (tets, inverse_rest, volume, law, stiffening),
-                            (shear, shear_rate, lam, lam_rate), nodal,
-                            (node_volume, node_lam, node_lam_rate, d_node_lam,
-                             d_node_lam_rate),
-                            (element_ptr, element_column, d_shear, d_shear_rate, d_lam,
-                             d_lam_rate), kappa, kappa_column, stiffening_column,
+            if elements is not None:   # None: no elements, and no element code compiled
+                e = elements.arrays
+                element_jvp(p, v, tp, tv, (e.tets, e.inverse_rest, e.volume, e.law,
+                                           e.stiffening),
+                            (e.shear, e.shear_rate, e.lam, e.lam_rate), e.nodal,
+                            (e.node_volume, e.node_lam, e.node_lam_rate, elements.d_node_lam,
+                             elements.d_node_lam_rate),
+                            (elements.pointer, elements.column, elements.d_shear,
+                             elements.d_shear_rate, elements.d_lam, elements.d_lam_rate),
+                            elements.kappa, elements.kappa_column, elements.stiffening_column,
                             (relax_g, relax_decay, relax_column, history, d_history), first,
                             node_strain, d_node_strain, force, d_force, buffers)
             for i in range(mass_column.shape[0]):

@@ -12,6 +12,8 @@ elements; node masses learned or fixed.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -19,11 +21,64 @@ from ..effects import per_unit_mass_force
 from ..effects.compiled import CLOSING, STRETCH, KernelEffects
 from ..forces.relaxation import decay
 from ..forces.tetra_geometry import lame_factors
-from ..simulation.layout import element_arrays, spring_arrays
+from ..simulation.layout import ElementArrays, element_arrays, spring_arrays
 from ..simulation.threads import element_buffers
 from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
 
-__all__ = ["CompiledModel"]
+__all__ = ["CompiledModel", "Springs", "Elements"]
+
+
+class Springs(NamedTuple):
+    """The springs as the kernels step them (:func:`~neurofuzzy.effects.compiled.spring_entries`;
+    all springs when they are learned): end nodes, constants, rest lengths and the ``q`` of the
+    last ``len(cubic)``; then the CSR of their magnitudes' parameter derivatives
+    (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`: entry ``pointer[j] ..
+    pointer[j + 1] - 1`` of spring ``j`` is ``factor · basis`` for parameter ``column``)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    rest: np.ndarray
+    cubic: np.ndarray
+    pointer: np.ndarray
+    column: np.ndarray
+    basis: np.ndarray
+    factor: np.ndarray
+
+
+class Elements(NamedTuple):
+    """The elements as the kernels step them (:class:`~neurofuzzy.simulation.layout.ElementArrays`)
+    and their parameter derivatives: the CSR of the four constants' (``pointer``, ``column``,
+    ``d_shear``, ``d_shear_rate``, ``d_lam``, ``d_lam_rate``; columns ascending per element), the
+    node averages' (N, P) of the nodal form, the strain stiffening ``κ`` and its column (-1
+    when not learned) and the column of each element's law constant (-1 when not learned)."""
+
+    arrays: ElementArrays
+    pointer: np.ndarray
+    column: np.ndarray
+    d_shear: np.ndarray
+    d_shear_rate: np.ndarray
+    d_lam: np.ndarray
+    d_lam_rate: np.ndarray
+    d_node_lam: np.ndarray
+    d_node_lam_rate: np.ndarray
+    kappa: float
+    kappa_column: int
+    stiffening_column: np.ndarray
+
+
+class NodeEffects(NamedTuple):
+    """The effects that act on nodes: a drag ``-drag v`` (its coefficient's column
+    ``drag_column``, -1 when not learned) and constant forces (N, 3) (gravity, unmodeled loads)
+    with the derivatives of the learned ones by their parameters, ``direction`` (N, 3, P),
+    nonzero in the columns ``spans`` (slices) alone."""
+
+    drag: float
+    drag_column: int
+    direction: np.ndarray
+    constant: np.ndarray
+    spans: list
 
 
 class CompiledModel:
@@ -45,11 +100,8 @@ class CompiledModel:
         self.n_params = n_params
 
     @staticmethod
-    def _springs(parameters, model, effects):
-        """``(a, b, stiffness, damping, rest, q, pointer, column, basis, factor)`` of the
-        springs as the kernels step them (:func:`~neurofuzzy.effects.compiled.spring_entries`;
-        all springs when they are learned) and the CSR of their magnitudes' parameter
-        derivatives (:func:`neurofuzzy.kernels.sensitivity._spring_tangents`)."""
+    def _springs(parameters, model, effects) -> Springs:
+        """The springs and the CSR of their magnitudes' parameter derivatives."""
         *arrays, derivatives = spring_arrays(model, effects,
                                              every_spring=parameters.learn_springs)
         entries = [derivatives]
@@ -62,8 +114,8 @@ class CompiledModel:
         entry, column, basis, factor = (np.concatenate(part) for part in zip(*entries))
         order = np.lexsort((column, entry))
         pointer = np.searchsorted(entry[order], np.arange(len(arrays[0]) + 1))
-        return (*arrays, pointer.astype(np.intp), column[order].astype(np.intp),
-                basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
+        return Springs(*arrays, pointer.astype(np.intp), column[order].astype(np.intp),
+                       basis[order].astype(np.intp), np.ascontiguousarray(factor[order], float))
 
     @staticmethod
     def _masses(parameters, model):
@@ -79,15 +131,15 @@ class CompiledModel:
                                            np.zeros((model.n_nodes, 3)))
 
     @staticmethod
-    def _elements(parameters, model, n_params, effects):
+    def _elements(parameters, model, n_params, effects) -> Elements:
         """Element constants (the model's plus its inclusions') and the CSR of their
         derivatives by the parameters, with the node averages' derivatives."""
         n_nodes = model.n_nodes
         arrays = element_arrays(model, effects)
         if model.elements is None:      # tets None: the kernels compile no element code
             empty, none = np.zeros(0), np.zeros(0, np.intp)
-            return (*arrays, np.zeros(1, np.intp), none, *(empty,) * 4,
-                    np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1, none)
+            return Elements(arrays, np.zeros(1, np.intp), none, *(empty,) * 4,
+                            np.zeros((0, n_params)), np.zeros((0, n_params)), 0.0, -1, none)
         own = model.elements.constants(model)
         geometry = own.geometry
         # derivatives: (element, column, d shear, d shear_rate, d lam, d lam_rate)
@@ -116,8 +168,9 @@ class CompiledModel:
                 per_element = sp.csr_matrix((value, (element, column)),
                                             shape=(len(E), n_params))
                 target[:] = (geometry.average @ per_element).toarray()
-        return (*arrays, pointer, column, *values, d_node_lam, d_node_lam_rate,
-                effects.kappa, effects.kappa_column, stiffening_columns(parameters, model))
+        return Elements(arrays, pointer, column, *values, d_node_lam, d_node_lam_rate,
+                        effects.kappa, effects.kappa_column,
+                        stiffening_columns(parameters, model))
 
     @staticmethod
     def _relaxation(parameters, model):
@@ -137,17 +190,16 @@ class CompiledModel:
                 np.array(model.elements.relaxation_times, float, order="C"), columns)
 
     @staticmethod
-    def _effects(model, n_params, effects):
-        """``(drag, drag_column, force_direction, constant_force, spans)``: the effects' drag
-        and constant forces (:class:`~neurofuzzy.effects.compiled.KernelEffects`) and the
-        slices of the learned constant forces' columns (those ``force_direction`` fills)."""
+    def _effects(model, n_params, effects) -> NodeEffects:
+        """The effects' drag and constant forces
+        (:class:`~neurofuzzy.effects.compiled.KernelEffects`) and their parameter columns."""
         # parameters last, as the kernel's tangents; np.zeros maps its pages lazily, so the
         # (N, 3, P) array of a model with thousands of parameters costs no memory until used
         direction = np.zeros((model.n_nodes, 3, n_params))
         for span, per_parameter in effects.directions:
             direction[:, :, span] = per_parameter
-        return (effects.drag, effects.drag_column, direction, effects.constant,
-                [span for span, _ in effects.directions])
+        return NodeEffects(effects.drag, effects.drag_column, direction, effects.constant,
+                           [span for span, _ in effects.directions])
 
     def run(self, experiment, states, *, substeps: int, scale: float, tangents: bool,
             columns: tuple[int, int] | None = None, jacobian: np.ndarray | None = None,
@@ -174,10 +226,10 @@ class CompiledModel:
             positions = np.empty((n_frames, n_nodes, 3))
         if jacobian is None:
             jacobian = np.empty((n_frames - 1, observation.n_rows, 3, self.n_params))
-        drag, drag_column, direction, constant, _ = self.effects
-        direction = np.ascontiguousarray(direction[:, :, first:first + width])
+        direction = np.ascontiguousarray(self.effects.direction[:, :, first:first + width])
         # writable C-ordered copies: numba compiles one signature per array layout
-        loads = np.array(experiment.forces_per_frame() + constant, dtype=float, order="C")
+        loads = np.array(experiment.forces_per_frame() + self.effects.constant, dtype=float,
+                         order="C")
         seen = np.array(observation.seen, dtype=bool, order="C")
         a, b = (0, n_frames) if frames is None else frames
         if a > 0:           # a window starts at frame a: its residual (and row) is zero
@@ -188,20 +240,35 @@ class CompiledModel:
             loads = loads[a:] if len(loads) > 1 else loads
         h = experiment.dt / substeps
         with np.errstate(over="ignore", invalid="ignore"):
-            g, times, relax_column = self.relaxation
-            forward(start_p[0].copy(), start_v[0].copy(), *self.springs, *self.elements,
-                    g, decay(times, h), relax_column, drag, drag_column, direction, self.weight,
-                    *self.masses, loads, h, b - a,
-                    int(substeps), int(first), int(width), start_index[a:b], start_p, start_v,
-                    operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
-                    operator.data.astype(float), seen[a:b], float(scale),
-                    positions[a:b], jacobian[a:b - 1], int(chunks))
+            forward((start_p[0].copy(), start_v[0].copy()), *self.groups(h, direction),
+                    (loads, h, b - a, int(substeps), int(chunks)), (int(first), int(width)),
+                    (start_index[a:b], start_p, start_v),
+                    (operator.indptr.astype(np.intp), operator.indices.astype(np.intp),
+                     operator.data.astype(float), seen[a:b], float(scale)),
+                    (positions[a:b], jacobian[a:b - 1]))
         return positions, jacobian
+
+    def groups(self, h: float, direction: np.ndarray | None = None) -> tuple:
+        """``(springs, elements, relaxation, nodes)``, the model as the learners' kernels take
+        it for steps of ``h``: :class:`Springs`; :class:`Elements`, or None for a model
+        without them (numba then compiles no element code: it prunes a branch on an argument
+        that is None); the Prony terms ``(g, a = exp(-h/τ), columns)``; and ``(W,
+        drag, drag_column, direction, mass_column, unit_mass_force)``, ``direction`` the
+        learned constant forces' columns the run computes (all of them when None)."""
+        effects = self.effects
+        g, times, relax_column = self.relaxation
+        mass_column, unit_mass_force = self.masses
+        return (self.springs, self.elements if self.n_elements else None,
+                (g, decay(times, h), relax_column),
+                (np.ascontiguousarray(self.weight, dtype=float), effects.drag,
+                 effects.drag_column, effects.direction if direction is None else direction,
+                 mass_column, unit_mass_force))
 
     @property
     def n_elements(self) -> int:
         """The tetrahedra the kernels loop over (0 for a model of springs alone)."""
-        return self.elements[0].shape[0] if self.elements[0] is not None else 0
+        tets = self.elements.arrays.tets
+        return tets.shape[0] if tets is not None else 0
 
     def frames(self, experiment, states, *, substeps: int, keep: bool = False):
         """``(positions, kept)``: the positions (n_frames, N, 3) of one experiment by the
@@ -215,22 +282,21 @@ class CompiledModel:
 
         n_frames, n_nodes = experiment.n_frames, self.model.n_nodes
         start_index, start_p, start_v = _windows(n_frames, states)
-        elements = self.elements[:13]
         relax_g, times, _ = self.relaxation
         n_relaxing = relax_g.shape[0] if relax_g.shape[1] else 0
         steps = (n_frames - 1) * substeps if keep else 0
         kept = (np.empty((steps, n_nodes, 3)), np.empty((steps, n_nodes, 3)),
                 np.empty((steps if n_relaxing else 0, n_relaxing, relax_g.shape[1], 6)),
                 np.empty((steps if len(self.masses[0]) else 0, n_nodes, 3)))
-        loads = np.array(experiment.forces_per_frame() + self.effects[3], dtype=float,
+        loads = np.array(experiment.forces_per_frame() + self.effects.constant, dtype=float,
                          order="C")
         h = experiment.dt / substeps
         positions = np.empty((n_frames, n_nodes, 3))
         with np.errstate(over="ignore", invalid="ignore"):
-            frames(start_p[0].copy(), start_v[0].copy(), *self.springs[:6], *elements,
-                   np.zeros((n_nodes, 2)), relax_g, decay(times, h),
-                   np.zeros((relax_g.shape[0], relax_g.shape[1], 6)), self.elements[-3],
-                   self.effects[0], np.ascontiguousarray(self.weight, dtype=float), loads, h,
+            frames(start_p[0].copy(), start_v[0].copy(), *self.springs[:6],
+                   *self.elements.arrays, np.zeros((n_nodes, 2)), relax_g, decay(times, h),
+                   np.zeros((relax_g.shape[0], relax_g.shape[1], 6)), self.elements.kappa,
+                   self.effects.drag, np.ascontiguousarray(self.weight, dtype=float), loads, h,
                    n_frames, int(substeps), np.empty((n_nodes, 3)), positions,
                    np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept,
                    element_buffers(self.n_elements, n_nodes))
