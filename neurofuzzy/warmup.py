@@ -65,7 +65,7 @@ def _stepper() -> None:
 
 
 def _parallel_passes() -> None:
-    """The stepper's element passes on threads (``kernels.stepper._passes_parallel``), which
+    """The stepper's element passes on threads (``kernels.element_forces._passes_parallel``), which
     only a model of :data:`~neurofuzzy.simulation.threads.PARALLEL_FROM` elements or more
     takes, stepped from this (main) thread; nothing when numba has one thread."""
     from .mesh import from_tetra, kuhn_block

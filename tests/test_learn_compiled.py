@@ -406,12 +406,12 @@ def test_the_adjoints_forward_sweep_is_simulates_run():
     # and one compiled specialisation serves all three (a second one costs every process a
     # load of the driver's machine code, 30 ms on a cube fit; read-only or 3-d arrays where
     # another caller passes writable or 4-d ones would each make one); models without
-    # elements have one of their own (tets None), and so have the large models' passes on
-    # both cores (buffers an array, not None), which other tests in this process may have
+    # elements have one of their own (elements None), and so have the large models' passes
+    # on both cores (buffers an array, not None), which other tests in this process may have
     # compiled
     from neurofuzzy.kernels.stepper import frames
 
-    kinds = [s for s in frames.signatures if str(s[0]) == "array(float64, 2d, C)"
-             and str(s[8]) != "none" and str(s[-1]) == "none"]
+    kinds = [s for s in frames.signatures if str(s[0].types[0]) == "array(float64, 2d, C)"
+             and str(s[2]) != "none" and str(s[-1].types[-1]) == "none"]
     assert len(kinds) == 1, [[(i, str(a), str(b)) for i, (a, b) in enumerate(zip(kinds[0], s))
                               if a != b] for s in kinds[1:]]

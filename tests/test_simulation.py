@@ -339,12 +339,12 @@ def test_steppers_of_one_model_share_its_constants_not_their_scratch_space():
 
     model, load = _relaxing_block()
     one, two = NumbaStepper(model, 1e-4), NumbaStepper(model, 1e-4)
-    assert one.stiffness is two.stiffness and one.elements[5] is two.elements[5]
+    assert one.springs[2] is two.springs[2] and one.elements.shear is two.elements.shear
     assert one.history is not two.history and one.force is not two.force
     assert one.node_strain is not two.node_strain
     stiffer = model.with_elements(youngs_modulus=2 * model.elements.youngs_modulus)
-    assert NumbaStepper(stiffer, 1e-4).elements[5] is not one.elements[5]
-    assert NumbaStepper(model, 5e-5).elements[15] is not one.elements[15]   # decay per step
+    assert NumbaStepper(stiffer, 1e-4).elements.shear is not one.elements.shear
+    assert NumbaStepper(model, 5e-5).relaxation[1] is not one.relaxation[1]   # decay per step
 
     def run(scale):
         return simulate(model, dt=1e-3, n_frames=30, external_forces=scale * load,

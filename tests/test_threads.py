@@ -72,7 +72,7 @@ def test_steps_on_two_threads_equal_one(threads, law, relaxing):
     for count in (1, 2):
         threads(count)
         stepper = NumbaStepper(model, 2e-5)
-        assert (stepper.buffers() is None) == (count == 1)
+        assert (stepper.scratch()[2] is None) == (count == 1)
         p, v = _disturbed(model), np.zeros((model.n_nodes, 3))
         stepper.advance(p, v, None, 40)
         positions, velocities, history = stepper.trajectory(p, v, None, 3, 5,

@@ -6,12 +6,13 @@ moves the nodes).
 into ``force``, from the arrays of the stepper's layout
 (:func:`neurofuzzy.simulation.steppers._prepared`) passed as two tuples, the springs' and the
 elements'; the arithmetic is the stepper's own (:func:`~neurofuzzy.kernels.stepper._springs`,
-:func:`~neurofuzzy.kernels.stepper._element_forces`), nothing is written again.
+:func:`~neurofuzzy.kernels.element_forces.element_forces`), nothing is written again.
 """
 
 import numba
 
-from .stepper import _element_forces, _springs
+from .element_forces import element_forces
+from .stepper import _springs
 
 
 @numba.njit(cache=True, nogil=True)
@@ -28,4 +29,4 @@ def body_force(p, v, springs, elements, kappa, drag, force):
     a, b, stiffness, damping, rest, cubic = springs
     _springs(p, v, a, b, stiffness, damping, rest, cubic, force)
     if elements[0].shape[0]:
-        _element_forces(p, v, *elements, kappa, force, None)
+        element_forces(p, v, elements[:13], elements[13], elements[14:], kappa, force, None)

@@ -8,7 +8,7 @@ group (:mod:`neurofuzzy.forces.tetrahedra`); the volumetric ``π``, ``π̇`` per
 the node averages (the nodal form: a pass for the node sums, one for the forces).
 
 An element adds into the nodes it shares with its neighbours, so the passes split over threads
-as the stepper's do (:func:`neurofuzzy.kernels.stepper._passes_parallel`): thread ``c`` takes
+as the stepper's do (:func:`.element_forces._passes_parallel`): thread ``c`` takes
 the ``c``-th run of consecutive elements and adds into its own buffers, summed per node after
 each pass. One function does a run of elements (:func:`_stage`); the one-thread sweep calls it
 on all of them, so its code is compiled once for both.
@@ -19,7 +19,7 @@ import numpy as np
 
 from .laws import ST_VENANT_KIRCHHOFF, stress_jvp, volumetric
 from .relaxation import relax, relaxation_tangent, relaxed_stress
-from .stepper import _only_svk
+from .element_forces import _only_svk
 from .tuples import (_differences, _dot, _edges, _edges_of_tangent, _full, _green, _mul, _scatter,
                      _sym_dot, _sym_t_mul)
 
@@ -277,7 +277,7 @@ def element_jvp(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, ka
     thread.
 
     The passes are compiled for two cases (``general`` a constant in each), as the stepper's
-    (:func:`neurofuzzy.kernels.stepper._element_forces`): for elements that are all
+    (:func:`neurofuzzy.kernels.element_forces.element_forces`): for elements that are all
     St. Venant–Kirchhoff without stiffening or relaxation the law is a constant of the loop."""
     relax_g = relaxation[0]
     general = not _only_svk(arrays[3], kappa, relax_g.shape[1] > 0)

@@ -11,7 +11,7 @@ the nodal form (the node averages ``θ̄``, ``θ̄̇``; the elements; the node p
 back to every element's ``θ`` and ``θ̇``), one for the element form.
 
 An element adds into the nodes it shares with its neighbours, so the passes split over threads
-as the stepper's do (:func:`neurofuzzy.kernels.stepper._passes_parallel`): thread ``c`` takes
+as the stepper's do (:func:`.element_forces._passes_parallel`): thread ``c`` takes
 the ``c``-th run of consecutive elements and adds into its own buffers, summed per node after
 each pass; what belongs to an element alone (its constants' cotangents, its internal
 variables) it writes in place. One function does a run of elements (:func:`_stage`); the

@@ -1,19 +1,17 @@
 """Compiled inner loops (numba) of :class:`neurofuzzy.simulation.steppers.NumbaStepper`.
 
-Module-level so that ``cache=True`` keeps the machine code between runs. The arithmetic is that
-of :class:`neurofuzzy.forces.Springs` and :class:`neurofuzzy.forces.Tetrahedra`
-(tested equal); the elements' stress is that of :mod:`neurofuzzy.kernels.laws` (each element's
-law, ``S = S_law(G; 2μ, π) + 2μβ Ġ + π̇ I``) with ``π = λ θ``, ``π̇ = λβ tr Ġ`` (per element)
-or the means of the node-averaged ``Λ θ̄`` and ``H θ̄̇`` over the element's corners (nodal
-volumetric form); the update is :func:`neurofuzzy.kernels.integrator.euler_update`.
+Module-level so that ``cache=True`` keeps the machine code between runs. The springs'
+arithmetic is that of :class:`neurofuzzy.forces.Springs` (tested equal); the elements' forces
+are :mod:`neurofuzzy.kernels.element_forces`; the update is
+:func:`neurofuzzy.kernels.integrator.euler_update`. :func:`frames` drives :func:`advance`
+over the frames of a run, for :func:`neurofuzzy.simulate` and the learners.
 """
 
 import numba
 import numpy as np
 
+from .element_forces import element_forces
 from .integrator import euler_update
-from .laws import ST_VENANT_KIRCHHOFF, stress, volumetric
-from .relaxation import relax, relaxed_stress
 from .springs import magnitude
 
 
@@ -66,279 +64,20 @@ def _springs(p, v, a, b, stiffness, damping, rest, cubic, force):
         _spring(p, v, a[j], b[j], stiffness[j], damping[j], rest[j], cubic[j - plain], force)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _row(x, n0, n1, n2, n3, r, b00, b01, b02, b10, b11, b12, b20, b21, b22):
-    """Row ``r`` of ``Dx B`` (``Dx`` columns: x1 - x0, x2 - x0, x3 - x0), as three scalars."""
-    d1 = x[n1, r] - x[n0, r]
-    d2 = x[n2, r] - x[n0, r]
-    d3 = x[n3, r] - x[n0, r]
-    return (d1 * b00 + d2 * b10 + d3 * b20, d1 * b01 + d2 * b11 + d3 * b21,
-            d1 * b02 + d2 * b12 + d3 * b22)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11, g12, g20, g21,
-           g22):
-    """``(G, Ġ)``: the Green strain ``½(FᵀF - I)`` and its rate ``sym(FᵀḞ)`` (six entries
-    each) of ``F`` and ``Ḟ`` given by their entries (row r = coordinate r)."""
-    G = (0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0),
-         0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0),
-         0.5 * (f02 * f02 + f12 * f12 + f22 * f22 - 1.0),
-         0.5 * (f00 * f01 + f10 * f11 + f20 * f21),
-         0.5 * (f00 * f02 + f10 * f12 + f20 * f22),
-         0.5 * (f01 * f02 + f11 * f12 + f21 * f22))
-    Gd = (f00 * g00 + f10 * g10 + f20 * g20, f01 * g01 + f11 * g11 + f21 * g21,
-          f02 * g02 + f12 * g12 + f22 * g22,
-          0.5 * (f00 * g01 + f10 * g11 + f20 * g21 + g00 * f01 + g10 * f11 + g20 * f21),
-          0.5 * (f00 * g02 + f10 * g12 + f20 * g22 + g00 * f02 + g10 * f12 + g20 * f22),
-          0.5 * (f01 * g02 + f11 * g12 + f21 * g22 + g01 * f02 + g11 * f12 + g21 * f22))
-    return G, Gd
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _only_svk(law, kappa, relaxing):
-    """True when every element is St. Venant–Kirchhoff with no strain stiffening and no
-    relaxation (most models): its volumetric stress ``π`` multiplies ``I`` as the viscous
-    ``π̇`` does (``N = I``), so their node averages add into one, and the law is a constant of
-    the element loop (about 6 % of the step rate at 288 and at 10,368 tetrahedra)."""
-    if kappa != 0.0 or relaxing:
-        return False
-    for e in range(law.shape[0]):
-        if law[e] != ST_VENANT_KIRCHHOFF:
-            return False
-    return True
-
-
 @numba.njit(cache=True, nogil=True)
-def _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                    lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                    relax_decay, history, kappa, force, buffers):
-    """Element forces into ``force``; with ``nodal`` the volumetric stresses come from the
-    node averages of ``θ`` and ``θ̇ = tr Ġ`` (one pass for the averages, one for the forces);
-    with Prony terms (``relax_g`` (n_elements, K), K > 0) the relaxation of
-    :mod:`neurofuzzy.kernels.relaxation`, whose internal variables ``history`` it advances;
-    ``kappa`` the strain stiffening of :func:`neurofuzzy.kernels.laws.stress` (0: none),
-    ``stiffening`` (n_elements,) the laws' own constants.
-    Written with scalars (F, Ḟ, S in registers): 1.6 times the rate of 3×3 work arrays.
-
-    The passes are compiled twice (``general`` a constant at each call): for elements that
-    are all St. Venant–Kirchhoff without stiffening or relaxation (:func:`_only_svk`) the law
-    is a constant of the loop and ``θ = tr G``, and the loop has no branch for other laws or
-    relaxation (7 % of the step rate at 10,368 tetrahedra).
-
-    ``buffers`` None: one thread. Else (n_chunks - 1, n_nodes, 3): the elements split into
-    ``n_chunks`` runs of consecutive elements, one per thread (:func:`_passes_parallel`)."""
-    general = not _only_svk(law, kappa, relax_g.shape[1] > 0)
-    if buffers is None:
-        _passes_one_thread(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
-                           lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                           node_strain, relax_g, relax_decay, history, kappa, force, general)
-    else:
-        _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
-                         lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
-                         node_strain, relax_g, relax_decay, history, kappa, force, general,
-                         buffers)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _strains(p, v, e, tets, inverse_rest):
-    """Element ``e``'s nodes, ``B`` (nine scalars), ``F`` (nine), ``G`` and ``Ġ``."""
-    n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-    B = inverse_rest[e]
-    b00, b01, b02 = B[0, 0], B[0, 1], B[0, 2]
-    b10, b11, b12 = B[1, 0], B[1, 1], B[1, 2]
-    b20, b21, b22 = B[2, 0], B[2, 1], B[2, 2]
-    f00, f01, f02 = _row(p, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    f10, f11, f12 = _row(p, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    f20, f21, f22 = _row(p, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    g00, g01, g02 = _row(v, n0, n1, n2, n3, 0, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    g10, g11, g12 = _row(v, n0, n1, n2, n3, 1, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    g20, g21, g22 = _row(v, n0, n1, n2, n3, 2, b00, b01, b02, b10, b11, b12, b20, b21, b22)
-    G, Gd = _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11, g12,
-                   g20, g21, g22)
-    return ((n0, n1, n2, n3), (b00, b01, b02, b10, b11, b12, b20, b21, b22),
-            (f00, f01, f02, f10, f11, f12, f20, f21, f22), G, Gd)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, lo, hi, general):
-    """Nodes ``lo..hi - 1``: the sums of the first pass into their pressures ``Λ θ̄`` and
-    ``H θ̄̇`` (for St. Venant–Kirchhoff alone both into column 0: ``π`` and ``π̇`` both
-    multiply ``I``). A loop of its own: called once per node inside the one-thread step's
-    loop, it cost that step 15 % of its rate at 10,368 tetrahedra."""
-    for i in range(lo, hi):
-        if node_volume[i] > 0.0 and not general:
-            node_strain[i, 0] = (node_lam[i] * node_strain[i, 0]
-                                 + node_lam_rate[i] * node_strain[i, 1]) / node_volume[i]
-            node_strain[i, 1] = 0.0
-        elif node_volume[i] > 0.0:
-            node_strain[i, 0] *= node_lam[i] / node_volume[i]
-            node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general):
-    """The nodal form's first pass: every element's ``V θ / 4`` and ``V θ̇ / 4`` added into
-    columns 0 and 1 of its corners' rows of ``node_strain``."""
-    n_elements = tets.shape[0]
-    for e in range(n_elements):
-        nodes, _, _, G, Gd = _strains(p, v, e, tets, inverse_rest)
-        if general:
-            theta = volumetric(law[e], G)[0]
-        else:          # θ = tr G: the off-diagonal strains compile away
-            theta = volumetric(ST_VENANT_KIRCHHOFF, G)[0]
-        theta_rate = Gd[0] + Gd[1] + Gd[2]
-        corner = 0.25 * volume[e]
-        for n in nodes:
-            node_strain[n, 0] += corner * theta
-            node_strain[n, 1] += corner * theta_rate
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-            lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force,
-            general):
-    """The second pass: every element's nodal forces added into ``force``, its volumetric
-    stresses from ``node_strain``'s node pressures (``nodal``) or its own ``λ θ``."""
-    n_elements = tets.shape[0]
-    for e in range(n_elements):
-        (n0, n1, n2, n3), (b00, b01, b02, b10, b11, b12, b20, b21, b22), \
-            (f00, f01, f02, f10, f11, f12, f20, f21, f22), G, Gd = _strains(
-                p, v, e, tets, inverse_rest)
-        if nodal:
-            pressure = 0.25 * (node_strain[n0, 0] + node_strain[n1, 0] + node_strain[n2, 0]
-                               + node_strain[n3, 0])
-            pressure_rate = 0.0
-            if general:
-                pressure_rate = 0.25 * (node_strain[n0, 1] + node_strain[n1, 1]
-                                        + node_strain[n2, 1] + node_strain[n3, 1])
-        else:
-            if general:
-                pressure = lam[e] * volumetric(law[e], G)[0]
-            else:
-                pressure = lam[e] * volumetric(ST_VENANT_KIRCHHOFF, G)[0]
-            pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
-        if general:
-            S, S_el = relaxed_stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                     pressure_rate, kappa, stiffening[e], relax_g, history, e)
-            if relax_g.shape[1] > 0:
-                relax(S_el, relax_decay, history, e)
-        else:
-            S = stress(ST_VENANT_KIRCHHOFF, G, Gd, shear[e], shear_rate[e], pressure,
-                       pressure_rate, 0.0, 0.0)
-        s00, s11, s22, s01, s02, s12 = S
-        # P = F S; node j + 1 gets column j of -V P Bᵀ, node 0 minus their sum
-        scale = -volume[e]
-        for r in range(3):
-            if r == 0:
-                fa, fb, fc = f00, f01, f02
-            elif r == 1:
-                fa, fb, fc = f10, f11, f12
-            else:
-                fa, fb, fc = f20, f21, f22
-            P0 = fa * s00 + fb * s01 + fc * s02
-            P1 = fa * s01 + fb * s11 + fc * s12
-            P2 = fa * s02 + fb * s12 + fc * s22
-            q1 = scale * (P0 * b00 + P1 * b01 + P2 * b02)
-            q2 = scale * (P0 * b10 + P1 * b11 + P2 * b12)
-            q3 = scale * (P0 * b20 + P1 * b21 + P2 * b22)
-            force[n1, r] += q1
-            force[n2, r] += q2
-            force[n3, r] += q3
-            force[n0, r] -= q1 + q2 + q3
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-            lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-            relax_decay, history, kappa, force, general):
-    """:func:`_element_forces`' two passes on one thread, for any laws (``general``) or St.
-    Venant–Kirchhoff alone (``π`` and ``π̇`` both multiply ``I``, so their node averages add
-    into one)."""
-    if nodal:
-        node_strain[:] = 0.0
-        _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general)
-        _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, 0,
-                        node_strain.shape[0], general)
-    _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-            lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force, general)
-
-
-@numba.njit(cache=True, nogil=True)
-def _passes_one_thread(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
-                       lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                       relax_g, relax_decay, history, kappa, force, general):
-    """:func:`_passes` on this thread (not inlined: numba kept it, inlined, in the threaded
-    variant too, and compiled that for 130 s longer)."""
-    if general:
-        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                relax_decay, history, kappa, force, True)
-    else:
-        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
-                relax_decay, history, kappa, force, False)
-
-
-@numba.njit(cache=True, nogil=True)
-def _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-           lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, out, general,
-           lo, hi, stage):
-    """One thread's share of :func:`_passes_parallel`: the nodal sums (``stage`` 1,
-    :func:`_nodal_sums`, into ``out``) or the forces (``stage`` 2, :func:`_forces`, into
-    ``out``) of the elements ``lo..hi - 1`` (views of their arrays: a loop from ``lo`` to
-    ``hi`` costs the passes 12 % of their rate), ``general`` a constant of each."""
-    t, B, V, L, s, m, mr = (tets[lo:hi], inverse_rest[lo:hi], volume[lo:hi], law[lo:hi],
-                            stiffening[lo:hi], shear[lo:hi], shear_rate[lo:hi])
-    lm, lr, g, a, r = (lam[lo:hi], lam_rate[lo:hi], relax_g[lo:hi], relax_decay[lo:hi],
-                       history[lo:hi])
-    if stage == 1 and general:
-        _nodal_sums(p, v, t, B, V, L, out, True)
-    elif stage == 1:
-        _nodal_sums(p, v, t, B, V, L, out, False)
-    elif general:
-        _forces(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, node_strain, g, a, r, kappa, out,
-                True)
-    else:
-        _forces(p, v, t, B, V, L, s, m, mr, lm, lr, nodal, node_strain, g, a, r, kappa, out,
-                False)
-
-
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
-                     lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
-                     relax_g, relax_decay, history, kappa, force, general, buffers):
-    """:func:`_passes` on ``len(buffers) + 1`` threads: thread ``c`` takes the ``c``-th run of
-    consecutive elements and adds its nodal values into ``node_strain`` / ``force`` (the
-    first) or its own buffer (zero on entry, left zero), summed per node after each pass: no
-    two threads write one value."""
-    n_elements, chunks = tets.shape[0], buffers.shape[0] + 1
-    for stage in (1, 2):
-        if stage == 1 and not nodal:
-            continue
-        if stage == 1:
-            node_strain[:] = 0.0
-        total = node_strain if stage == 1 else force
-        for c in numba.prange(chunks):
-            lo, hi = c * n_elements // chunks, (c + 1) * n_elements // chunks
-            _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
-                   lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa,
-                   total if c == 0 else buffers[c - 1], general, lo, hi, stage)
-        for i in numba.prange(total.shape[0]):
-            for c in range(1, chunks):
-                for k in range(total.shape[1]):
-                    total[i, k] += buffers[c - 1, i, k]
-                    buffers[c - 1, i, k] = 0.0
-            if stage == 1:
-                _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, i, i + 1,
-                                general)
-
-
-@numba.njit(cache=True, nogil=True)
-def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
-            stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
-            node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, load,
-            h, n_steps, force, buffers):
+def advance(state, springs, elements, relaxation, terms, load, h, n_steps, scratch):
+    """``n_steps`` steps of ``h`` from ``state = (p, v)`` (in place) under ``load`` (N, 3).
+    The model as :class:`neurofuzzy.simulation.steppers.NumbaStepper` lays it out: ``springs
+    = (a, b, stiffness, damping, rest, cubic)``; ``elements`` (``ElementArrays``), None for a
+    model without them (numba prunes a branch on an argument that is None: no element code
+    compiled); ``relaxation = (g, a, history)`` (:mod:`.element_forces`); ``terms = (W, drag,
+    kappa)``: inverse masses (0 at fixed nodes), a node drag ``-drag v``, the elements' strain
+    stiffening. ``scratch = (force, node_strain, buffers)``: ``force`` is left holding the last
+    step's; ``buffers`` None for one thread, else the element passes' per-thread scratch."""
+    p, v = state
+    a, b, stiffness, damping, rest, cubic = springs
+    weight, drag, kappa = terms
+    force, node_strain, buffers = scratch
     n_nodes = p.shape[0]
     for _ in range(n_steps):
         for i in range(n_nodes):
@@ -349,46 +88,44 @@ def advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, vol
                 for k in range(3):
                     force[i, k] -= drag * v[i, k]
         _springs(p, v, a, b, stiffness, damping, rest, cubic, force)
-        if tets is not None:           # None: no elements, and no element code compiled
-            _element_forces(p, v, tets, inverse_rest, volume, law, stiffening, shear,
-                            shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
-                            node_lam_rate, node_strain, relax_g, relax_decay, history, kappa,
-                            force, buffers)
+        if elements is not None:       # None: no elements, and no element code compiled
+            element_forces(p, v, elements, node_strain, relaxation, kappa, force, buffers)
         euler_update(p, v, force, weight, h)
 
 
 @numba.njit(cache=True, nogil=True)
-def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume, law,
-           stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume, node_lam,
-           node_lam_rate, node_strain, relax_g, relax_decay, history, kappa, drag, weight, loads,
-           h, n_frames, substeps, force, positions, velocities, start_index, start_p, start_v,
-           states_p, states_v, states_r, states_f, buffers):
-    """The frames of a run, ``substeps`` steps of :func:`advance` each: the one driver of the
-    forward run of :func:`neurofuzzy.simulate` and of the adjoint's forward sweep
-    (:mod:`neurofuzzy.kernels.adjoint`).
+def frames(state, springs, elements, relaxation, terms, run, windows, out, kept, scratch):
+    """The frames of a run, ``substeps`` steps of :func:`advance` each (the model's groups and
+    ``scratch`` as there): the one driver of the forward run of :func:`neurofuzzy.simulate`
+    and of the adjoint's forward sweep (:mod:`neurofuzzy.kernels.adjoint`).
 
-    Positions (and, when ``velocities`` is not empty, velocities) of every frame into
-    ``positions`` (n_frames, N, 3); ``loads[t - 1]`` acts from frame ``t - 1`` to ``t`` (the
-    last load on); a run that leaves the finite numbers is NaN from there on. ``history``
-    (the relaxation's internal variables) is carried through and left at its last value.
-    ``tets`` None: a model without elements, which numba compiles without the element code
-    (it prunes a branch on an argument that is None): the demo's first run compiles for
-    30 s instead of 137 s.
+    ``run = (loads, h, n_frames, substeps)``: ``loads[t - 1]`` acts from frame ``t - 1`` to
+    ``t`` (the last load on). ``out = (positions, velocities)``: the positions (and, when
+    ``velocities`` is not empty, velocities) of every frame (n_frames, N, 3), NaN from where
+    the run leaves the finite numbers. The internal variables are carried through. Without
+    elements (None) the demo's first run compiles for 30 s instead of 137 s.
 
-    ``start_index`` (n_frames,) int, empty for one run from ``p``, ``v``: frames ``t`` with
-    ``start_index[t] >= 0`` start a window from the state ``start_p``, ``start_v`` of that
-    index (the learners' windows; frame 0 is always one); the internal variables go on.
-    ``states_p``, ``states_v`` ((n_frames - 1) substeps, N, 3; empty: none kept) receive the
-    state at the start of every substep in time order (a window's first frame's left unset),
-    ``states_r`` the internal variables there and ``states_f`` (when not empty) every
-    substep's force: what the adjoint's backward sweep runs over. ``buffers``: None for one
-    thread, else the element passes' per-thread scratch (:func:`_element_forces`).
+    ``windows = (start_index, start_p, start_v)``, ``start_index`` (n_frames,) int, empty
+    for one run from ``state``: frames ``t`` with ``start_index[t] >= 0`` start a window from
+    the state ``start_p``, ``start_v`` of that index (the learners' windows; frame 0 is
+    always one); the internal variables go on. ``kept = (states_p, states_v, states_r,
+    states_f)``: ``states_p``, ``states_v`` ((n_frames - 1) substeps, N, 3; empty: none
+    kept) receive the state at the start of every substep in time order (a window's first
+    frame's left unset), ``states_r`` the internal variables there and ``states_f`` (when
+    not empty) every substep's force: what the adjoint's backward sweep runs over.
     """
-    windows = start_index.shape[0] > 0
+    p, v = state
+    loads, h, n_frames, substeps = run
+    start_index, start_p, start_v = windows
+    positions, velocities = out
+    states_p, states_v, states_r, states_f = kept
+    relax_g, history = relaxation[0], relaxation[2]
+    force = scratch[0]
+    windowed = start_index.shape[0] > 0
     keep = states_p.shape[0] > 0
     step = 0
     for t in range(n_frames):
-        if windows and start_index[t] >= 0:
+        if windowed and start_index[t] >= 0:
             p[:] = start_p[start_index[t]]
             v[:] = start_v[start_index[t]]
             if t > 0:
@@ -403,10 +140,8 @@ def frames(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volu
                     states_v[step] = v
                     if relax_g.shape[1]:
                         states_r[step] = history
-                advance(p, v, a, b, stiffness, damping, rest, cubic, tets, inverse_rest, volume,
-                        law, stiffening, shear, shear_rate, lam, lam_rate, nodal, node_volume,
-                        node_lam, node_lam_rate, node_strain, relax_g, relax_decay, history,
-                        kappa, drag, weight, load, h, at_once, force, buffers)
+                advance(state, springs, elements, relaxation, terms, load, h, at_once,
+                        scratch)
                 if states_f.shape[0]:               # (kept only with the states)
                     states_f[step] = force          # the step's force (advance leaves it)
                 step += 1

@@ -293,13 +293,14 @@ class CompiledModel:
         h = experiment.dt / substeps
         positions = np.empty((n_frames, n_nodes, 3))
         with np.errstate(over="ignore", invalid="ignore"):
-            frames(start_p[0].copy(), start_v[0].copy(), *self.springs[:6],
-                   *self.elements.arrays, np.zeros((n_nodes, 2)), relax_g, decay(times, h),
-                   np.zeros((relax_g.shape[0], relax_g.shape[1], 6)), self.elements.kappa,
-                   self.effects.drag, np.ascontiguousarray(self.weight, dtype=float), loads, h,
-                   n_frames, int(substeps), np.empty((n_nodes, 3)), positions,
-                   np.empty((0, n_nodes, 3)), start_index, start_p, start_v, *kept,
-                   element_buffers(self.n_elements, n_nodes))
+            frames((start_p[0].copy(), start_v[0].copy()), self.springs[:6],
+                   self.elements.arrays if self.n_elements else None,
+                   (relax_g, decay(times, h), np.zeros((relax_g.shape[0], relax_g.shape[1], 6))),
+                   (np.ascontiguousarray(self.weight, dtype=float), self.effects.drag,
+                    self.elements.kappa), (loads, h, n_frames, int(substeps)),
+                   (start_index, start_p, start_v), (positions, np.empty((0, n_nodes, 3))),
+                   kept, (np.empty((n_nodes, 3)), np.zeros((n_nodes, 2)),
+                          element_buffers(self.n_elements, n_nodes)))
         return positions, (kept if keep else None)
 
 

@@ -16,6 +16,7 @@ import weakref
 
 import numpy as np
 
+from .layout import ElementArrays
 from .threads import element_buffers
 
 __all__ = ["NumbaStepper", "euler_update"]
@@ -76,32 +77,39 @@ class NumbaStepper:
     def __init__(self, model, h: float, dtype=np.float64):
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        (self.drag, self.kappa, self.constant, self.a, self.b, self.stiffness, self.damping,
-         self.rest, self.cubic, elements, self.weight) = _prepared(model, self.h, self.dtype)
-        # scratch space of this stepper (the kernels write only these, the state and the
-        # force; the constants above are shared by every stepper of the model)
+        (drag, kappa, self.constant, a, b, stiffness, damping, rest, cubic, elements,
+         weight) = _prepared(model, self.h, self.dtype)
+        # the kernels' groups (:func:`neurofuzzy.kernels.stepper.advance`): the springs, the
+        # elements (None without them: no element code compiled), their relaxation and the
+        # node terms; the constants are shared by every stepper of the model, the scratch
+        # space is this stepper's (the kernels write only it, the state and the force)
+        self.springs = (a, b, stiffness, damping, rest, cubic)
+        arrays = ElementArrays(*elements[:13])
+        self.elements = arrays if arrays.tets is not None else None
         self.node_strain = np.zeros_like(elements[13])
         self.history = np.zeros_like(elements[16])
-        self.elements = (*elements[:13], self.node_strain, *elements[14:16], self.history)
+        self.relaxation = (elements[14], elements[15], self.history)
+        self.terms = (weight, self.dtype.type(drag), self.dtype.type(kappa))
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
         self.zero_load = np.zeros((model.n_nodes, 3), dtype=self.dtype)
         # one run from the given state: no window starts, no substep states kept
         none = np.zeros((0, model.n_nodes, 3), dtype=self.dtype)
-        self.no_windows = (np.zeros(0, np.intp), none, none, none, none,
-                           np.zeros((0,) + self.history.shape, dtype=self.dtype), none)
+        self.no_windows = (np.zeros(0, np.intp), none, none)
+        self.no_kept = (none, none, np.zeros((0,) + self.history.shape, dtype=self.dtype),
+                        none)
         self.n_elements = model.mesh.n_tetrahedra if model.elements is not None else 0
         self._buffers = None
         if NumbaStepper._kernel is None:
             NumbaStepper._kernel, NumbaStepper._frames_kernel = _compile()
 
-    def buffers(self):
-        """The element passes' per-thread scratch for this call (None: one thread;
-        :mod:`neurofuzzy.simulation.threads`)."""
+    def scratch(self) -> tuple:
+        """``(force, node_strain, buffers)`` for this call: ``buffers`` the element passes'
+        per-thread scratch (None: one thread; :mod:`neurofuzzy.simulation.threads`)."""
         buffers = element_buffers(self.n_elements, self.force.shape[0], self.dtype,
                                   reuse=self._buffers)
         self._buffers = self._buffers if buffers is None else buffers
-        return buffers
+        return self.force, self.node_strain, buffers
 
     def trajectory(self, p, v, loads, n_frames: int, substeps: int, internal):
         """Frames 0..n_frames-1 from ``(p, v)`` and the relaxation's internal variables
@@ -120,13 +128,11 @@ class NumbaStepper:
         loads = (np.zeros((1, p.shape[0], 3), dtype=self.dtype) if loads is None
                  else np.ascontiguousarray(loads[:max(n_frames - 1, 1)], self.dtype))
         loads = loads + self.constant
-        NumbaStepper._frames_kernel(pc, vc, self.a, self.b, self.stiffness, self.damping,
-                                    self.rest, self.cubic, *self.elements,
-                                    self.dtype.type(self.kappa),
-                                    self.dtype.type(self.drag), self.weight, loads,
-                                    self.dtype.type(self.h),
-                                    int(n_frames), int(substeps), self.force, positions,
-                                    velocities, *self.no_windows, self.buffers())
+        NumbaStepper._frames_kernel((pc, vc), self.springs, self.elements, self.relaxation,
+                                    self.terms, (loads, self.dtype.type(self.h),
+                                                 int(n_frames), int(substeps)),
+                                    self.no_windows, (positions, velocities), self.no_kept,
+                                    self.scratch())
         return (positions.astype(float, copy=False), velocities.astype(float, copy=False),
                 self.history.astype(float))
 
@@ -136,11 +142,9 @@ class NumbaStepper:
         vc[self.fixed] = 0.0
         load = (self.zero_load if load is None
                 else np.ascontiguousarray(load, dtype=self.dtype)) + self.constant
-        NumbaStepper._kernel(pc, vc, self.a, self.b, self.stiffness, self.damping, self.rest,
-                             self.cubic, *self.elements, self.dtype.type(self.kappa),
-                             self.dtype.type(self.drag), self.weight, load,
-                             self.dtype.type(self.h),
-                             int(n_steps), self.force, self.buffers())
+        NumbaStepper._kernel((pc, vc), self.springs, self.elements, self.relaxation,
+                             self.terms, load, self.dtype.type(self.h), int(n_steps),
+                             self.scratch())
         p[...] = pc
         v[...] = vc
 

@@ -4,7 +4,7 @@ main thread, one otherwise.
 The element passes scatter each element's nodal forces into the nodes it shares with its
 neighbours, so they cannot simply be split over threads. Split into runs of consecutive
 elements, each thread adds its run's forces into a buffer of its own, and the buffers are
-summed per node afterwards (:func:`neurofuzzy.kernels.stepper._passes_parallel`). A parallel
+summed per node afterwards (:func:`neurofuzzy.kernels.element_forces._passes_parallel`). A parallel
 region costs its launch (about 30 µs for an empty one on this 2-core machine), and a step
 of the nodal form starts four (two passes, two sums); a step of 1,296 tetrahedra takes
 about 160 µs on one thread. So models under :data:`PARALLEL_FROM` elements stay on one
