@@ -131,6 +131,35 @@ def test_the_compiled_kernels_import_only_each_other():
             assert outside == [], name
 
 
+#: "no kernel signature longer than about ten arguments" (issue 44): the kernels the rest of
+#: the package calls take the model in groups (tuples, named where numba reads their fields)
+MAX_KERNEL_ARGUMENTS = 10
+
+
+def _kernel_arguments() -> dict[str, int]:
+    """``{"module.function": its parameter count}`` of every compiled kernel that a module
+    outside ``neurofuzzy.kernels`` imports."""
+    counts = {}
+    for name in MODULES:
+        if name.startswith("neurofuzzy.kernels"):
+            continue
+        for target, what in _imports(name):
+            if not target.startswith("neurofuzzy.kernels.") or what is None:
+                continue
+            tree = ast.parse(MODULES[target].read_text(encoding="utf-8"))
+            for node in tree.body:
+                if isinstance(node, ast.FunctionDef) and node.name == what:
+                    counts[f"{target}.{what}"] = len(node.args.args)
+    return counts
+
+
+def test_the_kernels_the_package_calls_take_the_model_in_groups():
+    counts = _kernel_arguments()
+    assert {"neurofuzzy.kernels.stepper.frames", "neurofuzzy.kernels.sensitivity.forward",
+            "neurofuzzy.kernels.adjoint.pull_back"} <= set(counts)
+    assert {name: n for name, n in counts.items() if n > MAX_KERNEL_ARGUMENTS} == {}
+
+
 def test_the_rules_hold_words_only():
     """DESIGN's layers: ``rules`` never imports the physics (models, forces, constants); what
     joins a rule base to a model is :mod:`neurofuzzy.tissues`. The rules may read YAML through

@@ -280,8 +280,7 @@ class ElementStress:
         volumetric stresses ``π``, ``π̇`` (the caller's) are formed from (the kernels'
         :func:`~neurofuzzy.kernels.laws.volumetric`; no law's ``θ`` depends on its own
         constant). An element squeezed flat gives NaN (the run diverges and says so)."""
-        # imported on use, here and below: the model imports this module for the laws'
-        # names, and numba should load only when a law is evaluated
+        # imported on use, here and below: the model imports this module for the laws' names
         from ..kernels.law_arrays import volumetric_arrays
 
         K = len(G)
@@ -307,13 +306,18 @@ class ElementStress:
                    per_element(shear), per_element(shear_rate), per_element(pressure),
                    per_element(pressure_rate), c, theta, N, float(kappa))
 
+    @property
+    def constants(self) -> tuple:
+        """The constants as :mod:`neurofuzzy.kernels.law_arrays` takes them."""
+        return (self.shear, self.shear_rate, self.pressure, self.pressure_rate, self.kappa,
+                self.stiffening)
+
     def stress(self) -> np.ndarray:
         """(K, 3, 3): ``S``."""
         from ..kernels.law_arrays import stress_arrays
 
         out = np.empty_like(self.G)
-        stress_arrays(self.law, self.G, self.Gd, self.shear, self.shear_rate, self.pressure,
-                      self.pressure_rate, self.kappa, self.stiffening, out)
+        stress_arrays(self.law, self.G, self.Gd, self.constants, out)
         return out[:, 0].astype(self.N.dtype, copy=False)
 
     def jvp(self, dG, dGd, d_pressure, d_pressure_rate) -> np.ndarray:
@@ -323,10 +327,9 @@ class ElementStress:
 
         K, P = dG.shape[:2]
         out = np.empty((K, P, 3, 3))
-        stress_jvp_arrays(self.law, self.G, self.Gd, _batch(dG, K), _batch(dGd, K),
-                          self.shear, self.shear_rate, self.pressure, self.pressure_rate,
-                          self.kappa, self.stiffening, _batch(d_pressure, K),
-                          _batch(d_pressure_rate, K), out)
+        stress_jvp_arrays(self.law, self.G, self.Gd, self.constants,
+                          (_batch(dG, K), _batch(dGd, K), _batch(d_pressure, K),
+                           _batch(d_pressure_rate, K)), out)
         return out.astype(self.N.dtype, copy=False)
 
     def vjp(self, LS) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -337,9 +340,8 @@ class ElementStress:
 
         K = len(self.law)
         LG, LGd, l_pressure = np.empty((K, 1, 3, 3)), np.empty((K, 1, 3, 3)), np.empty((K, 2))
-        stress_vjp_arrays(self.law, self.G, self.Gd, _batch(LS, K), self.shear,
-                          self.shear_rate, self.pressure, self.pressure_rate, self.kappa,
-                          self.stiffening, LG, LGd, l_pressure)
+        stress_vjp_arrays(self.law, self.G, self.Gd, self.constants, _batch(LS, K),
+                          (LG, LGd, l_pressure))
         dtype = self.N.dtype
         return (LG[:, 0].astype(dtype, copy=False), LGd[:, 0].astype(dtype, copy=False),
                 l_pressure[:, 0].astype(dtype, copy=False),
@@ -352,8 +354,7 @@ class ElementStress:
         from ..kernels.law_arrays import stress_partials
 
         out = np.empty((len(self.law), 4, 3, 3))
-        stress_partials(self.law, self.G, self.Gd, self.shear, self.shear_rate, self.pressure,
-                        self.pressure_rate, self.stiffening, out)
+        stress_partials(self.law, self.G, self.Gd, self.constants, out)
         out = out.astype(self.N.dtype, copy=False)
         return {name: out[:, k] for k, name in enumerate(("shear", "shear_rate", "pressure",
                                                            "pressure_rate"))}
@@ -362,8 +363,7 @@ class ElementStress:
 def _batch(x, K: int) -> np.ndarray:
     """``x`` (K, ...) as the compiled functions' contiguous float (K, P, ...) arrays."""
     x = np.asarray(x, float)
-    return np.ascontiguousarray(x.reshape((K, -1) + x.shape[-2:]) if x.ndim > 2
-                                else x.reshape(K, -1))
+    return np.ascontiguousarray(x.reshape((K, -1) + x.shape[-2:] if x.ndim > 2 else (K, -1)))
 
 
 def stiffening_slope(law: np.ndarray, G: np.ndarray, stiffening) -> np.ndarray:

@@ -20,8 +20,8 @@ import numpy as np
 from .laws import ST_VENANT_KIRCHHOFF, stress_jvp, volumetric
 from .relaxation import relax, relaxation_tangent, relaxed_stress
 from .element_forces import _only_svk
-from .tuples import (_differences, _dot, _edges, _edges_of_tangent, _full, _green, _mul, _scatter,
-                     _sym_dot, _sym_t_mul)
+from .tuples import (_differences, _dot, _edges_of_tangent, _element_strains, _full, _mul,
+                     _scatter, _sym_dot, _sym_t_mul)
 
 #: the tangents' arithmetic may fuse a multiply and an add (one rounding instead of two: FMA,
 #: about 10 % of a tangent sweep of the 10,368-tetrahedron block); nothing else of fast math
@@ -37,11 +37,7 @@ def _node_sums(p, v, tp, tv, tets, inverse_rest, volume, law, node_strain, d_nod
     (N, 2) and ``d_node_strain`` (N, P, 2)."""
     n_params = tp.shape[2]
     for e in range(tets.shape[0]):
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        B = inverse_rest[e]
-        F = _edges(p, n0, n1, n2, n3, B)
-        Fd = _edges(v, n0, n1, n2, n3, B)
-        G, Gd = _green(F, Fd)
+        n0, n1, n2, n3, B, F, Fd, G, Gd = _element_strains(p, v, tets, inverse_rest, e)
         theta, N = volumetric(law[e] if general else ST_VENANT_KIRCHHOFF, G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         corner = 0.25 * volume[e]
@@ -102,11 +98,7 @@ def _forces(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, 
     strain_stiffening = kappa if general else 0.0
     for e in range(tets.shape[0]):
         own = law[e] if general else ST_VENANT_KIRCHHOFF
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        B = inverse_rest[e]
-        F = _edges(p, n0, n1, n2, n3, B)
-        Fd = _edges(v, n0, n1, n2, n3, B)
-        G, Gd = _green(F, Fd)
+        n0, n1, n2, n3, B, F, Fd, G, Gd = _element_strains(p, v, tets, inverse_rest, e)
         theta, N = volumetric(own, G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         if nodal:

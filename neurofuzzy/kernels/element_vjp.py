@@ -23,7 +23,7 @@ import numpy as np
 
 from .laws import stress_vjp, volumetric
 from .relaxation import relaxed_stress
-from .tuples import _edges, _full, _green, _mul, _sym_dot, _sym_t_mul
+from .tuples import _element_strains, _full, _mul, _sym_dot, _sym_t_mul
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -55,9 +55,7 @@ def _node_sums(p, v, tets, inverse_rest, volume, law, node_strain):
     """The nodal form's first pass: every element's ``V θ / 4`` and ``V θ̇ / 4`` added into its
     corners' rows of ``node_strain`` (N, 2)."""
     for e in range(tets.shape[0]):
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        G, Gd = _green(_edges(p, n0, n1, n2, n3, inverse_rest[e]),
-                       _edges(v, n0, n1, n2, n3, inverse_rest[e]))
+        n0, n1, n2, n3, _, _, _, G, Gd = _element_strains(p, v, tets, inverse_rest, e)
         corner = 0.25 * volume[e]
         theta = corner * volumetric(law[e], G)[0]
         rate = corner * (Gd[0] + Gd[1] + Gd[2])
@@ -90,11 +88,7 @@ def _pull(p, v, elements, kappa, lam_force, d_p, d_v, gradients, node_strain, no
     relax_g, relax_decay, history, lam_history, g_relax = relaxation
     total_kappa = 0.0
     for e in range(tets.shape[0]):
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        B = inverse_rest[e]
-        F = _edges(p, n0, n1, n2, n3, B)
-        Fd = _edges(v, n0, n1, n2, n3, B)
-        G, Gd = _green(F, Fd)
+        n0, n1, n2, n3, B, F, Fd, G, Gd = _element_strains(p, v, tets, inverse_rest, e)
         theta, N = volumetric(law[e], G)
         theta_rate = Gd[0] + Gd[1] + Gd[2]
         if nodal:
@@ -179,8 +173,7 @@ def _pull_nodal(p, v, elements, node_adjoint, d_p, d_v):
     (tets, inverse_rest, volume, law, _, _, _, _, _, _, node_volume, node_lam,
      node_lam_rate) = elements
     for e in range(tets.shape[0]):
-        n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
-        B = inverse_rest[e]
+        n0, n1, n2, n3, B, F, Fd, G, _ = _element_strains(p, v, tets, inverse_rest, e)
         corner = 0.25 * volume[e]
         l_theta = 0.0
         l_theta_rate = 0.0
@@ -189,9 +182,7 @@ def _pull_nodal(p, v, elements, node_adjoint, d_p, d_v):
                 share = corner / node_volume[node]
                 l_theta += share * node_adjoint[node, 0] * node_lam[node]
                 l_theta_rate += share * node_adjoint[node, 1] * node_lam_rate[node]
-        F = _edges(p, n0, n1, n2, n3, B)
-        Fd = _edges(v, n0, n1, n2, n3, B)
-        N = volumetric(law[e], _green(F, Fd)[0])[1]
+        N = volumetric(law[e], G)[1]
         # ∂θ/∂F = F N (dG = sym(Fᵀ dF)), θ̇ = tr Ġ = F : Ḟ
         FN = _mul(F, _full(N))
         LF = (l_theta * FN[0] + l_theta_rate * Fd[0], l_theta * FN[1] + l_theta_rate * Fd[1],

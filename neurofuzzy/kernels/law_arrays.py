@@ -45,10 +45,11 @@ def stiffening_slopes(law, G, stiffening, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def stress_arrays(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening,
-                  out):
+def stress_arrays(law, G, Gd, constants, out):
     """``out[e, 0]`` (K, 1, 3, 3): :func:`stress` of K elements at symmetric ``G``, ``Gd``
-    (K, 1, 3, 3) with their constants (K,) each and the strain stiffening ``kappa``."""
+    (K, 1, 3, 3) with their ``constants = (shear, shear_rate, pressure, pressure_rate, kappa,
+    stiffening)`` ((K,) each but the strain stiffening ``kappa``)."""
+    shear, shear_rate, pressure, pressure_rate, kappa, stiffening = constants
     for e in range(law.shape[0]):
         _write(out, e, 0, stress(law[e], _entries(G, e, 0), _entries(Gd, e, 0), shear[e],
                                  shear_rate[e], pressure[e], pressure_rate[e], kappa,
@@ -56,11 +57,13 @@ def stress_arrays(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa,
 
 
 @numba.njit(cache=True, nogil=True)
-def stress_jvp_arrays(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure_rate, kappa,
-                      stiffening, d_pressure, d_pressure_rate, out):
-    """``out[e, m]`` (K, M, 3, 3): :func:`stress_jvp` of element ``e`` along the symmetric
-    strain changes ``dG[e, m]``, ``dGd[e, m]`` and the volumetric stresses' changes
+def stress_jvp_arrays(law, G, Gd, constants, changes, out):
+    """``out[e, m]`` (K, M, 3, 3): :func:`stress_jvp` of element ``e`` (``constants`` as in
+    :func:`stress_arrays`) along ``changes = (dG, dGd, d_pressure, d_pressure_rate)``: the
+    symmetric strain changes ``dG[e, m]``, ``dGd[e, m]`` and the volumetric stresses' changes
     ``d_pressure[e, m]``, ``d_pressure_rate[e, m]`` (the other constants held)."""
+    shear, shear_rate, pressure, pressure_rate, kappa, stiffening = constants
+    dG, dGd, d_pressure, d_pressure_rate = changes
     for e in range(law.shape[0]):
         g, gd = _entries(G, e, 0), _entries(Gd, e, 0)
         for m in range(dG.shape[1]):
@@ -71,11 +74,12 @@ def stress_jvp_arrays(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure
 
 
 @numba.njit(cache=True, nogil=True)
-def stress_vjp_arrays(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa,
-                      stiffening, LG, LGd, l_pressure):
-    """:func:`stress_vjp` of K elements for the symmetric cotangents ``LS`` (K, 1, 3, 3):
-    ``L_G``, ``L_Ġ`` into ``LG``, ``LGd`` (K, 1, 3, 3), the cotangents of ``π`` and ``π̇``
-    into ``l_pressure`` (K, 2)."""
+def stress_vjp_arrays(law, G, Gd, constants, LS, out):
+    """:func:`stress_vjp` of K elements (``constants`` as in :func:`stress_arrays`) for the
+    symmetric cotangents ``LS`` (K, 1, 3, 3), into ``out = (LG, LGd, l_pressure)``: ``L_G``,
+    ``L_Ġ`` (K, 1, 3, 3) and the cotangents of ``π`` and ``π̇`` (K, 2)."""
+    shear, shear_rate, pressure, pressure_rate, kappa, stiffening = constants
+    LG, LGd, l_pressure = out
     for e in range(law.shape[0]):
         lg, lgd, _, _, lp, lpr, _, _ = stress_vjp(law[e], _entries(G, e, 0), _entries(Gd, e, 0),
                                                   _entries(LS, e, 0), shear[e], shear_rate[e],
@@ -88,9 +92,11 @@ def stress_vjp_arrays(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate
 
 
 @numba.njit(cache=True, nogil=True)
-def stress_partials(law, G, Gd, shear, shear_rate, pressure, pressure_rate, stiffening, out):
-    """``out[e, 0..3]`` (K, 4, 3, 3): the derivatives of :func:`stress` of element ``e`` by
-    its ``shear``, ``shear_rate``, ``π`` and ``π̇`` (it is linear in each)."""
+def stress_partials(law, G, Gd, constants, out):
+    """``out[e, 0..3]`` (K, 4, 3, 3): the derivatives of :func:`stress` of element ``e``
+    (``constants`` as in :func:`stress_arrays`; the strain stiffening's term depends on none
+    of the four) by its ``shear``, ``shear_rate``, ``π`` and ``π̇`` (it is linear in each)."""
+    shear, shear_rate, pressure, pressure_rate, _, stiffening = constants
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for e in range(law.shape[0]):
         g, gd = _entries(G, e, 0), _entries(Gd, e, 0)

@@ -13,9 +13,10 @@ kin, is written by the caller as sparse products of the gradients this kernel gi
 and corner (``gradients`` (n_elements, 3, 12): ``(V_e/4) ∂θ_e/∂x``, ``(V_e/4) ∂tr G_e/∂x``,
 ``(V_e/4) ∂tr Ġ_e/∂x``).
 
-``elements`` is the element layout of :class:`neurofuzzy.simulation.steppers.NumbaStepper`
-(one tuple: ``tets, inverse_rest, volume, law, stiffening, shear, shear_rate, λ, λβ, nodal,
-node_volume, Λ, H, node_strain, g, a, history``).
+``elements`` is the elements as every kernel reads them
+(:class:`neurofuzzy.simulation.layout.ElementArrays`), ``node_strain`` (n_nodes, 2) the
+nodal form's node pressures (:func:`node_pressures` writes them) and ``relaxation = (g, a,
+history)`` their Prony terms with the internal variables, as the stepper takes them.
 """
 
 import numba
@@ -34,11 +35,11 @@ def _gather(x, n0, n1, n2, n3):
 
 
 @numba.njit(cache=True, nogil=True)
-def node_pressures(p, v, elements):
+def node_pressures(p, v, elements, node_strain):
     """The nodal volumetric form's node pressures ``(Λ_a Θ_a / V_a, H_a Θ̇_a / V_a)`` into
-    ``node_strain`` (n_nodes, 2) of ``elements`` (zero at nodes of no element)."""
-    (tets, inverse_rest, volume, law, _, _, _, _, _, _, node_volume, node_lam, node_lam_rate,
-     node_strain, _, _, _) = elements
+    ``node_strain`` (n_nodes, 2) (zero at nodes of no element)."""
+    (tets, inverse_rest, volume, law, _, _, _, _, _, _, node_volume, node_lam,
+     node_lam_rate) = elements
     node_strain[:] = 0.0
     for e in range(tets.shape[0]):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
@@ -73,24 +74,27 @@ def _prony_sums(relax_g, history, e):
 
 
 @numba.njit(cache=True, nogil=True)
-def element_tangents(p, v, elements, kappa, force, K, C, gradients):
-    """Every element's force added to ``force`` (n_nodes, 3), its stiffness and damping into
-    ``K``, ``C`` (n_elements, 12, 12) and, in the nodal volumetric form, its weighted
-    volumetric gradients into ``gradients`` (n_elements, 3, 12) (module docstring); the
-    force alone when ``K`` is empty, no damping when ``C`` is (n_elements, 0, 12)."""
-    if elements[9]:
-        node_pressures(p, v, elements)
-    element_tangents_of(p, v, elements, kappa, force, K, C, gradients, 0,
-                        elements[0].shape[0])
+def element_tangents(p, v, elements, node_strain, relaxation, kappa, force, out):
+    """Every element's force added to ``force`` (n_nodes, 3) and into ``out = (K, C,
+    gradients)`` its stiffness and damping (n_elements, 12, 12) and, in the nodal
+    volumetric form, its weighted volumetric gradients (n_elements, 3, 12) (module
+    docstring); the force alone when ``K`` is empty, no damping when ``C`` is
+    (n_elements, 0, 12)."""
+    if elements.nodal:
+        node_pressures(p, v, elements, node_strain)
+    element_tangents_of(p, v, elements, node_strain, relaxation, kappa, force, out, 0,
+                        elements.tets.shape[0])
 
 
 @numba.njit(cache=True, nogil=True)
-def element_tangents_of(p, v, elements, kappa, force, K, C, gradients, lo, hi):
+def element_tangents_of(p, v, elements, node_strain, relaxation, kappa, force, out, lo, hi):
     """:func:`element_tangents` of elements ``lo..hi - 1`` alone, the nodal form's node
-    pressures (:func:`node_pressures`) already in ``elements``: runs of elements on threads
-    of their own, each adding into a ``force`` of its own."""
+    pressures (:func:`node_pressures`) already in ``node_strain``: runs of elements on
+    threads of their own, each adding into a ``force`` of its own."""
     (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
-     _, _, _, node_strain, relax_g, _, history) = elements
+     _, _, _) = elements
+    relax_g, _, history = relaxation
+    K, C, gradients = out
     for e in range(lo, hi):
         n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
         x, xd = _gather(p, n0, n1, n2, n3), _gather(v, n0, n1, n2, n3)
@@ -125,10 +129,12 @@ def element_tangents_of(p, v, elements, kappa, force, K, C, gradients, lo, hi):
 
 
 @numba.njit(cache=True, nogil=True)
-def spring_tangents(p, v, a, b, stiffness, damping, rest, cubic, force, K, C):
+def spring_tangents(p, v, springs, force, K, C):
     """Every spring's force added to ``force``, its stiffness and damping into ``K``, ``C``
-    (n_springs, 6, 6), or the force alone when ``K`` is empty; ``cubic`` the ``q`` of the last
-    ``len(cubic)`` springs (as the stepper's :func:`~neurofuzzy.kernels.stepper._springs`)."""
+    (n_springs, 6, 6), or the force alone when ``K`` is empty; ``springs = (a, b, stiffness,
+    damping, rest, cubic)``, ``cubic`` the ``q`` of the last ``len(cubic)`` springs (as the
+    stepper's :func:`~neurofuzzy.kernels.stepper._springs`)."""
+    a, b, stiffness, damping, rest, cubic = springs
     plain = a.shape[0] - cubic.shape[0]
     for j in range(a.shape[0]):
         ia, ib = a[j], b[j]

@@ -99,6 +99,18 @@ def _green(F, Fd):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _element_strains(p, v, tets, inverse_rest, e):
+    """Element ``e`` opened: its nodes ``n0 .. n3``, ``B`` (its inverse rest edges), ``F``,
+    ``Ḟ`` (nine scalars each), ``G`` and ``Ġ`` (six entries each), as one tuple."""
+    n0, n1, n2, n3 = tets[e, 0], tets[e, 1], tets[e, 2], tets[e, 3]
+    B = inverse_rest[e]
+    F = _edges(p, n0, n1, n2, n3, B)
+    Fd = _edges(v, n0, n1, n2, n3, B)
+    G, Gd = _green(F, Fd)
+    return n0, n1, n2, n3, B, F, Fd, G, Gd
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _edges_of_tangent(x, n0, n1, n2, n3, B, q):
     """``Dx B`` of tangent ``q`` of ``x`` (N, 3, P)."""
     D = _differences(x, n0, n1, n2, n3, q)

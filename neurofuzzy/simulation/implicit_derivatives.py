@@ -129,7 +129,7 @@ def implicit_sensitivities(model: Model, *, dt: float, n_frames: int,
         penalty_column = int(np.argmax(values[0]))
         penalty_scale = float(values[0][penalty_column])
     parameter_forces = _ParameterForces(model, groups, values)
-    memory = (RelaxationTangent(model, groups, values, run.body.elements[15])
+    memory = (RelaxationTangent(model, groups, values, run.body.relaxation[1])
               if run.body.relaxes else None)
     changes_before, factor, started = None, None, run.p
     for step in run.steps():

@@ -95,12 +95,13 @@ class RelaxationTangent:
         zeros = np.zeros(k)
         rate = np.zeros_like(G)
         change = np.zeros_like(dG)
-        stress_jvp_arrays(self.law, np.ascontiguousarray(G), rate, dG, np.zeros_like(dG),
-                          self.shear, zeros, pressure, zeros, 0.0, self.stiffening,
-                          np.ascontiguousarray(d_pressure), np.zeros_like(d_pressure), change)
+        stress_jvp_arrays(self.law, np.ascontiguousarray(G), rate,
+                          (self.shear, zeros, pressure, zeros, 0.0, self.stiffening),
+                          (dG, np.zeros_like(dG), np.ascontiguousarray(d_pressure),
+                           np.zeros_like(d_pressure)), change)
         unit = np.zeros_like(G)                               # D(G): the stress per unit 2μ
-        stress_arrays(self.law, np.ascontiguousarray(G), rate, np.ones(k), zeros, zeros, zeros,
-                      0.0, self.stiffening, unit)
+        stress_arrays(self.law, np.ascontiguousarray(G), rate,
+                      (np.ones(k), zeros, zeros, zeros, 0.0, self.stiffening), unit)
         d_elastic = np.moveaxis(change, 1, 0) + self.d_shear[:, :, None, None] * unit[:, 0]
         a = self.decay[None, :, :, None, None]
         self.dr = a * self.dr - (1.0 - a) * d_elastic[:, :, None]

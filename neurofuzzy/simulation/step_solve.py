@@ -67,17 +67,20 @@ class BodyForce:
     def __init__(self, model, h: float = 1.0):
         from .steppers import _prepared
 
-        (drag, kappa, constant, a, b, stiffness, damping, rest, cubic, elements,
-         _) = _prepared(model, float(h), np.dtype(np.float64))
-        tets = np.zeros((0, 4), np.intp) if elements[0] is None else elements[0]
+        prepared = _prepared(model, float(h), np.dtype(np.float64))
+        elements = prepared.elements
+        #: the elements (:class:`~.layout.ElementArrays`; none: ``tets`` of shape (0, 4))
+        self.elements = (elements if elements.tets is not None
+                         else elements._replace(tets=np.zeros((0, 4), np.intp)))
+        #: ``(g, a)``: the Prony terms of steps of ``h`` (n_elements, n_terms) each
+        self.relaxation = prepared.relaxation
         #: the internal variables of the relaxation (n_elements, n_terms, 6), zero at rest
-        self.internal = np.zeros_like(elements[16])
-        self._trial = np.zeros_like(elements[16])
-        # scratch of its own: the node sums and the internal variables the kernel writes
-        self.elements = (tets, *elements[1:13], np.zeros_like(elements[13]), *elements[14:16])
-        self.springs = (a, b, stiffness, damping, rest, cubic)
-        self.kappa, self.drag = float(kappa), float(drag)
-        self.constant = np.asarray(constant, float)
+        self.internal = np.zeros(self.relaxation[0].shape + (6,))
+        self._trial = np.zeros_like(self.internal)
+        self._node_strain = np.zeros((model.n_nodes, 2))   # the kernel's scratch, its own
+        self.springs = prepared.springs
+        self.kappa, self.drag = float(prepared.kappa), float(prepared.drag)
+        self.constant = np.asarray(prepared.constant, float)
         self.n_nodes = model.n_nodes
         self.relaxes = self.internal.shape[1] > 0
 
@@ -98,7 +101,8 @@ class BodyForce:
         out = np.empty((self.n_nodes, 3))
         body_force(np.ascontiguousarray(positions, float).reshape(-1, 3),
                    np.ascontiguousarray(velocities, float).reshape(-1, 3), self.springs,
-                   (*self.elements, internal), self.kappa, self.drag, out)
+                   self.elements, self._node_strain, (*self.relaxation, internal),
+                   (self.kappa, self.drag), out)
         out += self.constant
         return out.ravel()
 

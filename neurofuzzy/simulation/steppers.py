@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import threading
 import weakref
+from typing import NamedTuple
 
 import numpy as np
 
@@ -77,19 +78,21 @@ class NumbaStepper:
     def __init__(self, model, h: float, dtype=np.float64):
         self.h = float(h)
         self.dtype = np.dtype(dtype)
-        (drag, kappa, self.constant, a, b, stiffness, damping, rest, cubic, elements,
-         weight) = _prepared(model, self.h, self.dtype)
+        prepared = _prepared(model, self.h, self.dtype)
         # the kernels' groups (:func:`neurofuzzy.kernels.stepper.advance`): the springs, the
         # elements (None without them: no element code compiled), their relaxation and the
         # node terms; the constants are shared by every stepper of the model, the scratch
         # space is this stepper's (the kernels write only it, the state and the force)
-        self.springs = (a, b, stiffness, damping, rest, cubic)
-        arrays = ElementArrays(*elements[:13])
-        self.elements = arrays if arrays.tets is not None else None
-        self.node_strain = np.zeros_like(elements[13])
-        self.history = np.zeros_like(elements[16])
-        self.relaxation = (elements[14], elements[15], self.history)
-        self.terms = (weight, self.dtype.type(drag), self.dtype.type(kappa))
+        self.constant = prepared.constant
+        self.springs = prepared.springs
+        elements = prepared.elements
+        self.elements = elements if elements.tets is not None else None
+        self.node_strain = np.zeros((model.n_nodes, 2), dtype=self.dtype)
+        g, decay = prepared.relaxation
+        self.history = np.zeros(g.shape + (6,), dtype=self.dtype)
+        self.relaxation = (g, decay, self.history)
+        self.terms = (prepared.weight, self.dtype.type(prepared.drag),
+                      self.dtype.type(prepared.kappa))
         self.fixed = model.mesh.fixed
         self.force = np.zeros((model.n_nodes, 3), dtype=self.dtype)
         self.zero_load = np.zeros((model.n_nodes, 3), dtype=self.dtype)
@@ -149,10 +152,27 @@ class NumbaStepper:
         v[...] = vc
 
 
-def _prepared(model, h: float, dtype: np.dtype) -> tuple:
-    """``(drag, κ, constant force, a, b, stiffness, damping, rest, cubic, element arrays,
-    W)`` of ``model`` in the kernel's layout for steps of ``h`` (cached per model: the last
-    few steps and dtypes)."""
+class Prepared(NamedTuple):
+    """A model in the kernels' layout for steps of ``h`` (:func:`_prepared`): the node drag,
+    the elements' strain stiffening ``κ``, the effects' constant forces (N, 3), the springs
+    ``(a, b, stiffness, damping, rest, cubic)`` (:func:`~.layout.spring_arrays`), the
+    elements (:class:`~.layout.ElementArrays`; ``tets`` None without them), their Prony terms
+    ``(g, a = exp(-h/τ))`` (n_elements, K) each, and the inverse node masses ``W`` (zero at
+    fixed nodes). Shared by every user of the model: each adds its own scratch space (the
+    node sums (N, 2) of the nodal form, the internal variables (n_elements, K, 6))."""
+
+    drag: float
+    kappa: float
+    constant: np.ndarray
+    springs: tuple
+    elements: ElementArrays
+    relaxation: tuple
+    weight: np.ndarray
+
+
+def _prepared(model, h: float, dtype: np.dtype) -> Prepared:
+    """``model`` in the kernels' layout for steps of ``h`` (cached per model: the last few
+    steps and dtypes)."""
     key = (h, dtype.str)
     with NumbaStepper._prepared_lock:
         cache = NumbaStepper._prepared.setdefault(model, {})
@@ -163,10 +183,10 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
 
     effects = KernelEffects(model)
     # the springs with a force, then those that stiffen once more (the spring effects')
-    arrays = (effects.drag, effects.kappa, effects.constant.astype(dtype),
-              *spring_arrays(model, effects, dtype)[:6],
-              element_arrays(model, effects, dtype) + _relaxation_arrays(model, dtype, h),
-              model.node_inverse_mass.astype(dtype))
+    arrays = Prepared(effects.drag, effects.kappa, effects.constant.astype(dtype),
+                      spring_arrays(model, effects, dtype)[:6],
+                      element_arrays(model, effects, dtype), _relaxation(model, dtype, h),
+                      model.node_inverse_mass.astype(dtype))
     with NumbaStepper._prepared_lock:
         while len(cache) >= 4:                          # a learner tries many steps: keep few
             cache.pop(next(iter(cache)))
@@ -174,21 +194,15 @@ def _prepared(model, h: float, dtype: np.dtype) -> tuple:
     return arrays
 
 
-def _relaxation_arrays(model, dtype, h: float) -> tuple:
-    """``(node_strain, g, a, history)`` after the elements' arrays
-    (:func:`~.layout.element_arrays`): ``node_strain`` scratch space of the nodal volumetric
-    form; ``g``, ``a = exp(-h/τ)`` and ``history`` (n_elements, K, 6) the Prony terms of
-    steps of ``h`` seconds and their internal variables (:mod:`neurofuzzy.forces.relaxation`;
-    empty without elements)."""
+def _relaxation(model, dtype, h: float) -> tuple:
+    """``(g, a = exp(-h/τ))`` (n_elements, K) of the elements' Prony terms for steps of ``h``
+    seconds (:mod:`neurofuzzy.forces.relaxation`; empty without elements)."""
     if model.elements is None:
-        return (np.zeros((0, 2), dtype), np.zeros((0, 0), dtype), np.zeros((0, 0), dtype),
-                np.zeros((0, 0, 6), dtype))
+        return np.zeros((0, 0), dtype), np.zeros((0, 0), dtype)
     from ..forces.relaxation import decay
 
-    return (np.zeros((model.n_nodes, 2), dtype),
-            np.array(model.elements.relaxation_moduli, dtype, order="C"),
-            np.ascontiguousarray(decay(model.elements.relaxation_times, h), dtype),
-            np.zeros((model.mesh.n_tetrahedra, model.n_relaxation_terms, 6), dtype))
+    return (np.array(model.elements.relaxation_moduli, dtype, order="C"),
+            np.ascontiguousarray(decay(model.elements.relaxation_times, h), dtype))
 
 
 def _compile():

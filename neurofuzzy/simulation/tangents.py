@@ -44,24 +44,26 @@ class Tangents:
     damping: sp.csr_array | None
 
 
-def _element_tangents(p, v, layout, kappa, force, K, C, gradients):
-    """:func:`~neurofuzzy.kernels.stiffness.element_tangents`, its elements split into runs on
-    threads of their own when the model is large (:mod:`.threads`): each run adds its forces
-    into a buffer of its own, summed here; the matrices are per element, written once."""
+def _element_tangents(p, v, layout, kappa, force, out):
+    """:func:`~neurofuzzy.kernels.stiffness.element_tangents` of ``layout = (elements,
+    node_strain, relaxation)``, its elements split into runs on threads of their own when the
+    model is large (:mod:`.threads`): each run adds its forces into a buffer of its own,
+    summed here; the matrices are per element, written once."""
     from ..kernels.stiffness import element_tangents, element_tangents_of, node_pressures
 
-    n_elements = layout[0].shape[0]
+    elements, node_strain, _ = layout
+    n_elements = elements.tets.shape[0]
     threads = element_threads(n_elements)
     if threads < 2:
-        element_tangents(p, v, layout, kappa, force, K, C, gradients)
+        element_tangents(p, v, *layout, kappa, force, out)
         return
-    if layout[9]:
-        node_pressures(p, v, layout)
+    if elements.nodal:
+        node_pressures(p, v, elements, node_strain)
     bounds = [n_elements * c // threads for c in range(threads + 1)]
     buffers = [force] + [np.zeros_like(force) for _ in range(threads - 1)]
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        list(pool.map(lambda c: element_tangents_of(p, v, layout, kappa, buffers[c], K, C,
-                                                    gradients, bounds[c], bounds[c + 1]),
+        list(pool.map(lambda c: element_tangents_of(p, v, *layout, kappa, buffers[c], out,
+                                                    bounds[c], bounds[c + 1]),
                       range(threads)))
     for buffer in buffers[1:]:
         force += buffer
@@ -100,34 +102,34 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
     if p.shape != (n, 3) or v.shape != (n, 3):
         raise InputError(f"positions and velocities must have shape ({n}, 3); got {p.shape} "
                          f"and {v.shape}", key="positions")
-    (drag, kappa, constant, a, b, spring_stiffness, spring_damping, rest, cubic, elements,
-     _) = _prepared(model, 1.0, np.dtype(np.float64))
+    prepared = _prepared(model, 1.0, np.dtype(np.float64))
     from ..kernels.stiffness import spring_tangents
 
-    force = constant - drag * v
+    force = prepared.constant - prepared.drag * v
     blocks_k, blocks_c, dofs = [], [], []
+    a, b = prepared.springs[:2]
     if len(a):
         K = np.empty((len(a) if matrices else 0, 6, 6))
         C = np.empty_like(K)
-        spring_tangents(p, v, a, b, spring_stiffness, spring_damping, rest, cubic, force, K, C)
+        spring_tangents(p, v, prepared.springs, force, K, C)
         if matrices:
             blocks_k.append(K.reshape(len(K), -1))
             blocks_c.append(C.reshape(len(C), -1))
             dofs.append(_dofs(np.stack([a, b], axis=1)))
     extra_k, extra_c = [], []
     if model.elements is not None:
-        layout = _element_layout(elements, internal, long_time)
+        layout = _element_layout(prepared, internal, long_time)
         k = model.mesh.n_tetrahedra
         K = np.empty((k if matrices else 0, 12, 12))
         C = np.empty((len(K), 12 if damping else 0, 12))
         gradients = np.zeros((k if matrices else 0, 3, 12))
-        _element_tangents(p, v, layout, float(kappa), force, K, C, gradients)
+        _element_tangents(p, v, layout, float(prepared.kappa), force, (K, C, gradients))
         if matrices:
-            tets = elements[0]
+            tets = prepared.elements.tets
             blocks_k.append(K.reshape(len(K), -1))
             blocks_c.append(C.reshape(len(C), -1))
             dofs.append(_dofs(tets))
-            if elements[9]:                                 # the nodal volumetric form
+            if prepared.elements.nodal:                     # the nodal volumetric form
                 extra_k, extra_c = _nodal_coupling(model.mesh, tets, layout, gradients,
                                                    damping)
     if not matrices:
@@ -140,15 +142,18 @@ def tangents(model: Model, positions: np.ndarray, velocities: np.ndarray | None 
     damping_matrix = _assemble(model.mesh, blocks_c, dofs)
     for extra in extra_c:
         damping_matrix = damping_matrix + extra
-    if drag:
-        damping_matrix = damping_matrix + drag * sp.eye_array(3 * n, format="csr")
+    if prepared.drag:
+        damping_matrix = damping_matrix + prepared.drag * sp.eye_array(3 * n, format="csr")
     return Tangents(force, sp.csr_array(stiffness_matrix), sp.csr_array(damping_matrix))
 
 
-def _element_layout(elements: tuple, internal, long_time: bool) -> tuple:
-    """The stepper's element layout with scratch space of its own and the internal variables
-    ``internal`` (none: zero), or without Prony terms (``long_time``)."""
-    relax_g, history = elements[14], elements[16]
+def _element_layout(prepared, internal, long_time: bool) -> tuple:
+    """``(elements, node_strain, relaxation)`` for :func:`_element_tangents`: the model's
+    elements with scratch space of their own and their Prony terms ``(g, a, history)`` at the
+    internal variables ``internal`` (none: zero), or without the terms (``long_time``)."""
+    elements = prepared.elements
+    relax_g, decay = prepared.relaxation
+    history = np.zeros(relax_g.shape + (6,))
     if long_time:
         relax_g = np.zeros((len(relax_g), 0))
         history = np.zeros((len(relax_g), 0, 6))
@@ -158,8 +163,7 @@ def _element_layout(elements: tuple, internal, long_time: bool) -> tuple:
             raise InputError(f"internal variables must have shape {history.shape}; got "
                              f"{internal.shape}", key="internal")
         history = internal
-    return (*elements[:13], np.zeros_like(elements[13]), relax_g, elements[15],
-            np.zeros_like(history) if internal is None and not long_time else history)
+    return elements, np.zeros((len(elements.node_volume), 2)), (relax_g, decay, history)
 
 
 def _dofs(items: np.ndarray) -> np.ndarray:
@@ -213,7 +217,7 @@ def _assemble(mesh, blocks: list, dofs: list) -> sp.csr_array:
     return patterns[key].matrix(np.concatenate([block.ravel() for block in blocks]))
 
 
-def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarray,
+def _nodal_coupling(mesh, tets: np.ndarray, layout: tuple, gradients: np.ndarray,
                     damping: bool = True):
     """The nodal volumetric form's stiffness and damping through its node averages:
     ``A_g diag(Λ/V) Aᵀ + R diag(H/V) Dᵀ`` and ``R diag(H/V) Rᵀ`` with the columns of ``A``,
@@ -222,7 +226,9 @@ def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarr
     share times ``1 + Σᵢ gᵢ`` (its Prony terms carry the volumetric stress too). ``R
     diag(H/V) Dᵀ`` is left out at rest (``D = 0``), the damping without ``damping``."""
     n = mesh.n_nodes
-    node_volume, node_lam, node_lam_rate = elements[10], elements[11], elements[12]
+    elements, _, (relax_g, _, _) = layout
+    node_volume, node_lam, node_lam_rate = (elements.node_volume, elements.node_lam,
+                                            elements.node_lam_rate)
     patterns = _PATTERNS.setdefault(mesh, {})
     if "node averages" not in patterns:                 # (element, corner, 12) entries
         patterns["node averages"] = _Pattern.of(
@@ -240,7 +246,7 @@ def _nodal_coupling(mesh, tets: np.ndarray, elements: tuple, gradients: np.ndarr
     weight[inside] = node_lam[inside] / node_volume[inside]
     weight_rate[inside] = node_lam_rate[inside] / node_volume[inside]
     A = columns(0)
-    relaxing = 1.0 + elements[14].sum(axis=1)[:, None]
+    relaxing = 1.0 + relax_g.sum(axis=1)[:, None]
     stiffness = [(columns(0, relaxing) if np.any(relaxing != 1.0) else A)
                  @ sp.diags_array(weight) @ A.T]
     damping_terms = []
@@ -280,8 +286,9 @@ def unit_forces(model: Model, positions: np.ndarray,
 
     if model.elements is None:
         raise InputError("the model has no elements", key="model")
-    elements = _prepared(model, 1.0, np.dtype(np.float64))[9]
-    tets, volume, node_volume = elements[0], elements[2], elements[10]
+    prepared = _prepared(model, 1.0, np.dtype(np.float64))
+    elements = prepared.elements
+    tets, volume, node_volume = elements.tets, elements.volume, elements.node_volume
     k, n = len(tets), model.n_nodes
     groups = np.zeros(k, np.intp) if groups is None else np.asarray(groups, np.intp)
     if groups.shape != (k,):
@@ -290,6 +297,10 @@ def unit_forces(model: Model, positions: np.ndarray,
     zero_v = (np.zeros_like(p) if velocities is None
               else np.array(velocities, dtype=float, order="C"))
     zeros_k, zeros_n = np.zeros(k), np.zeros(n)
+    g_terms, decay = prepared.relaxation
+    relaxation = ((g_terms, decay, np.zeros(g_terms.shape + (6,))) if instantaneous
+                  else (np.zeros((k, 0)), np.zeros((k, 0)), np.zeros((k, 0, 6))))
+    nothing = (np.empty((0, 12, 12)), np.empty((0, 12, 12)), np.zeros((0, 3, 12)))
     out = np.zeros((groups.max(initial=-1) + 1, 2 if velocities is None else 4, n, 3))
     for g in range(len(out)):
         member = (groups == g).astype(float)
@@ -298,12 +309,10 @@ def unit_forces(model: Model, positions: np.ndarray,
         node_lam = np.divide(corner, node_volume, out=np.zeros(n), where=node_volume > 0)
         for which in range(out.shape[1]):       # the one constant set to 1: 2μ, λ, 2μβ, λβ
             unit = [member if which == c else zeros_k for c in range(4)]
-            layout = (*elements[:5], unit[0], unit[2], unit[1], unit[3], elements[9],
-                      node_volume, node_lam if which == 1 else zeros_n,
-                      node_lam if which == 3 else zeros_n, np.zeros_like(elements[13]),
-                      *((elements[14], elements[15], np.zeros_like(elements[16]))
-                        if instantaneous else
-                        (np.zeros((k, 0)), np.zeros((k, 0)), np.zeros((k, 0, 6)))))
-            element_tangents(p, zero_v, layout, 0.0, out[g, which], np.empty((0, 12, 12)),
-                             np.empty((0, 12, 12)), np.zeros((0, 3, 12)))
+            layout = elements._replace(shear=unit[0], lam=unit[1], shear_rate=unit[2],
+                                       lam_rate=unit[3],
+                                       node_lam=node_lam if which == 1 else zeros_n,
+                                       node_lam_rate=node_lam if which == 3 else zeros_n)
+            element_tangents(p, zero_v, layout, np.zeros((n, 2)), relaxation, 0.0,
+                             out[g, which], nothing)
     return out
