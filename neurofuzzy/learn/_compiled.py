@@ -282,7 +282,7 @@ class CompiledModel:
 
         n_frames, n_nodes = experiment.n_frames, self.model.n_nodes
         start_index, start_p, start_v = _windows(n_frames, states)
-        relax_g, times, _ = self.relaxation
+        relax_g = self.relaxation[0]
         n_relaxing = relax_g.shape[0] if relax_g.shape[1] else 0
         steps = (n_frames - 1) * substeps if keep else 0
         kept = (np.empty((steps, n_nodes, 3)), np.empty((steps, n_nodes, 3)),
@@ -293,11 +293,12 @@ class CompiledModel:
         h = experiment.dt / substeps
         positions = np.empty((n_frames, n_nodes, 3))
         with np.errstate(over="ignore", invalid="ignore"):
+            # the learners' groups, as the stepper's driver takes them
+            _, elements, (g, a, _), (weight, drag, *_) = self.groups(h)
             frames((start_p[0].copy(), start_v[0].copy()), self.springs[:6],
-                   self.elements.arrays if self.n_elements else None,
-                   (relax_g, decay(times, h), np.zeros((relax_g.shape[0], relax_g.shape[1], 6))),
-                   (np.ascontiguousarray(self.weight, dtype=float), self.effects.drag,
-                    self.elements.kappa), (loads, h, n_frames, int(substeps)),
+                   None if elements is None else elements.arrays,
+                   (g, a, np.zeros(g.shape + (6,))), (weight, drag, self.elements.kappa),
+                   (loads, h, n_frames, int(substeps)),
                    (start_index, start_p, start_v), (positions, np.empty((0, n_nodes, 3))),
                    kept, (np.empty((n_nodes, 3)), np.zeros((n_nodes, 2)),
                           element_buffers(self.n_elements, n_nodes)))
