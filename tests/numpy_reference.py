@@ -223,7 +223,7 @@ class NumpySensitivity(Sensitivity):
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             for t in range(n_frames):
                 if t in starts:
-                    p, v = self._window_state(experiment, t)
+                    p, v = self._window_state(experiment, t, substeps)
                     if tangents:                 # node-major tangents (N, P, 3)
                         tp = np.zeros((self.n_nodes, n_params, 3))
                         tv = np.zeros((self.n_nodes, n_params, 3))
@@ -277,7 +277,7 @@ class NumpySensitivity(Sensitivity):
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             for t in range(n_frames):
                 if t in starts:
-                    p, v = self._window_state(experiment, t)
+                    p, v = self._window_state(experiment, t, substeps)
                     positions[t] = p
                     continue
                 for _ in range(substeps):

@@ -158,3 +158,30 @@ def test_the_error_curve_has_one_point_per_cycle(tmp_path, cube_experiment, meth
     cycles = int(re.search(r"in (\d+) cycles", report.read_text())[1])
     twin = json.loads(report.with_suffix(".json").read_text())
     assert cycles == learner.n_cycles_ == twin["cycles"] == len(twin["history"])
+
+
+def test_a_window_starts_from_the_velocity_the_substeps_reached():
+    """At one substep a frame the backward difference of the measured positions is the
+    network's velocity exactly; at more it is the frame's mean velocity, half a frame late,
+    and the window starts from the central difference instead, nearer the true one."""
+    from neurofuzzy.simulation import simulate
+
+    truth = paper_cube_model()
+    sensitivity = Sensitivity(Parameterization(truth), CUBE["edge_length"])
+    loads = point_load(truth.mesh, top_centre_node(truth.mesh), CUBE["force"])
+    for substeps in (1, 4):
+        data = paper_cube_experiment(truth, n_frames=60, substeps=substeps)
+        run = simulate(truth, dt=data.dt, n_frames=60, external_forces=loads,
+                       substeps=substeps)
+        assert np.allclose(run.positions, data.positions, rtol=0, atol=1e-15)
+        p, v = sensitivity._window_state(data, 30, substeps)
+        assert np.array_equal(p, data.positions[30])
+        backward = (data.positions[30] - data.positions[29]) / data.dt
+        if substeps == 1:
+            assert np.allclose(v, run.velocities[30], rtol=0, atol=1e-12)
+            assert np.array_equal(v, backward)
+            continue
+        assert np.array_equal(v, (data.positions[31] - data.positions[29]) / (2 * data.dt))
+        assert np.abs(run.velocities[30]).max() > 0
+        assert (np.abs(v - run.velocities[30]).max()
+                < 0.5 * np.abs(backward - run.velocities[30]).max())

@@ -27,7 +27,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts, cotangen
     compiled = CompiledModel(param, model)
     springs, elements, effects = compiled.springs, compiled.elements, compiled.effects
     n_frames, observation = experiment.n_frames, experiment.observation
-    states = {t: sensitivity._window_state(experiment, t)
+    states = {t: sensitivity._window_state(experiment, t, substeps)
               for t in set(int(t) for t in starts) | {0}}
     start_index = _windows(n_frames, states)[0]
     # the forward sweep (simulate's driver), keeping every substep's state
