@@ -24,7 +24,7 @@ from neurofuzzy.effects.compiled import element_constants
 from neurofuzzy.experiment import Experiment
 from neurofuzzy.forces import incidence, tetrahedron_geometry
 from neurofuzzy.learn import Sensitivity
-from neurofuzzy.learn._parameters import ELEMENT_BLOCKS, element_directions, stiffening_columns
+from neurofuzzy.learn._parameters import ELEMENT_BLOCKS, element_directions, law_constant_columns
 from neurofuzzy.learn._passes import Run
 from neurofuzzy.simulation import euler_update
 
@@ -143,7 +143,7 @@ class NumpySensitivity(Sensitivity):
             return None, None, None
         shear = element_constants(model)[1]["shear"]
         return (model.elements.stiffening_forces(model, p, v, shear),
-                stiffening_columns(self.parameters, model), block)
+                law_constant_columns(self.parameters, model), block)
 
     # -- forces of the model's terms ----------------------------------------------------------
     @staticmethod

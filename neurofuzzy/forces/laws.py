@@ -370,11 +370,11 @@ def stiffening_slope(law: np.ndarray, G: np.ndarray, stiffening) -> np.ndarray:
     """(K, 3, 3): ``∂D/∂c`` of every element at its Green strain ``G`` (K, 3, 3), ``c`` the
     law's own constant (:data:`STIFFENING_CONSTANT`; zero for the laws without one), exact
     (the compiled law's complex-step derivative)."""
-    from ..kernels.law_arrays import stiffening_slopes
+    from ..kernels.law_arrays import law_constant_slopes
 
     law, strains, c = _compiled_arguments(law, G, stiffening)
     out = np.empty_like(strains)
-    stiffening_slopes(law, strains, c, out)
+    law_constant_slopes(law, strains, c, out)
     return out[:, 0].astype(np.asarray(G).dtype, copy=False)
 
 

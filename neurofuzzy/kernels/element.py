@@ -57,7 +57,7 @@ def _row(P, r, B, scale):
 
 
 @numba.njit(cache=True, nogil=True)
-def element_force(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, lam_rate,
+def element_force(x, xd, B, volume, law, law_constant, shear, shear_rate, lam, lam_rate,
                   pressure, pressure_rate, kappa, relax_g, relax_r):
     """The one definition of a tetrahedron's force: its four nodal forces (12-tuple).
 
@@ -67,7 +67,7 @@ def element_force(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, lam
         The element's node positions and velocities (node-major).
     B : (3, 3) float
         Its inverse rest edge matrix; ``volume`` its rest volume.
-    law, stiffening, shear, shear_rate, kappa
+    law, law_constant, shear, shear_rate, kappa
         As :func:`neurofuzzy.kernels.laws.stress`.
     lam, lam_rate : float
         The element's own ``λ`` and ``λβ`` (0 in the nodal volumetric form).
@@ -81,7 +81,7 @@ def element_force(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, lam
     G, Gd = _green(F, deformation(xd, B))
     pi = lam * volumetric(law, G)[0] + pressure
     pi_rate = lam_rate * (Gd[0] + Gd[1] + Gd[2]) + pressure_rate
-    S_el = elastic(law, G, shear, pi, stiffening)[0]
+    S_el = elastic(law, G, shear, pi, law_constant)[0]
     S = with_rates(S_el, G, Gd, shear_rate, pi_rate, kappa)
     if relax_g != 0.0:
         S = (S[0] + relax_g * S_el[0] + relax_r[0], S[1] + relax_g * S_el[1] + relax_r[1],
@@ -116,7 +116,7 @@ def _lift(x, k):
 
 
 @numba.njit(cache=True, nogil=True)
-def element_matrices(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, lam_rate,
+def element_matrices(x, xd, B, volume, law, law_constant, shear, shear_rate, lam, lam_rate,
                      pressure, pressure_rate, kappa, relax_g, relax_r, K, C):
     """The element's force (returned, 12-tuple) and, generated from :func:`element_force` by
     complex step, its stiffness ``-∂f/∂x`` into ``K`` (12, 12) and damping ``-∂f/∂v`` into
@@ -126,7 +126,7 @@ def element_matrices(x, xd, B, volume, law, stiffening, shear, shear_rate, lam, 
     r = (complex(relax_r[0]), complex(relax_r[1]), complex(relax_r[2]), complex(relax_r[3]),
          complex(relax_r[4]), complex(relax_r[5]))
     args = (complex(shear), complex(shear_rate), complex(lam), complex(lam_rate),
-            complex(pressure), complex(pressure_rate), complex(kappa), complex(stiffening))
+            complex(pressure), complex(pressure_rate), complex(kappa), complex(law_constant))
     for k in range(12):
         f = element_force(_lift(x, k), xdc, B, volume, law, args[7], args[0], args[1],
                           args[2], args[3], args[4], args[5], args[6], relax_g, r)

@@ -72,22 +72,22 @@ def element_forces(p, v, elements, node_strain, relaxation, kappa, force, buffer
     Written with scalars (F, Ḟ, S in registers): 1.6 times the rate of 3×3 work arrays.
 
     The passes are compiled twice (``general`` a constant at each call): for elements that
-    are all St. Venant–Kirchhoff without stiffening or relaxation (:func:`_only_svk`) the law
+    are all St. Venant–Kirchhoff without stiffening ``κ`` or relaxation (:func:`_only_svk`) the law
     is a constant of the loop and ``θ = tr G``, and the loop has no branch for other laws or
     relaxation (7 % of the step rate at 10,368 tetrahedra).
 
     ``buffers`` None: one thread. Else (n_chunks - 1, n_nodes, 3): the elements split into
     ``n_chunks`` runs of consecutive elements, one per thread (:func:`_passes_parallel`)."""
-    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+    (tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam, lam_rate, nodal,
      node_volume, node_lam, node_lam_rate) = elements
     relax_g, relax_decay, history = relaxation
     general = not _only_svk(law, kappa, relax_g.shape[1] > 0)
     if buffers is None:
-        _passes_one_thread(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+        _passes_one_thread(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate,
                            lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
                            node_strain, relax_g, relax_decay, history, kappa, force, general)
     else:
-        _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+        _passes_parallel(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate,
                          lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate,
                          node_strain, relax_g, relax_decay, history, kappa, force, general,
                          buffers)
@@ -148,7 +148,7 @@ def _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+def _forces(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
             lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force,
             general):
     """The second pass: every element's nodal forces added into ``force``, its volumetric
@@ -173,7 +173,7 @@ def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
             pressure_rate = lam_rate[e] * (Gd[0] + Gd[1] + Gd[2])
         if general:
             S, S_el = relaxed_stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                     pressure_rate, kappa, stiffening[e], relax_g, history, e)
+                                     pressure_rate, kappa, law_constant[e], relax_g, history, e)
             if relax_g.shape[1] > 0:
                 relax(S_el, relax_decay, history, e)
         else:
@@ -202,7 +202,7 @@ def _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+def _passes(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
             lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
             relax_decay, history, kappa, force, general):
     """:func:`element_forces`' two passes on one thread, for any laws (``general``) or St.
@@ -213,28 +213,28 @@ def _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate
         _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general)
         _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, 0,
                         node_strain.shape[0], general)
-    _forces(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+    _forces(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
             lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force, general)
 
 
 @numba.njit(cache=True, nogil=True)
-def _passes_one_thread(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+def _passes_one_thread(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate,
                        lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
                        relax_g, relax_decay, history, kappa, force, general):
     """:func:`_passes` on this thread (not inlined: numba kept it, inlined, in the threaded
     variant too, and compiled that for 130 s longer)."""
     if general:
-        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+        _passes(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
                 lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
                 relax_decay, history, kappa, force, True)
     else:
-        _passes(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+        _passes(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
                 lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
                 relax_decay, history, kappa, force, False)
 
 
 @numba.njit(cache=True, nogil=True)
-def _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+def _stage(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
            lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, out, general,
            lo, hi, stage):
     """One thread's share of :func:`_passes_parallel`: the nodal sums (``stage`` 1,
@@ -242,7 +242,7 @@ def _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
     ``out``) of the elements ``lo..hi - 1`` (views of their arrays: a loop from ``lo`` to
     ``hi`` costs the passes 12 % of their rate), ``general`` a constant of each."""
     t, B, V, L, s, m, mr = (tets[lo:hi], inverse_rest[lo:hi], volume[lo:hi], law[lo:hi],
-                            stiffening[lo:hi], shear[lo:hi], shear_rate[lo:hi])
+                            law_constant[lo:hi], shear[lo:hi], shear_rate[lo:hi])
     lm, lr, g, a, r = (lam[lo:hi], lam_rate[lo:hi], relax_g[lo:hi], relax_decay[lo:hi],
                        history[lo:hi])
     if stage == 1 and general:
@@ -258,7 +258,7 @@ def _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate,
+def _passes_parallel(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate,
                      lam, lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain,
                      relax_g, relax_decay, history, kappa, force, general, buffers):
     """:func:`_passes` on ``len(buffers) + 1`` threads: thread ``c`` takes the ``c``-th run of
@@ -274,7 +274,7 @@ def _passes_parallel(p, v, tets, inverse_rest, volume, law, stiffening, shear, s
         total = node_strain if stage == 1 else force
         for c in numba.prange(chunks):
             lo, hi = c * n_elements // chunks, (c + 1) * n_elements // chunks
-            _stage(p, v, tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam,
+            _stage(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
                    lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa,
                    total if c == 0 else buffers[c - 1], general, lo, hi, stage)
         for i in numba.prange(total.shape[0]):

@@ -83,17 +83,17 @@ def _node_pressures(node_strain, d_node_strain, node_arrays, first, lo, hi):
 
 
 @numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
-def _forces(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, relaxation,
+def _forces(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_column, relaxation,
             learned, node_strain, d_node_strain, force, d_force, general):
     """The second pass: every element's nodal forces into ``force`` and their tangents into
     ``d_force``, for any laws (``general``) or St. Venant–Kirchhoff alone."""
-    tets, inverse_rest, volume, law, stiffening = arrays
+    tets, inverse_rest, volume, law, law_constant = arrays
     shear, shear_rate, lam, lam_rate = constants
     element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate = columns
     relax_g, relax_decay, relax_column, history, d_history = relaxation
     kappa, kappa_column, first = learned
     n_params = tp.shape[2]
-    # St. Venant–Kirchhoff alone: no stiffening, no relaxation
+    # St. Venant–Kirchhoff alone: no strain stiffening, no relaxation
     n_terms = relax_g.shape[1] if general else 0
     strain_stiffening = kappa if general else 0.0
     for e in range(tets.shape[0]):
@@ -110,7 +110,7 @@ def _forces(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, 
             pressure = lam[e] * theta
             pressure_rate = lam_rate[e] * theta_rate
         S6, S_el = relaxed_stress(own, G, Gd, shear[e], shear_rate[e], pressure,
-                                  pressure_rate, strain_stiffening, stiffening[e], relax_g,
+                                  pressure_rate, strain_stiffening, law_constant[e], relax_g,
                                   history, e)
         S = _full(S6)
         scale = -volume[e]
@@ -150,13 +150,13 @@ def _forces(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, 
                 entry += 1
             d_kappa = 1.0 if first + q == kappa_column else 0.0
             # the law's constant is learned by its logarithm: dc/d log c = c
-            d_stiffening = stiffening[e] if first + q == stiffening_column[e] else 0.0
+            d_law_constant = law_constant[e] if first + q == law_constant_column[e] else 0.0
             dS6 = stress_jvp(own, G, Gd, dG, dGd, shear[e], shear_rate[e], pressure,
-                             pressure_rate, strain_stiffening, stiffening[e], shear_part,
-                             rate_part, d_pressure, d_pressure_rate, d_kappa, d_stiffening)
+                             pressure_rate, strain_stiffening, law_constant[e], shear_part,
+                             rate_part, d_pressure, d_pressure_rate, d_kappa, d_law_constant)
             if n_terms:
                 dS6 = relaxation_tangent(dS6, own, G, Gd, dG, dGd, shear[e], pressure,
-                                         stiffening[e], shear_part, d_pressure, d_stiffening,
+                                         law_constant[e], shear_part, d_pressure, d_law_constant,
                                          S_el, relax_g, relax_decay, relax_column, history,
                                          d_history, e, first + q, q)
             dS = _full(dS6)
@@ -171,14 +171,14 @@ def _forces(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, 
 
 
 @numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
-def _stage(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, relaxation,
+def _stage(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_column, relaxation,
            learned, node_strain, d_node_strain, out, d_out, general, lo, hi, stage):
     """The elements ``lo..hi - 1`` (views of their arrays: the loops run from 0) of one pass:
     the node sums (``stage`` 1, :func:`_node_sums`, into ``out`` (N, 2) and ``d_out``
     (N, P, 2)) or the forces (``stage`` 2, :func:`_forces`, into ``out`` (N, 3) and
     ``d_out`` (N, 3, P)), ``general`` a constant of each (not inlined: the one-thread sweep
     and every thread's run share its code)."""
-    tets, inverse_rest, volume, law, stiffening = arrays
+    tets, inverse_rest, volume, law, law_constant = arrays
     shear, shear_rate, lam, lam_rate = constants
     element_ptr, element_column, d_shear, d_shear_rate, d_lam, d_lam_rate = columns
     relax_g, relax_decay, relax_column, history, d_history = relaxation
@@ -189,7 +189,7 @@ def _stage(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, r
     if stage == 1:
         _node_sums(p, v, tp, tv, t, B, V, L, out, d_out, False)
         return
-    mine = (t, B, V, L, stiffening[lo:hi])
+    mine = (t, B, V, L, law_constant[lo:hi])
     own = (shear[lo:hi], shear_rate[lo:hi], lam[lo:hi], lam_rate[lo:hi])
     # the CSR's pointers of these elements (its entries stay whole)
     entries = (element_ptr[lo:hi + 1], element_column, d_shear, d_shear_rate, d_lam,
@@ -197,15 +197,15 @@ def _stage(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, r
     memory = (relax_g[lo:hi], relax_decay[lo:hi], relax_column[lo:hi], history[lo:hi],
               d_history[lo:hi])
     if general:
-        _forces(p, v, tp, tv, mine, own, nodal, entries, stiffening_column[lo:hi], memory,
+        _forces(p, v, tp, tv, mine, own, nodal, entries, law_constant_column[lo:hi], memory,
                 learned, node_strain, d_node_strain, out, d_out, True)
     else:
-        _forces(p, v, tp, tv, mine, own, nodal, entries, stiffening_column[lo:hi], memory,
+        _forces(p, v, tp, tv, mine, own, nodal, entries, law_constant_column[lo:hi], memory,
                 learned, node_strain, d_node_strain, out, d_out, False)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=CONTRACT, parallel=True)
-def _parallel(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, stiffening_column,
+def _parallel(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, law_constant_column,
               relaxation, learned, node_strain, d_node_strain, force, d_force, general,
               buffers):
     """The passes on ``len(buffers[0]) + 1`` threads: thread ``c`` takes the ``c``-th run of
@@ -227,7 +227,7 @@ def _parallel(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, stif
                 sums[c - 1] if stage == 1 else forces[c - 1])
             d_out = (d_node_strain if stage == 1 else d_force) if c == 0 else (
                 d_sums[c - 1] if stage == 1 else d_forces[c - 1])
-            _stage(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column,
+            _stage(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_column,
                    relaxation, learned, node_strain, d_node_strain, out, d_out, general, lo,
                    hi, stage)
         total, d_total = (node_strain, d_node_strain) if stage == 1 else (force, d_force)
@@ -248,19 +248,19 @@ def _parallel(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, stif
 
 @numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def element_jvp(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, kappa,
-                kappa_column, stiffening_column, relaxation, first, node_strain, d_node_strain,
+                kappa_column, law_constant_column, relaxation, first, node_strain, d_node_strain,
                 force, d_force, buffers):
     """Element forces into ``force`` and their tangents into ``d_force`` (N, 3, P); tangent
     ``q`` is that of parameter ``first + q``.
 
-    ``arrays`` ``(tets, inverse_rest, volume, law, stiffening)``; ``constants`` ``(shear,
+    ``arrays`` ``(tets, inverse_rest, volume, law, law_constant)``; ``constants`` ``(shear,
     shear_rate, lam, lam_rate)`` per element; ``node_arrays`` ``(node_volume, node_lam,
     node_lam_rate, d_node_lam, d_node_lam_rate)`` of the nodal form (``nodal``);
     ``columns`` the CSR of the elements' parameter columns (``element_ptr``,
     ``element_column``, columns ascending) with the derivatives of the four constants there
     (``d_shear``, ``d_shear_rate``, ``d_lam``, ``d_lam_rate``); ``kappa`` the strain
-    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1); ``stiffening[e]`` the
-    law's own constant (``stiffening_column[e]`` the column of its logarithm or -1);
+    stiffening ``2 κ (G:G) G`` (``kappa_column`` its parameter or -1); ``law_constant[e]`` the
+    law's own constant (``law_constant_column[e]`` the column of its logarithm or -1);
     ``relaxation`` ``(relax_g, relax_decay, relax_column, history, d_history)``: the Prony
     terms (``relax_column[e, k]`` the columns of term k's ``log g`` and ``log τ``, -1 when not
     learned) and their internal variables and tangents (n_elements, K, 6[, P]), advanced here.
@@ -270,13 +270,14 @@ def element_jvp(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, ka
 
     The passes are compiled for two cases (``general`` a constant in each), as the stepper's
     (:func:`neurofuzzy.kernels.element_forces.element_forces`): for elements that are all
-    St. Venant–Kirchhoff without stiffening or relaxation the law is a constant of the loop."""
+    St. Venant–Kirchhoff without stiffening ``κ`` or relaxation the law is a constant of the
+    loop."""
     relax_g = relaxation[0]
     general = not _only_svk(arrays[3], kappa, relax_g.shape[1] > 0)
     learned = (kappa, kappa_column, first)
     if buffers[2].shape[0] > 0:
         _parallel(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns,
-                  stiffening_column, relaxation, learned, node_strain, d_node_strain, force,
+                  law_constant_column, relaxation, learned, node_strain, d_node_strain, force,
                   d_force, general, buffers)
         return
     # (the bounds and stages as np.intp: a literal 0, 1 or 2 would compile _stage once more
@@ -285,11 +286,11 @@ def element_jvp(p, v, tp, tv, arrays, constants, nodal, node_arrays, columns, ka
     if nodal:
         node_strain[:] = 0.0
         d_node_strain[:] = 0.0
-        _stage(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, relaxation,
+        _stage(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_column, relaxation,
                learned, node_strain, d_node_strain, node_strain, d_node_strain, general,
                *everything, np.intp(1))
         _node_pressures(node_strain, d_node_strain, node_arrays, first, 0,
                         node_strain.shape[0])
-    _stage(p, v, tp, tv, arrays, constants, nodal, columns, stiffening_column, relaxation,
+    _stage(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_column, relaxation,
            learned, node_strain, d_node_strain, force, d_force, general, *everything,
            np.intp(2))

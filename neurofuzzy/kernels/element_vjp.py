@@ -41,13 +41,13 @@ def _pull_columns(out, L, B, n0, n1, n2, n3):
 
 
 @numba.njit(cache=True, nogil=True)
-def _stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
+def _stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa, law_constant):
     """:func:`~neurofuzzy.kernels.laws.stress_vjp`, compiled once as a function of its own and
     called by both places of :func:`_pull`: inlined there twice, every law's
     complex-step stress was inlined ten times over and the adjoint's first compilation took
     twice as long."""
     return stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa,
-                      stiffening)
+                      law_constant)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -82,9 +82,9 @@ def _pull(p, v, elements, kappa, lam_force, d_p, d_v, gradients, node_strain, no
     """The elements' pass: ``λ · ∂F/∂p``, ``λ · ∂F/∂v`` into ``d_p``, ``d_v``, by the constants
     into ``gradients`` (per element; ``g_lam``, ``g_lam_rate`` only for the element form), the
     node pressures' cotangents into ``node_adjoint`` (the nodal form); returns ``λ · ∂F/∂κ``."""
-    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+    (tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam, lam_rate, nodal,
      node_volume, node_lam, node_lam_rate) = elements
-    g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = gradients
+    g_shear, g_shear_rate, g_lam, g_lam_rate, g_law_constant = gradients
     relax_g, relax_decay, history, lam_history, g_relax = relaxation
     total_kappa = 0.0
     for e in range(tets.shape[0]):
@@ -102,7 +102,7 @@ def _pull(p, v, elements, kappa, lam_force, d_p, d_v, gradients, node_strain, no
             pressure_rate = lam_rate[e] * theta_rate
         # the relaxed stress: its P = F S is the force's
         S6, S_el = relaxed_stress(law[e], G, Gd, shear[e], shear_rate[e], pressure,
-                                  pressure_rate, kappa, stiffening[e], relax_g, history, e)
+                                  pressure_rate, kappa, law_constant[e], relax_g, history, e)
         S = _full(S6)
         # forces: columns of -V P Bᵀ (node j + 1), node 0 minus their sum; P = F S
         scale = -volume[e]
@@ -116,24 +116,24 @@ def _pull(p, v, elements, kappa, lam_force, d_p, d_v, gradients, node_strain, no
         LP = (scale * LB[0], scale * LB[1], scale * LB[2], scale * LB[3], scale * LB[4],
               scale * LB[5], scale * LB[6], scale * LB[7], scale * LB[8])
         LS = _sym_t_mul(F, LP)                           # sym(Fᵀ L_P), six entries
-        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, l_kappa, l_stiffening = (
+        LG, LGd, l_shear, l_shear_rate, l_pressure, l_pressure_rate, l_kappa, l_law_constant = (
             _stress_vjp(law[e], G, Gd, LS, shear[e], shear_rate[e], pressure, pressure_rate,
-                        kappa, stiffening[e]))
+                        kappa, law_constant[e]))
         total_kappa += l_kappa
         if relax_g.shape[1]:
             # S = S_rest + Σ g (S_e + r), r' = a r - (1 - a) S_e: the elastic stress' own
             # cotangent, the internal variables' and the terms' constants'
             L_el = _relaxation_vjp(LS, S_el, relax_g, relax_decay, history, lam_history,
                                    g_relax, e)
-            LG2, _, l_shear2, _, l_pressure2, _, _, l_stiffening2 = _stress_vjp(
-                law[e], G, Gd, L_el, shear[e], 0.0, pressure, 0.0, 0.0, stiffening[e])
+            LG2, _, l_shear2, _, l_pressure2, _, _, l_law_constant2 = _stress_vjp(
+                law[e], G, Gd, L_el, shear[e], 0.0, pressure, 0.0, 0.0, law_constant[e])
             LG = (LG[0] + LG2[0], LG[1] + LG2[1], LG[2] + LG2[2], LG[3] + LG2[3],
                   LG[4] + LG2[4], LG[5] + LG2[5])
             l_shear += l_shear2
             l_pressure += l_pressure2
-            l_stiffening += l_stiffening2
+            l_law_constant += l_law_constant2
         g_shear[e] += l_shear
-        g_stiffening[e] += l_stiffening
+        g_law_constant[e] += l_law_constant
         g_shear_rate[e] += l_shear_rate
         if nodal:
             l_theta = 0.0
@@ -207,9 +207,9 @@ def _stage(p, v, elements, kappa, lam_force, out, d_out, adjoint_out, gradients,
     (``stage`` 3, :func:`_pull_nodal`, into ``out``, ``d_out``); returns ``λ · ∂F/∂κ`` of
     ``stage`` 2, else 0 (not inlined: the one-thread sweep and every thread's run share its
     code)."""
-    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+    (tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam, lam_rate, nodal,
      node_volume, node_lam, node_lam_rate) = elements
-    mine = (tets[lo:hi], inverse_rest[lo:hi], volume[lo:hi], law[lo:hi], stiffening[lo:hi],
+    mine = (tets[lo:hi], inverse_rest[lo:hi], volume[lo:hi], law[lo:hi], law_constant[lo:hi],
             shear[lo:hi], shear_rate[lo:hi], lam[lo:hi], lam_rate[lo:hi], nodal, node_volume,
             node_lam, node_lam_rate)
     if stage == 1:
@@ -218,11 +218,11 @@ def _stage(p, v, elements, kappa, lam_force, out, d_out, adjoint_out, gradients,
     if stage == 3:
         _pull_nodal(p, v, mine, node_adjoint, out, d_out)
         return 0.0
-    g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = gradients
+    g_shear, g_shear_rate, g_lam, g_lam_rate, g_law_constant = gradients
     # (g_lam, g_lam_rate: per element for the element form, per node, and unused here, for
     # the nodal one)
     own = (g_shear[lo:hi], g_shear_rate[lo:hi], g_lam[lo:hi], g_lam_rate[lo:hi],
-           g_stiffening[lo:hi])
+           g_law_constant[lo:hi])
     relax_g, relax_decay, history, lam_history, g_relax = relaxation
     memory = (relax_g[lo:hi], relax_decay[lo:hi], history[lo:hi], lam_history[lo:hi],
               g_relax[lo:hi])
@@ -296,7 +296,7 @@ def element_vjp(p, v, elements, kappa, lam_force, d_p, d_v, gradients, g_terms, 
                 node_adjoint, relaxation, buffers):
     """``λ · ∂F/∂p`` into ``d_p``, ``λ · ∂F/∂v`` into ``d_v`` and ``λ · ∂F`` by every
     element's constants into ``gradients`` ``(g_shear, g_shear_rate, g_lam, g_lam_rate,
-    g_stiffening)`` (per element, the law's stiffening constant's too; with the nodal form
+    g_law_constant)`` (per element, the law's own constant's too; with the nodal form
     ``g_lam`` and ``g_lam_rate`` are per node, by ``Λ`` and ``H``), and by the strain
     stiffening ``kappa`` into ``g_terms[1]``, for the cotangent ``λ = lam_force``.
 

@@ -5,10 +5,10 @@ Piola–Kirchhoff stress of the Green strain ``G`` and its rate ``Ġ``
 
     S = S_law(G; 2μ, π) + 2κ (G:G) G + 2μβ Ġ + π̇ I
 
-A **law** is one function ``law(G, shear, pressure, stiffening) -> (S_elastic, θ)`` of the
-strain, the shear constant ``2μ``, the volumetric stress ``π`` and the law's own stiffening
-constant (per element; laws without one ignore it): the elastic stress and the law's
-volumetric strain ``θ(G)``, whose derivative ``∂θ/∂G`` is the stress of unit ``π``
+A **law** is one function ``law(G, shear, pressure, law_constant) -> (S_elastic, θ)`` of the
+strain, the shear constant ``2μ``, the volumetric stress ``π`` and the law's own
+constant ``law_constant`` (per element; laws without one ignore it): the elastic stress and
+the law's volumetric strain ``θ(G)``, whose derivative ``∂θ/∂G`` is the stress of unit ``π``
 (``law(G, 0, 1, 0)``). The stress is linear in ``shear`` and in ``π``. The callers form
 ``π = λ θ`` per element, or the node average of ``Λ θ̄`` (the nodal volumetric form), and
 ``π̇ = λβ tr Ġ`` likewise: the viscosity is the Kelvin–Voigt stress of the small-strain
@@ -23,7 +23,7 @@ write it.
   strain (the same E, ν).
 - :func:`yeoh`: Yeoh's strain-stiffening solid in the uncoupled form of Abaqus, ANSYS, COMSOL
   and sfepy, ``Ψ = C₁₀ (Ī₁ - 3) + C₂₀ (Ī₁ - 3)² + K/2 (J - 1)²`` (``Ī₁ = J^(-2/3) I₁``) with
-  ``C₁₀ = μ/2``, ``C₂₀ = c C₁₀`` (``c`` the element's ``stiffening``, dimensionless) and
+  ``C₁₀ = μ/2``, ``C₂₀ = c C₁₀`` (``c`` the element's ``law_constant``, dimensionless) and
   ``K = λ + 2μ/3``: ``θ = J - 1``, and the law adds the shear's share ``2μ/3 θ`` to the
   caller's ``π = λ θ``. Linear elasticity with the same E, ν at small strain for any ``c``
   (``(Ī₁ - 3)²`` is of fourth order in the strain); stiffer than neo-Hookean in compression
@@ -32,7 +32,7 @@ write it.
 - :func:`mooney_rivlin`: the uncoupled Mooney–Rivlin solid of FEBio (``Mooney-Rivlin``),
   SOFA (``MooneyRivlin``), Abaqus and FElupe, ``Ψ = C₁₀ (Ī₁ - 3) + C₀₁ (Ī₂ - 3) + K/2 (J - 1)²``
   (``Ī₂ = J^(-4/3) I₂``) with ``C₁₀ + C₀₁ = μ/2``, ``C₀₁ = r C₁₀`` (``r`` the element's
-  ``stiffening``, its own constant ``C01/C10``) and ``K = λ + 2μ/3`` as Yeoh's: linear
+  ``law_constant``, its own constant ``C01/C10``) and ``K = λ + 2μ/3`` as Yeoh's: linear
   elasticity with the same E, ν at small strain for any ``r``; ``r = 0`` is the uncoupled
   neo-Hookean solid.
 
@@ -66,7 +66,7 @@ import numba
 import numpy as np
 
 #: The laws of the kernels in the order of their numbers (``model.elements.law``): their name
-#: and whether the stress depends on the element's own constant (``stiffening``).
+#: and whether the stress depends on the element's own constant (``law_constant``).
 KERNEL_LAWS = (("st-venant-kirchhoff", False), ("neo-hookean", False), ("yeoh", True),
                ("mooney-rivlin", True), ("corotational", False))
 #: Law numbers: name → number.
@@ -276,15 +276,15 @@ def corotational(G, shear, pressure):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def elastic(law, G, shear, pressure, stiffening):
+def elastic(law, G, shear, pressure, law_constant):
     """``(S_elastic, θ)`` of element law number ``law`` (:data:`LAWS`) with the law's own
-    constant ``stiffening`` (ignored by laws without one)."""
+    constant ``law_constant`` (ignored by laws without one)."""
     if law == NEO_HOOKEAN:
         return neo_hookean(G, shear, pressure)
     if law == YEOH:
-        return yeoh(G, shear, pressure, stiffening)
+        return yeoh(G, shear, pressure, law_constant)
     if law == MOONEY_RIVLIN:
-        return mooney_rivlin(G, shear, pressure, stiffening)
+        return mooney_rivlin(G, shear, pressure, law_constant)
     if law == COROTATIONAL:
         return corotational(G, shear, pressure)
     return st_venant_kirchhoff(G, shear, pressure)
@@ -314,7 +314,7 @@ def with_rates(S, G, Gd, shear_rate, pressure_rate, kappa):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
+def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, law_constant):
     """``S = S_law(G; shear, π, c) + 2κ (G:G) G + shear_rate Ġ + π̇ I`` (six entries).
 
     Parameters
@@ -330,11 +330,11 @@ def stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffe
         (``λβ tr Ġ``, Pa).
     kappa : float
         Strain stiffening ``κ`` (Pa) of the ``nonlinear_stiffening`` effect; 0 for none.
-    stiffening : float
+    law_constant : float
         The law's own constant ``c`` (Yeoh's ``C₂₀/C₁₀``, Mooney–Rivlin's ``C₀₁/C₁₀``;
         ignored by the others).
     """
-    return with_rates(elastic(law, G, shear, pressure, stiffening)[0], G, Gd, shear_rate,
+    return with_rates(elastic(law, G, shear, pressure, law_constant)[0], G, Gd, shear_rate,
                       pressure_rate, kappa)
 
 
@@ -360,8 +360,8 @@ def _slope(S):
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def stress_jvp(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure_rate, kappa,
-               stiffening, d_shear, d_shear_rate, d_pressure, d_pressure_rate, d_kappa,
-               d_stiffening):
+               law_constant, d_shear, d_shear_rate, d_pressure, d_pressure_rate, d_kappa,
+               d_law_constant):
     """Forward derivative of :func:`stress` (exact to round-off): ``dS`` for changes ``dG``,
     ``dĠ`` of the strains and ``d_*`` of the constants (six entries)."""
     return _slope(stress(law, _lift(G, dG), _lift(Gd, dGd), complex(shear, STEP * d_shear),
@@ -369,36 +369,36 @@ def stress_jvp(law, G, Gd, dG, dGd, shear, shear_rate, pressure, pressure_rate, 
                          complex(pressure, STEP * d_pressure),
                          complex(pressure_rate, STEP * d_pressure_rate),
                          complex(kappa, STEP * d_kappa),
-                         complex(stiffening, STEP * d_stiffening)))
+                         complex(law_constant, STEP * d_law_constant)))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa, stiffening):
+def stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kappa, law_constant):
     """Reverse derivative of :func:`stress` for the cotangent ``L_S`` (six entries, the
     symmetric part): ``(L_G, L_Ġ, l_shear, l_shear_rate, l_pressure, l_pressure_rate,
-    l_kappa, l_stiffening)`` with ``L_G``, ``L_Ġ`` six entries each (``π`` and ``π̇`` held:
+    l_kappa, l_law_constant)`` with ``L_G``, ``L_Ġ`` six entries each (``π`` and ``π̇`` held:
     their own
     dependence on the strains is the caller's, through ``θ``).
 
     The elastic stress derives from a strain energy (``S = ∂ψ/∂G`` at fixed ``π``) and the
     viscous one from a dissipation potential of ``Ġ`` alone, so ``∂S/∂G`` and ``∂S/∂Ġ`` are
     self-adjoint and ``L_G``, ``L_Ġ`` are the forward derivatives along ``L_S``; a
-    constant's cotangent is ``L_S : ∂S/∂c`` (the law's stiffening constant's by one forward
+    constant's cotangent is ``L_S : ∂S/∂c`` (the law's own constant's by one forward
     derivative). (A law that breaks this symmetry fails
     ``tests/test_kernels_law.py``.)"""
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     LG = stress_jvp(law, G, Gd, LS, zero, shear, shear_rate, pressure, pressure_rate, kappa,
-                    stiffening, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                    law_constant, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     LGd = stress_jvp(law, G, Gd, zero, LS, shear, shear_rate, pressure, pressure_rate, kappa,
-                     stiffening, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                     law_constant, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     N = volumetric(law, G)[1]
     # S is linear in shear_rate, π̇ and κ, and in shear and π: their cotangents in closed form
     # from the law (S_law(G; 1, 0, c) is the shear's part, N the pressure's)
-    unit_shear = elastic(law, G, 1.0, 0.0, stiffening)[0]
-    l_stiffening = 0.0
+    unit_shear = elastic(law, G, 1.0, 0.0, law_constant)[0]
+    l_law_constant = 0.0
     if OWN_CONSTANT[law]:
-        l_stiffening = _inner(LS, stress_jvp(law, G, Gd, zero, zero, shear, shear_rate,
-                                             pressure, pressure_rate, kappa, stiffening,
+        l_law_constant = _inner(LS, stress_jvp(law, G, Gd, zero, zero, shear, shear_rate,
+                                             pressure, pressure_rate, kappa, law_constant,
                                              0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
     return (LG, LGd, _inner(LS, unit_shear), _inner(LS, Gd), _inner(LS, N),
-            LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G), l_stiffening)
+            LS[0] + LS[1] + LS[2], 2.0 * _inner(G, G) * _inner(LS, G), l_law_constant)

@@ -6,7 +6,7 @@ what it is)::
 
 :func:`relaxation_tangent` is their forward derivative (the sensitivities). ``S_rest`` is the
 rest of the element's stress (its law's ``S_e``, Kelvin–Voigt viscosity,
-stiffening); ``g`` (n_elements, K) the relative moduli, ``decay`` (n_elements, K) the ``aᵢ``
+strain stiffening); ``g`` (n_elements, K) the relative moduli, ``decay`` (n_elements, K) the ``aᵢ``
 of the step, ``history`` (n_elements, K, 6) the internal variables ``rᵢ`` (six entries of a
 symmetric matrix, ``(00, 11, 22, 01, 02, 12)``). K = 0: no relaxation, nothing computed.
 """
@@ -34,12 +34,12 @@ def relaxed(S, S_el, g, history, e):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def relaxed_stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, stiffening,
+def relaxed_stress(law, G, Gd, shear, shear_rate, pressure, pressure_rate, kappa, law_constant,
                    g, history, e):
     """``(S, S_e)``: element ``e``'s stress (:func:`~neurofuzzy.kernels.laws.stress`'s, with
     :func:`relaxed`'s Prony terms where ``g`` has any) and its law's elastic stress ``S_e``,
     the law evaluated once for both."""
-    S_el = elastic(law, G, shear, pressure, stiffening)[0]
+    S_el = elastic(law, G, shear, pressure, law_constant)[0]
     S = with_rates(S_el, G, Gd, shear_rate, pressure_rate, kappa)
     if g.shape[1] == 0:
         return S, S_el
@@ -57,15 +57,15 @@ def relax(S_el, decay, history, e):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, stiffening, d_shear,
-                       d_pressure, d_stiffening, S_el, g, decay, column, history, d_history,
+def relaxation_tangent(dS, law, G, Gd, dG, dGd, shear, pressure, law_constant, d_shear,
+                       d_pressure, d_law_constant, S_el, g, decay, column, history, d_history,
                        e, parameter, q):
     """``dS`` plus the tangent of element ``e``'s relaxation along tangent ``q``
     (parameter ``parameter``), ``Σᵢ gᵢ (dS_e + drᵢ) + dgᵢ (S_e + rᵢ)``; advances the
     internal variables' tangent, ``drᵢ' = aᵢ drᵢ - (1 - aᵢ) dS_e + daᵢ (rᵢ + S_e)``
     (``da/d log τ = -a ln a``, ``dg/d log g = g``)."""
-    dS_el = stress_jvp(law, G, Gd, dG, dGd, shear, 0.0, pressure, 0.0, 0.0, stiffening,
-                       d_shear, 0.0, d_pressure, 0.0, 0.0, d_stiffening)
+    dS_el = stress_jvp(law, G, Gd, dG, dGd, shear, 0.0, pressure, 0.0, 0.0, law_constant,
+                       d_shear, 0.0, d_pressure, 0.0, 0.0, d_law_constant)
     d0, d1, d2, d3, d4, d5 = dS
     for k in range(g.shape[1]):
         gk, a = g[e, k], decay[e, k]

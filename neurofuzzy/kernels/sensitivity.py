@@ -125,8 +125,8 @@ def forward(state, springs, elements, relaxation, nodes, run, columns, windows, 
     inclusions and stiffening of springs are in the springs' ``stiffness`` and ``cubic`` and
     their CSR columns (:func:`_spring_tangents`); inclusions of elements are in the element
     constants and their CSR columns; strain stiffening of the elements is ``kappa`` (its
-    column ``kappa_column``). The elements' law constants ``stiffening`` (per element) have
-    the columns ``stiffening_column``. Learned node masses: ``mass_column`` (N,) the column
+    column ``kappa_column``). The elements' law constants ``law_constant`` (per element) have
+    the columns ``law_constant_column``. Learned node masses: ``mass_column`` (N,) the column
     of each node's ``log m`` (-1 when not learned; empty when no mass is),
     ``unit_mass_force`` (N, 3) the forces proportional to the mass (gravity), which ``W F``
     does not see: ``∂(W F)/∂log m = -W (F - F_unit)``.
@@ -187,13 +187,13 @@ def forward(state, springs, elements, relaxation, nodes, run, columns, windows, 
             if elements is not None:   # None: no elements, and no element code compiled
                 e = elements.arrays
                 element_jvp(p, v, tp, tv, (e.tets, e.inverse_rest, e.volume, e.law,
-                                           e.stiffening),
+                                           e.law_constant),
                             (e.shear, e.shear_rate, e.lam, e.lam_rate), e.nodal,
                             (e.node_volume, e.node_lam, e.node_lam_rate, elements.d_node_lam,
                              elements.d_node_lam_rate),
                             (elements.pointer, elements.column, elements.d_shear,
                              elements.d_shear_rate, elements.d_lam, elements.d_lam_rate),
-                            elements.kappa, elements.kappa_column, elements.stiffening_column,
+                            elements.kappa, elements.kappa_column, elements.law_constant_column,
                             (relax_g, relax_decay, relax_column, history, d_history), first,
                             node_strain, d_node_strain, force, d_force, buffers)
             for i in range(mass_column.shape[0]):

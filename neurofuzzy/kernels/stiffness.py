@@ -91,7 +91,7 @@ def element_tangents_of(p, v, elements, node_strain, relaxation, kappa, force, o
     """:func:`element_tangents` of elements ``lo..hi - 1`` alone, the nodal form's node
     pressures (:func:`node_pressures`) already in ``node_strain``: runs of elements on
     threads of their own, each adding into a ``force`` of its own."""
-    (tets, inverse_rest, volume, law, stiffening, shear, shear_rate, lam, lam_rate, nodal,
+    (tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam, lam_rate, nodal,
      _, _, _) = elements
     relax_g, _, history = relaxation
     K, C, gradients = out
@@ -109,11 +109,11 @@ def element_tangents_of(p, v, elements, node_strain, relaxation, kappa, force, o
             own, own_rate, pressure, pressure_rate = lam[e], lam_rate[e], 0.0, 0.0
         g, r6 = _prony_sums(relax_g, history, e)
         if K.shape[0] == 0:
-            f = element_force(x, xd, B, volume[e], law[e], stiffening[e], shear[e],
+            f = element_force(x, xd, B, volume[e], law[e], law_constant[e], shear[e],
                               shear_rate[e], own, own_rate, pressure, pressure_rate, kappa, g,
                               r6)
         else:
-            f = element_matrices(x, xd, B, volume[e], law[e], stiffening[e], shear[e],
+            f = element_matrices(x, xd, B, volume[e], law[e], law_constant[e], shear[e],
                                  shear_rate[e], own, own_rate, pressure, pressure_rate, kappa,
                                  g, r6, K[e], C[e])
         for c, n in enumerate((n0, n1, n2, n3)):

@@ -23,7 +23,7 @@ from ..forces.relaxation import decay
 from ..forces.tetra_geometry import lame_factors
 from ..simulation.layout import ElementArrays, element_arrays, spring_arrays
 from ..simulation.threads import element_buffers
-from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, stiffening_columns
+from ._parameters import ELEMENT_BLOCKS, RELAXATION_BLOCKS, law_constant_columns
 
 __all__ = ["CompiledModel", "Springs", "Elements"]
 
@@ -65,7 +65,7 @@ class Elements(NamedTuple):
     d_node_lam_rate: np.ndarray
     kappa: float
     kappa_column: int
-    stiffening_column: np.ndarray
+    law_constant_column: np.ndarray
 
 
 class NodeEffects(NamedTuple):
@@ -170,7 +170,7 @@ class CompiledModel:
                 target[:] = (geometry.average @ per_element).toarray()
         return Elements(arrays, pointer, column, *values, d_node_lam, d_node_lam_rate,
                         effects.kappa, effects.kappa_column,
-                        stiffening_columns(parameters, model))
+                        law_constant_columns(parameters, model))
 
     @staticmethod
     def _relaxation(parameters, model):

@@ -83,7 +83,7 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts, cotangen
     if n_elements:
         # the constants' derivatives by the parameters, as in the forward kernel
         element = np.repeat(np.arange(n_elements), np.diff(elements.pointer))
-        g_shear, g_shear_rate, g_lam, g_lam_rate, g_stiffening = d_elements
+        g_shear, g_shear_rate, g_lam, g_lam_rate, g_law_constant = d_elements
         weights = (elements.d_shear * g_shear[element]
                    + elements.d_shear_rate * g_shear_rate[element])
         if nodal:
@@ -95,8 +95,8 @@ def compiled_gradient(sensitivity, model, experiment, substeps, starts, cotangen
         learned = relax_column >= 0                    # log g, log τ of each element's terms
         grad += np.bincount(relax_column[learned], g_relax[learned], param.size)
         # the law constants' log c: dc/d log c = c
-        stiffening, column = elements.arrays.stiffening, elements.stiffening_column
+        law_constant, column = elements.arrays.law_constant, elements.law_constant_column
         learned = column >= 0
-        grad += np.bincount(column[learned], stiffening[learned] * g_stiffening[learned],
+        grad += np.bincount(column[learned], law_constant[learned] * g_law_constant[learned],
                             param.size)
     return loss, grad, run

@@ -31,10 +31,10 @@ from ..forces.blocks import (ELEMENT_BLOCKS, RELAXATION_BLOCKS, ElementBlocks, S
 from ..model import Model
 
 __all__ = ["Parameterization", "ELEMENT_BLOCKS", "RELAXATION_BLOCKS", "element_directions",
-           "stiffening_columns"]
+           "law_constant_columns"]
 
 
-def stiffening_columns(parameters, model) -> np.ndarray:
+def law_constant_columns(parameters, model) -> np.ndarray:
     """(n_elements,) the column of every element's ``log_stiffening`` parameter (-1: not a
     Yeoh element, or not learned)."""
     if model.elements is None:

@@ -219,7 +219,9 @@ class Model:
             Prony terms for every element, e.g. ``[(0.5, 0.05)]``: the standard linear solid
             whose long-term modulus is E and instantaneous one 1.5 E, relaxing in 50 ms.
         stiffening : float or (n_tetrahedra,), optional
-            Yeoh's ``C₂₀/C₁₀`` of the Yeoh elements.
+            The law's own constant: Yeoh's ``C₂₀/C₁₀`` of the Yeoh elements, Mooney–Rivlin's
+            ``C₀₁/C₁₀`` of the Mooney–Rivlin ones (the physics calls it ``law_constant``;
+            the model file and the commands keep the name ``stiffening``).
 
         The model has no springs term (the mesh's springs, its tetrahedron edges, exert no
         force).

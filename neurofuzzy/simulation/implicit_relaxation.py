@@ -50,7 +50,7 @@ class RelaxationTangent:
         self.volume = np.asarray(geometry.volume, float)
         self.nodal, self.average = bool(constants.nodal), geometry.average
         self.law = np.array(constants.law, np.intp)
-        self.stiffening = np.array(model.elements.stiffening, float)
+        self.law_constant = np.array(model.elements.stiffening, float)
         self.shear = np.array(total["shear"], float)
         self.lam = np.array(total["lam"], float)
         self.moduli = np.array(model.elements.relaxation_moduli, float)      # (K, T)
@@ -96,12 +96,12 @@ class RelaxationTangent:
         rate = np.zeros_like(G)
         change = np.zeros_like(dG)
         stress_jvp_arrays(self.law, np.ascontiguousarray(G), rate,
-                          (self.shear, zeros, pressure, zeros, 0.0, self.stiffening),
+                          (self.shear, zeros, pressure, zeros, 0.0, self.law_constant),
                           (dG, np.zeros_like(dG), np.ascontiguousarray(d_pressure),
                            np.zeros_like(d_pressure)), change)
         unit = np.zeros_like(G)                               # D(G): the stress per unit 2μ
         stress_arrays(self.law, np.ascontiguousarray(G), rate,
-                      (np.ones(k), zeros, zeros, zeros, 0.0, self.stiffening), unit)
+                      (np.ones(k), zeros, zeros, zeros, 0.0, self.law_constant), unit)
         d_elastic = np.moveaxis(change, 1, 0) + self.d_shear[:, :, None, None] * unit[:, 0]
         a = self.decay[None, :, :, None, None]
         self.dr = a * self.dr - (1.0 - a) * d_elastic[:, :, None]

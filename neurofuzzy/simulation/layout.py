@@ -29,7 +29,7 @@ class ElementArrays(NamedTuple):
     inverse_rest: np.ndarray
     volume: np.ndarray
     law: np.ndarray
-    stiffening: np.ndarray
+    law_constant: np.ndarray
     shear: np.ndarray
     shear_rate: np.ndarray
     lam: np.ndarray
