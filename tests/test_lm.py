@@ -77,6 +77,29 @@ def test_the_first_trial_is_not_taken_with_its_jacobian_when_it_should_end_the_f
     assert calls == {"residuals": 1, "jacobian": 0, "both": 1}
 
 
+@pytest.mark.parametrize("at_end", [True, False])
+def test_a_stage_before_the_last_takes_a_step_that_ends_it_without_its_jacobian(at_end):
+    """Exact data, a start 1e-4 off: the first step is short enough to end the fit, and it
+    lowers the cost by nearly all of it. A stage before the last (``jacobian_at_end``
+    False), whose Jacobian at the result goes unused, takes it by its residuals alone; the
+    last stage takes it with its Jacobian, which the standard errors then use. The same
+    step either way."""
+    residuals, jacobian, both, calls = _problem(0.0)
+    lower, upper = np.full(3, -np.inf), np.full(3, np.inf)
+    solution = _lm.levenberg_marquardt(residuals, jacobian, np.array([2.0, 0.5, 3.0]) + 1e-4,
+                                       lower, upper, max_evaluations=100, tolerance=1e-3,
+                                       both=both, jacobian_at_end=at_end)
+    assert solution.reason == "converged" and solution.evaluations == 2
+    assert np.allclose(solution.x, [2.0, 0.5, 3.0], atol=1e-6)
+    if at_end:
+        assert calls == {"residuals": 0, "jacobian": 0, "both": 2}
+    else:
+        assert calls == {"residuals": 1, "jacobian": 0, "both": 1}
+    again = _lm.levenberg_marquardt(*_problem(0.0)[:2], np.array([2.0, 0.5, 3.0]) + 1e-4,
+                                    lower, upper, max_evaluations=100, tolerance=1e-3)
+    assert np.array_equal(again.x, solution.x) and again.cost == solution.cost
+
+
 def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     """A per-region element fit: with the trial steps' Jacobians, the same model, standard
     errors and lack of fit from fewer simulations of the data (the standard errors take the

@@ -85,7 +85,7 @@ def _damped_step(normal, gradient, damping):
 
 def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluations: int,
                         tolerance: float, both=None, give_up=None, meat=None,
-                        leave=None) -> Solution:
+                        leave=None, jacobian_at_end: bool = True) -> Solution:
     """Minimise ``½‖r(x)‖²`` within the box ``[lower, upper]`` (steps are clipped to it).
 
     ``residuals(x)`` returns r (m,), ``jacobian(x)`` returns J (m, n). ``max_evaluations``
@@ -98,6 +98,12 @@ def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluation
     every step, are) and the step is not predicted to end the fit, so an accepted step needs no
     second pass, and the Jacobian at the result is there for the standard errors. The steps
     taken are the same either way; only the passes that compute them differ.
+    ``jacobian_at_end`` False says that the caller has no use for the Jacobian at the result
+    (a stage before the last, whose next stage starts other windows): a trial step whose
+    acceptance would end the fit (by its predicted decrease or by its length, both known
+    before it is run) is then evaluated by its residuals alone. True (the default): by its
+    predicted decrease alone, since an ending step's length leaves the Jacobian at the result
+    to the standard errors.
 
     ``give_up(floor)``, when given, is asked whether to stop with the cost Gauss–Newton
     predicts as the least reachable from the point (:func:`floor`), at every Jacobian where
@@ -121,7 +127,7 @@ def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluation
     """
     with threadpool_limits(limits=1, user_api="blas"):
         return _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
-                         tolerance, give_up, meat, leave)
+                         tolerance, give_up, meat, leave, jacobian_at_end)
 
 
 def floor(normal, gradient, cost) -> float:
@@ -134,7 +140,8 @@ def floor(normal, gradient, cost) -> float:
 
 
 def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
-              tolerance, give_up=None, meat=None, leave=None) -> Solution:
+              tolerance, give_up=None, meat=None, leave=None,
+              jacobian_at_end=True) -> Solution:
     x = np.clip(np.asarray(x0, float), lower, upper)
     r, J = both(x) if both is not None else (residuals(x), None)
     cost = 0.5 * float(r @ r)
@@ -174,7 +181,9 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
             predicted = -(gradient @ step + 0.5 * step @ normal @ step)
             J_trial = None
             # not for a step predicted to end the fit (its Jacobian would go unused)
-            if speculate and both is not None and predicted > tolerance * cost:
+            ends = predicted <= tolerance * cost or (
+                not jacobian_at_end and _short(step, trial, tolerance))
+            if speculate and both is not None and not ends:
                 r_trial, J_trial = both(trial)
             else:
                 r_trial = residuals(trial)
@@ -191,8 +200,7 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
         damping *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
         decrease = cost - cost_trial
         x, r, cost = trial, r_trial, cost_trial
-        if decrease <= tolerance * cost or (np.linalg.norm(step)
-                                             <= tolerance * (tolerance + np.linalg.norm(x))):
+        if decrease <= tolerance * cost or _short(step, x, tolerance):
             return Solution(x, cost, evaluations, "converged")
         if 2.0 * cost <= FLOOR**2 * len(r):
             return Solution(x, cost, evaluations, "residuals at the rounding floor")
@@ -204,6 +212,11 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
         normal = J.T @ J
         robust = None if meat is None else _robust_covariance(normal, meat(J, r))
         speculate = trials == 1
+
+
+def _short(step, x, tolerance) -> bool:
+    """Does the step to ``x`` end the fit by its length (``‖δ‖ ≤ tol (tol + ‖x‖)``)?"""
+    return bool(np.linalg.norm(step) <= tolerance * (tolerance + np.linalg.norm(x)))
 
 
 def _insignificant(step, normal, cost, m) -> bool:

@@ -23,7 +23,7 @@ ABANDON_AFTER = 2
 
 
 def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, upper,
-             active, tolerance, abandon=None, guard=False):
+             active, tolerance, abandon=None, guard=False, last=True):
     """The parameters ``theta`` with their ``active`` entries fitted by Levenberg–Marquardt
     (the prior's terms, when the learner has one, stacked under the data's residuals);
     given up, ``learner.abandoned_`` set, once Gauss–Newton predicts at two Jacobians in a
@@ -32,7 +32,8 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
     ``substeps`` (:func:`.steps.stable_at_one_step`), and stopped also by steps below the
     cluster-robust standard errors (:mod:`._lm`; trusted only at stable steps: the rounding
     an unstable simulation amplifies widens them, and stopped a fit of a stiff block a
-    quarter short of its modulus)."""
+    quarter short of its modulus). ``last`` False: a stage before the last, whose Jacobian
+    at the result goes unused (``jacobian_at_end`` of :func:`._lm.levenberg_marquardt`)."""
     def full(x):
         values = theta.copy()
         values[active] = x
@@ -85,15 +86,15 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
         residuals, jacobian, theta[active], lower[active], upper[active],
         max_evaluations=int(learner.max_iterations), tolerance=tolerance,
         both=both if cheap else None, give_up=None if abandon is None else give_up,
-        meat=meat if guard else None, leave=leave if guard else None)
+        meat=meat if guard else None, leave=leave if guard else None, jacobian_at_end=last)
     return full(result.x)
 
 
 def solve_lbfgs(learner, sensitivity, experiments, theta, starts, substeps, lower, upper,
-                active, tolerance, abandon=None, guard=False):
+                active, tolerance, abandon=None, guard=False, last=True):
     """The parameters ``theta`` with their ``active`` entries fitted by L-BFGS-B with the
     adjoint gradient (for Jacobians too large to hold; ``abandon`` is not used: without a
-    Jacobian there is no prediction of the least error; nor is ``guard``)."""
+    Jacobian there is no prediction of the least error; nor are ``guard`` and ``last``)."""
     def objective(x):
         values = theta.copy()
         values[active] = x

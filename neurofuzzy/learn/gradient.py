@@ -1,5 +1,5 @@
-"""Exact-gradient learner: Levenberg–Marquardt (Gauss–Newton) or L-BFGS on the discrete simulator, with
-multiple shooting.
+"""Exact-gradient learner: Levenberg–Marquardt (Gauss–Newton) or L-BFGS on the discrete
+simulator, with multiple shooting.
 
 The objective is the paper's error ``E`` (eq. 2.2) over all experiments, with lengths in units
 of the mean spring length. Derivatives are exact for the discrete model (forward sensitivities
@@ -68,8 +68,9 @@ class GradientLearner(Learner):
         free node observed; otherwise the stages fit growing beginnings of the recording.
         Stages before the last stop at a relative cost change of ``STAGE_TOLERANCE`` (0.1 %).
     method : {"auto", "lm", "lbfgs"}
-        Levenberg–Marquardt on the normal equations of the full Jacobian (``"lm"``, :mod:`._lm`), L-BFGS-B with the adjoint
-        gradient (``"lbfgs"``), or the first when the Jacobian fits in memory.
+        Levenberg–Marquardt on the normal equations of the full Jacobian (``"lm"``,
+        :mod:`._lm`), L-BFGS-B with the adjoint gradient (``"lbfgs"``), or the first when
+        the Jacobian fits in memory.
     max_iterations : int
         Function evaluations (``"lm"``) or iterations (``"lbfgs"``) per stage.
     tolerance : float
@@ -373,7 +374,7 @@ class GradientLearner(Learner):
             theta = solver(self, sensitivity, data, theta, starts, substeps, lower, upper,
                            active, tolerance,
                            abandon=self.abandon_above if window == longest else None,
-                           guard=guard)
+                           guard=guard, last=window == longest)
             best = min(self._trace[begun:] or self._trace[-1:])   # this stage's, not earlier
             progress.update(stage + 1, f"{what}, RMS {length_text(best[1])} per marker")
             if self._left:
