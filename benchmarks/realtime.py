@@ -1,20 +1,24 @@
 """The real-time factor at a simulator's step (issue 47, item 3): simulated seconds per wall
 second, ours beside MuJoCo's on the same model.
 
-    python benchmarks/realtime.py [--cells 6 12 20] [--steps 30]
+    python benchmarks/realtime.py [--cells 6 12 20] [--steps 30] [--threads 1 2]
 
 For each Kuhn block (a 2 cm cube of ``cells``³ cells, six tetrahedra a cell, bottom fixed,
 St. Venant–Kirchhoff at ν 0.45 in the textbook element form, which is MuJoCo's flex), pushed
 on its top:
 
-- **explicit**, at the stable step (``stability_limit``): our compiled stepper (numba, every
-  thread) and MuJoCo's ``Euler``;
+- **explicit**, at the stable step (``stability_limit``): our compiled stepper and MuJoCo's
+  ``Euler``;
 - **implicit**, at 16 ms (graphics) and 1 ms (haptics): our backward Euler with one Newton
   iteration (:func:`neurofuzzy.simulation.implicit.simulate_implicit`, the step of MuJoCo's
   ``discrete`` integrator, which it reproduces: ``tests/test_implicit.py``) and MuJoCo's
   ``discrete``.
 
-A factor above 1 is faster than real time. Each timing is the best of three after a warm-up;
+Ours at each of ``--threads`` (numba's threads and the BLAS's, :func:`numba.set_num_threads`
+and threadpoolctl; the element passes split over threads from
+:data:`~neurofuzzy.simulation.threads.PARALLEL_FROM` elements), MuJoCo on one thread (its
+step of one model is serial). A factor above 1 is faster than real time. Each timing is the
+best of three after a warm-up;
 the explicit runs take ``--explicit-steps`` steps, the implicit ones ``--steps``. Prints the
 table and writes ``benchmarks/realtime.json``.
 """
@@ -27,7 +31,9 @@ import sys
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -88,21 +94,43 @@ def _mujoco(model, load, h, integrator, steps):
     return _best(run)
 
 
-def measure(cells, steps, explicit_steps):
+def _ours(threads, function):
+    """The best seconds of ``function`` on ``threads`` threads (numba's and the BLAS's)."""
+    numba.set_num_threads(threads)
+    try:
+        with threadpool_limits(limits=threads):
+            return _best(function)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+
+
+def _key(name, threads):
+    return f"{name}_{threads}_thread{'s' if threads > 1 else ''}"
+
+
+def measure(cells, steps, explicit_steps, threads=(1, 2)):
+    """One block's factors: ours at each of ``threads`` (keys ``explicit_ours_1_thread``,
+    ``implicit_ours_16 ms_2_threads``, …; the keys without a thread count are one thread's),
+    MuJoCo's on one."""
     model, load = _block(cells)
     h_stable = stability_limit(model).max_step
     row = {"cells": cells, "tetrahedra": model.mesh.n_tetrahedra, "nodes": model.n_nodes,
            "stable_step_s": h_stable}
-    seconds = _best(lambda: simulate(model, dt=h_stable * explicit_steps, n_frames=2,
-                                     external_forces=load, substeps=explicit_steps))
-    row["explicit_ours"] = h_stable * explicit_steps / seconds
+    for count in threads:
+        seconds = _ours(count, lambda: simulate(model, dt=h_stable * explicit_steps,
+                                                n_frames=2, external_forces=load,
+                                                substeps=explicit_steps))
+        row[_key("explicit_ours", count)] = h_stable * explicit_steps / seconds
+    row["explicit_ours"] = row.get(_key("explicit_ours", 1))
     mujoco_seconds = _mujoco(model, load, h_stable, "Euler", explicit_steps)
     row["explicit_mujoco"] = (None if mujoco_seconds is None
                               else h_stable * explicit_steps / mujoco_seconds)
     for name, h in STEPS.items():
-        seconds = _best(lambda: simulate_implicit(model, dt=h, n_frames=steps + 1,
-                                                  external_forces=load))
-        row[f"implicit_ours_{name}"] = h * steps / seconds
+        for count in threads:
+            seconds = _ours(count, lambda: simulate_implicit(model, dt=h, n_frames=steps + 1,
+                                                             external_forces=load))
+            row[_key(f"implicit_ours_{name}", count)] = h * steps / seconds
+        row[f"implicit_ours_{name}"] = row.get(_key(f"implicit_ours_{name}", 1))
         mujoco_seconds = _mujoco(model, load, h, "discrete", steps)
         row[f"implicit_mujoco_{name}"] = (None if mujoco_seconds is None
                                           else h * steps / mujoco_seconds)
@@ -118,23 +146,30 @@ def main(argv=None):
     parser.add_argument("--cells", type=int, nargs="+", default=[6, 12, 20])
     parser.add_argument("--steps", type=int, default=30)
     parser.add_argument("--explicit-steps", type=int, default=2000)
+    parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--out", default=str(Path(__file__).with_suffix(".json")))
     args = parser.parse_args(argv)
+    threads = [count for count in args.threads if count <= numba.config.NUMBA_NUM_THREADS]
     rows = []
     for cells in args.cells:
-        rows.append(measure(cells, args.steps, args.explicit_steps))
+        rows.append(measure(cells, args.steps, args.explicit_steps, threads))
         r = rows[-1]
         print(f"{r['tetrahedra']} tetrahedra done", file=sys.stderr)
-    print("real-time factor (simulated s per wall s; > 1 is faster than real time)")
-    print(f"{'tets':>7} {'stable step':>11} {'explicit ours':>13} {'MuJoCo':>7} "
-          f"{'16 ms ours':>10} {'MuJoCo':>7} {'1 ms ours':>9} {'MuJoCo':>7}")
+    print("real-time factor (simulated s per wall s; > 1 is faster than real time); ours at "
+          + " / ".join(f"{count} thread{'s' if count > 1 else ''}" for count in threads)
+          + ", MuJoCo on one")
+    print(f"{'tets':>7} {'stable step':>11} {'explicit ours':>15} {'MuJoCo':>7} "
+          f"{'16 ms ours':>15} {'MuJoCo':>7} {'1 ms ours':>15} {'MuJoCo':>7}")
     for r in rows:
+        ours = {name: " / ".join(_factor(r[_key(name, count)]) for count in threads)
+                for name in ("explicit_ours", "implicit_ours_16 ms", "implicit_ours_1 ms")}
         print(f"{r['tetrahedra']:>7} {1e3 * r['stable_step_s']:>9.3f}ms "
-              f"{_factor(r['explicit_ours']):>13} {_factor(r['explicit_mujoco']):>7} "
-              f"{_factor(r['implicit_ours_16 ms']):>10} "
+              f"{ours['explicit_ours']:>15} {_factor(r['explicit_mujoco']):>7} "
+              f"{ours['implicit_ours_16 ms']:>15} "
               f"{_factor(r['implicit_mujoco_16 ms']):>7} "
-              f"{_factor(r['implicit_ours_1 ms']):>9} {_factor(r['implicit_mujoco_1 ms']):>7}")
-    Path(args.out).write_text(json.dumps({"rows": rows}, indent=1) + "\n")
+              f"{ours['implicit_ours_1 ms']:>15} {_factor(r['implicit_mujoco_1 ms']):>7}")
+    Path(args.out).write_text(json.dumps({"threads": threads, "rows": rows}, indent=1)
+                              + "\n")
 
 
 if __name__ == "__main__":
