@@ -43,7 +43,7 @@ from neurofuzzy.kernels.element import element_force  # noqa: E402
 from neurofuzzy.kernels.element_jvp import CONTRACT, element_jvp  # noqa: E402
 from neurofuzzy.kernels.element_vjp import element_vjp  # noqa: E402
 from neurofuzzy.kernels.laws import STEP  # noqa: E402
-from neurofuzzy.kernels.stiffness import element_tangents  # noqa: E402
+from neurofuzzy.kernels.stiffness import _gather, element_tangents  # noqa: E402
 from neurofuzzy.learn import Parameterization  # noqa: E402
 from neurofuzzy.learn._compiled import CompiledModel  # noqa: E402
 from neurofuzzy.mesh import from_tetra, kuhn_block  # noqa: E402
@@ -51,12 +51,6 @@ from neurofuzzy.model import Model  # noqa: E402
 
 LAWS = ("st-venant-kirchhoff", "neo-hookean")
 FORMS = ("element", "nodal")
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _gather(x, n0, n1, n2, n3):
-    return (x[n0, 0], x[n0, 1], x[n0, 2], x[n1, 0], x[n1, 1], x[n1, 2],
-            x[n2, 0], x[n2, 1], x[n2, 2], x[n3, 0], x[n3, 1], x[n3, 2])
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -135,13 +129,10 @@ def generated_jvp(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_
                 d_force[n3, k, q] += fc[9 + k].imag / s
 
 
-def _best(function, repeat):
-    best = np.inf
-    for _ in range(repeat):
-        began = time.perf_counter()
-        function()
-        best = min(best, time.perf_counter() - began)
-    return best
+def _seconds(function):
+    began = time.perf_counter()
+    function()
+    return time.perf_counter() - began
 
 
 def measure(cells: int, law: str, form: str, repeat: int) -> dict:
@@ -225,7 +216,7 @@ def measure(cells: int, law: str, form: str, repeat: int) -> dict:
                                ("forward_generated", generated_forward),
                                ("reverse_hand", hand_reverse),
                                ("reverse_complex_step_matrices", complex_step_matrices)):
-            timings[name] = min(timings.get(name, np.inf), _best(function, 1))
+            timings[name] = min(timings.get(name, np.inf), _seconds(function))
     return {"law": law, "form": form, "tetrahedra": n_el, "directions": n_params,
             "forward_difference": difference, **timings,
             "forward_ratio": timings["forward_generated"] / timings["forward_hand"],

@@ -104,14 +104,17 @@ def _ours(threads, function):
         numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
 
 
-def _key(name, threads):
-    return f"{name}_{threads}_thread{'s' if threads > 1 else ''}"
+def _threads(count):
+    return f"{count} thread{'s' if count > 1 else ''}"
+
+
+def _key(name, count):
+    return f"{name}_{_threads(count).replace(' ', '_')}"
 
 
 def measure(cells, steps, explicit_steps, threads=(1, 2)):
     """One block's factors: ours at each of ``threads`` (keys ``explicit_ours_1_thread``,
-    ``implicit_ours_16 ms_2_threads``, …; the keys without a thread count are one thread's),
-    MuJoCo's on one."""
+    ``implicit_ours_16 ms_2_threads``, …), MuJoCo's on one."""
     model, load = _block(cells)
     h_stable = stability_limit(model).max_step
     row = {"cells": cells, "tetrahedra": model.mesh.n_tetrahedra, "nodes": model.n_nodes,
@@ -121,7 +124,6 @@ def measure(cells, steps, explicit_steps, threads=(1, 2)):
                                                 n_frames=2, external_forces=load,
                                                 substeps=explicit_steps))
         row[_key("explicit_ours", count)] = h_stable * explicit_steps / seconds
-    row["explicit_ours"] = row.get(_key("explicit_ours", 1))
     mujoco_seconds = _mujoco(model, load, h_stable, "Euler", explicit_steps)
     row["explicit_mujoco"] = (None if mujoco_seconds is None
                               else h_stable * explicit_steps / mujoco_seconds)
@@ -130,7 +132,6 @@ def measure(cells, steps, explicit_steps, threads=(1, 2)):
             seconds = _ours(count, lambda: simulate_implicit(model, dt=h, n_frames=steps + 1,
                                                              external_forces=load))
             row[_key(f"implicit_ours_{name}", count)] = h * steps / seconds
-        row[f"implicit_ours_{name}"] = row.get(_key(f"implicit_ours_{name}", 1))
         mujoco_seconds = _mujoco(model, load, h, "discrete", steps)
         row[f"implicit_mujoco_{name}"] = (None if mujoco_seconds is None
                                           else h * steps / mujoco_seconds)
@@ -156,7 +157,7 @@ def main(argv=None):
         r = rows[-1]
         print(f"{r['tetrahedra']} tetrahedra done", file=sys.stderr)
     print("real-time factor (simulated s per wall s; > 1 is faster than real time); ours at "
-          + " / ".join(f"{count} thread{'s' if count > 1 else ''}" for count in threads)
+          + " / ".join(_threads(count) for count in threads)
           + ", MuJoCo on one")
     print(f"{'tets':>7} {'stable step':>11} {'explicit ours':>15} {'MuJoCo':>7} "
           f"{'16 ms ours':>15} {'MuJoCo':>7} {'1 ms ours':>15} {'MuJoCo':>7}")
