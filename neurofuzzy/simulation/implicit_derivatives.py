@@ -26,12 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import Model
 from .implicit import ImplicitRun, _base
 from .implicit_relaxation import RelaxationTangent
+from .krylov import gmres
 from .static import ConvergenceError, _factor
 from .tangents import tangents, unit_forces
 
@@ -42,10 +42,10 @@ PARAMETERS = ("youngs_modulus", "poisson_ratio", "viscosity")
 #: relative residual of the derivatives' linear solves by GMRES preconditioned with an earlier
 #: step's factorisation
 SOLVE_TOLERANCE = 1e-9
-#: GMRES restart cycles (of 20 iterations) before the step's matrix is factorised afresh.
-#: SciPy's GMRES ends a cycle on the preconditioned residual, which on the pushed blocks left
-#: the true one 10 to 100 times above it: with one cycle (the static solve's ``_solve``) it
-#: reported failure and every step was factorised afresh
+#: GMRES restart cycles (of 20 iterations) before the step's matrix is factorised afresh
+#: (:func:`.krylov.gmres`, preconditioned on the right: it ends on the true residual; SciPy's,
+#: used before, ended a cycle on the preconditioned one, 10 to 100 times below the true one
+#: on the pushed blocks, and needed the further cycles for that)
 SOLVE_CYCLES = 4
 #: Newton iterations a step may take: the derivatives are those of the solved step
 ITERATIONS = 50
@@ -227,10 +227,10 @@ def _solve_step(matrix, right, factor):
     earlier step's factorisation, for up to :data:`SOLVE_CYCLES` cycles; a new factorisation
     (SuperLU, as the static solve's) where that does not reach :data:`SOLVE_TOLERANCE`."""
     if factor is not None and np.any(right):
-        preconditioner = spla.LinearOperator(matrix.shape, matvec=factor.solve)
-        x, info = spla.gmres(matrix, right, x0=factor.solve(right), rtol=SOLVE_TOLERANCE,
-                             atol=0.0, restart=20, maxiter=SOLVE_CYCLES, M=preconditioner)
-        if info == 0:
-            return x, factor
+        solved = gmres(matrix.dot, right, SOLVE_TOLERANCE * np.linalg.norm(right),
+                       precondition=factor.solve, start=factor.solve(right), restart=20,
+                       cycles=SOLVE_CYCLES)
+        if solved.converged:
+            return solved.x, factor
     factor = _factor(matrix)
     return factor.solve(right), factor

@@ -38,8 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
+from .krylov import gmres
 from .static import _factor
 from .tangents import tangents
 
@@ -167,20 +167,11 @@ class StepSolver:
             return start
         # GMRES on the rows weighted by M^{-1/2}, preconditioned on the right by the kept
         # factorisation (so the residual it minimises is the true one)
-        size = len(right)
-        operator = spla.LinearOperator(
-            (size, size), dtype=float,
-            matvec=lambda u: self.weight * self.product(self._apply(u), x, v, force))
-        iterations = [0]
-
-        def count(_):
-            iterations[0] += 1
-
-        step, info = spla.gmres(operator, self.weight * residual, rtol=0.0, atol=goal,
-                                restart=RESTART, maxiter=1, callback=count,
-                                callback_type="pr_norm")
-        self.counts["iterations"] += iterations[0]
-        return None if info != 0 else start + self._apply(step)
+        solved = gmres(lambda u: self.weight * self.product(u, x, v, force),
+                       self.weight * residual, goal, precondition=self._apply,
+                       restart=RESTART)
+        self.counts["iterations"] += solved.iterations
+        return start + solved.x if solved.converged else None
 
     def product(self, y: np.ndarray, x: np.ndarray, v: np.ndarray,
                 force: np.ndarray) -> np.ndarray:
