@@ -5,13 +5,14 @@ Each of those solves starts from a factorisation of a nearby matrix and needs a 
 iterations on systems of a few hundred to a few thousand unknowns, tens of thousands of
 times in a fit. There SciPy's ``scipy.sparse.linalg.gmres`` spent more time in its own
 Python than in the products and triangular solves it called: profiled on the plate ramp's
-implicit fit (384 tetrahedra, 1,164 unknowns), 270 of 864 seconds were its body (8.4 ms a
-call, 32,160 calls) and more its ``LinearOperator`` wrappers, against 136 s in SuperLU's
-solves and 70 s in the compiled force. :func:`gmres` is the same method (restarted GMRES,
-Saad and Schultz 1986, preconditioned on the right so that the residual it minimises is
-the system's own) on preallocated arrays, orthogonalised by classical Gram–Schmidt applied
-twice (two matrix–vector products with the basis instead of a Python loop over it; as
-stable as the modified form, Giraud, Langou and Rozložník 2005).
+implicit fit (384 tetrahedra graded toward the plates, 225 unknowns), 270 of 864 seconds
+were its body (8.4 ms a call, 32,160 calls) and more its ``LinearOperator`` wrappers,
+against 136 s in SuperLU's solves and 70 s in the compiled force. :func:`gmres` is the
+same method (restarted GMRES, Saad and Schultz 1986, preconditioned on the right so that
+the residual it minimises is the system's own) on preallocated arrays, orthogonalised by
+classical Gram–Schmidt applied twice (two matrix–vector products with the basis instead
+of a Python loop over it; as stable as the modified form, Giraud, Langou and Rozložník
+2005).
 
 The static solve (:func:`.static._solve`) keeps SciPy's, preconditioned on the left. Its
 Newton iterations with a tool in contact meet tangents that turn indefinite, and decide
