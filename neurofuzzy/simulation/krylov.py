@@ -39,7 +39,8 @@ class Solved(NamedTuple):
     """What :func:`gmres` found."""
 
     x: np.ndarray         # the solution
-    iterations: int       # products by the matrix (the start's residual not counted)
+    iterations: int       # Krylov iterations, one product each (the residuals of a given
+                          # start and of a restart not counted)
     converged: bool       # the residual is within the tolerance
 
 
