@@ -104,7 +104,9 @@ def _static() -> None:
 #: and then the third, 2026-12-02 on two cores: 107, 150 and 23 s, 150 s in all; 344 s
 #: before the threaded passes and the adjoint stopped inlining their callees twice; on a
 #: faster machine later that day, with the derivative sweeps' threaded passes, 68, 114 and
-#: 18 s, 114 s in all, against 75, 96 and 16 s without them)
+#: 18 s, 114 s in all, against 75, 96 and 16 s without them; on a slower machine on
+#: 2026-12-03, 63, 89 and 19 s, 89 s in all, once the passes over the items stopped being
+#: inlined into their callers, against 75, 130 and 19 s, 130 s in all, before)
 PARTS = {"sensitivity": _learner_part, "stepper": _stepper, "static": _static}
 
 

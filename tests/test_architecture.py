@@ -131,6 +131,59 @@ def test_the_compiled_kernels_import_only_each_other():
             assert outside == [], name
 
 
+def _inlined(function: ast.FunctionDef) -> bool:
+    """Whether ``function`` is decorated ``numba.njit(..., inline="always")``."""
+    return any(isinstance(decorator, ast.Call) and any(
+        keyword.arg == "inline" and isinstance(keyword.value, ast.Constant)
+        and keyword.value.value == "always" for keyword in decorator.keywords)
+        for decorator in function.decorator_list)
+
+
+def _loops_over_items(function: ast.FunctionDef) -> list[str]:
+    """The ``range(...)`` bounds of ``function``'s loops that count items (elements, nodes,
+    springs, a thread's run): any bound but a number or a count along an array's second
+    axis (Prony terms, tangent columns)."""
+    def per_item(bound: ast.expr) -> bool:
+        if isinstance(bound, ast.Constant):
+            return True
+        return (isinstance(bound, ast.Subscript) and isinstance(bound.value, ast.Attribute)
+                and bound.value.attr == "shape"
+                and isinstance(bound.slice, ast.Constant) and bound.slice.value > 0)
+
+    bounds = []
+    for node in ast.walk(function):
+        if (isinstance(node, ast.For) and isinstance(node.iter, ast.Call)
+                and getattr(node.iter.func, "id", None) in ("range", "prange")
+                and not all(per_item(bound) for bound in node.iter.args)):
+            bounds.append(ast.unparse(node.iter))
+    return bounds
+
+
+def test_an_inlined_kernel_does_not_loop_over_the_items():
+    """numba copies an inlined function's body, with everything inlined into it, into each
+    caller: a per-item function is worth it, a pass over the items is not (it only added to
+    the compilation: ``neurofuzzy/kernels/__init__.py``)."""
+    found, loops = 0, {}
+    for name, path in MODULES.items():
+        if name.startswith("neurofuzzy.kernels"):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.FunctionDef) and _inlined(node):
+                    found += 1
+                    if _loops_over_items(node):
+                        loops[f"{name}.{node.name}"] = _loops_over_items(node)
+    assert found > 20               # the check reads the decorators it means to
+    assert loops == {}
+
+
+def test_the_inlining_check_sees_a_pass():
+    source = ('@numba.njit(cache=True, inline="always")\n'
+              'def f(a, g):\n'
+              '    for k in range(g.shape[1]):\n        pass\n'
+              '    for i in range(a.shape[0]):\n        pass\n')
+    function = ast.parse(source).body[0]
+    assert _inlined(function) and _loops_over_items(function) == ["range(a.shape[0])"]
+
+
 #: "no kernel signature longer than about ten arguments" (issue 44): the kernels the rest of
 #: the package calls take the model in groups (tuples, named where numba reads their fields)
 MAX_KERNEL_ARGUMENTS = 10

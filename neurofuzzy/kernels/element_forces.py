@@ -47,7 +47,7 @@ def _green(f00, f01, f02, f10, f11, f12, f20, f21, f22, g00, g01, g02, g10, g11,
     return G, Gd
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _only_svk(law, kappa, relaxing):
     """True when every element is St. Venant–Kirchhoff with no strain stiffening and no
     relaxation (most models): its volumetric stress ``π`` multiplies ``I`` as the viscous
@@ -113,7 +113,7 @@ def _strains(p, v, e, tets, inverse_rest):
             (f00, f01, f02, f10, f11, f12, f20, f21, f22), G, Gd)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, lo, hi, general):
     """Nodes ``lo..hi - 1``: the sums of the first pass into their pressures ``Λ θ̄`` and
     ``H θ̄̇`` (for St. Venant–Kirchhoff alone both into column 0: ``π`` and ``π̇`` both
@@ -129,7 +129,7 @@ def _node_pressures(node_strain, node_volume, node_lam, node_lam_rate, lo, hi, g
             node_strain[i, 1] *= node_lam_rate[i] / node_volume[i]
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general):
     """The nodal form's first pass: every element's ``V θ / 4`` and ``V θ̇ / 4`` added into
     columns 0 and 1 of its corners' rows of ``node_strain``."""
@@ -147,7 +147,7 @@ def _nodal_sums(p, v, tets, inverse_rest, volume, law, node_strain, general):
             node_strain[n, 1] += corner * theta_rate
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _forces(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
             lam_rate, nodal, node_strain, relax_g, relax_decay, history, kappa, force,
             general):
@@ -201,7 +201,7 @@ def _forces(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_ra
             force[n0, r] -= q1 + q2 + q3
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _passes(p, v, tets, inverse_rest, volume, law, law_constant, shear, shear_rate, lam,
             lam_rate, nodal, node_volume, node_lam, node_lam_rate, node_strain, relax_g,
             relax_decay, history, kappa, force, general):

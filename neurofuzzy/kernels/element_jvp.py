@@ -29,7 +29,7 @@ from .tuples import (_differences, _dot, _edges_of_tangent, _element_strains, _f
 CONTRACT = {"contract"}
 
 
-@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def _node_sums(p, v, tp, tv, tets, inverse_rest, volume, law, node_strain, d_node_strain,
                general):
     """The nodal form's first pass: every element's ``V θ / 4`` and ``V θ̇ / 4`` (the law's
@@ -62,7 +62,7 @@ def _node_sums(p, v, tp, tv, tets, inverse_rest, volume, law, node_strain, d_nod
                 d_node_strain[node, q, 1] += d_theta_rate
 
 
-@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def _node_pressures(node_strain, d_node_strain, node_arrays, first, lo, hi):
     """Nodes ``lo..hi - 1``: their sums into the node pressures ``Λ θ̄``, ``H θ̄̇`` and their
     tangents (tangent ``q`` that of parameter ``first + q``)."""
@@ -82,7 +82,7 @@ def _node_pressures(node_strain, d_node_strain, node_arrays, first, lo, hi):
                                           + d_node_lam_rate[i, first + q] * theta_rate)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=CONTRACT, inline="always")
+@numba.njit(cache=True, nogil=True, fastmath=CONTRACT)
 def _forces(p, v, tp, tv, arrays, constants, nodal, columns, law_constant_column, relaxation,
             learned, node_strain, d_node_strain, force, d_force, general):
     """The second pass: every element's nodal forces into ``force`` and their tangents into

@@ -50,7 +50,7 @@ def _stress_vjp(law, G, Gd, LS, shear, shear_rate, pressure, pressure_rate, kapp
                       law_constant)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _node_sums(p, v, tets, inverse_rest, volume, law, node_strain):
     """The nodal form's first pass: every element's ``V θ / 4`` and ``V θ̇ / 4`` added into its
     corners' rows of ``node_strain`` (N, 2)."""
@@ -64,7 +64,7 @@ def _node_sums(p, v, tets, inverse_rest, volume, law, node_strain):
             node_strain[node, 1] += rate
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _node_averages(node_strain, node_volume, node_adjoint, lo, hi):
     """Nodes ``lo..hi - 1``: their sums into the averages ``θ̄``, ``θ̄̇``; their pressures'
     cotangents to zero."""
@@ -76,7 +76,7 @@ def _node_averages(node_strain, node_volume, node_adjoint, lo, hi):
         node_adjoint[i, 1] = 0.0
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _pull(p, v, elements, kappa, lam_force, d_p, d_v, gradients, node_strain, node_adjoint,
           relaxation):
     """The elements' pass: ``λ · ∂F/∂p``, ``λ · ∂F/∂v`` into ``d_p``, ``d_v``, by the constants
@@ -165,7 +165,7 @@ def _pull(p, v, elements, kappa, lam_force, d_p, d_v, gradients, node_strain, no
     return total_kappa
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _pull_nodal(p, v, elements, node_adjoint, d_p, d_v):
     """The nodal form's last pass: ``π_e = ¼ Σ_a Λ_a θ̄_a``, ``π̇_e = ¼ Σ_a H_a θ̄̇_a`` with
     ``θ̄_a = Σ_e (V_e/4) θ_e / V_a``: the node pressures' cotangents back to every element's
@@ -230,7 +230,7 @@ def _stage(p, v, elements, kappa, lam_force, out, d_out, adjoint_out, gradients,
                  memory)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _gather(total, parts, i):
     """Node ``i``'s rows of the other threads' buffers ``parts`` (threads - 1, N, k) added
     into ``total`` (N, k), and left zero."""

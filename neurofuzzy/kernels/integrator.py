@@ -16,7 +16,7 @@ through :func:`neurofuzzy.simulation.euler_update`.
 import numba
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def euler_update(p, v, force, weight, h):
     """In place: ``v += h W force``, then ``p += h v`` (eqs. 3.2, 3.1).
 
@@ -37,7 +37,7 @@ def euler_update(p, v, force, weight, h):
         _update(p, v, force, weight, h, p.shape[1])
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _update(p, v, force, weight, h, width):
     """:func:`euler_update` of ``width`` columns."""
     for i in range(p.shape[0]):
@@ -47,7 +47,7 @@ def _update(p, v, force, weight, h, width):
             p[i, k] += h * v[i, k]
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def euler_update_transpose(lam_p, lam_v, weight, h, lam_force):
     """The adjoint of :func:`euler_update`, in place: with ``λ_p``, ``λ_v`` the cotangents of
     ``p'``, ``v'``, ``λ_v ← λ_v + h λ_p`` (zero at fixed nodes, which never move) is the

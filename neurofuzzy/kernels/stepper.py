@@ -51,7 +51,7 @@ def _spring(p, v, ia, ib, stiffness, damping, rest, cubic, force):
     return ux, uy, uz, length, closing, stretch, magnitude, slope
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@numba.njit(cache=True, nogil=True)
 def _springs(p, v, a, b, stiffness, damping, rest, cubic, force):
     """Every spring's force added to ``force`` (:func:`_spring`); ``cubic`` holds the ``q``
     of the last ``len(cubic)`` springs (the second force along each spring that stiffens,
