@@ -433,6 +433,46 @@ def test_the_kept_factorisation_gives_the_exact_step_with_few_factorisations(law
     assert counts["factorisations"] <= 3 and counts["iterations"] > 0, counts
 
 
+def test_a_kept_factorisation_is_refreshed_once_it_has_cost_refresh_iterations(monkeypatch):
+    """After :data:`~neurofuzzy.simulation.step_solve.REFRESH` GMRES iterations on one
+    factorisation the next solve factorises afresh (here lowered to 10 on a run that takes
+    more than that): fewer iterations in all, the same motion to 1e-5."""
+    import neurofuzzy.simulation.step_solve as step_solve
+    from neurofuzzy.simulation.step_solve import StepSolver
+
+    model = _block(nu=0.45)
+    load = _push(model)
+    solvers, spent = [], []
+
+    class Counted(StepSolver):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            solvers.append(self)
+
+        def _factorise(self, x, v):
+            spent.append(self._spent)
+            super()._factorise(x, v)
+
+    import neurofuzzy.simulation.implicit as implicit
+
+    monkeypatch.setattr(implicit, "StepSolver", Counted)
+    runs = {}
+    for refresh in (10**9, 10):
+        monkeypatch.setattr(step_solve, "REFRESH", refresh)
+        spent.clear()
+        positions = simulate_implicit(model, dt=0.016, n_frames=25,
+                                      external_forces=load).positions
+        runs[refresh] = positions, dict(solvers[-1].counts), list(spent)
+    (kept, kept_counts, _), (fresh, fresh_counts, before) = runs[10**9], runs[10]
+    assert kept_counts["factorisations"] == 1 and kept_counts["iterations"] > 20, kept_counts
+    assert fresh_counts["factorisations"] >= 3, fresh_counts
+    # each refresh came once the kept factorisation had cost 10 iterations, not before
+    assert all(10 <= count < 10 + step_solve.RESTART for count in before[1:]), before
+    assert fresh_counts["iterations"] < kept_counts["iterations"]
+    motion = np.abs(kept - model.mesh.rest_positions).max()
+    assert np.abs(fresh - kept).max() < 1e-5 * motion
+
+
 def test_the_solve_s_product_is_the_assembled_matrix_s():
     """``A y`` by a forward difference of the compiled force equals the assembled
     ``(M + hC + h²K) y`` at a moving, deformed state, for every law (relative 1e-6)."""

@@ -18,7 +18,9 @@ time has 16 ms. A :class:`StepSolver` assembles and factorises seldom:
   by ``M^{-1/2}``, to a residual ``tolerance`` times the right side's;
 - it factorises ``A`` afresh at this state (assembled from every term's one definition,
   :func:`~neurofuzzy.simulation.tangents.tangents`) when GMRES does not get there in
-  :data:`RESTART` iterations, and solves again.
+  :data:`RESTART` iterations, and solves again; and before a solve once the kept
+  factorisation has cost :data:`REFRESH` GMRES iterations (counted, not timed: a run takes
+  the same steps every time).
 
 Why the weights: ``A ⪰ M`` near equilibrium (``K``, ``C`` positive semi-definite), so the
 error of ``δ`` in the mass norm is at most the weighted residual: a relative residual of 1e-6
@@ -43,13 +45,23 @@ from .krylov import gmres
 from .static import _factor
 from .tangents import tangents
 
-__all__ = ["BodyForce", "StepSolver", "TOLERANCE", "RESTART"]
+__all__ = ["BodyForce", "StepSolver", "TOLERANCE", "RESTART", "REFRESH"]
 
 #: relative residual (weighted by M^{-1/2}) a step's solve is corrected to
 TOLERANCE = 1e-6
 #: GMRES iterations preconditioned by the kept factorisation before the matrix is
 #: factorised afresh
 RESTART = 30
+#: GMRES iterations on one kept factorisation after which the next solve factorises afresh.
+#: A factorisation from rest grows stale as the body deforms: on the 2 cm block of
+#: ``benchmarks/realtime.py`` pushed at 16 ms steps its solves took 13 iterations a step.
+#: Refreshed every 200 iterations, 1,296 tetrahedra (100 steps) stepped in 1.76–1.78 ms
+#: instead of 3.63–3.79, and 10,368 (30 steps) in 52–55 ms instead of 62–72 (2026-12-03,
+#: alternately). At 1 ms a fresh factorisation saves little (about five iterations a step
+#: remain), so the refresh must be rare: every 200 iterations gave the same 1 ms times
+#: within the noise (2.76–2.85 against 2.91–2.94 ms; 50–55 against 50–54 ms); every 60 made
+#: them 10–20 % slower.
+REFRESH = 200
 
 
 class BodyForce:
@@ -139,6 +151,7 @@ class StepSolver:
         #: what the run cost: solves by the kept factorisation, products by differences of
         #: the force, GMRES iterations, factorisations
         self.counts = {"solves": 0, "products": 0, "iterations": 0, "factorisations": 0}
+        self._spent = 0         # GMRES iterations on the kept factorisation
 
     def solve(self, right: np.ndarray, x: np.ndarray, v: np.ndarray,
               force: np.ndarray) -> np.ndarray:
@@ -146,7 +159,7 @@ class StepSolver:
         ``F(x, v)`` (flat, no load) is ``force``."""
         if not np.any(right):
             return np.zeros_like(right)
-        fresh = self.factor is None
+        fresh = self.factor is None or self._spent >= REFRESH
         if fresh:
             self._factorise(x, v)
         delta = self._refined(right, x, v, force)
@@ -171,6 +184,7 @@ class StepSolver:
                        self.weight * residual, goal, precondition=self._apply,
                        restart=RESTART)
         self.counts["iterations"] += solved.iterations
+        self._spent += solved.iterations
         return start + solved.x if solved.converged else None
 
     def product(self, y: np.ndarray, x: np.ndarray, v: np.ndarray,
@@ -204,3 +218,4 @@ class StepSolver:
         self.factor = _factor(sp.diags(self.mass) + self.h * state.damping[f][:, f]
                               + (self.h * self.h) * stiffness[f][:, f])
         self.counts["factorisations"] += 1
+        self._spent = 0
