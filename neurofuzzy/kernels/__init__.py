@@ -7,8 +7,8 @@ and the discrete adjoint (:mod:`.adjoint`) of the gradient learner.
 
 What is inlined: a function of one item (a law, an element's strains, a product of tuples)
 is inlined into its caller by numba (``inline="always"``). Its work is a few dozen
-operations, and a call costs more than that: with the law and the strains called instead,
-the tangent and adjoint sweeps of the 10,368-tetrahedron block ran 1.2–1.35 times as long.
+operations, and a call costs a share of that: with the law switch called instead, the
+tangent and adjoint sweeps of the 10,368-tetrahedron block ran 1.13–1.35 times as long.
 A function that loops over the items (a pass: ``_forces``, ``_nodal_sums``, ``_pull``, the
 integrator's update) is called. Inlined, it saves nothing at run time, and numba copies its
 whole body, every law included, into each caller. With the passes inlined, the cold
