@@ -143,7 +143,7 @@ def _loops_over_items(function: ast.FunctionDef) -> list[str]:
     """The ``range(...)`` bounds of ``function``'s loops that count items (elements, nodes,
     springs, a thread's run): any bound but a number or a count along an array's second
     axis (Prony terms, tangent columns)."""
-    def per_item(bound: ast.expr) -> bool:
+    def within_an_item(bound: ast.expr) -> bool:
         if isinstance(bound, ast.Constant):
             return True
         return (isinstance(bound, ast.Subscript) and isinstance(bound.value, ast.Attribute)
@@ -154,7 +154,7 @@ def _loops_over_items(function: ast.FunctionDef) -> list[str]:
     for node in ast.walk(function):
         if (isinstance(node, ast.For) and isinstance(node.iter, ast.Call)
                 and getattr(node.iter.func, "id", None) in ("range", "prange")
-                and not all(per_item(bound) for bound in node.iter.args)):
+                and not all(within_an_item(bound) for bound in node.iter.args)):
             bounds.append(ast.unparse(node.iter))
     return bounds
 
@@ -169,8 +169,8 @@ def test_an_inlined_kernel_does_not_loop_over_the_items():
             for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
                 if isinstance(node, ast.FunctionDef) and _inlined(node):
                     found += 1
-                    if _loops_over_items(node):
-                        loops[f"{name}.{node.name}"] = _loops_over_items(node)
+                    if bounds := _loops_over_items(node):
+                        loops[f"{name}.{node.name}"] = bounds
     assert found > 20               # the check reads the decorators it means to
     assert loops == {}
 

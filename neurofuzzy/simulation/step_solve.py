@@ -49,8 +49,8 @@ __all__ = ["BodyForce", "StepSolver", "TOLERANCE", "RESTART", "REFRESH"]
 
 #: relative residual (weighted by M^{-1/2}) a step's solve is corrected to
 TOLERANCE = 1e-6
-#: GMRES iterations preconditioned by the kept factorisation before the matrix is
-#: factorised afresh
+#: GMRES iterations of one solve, preconditioned by the kept factorisation, before the
+#: matrix is factorised afresh and the solve made again
 RESTART = 30
 #: GMRES iterations on one kept factorisation after which the next solve factorises afresh.
 #: A factorisation from rest grows stale as the body deforms: on the 2 cm block of
