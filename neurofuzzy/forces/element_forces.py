@@ -17,7 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .laws import ElementStress
-from .tetra_geometry import ElementConstants, broadcast_per_element, corner_forces
+from .tetra_geometry import ElementConstants, broadcast_per_element
 
 __all__ = ["ElementState", "element_state", "columns", "element_force", "element_state_jvp",
            "element_state_vjp", "element_rest_matrices"]
@@ -127,21 +127,21 @@ def element_rest_matrices(constants: ElementConstants):
     geometry = constants.geometry
     n_nodes = len(geometry.node_volume)
     rows = (3 * geometry.nodes[:, :, None] + np.arange(3)).reshape(-1, 12)
+    # the volumetric strains' rest gradient: per element, or the nodal form's node averages
     divergence = _rest_divergence(geometry, n_nodes)                      # (K, 3N)
+    if constants.nodal:
+        divergence = (geometry.average @ divergence).tocsr()              # (N, 3N)
+    unit = _rest_shear_blocks(geometry)        # the shear blocks of both, per unit shear
+    row_index, column_index = np.repeat(rows, 12, axis=1).ravel(), np.tile(rows, (1, 12)).ravel()
     matrices = []
     for shear, lam, node_lam in ((constants.shear, constants.lam, constants.node_lam),
                                  (constants.shear_rate, constants.lam_rate,
                                   constants.node_lam_rate)):
-        blocks = _rest_shear_blocks(geometry, shear)
-        matrix = sp.csr_matrix(
-            (blocks.ravel(), (np.repeat(rows, 12, axis=1).ravel(),
-                              np.tile(rows, (1, 12)).ravel())),
-            shape=(3 * n_nodes, 3 * n_nodes))
-        if constants.nodal:
-            averaged = geometry.average @ divergence
-            volumetric = averaged.T @ sp.diags(geometry.node_volume * node_lam) @ averaged
-        else:
-            volumetric = divergence.T @ sp.diags(geometry.volume * lam) @ divergence
+        matrix = sp.csr_matrix(((shear[:, None, None] * unit).ravel(),
+                                (row_index, column_index)), shape=(3 * n_nodes, 3 * n_nodes))
+        weight = (geometry.node_volume * node_lam if constants.nodal
+                  else geometry.volume * lam)
+        volumetric = divergence.T @ sp.diags(weight) @ divergence
         matrices.append(sp.csr_matrix(matrix + volumetric))
     return tuple(matrices)
 
@@ -153,15 +153,18 @@ def _rest_divergence(geometry, n_nodes) -> sp.csr_matrix:
     return geometry.corner_matrix(local, n_nodes).T.tocsr()
 
 
-def _rest_shear_blocks(geometry, shear) -> np.ndarray:
-    """(K, 12, 12): the element stiffness at rest of ``S = shear · G`` (``-∂f/∂x``)."""
-    K = len(geometry.nodes)
-    tangent = np.zeros((K, 12, 4, 3))
-    index = np.arange(12)
-    tangent[:, index, index // 3, index % 3] = 1.0
-    d_edges = np.swapaxes(tangent[:, :, 1:] - tangent[:, :, :1], -1, -2)   # (K, 12, 3, 3)
-    d_piola = shear[:, None, None, None] * _sym(d_edges @ geometry.inverse_rest[:, None])
-    forces = -geometry.volume[:, None, None, None] * (
-        d_piola @ np.swapaxes(geometry.inverse_rest, 1, 2)[:, None])
-    local = corner_forces(forces)                                            # (K, 4, 12, 3)
-    return -np.moveaxis(local, 2, 1).reshape(K, 12, 12).transpose(0, 2, 1)
+def _rest_shear_blocks(geometry) -> np.ndarray:
+    """(K, 12, 12): the element stiffness at rest of ``S = G`` (``-∂f/∂x``; times the
+    element's shear coefficient for ``S = shear · G``), row ``3a + i`` and column ``3b + j``
+    for corner ``a`` along axis ``i`` and corner ``b`` along ``j``.
+
+    With ``g_a`` the gradient of corner ``a``'s shape function (a row of ``B``; corner 0 minus
+    their sum) and ``G ≈ sym(∇u)`` at rest, ``f_a = -V S g_a`` gives
+    ``V (δᵢⱼ g_a·g_b + g_{b,i} g_{a,j}) / 2``."""
+    gradients = np.concatenate([-geometry.inverse_rest.sum(axis=1, keepdims=True),
+                                geometry.inverse_rest], axis=1)             # (K, 4, 3)
+    half = 0.5 * geometry.volume[:, None, None]
+    blocks = np.einsum("kbi,kaj->kaibj", half * gradients, gradients)
+    blocks += (np.einsum("kai,kbi->kab", half * gradients, gradients)[:, :, None, :, None]
+               * np.eye(3)[:, None, :])
+    return blocks.reshape(len(gradients), 12, 12)
