@@ -1,6 +1,7 @@
 """Levenberg–Marquardt (:mod:`neurofuzzy.learn._lm`) with the trial steps' Jacobian taken from
 the same pass as their residuals (``both``): the same steps, fewer passes; and in the
-gradient learner, the Jacobian at the result reused for the standard errors."""
+gradient learner, the Jacobian at the result reused for the standard errors, or the one a
+statistically empty last step behind it (``jacobian_at_end="near"``)."""
 
 import numpy as np
 import pytest
@@ -100,6 +101,67 @@ def test_a_stage_before_the_last_takes_a_step_that_ends_it_without_its_jacobian(
     assert np.array_equal(again.x, solution.x) and again.cost == solution.cost
 
 
+@pytest.mark.parametrize("start", [(1.5, 0.4, 2.8), (4.0, 2.0, 2.2)])
+def test_a_last_step_that_is_statistically_nothing_is_taken_without_its_jacobian(start):
+    """Noisy data end on a step below a tenth of the standard errors. Asked for a Jacobian
+    near the result (``"near"``), the solver takes that step by its residuals alone and says
+    so (``jacobian_behind``): the same steps and stop, one Jacobian fewer, and the standard
+    errors of the Jacobian one step behind are those at the result to 1e-3."""
+    lower, upper = np.full(3, -np.inf), np.full(3, np.inf)
+    fits = {}
+    for at_end in (True, "near"):
+        residuals, jacobian, both, calls = _problem(0.05)
+        taken = []              # where the solver took its Jacobians
+
+        def both_kept(x, both=both, taken=taken):
+            taken.append(x.copy())
+            return both(x)
+
+        solution = _lm.levenberg_marquardt(
+            residuals, jacobian, np.array(start), lower, upper, max_evaluations=100,
+            tolerance=1e-10, both=both_kept, jacobian_at_end=at_end)
+        fits[at_end] = (solution, calls, taken)
+    (exact, exact_calls, _), (near, near_calls, taken) = fits[True], fits["near"]
+    assert exact.reason == near.reason == "step below the standard errors"
+    assert np.array_equal(exact.x, near.x) and exact.cost == near.cost
+    assert near.jacobian_behind and not exact.jacobian_behind
+    assert near_calls["both"] == exact_calls["both"] - 1 and near_calls["residuals"] == 1
+    assert not np.array_equal(taken[-1], near.x)
+
+    def std_errors(x):
+        J = _problem(0.05)[1](x)
+        return np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
+
+    assert np.allclose(std_errors(taken[-1]), std_errors(near.x), rtol=1e-3, atol=0)
+
+
+def test_a_step_wrongly_predicted_to_be_nothing_is_followed_by_its_jacobian(monkeypatch):
+    """A step predicted to be statistically nothing is taken by its residuals alone; when its
+    cost says otherwise, the fit goes on from there with the Jacobian taken at that point:
+    the same steps, stop and result as a fit that never predicted (here the first prediction
+    is made to be wrong, from the far start)."""
+    lower, upper = np.full(3, -np.inf), np.full(3, np.inf)
+    start = np.array([4.0, 2.0, 2.2])
+    residuals, jacobian, both, _ = _problem(0.05)
+    exact = _lm.levenberg_marquardt(residuals, jacobian, start, lower, upper,
+                                    max_evaluations=100, tolerance=1e-10, both=both)
+    real, said = _lm._nothing, []
+
+    def first_said_wrongly(*args):
+        said.append(real(*args))
+        return len(said) == 1 or said[-1]
+
+    monkeypatch.setattr(_lm, "_nothing", first_said_wrongly)
+    residuals, jacobian, both, calls = _problem(0.05)
+    near = _lm.levenberg_marquardt(residuals, jacobian, start, lower, upper,
+                                   max_evaluations=100, tolerance=1e-10, both=both,
+                                   jacobian_at_end="near")
+    assert not said[0]                  # the far start's first step is not nothing
+    assert calls["jacobian"] == 1 and calls["residuals"] >= 2
+    assert np.array_equal(near.x, exact.x) and near.cost == exact.cost
+    assert near.reason == exact.reason and near.jacobian_behind
+
+
 def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     """A per-region element fit: with the trial steps' Jacobians, the same model, standard
     errors and lack of fit from fewer simulations of the data (the standard errors take the
@@ -140,6 +202,53 @@ def test_the_learner_reuses_the_jacobian_at_its_result(monkeypatch):
     assert together.n_cycles_ < apart.n_cycles_
     assert len(together.history_) == together.n_cycles_
     assert together._last is None          # the last Jacobian is not kept with the result
+
+
+def test_the_learner_takes_its_standard_errors_one_nothing_step_behind(monkeypatch):
+    """A per-region element fit of noisy data ends on a step that is statistically nothing:
+    taken by its residuals, one Jacobian pass fewer than with the Jacobian at the result,
+    the same model, and the same standard errors to 1e-3 (from the Jacobian one step
+    behind). The lack of fit is that of the residuals at the result."""
+    from neurofuzzy.experiment import simulate_experiment
+    from neurofuzzy.learn import GradientLearner, _passes, _solvers
+    from neurofuzzy.datasets import kuhn_block
+    from neurofuzzy.mesh import from_tetra
+    from neurofuzzy.model import Model
+
+    mesh = from_tetra(*kuhn_block((3, 3, 3), 0.01)).with_fixed(where=lambda p: p[:, 2] < 1e-9)
+
+    def model(modulus, viscosity):
+        return Model.continuum(mesh, youngs_modulus=modulus, poisson_ratio=0.45,
+                               viscosity=viscosity, density=1050.0)
+
+    load = np.zeros((mesh.n_nodes, 3))
+    load[mesh.rest_positions[:, 2] > mesh.rest_positions[:, 2].max() - 1e-9] = [0.0, 0.0, -0.01]
+    data = simulate_experiment(model(6000.0, 2.0), dt=1e-3, n_frames=30, external_forces=load,
+                               substeps=4, noise=2e-6, seed=5)
+    counted, solver = [], _solvers.levenberg_marquardt
+    jacobian_pass = _passes.jacobian
+    monkeypatch.setattr(_passes, "jacobian",
+                        lambda *a, **k: counted.append(1) or jacobian_pass(*a, **k))
+    fits = {}
+    for at_end in ("near", True):
+        def solve(*args, jacobian_at_end, at_end=at_end, **kwargs):
+            wanted = at_end if jacobian_at_end == "near" else jacobian_at_end
+            return solver(*args, jacobian_at_end=wanted, **kwargs)
+
+        monkeypatch.setattr(_solvers, "levenberg_marquardt", solve)
+        counted.clear()
+        fits[at_end] = (GradientLearner(substeps=4, mesh_check=False).fit(
+            model(3000.0, 4.0), data), len(counted))
+    (near, near_passes), (exact, exact_passes) = fits["near"], fits[True]
+    assert near_passes == exact_passes - 1
+    for name in ("youngs_modulus", "poisson_ratio", "viscosity"):
+        assert np.array_equal(getattr(near.model_.elements, name),
+                              getattr(exact.model_.elements, name))
+    assert np.allclose(near.std_errors_, exact.std_errors_, rtol=1e-3, atol=0)
+    assert not np.array_equal(near.std_errors_, exact.std_errors_)
+    # the residuals at the result from the stepper's driver against the sensitivities' run:
+    # the same to round-off (they add the volumetric stresses in other orders)
+    assert near.lack_of_fit_.rms == pytest.approx(exact.lack_of_fit_.rms, rel=1e-12)
 
 
 def test_the_floor_is_the_least_cost_of_a_linear_problem():

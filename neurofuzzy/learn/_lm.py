@@ -68,6 +68,11 @@ class Solution:
     cost: float
     evaluations: int
     reason: str
+    #: The last Jacobian the solver took is that of the point before ``x``, which the step
+    #: to ``x`` left within ``STEP_OF_STD_ERROR`` of that Jacobian's standard errors (or
+    #: at the rounding floor): good enough for the standard errors at ``x``
+    #: (``jacobian_at_end="near"``). False: the caller has the Jacobian at ``x``, or none.
+    jacobian_behind: bool = False
 
 
 def _damped_step(normal, gradient, damping):
@@ -85,7 +90,7 @@ def _damped_step(normal, gradient, damping):
 
 def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluations: int,
                         tolerance: float, both=None, give_up=None, meat=None,
-                        leave=None, jacobian_at_end: bool = True) -> Solution:
+                        leave=None, jacobian_at_end: bool | str = True) -> Solution:
     """Minimise ``½‖r(x)‖²`` within the box ``[lower, upper]`` (steps are clipped to it).
 
     ``residuals(x)`` returns r (m,), ``jacobian(x)`` returns J (m, n). ``max_evaluations``
@@ -103,7 +108,14 @@ def levenberg_marquardt(residuals, jacobian, x0, lower, upper, *, max_evaluation
     acceptance would end the fit (by its predicted decrease or by its length, both known
     before it is run) is then evaluated by its residuals alone. True (the default): by its
     predicted decrease alone, since an ending step's length leaves the Jacobian at the result
-    to the standard errors.
+    to the standard errors. ``"near"``: the standard errors will do with the Jacobian of a
+    point that the last step leaves within ``STEP_OF_STD_ERROR`` of that Jacobian's standard
+    errors, at the cost Gauss–Newton predicts for it (or at the rounding floor, where the
+    standard errors are rounding); such a step is statistically nothing and ends the fit, so
+    it is evaluated by its residuals alone too, and the solution says, by
+    ``jacobian_behind``, when the Jacobian last taken is the one to use. (Noisy data end that
+    way: the step that ends the fit was taken with a Jacobian for the standard errors alone,
+    one pass of a fit's eight or so.)
 
     ``give_up(floor)``, when given, is asked whether to stop with the cost Gauss–Newton
     predicts as the least reachable from the point (:func:`floor`), at every Jacobian where
@@ -153,6 +165,7 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
     normal = J.T @ J
     robust = None if meat is None else _robust_covariance(normal, meat(J, r))
     damping = INITIAL_DAMPING
+    near = jacobian_at_end == "near"
     speculate = True        # evaluate the next trial with its Jacobian (``both``)
     last_floor = None       # the floor at the last Jacobian
     while True:
@@ -182,7 +195,8 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
             J_trial = None
             # not for a step predicted to end the fit (its Jacobian would go unused)
             ends = predicted <= tolerance * cost or (
-                not jacobian_at_end and _short(step, trial, tolerance))
+                not jacobian_at_end and _short(step, trial, tolerance)) or (
+                near and _nothing(step, normal, robust, cost - predicted, len(r)))
             if speculate and both is not None and not ends:
                 r_trial, J_trial = both(trial)
             else:
@@ -200,18 +214,29 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
         damping *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
         decrease = cost - cost_trial
         x, r, cost = trial, r_trial, cost_trial
+        # the Jacobian last taken will do at x: for a result reached without its own
+        behind = near and J_trial is None and _nothing(step, normal, robust, cost, len(r))
         if decrease <= tolerance * cost or _short(step, x, tolerance):
-            return Solution(x, cost, evaluations, "converged")
+            return Solution(x, cost, evaluations, "converged", behind)
         if 2.0 * cost <= FLOOR**2 * len(r):
-            return Solution(x, cost, evaluations, "residuals at the rounding floor")
+            return Solution(x, cost, evaluations, "residuals at the rounding floor", behind)
         # the standard errors of the last Jacobian: the step just taken is that one's step
         if (_insignificant(step, normal, cost, len(r))
                 or _insignificant_robust(step, robust)):
-            return Solution(x, cost, evaluations, "step below the standard errors")
+            return Solution(x, cost, evaluations, "step below the standard errors", behind)
         J = J_trial if J_trial is not None else jacobian(x)
         normal = J.T @ J
         robust = None if meat is None else _robust_covariance(normal, meat(J, r))
         speculate = trials == 1
+
+
+def _nothing(step, normal, robust, cost, m) -> bool:
+    """Is the step from the Jacobian whose ``JᵀJ`` is ``normal`` (``robust``: its
+    cluster-robust covariance, or None) statistically nothing at ``cost`` (``m``
+    residuals): below ``STEP_OF_STD_ERROR`` of the standard errors, or ending at the
+    rounding floor?"""
+    return bool(2.0 * cost <= FLOOR**2 * m or _insignificant(step, normal, cost, m)
+                or _insignificant_robust(step, robust))
 
 
 def _short(step, x, tolerance) -> bool:

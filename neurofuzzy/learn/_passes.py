@@ -69,7 +69,9 @@ def side_by_side(run, experiments, starts) -> list:
 class Last:
     """The last simulation of the data a learner ran: where (``theta``, ``substeps``, window
     ``starts``), its runs and, for a Jacobian pass, the Jacobian of ``columns`` (None: all).
-    A pass asked for at the same place again is read from here instead of run twice."""
+    A pass asked for at the same place again is read from here instead of run twice.
+    ``jacobian_from``: the point the Jacobian was taken at when that is not ``theta`` but
+    one statistically indistinguishable from it (:meth:`behind`)."""
 
     theta: np.ndarray
     substeps: int
@@ -77,14 +79,27 @@ class Last:
     runs: list
     jacobian: np.ndarray | None = None
     columns: np.ndarray | None = None
+    jacobian_from: np.ndarray | None = None
 
     def at(self, theta, substeps, starts) -> bool:
         return (self.substeps == substeps and list(self.starts) == list(starts)
                 and np.array_equal(self.theta, theta))
 
-    def jacobian_of(self, columns) -> np.ndarray | None:
-        """The Jacobian's ``columns`` (all for None; sorted), or None when not computed."""
-        if self.jacobian is None:
+    def behind(self, taken: Last) -> Last:
+        """This pass with the Jacobian of ``taken``, a Jacobian pass at the point the solver
+        stepped here from by a step below a tenth of that Jacobian's standard errors
+        (:attr:`._lm.Solution.jacobian_behind`): for the standard errors here, not for
+        another step."""
+        if (self.jacobian is not None or taken.jacobian is None
+                or taken.substeps != self.substeps or list(taken.starts) != list(self.starts)):
+            return self
+        return Last(self.theta, self.substeps, self.starts, self.runs, taken.jacobian,
+                    taken.columns, taken.theta.copy())
+
+    def jacobian_of(self, columns, near: bool = False) -> np.ndarray | None:
+        """The Jacobian's ``columns`` (all for None; sorted), or None when not computed
+        (nor when it was taken a step behind, unless ``near``: :meth:`behind`)."""
+        if self.jacobian is None or (self.jacobian_from is not None and not near):
             return None
         size = self.theta.size
         stored = np.arange(size) if self.columns is None else np.asarray(self.columns)

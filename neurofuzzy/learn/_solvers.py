@@ -33,7 +33,10 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
     cluster-robust standard errors (:mod:`._lm`; trusted only at stable steps: the rounding
     an unstable simulation amplifies widens them, and stopped a fit of a stiff block a
     quarter short of its modulus). ``last`` False: a stage before the last, whose Jacobian
-    at the result goes unused (``jacobian_at_end`` of :func:`._lm.levenberg_marquardt`)."""
+    at the result goes unused (``jacobian_at_end`` of :func:`._lm.levenberg_marquardt`);
+    True: the last, whose result's standard errors may take the Jacobian of the point before
+    it when the step between is statistically nothing (``learner._last`` then holds it,
+    :meth:`._passes.Last.behind`)."""
     def full(x):
         values = theta.copy()
         values[active] = x
@@ -49,9 +52,12 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
         return with_prior(x, learner._residuals(sensitivity, experiments, full(x), starts,
                                                 substeps))
 
+    taken = []              # the pass of the last Jacobian
+
     def jacobian(x):
         J = learner._jacobian(sensitivity, experiments, full(x), starts, substeps,
                               columns=active)
+        taken[:] = [learner._last]
         if terms is None:
             return J
         return np.vstack([J, scale * terms.jacobian(full(x)).toarray()[:, active]])
@@ -86,7 +92,10 @@ def solve_lm(learner, sensitivity, experiments, theta, starts, substeps, lower, 
         residuals, jacobian, theta[active], lower[active], upper[active],
         max_evaluations=int(learner.max_iterations), tolerance=tolerance,
         both=both if cheap else None, give_up=None if abandon is None else give_up,
-        meat=meat if guard else None, leave=leave if guard else None, jacobian_at_end=last)
+        meat=meat if guard else None, leave=leave if guard else None,
+        jacobian_at_end="near" if last else False)
+    if result.jacobian_behind:
+        learner._last = learner._last.behind(taken[0])
     return full(result.x)
 
 

@@ -399,12 +399,14 @@ class GradientLearner(Learner):
         return passes.stacked(runs)
 
     def _jacobian(self, sensitivity, experiments, theta, starts, substeps, *,
-                  with_runs: bool = False, columns=None):
+                  with_runs: bool = False, columns=None, near: bool = False):
         """:func:`._passes.jacobian`, counted as one simulation of the data (and one point
         of ``history_``: its runs carry the residuals at ``theta``); that of the last
-        simulation when it computed it at ``theta`` (not counted again)."""
+        simulation when it computed it at ``theta`` (not counted again) or, with ``near``
+        (for the standard errors), a step behind it that the solver found statistically
+        nothing (:meth:`._passes.Last.behind`)."""
         last = self._last
-        jacobian = (last.jacobian_of(columns) if last is not None
+        jacobian = (last.jacobian_of(columns, near) if last is not None
                     and last.at(theta, substeps, starts) else None)
         if jacobian is not None:
             runs = last.runs

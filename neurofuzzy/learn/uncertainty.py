@@ -45,9 +45,10 @@ def assess(learner, sensitivity, parameters, experiments, theta, method) -> None
     ``mesh_check_`` and ``intervals_`` at its result ``theta``."""
     jacobian = None
     if method == "lm":     # the Jacobian's pass gives the residuals too
+        # (or the solver's last, a step behind that is statistically nothing)
         jacobian, runs = learner._jacobian(sensitivity, experiments, theta,
                                            [(0,)] * len(experiments), learner.substeps_,
-                                           with_runs=True)
+                                           with_runs=True, near=True)
     else:
         runs = [sensitivity.run(theta, e, substeps=learner.substeps_) for e in experiments]
     residuals = np.concatenate([run.residuals.ravel() for run in runs])
