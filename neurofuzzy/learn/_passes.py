@@ -87,9 +87,10 @@ class Last:
 
     def behind(self, taken: Last) -> Last:
         """This pass with the Jacobian of ``taken``, a Jacobian pass at the point the solver
-        stepped here from by a step below a tenth of that Jacobian's standard errors
-        (:attr:`._lm.Solution.jacobian_behind`): for the standard errors here, not for
-        another step."""
+        stepped here from by a step that is statistically nothing (below a tenth of that
+        Jacobian's standard errors, or onto the rounding floor:
+        :attr:`._lm.Solution.jacobian_behind`): for the standard errors here, not for
+        another step (:meth:`jacobian_of` gives it only when asked for ``near``)."""
         if (self.jacobian is not None or taken.jacobian is None
                 or taken.substeps != self.substeps or list(taken.starts) != list(self.starts)):
             return self
