@@ -170,6 +170,13 @@ class StepSolver:
             delta = self.factor.solve(right)
         return delta
 
+    def adopt(self, factor) -> None:
+        """Keep ``factor``, a factorisation of this step's matrix made elsewhere at a nearby
+        state (the derivatives' pass of :mod:`.implicit_derivatives`, at the solved step), as
+        if it were its own: the :data:`REFRESH` count starts again."""
+        self.factor = factor
+        self._spent = 0
+
     def _refined(self, right, x, v, force):
         """``P⁻¹ right`` corrected by GMRES to the tolerance, or None where GMRES does not
         reach it in :data:`RESTART` iterations."""
