@@ -21,7 +21,9 @@ calls the step nothing); or residuals at the rounding floor of the simulation (R
 test never stops a fit early; on noisy data, or for a model that lacks an effect, it ends
 the long plateaus where the cost creeps down by amounts far below anything the data can tell
 apart. Both tests come before the next Jacobian, the costliest pass, so the stop does not
-pay for one it would not use.
+pay for one it would not use; with ``jacobian_at_end="near"`` they are also predicted before
+a trial step is run, so that the step that ends the fit is run without its Jacobian (the
+standard errors take the one a step behind, :func:`levenberg_marquardt`).
 
 The robust errors matter for a model that lacks something. Its residuals are smooth along a
 marker's track and across a frame, so the data hold far fewer independent values than their
