@@ -164,6 +164,37 @@ def test_the_linearly_implicit_step_is_mujoco_s_discrete_integrator():
         assert np.abs(ours - theirs).max() < 0.02 * motion
 
 
+def test_the_derivatives_solve_with_the_step_solver_s_factorisation(monkeypatch):
+    """The derivatives' pass (``implicit_sensitivities``) preconditions its solves with the
+    step solver's kept factorisation: over 30 BDF2 steps of a pushed block it factorises
+    nothing of its own, and the derivatives equal those made with a factorisation of their
+    own (the old way: one, kept until GMRES fails) to the solves' tolerance."""
+    from neurofuzzy.simulation import implicit_derivatives as derivatives_module
+    from neurofuzzy.simulation.implicit_derivatives import implicit_sensitivities
+
+    model = _block()
+    arguments = dict(dt=0.004, n_frames=31, external_forces=_push(model), scheme="bdf2")
+    made = []
+    factor = derivatives_module._factor
+    monkeypatch.setattr(derivatives_module, "_factor",
+                        lambda matrix: made.append(1) or factor(matrix))
+    shared = implicit_sensitivities(model, **arguments)[1]
+    assert made == []
+    own = {}
+
+    def solve_alone(matrix, right, kept):     # a factorisation of the derivatives' own
+        if "factor" not in own:
+            own["factor"] = factor(matrix)
+        return derivatives_module.gmres(
+            matrix.dot, right, 1e-12 * np.linalg.norm(right),
+            precondition=own["factor"].solve, restart=20, cycles=50).x, kept
+
+    monkeypatch.setattr(derivatives_module, "_solve_step", solve_alone)
+    alone = implicit_sensitivities(model, **arguments)[1]
+    assert np.abs(shared).max() > 0
+    assert np.allclose(shared, alone, rtol=0, atol=1e-7 * np.abs(alone).max())
+
+
 def test_bad_input_is_refused_with_the_key_named():
     from neurofuzzy.simulation.implicit_derivatives import implicit_sensitivities
 
