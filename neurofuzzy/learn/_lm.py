@@ -216,15 +216,17 @@ def _minimise(residuals, jacobian, both, x0, lower, upper, max_evaluations,
         damping *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
         decrease = cost - cost_trial
         x, r, cost = trial, r_trial, cost_trial
+        at_floor = _at_floor(cost, len(r))
+        # the standard errors of the last Jacobian: the step just taken is that one's step
+        insignificant = (_insignificant(step, normal, cost, len(r))
+                         or _insignificant_robust(step, robust))
         # the Jacobian last taken will do at x: for a result reached without its own
-        behind = near and J_trial is None and _nothing(step, normal, robust, cost, len(r))
+        behind = near and J_trial is None and (at_floor or insignificant)
         if decrease <= tolerance * cost or _short(step, x, tolerance):
             return Solution(x, cost, evaluations, "converged", behind)
-        if 2.0 * cost <= FLOOR**2 * len(r):
+        if at_floor:
             return Solution(x, cost, evaluations, "residuals at the rounding floor", behind)
-        # the standard errors of the last Jacobian: the step just taken is that one's step
-        if (_insignificant(step, normal, cost, len(r))
-                or _insignificant_robust(step, robust)):
+        if insignificant:
             return Solution(x, cost, evaluations, "step below the standard errors", behind)
         J = J_trial if J_trial is not None else jacobian(x)
         normal = J.T @ J
@@ -237,8 +239,13 @@ def _nothing(step, normal, robust, cost, m) -> bool:
     cluster-robust covariance, or None) statistically nothing at ``cost`` (``m``
     residuals): below ``STEP_OF_STD_ERROR`` of the standard errors, or ending at the
     rounding floor?"""
-    return bool(2.0 * cost <= FLOOR**2 * m or _insignificant(step, normal, cost, m)
+    return bool(_at_floor(cost, m) or _insignificant(step, normal, cost, m)
                 or _insignificant_robust(step, robust))
+
+
+def _at_floor(cost, m) -> bool:
+    """Are ``m`` residuals of cost ``½‖r‖²`` at the rounding floor (RMS below ``FLOOR``)?"""
+    return bool(2.0 * cost <= FLOOR**2 * m)
 
 
 def _short(step, x, tolerance) -> bool:
